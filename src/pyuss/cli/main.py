@@ -1,0 +1,58 @@
+"""The `uss` command. Each sub-command lives in its own module of `pyuss.cli` and exposes
+``register(subparsers)``; `COMMANDS` lists them in the order `uss --help` shows them.
+
+Exit codes (all commands): 0 success, 1 the operation failed (no answer, drive refused, ...),
+2 bad input (arguments, hex, files), 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+from collections.abc import Sequence
+
+from pyuss import __version__
+from pyuss.errors import UssError
+
+COMMANDS: tuple[str, ...] = ()
+
+EXIT_OK = 0
+EXIT_FAILED = 1
+EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="uss", description="USS protocol toolkit: master, simulator, bus, monitor, tools."
+    )
+    parser.add_argument("--version", action="version", version=f"pyuss {__version__}")
+    parser.add_argument("-v", "--verbose", action="count", default=0,
+                        help="more logging (-vv shows raw frames on the pyuss.wire logger)")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for name in COMMANDS:
+        module = importlib.import_module(f"pyuss.cli.{name}")
+        module.register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    level = logging.WARNING - 10 * min(args.verbose, 2)
+    logging.basicConfig(level=level, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    try:
+        code: int = args.func(args)
+    except KeyboardInterrupt:
+        return EXIT_INTERRUPTED
+    except UssError as exc:
+        print(f"uss {args.command}: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    return code
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,56 @@
+"""The one exception tree of pyuss. Everything pyuss raises on purpose derives from `UssError`.
+
+    UssError
+    +-- ConfigError          bad argument, value, layout, profile or file given by the user
+    +-- ProtocolError        the bytes on the wire break a rule of the specification
+    |   +-- TelegramError    a telegram that cannot be decoded (STX, LGE, ADR, BCC, length)
+    +-- TransportError       the byte pipe failed (port gone, link dropped, closed)
+    +-- UssTimeout           no (matching) answer within the allowed time
+    +-- DriveRefusal         the drive answered a parameter job with response ID 7 (C 4.2.1.1)
+
+Sub-packages add their own subclasses of these (for example ``pyuss.bass`` and
+``pyuss.ksvario``), never parallel trees.
+"""
+
+from __future__ import annotations
+
+
+class UssError(Exception):
+    """Base of every error pyuss raises on purpose."""
+
+
+class ConfigError(UssError, ValueError):
+    """A value, argument, layout, profile or file given by the user is not acceptable."""
+
+
+class ProtocolError(UssError):
+    """Bytes or a telegram that break a rule of the specification."""
+
+
+class TelegramError(ProtocolError, ValueError):
+    """A telegram cannot be encoded or decoded (STX, LGE, ADR, BCC, length)."""
+
+
+class TransportError(UssError, OSError):
+    """The byte pipe failed: port missing, link dropped, transport closed."""
+
+
+class UssTimeout(UssError, TimeoutError):
+    """No answer, or no matching answer, arrived within the time allowed."""
+
+
+class DriveRefusal(UssError):
+    """A drive refused a parameter job: response ID 7 with an error number (C 4.2.1.1).
+
+    ``number`` is the error number from PWE, ``meaning`` its name (C Table 4.3 for 0..7 and 17..,
+    or the drive profile's own numbers above 100), ``pnu`` and ``index`` say which job it was.
+    """
+
+    def __init__(self, number: int, meaning: str, *, pnu: int | None = None,
+                 index: int | None = None) -> None:
+        self.number = number
+        self.meaning = meaning
+        self.pnu = pnu
+        self.index = index
+        where = "" if pnu is None else f" (PNU {pnu}" + ("" if index is None else f".{index}") + ")"
+        super().__init__(f"drive refused the job{where}: error {number}: {meaning}")

@@ -1,0 +1,1 @@
+"""pyuss.ksvario."""

@@ -1,0 +1,86 @@
+"""The byte-pipe contract shared by master, slave, monitor and the virtual bus.
+
+A transport moves bytes, nothing else: it knows no telegrams. What it reads comes as `Chunk`s,
+each stamped with the time its last byte arrived, so the sans-io receiver
+(`pyuss.protocol.receiver`) can measure start pauses and residual times (A 5.1.2, A 5.2.1.2).
+"""
+
+from __future__ import annotations
+
+import abc
+import enum
+from dataclasses import dataclass, field
+from types import TracebackType
+
+
+class LineError(enum.IntFlag):
+    """Character-level errors a backend can report (A 5.2.2: parity, framing, overrun)."""
+
+    NONE = 0
+    PARITY = 1
+    FRAMING = 2
+    OVERRUN = 4
+    BREAK = 8
+
+
+@dataclass(frozen=True, slots=True)
+class Chunk:
+    """Bytes read in one go.
+
+    ``timestamp`` is the time (in the transport's ``clock()`` base, seconds) at which the last
+    byte of ``data`` was completely received. Backends that deliver contiguous bursts (the
+    virtual bus) put one burst per chunk, so a gap between chunks is a gap on the wire.
+    ``errors`` lists ``(position in data, LineError)`` for characters the backend flagged.
+    """
+
+    data: bytes
+    timestamp: float
+    errors: tuple[tuple[int, LineError], ...] = field(default=())
+
+
+class Transport(abc.ABC):
+    """An async byte pipe. Constructors never touch an event loop; `open()` does the work."""
+
+    @abc.abstractmethod
+    async def open(self) -> None:
+        """Open the pipe. Raises `pyuss.errors.TransportError` naming what failed."""
+
+    @abc.abstractmethod
+    async def close(self) -> None:
+        """Close the pipe; idempotent."""
+
+    @abc.abstractmethod
+    async def write(self, data: bytes) -> None:
+        """Send bytes; returns once they are handed to the line."""
+
+    @abc.abstractmethod
+    async def read(self, timeout: float | None = None) -> Chunk | None:
+        """Wait for the next chunk; ``None`` when ``timeout`` (seconds) passes without data.
+
+        Raises `pyuss.errors.TransportError` when the pipe is closed or lost.
+        """
+
+    @abc.abstractmethod
+    def flush_input(self) -> None:
+        """Discard whatever input is buffered and not yet read."""
+
+    @abc.abstractmethod
+    def clock(self) -> float:
+        """The time base of chunk timestamps (seconds, monotonic)."""
+
+    @property
+    @abc.abstractmethod
+    def baud(self) -> int:
+        """The line's baud rate, for character timing."""
+
+    async def __aenter__(self) -> Transport:
+        await self.open()
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        await self.close()
