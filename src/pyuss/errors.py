@@ -46,8 +46,9 @@ class DriveRefusal(UssError):
     or the drive profile's own numbers above 100), ``pnu`` and ``index`` say which job it was.
     """
 
-    def __init__(self, number: int, meaning: str, *, pnu: int | None = None,
-                 index: int | None = None) -> None:
+    def __init__(
+        self, number: int, meaning: str, *, pnu: int | None = None, index: int | None = None
+    ) -> None:
         self.number = number
         self.meaning = meaning
         self.pnu = pnu

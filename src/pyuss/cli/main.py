@@ -29,8 +29,13 @@ def build_parser() -> argparse.ArgumentParser:
         prog="uss", description="USS protocol toolkit: master, simulator, bus, monitor, tools."
     )
     parser.add_argument("--version", action="version", version=f"pyuss {__version__}")
-    parser.add_argument("-v", "--verbose", action="count", default=0,
-                        help="more logging (-vv shows raw frames on the pyuss.wire logger)")
+    parser.add_argument(
+        "-v",
+        "--verbose",
+        action="count",
+        default=0,
+        help="more logging (-vv shows raw frames on the pyuss.wire logger)",
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name in COMMANDS:
