@@ -9,7 +9,18 @@ from typing import Any
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-SHARED = ROOT.parent / "shared"
+
+
+def _find_shared() -> Path:
+    """``shared/`` stands beside the project's root (``../shared``); worktrees may sit deeper."""
+    for parent in ROOT.parents:
+        candidate = parent / "shared"
+        if (candidate / "vectors").is_dir():
+            return candidate
+    raise RuntimeError(f"no ../shared/vectors found above {ROOT}")
+
+
+SHARED = _find_shared()
 
 
 def load_vectors(name: str) -> Any:
