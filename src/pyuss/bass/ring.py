@@ -254,10 +254,13 @@ class BassStation:
 
     def receive(self, data: bytes) -> bytes:
         """Bytes arriving at RX; returns what leaves at TX (the same bytes plus any answer)."""
-        out = bytearray(data)
-        for item in self._reader.feed(data):
-            if isinstance(item, BassLine) and item.address == self.address:
-                out += self.answer(item.as_request()).encode()
+        out = bytearray()
+        # A request completes only at its LF: answer right after it, before later bytes.
+        for segment in data.splitlines(keepends=True):
+            out += segment
+            for item in self._reader.feed(segment):
+                if isinstance(item, BassLine) and item.address == self.address:
+                    out += self.answer(item.as_request()).encode()
         return bytes(out)
 
     def answer(self, request: BassRequest) -> BassAnswer:
