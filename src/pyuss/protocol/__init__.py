@@ -1,1 +1,58 @@
-"""pyuss.protocol."""
+"""The USS protocol without I/O: telegram codec, timing, receiver, net data (PKW/PZD), broadcast.
+
+Everything here is pure: no I/O and no clock reads; times are passed in (seconds).
+"""
+
+from pyuss.protocol.telegram import (
+    MAX_ADDRESS,
+    MAX_LGE,
+    MAX_NET_BYTES,
+    MIN_LGE,
+    STX,
+    AddressError,
+    AddressMode,
+    BccError,
+    LengthError,
+    StxError,
+    Telegram,
+    adr_byte,
+    bcc,
+    parse_adr,
+)
+from pyuss.protocol.timing import (
+    BAUD_RATES,
+    MAX_RESPONSE_DELAY,
+    LineTiming,
+    char_time,
+    check_baud,
+    residual_time_flush,
+    residual_time_max,
+    response_delay_limit,
+    start_pause,
+)
+
+__all__ = [
+    "BAUD_RATES",
+    "MAX_ADDRESS",
+    "MAX_LGE",
+    "MAX_NET_BYTES",
+    "MAX_RESPONSE_DELAY",
+    "MIN_LGE",
+    "STX",
+    "AddressError",
+    "AddressMode",
+    "BccError",
+    "LengthError",
+    "LineTiming",
+    "StxError",
+    "Telegram",
+    "adr_byte",
+    "bcc",
+    "char_time",
+    "check_baud",
+    "parse_adr",
+    "residual_time_flush",
+    "residual_time_max",
+    "response_delay_limit",
+    "start_pause",
+]
