@@ -3,6 +3,8 @@
 Everything here is pure: no I/O and no clock reads; times are passed in (seconds).
 """
 
+from pyuss.protocol.diagnostics import Counters, Diagnostics, ErrorStatus, FaultKind
+from pyuss.protocol.receiver import Event, ReceiveFault, Received, Receiver
 from pyuss.protocol.telegram import (
     MAX_ADDRESS,
     MAX_LGE,
@@ -42,8 +44,16 @@ __all__ = [
     "AddressError",
     "AddressMode",
     "BccError",
+    "Counters",
+    "Diagnostics",
+    "ErrorStatus",
+    "Event",
+    "FaultKind",
     "LengthError",
     "LineTiming",
+    "ReceiveFault",
+    "Received",
+    "Receiver",
     "StxError",
     "Telegram",
     "adr_byte",
