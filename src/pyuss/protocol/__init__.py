@@ -4,7 +4,7 @@ Everything here is pure: no I/O and no clock reads; times are passed in (seconds
 """
 
 from pyuss.protocol.diagnostics import Counters, Diagnostics, ErrorStatus, FaultKind
-from pyuss.protocol.receiver import Event, ReceiveFault, Received, Receiver
+from pyuss.protocol.receiver import Event, Received, ReceiveFault, Receiver
 from pyuss.protocol.telegram import (
     MAX_ADDRESS,
     MAX_LGE,
