@@ -115,6 +115,22 @@ class PtyPort(QueuedTransport):
                     )
                 await self._writable(deadline)
 
+    def write_nowait(self, data: bytes) -> int:
+        """Write what the kernel takes now, without waiting; the rest is dropped and counted
+        in ``stats.dropped_out``. Returns the number of bytes written."""
+        if not self.is_open:
+            raise TransportError(f"{self.describe()} is not open")
+        try:
+            n = os.write(self._master, data)
+        except BlockingIOError:
+            n = 0
+        except OSError as exc:
+            self._lose(TransportError(f"{self.describe()}: write failed: {exc}"))
+            n = 0
+        self.stats.bytes_out += n
+        self.stats.dropped_out += len(data) - n
+        return n
+
     async def _writable(self, deadline: float) -> None:
         loop = asyncio.get_running_loop()
         ready: asyncio.Future[None] = loop.create_future()

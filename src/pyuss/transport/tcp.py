@@ -103,9 +103,18 @@ class TcpTransport(QueuedTransport):
         except OSError as exc:
             raise TransportError(f"cannot connect to {self.describe()}: {exc}") from None
         _no_delay(writer)
+        try:
+            await self._handshake(reader, writer)
+        except BaseException:
+            await close_writer(writer)
+            raise
         self._writer = writer
         self._mark_open()
         self._task = asyncio.create_task(self._run(reader), name=f"uss {self.describe()}")
+
+    async def _handshake(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        """What a subclass exchanges before the line is open (nothing here); raises
+        `TransportError` to refuse."""
 
     async def _run(self, reader: asyncio.StreamReader) -> None:
         why = await pump(reader, self._deliver)

@@ -97,6 +97,20 @@ def open_transport(
             query_flags(url, ())
             host, port = check_endpoint(*split_endpoint(url), allow_zero=True)
             return TcpServerTransport(host, port, baud=baud, echo=echo)
+        if scheme == "bus":
+            from pyuss.bus.client import BusClientTransport
+
+            options = query_flags(url, ("name", "echo", "listen_only"))
+            host, port = check_endpoint(*split_endpoint(url))
+            return BusClientTransport(
+                host,
+                port,
+                baud=baud,
+                name=options.get("name"),
+                echo=echo,
+                bus_echo=flag(url, "echo", options.get("echo", "0")),
+                listen_only=flag(url, "listen_only", options.get("listen_only", "0")),
+            )
         return SerialTransport(
             url, baud=baud, parity=parity, stopbits=stopbits, rs485=rs485, echo=echo
         )
