@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import pytest
-from transport.helpers import joined, read_bytes
 
 from pyuss.bus import Recorder, VirtualBus
 from pyuss.bus.core import sample
 from pyuss.bus.faults import frame_bits
 from pyuss.errors import ConfigError, TransportError
 from pyuss.transport.base import LineError
+from transport.helpers import joined, read_bytes
 
 
 async def test_every_other_station_hears_a_sender_but_not_the_sender() -> None:

@@ -7,10 +7,10 @@ import asyncio
 import time
 
 import pytest
-from conftest import load_vectors
-from transport.helpers import joined, read_bytes
 
+from conftest import load_vectors
 from pyuss.bus import Recorder, VirtualBus
+from transport.helpers import joined, read_bytes
 
 #: Ideal times are computed, not measured: they agree with n x 11 / baud to float rounding.
 EXACT = 1e-9
