@@ -22,8 +22,10 @@ from pyuss.bass.ring import (
     demo_elements,
 )
 from pyuss.errors import ConfigError
+from pyuss.transport import PtyPort, TcpServerTransport, open_transport
 
 E = BassErrorNumber
+WAIT = 5.0  # generous: real ptys and sockets on a loaded machine
 
 
 def ring_of_three() -> BassRing:
@@ -238,44 +240,40 @@ async def test_sixteen_drives_each_answer_at_its_dip_address() -> None:
             assert (await master.read(address, ID_SV_STATE) >> 4) & 0xFF == address
 
 
-async def test_ring_over_tcp_on_localhost() -> None:
+async def test_master_over_tcp_to_a_ring_served_on_localhost() -> None:
     ring = ring_of_three()
-    async with await ring.serve_tcp() as server:
-        assert server.url.startswith("socket://127.0.0.1:")
-        reader, writer = await asyncio.open_connection(server.host, server.port)
-        request = BassRequest.read(200, ID_SV_STATE).encode()
-        writer.write(request)
-        await writer.drain()
-        echo = await asyncio.wait_for(reader.readuntil(b"\n"), 5)
-        answer = await asyncio.wait_for(reader.readuntil(b"\n"), 5)
-        assert echo == request
-        assert decode_answer(answer).to_int() == 0x0C81
-        # a second PC on the same ring is turned away
-        reader2, writer2 = await asyncio.open_connection(server.host, server.port)
-        assert await asyncio.wait_for(reader2.read(), 5) == b""
-        writer2.close()
-        writer.close()
-        await writer.wait_closed()
+    async with TcpServerTransport("127.0.0.1", 0) as server:
+        serving = asyncio.create_task(ring.serve(server))
+        assert isinstance(server, TcpServerTransport)
+        client = open_transport(f"tcp://127.0.0.1:{server.port}", parity="N")
+        async with client:
+            master = BassMaster(client, timeout=WAIT, retries=0)
+            assert await master.read(200, ID_SV_STATE) == 0x0C81
+            await master.write(0x12, 2, 7500)
+            assert await master.read(0x12, 2) == 7500
+            with pytest.raises(BassRefusal):
+                await master.write(0x12, ID_SV_BAUD, 1)
+    await asyncio.wait_for(serving, WAIT)  # closing the transport ends the service
 
 
 async def test_ring_behind_a_pty_with_pyserial() -> None:
     ring = ring_of_three()
-    async with await ring.open_pty() as pty:
+    async with PtyPort() as pty:
+        assert isinstance(pty, PtyPort)
+        serving = asyncio.create_task(ring.serve(pty))
 
         def talk() -> bytes:
-            with serial.Serial(pty.path, 9600, timeout=5) as port:
-                port.write(BassRequest.write(5, 2, 7500).encode())
-                port.write(BassRequest.read(5, 2).encode())
-                data = b""
-                for _ in range(4):
-                    data += port.read_until(b"\n")
-                return data
+            with serial.Serial(pty.device_path, 9600, timeout=WAIT) as port:
+                port.write(BassRequest.write(5, 2, 7500).encode() + BassRequest.read(5, 2).encode())
+                return b"".join(port.read_until(b"\n") for _ in range(4))
 
         data = await asyncio.to_thread(talk)
-    lines = data.split(b"\r\n")
-    assert lines[0] + b"\r\n" == BassRequest.write(5, 2, 7500).encode()
-    assert lines[2] + b"\r\n" == BassRequest.read(5, 2).encode()
-    assert decode_answer(lines[3] + b"\r\n").to_int() == 7500
+    await asyncio.wait_for(serving, WAIT)
+    lines = [line + b"\r\n" for line in data.split(b"\r\n")[:4]]
+    assert lines[0] == BassRequest.write(5, 2, 7500).encode()
+    assert decode_answer(lines[1]).to_int() == 7500
+    assert lines[2] == BassRequest.read(5, 2).encode()
+    assert decode_answer(lines[3]).to_int() == 7500
 
 
 def test_malformed_answer_data_is_caught_by_the_master_codec() -> None:

@@ -28,20 +28,14 @@ digits than the element 2, with more 3 (also a read carrying data: 3); read-only
 no write authority 5; below minimum 6; above maximum 7; value outside the element's allowed
 set 8; a command other than 003C/003E 9.
 
-The ring is reachable as an in-process `Transport` (`BassRing.port()`), over TCP on 127.0.0.1
-(`BassRing.serve_tcp()`) and through a pseudo-terminal (`BassRing.open_pty()`) that any program
-can open like a serial port.
+The ring is reachable as an in-process `Transport` (`BassRing.port()`), and `BassRing.serve()`
+carries its PC side on any transport: a `pyuss.transport.PtyPort` that other programs open like
+a serial port, or a `pyuss.transport.TcpServerTransport` on 127.0.0.1.
 """
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
-import errno
 import logging
-import os
-import termios
-import tty
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Protocol, runtime_checkable
@@ -57,6 +51,7 @@ from pyuss.bass.codec import (
 from pyuss.bass.errors import BassErrorNumber, BassRefusal
 from pyuss.bass.inprocess import InProcessPort
 from pyuss.errors import ConfigError, TransportError
+from pyuss.transport.base import Transport
 
 log = logging.getLogger("pyuss.bass.ring")
 
@@ -251,6 +246,7 @@ class BassStation:
         self.address = address
         self._reader = BassLineReader()
         self.answered = 0
+        """Requests this station answered (refusals included)."""
 
     def receive(self, data: bytes) -> bytes:
         """Bytes arriving at RX; returns what leaves at TX (the same bytes plus any answer)."""
@@ -265,6 +261,7 @@ class BassStation:
 
     def answer(self, request: BassRequest) -> BassAnswer:
         """The answer to a request addressed to this station (table 1.3 for refusals)."""
+        self.answered += 1
         try:
             return self._serve(request)
         except BassRefusal as refusal:
@@ -287,7 +284,6 @@ class BassStation:
             data.write(ident, int(request.data, 16))
         else:
             raise BassRefusal(BassErrorNumber.ACCESS_NOT_VALID, ident=ident)
-        self.answered += 1
         return BassAnswer.value(self.address, ident, data.read(ident), digits)
 
 
@@ -335,136 +331,20 @@ class BassRing:
         port.on_write = lambda data: port.deliver(self.inject(data))
         return port
 
-    async def serve_tcp(self, host: str = "127.0.0.1", port: int = 0) -> RingTcpServer:
-        """Offer the ring's PC side on a TCP port (raw bytes, one client at a time)."""
-        server = RingTcpServer(self)
-        await server.start(host, port)
-        return server
+    async def serve(self, transport: Transport) -> None:
+        """Carry the ring's PC side on an open ``transport`` until it is closed.
 
-    async def open_pty(self) -> RingPty:
-        """Offer the ring's PC side on a pseudo-terminal; open ``.path`` like a serial port."""
-        pty = RingPty(self)
-        await pty.start()
-        return pty
-
-
-class RingTcpServer:
-    """The ring behind a TCP listener (127.0.0.1 only by default); close() stops it."""
-
-    def __init__(self, ring: BassRing) -> None:
-        self.ring = ring
-        self._server: asyncio.Server | None = None
-        self._client: asyncio.StreamWriter | None = None
-        self.host = ""
-        self.port = 0
-
-    async def start(self, host: str, port: int) -> None:
-        try:
-            self._server = await asyncio.start_server(self._serve, host, port)
-        except OSError as exc:
-            raise TransportError(f"cannot listen on {host}:{port}: {exc.strerror}") from exc
-        self.host, self.port = self._server.sockets[0].getsockname()[:2]
-
-    @property
-    def url(self) -> str:
-        """A pyserial-style URL for clients."""
-        return f"socket://{self.host}:{self.port}"
-
-    async def _serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
-        if self._client is not None:
-            log.warning("second TCP client refused: the ring has one PC port")
-            writer.close()
-            return
-        self._client = writer
-        try:
-            while data := await reader.read(4096):
-                out = self.ring.inject(data)
-                if out:
-                    writer.write(out)
-                    await writer.drain()
-        except (ConnectionError, OSError) as exc:
-            log.info("TCP client gone: %s", exc)
-        finally:
-            self._client = None
-            writer.close()
-            with contextlib.suppress(ConnectionError, OSError):
-                await writer.wait_closed()
-
-    async def close(self) -> None:
-        if self._client is not None:
-            self._client.close()
-        if self._server is not None:
-            self._server.close()
-            await self._server.wait_closed()
-            self._server = None
-
-    async def __aenter__(self) -> RingTcpServer:
-        return self
-
-    async def __aexit__(self, *exc_info: object) -> None:
-        await self.close()
-
-
-class RingPty:
-    """The ring behind a pseudo-terminal in raw mode; ``path`` is the device to open."""
-
-    def __init__(self, ring: BassRing) -> None:
-        self.ring = ring
-        self.path = ""
-        self._master = -1
-        self._slave = -1
-        self._loop: asyncio.AbstractEventLoop | None = None
-        self._pending = bytearray()
-
-    async def start(self) -> None:
-        self._loop = asyncio.get_running_loop()
-        self._master, self._slave = os.openpty()
-        tty.setraw(self._slave, termios.TCSANOW)
-        os.set_blocking(self._master, False)
-        self.path = os.ttyname(self._slave)
-        self._loop.add_reader(self._master, self._readable)
-
-    def _readable(self) -> None:
-        try:
-            data = os.read(self._master, 4096)
-        except BlockingIOError:
-            return
-        except OSError as exc:  # EIO: no process has the slave open right now
-            if exc.errno != errno.EIO:
-                log.warning("pty read failed: %s", exc)
-            return
-        out = self.ring.inject(data)
-        if out:
-            self._pending += out
-            self._flush()
-
-    def _flush(self) -> None:
-        assert self._loop is not None
-        try:
-            sent = os.write(self._master, self._pending)
-        except BlockingIOError:
-            sent = 0
-        del self._pending[:sent]
-        if self._pending:
-            self._loop.add_writer(self._master, self._writable)
-
-    def _writable(self) -> None:
-        assert self._loop is not None
-        self._loop.remove_writer(self._master)
-        self._flush()
-
-    async def close(self) -> None:
-        if self._loop is not None and self._master >= 0:
-            self._loop.remove_reader(self._master)
-            self._loop.remove_writer(self._master)
-        for fd in (self._master, self._slave):
-            if fd >= 0:
-                with contextlib.suppress(OSError):
-                    os.close(fd)
-        self._master = self._slave = -1
-
-    async def __aenter__(self) -> RingPty:
-        return self
-
-    async def __aexit__(self, *exc_info: object) -> None:
-        await self.close()
+        For example a `pyuss.transport.PtyPort` (other programs open its device like a serial
+        port) or a `pyuss.transport.TcpServerTransport` (one TCP client at a time).
+        """
+        while True:
+            try:
+                chunk = await transport.read(None)
+            except TransportError as exc:
+                log.info("the ring stops serving: %s", exc)
+                return
+            if chunk is None:
+                continue
+            out = self.inject(chunk.data)
+            if out:
+                await transport.write(out)
