@@ -6,6 +6,8 @@ import asyncio
 
 import pytest
 import serial
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from pyuss.bass.codec import BassAnswer, BassRequest, decode_answer
 from pyuss.bass.errors import BassErrorNumber, BassRefusal, BassTelegramError, BassTimeout
@@ -280,3 +282,20 @@ def test_malformed_answer_data_is_caught_by_the_master_codec() -> None:
     answer = BassAnswer(3, 0, 2, "")
     with pytest.raises(BassTelegramError):
         answer.to_int()
+
+
+@given(st.integers(-0x8000, 0x7FFF))
+@settings(max_examples=100)
+def test_signed_element_round_trip_and_limits(value: int) -> None:
+    """Two's complement on the wire; the element's own limits give errors 6 and 7."""
+    drive = DictOperatingData(1, {2: Element(0, signed=True, minimum=-0x7000, maximum=0x7000)})
+    station = BassStation(drive)
+    line = BassRequest.write(1, 2, value, digits=4).encode()
+    answer = decode_answer(station.receive(line)[len(line) :])
+    if value < -0x7000:
+        assert answer.error_number == E.BELOW_MINIMUM
+    elif value > 0x7000:
+        assert answer.error_number == E.ABOVE_MAXIMUM
+    else:
+        assert answer.to_int(signed=True) == value
+        assert drive.value(2) == value
