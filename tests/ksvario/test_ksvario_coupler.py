@@ -58,7 +58,7 @@ async def test_intel_order_from_user_parameters(order: ByteOrder) -> None:
 
 
 async def test_three_views_of_one_datum() -> None:
-    coupler, master = make()
+    _coupler, master = make()
     await master.write(Address.channel(5, 0x10, View.FLOAT), [12.34])
     assert await master.read(Address.channel(5, 0x10, View.INTEGER)) == [12]
     assert await master.read(Address.channel(5, 0x10, View.FIXPOINT1)) == [123]
@@ -70,7 +70,7 @@ async def test_three_views_of_one_datum() -> None:
 
 
 async def test_char_and_compact_char() -> None:
-    coupler, master = make()
+    _coupler, master = make()
     await master.write(0x0010, [b"KS V", b"ARIO"], fmt=DataFormat.COMPACT_CHAR)
     assert await master.read(0x0010, 8, fmt=DataFormat.CHAR) == [ord(c) for c in "KS VARIO"]
     assert await master.read(0x0010, 2, fmt=DataFormat.COMPACT_CHAR) == [b"KS V", b"ARIO"]
