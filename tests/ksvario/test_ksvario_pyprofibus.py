@@ -7,63 +7,22 @@ channel of module A.1 moves data through it; pyprofibus's GSD parser reads the e
 
 from __future__ import annotations
 
-import asyncio
-import threading
 import time
 from pathlib import Path
 from typing import Any
 
 import pytest
+from ksvario_sim import SlaveThread
 
 from pyuss.ksvario.address import Address
 from pyuss.ksvario.channel import ChannelClient, DataFormat
 from pyuss.ksvario.coupler import CacheSelection, Coupler
 from pyuss.ksvario.gsd import emit_gsd
-from pyuss.ksvario.simulate import serve
 
 pyprofibus = pytest.importorskip("pyprofibus")
 gsd_interp = pytest.importorskip("pyprofibus.gsd.interp")
 
 STATION = 8
-
-
-class SlaveThread:
-    """The simulated KS VARIO served on a pty from its own event loop."""
-
-    def __init__(self, coupler: Coupler) -> None:
-        self.coupler = coupler
-        self.device = ""
-        self.ready = threading.Event()
-        self.loop = asyncio.new_event_loop()
-        self.stop = asyncio.Event()
-        self.thread = threading.Thread(target=self._run, daemon=True)
-        self.error: BaseException | None = None
-
-    def _run(self) -> None:
-        asyncio.set_event_loop(self.loop)
-
-        def ready(device: str) -> None:
-            self.device = device
-            self.ready.set()
-
-        try:
-            self.loop.run_until_complete(
-                serve(station=STATION, coupler=self.coupler, on_ready=ready, stop=self.stop)
-            )
-        except BaseException as exc:  # reported by the test
-            self.error = exc
-            self.ready.set()
-
-    def __enter__(self) -> SlaveThread:
-        self.thread.start()
-        assert self.ready.wait(10), "slave did not start"
-        assert self.error is None, self.error
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.loop.call_soon_threadsafe(self.stop.set)
-        self.thread.join(10)
-        self.loop.close()
 
 
 def _write_conf(tmp: Path, device: str, gsd: Path) -> Path:
@@ -120,7 +79,7 @@ def test_pyprofibus_master_reaches_data_exchange_and_moves_channel_data(tmp_path
     coupler = Coupler(selection=CacheSelection(free_read=((1, 0x01),), free_write=((1, 0x10),)))
     coupler.set(Address.channel(1, 0x96), 123.4)  # Pb1 of channel 1, example 4.5.1
     coupler.set(Address.channel(1, 0x01), 21.5)  # read cache entry 1 -> module B.1
-    with SlaveThread(coupler) as sim:
+    with SlaveThread(coupler, STATION) as sim:
         conf = pyprofibus.PbConf.fromFile(str(_write_conf(tmp_path, sim.device, gsd_path)))
         master = conf.makeDPM()
         try:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import os
+import termios
 import time
 import tty
 from typing import Any
@@ -121,18 +122,28 @@ class SerialLine(Transport):
     def clock(self) -> float:
         return time.monotonic()
 
+    def _open(self, parity: str) -> Any:
+        return serial.serial_for_url(
+            self.url,
+            baudrate=self._baud,
+            bytesize=serial.EIGHTBITS,
+            parity=parity,
+            stopbits=serial.STOPBITS_ONE,
+            timeout=0.02,
+        )
+
     async def open(self) -> None:
         try:
-            self._port = serial.serial_for_url(
-                self.url,
-                baudrate=self._baud,
-                bytesize=serial.EIGHTBITS,
-                parity=serial.PARITY_EVEN,
-                stopbits=serial.STOPBITS_ONE,
-                timeout=0.02,
-            )
-        except (serial.SerialException, ValueError) as exc:
-            raise TransportError(f"cannot open {self.url}: {exc}") from exc
+            self._port = self._open(serial.PARITY_EVEN)
+        except (serial.SerialException, ValueError, termios.error) as exc:
+            # Some pty drivers refuse a parity change they cannot carry anyway; a pty moves
+            # bytes, not characters, so 8N1 there is the same line.
+            if not self.url.startswith("/dev/pts/"):
+                raise TransportError(f"cannot open {self.url}: {exc}") from exc
+            try:
+                self._port = self._open(serial.PARITY_NONE)
+            except (serial.SerialException, ValueError, termios.error) as exc2:
+                raise TransportError(f"cannot open {self.url}: {exc2}") from exc2
 
     async def close(self) -> None:
         if self._port is not None:
