@@ -24,13 +24,13 @@ from pyuss.errors import ConfigError
 from pyuss.ksvario.address import Address, View, parse_address
 from pyuss.ksvario.channel import ByteOrder, DataFormat, Value
 from pyuss.ksvario.coupler import CacheSelection, Coupler
-from pyuss.ksvario.dp.line import SerialLine
 from pyuss.ksvario.dp.master import DpMasterLink
 from pyuss.ksvario.gsd import emit_gsd
 from pyuss.ksvario.master import KsVarioMaster, LocalLink, default_format
 from pyuss.ksvario.modules import Configuration, parse_modules
 from pyuss.ksvario.simulate import serve
 from pyuss.ksvario.userprm import UserParameters
+from pyuss.transport.url import open_transport
 
 _FORMATS = {
     "int": DataFormat.INTEGER,
@@ -69,7 +69,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
             help="default: real for float addresses, int otherwise",
         )
         where = q.add_mutually_exclusive_group(required=True)
-        where.add_argument("--port", help="serial port, pty or pyserial URL of the DP line")
+        where.add_argument("--port", help="serial port, pty or transport URL of the DP line")
         where.add_argument("--sim", action="store_true", help="an in-process simulated coupler")
         q.add_argument("--station", type=int, default=5, help="DP station address (default 5)")
         q.add_argument("--baud", type=int, default=19200)
@@ -186,7 +186,7 @@ async def _job(args: argparse.Namespace, addr: Address, fmt: DataFormat, write: 
         coupler.configure(conf)
         master = KsVarioMaster(LocalLink(coupler), conf, byte_order=order, timeout=args.timeout)
         return await _run(master, args, addr, fmt, write)
-    line = SerialLine(args.port, args.baud)
+    line = open_transport(args.port, baud=args.baud, parity="E")
     await line.open()
     try:
         link = DpMasterLink(line, args.station, conf, user=user)

@@ -1,7 +1,8 @@
 """Serve a simulated KS VARIO as a PROFIBUS-DP slave: the entry point for `uss ksvario
 simulate` and for a general `uss simulate --profile ksvario`.
 
-`serve(...)` opens the line (a new pty pair by default, or a serial port / pyserial URL), calls
+`serve(...)` opens the line (a new `PtyPort` by default, or any transport URL of
+`pyuss.transport.url`: a serial port or pyserial URL at 8E1, tcp://, bus://), calls
 ``on_ready(device)`` with the path a DP master must open, and answers the master until
 cancelled. The coupler is created with the example selection of seed 003 3.2 unless one is
 given.
@@ -13,10 +14,10 @@ import asyncio
 from collections.abc import Callable
 
 from pyuss.ksvario.coupler import CacheSelection, Coupler
-from pyuss.ksvario.dp.line import PtyLine, SerialLine
 from pyuss.ksvario.dp.server import run_slave
 from pyuss.ksvario.dp.slave import DpSlave
-from pyuss.transport.base import Transport
+from pyuss.transport.pty import PtyPort
+from pyuss.transport.url import open_transport
 
 
 async def serve(
@@ -32,15 +33,11 @@ async def serve(
     """Run the simulated coupler as DP slave ``station`` until cancelled or ``stop`` is set."""
     coupler = coupler or Coupler(channels=channels, selection=CacheSelection.example())
     slave = DpSlave(coupler, station)
-    line: Transport
-    if port is None:
-        pty = PtyLine(baud)
-        line = pty
-    else:
-        line = SerialLine(port, baud)
+    pty = PtyPort(baud=baud) if port is None else None
+    line = pty if pty is not None else open_transport(port or "", baud=baud, parity="E")
     await line.open()
     try:
-        device = pty.device if port is None else port
+        device = pty.device_path if pty is not None else port or ""
         if on_ready is not None:
             on_ready(device)
         await run_slave(slave, line, stop)
