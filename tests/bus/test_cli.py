@@ -87,7 +87,7 @@ def test_tcp_and_bus_endpoints_are_printed() -> None:
     ("args", "words"),
     [
         ([], "nothing to serve"),
-        (["--pty", "1", "--baud", "14400"], "baud rate 14400"),
+        (["--pty", "1", "--baud", "14400"], "14400 is not a USS baud rate"),
         (["--pty", "1", "--fault", "flip:p=7"], "probability"),
         (["--tcp", "127.0.0.1"], "HOST:PORT"),
         (["--pty", "1", "--record", "/nonexistent/dir/x.jsonl"], "cannot write a recording"),
