@@ -3,8 +3,9 @@
 A master and a slave exchange 14-byte telegrams (C 8.1 example 2) with a start pause before
 each request and about 1 ms of slave processing; a probe station records, for every
 character, delivery time minus ideal end time (the lag: never negative, since the bus never
-delivers early). Then the same through a pty read by pyserial (`SerialTransport`, worker
-thread): the reader's chunk timestamps minus the ideal end times of the chunk's last byte.
+delivers early). Then the same through ptys, comparing two ways of stamping what a serial
+port reads: pyuss's worker thread (`SerialTransport`) and a reader in the event loop that also
+runs the bus; each chunk's stamp minus the ideal end time of its last byte.
 CPU is process CPU time over wall time while the traffic runs (the bus plus the two stations
 and the probe, all in this process).
 """
@@ -12,16 +13,28 @@ and the probe, all in this process).
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import os
 import statistics
 import time
+import tty
 
 from pyuss.bus import Recorder, VirtualBus
-from pyuss.transport import SerialTransport
+from pyuss.transport import SerialTransport, Transport
 
 REQUEST = bytes.fromhex("02 0C 05 10 34 00 00 00 00 04 7E 00 00 55")
 RESPONSE = bytes.fromhex("02 0C 05 10 34 00 00 40 00 02 31 00 00 5C")
 BAUDS = (9600, 38400, 187500)
 SECONDS = 1.5
+
+
+async def _read_n(transport: Transport, n: int) -> None:
+    got = 0
+    while got < n:
+        chunk = await transport.read(1.0)
+        if chunk is None:
+            raise RuntimeError("the bus lost characters")
+        got += len(chunk.data)
 
 
 async def _traffic(bus: VirtualBus, seconds: float) -> int:
@@ -32,18 +45,10 @@ async def _traffic(bus: VirtualBus, seconds: float) -> int:
         while time.monotonic() < end:
             await asyncio.sleep(3 * tc)  # start pause (A 5.1.2, 2 character times at least)
             await master.write(REQUEST)
-            got = 0
-            while got < len(REQUEST):
-                chunk = await slave.read(1.0)
-                assert chunk is not None
-                got += len(chunk.data)
+            await _read_n(slave, len(REQUEST))
             await asyncio.sleep(0.001)
             await slave.write(RESPONSE)
-            got = 0
-            while got < len(RESPONSE):
-                chunk = await master.read(1.0)
-                assert chunk is not None
-                got += len(chunk.data)
+            await _read_n(master, len(RESPONSE))
             cycles += 1
     return cycles
 
@@ -66,11 +71,24 @@ async def _in_process(baud: int) -> tuple[list[float], float, int]:
     return lags, cpu, cycles
 
 
-async def _through_pty(baud: int) -> list[float]:
+async def _through_pty(baud: int) -> tuple[list[float], list[float]]:
+    """Lags of a worker-thread reader (`SerialTransport`) and of an event-loop reader on a
+    second pty, both reading the same traffic while the bus runs in the same loop."""
     bus = VirtualBus(baud)
     recorder = Recorder().attach(bus)
-    (path,) = await bus.serve_pty(1)
-    lags: list[float] = []
+    path, other = await bus.serve_pty(2)
+    threaded: list[float] = []
+    stamps: list[tuple[int, float]] = []
+    loop = asyncio.get_running_loop()
+    fd = os.open(other, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    tty.setraw(fd)
+
+    def on_readable() -> None:
+        stamp = time.monotonic()
+        with contextlib.suppress(BlockingIOError):
+            stamps.append((len(os.read(fd, 4096)), stamp))
+
+    loop.add_reader(fd, on_readable)
     async with SerialTransport(path, baud=baud) as reader, bus.attach("master") as master:
         await asyncio.sleep(0.05)
         for _ in range(40):
@@ -82,9 +100,16 @@ async def _through_pty(baud: int) -> list[float]:
         got = 0
         while (chunk := await reader.read(0.2)) is not None:
             got += len(chunk.data)
-            lags.append(chunk.timestamp - ends[got - 1])
+            threaded.append(chunk.timestamp - ends[got - 1])
+    loop.remove_reader(fd)
+    os.close(fd)
     await bus.close()
-    return lags
+    looped = []
+    got = 0
+    for n, stamp in stamps:
+        got += n
+        looped.append(stamp - ends[got - 1])
+    return threaded, looped
 
 
 def _ms(values: list[float]) -> str:
@@ -104,7 +129,9 @@ def main() -> None:
             f"median/character time {statistics.median(lags) / tc:5.2f}; "
             f"CPU {cpu * 100:5.1f} % of one core ({cycles} request/response cycles)"
         )
-        print(f"  {baud:6d} baud, pty+pyserial: {_ms(asyncio.run(_through_pty(baud)))}")
+        threaded, looped = asyncio.run(_through_pty(baud))
+        print(f"  {baud:6d} baud, pty, thread reader (SerialTransport): {_ms(threaded)}")
+        print(f"  {baud:6d} baud, pty, event-loop reader:              {_ms(looped)}")
 
 
 if __name__ == "__main__":
