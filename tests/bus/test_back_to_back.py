@@ -12,8 +12,10 @@ import pytest
 
 from conftest import load_vectors
 from pyuss.bus import BusClientTransport, Fault, FaultKind, FaultPlan, VirtualBus
+from pyuss.protocol.receiver import Event, Received, Receiver
+from pyuss.protocol.telegram import Telegram
 from pyuss.transport import SerialTransport, TcpTransport, Transport, open_transport
-from pyuss.transport.base import LineError
+from pyuss.transport.base import Chunk, LineError
 from transport.helpers import WAIT, byte_ends, flat_errors, joined, read_bytes
 
 BAUD = 19200
@@ -173,3 +175,43 @@ async def test_bus_refuses_a_taken_name_and_a_wrong_baud() -> None:
     with pytest.raises(TransportError, match=f"runs at {BAUD} baud, not 9600"):
         await BusClientTransport(host, port, baud=9600).open()
     await bus.close()
+
+
+async def _receive(line: Line, transport: Transport, receiver: Receiver) -> list[Event]:
+    """Feed what ``transport`` reads to ``receiver`` until it reports something. Ptys and raw
+    TCP carry no character timing, so there what arrives is fed as one burst."""
+    timed = line.medium in ("inproc", "bus")
+    events: list[Event] = []
+    held: list[Chunk] = []
+    while not events:
+        chunk = await transport.read(0.05 if held else WAIT)
+        if chunk is None:
+            if not held:
+                break
+            data = b"".join(c.data for c in held)
+            events += receiver.feed(data, held[-1].timestamp, flat_errors(held))
+            held.clear()
+            events += receiver.poll(transport.clock() + 1.0)
+        elif timed:
+            events += receiver.feed(chunk.data, chunk.timestamp, chunk.errors)
+            if not events and receiver.next_poll() is not None:
+                events += receiver.poll(chunk.timestamp)
+        else:
+            held.append(chunk)
+    return events
+
+
+async def test_telegrams_through_the_protocol_core(line: Line) -> None:
+    at_slave, at_master = Receiver(BAUD), Receiver(BAUD)
+    for request, response in _vector_pairs():
+        sent = Telegram.decode(request)
+        await line.master.write(sent.encode())
+        events = await _receive(line, line.slave, at_slave)
+        assert len(events) == 1 and isinstance(events[0], Received), events
+        assert events[0].telegram == sent
+        await asyncio.sleep(0.002)  # processing time, longer than the start pause
+        answer = Telegram.decode(response)
+        await line.slave.write(answer.encode())
+        events = await _receive(line, line.master, at_master)
+        assert len(events) == 1 and isinstance(events[0], Received), events
+        assert events[0].telegram == answer

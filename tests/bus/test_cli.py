@@ -16,14 +16,13 @@ from pyuss.cli.main import main
 TIMEOUT = 20
 
 
-def _start(*args: str) -> tuple[subprocess.Popen[str], list[str]]:
-    proc = subprocess.Popen(
+def _start(*args: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
         [sys.executable, "-m", "pyuss.cli.main", "bus", *args],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
-    return proc, []
 
 
 def _lines(proc: subprocess.Popen[str], n: int) -> list[str]:
@@ -34,7 +33,7 @@ def _lines(proc: subprocess.Popen[str], n: int) -> list[str]:
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_ptys_carry_bytes_until_stopped(tmp_path: Path, sig: signal.Signals) -> None:
     record = tmp_path / "wire.jsonl"
-    proc, _ = _start("--baud", "19200", "--pty", "2", "--record", str(record))
+    proc = _start("--baud", "19200", "--pty", "2", "--record", str(record))
     try:
         paths = _lines(proc, 2)
         assert all(p.startswith("/dev/") for p in paths), paths
@@ -57,7 +56,7 @@ def test_ptys_carry_bytes_until_stopped(tmp_path: Path, sig: signal.Signals) -> 
 
 
 def test_tcp_and_bus_endpoints_are_printed() -> None:
-    proc, _ = _start("--tcp", "127.0.0.1:0", "--bus-tcp", "127.0.0.1:0", "--duration", "30")
+    proc = _start("--tcp", "127.0.0.1:0", "--bus-tcp", "127.0.0.1:0", "--duration", "30")
     try:
         tcp, bus = _lines(proc, 2)
         assert tcp.startswith("tcp://127.0.0.1:")
@@ -87,7 +86,7 @@ def test_tcp_and_bus_endpoints_are_printed() -> None:
     ("args", "words"),
     [
         ([], "nothing to serve"),
-        (["--pty", "1", "--baud", "14400"], "baud rate 14400"),
+        (["--pty", "1", "--baud", "14400"], "14400 is not a USS baud rate"),
         (["--pty", "1", "--fault", "flip:p=7"], "probability"),
         (["--tcp", "127.0.0.1"], "HOST:PORT"),
         (["--pty", "1", "--record", "/nonexistent/dir/x.jsonl"], "cannot write a recording"),

@@ -92,7 +92,10 @@ async def test_replay_needs_the_same_baud() -> None:
         ("", "empty file"),
         ('{"format": "other"}\n', "not a bus recording"),
         ('{"format": "pyuss-bus-recording", "version": 9, "baud": 9600}\n', "version 9"),
-        ('{"format": "pyuss-bus-recording", "version": 1, "baud": 1}\n', "baud rate 1"),
+        (
+            '{"format": "pyuss-bus-recording", "version": 1, "baud": 1}\n',
+            "1 is not a USS baud rate",
+        ),
         (
             '{"format": "pyuss-bus-recording", "version": 1, "baud": 9600}\n'
             '{"t": 0.1, "from": "m", "byte": "zz", "flags": []}\n',

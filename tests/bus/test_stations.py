@@ -116,7 +116,7 @@ def test_station_names_and_the_number_of_senders() -> None:
 
 
 def test_bad_baud() -> None:
-    with pytest.raises(ConfigError, match="baud rate 14400"):
+    with pytest.raises(ConfigError, match="14400 is not a USS baud rate"):
         VirtualBus(14400)
 
 

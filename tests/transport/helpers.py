@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pyuss.transport.base import Chunk, Transport
+from pyuss.transport.base import Chunk, LineError, Transport
 
 #: Generous: real ptys and sockets on a loaded machine.
 WAIT = 5.0
@@ -25,9 +25,9 @@ def joined(chunks: list[Chunk]) -> bytes:
     return b"".join(c.data for c in chunks)
 
 
-def flat_errors(chunks: list[Chunk]) -> list[tuple[int, object]]:
+def flat_errors(chunks: list[Chunk]) -> list[tuple[int, LineError]]:
     """Line errors of ``chunks`` with positions in the joined data."""
-    out: list[tuple[int, object]] = []
+    out: list[tuple[int, LineError]] = []
     offset = 0
     for chunk in chunks:
         out += [(offset + pos, flag) for pos, flag in chunk.errors]

@@ -38,8 +38,8 @@ async def test_default_frame_is_8e1() -> None:
 @pytest.mark.parametrize(
     ("kwargs", "words"),
     [
-        ({"baud": 1234}, "baud rate 1234"),
-        ({"baud": "9600"}, "baud rate '9600'"),
+        ({"baud": 1234}, "1234 is not a USS baud rate"),
+        ({"baud": "9600"}, "'9600' is not a USS baud rate"),
         ({"parity": "X"}, "parity 'X'"),
         ({"stopbits": 3}, "stop bits 3"),
         ({"rs485": "both"}, "RS-485 mode 'both'"),

@@ -35,7 +35,7 @@ def test_choice_by_url() -> None:
         ("tcp://127.0.0.1:4001?x=1", {}, "unknown option 'x'"),
         ("tcp://127.0.0.1:4001/path", {}, "unexpected path"),
         ("nosuch://x", {}, "nosuch"),
-        ("loop://", {"baud": 12345}, "baud rate 12345"),
+        ("loop://", {"baud": 12345}, "12345 is not a USS baud rate"),
     ],
 )
 def test_bad_urls_and_settings(url: str, kwargs: dict[str, object], words: str) -> None:

@@ -222,7 +222,10 @@ def load_recording(path: str | os.PathLike[str]) -> Recording:
     if header.get("version") != VERSION:
         raise ConfigError(f"{name}:1: recording version {header.get('version')!r} is unknown")
     try:
-        baud = check_baud(header.get("baud"))
+        baud = header.get("baud")
+        if isinstance(baud, bool) or not isinstance(baud, int):
+            raise ConfigError(f"baud rate {baud!r} is not a whole number")
+        baud = check_baud(baud)
     except ConfigError as exc:
         raise ConfigError(f"{name}:1: {exc}") from None
     records = []

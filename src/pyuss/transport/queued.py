@@ -21,40 +21,19 @@ from collections import deque
 from dataclasses import dataclass
 
 from pyuss.errors import ConfigError, TransportError
+from pyuss.protocol.timing import BAUD_RATES, BITS_PER_CHAR, char_time, check_baud
 from pyuss.transport.base import Chunk, LineError, Transport
 
-#: Baud rates USS interfaces use (B 2.4).
-BAUD_RATES: tuple[int, ...] = (
-    300,
-    600,
-    1200,
-    2400,
-    4800,
-    9600,
-    19200,
-    38400,
-    57600,
-    76800,
-    93750,
-    115200,
-    187500,
-)
-
-#: Bits in one character frame: start, 8 data, even parity, stop (B 3.2, A 6.1).
-BITS_PER_CHAR = 11
-
-
-def check_baud(baud: object) -> int:
-    """Return ``baud`` as an int if it is one of the rates of B 2.4, else raise `ConfigError`."""
-    if isinstance(baud, bool) or not isinstance(baud, int) or baud not in BAUD_RATES:
-        allowed = ", ".join(str(b) for b in BAUD_RATES)
-        raise ConfigError(f"baud rate {baud!r} is not a USS rate (B 2.4 allows {allowed})")
-    return baud
-
-
-def char_time(baud: int) -> float:
-    """Seconds one 11-bit character occupies the line at ``baud`` (A 6.1)."""
-    return BITS_PER_CHAR / baud
+__all__ = [
+    "BAUD_RATES",
+    "BITS_PER_CHAR",
+    "EchoError",
+    "QueuedTransport",
+    "TransportStats",
+    "char_time",
+    "check_baud",
+    "shift_errors",
+]
 
 
 class EchoError(TransportError):
