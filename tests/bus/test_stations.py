@@ -44,7 +44,9 @@ async def test_station_with_echo_hears_itself() -> None:
 
 
 async def test_overlapping_senders_garble_each_other_and_count_a_collision() -> None:
-    bus = VirtualBus(9600)
+    # 300 baud: a bit lasts 3.3 ms, so the two writes below land within the same bit even when
+    # the test process is descheduled for a while between them on a loaded machine.
+    bus = VirtualBus(300)
     recorder = Recorder().attach(bus)
     async with (
         bus.attach("a", echo=True) as a,
