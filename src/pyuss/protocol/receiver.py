@@ -1,0 +1,398 @@
+"""The streaming receiver: timestamped bytes in, telegrams and classified faults out (A 5.2).
+
+Feed it what the transport reads, chunk by chunk, with the time the last byte of the chunk was
+complete; call `Receiver.poll` when time passes without bytes. It returns events:
+`Received` for a good telegram and `ReceiveFault` for everything else, classified by
+`FaultKind` as A 5.2.2 lists them.
+
+Time model
+    ``feed(data, timestamp)``: ``timestamp`` is the time the *last* byte of ``data`` was
+    complete. The bytes before it are taken as sent back to back, one character time (11 bits,
+    A 6.1) each, so byte ``i`` of ``n`` ended at ``timestamp - (n - 1 - i) * char_time``. A gap
+    can therefore only lie before the first byte of a chunk. A transport must deliver timestamps
+    that fit the line: a backend that hands over bytes faster than the baud rate allows makes
+    them look back to back, and pauses before them look shorter (or absent).
+
+Framing rules
+    - A telegram starts only with an STX after a start pause: an idle gap of at least
+      ``start_pause`` (default 2 character times, A 5.1.2, NOTES 2). Before the first byte the
+      line counts as idle.
+    - On STX the residual-time deadline is loaded for n = 252 net bytes, after LGE for the
+      announced n: ``1.5 (n + 3)`` character times from the end of STX (A 5.2.1.2, A 6.3).
+    - LGE outside 2..254 is `FaultKind.BAD_LGE`. With ``fixed_lengths`` (ADR address -> LGE,
+      fixed-length operation, A 4.2.2, A 5.2) a normal or mirror telegram to a listed address
+      whose LGE differs is `FaultKind.BAD_LGE` as well; other addresses, broadcasts and special
+      telegrams are framed by their LGE.
+    - Any idle gap of a start pause ends whatever is being received (NOTES 2): an incomplete
+      telegram is `FaultKind.RESIDUAL_TIME` (it cannot complete any more), as is one that is
+      not complete by its deadline.
+    - A complete telegram (LGE + 2 bytes) is checked: a character flagged by the transport
+      gives that line error's kind (`FaultKind.FRAMING` - a break counts as framing -,
+      `FaultKind.PARITY`, `FaultKind.OVERRUN`, first flagged character wins), then a wrong BCC
+      gives `FaultKind.BCC`, then undefined ADR bits give `FaultKind.BAD_ADR`; otherwise it is
+      `Received`.
+    - Bytes that start no telegram (not STX after a pause, anything after a complete telegram
+      without a pause, the rest of a telegram after its fault) are collected into one fault
+      per run of bytes: `FaultKind.NO_STX` when the run began without a valid start,
+      otherwise the fault that ended the telegram. A run longer than 256 bytes is split.
+
+Every byte fed ends up in the ``raw`` of exactly one event, in order, so a monitor can show
+the whole line. Faults whose end is known (wrong BCC, undefined ADR, line errors in a complete
+telegram) are reported with their last byte; faults whose extent is unknown (bad LGE, residual
+time, bytes without a start) are reported once the line has been idle for a start pause, by
+`Receiver.feed` (a pause before the next chunk) or by `Receiver.poll`. `Receiver.next_poll`
+tells when polling can next produce something. Call ``poll(now)`` only after every chunk that
+arrived up to ``now`` has been fed.
+
+A `Diagnostics` object, if given, is updated for every event (`Diagnostics.record_received`,
+`Diagnostics.record_fault`); the receiver does not know addresses, so it counts all good
+telegrams on the line.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+from pyuss.errors import ConfigError
+from pyuss.protocol.diagnostics import Diagnostics, FaultKind
+from pyuss.protocol.telegram import (
+    MAX_ADDRESS,
+    MAX_LGE,
+    MAX_NET_BYTES,
+    MAX_TELEGRAM_BYTES,
+    MIN_LGE,
+    STX,
+    AddressError,
+    AddressMode,
+    Telegram,
+    bcc,
+    parse_adr,
+)
+from pyuss.protocol.timing import LineTiming
+from pyuss.transport.base import LineError
+
+__all__ = ["Event", "FaultKind", "ReceiveFault", "Received", "Receiver"]
+
+_IDLE, _TELEGRAM, _JUNK = 0, 1, 2
+_FIXED_MODES = (AddressMode.NORMAL.value, AddressMode.MIRROR.value)
+
+
+@dataclass(frozen=True, slots=True)
+class Received:
+    """A telegram received without fault: ``start`` is the start of its STX, ``end`` the end of
+    its BCC (seconds, in the time base of the timestamps fed)."""
+
+    telegram: Telegram
+    raw: bytes
+    start: float
+    end: float
+
+
+@dataclass(frozen=True, slots=True)
+class ReceiveFault:
+    """Bytes discarded for ``kind``; ``detail`` says what was wrong in words."""
+
+    kind: FaultKind
+    raw: bytes
+    start: float
+    end: float
+    detail: str
+
+
+Event = Received | ReceiveFault
+
+
+def _line_kind(flags: LineError) -> FaultKind:
+    if flags & (LineError.FRAMING | LineError.BREAK):
+        return FaultKind.FRAMING
+    if flags & LineError.PARITY:
+        return FaultKind.PARITY
+    return FaultKind.OVERRUN
+
+
+class Receiver:
+    """Streaming USS receiver for one line (see the module text for the rules).
+
+    ``baud`` sets the character time; ``start_pause`` (seconds) overrides the idle gap that
+    starts a telegram (default 2 character times; a profile may demand more, a transport with
+    coarse timestamps may need a different value); ``fixed_lengths`` maps slave addresses to
+    the LGE they use in fixed-length operation (the dict is copied to ``self.fixed_lengths``
+    and may be changed later); ``diagnostics`` is updated for every event.
+    """
+
+    def __init__(
+        self,
+        baud: float,
+        *,
+        fixed_lengths: Mapping[int, int] | None = None,
+        start_pause: float | None = None,
+        diagnostics: Diagnostics | None = None,
+    ) -> None:
+        self.timing = LineTiming(baud)
+        self._ct = self.timing.char_time
+        if start_pause is None:
+            start_pause = self.timing.start_pause
+        elif isinstance(start_pause, bool) or not isinstance(start_pause, int | float):
+            raise ConfigError(f"start pause must be a number of seconds, got {start_pause!r}")
+        elif not start_pause > 0:
+            raise ConfigError(f"start pause must be positive, got {start_pause!r}")
+        self.start_pause = float(start_pause)
+        self.fixed_lengths: dict[int, int] = {}
+        for address, lge in (fixed_lengths or {}).items():
+            if not isinstance(address, int) or not 0 <= address <= MAX_ADDRESS:
+                raise ConfigError(f"fixed length given for address {address!r}, not 0..31")
+            if not isinstance(lge, int) or not MIN_LGE <= lge <= MAX_LGE:
+                raise ConfigError(
+                    f"fixed length (LGE) for address {address} must be {MIN_LGE}..{MAX_LGE}, "
+                    f"got {lge!r}"
+                )
+            self.fixed_lengths[address] = lge
+        self.diagnostics = diagnostics
+        self._eps = self._ct * 1e-3
+        self._first_deadline = self.timing.residual_max(MAX_NET_BYTES)
+        self._last_end = -math.inf
+        self._state = _IDLE
+        self._buf = bytearray()
+        self._start = 0.0
+        self._stx_end = 0.0
+        self._need = 0
+        self._deadline = 0.0
+        self._adr_checked = False
+        self._line: FaultKind | None = None
+        self._line_pos = 0
+        self._junk_kind = FaultKind.NO_STX
+        self._junk_detail = ""
+
+    # -- public ----------------------------------------------------------------------------
+
+    @property
+    def busy(self) -> bool:
+        """True while a telegram or a run of bytes is open (not yet reported)."""
+        return self._state != _IDLE
+
+    @property
+    def last_byte_end(self) -> float:
+        """When the last byte fed was complete (``-inf`` before the first byte)."""
+        return self._last_end
+
+    def line_idle(self, now: float) -> bool:
+        """True when no byte was received for at least a start pause before ``now``."""
+        return now - self._last_end >= self.start_pause - self._eps
+
+    def next_poll(self) -> float | None:
+        """The time from which `poll` reports the open run if no byte arrives; None when idle."""
+        if self._state == _IDLE:
+            return None
+        return self._last_end + self.start_pause
+
+    def reset(self) -> None:
+        """Drop whatever is being received, without an event; the line counts as idle."""
+        self._state = _IDLE
+        self._buf = bytearray()
+        self._last_end = -math.inf
+
+    def feed(
+        self,
+        data: bytes | bytearray | memoryview,
+        timestamp: float,
+        errors: Iterable[tuple[int, LineError]] = (),
+    ) -> list[Event]:
+        """Process one chunk; ``timestamp`` is when its last byte was complete and ``errors``
+        lists ``(position, LineError)`` for characters the transport flagged."""
+        data = bytes(data)
+        n = len(data)
+        events: list[Event] = []
+        if n == 0:
+            return events
+        ct = self._ct
+        first_end = timestamp - (n - 1) * ct
+        fresh = (first_end - ct) - self._last_end >= self.start_pause - self._eps
+        if fresh and self._state != _IDLE:
+            self._end_run(events)
+        flags: dict[int, FaultKind] = {}
+        for pos, flag in errors:
+            if flag and 0 <= pos < n:
+                flags[pos] = _line_kind(LineError(flag))
+        pos = 0
+        while pos < n:
+            if self._state == _TELEGRAM:
+                pos = self._telegram(data, pos, first_end, flags, events)
+            elif self._state == _JUNK:
+                take = min(n - pos, MAX_TELEGRAM_BYTES - len(self._buf))
+                self._buf += data[pos : pos + take]
+                pos += take
+                self._last_end = first_end + (pos - 1) * ct
+                if len(self._buf) >= MAX_TELEGRAM_BYTES:
+                    self._end_run(events)
+            else:
+                self._begin(data[pos], first_end + pos * ct, flags.get(pos), fresh)
+                pos += 1
+            fresh = False
+        self._last_end = timestamp
+        return events
+
+    def poll(self, now: float) -> list[Event]:
+        """Report what time alone decides: an open run once the line has been idle for a start
+        pause, and the residual-time deadline of an incomplete telegram."""
+        events: list[Event] = []
+        if self._state == _IDLE:
+            return events
+        if self.line_idle(now):
+            self._end_run(events)
+        elif self._state == _TELEGRAM and now > self._deadline + self._eps:
+            self._to_junk(FaultKind.RESIDUAL_TIME, self._late_detail())
+        return events
+
+    # -- internals -------------------------------------------------------------------------
+
+    def _begin(self, byte: int, end: float, line: FaultKind | None, fresh: bool) -> None:
+        """Start a telegram or a run of bytes with ``byte``, which was complete at ``end``."""
+        self._buf = bytearray((byte,))
+        self._start = end - self._ct
+        self._last_end = end
+        if fresh and byte == STX and line is None:
+            self._state = _TELEGRAM
+            self._stx_end = end
+            self._deadline = end + self._first_deadline
+            self._need = 0
+            self._adr_checked = False
+            self._line = None
+            return
+        self._state = _JUNK
+        if line is not None:
+            self._junk_kind = line
+            self._junk_detail = f"{line.name.lower()} error on the first character"
+        elif fresh:
+            self._junk_kind = FaultKind.NO_STX
+            self._junk_detail = f"first character after the start pause is {byte:02X}h, not STX"
+        else:
+            self._junk_kind = FaultKind.NO_STX
+            self._junk_detail = "characters without a start pause before them"
+
+    def _telegram(
+        self,
+        data: bytes,
+        pos: int,
+        first_end: float,
+        flags: dict[int, FaultKind],
+        events: list[Event],
+    ) -> int:
+        """Take the bytes of the open telegram from ``data[pos:]``; return the next position."""
+        ct = self._ct
+        buf = self._buf
+        want = (self._need or 2) - len(buf)
+        take = min(want, len(data) - pos)
+        last = pos + take - 1
+        if first_end + last * ct > self._deadline + self._eps:
+            # Keep the bytes that arrived in time; the telegram failed at its deadline.
+            in_time = math.floor((self._deadline + self._eps - first_end) / ct) - pos + 1
+            take = max(0, min(take, in_time))
+            buf += data[pos : pos + take]
+            self._note_line_errors(flags, pos, take, len(buf) - take)
+            if take:
+                self._last_end = first_end + (pos + take - 1) * ct
+            self._to_junk(FaultKind.RESIDUAL_TIME, self._late_detail())
+            return pos + take
+        buf += data[pos : pos + take]
+        self._note_line_errors(flags, pos, take, len(buf) - take)
+        self._last_end = first_end + last * ct
+        pos += take
+        if self._need == 0:
+            lge = buf[1]
+            if self._line is not None and self._line_pos == 1:
+                self._to_junk(self._line, f"{self._line.name.lower()} error on LGE")
+            elif not MIN_LGE <= lge <= MAX_LGE:
+                self._to_junk(FaultKind.BAD_LGE, f"LGE {lge} is out of range {MIN_LGE}..{MAX_LGE}")
+            else:
+                self._need = lge + 2
+                self._deadline = self._stx_end + self.timing.residual_max(lge - 2)
+            return pos
+        if not self._adr_checked and len(buf) >= 3:
+            self._adr_checked = True
+            adr = buf[2]
+            fixed = self.fixed_lengths.get(adr & 0x1F)
+            if fixed is not None and adr & 0xE0 in _FIXED_MODES and fixed != buf[1]:
+                self._to_junk(
+                    FaultKind.BAD_LGE,
+                    f"LGE {buf[1]}, but address {adr & 0x1F} uses the fixed length LGE {fixed}",
+                )
+                return pos
+        if len(buf) == self._need:
+            self._complete(events)
+        return pos
+
+    def _note_line_errors(
+        self, flags: dict[int, FaultKind], pos: int, take: int, offset: int
+    ) -> None:
+        if self._line is not None or not flags:
+            return
+        for i in range(pos, pos + take):
+            kind = flags.get(i)
+            if kind is not None:
+                self._line = kind
+                self._line_pos = offset + i - pos
+                return
+
+    def _late_detail(self) -> str:
+        need = self._need or "?"
+        ms = (self._deadline - self._stx_end) * 1000
+        return (
+            f"telegram not complete within its residual time ({ms:.3f} ms after STX): "
+            f"{len(self._buf)} of {need} bytes"
+        )
+
+    def _to_junk(self, kind: FaultKind, detail: str) -> None:
+        if self._line is not None and kind != self._line:
+            kind = self._line
+            detail = f"{kind.name.lower()} error at byte {self._line_pos}; {detail}"
+        self._state = _JUNK
+        self._junk_kind = kind
+        self._junk_detail = detail
+
+    def _complete(self, events: list[Event]) -> None:
+        raw = bytes(self._buf)
+        self._state = _IDLE
+        self._buf = bytearray()
+        start, end = self._start, self._last_end
+        if self._line is not None:
+            kind = self._line
+            self._emit_fault(
+                events, kind, raw, f"{kind.name.lower()} error at byte {self._line_pos}"
+            )
+            return
+        expected = bcc(raw[:-1])
+        if expected != raw[-1]:
+            detail = f"BCC is {raw[-1]:02X}h, expected {expected:02X}h"
+            self._emit_fault(events, FaultKind.BCC, raw, detail)
+            return
+        try:
+            address, mode = parse_adr(raw[2])
+        except AddressError as exc:
+            self._emit_fault(events, FaultKind.BAD_ADR, raw, str(exc))
+            return
+        events.append(Received(Telegram(address, mode, raw[3:-1]), raw, start, end))
+        if self.diagnostics is not None:
+            self.diagnostics.record_received(end)
+
+    def _end_run(self, events: list[Event]) -> None:
+        """The open run is over (idle line or size limit): report it."""
+        raw = bytes(self._buf)
+        if self._state == _TELEGRAM:
+            kind = self._line or FaultKind.RESIDUAL_TIME
+            need = self._need or "?"
+            detail = f"telegram incomplete when the line fell idle: {len(raw)} of {need} bytes"
+            if self._line is not None:
+                detail = f"{kind.name.lower()} error at byte {self._line_pos}; {detail}"
+        else:
+            kind, detail = self._junk_kind, self._junk_detail
+        self._state = _IDLE
+        self._buf = bytearray()
+        self._emit_fault(events, kind, raw, detail)
+
+    def _emit_fault(self, events: list[Event], kind: FaultKind, raw: bytes, detail: str) -> None:
+        end = self._last_end
+        events.append(ReceiveFault(kind, raw, self._start, end, detail))
+        if self.diagnostics is not None:
+            self.diagnostics.record_fault(kind, end)

@@ -1,0 +1,91 @@
+"""Timing (A 5.1.2, A 5.2.1, A 6, B 2.4) against the shared timing vectors."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import pytest
+
+from conftest import load_vectors
+from pyuss.errors import ConfigError
+from pyuss.protocol.timing import (
+    BAUD_RATES,
+    MAX_RESPONSE_DELAY,
+    LineTiming,
+    char_time,
+    check_baud,
+    residual_time_flush,
+    residual_time_max,
+    response_delay_limit,
+    start_pause,
+    transmit_time,
+)
+
+TIMING = load_vectors("uss")["timing"]
+MS = 1000.0
+
+
+@pytest.mark.parametrize("row", TIMING, ids=[str(r["baud"]) for r in TIMING])
+def test_timing_vectors(row: dict[str, Any]) -> None:
+    baud = row["baud"]
+    assert char_time(baud) * MS == pytest.approx(row["char_time_ms"], abs=1e-6)
+    assert start_pause(baud) * MS == pytest.approx(row["start_pause_ms"], abs=1e-6)
+    assert residual_time_max(baud, 10) * MS == pytest.approx(row["max_residual_ms_n10"], abs=1e-6)
+    assert residual_time_max(baud, 252) * MS == pytest.approx(row["max_residual_ms_n252"], abs=1e-6)
+    assert response_delay_limit(baud) * MS == pytest.approx(row["max_response_delay_ms"])
+    # Table 5.1 lists the start pause rounded up to 0.01 ms.
+    assert math.ceil(round(start_pause(baud) * MS * 100, 6)) / 100 == row["start_pause_table_ms"]
+
+
+@pytest.mark.parametrize("row", TIMING, ids=[str(r["baud"]) for r in TIMING])
+def test_line_timing_bundles_the_same_figures(row: dict[str, Any]) -> None:
+    line = LineTiming(row["baud"])
+    assert line.char_time == char_time(row["baud"])
+    assert line.start_pause == start_pause(row["baud"])
+    assert line.residual_max(10) == residual_time_max(row["baud"], 10)
+    assert line.residual_flush(10) == residual_time_flush(row["baud"], 10)
+    assert line.response_delay_limit == response_delay_limit(row["baud"])
+    assert line.transmit(14) == transmit_time(row["baud"], 14)
+
+
+def test_the_thirteen_baud_rates_of_b_2_4() -> None:
+    assert BAUD_RATES == (
+        300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 76800, 93750, 115200, 187500,
+    )  # fmt: skip
+    for baud in BAUD_RATES:
+        assert check_baud(baud) == baud
+    with pytest.raises(ConfigError, match="not a USS baud rate"):
+        check_baud(14400)
+
+
+def test_character_is_eleven_bits_and_flush_time_is_n_plus_3() -> None:
+    assert char_time(11000) == pytest.approx(0.001)
+    assert residual_time_flush(11000, 0) == pytest.approx(0.003)
+    assert residual_time_max(11000, 0) == pytest.approx(0.0045)
+
+
+def test_response_delay_never_below_start_pause() -> None:
+    # At 300 baud two characters take 73.3 ms, more than the 20 ms of A 5.2.1.1.
+    assert response_delay_limit(300) == pytest.approx(start_pause(300))
+    assert response_delay_limit(300) > MAX_RESPONSE_DELAY
+    assert response_delay_limit(9600) == MAX_RESPONSE_DELAY
+    assert response_delay_limit(9600, 0.001) == start_pause(9600)
+    assert response_delay_limit(9600, 0.05) == 0.05
+
+
+@pytest.mark.parametrize("bad", [0, -9600, "9600", True])
+def test_bad_baud_is_refused(bad: Any) -> None:
+    with pytest.raises(ConfigError, match="baud"):
+        char_time(bad)
+
+
+@pytest.mark.parametrize("n", [-1, 253])
+def test_net_byte_count_range(n: int) -> None:
+    with pytest.raises(ConfigError, match=r"0\.\.252"):
+        residual_time_max(9600, n)
+
+
+def test_bad_response_limit_is_refused() -> None:
+    with pytest.raises(ConfigError, match="response delay"):
+        response_delay_limit(9600, 0)
