@@ -14,8 +14,9 @@ from pyuss.drive.database import (
     parse_database,
 )
 from pyuss.drive.datatypes import DataType
-from pyuss.drive.faults import FaultNumber, ParameterFault
+from pyuss.drive.faults import ParameterFault
 from pyuss.errors import ConfigError
+from pyuss.protocol.pkw import ErrorNumber
 
 HEAD = '[profile]\nname = "test"\n'
 
@@ -56,7 +57,7 @@ def test_profile_specific_parameters() -> None:
 def test_unknown_pnu_is_error_0() -> None:
     with pytest.raises(ParameterFault) as info:
         load_profile("generic").parameter(999)  # uss.json error_illegal_pnu
-    assert info.value.number == FaultNumber.ILLEGAL_PNU
+    assert info.value.number == ErrorNumber.ILLEGAL_PNU
 
 
 def test_unknown_profile_names_the_known_ones() -> None:

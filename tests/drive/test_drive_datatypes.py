@@ -10,7 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pyuss.drive.datatypes import TYPE_NAMES, DataType, decode, encode
-from pyuss.drive.faults import FaultNumber, ParameterFault
+from pyuss.drive.faults import ParameterFault
+from pyuss.protocol.pkw import ErrorNumber
 
 INTEGER_TYPES = [t for t in DataType if t.is_integer]
 
@@ -51,7 +52,7 @@ def test_known_word_patterns() -> None:
 def test_word_outside_an_8_bit_type_is_refused_with_error_2(dtype: DataType, word: int) -> None:
     with pytest.raises(ParameterFault) as info:
         decode(dtype, [word])
-    assert info.value.number == FaultNumber.LIMITS
+    assert info.value.number == ErrorNumber.LIMIT_EXCEEDED
 
 
 @pytest.mark.parametrize(
@@ -61,14 +62,14 @@ def test_word_outside_an_8_bit_type_is_refused_with_error_2(dtype: DataType, wor
 def test_wrong_word_count_is_error_5(dtype: DataType, words: list[int]) -> None:
     with pytest.raises(ParameterFault) as info:
         decode(dtype, words)
-    assert info.value.number == FaultNumber.WRONG_TYPE
+    assert info.value.number == ErrorNumber.WRONG_TYPE
 
 
 @pytest.mark.parametrize("bits", [(0x7FC0, 0x0000), (0x7F80, 0x0000), (0xFF80, 0x0000)])
 def test_nan_and_infinity_are_refused(bits: tuple[int, int]) -> None:
     with pytest.raises(ParameterFault) as info:
         decode(DataType.FLOAT, bits)
-    assert info.value.number == FaultNumber.LIMITS
+    assert info.value.number == ErrorNumber.LIMIT_EXCEEDED
 
 
 def test_text_goes_first_character_first_blank_padded() -> None:

@@ -6,8 +6,9 @@ import pytest
 
 from pyuss.drive.database import load_profile
 from pyuss.drive.datatypes import DataType, encode
-from pyuss.drive.faults import FaultNumber, ParameterFault
+from pyuss.drive.faults import DriveErrorNumber, ParameterFault
 from pyuss.drive.memory import ParameterMemory
+from pyuss.protocol.pkw import ErrorNumber
 
 
 @pytest.fixture
@@ -56,13 +57,13 @@ def test_elements_of_the_profibus_layout(generic: ParameterMemory) -> None:
 def test_missing_element_is_faulty_index(generic: ParameterMemory, number: int) -> None:
     with pytest.raises(ParameterFault) as info:
         generic.description_element(52, number)
-    assert info.value.number == FaultNumber.BAD_INDEX
+    assert info.value.number == ErrorNumber.BAD_INDEX
 
 
 def test_description_cannot_be_changed(generic: ParameterMemory) -> None:
     with pytest.raises(ParameterFault) as info:
         generic.write_description_element(52, 7)
-    assert info.value.number == FaultNumber.DESCRIPTION_NOT_CHANGEABLE
+    assert info.value.number == ErrorNumber.DESCRIPTION_NOT_CHANGEABLE
 
 
 def test_baumueller_attribute_info_min_max() -> None:
@@ -81,4 +82,4 @@ def test_baumueller_attribute_info_min_max() -> None:
     for number in (3, 4, 7):
         with pytest.raises(ParameterFault) as info:
             drive.description_element(183, number)
-        assert info.value.number == FaultNumber.NO_SUCH_ELEMENT  # 104
+        assert info.value.number == DriveErrorNumber.NO_SUCH_ELEMENT  # 104

@@ -6,8 +6,9 @@ import pytest
 
 from conftest import load_vectors
 from pyuss.drive.database import load_profile, parse_database
-from pyuss.drive.faults import FaultNumber, NoWriteAuthority, ParameterFault
+from pyuss.drive.faults import DriveErrorNumber, NoWriteAuthority, ParameterFault
 from pyuss.drive.memory import LOCAL, WHOLE_ARRAY, ParameterChange, ParameterMemory
+from pyuss.protocol.pkw import ErrorNumber
 
 
 def words_of(name: str) -> list[int]:
@@ -67,13 +68,13 @@ def test_texts_of_array_indices_values_and_bits(drive: ParameterMemory) -> None:
 @pytest.mark.parametrize(
     ("pnu", "y", "second", "number"),
     [
-        (18, 1, False, FaultNumber.NO_TEXT_ARRAY),  # no texts at all
-        (7, 1, True, FaultNumber.NO_TEXT_ARRAY),  # second field exists for arrays only
-        (683, 1, True, FaultNumber.NO_TEXT_ARRAY),  # array without value texts
-        (7, 0, False, FaultNumber.BAD_INDEX),
-        (7, 255, False, FaultNumber.BAD_INDEX),  # C 4.2.2: 255 has no meaning for texts
-        (7, 12, False, FaultNumber.BAD_INDEX),  # value 11 has no text
-        (999, 1, False, FaultNumber.ILLEGAL_PNU),
+        (18, 1, False, DriveErrorNumber.NO_TEXT_ARRAY),  # no texts at all
+        (7, 1, True, DriveErrorNumber.NO_TEXT_ARRAY),  # second field exists for arrays only
+        (683, 1, True, DriveErrorNumber.NO_TEXT_ARRAY),  # array without value texts
+        (7, 0, False, ErrorNumber.BAD_INDEX),
+        (7, 255, False, ErrorNumber.BAD_INDEX),  # C 4.2.2: 255 has no meaning for texts
+        (7, 12, False, ErrorNumber.BAD_INDEX),  # value 11 has no text
+        (999, 1, False, ErrorNumber.ILLEGAL_PNU),
     ],
 )
 def test_text_refusals(drive: ParameterMemory, pnu: int, y: int, second: bool, number: int) -> None:
@@ -84,28 +85,28 @@ def test_texts_can_be_changed_where_the_profile_allows(drive: ParameterMemory) -
     assert drive.write_text(7, 3, "300 BD", interface="uss").rstrip() == "300 BD"
     assert drive.text(7, 3).rstrip() == "300 BD"
     assert drive.write_text(683, 3, "SST TWO").rstrip() == "SST TWO"
-    assert fault_number(drive.write_text, 7, 3, "x" * 17) == FaultNumber.LIMITS
+    assert fault_number(drive.write_text, 7, 3, "x" * 17) == ErrorNumber.LIMIT_EXCEEDED
     fixed = ParameterMemory(load_profile("6se21"))
-    assert fault_number(fixed.write_text, 20, 2, "X") == FaultNumber.DESCRIPTION_NOT_CHANGEABLE
+    assert fault_number(fixed.write_text, 20, 2, "X") == ErrorNumber.DESCRIPTION_NOT_CHANGEABLE
     assert ParameterMemory(load_profile("generic")).text(7, 3).rstrip() == "300 BAUD"
 
 
 def test_refusals_carry_the_error_numbers_of_table_4_3(drive: ParameterMemory) -> None:
-    assert fault_number(drive.read_words, 999) == FaultNumber.ILLEGAL_PNU
-    assert fault_number(drive.write, 52, 1) == FaultNumber.NOT_CHANGEABLE
-    assert fault_number(drive.write, 683, 31, 1) == FaultNumber.LIMITS
-    assert fault_number(drive.write, 685, 5, 1) == FaultNumber.LIMITS  # not 0/3/4/127
-    assert fault_number(drive.read_words, 683, 4) == FaultNumber.BAD_INDEX
-    assert fault_number(drive.read_words, 683, 0) == FaultNumber.BAD_INDEX  # counts from 1
-    assert fault_number(drive.read_words, 683) == FaultNumber.BAD_INDEX  # index needed
-    assert fault_number(drive.read_words, 18, 1) == FaultNumber.NO_ARRAY
-    assert fault_number(drive.array_length, 18) == FaultNumber.NO_ARRAY
-    assert fault_number(drive.write_words, 4, [0x4000], 2) == FaultNumber.WRONG_TYPE
-    assert fault_number(drive.write_words, 18, [0, 1]) == FaultNumber.WRONG_TYPE
-    assert fault_number(drive.write, 18, "text") == FaultNumber.WRONG_TYPE
-    assert fault_number(drive.write, 825, 5) == FaultNumber.RESET_ONLY
+    assert fault_number(drive.read_words, 999) == ErrorNumber.ILLEGAL_PNU
+    assert fault_number(drive.write, 52, 1) == ErrorNumber.NOT_CHANGEABLE
+    assert fault_number(drive.write, 683, 31, 1) == ErrorNumber.LIMIT_EXCEEDED
+    assert fault_number(drive.write, 685, 5, 1) == ErrorNumber.LIMIT_EXCEEDED  # not 0/3/4/127
+    assert fault_number(drive.read_words, 683, 4) == ErrorNumber.BAD_INDEX
+    assert fault_number(drive.read_words, 683, 0) == ErrorNumber.BAD_INDEX  # counts from 1
+    assert fault_number(drive.read_words, 683) == ErrorNumber.BAD_INDEX  # index needed
+    assert fault_number(drive.read_words, 18, 1) == ErrorNumber.NOT_ARRAY
+    assert fault_number(drive.array_length, 18) == ErrorNumber.NOT_ARRAY
+    assert fault_number(drive.write_words, 4, [0x4000], 2) == ErrorNumber.WRONG_TYPE
+    assert fault_number(drive.write_words, 18, [0, 1]) == ErrorNumber.WRONG_TYPE
+    assert fault_number(drive.write, 18, "text") == ErrorNumber.WRONG_TYPE
+    assert fault_number(drive.write, 825, 5) == ErrorNumber.SET_NOT_ALLOWED
     assert drive.write(825, 0) == 0
-    assert fault_number(drive.write, 352, 6000) == FaultNumber.KEYWORD_MISSING
+    assert fault_number(drive.write, 352, 6000) == DriveErrorNumber.KEYWORD_MISSING
     drive.write(51, 3)  # access level "expert" unlocks protected parameters
     assert drive.write(352, 6000) == 6000
 
@@ -120,7 +121,7 @@ def test_write_without_authority_is_not_processed_at_all(drive: ParameterMemory)
     ):
         with pytest.raises(NoWriteAuthority) as info:
             call()
-        assert info.value.number == FaultNumber.NO_WRITE_AUTHORITY
+        assert info.value.number == DriveErrorNumber.NO_WRITE_AUTHORITY
     assert drive.read_words(18) == (0,)  # reads go on
     drive.write_words(18, [1], interface="bass")  # other interfaces keep theirs
     drive.set_write_authority("uss", True)
@@ -130,7 +131,7 @@ def test_write_without_authority_is_not_processed_at_all(drive: ParameterMemory)
 def test_stopped_only_parameter_refuses_while_running() -> None:
     running = [True]
     drive = ParameterMemory(load_profile("generic"), running=lambda: running[0])
-    assert fault_number(drive.write, 107, 60.0) == FaultNumber.WRONG_STATE
+    assert fault_number(drive.write, 107, 60.0) == DriveErrorNumber.WRONG_STATE
     running[0] = False
     assert drive.write(107, 60.0) == 60.0
 
@@ -142,10 +143,10 @@ def test_whole_array_read_and_write(drive: ParameterMemory) -> None:
     assert drive.values(683) == (1, 2, 3)
     assert drive.read_array_words(4) == (0,) * 8  # 4 double words
     # all or nothing: the third element is out of limits, nothing changes
-    assert fault_number(drive.write_array_words, 683, [4, 5, 31]) == FaultNumber.LIMITS
+    assert fault_number(drive.write_array_words, 683, [4, 5, 31]) == ErrorNumber.LIMIT_EXCEEDED
     assert drive.values(683) == (1, 2, 3)
-    assert fault_number(drive.write_array_words, 683, [4, 5]) == FaultNumber.WRONG_TYPE
-    assert fault_number(drive.read_array_words, 18) == FaultNumber.NO_ARRAY
+    assert fault_number(drive.write_array_words, 683, [4, 5]) == ErrorNumber.WRONG_TYPE
+    assert fault_number(drive.read_array_words, 18) == ErrorNumber.NOT_ARRAY
 
 
 def test_strings_floats_and_octets(drive: ParameterMemory) -> None:
@@ -155,7 +156,7 @@ def test_strings_floats_and_octets(drive: ParameterMemory) -> None:
     assert drive.read_words(91) == (0x0000, 0x3039)
     assert drive.write_words(107, [0x4248, 0x0000]) == (0x4248, 0x0000)  # 50.0
     assert drive.value(107) == 50.0
-    assert fault_number(drive.write, 107, 700.0) == FaultNumber.LIMITS
+    assert fault_number(drive.write, 107, 700.0) == ErrorNumber.LIMIT_EXCEEDED
 
 
 class Recorder:
@@ -202,4 +203,4 @@ def test_change_by_an_interface_is_not_reported_back_to_it() -> None:
 def test_update_ignores_limits_but_not_the_type(drive: ParameterMemory) -> None:
     drive.update(52, 0x0100)  # below the 5FFFh display limit: a display shows what is
     assert drive.value(52) == 0x0100
-    assert fault_number(drive.update, 52, 0x8000) == FaultNumber.LIMITS
+    assert fault_number(drive.update, 52, 0x8000) == ErrorNumber.LIMIT_EXCEEDED

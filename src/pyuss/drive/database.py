@@ -43,8 +43,9 @@ from pyuss.drive.datatypes import (
     is_visible,
     round_float,
 )
-from pyuss.drive.faults import FaultNumber, ParameterFault
+from pyuss.drive.faults import ParameterFault
 from pyuss.errors import ConfigError
+from pyuss.protocol.pkw import ErrorNumber
 
 TEXT_LENGTH = 16
 """A text element is always 16 characters (C 8 example 7, after the PROFIBUS profile)."""
@@ -220,44 +221,48 @@ class Parameter:
         dtype = self.dtype
         if dtype is DataType.FLOAT:
             if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ParameterFault(FaultNumber.WRONG_TYPE, f"{value!r} is not a number")
+                raise ParameterFault(ErrorNumber.WRONG_TYPE, f"{value!r} is not a number")
             number = float(value)
             if not math.isfinite(number) or abs(number) > dtype.type_range[1]:
-                raise ParameterFault(FaultNumber.LIMITS, f"{value!r} does not fit a float")
+                raise ParameterFault(ErrorNumber.LIMIT_EXCEEDED, f"{value!r} does not fit a float")
             return round_float(number)
         if dtype.is_integer:
             if isinstance(value, bool) or not isinstance(value, int):
-                raise ParameterFault(FaultNumber.WRONG_TYPE, f"{value!r} is not an integer")
+                raise ParameterFault(ErrorNumber.WRONG_TYPE, f"{value!r} is not an integer")
             low, high = dtype.type_range
             if not low <= value <= high:
-                raise ParameterFault(FaultNumber.LIMITS, f"{value} does not fit {dtype.label}")
+                raise ParameterFault(
+                    ErrorNumber.LIMIT_EXCEEDED, f"{value} does not fit {dtype.label}"
+                )
             return value
         if dtype is DataType.VISIBLE_STRING:
             if not isinstance(value, str):
-                raise ParameterFault(FaultNumber.WRONG_TYPE, f"{value!r} is not a text")
+                raise ParameterFault(ErrorNumber.WRONG_TYPE, f"{value!r} is not a text")
             if len(value) > self.length or not is_visible(value):
                 raise ParameterFault(
-                    FaultNumber.LIMITS,
+                    ErrorNumber.LIMIT_EXCEEDED,
                     f"text must be at most {self.length} visible ASCII characters",
                 )
             return value.ljust(self.length)
         if not isinstance(value, bytes | bytearray):
-            raise ParameterFault(FaultNumber.WRONG_TYPE, f"{value!r} is not a byte string")
+            raise ParameterFault(ErrorNumber.WRONG_TYPE, f"{value!r} is not a byte string")
         if len(value) > self.length:
-            raise ParameterFault(FaultNumber.LIMITS, f"at most {self.length} bytes")
+            raise ParameterFault(ErrorNumber.LIMIT_EXCEEDED, f"at most {self.length} bytes")
         return bytes(value).ljust(self.length, b"\0")
 
     def check_write(self, value: object) -> Value:
         """Coerce ``value`` and apply the rules for a write: reset-only, allowed set, limits."""
         checked = self.coerce(value)
         if self.reset_only and checked != 0:
-            raise ParameterFault(FaultNumber.RESET_ONLY, f"may only be reset to 0, not {value!r}")
+            raise ParameterFault(
+                ErrorNumber.SET_NOT_ALLOWED, f"may only be reset to 0, not {value!r}"
+            )
         if self.allowed is not None and checked not in self.allowed:
             choices = ", ".join(str(v) for v in self.allowed)
-            raise ParameterFault(FaultNumber.LIMITS, f"{checked!r} is not one of {choices}")
+            raise ParameterFault(ErrorNumber.LIMIT_EXCEEDED, f"{checked!r} is not one of {choices}")
         if isinstance(checked, int | float) and not self.low <= checked <= self.high:
             raise ParameterFault(
-                FaultNumber.LIMITS, f"{checked!r} is outside {self.low}..{self.high}"
+                ErrorNumber.LIMIT_EXCEEDED, f"{checked!r} is outside {self.low}..{self.high}"
             )
         return checked
 
@@ -326,7 +331,7 @@ class ParameterDatabase:
         try:
             return self._parameters[pnu]
         except KeyError:
-            raise ParameterFault(FaultNumber.ILLEGAL_PNU, "no such parameter", pnu=pnu) from None
+            raise ParameterFault(ErrorNumber.ILLEGAL_PNU, "no such parameter", pnu=pnu) from None
 
     def position(self, param: Parameter, index: int | None) -> int:
         """The element an IND addresses: 0 for a scalar without index, else ``index - base``.
@@ -337,17 +342,17 @@ class ParameterDatabase:
         if param.array is None:
             if index is not None:
                 raise ParameterFault(
-                    FaultNumber.NO_ARRAY, "parameter is not an array", pnu=param.pnu, index=index
+                    ErrorNumber.NOT_ARRAY, "parameter is not an array", pnu=param.pnu, index=index
                 )
             return 0
         if index is None:
             raise ParameterFault(
-                FaultNumber.BAD_INDEX, "array parameter needs an index", pnu=param.pnu
+                ErrorNumber.BAD_INDEX, "array parameter needs an index", pnu=param.pnu
             )
         base = self.profile.index_base
         if not base <= index < base + param.array:
             raise ParameterFault(
-                FaultNumber.BAD_INDEX,
+                ErrorNumber.BAD_INDEX,
                 f"index {index} outside {base}..{base + param.array - 1}",
                 pnu=param.pnu,
                 index=index,

@@ -25,7 +25,16 @@ import math
 import struct
 from collections.abc import Sequence
 
-from pyuss.drive.faults import FaultNumber, ParameterFault
+from pyuss.drive.faults import ParameterFault
+from pyuss.protocol.pkw import (
+    ErrorNumber,
+    bytes_to_words,
+    pwe_dword,
+    pwe_float,
+    pwe_text,
+    pwe_word,
+    words_to_bytes,
+)
 
 Value = int | float | str | bytes
 """A parameter value as Python sees it."""
@@ -153,25 +162,15 @@ def encode(dtype: DataType, value: Value, length: int = 0) -> tuple[int, ...]:
     """The PKW words of ``value`` (already checked against the type) in transfer order."""
     if dtype is DataType.FLOAT:
         assert isinstance(value, float | int)
-        high, low = struct.unpack(">HH", struct.pack(">f", float(value)))
-        return (high, low)
+        return pwe_float(float(value))
     if dtype.is_integer:
         assert isinstance(value, int)
-        if dtype.byte_size == 4:
-            raw = value & 0xFFFF_FFFF
-            return (raw >> 16, raw & 0xFFFF)
-        return (value & 0xFFFF,)
+        return pwe_dword(value) if dtype.byte_size == 4 else pwe_word(value)
     if dtype is DataType.VISIBLE_STRING:
         assert isinstance(value, str)
-        data = value.ljust(length).encode("ascii")
-        if len(data) % 2:
-            data += b" "
-    else:
-        assert isinstance(value, bytes)
-        data = value.ljust(length, b"\0")
-        if len(data) % 2:
-            data += b"\0"
-    return tuple(int.from_bytes(data[i : i + 2], "big") for i in range(0, len(data), 2))
+        return pwe_text(value, length)
+    assert isinstance(value, bytes)
+    return bytes_to_words(value.ljust(length, b"\0"))
 
 
 def decode(dtype: DataType, words: Sequence[int], length: int = 0) -> Value:
@@ -180,16 +179,14 @@ def decode(dtype: DataType, words: Sequence[int], length: int = 0) -> Value:
     expected = dtype.word_count(length)
     if len(words) != expected:
         raise ParameterFault(
-            FaultNumber.WRONG_TYPE,
+            ErrorNumber.WRONG_TYPE,
             f"{dtype.label} takes {expected} word(s), the job carries {len(words)}",
         )
-    for word in words:
-        if not 0 <= word <= 0xFFFF:
-            raise ValueError(f"not a 16-bit word: {word!r}")
+    data = words_to_bytes(words)
     if dtype is DataType.FLOAT:
-        result: float = struct.unpack(">f", struct.pack(">HH", words[0], words[1]))[0]
+        result: float = struct.unpack(">f", data)[0]
         if not math.isfinite(result):
-            raise ParameterFault(FaultNumber.LIMITS, "float value is not a finite number")
+            raise ParameterFault(ErrorNumber.LIMIT_EXCEEDED, "float value is not a finite number")
         return result
     if dtype.is_integer:
         if dtype.byte_size == 4:
@@ -200,12 +197,16 @@ def decode(dtype: DataType, words: Sequence[int], length: int = 0) -> Value:
         number = raw - 0x1_0000 if signed and raw & 0x8000 else raw
         low, high = _INT_RANGES[dtype]
         if not low <= number <= high:
-            raise ParameterFault(FaultNumber.LIMITS, f"word {raw:04X}h does not fit {dtype.label}")
+            raise ParameterFault(
+                ErrorNumber.LIMIT_EXCEEDED, f"word {raw:04X}h does not fit {dtype.label}"
+            )
         return number
-    data = b"".join(word.to_bytes(2, "big") for word in words)[:length]
+    data = data[:length]
     if dtype is DataType.OCTET_STRING:
         return data
     text = data.decode("latin-1")
     if not is_visible(text):
-        raise ParameterFault(FaultNumber.LIMITS, "text holds characters that are not visible")
+        raise ParameterFault(
+            ErrorNumber.LIMIT_EXCEEDED, "text holds characters that are not visible"
+        )
     return text

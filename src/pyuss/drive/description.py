@@ -43,10 +43,8 @@ from dataclasses import dataclass
 
 from pyuss.drive.database import TEXT_LENGTH, Access, DescriptionStyle, Parameter
 from pyuss.drive.datatypes import DataType, encode
-from pyuss.drive.faults import FaultNumber, ParameterFault
-
-WHOLE = 255
-"""IND low byte asking for the whole description (C 4.2.2)."""
+from pyuss.drive.faults import DriveErrorNumber, ParameterFault
+from pyuss.protocol.pkw import ErrorNumber
 
 
 @dataclass(frozen=True, slots=True)
@@ -151,7 +149,7 @@ def element(
     if style is DescriptionStyle.BAUMUELLER:
         if number not in BAUMUELLER_ELEMENTS:
             raise ParameterFault(
-                FaultNumber.NO_SUCH_ELEMENT,
+                DriveErrorNumber.NO_SUCH_ELEMENT,
                 f"description element {number} does not exist (1, 2, 5, 6 do)",
                 pnu=param.pnu,
                 index=number,
@@ -166,7 +164,7 @@ def element(
         return DescriptionElement(number, BAUMUELLER_ELEMENTS[number], words)
     if number not in PROFIBUS_ELEMENTS:
         raise ParameterFault(
-            FaultNumber.BAD_INDEX,
+            ErrorNumber.BAD_INDEX,
             f"description element {number} does not exist (1..10 do)",
             pnu=param.pnu,
             index=number,

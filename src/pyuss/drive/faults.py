@@ -20,19 +20,12 @@ from __future__ import annotations
 import enum
 
 from pyuss.errors import UssError
+from pyuss.protocol.pkw import error_meaning
 
 
-class FaultNumber(enum.IntEnum):
-    """Error numbers carried by response ID 7 (C Table 4.3; seed 004 2.2.1 for 101..104)."""
+class DriveErrorNumber(enum.IntEnum):
+    """Error numbers beyond C Table 4.3 (whose 0..7 are `pyuss.protocol.pkw.ErrorNumber`)."""
 
-    ILLEGAL_PNU = 0
-    NOT_CHANGEABLE = 1
-    LIMITS = 2
-    BAD_INDEX = 3
-    NO_ARRAY = 4
-    WRONG_TYPE = 5
-    RESET_ONLY = 6
-    DESCRIPTION_NOT_CHANGEABLE = 7
     NO_WRITE_AUTHORITY = 11
     KEYWORD_MISSING = 12
     NO_TEXT_ARRAY = 15
@@ -44,30 +37,21 @@ class FaultNumber(enum.IntEnum):
 
 
 MEANINGS: dict[int, str] = {
-    FaultNumber.ILLEGAL_PNU: "illegal parameter number",
-    FaultNumber.NOT_CHANGEABLE: "parameter not changeable",
-    FaultNumber.LIMITS: "lower or upper limit exceeded",
-    FaultNumber.BAD_INDEX: "faulty index",
-    FaultNumber.NO_ARRAY: "not an array",
-    FaultNumber.WRONG_TYPE: "wrong data type",
-    FaultNumber.RESET_ONLY: "setting not allowed (reset only)",
-    FaultNumber.DESCRIPTION_NOT_CHANGEABLE: "description element not changeable",
-    FaultNumber.NO_WRITE_AUTHORITY: "no parameter write authority",
-    FaultNumber.KEYWORD_MISSING: "keyword missing",
-    FaultNumber.NO_TEXT_ARRAY: "no text array",
-    FaultNumber.WRONG_STATE: "not executable in the present operating state",
-    FaultNumber.UNSPECIFIED: "unspecified fault",
-    FaultNumber.NOT_IMPLEMENTED: "service not implemented",
-    FaultNumber.TOO_LARGE_FOR_PKW: "format too large for the PKW area",
-    FaultNumber.NO_SUCH_ELEMENT: "description element does not exist",
+    DriveErrorNumber.NO_WRITE_AUTHORITY: "no parameter write authority",
+    DriveErrorNumber.KEYWORD_MISSING: "keyword missing",
+    DriveErrorNumber.NO_TEXT_ARRAY: "no text array",
+    DriveErrorNumber.WRONG_STATE: "not executable in the present operating state",
+    DriveErrorNumber.UNSPECIFIED: "unspecified fault",
+    DriveErrorNumber.NOT_IMPLEMENTED: "service not implemented",
+    DriveErrorNumber.TOO_LARGE_FOR_PKW: "format too large for the PKW area",
+    DriveErrorNumber.NO_SUCH_ELEMENT: "description element does not exist",
 }
+"""Meanings of `DriveErrorNumber` (Baumueller's 101..104 after seed 004 2.2.1)."""
 
 
 def meaning(number: int) -> str:
-    """The name of an error number; numbers above 100 not listed are device-specific."""
-    if number in MEANINGS:
-        return MEANINGS[number]
-    return "device-specific error" if number > 100 else "reserved error number"
+    """The name of an error number (C Table 4.3, then `MEANINGS`)."""
+    return error_meaning(number, MEANINGS)
 
 
 class ParameterFault(UssError):
@@ -100,7 +84,7 @@ class NoWriteAuthority(ParameterFault):
 
     def __init__(self, interface: str, *, pnu: int | None = None, index: int | None = None) -> None:
         super().__init__(
-            FaultNumber.NO_WRITE_AUTHORITY,
+            DriveErrorNumber.NO_WRITE_AUTHORITY,
             f"interface {interface!r} has no parameter write authority",
             pnu=pnu,
             index=index,

@@ -43,14 +43,15 @@ from pyuss.drive.database import (
     Parameter as ParameterSpec,
 )
 from pyuss.drive.datatypes import DataType, Value, decode, encode, is_visible
-from pyuss.drive.description import WHOLE, DescriptionElement, description, element
-from pyuss.drive.faults import FaultNumber, NoWriteAuthority, ParameterFault
+from pyuss.drive.description import DescriptionElement, description, element
+from pyuss.drive.faults import DriveErrorNumber, NoWriteAuthority, ParameterFault
 from pyuss.drive.store import Key, ParameterStore, StoreError
+from pyuss.protocol.pkw import INDEX_ALL, ErrorNumber
 
 LOCAL = "local"
 """The interface name of the drive itself (its own updates, an operator panel)."""
 
-WHOLE_ARRAY = WHOLE
+WHOLE_ARRAY = INDEX_ALL
 """The IND low byte (255) that addresses a whole array or the whole description."""
 
 log = logging.getLogger("pyuss.drive")
@@ -234,7 +235,7 @@ class ParameterMemory:
     def _text_slot(self, param: ParameterSpec, y: int, second: bool) -> None:
         if not 1 <= y <= 254:
             raise ParameterFault(
-                FaultNumber.BAD_INDEX, f"text element {y} outside 1..254", pnu=param.pnu, index=y
+                ErrorNumber.BAD_INDEX, f"text element {y} outside 1..254", pnu=param.pnu, index=y
             )
         if second:
             present = param.is_array and bool(param.texts)
@@ -243,7 +244,7 @@ class ParameterMemory:
         if not present:
             field = "second (value) text field" if second else "text field"
             raise ParameterFault(
-                FaultNumber.NO_TEXT_ARRAY, f"parameter has no {field}", pnu=param.pnu, index=y
+                DriveErrorNumber.NO_TEXT_ARRAY, f"parameter has no {field}", pnu=param.pnu, index=y
             )
 
     def _stock_text(self, param: ParameterSpec, y: int, second: bool) -> str:
@@ -257,7 +258,7 @@ class ParameterMemory:
             text = param.texts.get(y - 1)
         if text is None:
             raise ParameterFault(
-                FaultNumber.BAD_INDEX, f"there is no text element {y}", pnu=param.pnu, index=y
+                ErrorNumber.BAD_INDEX, f"there is no text element {y}", pnu=param.pnu, index=y
             )
         return text
 
@@ -317,7 +318,7 @@ class ParameterMemory:
         size = param.word_count
         if len(words) != size * param.array:
             raise ParameterFault(
-                FaultNumber.WRONG_TYPE,
+                ErrorNumber.WRONG_TYPE,
                 f"the whole array takes {size * param.array} words, the job carries {len(words)}",
                 pnu=pnu,
                 index=WHOLE_ARRAY,
@@ -348,7 +349,7 @@ class ParameterMemory:
         self._stock_text_or_slot(param, y, second)
         if not self.db.profile.text_write:
             raise ParameterFault(
-                FaultNumber.DESCRIPTION_NOT_CHANGEABLE,
+                ErrorNumber.DESCRIPTION_NOT_CHANGEABLE,
                 f"profile {self.db.profile.name!r} does not change texts",
                 pnu=pnu,
                 index=y,
@@ -356,7 +357,7 @@ class ParameterMemory:
         clean = text.rstrip(" ")
         if len(clean) > TEXT_LENGTH or not is_visible(clean):
             raise ParameterFault(
-                FaultNumber.LIMITS,
+                ErrorNumber.LIMIT_EXCEEDED,
                 f"a text is at most {TEXT_LENGTH} visible ASCII characters",
                 pnu=pnu,
                 index=y,
@@ -384,7 +385,7 @@ class ParameterMemory:
         self._authority(interface, pnu, number)
         self.description_element(pnu, number)  # an unknown PNU or element is reported as such
         raise ParameterFault(
-            FaultNumber.DESCRIPTION_NOT_CHANGEABLE,
+            ErrorNumber.DESCRIPTION_NOT_CHANGEABLE,
             "the parameter description cannot be changed",
             pnu=pnu,
             index=number,
@@ -414,7 +415,7 @@ class ParameterMemory:
         param = self.db.parameter(pnu)
         if param.array is None:
             raise ParameterFault(
-                FaultNumber.NO_ARRAY, "parameter is not an array", pnu=pnu, index=index
+                ErrorNumber.NOT_ARRAY, "parameter is not an array", pnu=pnu, index=index
             )
         return param
 
@@ -426,22 +427,22 @@ class ParameterMemory:
     def _may_write(self, param: ParameterSpec, index: int | None, eeprom: bool) -> None:
         pnu = param.pnu
         if param.access is Access.RO:
-            raise ParameterFault(FaultNumber.NOT_CHANGEABLE, "read-only", pnu=pnu, index=index)
+            raise ParameterFault(ErrorNumber.NOT_CHANGEABLE, "read-only", pnu=pnu, index=index)
         if eeprom and not param.store:
             raise ParameterFault(
-                FaultNumber.NOT_CHANGEABLE, "not storable in EEPROM", pnu=pnu, index=index
+                ErrorNumber.NOT_CHANGEABLE, "not storable in EEPROM", pnu=pnu, index=index
             )
         if param.access is Access.PROTECTED and not self._unlocked():
             level = self.db.profile.access_level
             raise ParameterFault(
-                FaultNumber.KEYWORD_MISSING,
+                DriveErrorNumber.KEYWORD_MISSING,
                 f"protected: needs {level} >= {self.db.profile.protected_level}",
                 pnu=pnu,
                 index=index,
             )
         if param.stopped_only and self._running():
             raise ParameterFault(
-                FaultNumber.WRONG_STATE,
+                DriveErrorNumber.WRONG_STATE,
                 "changeable only while the drive does not run",
                 pnu=pnu,
                 index=index,
