@@ -23,6 +23,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from pyuss.drive.database import (
+    LEVEL_ROLES,
+    TIME_ROLES,
     TIME_UNITS,
     ParameterDatabase,
     ParamRef,
@@ -51,6 +53,12 @@ class SimulatedDrive(ParameterMemory):
         store: str | Path | None = None,
         now: float = 0.0,
     ) -> None:
+        self._motion_pnus = {
+            ref.pnu
+            for name, ref in db.roles.items()
+            if name in (*TIME_ROLES, *LEVEL_ROLES, "reference")
+        }
+        self._motion_cache: Motion | None = None
         super().__init__(db, store=store, running=lambda: self.machine.running)
         self.machine = DriveStateMachine(now, self._motion())
         self._publish()
@@ -186,7 +194,17 @@ class SimulatedDrive(ParameterMemory):
         ref, value = found
         return value / self._level_factor(ref)
 
+    def _changed(self, pnu: int) -> None:
+        if pnu in self._motion_pnus:
+            self._motion_cache = None
+
     def _motion(self) -> Motion:
+        """The motion settings from the role parameters (cached until one of them changes)."""
+        if self._motion_cache is None:
+            self._motion_cache = self._read_motion()
+        return self._motion_cache
+
+    def _read_motion(self) -> Motion:
         def pick(value: float | None, default: float) -> float:
             return default if value is None else value
 

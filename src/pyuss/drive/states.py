@@ -47,6 +47,19 @@ from dataclasses import dataclass
 from pyuss.drive import ramp
 from pyuss.protocol.pzd import ControlWord, StatusWord
 
+# the bits as plain integers: IntFlag arithmetic is slow in a loop run for every telegram
+_ON = int(ControlWord.ON)
+_NO_OFF2 = int(ControlWord.NO_OFF2)
+_NO_OFF3 = int(ControlWord.NO_OFF3)
+_ENABLE_OPERATION = int(ControlWord.ENABLE_OPERATION)
+_ENABLE_RAMP = int(ControlWord.ENABLE_RAMP_GENERATOR)
+_START_RAMP = int(ControlWord.START_RAMP_GENERATOR)
+_ENABLE_SETPOINT = int(ControlWord.ENABLE_SETPOINT)
+_ACKNOWLEDGE = int(ControlWord.ACKNOWLEDGE_FAULT)
+_JOG1 = int(ControlWord.JOG1)
+_JOG2 = int(ControlWord.JOG2)
+_BY_PLC = int(ControlWord.CONTROL_BY_PLC)
+
 TIME_EPSILON = 1e-9
 """A ramp that ends within this many seconds after a step is taken as ended (float rounding)."""
 
@@ -71,6 +84,30 @@ class DriveState(enum.Enum):
 _RUNNING = (DriveState.OPERATION, DriveState.JOG, DriveState.OFF1, DriveState.OFF3)
 _READY = (DriveState.READY, *_RUNNING)
 _SWITCHABLE = (DriveState.READY_TO_SWITCH_ON, *_READY)
+
+
+def _state_bits(state: DriveState) -> int:
+    """Status bits 0, 1, 2, 3, 6 and 9 that follow from the state alone."""
+    word = StatusWord.CONTROL_REQUESTED
+    if state in _SWITCHABLE:
+        word |= StatusWord.READY_TO_SWITCH_ON
+    if state in _READY:
+        word |= StatusWord.READY
+    if state in _RUNNING:
+        word |= StatusWord.OPERATION_ENABLED
+    if state is DriveState.FAULT:
+        word |= StatusWord.FAULT
+    if state is DriveState.SWITCH_ON_INHIBIT:
+        word |= StatusWord.SWITCH_ON_INHIBITED
+    return int(word)
+
+
+_STATE_BITS = {state: _state_bits(state) for state in DriveState}
+_S_NO_OFF2 = int(StatusWord.NO_OFF2)
+_S_NO_OFF3 = int(StatusWord.NO_OFF3)
+_S_WARNING = int(StatusWord.WARNING)
+_S_IN_TOLERANCE = int(StatusWord.IN_TOLERANCE)
+_S_REACHED = int(StatusWord.TARGET_REACHED)
 
 
 @dataclass(frozen=True, slots=True)
@@ -169,9 +206,9 @@ class DriveStateMachine:
         Returns False when bit 10 "control by PLC" is 0: then nothing is taken over.
         """
         self.step(now)
-        if not control & ControlWord.CONTROL_BY_PLC:
+        if not control & _BY_PLC:
             return False
-        acknowledge = bool(control & ~self.control & ControlWord.ACKNOWLEDGE_FAULT)
+        acknowledge = bool(control & ~self.control & _ACKNOWLEDGE)
         self.control = control & 0xFFFF
         if setpoint is not None:
             self.setpoint = setpoint
@@ -204,31 +241,21 @@ class DriveStateMachine:
     def status_word(self) -> int:
         """The status word for the present state (C Tables 5.5, 5.6)."""
         state, control = self.state, self.control
-        word = StatusWord.CONTROL_REQUESTED
-        if state in _SWITCHABLE:
-            word |= StatusWord.READY_TO_SWITCH_ON
-        if state in _READY:
-            word |= StatusWord.READY
-        if state in _RUNNING:
-            word |= StatusWord.OPERATION_ENABLED
-        if state is DriveState.FAULT:
-            word |= StatusWord.FAULT
-        if control & ControlWord.NO_OFF2:
-            word |= StatusWord.NO_OFF2
-        if control & ControlWord.NO_OFF3:
-            word |= StatusWord.NO_OFF3
-        if state is DriveState.SWITCH_ON_INHIBIT:
-            word |= StatusWord.SWITCH_ON_INHIBITED
+        word = _STATE_BITS[state]
+        if control & _NO_OFF2:
+            word |= _S_NO_OFF2
+        if control & _NO_OFF3:
+            word |= _S_NO_OFF3
         if self.warnings:
-            word |= StatusWord.WARNING
+            word |= _S_WARNING
         if state in (DriveState.OPERATION, DriveState.JOG) and (
             abs(self._target - self.actual) <= self.motion.tolerance
             or self.time - self._target_since < self.motion.tolerance_time
         ):
-            word |= StatusWord.IN_TOLERANCE
+            word |= _S_IN_TOLERANCE
         if abs(self.actual) >= self.motion.compare:
-            word |= StatusWord.TARGET_REACHED
-        return int(word)
+            word |= _S_REACHED
+        return word
 
     @property
     def warning_code(self) -> int:
@@ -253,9 +280,9 @@ class DriveStateMachine:
 
     def _operation_target(self) -> float:
         control = self.control
-        if not control & ControlWord.ENABLE_RAMP_GENERATOR:
+        if not control & _ENABLE_RAMP:
             return 0.0
-        return self.setpoint if control & ControlWord.ENABLE_SETPOINT else 0.0
+        return self.setpoint if control & _ENABLE_SETPOINT else 0.0
 
     def _jog_target(self) -> float:
         return {1: self.motion.jog1, 2: self.motion.jog2}.get(self._jog, 0.0)
@@ -264,9 +291,9 @@ class DriveStateMachine:
         """(target, ramp-up time, ramp-down time) of the present state; None holds."""
         m, state, control = self.motion, self.state, self.control
         if state is DriveState.OPERATION:
-            if not control & ControlWord.ENABLE_RAMP_GENERATOR:
+            if not control & _ENABLE_RAMP:
                 return 0.0, m.quick_stop, m.quick_stop
-            if not control & ControlWord.START_RAMP_GENERATOR:
+            if not control & _START_RAMP:
                 return None
             return self._operation_target(), m.ramp_up, m.ramp_down
         if state is DriveState.JOG:
@@ -328,18 +355,18 @@ class DriveStateMachine:
 
     def _transition(self, t: float, acknowledge: bool) -> None:
         control, state = self.control, self.state
-        on = bool(control & ControlWord.ON)
-        enabled = bool(control & ControlWord.ENABLE_OPERATION)
+        on = bool(control & _ON)
+        enabled = bool(control & _ENABLE_OPERATION)
         if state is DriveState.FAULT:
             if acknowledge and not self._causes:
                 self._enter(DriveState.SWITCH_ON_INHIBIT, t)
             return
         if state is DriveState.NOT_READY:
             return
-        if not control & ControlWord.NO_OFF2:
+        if not control & _NO_OFF2:
             self._enter(DriveState.SWITCH_ON_INHIBIT, t)
             return
-        if not control & ControlWord.NO_OFF3:
+        if not control & _NO_OFF3:
             if state in (DriveState.OPERATION, DriveState.JOG, DriveState.OFF1):
                 self._enter(DriveState.OFF3, t)
             elif state in (DriveState.READY_TO_SWITCH_ON, DriveState.READY):
@@ -370,14 +397,14 @@ class DriveStateMachine:
                 self._enter(DriveState.READY_TO_SWITCH_ON, t)
 
     def _jog_bits(self, state: DriveState, control: int, t: float) -> None:
-        wanted = 1 if control & ControlWord.JOG1 else 2 if control & ControlWord.JOG2 else 0
+        wanted = 1 if control & _JOG1 else 2 if control & _JOG2 else 0
         if state is DriveState.OPERATION:
             standing = self.actual == 0.0 and self._operation_target() == 0.0
             if wanted and standing:
                 self._jog = wanted
                 self._enter(DriveState.JOG, t)
             return
-        if self._jog and not control & (ControlWord.JOG1 if self._jog == 1 else ControlWord.JOG2):
+        if self._jog and not control & (_JOG1 if self._jog == 1 else _JOG2):
             self._jog = 0  # brake, back to OPERATION at standstill
         elif not self._jog and wanted:
             self._jog = wanted
