@@ -32,7 +32,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from pyuss.drive.datatypes import (
     TYPE_NAMES,
@@ -568,11 +568,9 @@ def _profile(data: dict[str, Any], source: str, sources: str) -> ProfileInfo:
     index_base = data.get("index_base", 1)
     if index_base not in (0, 1) or isinstance(index_base, bool):
         raise where.error("index_base", "must be 0 or 1")
-    style = data.get("description", "profibus")
-    try:
-        description = DescriptionStyle(style)
-    except ValueError:
-        raise where.error("description", "must be 'profibus' or 'baumueller'") from None
+    description = _choice(
+        DescriptionStyle, data.get("description", "profibus"), where, "description"
+    )
     max_pnu = data.get("max_pnu", 2047)
     if isinstance(max_pnu, bool) or not isinstance(max_pnu, int) or not 0 < max_pnu <= 65535:
         raise where.error("max_pnu", "must be an integer 1..65535")
@@ -593,6 +591,17 @@ def _profile(data: dict[str, Any], source: str, sources: str) -> ProfileInfo:
         access_level=level_ref,
         protected_level=protected_level,
     )
+
+
+_E = TypeVar("_E", Access, DescriptionStyle)
+
+
+def _choice(kind: type[_E], value: object, where: _Where, name: str) -> _E:
+    """``value`` as a member of the enumeration ``kind`` (given by its value in the file)."""
+    for member in kind:
+        if member.value == value:
+            return member
+    raise where.error(name, "must be one of " + ", ".join(repr(m.value) for m in kind))
 
 
 def _text(value: object, where: _Where, name: str) -> str:
@@ -762,11 +771,7 @@ def _parameter(entry: dict[str, Any], where: _Where, profile: ProfileInfo) -> Pa
     elif "length" in entry:
         raise where.error("length", "only string types have a length")
 
-    access_name = entry.get("access", "rw")
-    try:
-        access = Access(access_name)
-    except ValueError:
-        raise where.error("access", "must be 'rw', 'ro' or 'protected'") from None
+    access = _choice(Access, entry.get("access", "rw"), where, "access")
 
     numeric = dtype.is_integer or dtype is DataType.FLOAT
     minimum = _limit(entry, "min", dtype, where)
