@@ -296,6 +296,10 @@ class ProfileInfo:
     access_level: ParamRef | None = None
     """The parameter whose value unlocks protected parameters (the "keyword")."""
     protected_level: int = 1
+    write_enable: ParamRef | None = None
+    """A parameter whose bit ``write_enable_bit`` must be 1 for any interface but the drive's
+    own to change parameters (Baumueller 126 "source de communication", seed 004 1.5)."""
+    write_enable_bit: int = 0
 
 
 class ParameterDatabase:
@@ -454,6 +458,8 @@ _PROFILE_KEYS = {
     "max_pnu",
     "access_level",
     "protected_level",
+    "write_enable",
+    "write_enable_bit",
     "remove",
 }
 _PARAM_KEYS = {
@@ -554,8 +560,10 @@ def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
         process_setpoints=_process(tables["process"], "setpoints", sources, parameters),
         process_actuals=_process(tables["process"], "actuals", sources, parameters),
     )
-    if profile.access_level is not None:
-        _check_ref(profile.access_level, parameters, profile, _Where(sources, "[profile]"), "")
+    for name in ("access_level", "write_enable"):
+        ref = getattr(profile, name)
+        if ref is not None:
+            _check_ref(ref, parameters, profile, _Where(sources, "[profile]"), name)
     _check_roles(db, sources)
     return db
 
@@ -576,6 +584,11 @@ def _profile(data: dict[str, Any], source: str, sources: str) -> ProfileInfo:
         raise where.error("max_pnu", "must be an integer 1..65535")
     level = data.get("access_level")
     level_ref = None if level is None else _ref(level, where, "access_level")
+    enable = data.get("write_enable")
+    enable_ref = None if enable is None else _ref(enable, where, "write_enable")
+    enable_bit = data.get("write_enable_bit", 0)
+    if isinstance(enable_bit, bool) or enable_bit not in range(32):
+        raise where.error("write_enable_bit", "must be a bit number 0..31")
     protected_level = data.get("protected_level", 1)
     if isinstance(protected_level, bool) or not isinstance(protected_level, int):
         raise where.error("protected_level", "must be an integer")
@@ -589,6 +602,8 @@ def _profile(data: dict[str, Any], source: str, sources: str) -> ProfileInfo:
         text_write=_flag(data.get("text_write", False), where, "text_write"),
         max_pnu=max_pnu,
         access_level=level_ref,
+        write_enable=enable_ref,
+        write_enable_bit=enable_bit,
         protected_level=protected_level,
     )
 
@@ -643,7 +658,7 @@ def _check_ref(
     where: _Where,
     name: str,
 ) -> Parameter:
-    label = name or "access_level"
+    label = name
     param = parameters.get(ref.pnu)
     if param is None:
         raise where.error(label, f"refers to P{ref.pnu}, which is not defined")
