@@ -29,7 +29,7 @@ import enum
 import math
 import tomllib
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any, TypeVar
@@ -270,9 +270,6 @@ class Parameter:
                 ErrorNumber.LIMIT_EXCEEDED, f"{checked!r} is outside {self.low}..{self.high}"
             )
         return checked
-
-    def text_for_value(self, value: int) -> str | None:
-        return self.texts.get(value)
 
     def __repr__(self) -> str:
         shape = "" if self.array is None else f"[{self.array}]"
@@ -849,13 +846,7 @@ def _parameter(entry: dict[str, Any], where: _Where, profile: ProfileInfo) -> Pa
         seed=_text(entry.get("seed", ""), where, "seed"),
     )
     defaults = _defaults(entry, param, where)
-    return _with_default(param, defaults)
-
-
-def _with_default(param: Parameter, default: tuple[Value, ...]) -> Parameter:
-    values = {name: getattr(param, name) for name in Parameter.__dataclass_fields__}
-    values["default"] = default
-    return Parameter(**values)
+    return replace(param, default=defaults)
 
 
 def _limit(entry: dict[str, Any], key: str, dtype: DataType, where: _Where) -> int | float | None:
