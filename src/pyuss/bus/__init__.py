@@ -1,1 +1,30 @@
-"""pyuss.bus."""
+"""A virtual RS-485 segment with true character timing, collisions and fault injection.
+
+- `VirtualBus`: the segment; `attach` stations in-process, `serve_pty` / `serve_tcp` for
+  stations in other processes.
+- `FaultPlan`, `Fault`, `parse_fault`: seeded, reproducible faults (`pyuss.bus.faults`).
+- `Recorder`, `load_recording`, `replay`: every character as JSON lines (`pyuss.bus.recorder`).
+- `BusClientTransport`: a ``bus://`` station in another process (`pyuss.bus.client`).
+"""
+
+from pyuss.bus.client import BusClientTransport
+from pyuss.bus.core import BusStats, Station, VirtualBus, WireChar
+from pyuss.bus.faults import Fault, FaultKind, FaultPlan, parse_fault
+from pyuss.bus.recorder import Record, Recorder, Recording, load_recording, replay
+
+__all__ = [
+    "BusClientTransport",
+    "BusStats",
+    "Fault",
+    "FaultKind",
+    "FaultPlan",
+    "Record",
+    "Recorder",
+    "Recording",
+    "Station",
+    "VirtualBus",
+    "WireChar",
+    "load_recording",
+    "parse_fault",
+    "replay",
+]

@@ -455,6 +455,7 @@ class Pkw:
 
     def __post_init__(self) -> None:
         _check_range(self.id, 0, 15, "request/response ID")
+        object.__setattr__(self, "id", int(self.id))  # a RequestId/ResponseId is kept as int
         _check_range(self.pnu, 0, MAX_PNU, "PNU")
         _check_range(self.index, 0, 0xFFFF, "IND")
         if not isinstance(self.values, tuple):

@@ -126,7 +126,7 @@ CONTROL_BITS: dict[int, tuple[str, str]] = {
     4: ("ramp generator enabled", "ramp generator output set to 0"),
     5: ("ramp generator running", "ramp generator held"),
     6: ("setpoint enabled", "setpoint set to 0"),
-    7: ("acknowledge fault", "-"),
+    7: ("acknowledge fault (rising edge)", "no acknowledge"),
     8: ("jog 1 on", "jog 1 off"),
     9: ("jog 2 on", "jog 2 off"),
     10: ("control by PLC (process data valid)", "no control by PLC (process data ignored)"),

@@ -1,0 +1,404 @@
+"""The virtual RS-485 segment: stations, the wire timeline, collisions and delivery.
+
+Timing model (A 6.1, B 3.2): a character occupies the line for one character time
+``tc = 11 / baud``. A station that writes at time ``t`` puts its first character on the line at
+``max(t, end of its own queued characters)``, the following ones back to back: a station waits
+behind its own bytes, never behind another station's (there is no carrier sense on RS-485).
+When characters of two stations overlap in time, both are garbled: the line is modelled as
+dominant-low (a 0 from any driver wins), and every receiver samples the resulting levels in
+the middle of each bit of the frame that began with the first start bit, so it sees a byte
+with the framing and parity errors the sampling yields. Each such garbled character is a
+collision (`BusStats.collisions` counts the episodes, `BusStats.garbled` the characters).
+
+Delivery: a character is handed to the receivers when its end time has come, in the event
+loop's real time, as close to that moment as the loop allows (the lag is measured by
+``bench/bench_bus.py``). The chunk timestamps are the *ideal* end times, not the moment of
+delivery: receivers measure exact gaps, start pauses (A 5.1.2) and residual times (A 6.3).
+Contiguous characters (no idle time between them) handed over together form one chunk; an
+idle gap, however short, starts a new chunk. The bus uses ``time.monotonic()``, the clock of
+every pyuss transport, so stations in other processes on the same machine (``bus://``) read
+the same time base.
+
+Stations: `VirtualBus.attach` gives an in-process station (a `Transport`). Listen-only
+stations (monitors) cannot send. With ``echo=True`` a station hears its own characters, as a
+2-wire adapter does (raw: the station's transport does not remove them). The bus allows at
+most 32 sending stations (B 1: one master, 31 slaves); listen-only ones are not limited.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import heapq
+import itertools
+import logging
+import time
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from pyuss.bus.faults import FaultEngine, FaultPlan, frame_bits
+from pyuss.errors import ConfigError, TransportError
+from pyuss.transport.base import LineError
+from pyuss.transport.queued import QueuedTransport, char_time, check_baud
+
+log = logging.getLogger(__name__)
+
+#: Stations that may send on one segment (B 1: 1 master + 31 slaves).
+MAX_SENDERS = 32
+_EPS = 1e-9
+
+Sink = Callable[[bytes, float, tuple[tuple[int, LineError], ...]], None]
+
+
+@dataclass(frozen=True, slots=True)
+class WireChar:
+    """One character as the receivers saw it on the line.
+
+    ``start``/``end`` are monotonic seconds; ``sender`` is the station's name, or the names of
+    the colliding stations joined by ``+``; ``notes`` lists faults applied and "collision".
+    """
+
+    start: float
+    end: float
+    byte: int
+    flags: LineError
+    sender: str
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(slots=True)
+class BusStats:
+    """What happened on the line."""
+
+    chars: int = 0
+    collisions: int = 0
+    garbled: int = 0
+    lost: int = 0
+    faults: Counter[str] = field(default_factory=Counter)
+
+
+@dataclass(order=True, slots=True)
+class _Pending:
+    start: float
+    seq: int
+    sender: str = field(compare=False)
+    frame: int = field(compare=False)
+    notes: tuple[str, ...] = field(compare=False, default=())
+
+
+def sample(frames: list[tuple[float, int]], start: float, bit: float) -> tuple[int, LineError]:
+    """What a UART that saw a start bit at ``start`` reads while ``frames`` (start time, 11
+    line levels) drive the line, dominant low. Returns the byte and its error flags."""
+    levels = 0
+    for k in range(11):
+        at = start + (k + 0.5) * bit
+        level = 1
+        for begin, frame in frames:
+            index = int((at - begin) // bit)
+            if 0 <= index < 11 and not (frame >> index) & 1:
+                level = 0
+                break
+        levels |= level << k
+    byte = (levels >> 1) & 0xFF
+    flags = LineError.NONE
+    if (byte.bit_count() + ((levels >> 9) & 1)) & 1:
+        flags |= LineError.PARITY
+    if not (levels >> 10) & 1:
+        flags |= LineError.FRAMING
+    return byte, flags
+
+
+class Station(QueuedTransport):
+    """A station on a `VirtualBus`, seen as a `Transport`. Made by `VirtualBus.attach`."""
+
+    def __init__(
+        self,
+        bus: VirtualBus,
+        name: str,
+        *,
+        echo: bool,
+        listen_only: bool,
+        sink: Sink | None = None,
+    ) -> None:
+        super().__init__(baud=bus.baud)
+        self.bus = bus
+        self.name = name
+        self.hears_own = echo
+        self.listen_only = listen_only
+        self._sink = sink
+        self.tx_free = 0.0
+
+    def describe(self) -> str:
+        return f"bus station {self.name!r}"
+
+    async def open(self) -> None:
+        if self.is_open:
+            return
+        if self.bus.stations.get(self.name) is not self:
+            raise TransportError(f"{self.describe()} was detached from its bus")
+        self._mark_open()
+
+    async def close(self) -> None:
+        self.bus.detach(self.name)
+        self._mark_closed()
+
+    async def write(self, data: bytes) -> None:
+        self._check_writable()
+        if self.listen_only:
+            raise TransportError(f"{self.describe()} is listen-only: it cannot send")
+        self.stats.bytes_out += len(data)
+        self.bus.send(self.name, bytes(data))
+
+    def receive(
+        self, data: bytes, timestamp: float, errors: tuple[tuple[int, LineError], ...]
+    ) -> None:
+        """The bus hands over characters (a sink takes them, or they wait for `read`)."""
+        if self._sink is not None:
+            self.stats.bytes_in += len(data)
+            self._sink(data, timestamp, errors)
+        else:
+            self._deliver(data, timestamp, errors)
+
+    @property
+    def listening(self) -> bool:
+        return self._sink is not None or self.is_open
+
+
+class VirtualBus:
+    """One RS-485 segment in software. See the module docstring; `pyuss.bus.faults` for the
+    fault plan, `pyuss.bus.recorder` for recordings, `pyuss.bus.serve` for ptys and TCP."""
+
+    def __init__(
+        self,
+        baud: int = 9600,
+        *,
+        faults: FaultPlan | None = None,
+        seed: int = 0,
+    ) -> None:
+        self.baud = check_baud(baud)
+        self.char_time = char_time(self.baud)
+        self.bit_time = self.char_time / 11
+        self.seed = seed
+        self.epoch = time.monotonic()
+        self.stations: dict[str, Station] = {}
+        self._engine = FaultEngine(faults, seed)
+        self.stats = BusStats(faults=self._engine.applied)
+        self._heap: list[_Pending] = []
+        self._seq = itertools.count()
+        self._timer: asyncio.TimerHandle | None = None
+        self._timer_at = 0.0
+        self._last_garbled_end = -1.0
+        self._windows: list[tuple[str, str, float, float]] = []
+        self.on_char: list[Callable[[WireChar], None]] = []
+        self.closers: list[Callable[[], object]] = []
+
+    # -- stations ---------------------------------------------------------------------------
+    def attach(
+        self, name: str, *, echo: bool = False, listen_only: bool = False, sink: Sink | None = None
+    ) -> Station:
+        """Add a station named ``name``; open the returned transport to use it.
+
+        ``sink`` (instead of reading the transport) takes each delivery at once: the bus
+        uses it to pass characters on to ptys and sockets.
+        """
+        if not isinstance(name, str) or not name or "+" in name:
+            raise ConfigError(f"station name must be a non-empty string without '+', not {name!r}")
+        if name in self.stations:
+            raise ConfigError(f"a station named {name!r} is already on the bus")
+        senders = sum(1 for s in self.stations.values() if not s.listen_only)
+        if not listen_only and senders >= MAX_SENDERS:
+            raise ConfigError(
+                f"the bus has {MAX_SENDERS} sending stations already (B 1: 1 master, 31 slaves); "
+                f"attach {name!r} listen-only or detach one"
+            )
+        station = Station(self, name, echo=echo, listen_only=listen_only, sink=sink)
+        self.stations[name] = station
+        return station
+
+    def detach(self, name: str) -> None:
+        """Remove a station (its queued characters still go out); no error if absent."""
+        self.stations.pop(name, None)
+
+    def make_deaf(self, name: str, duration: float) -> None:
+        """From now on, ``name`` hears nothing for ``duration`` seconds."""
+        self._add_window("deaf", name, duration)
+
+    def make_dead(self, name: str, duration: float) -> None:
+        """From now on, ``name`` neither hears nor sends for ``duration`` seconds."""
+        self._add_window("dead", name, duration)
+
+    def _add_window(self, kind: str, name: str, duration: float) -> None:
+        if duration <= 0:
+            raise ConfigError(f"{kind} duration must be > 0 seconds, not {duration!r}")
+        now = time.monotonic()
+        self._windows.append((kind, name, now, now + duration))
+
+    def _deaf(self, name: str, now: float) -> bool:
+        if any(n == name and a <= now < b for _, n, a, b in self._windows):  # deaf or dead
+            return True
+        return self._engine.deaf(name, now - self.epoch)
+
+    def _dead(self, name: str, now: float) -> bool:
+        if any(k == "dead" and n == name and a <= now < b for k, n, a, b in self._windows):
+            return True
+        return self._engine.dead(name, now - self.epoch)
+
+    # -- sending ----------------------------------------------------------------------------
+    def send(self, sender: str, data: bytes) -> None:
+        """Put ``data`` from station ``sender`` on the line (see the module docstring)."""
+        station = self.stations.get(sender)
+        if station is None:
+            raise TransportError(f"no station {sender!r} on the bus")
+        now = time.monotonic()
+        if self._dead(sender, now):
+            self.stats.lost += len(data)
+            return
+        tc = self.char_time
+        t = station.tx_free
+        if t <= now:
+            t = now + self._engine.answer_delay(sender, now - self.epoch)
+        for byte in data:
+            plan = self._engine.character(sender, byte, t - self.epoch)
+            t += plan.gap_before * tc
+            notes = tuple(n for n in plan.notes if n != "insert")
+            if not plan.drop:
+                self._put(sender, t, plan.frame, notes)
+            t += tc
+            for extra in plan.insert_after:
+                self._put(sender, t, frame_bits(extra), ("insert",))
+                t += tc
+        station.tx_free = t
+        self._schedule()
+
+    def inject(
+        self, sender: str, start: float, byte: int, flags: LineError = LineError.NONE
+    ) -> None:
+        """Put one character on the line at monotonic time ``start`` as ``sender`` sent it,
+        with ``flags`` made real in its frame (replaying a recording)."""
+        frame = frame_bits(byte)
+        if flags & LineError.PARITY:
+            frame ^= 1 << 9
+        if flags & LineError.FRAMING:
+            frame &= ~(1 << 10)
+        self._put(sender, start, frame, ())
+        self._schedule()
+
+    def _put(self, sender: str, start: float, frame: int, notes: tuple[str, ...]) -> None:
+        heapq.heappush(self._heap, _Pending(start, next(self._seq), sender, frame, notes))
+
+    def _schedule(self) -> None:
+        if not self._heap:
+            return
+        due = self._heap[0].start + self.char_time
+        if self._timer is not None:
+            if self._timer_at <= due:
+                return
+            self._timer.cancel()
+        loop = asyncio.get_running_loop()
+        self._timer_at = due
+        self._timer = loop.call_later(max(0.0, due - time.monotonic()), self._tick)
+
+    # -- the line ---------------------------------------------------------------------------
+    def _tick(self) -> None:
+        self._timer = None
+        now = time.monotonic()
+        tc = self.char_time
+        out: list[WireChar] = []
+        heap = self._heap
+        while heap and heap[0].start + tc <= now + _EPS:
+            first = heapq.heappop(heap)
+            end = first.start + tc
+            group = [first]
+            while heap and heap[0].start < end - _EPS:
+                group.append(heapq.heappop(heap))
+            out.append(self._resolve(group, end))
+        for char in out:
+            self._record(char)
+        if out:
+            self._hand_over(out, now)
+        self._schedule()
+
+    def _resolve(self, group: list[_Pending], end: float) -> WireChar:
+        first = group[0]
+        frames = [(p.start, p.frame) for p in group]
+        byte, flags = sample(frames, first.start, self.bit_time)
+        notes = tuple(n for p in group for n in p.notes)
+        senders = sorted({p.sender for p in group})
+        if len(senders) > 1:
+            self.stats.garbled += 1
+            if self._last_garbled_end < first.start - _EPS:
+                self.stats.collisions += 1
+            self._last_garbled_end = max(p.start for p in group) + self.char_time
+            notes = (*notes, "collision")
+        return WireChar(first.start, end, byte, flags, "+".join(senders), notes)
+
+    def _record(self, char: WireChar) -> None:
+        self.stats.chars += 1
+        for listener in self.on_char:
+            listener(char)
+
+    def _hand_over(self, chars: list[WireChar], now: float) -> None:
+        for station in list(self.stations.values()):
+            if not station.listening or self._deaf(station.name, now):
+                continue
+            name = station.name
+            buf = bytearray()
+            errors: list[tuple[int, LineError]] = []
+            last_end = 0.0
+            for char in chars:
+                if not station.hears_own and name in char.sender.split("+"):
+                    continue
+                if buf and char.start > last_end + _EPS:
+                    station.receive(bytes(buf), last_end, tuple(errors))
+                    buf.clear()
+                    errors.clear()
+                if char.flags:
+                    errors.append((len(buf), char.flags))
+                buf.append(char.byte)
+                last_end = char.end
+            if buf:
+                station.receive(bytes(buf), last_end, tuple(errors))
+
+    async def serve_pty(self, n: int, *, echo: bool = False) -> list[str]:
+        """Open ``n`` pty stations; their device paths (see `pyuss.bus.serve`)."""
+        from pyuss.bus.serve import serve_pty
+
+        return await serve_pty(self, n, echo=echo)
+
+    async def serve_tcp(
+        self, host: str = "127.0.0.1", port: int = 0, *, framed: bool = False, echo: bool = False
+    ) -> tuple[str, int]:
+        """Accept stations over TCP; the address bound (see `pyuss.bus.serve`)."""
+        from pyuss.bus.serve import serve_tcp
+
+        return await serve_tcp(self, host, port, framed=framed, echo=echo)
+
+    @property
+    def busy_until(self) -> float:
+        """Monotonic time at which everything queued so far has left the line."""
+        ends = [p.start + self.char_time for p in self._heap]
+        return max(ends, default=time.monotonic())
+
+    async def drain(self, timeout: float | None = None) -> None:
+        """Wait until every queued character has been delivered."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while self._heap:
+            wait = max(0.001, self.busy_until - time.monotonic())
+            if deadline is not None:
+                if time.monotonic() >= deadline:
+                    raise TimeoutError("the bus did not drain in time")
+                wait = min(wait, max(0.001, deadline - time.monotonic()))
+            await asyncio.sleep(wait)
+
+    async def close(self) -> None:
+        """Stop serving ptys and sockets and detach every station."""
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+        closers, self.closers = self.closers, []
+        for closer in reversed(closers):
+            result = closer()
+            if asyncio.iscoroutine(result):
+                await result
+        for station in list(self.stations.values()):
+            await station.close()

@@ -1,0 +1,212 @@
+"""Stations in other processes: each a pseudo-terminal or a TCP connection.
+
+`serve_pty` opens ptys; a program opens a pty's device path as a serial port and is a station
+(named ``pty1``, ``pty2``, ...). The pty carries no timing: what the program writes is put on
+the line when the bus reads it, and what the line delivers is written to the pty at its
+(real) delivery time.
+
+`serve_tcp` listens on a TCP port; every connection is a station for as long as it lasts.
+Raw connections (any serial-over-TCP client: pyuss ``tcp://``, pyserial ``socket://``) are
+named ``tcp1``, ``tcp2``, ... and carry bytes only. Framed connections (``framed=True``, for
+pyuss ``bus://`` clients, see `pyuss.bus.wire`) keep the ideal timestamps and the line error
+flags of every delivery and let the client choose its name, echo and listen-only mode.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import itertools
+import json
+import logging
+from typing import Any
+
+from pyuss.bus.core import Station, VirtualBus
+from pyuss.bus.wire import MAX_DATA, encode_frame
+from pyuss.errors import ConfigError, TransportError
+from pyuss.transport.base import LineError
+from pyuss.transport.pty import PtyPort
+from pyuss.transport.tcp import check_endpoint, close_writer
+
+log = logging.getLogger(__name__)
+
+#: A station whose socket has this much unsent data loses what comes next (it does not read).
+_MAX_BACKLOG = 1 << 20
+_HELLO_TIMEOUT = 5.0
+
+
+def _free_name(bus: VirtualBus, prefix: str) -> str:
+    for i in itertools.count(1):
+        name = f"{prefix}{i}"
+        if name not in bus.stations:
+            return name
+    raise AssertionError("unreachable")
+
+
+async def serve_pty(bus: VirtualBus, n: int, *, echo: bool = False) -> list[str]:
+    """Open ``n`` ptys as stations; return their device paths."""
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ConfigError(f"number of ptys must be a positive integer, not {n!r}")
+    paths = []
+    for _ in range(n):
+        pty = PtyPort(baud=bus.baud)
+        await pty.open()
+        name = _free_name(bus, "pty")
+
+        def sink(
+            data: bytes, _ts: float, _errors: tuple[tuple[int, LineError], ...], pty: PtyPort = pty
+        ) -> None:
+            if pty.is_open:
+                pty.write_nowait(data)
+
+        bus.attach(name, echo=echo, sink=sink)
+        task = asyncio.create_task(_pty_in(bus, name, pty), name=f"uss bus {name}")
+
+        async def closer(
+            pty: PtyPort = pty, task: asyncio.Task[None] = task, name: str = name
+        ) -> None:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+            bus.detach(name)
+            await pty.close()
+
+        bus.closers.append(closer)
+        paths.append(pty.device_path)
+    return paths
+
+
+async def _pty_in(bus: VirtualBus, name: str, pty: PtyPort) -> None:
+    while True:
+        try:
+            chunk = await pty.read()
+        except TransportError as exc:
+            log.warning("bus station %s: %s", name, exc)
+            return
+        if chunk is not None and name in bus.stations:
+            bus.send(name, chunk.data)
+
+
+async def serve_tcp(
+    bus: VirtualBus,
+    host: str = "127.0.0.1",
+    port: int = 0,
+    *,
+    framed: bool = False,
+    echo: bool = False,
+) -> tuple[str, int]:
+    """Listen for stations on ``host:port`` (0: any free port); return the address bound."""
+    host, port = check_endpoint(host, port, allow_zero=True)
+    writers: set[asyncio.StreamWriter] = set()
+
+    async def handle(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        writers.add(writer)
+        try:
+            if framed:
+                await _framed_station(bus, reader, writer)
+            else:
+                await _raw_station(bus, reader, writer, echo)
+        finally:
+            writers.discard(writer)
+            await close_writer(writer)
+
+    try:
+        server = await asyncio.start_server(handle, host, port)
+    except OSError as exc:
+        raise TransportError(f"cannot listen on {host}:{port}: {exc}") from None
+    bound = server.sockets[0].getsockname()[1]
+
+    async def closer() -> None:
+        server.close()
+        for writer in list(writers):
+            writer.close()
+        with contextlib.suppress(OSError):
+            await server.wait_closed()
+
+    bus.closers.append(closer)
+    return host, bound
+
+
+def _socket_sink(writer: asyncio.StreamWriter, *, framed: bool, station: list[Station]) -> Any:
+    def sink(data: bytes, timestamp: float, errors: tuple[tuple[int, LineError], ...]) -> None:
+        if writer.is_closing():
+            return
+        if writer.transport.get_write_buffer_size() > _MAX_BACKLOG:
+            if station:
+                station[0].stats.dropped_out += len(data)
+            return
+        if not framed:
+            writer.write(data)
+            return
+        for i in range(0, len(data), MAX_DATA):
+            part = data[i : i + MAX_DATA]
+            errs = tuple((p - i, f) for p, f in errors if i <= p < i + MAX_DATA)
+            writer.write(encode_frame(timestamp, part, errs))
+
+    return sink
+
+
+async def _raw_station(
+    bus: VirtualBus, reader: asyncio.StreamReader, writer: asyncio.StreamWriter, echo: bool
+) -> None:
+    name = _free_name(bus, "tcp")
+    holder: list[Station] = []
+    try:
+        station = bus.attach(
+            name, echo=echo, sink=_socket_sink(writer, framed=False, station=holder)
+        )
+    except ConfigError as exc:
+        log.warning("bus: turned away a TCP station: %s", exc)
+        return
+    holder.append(station)
+    log.info("bus: station %s connected from %s", name, writer.get_extra_info("peername"))
+    await _pump_in(bus, name, reader)
+
+
+async def _pump_in(bus: VirtualBus, name: str, reader: asyncio.StreamReader) -> None:
+    try:
+        while True:
+            data = await reader.read(65536)
+            if not data:
+                break
+            if name in bus.stations and not bus.stations[name].listen_only:
+                bus.send(name, data)
+    except OSError as exc:
+        log.info("bus: station %s lost: %s", name, exc)
+    finally:
+        bus.detach(name)
+        log.info("bus: station %s left", name)
+
+
+async def _framed_station(
+    bus: VirtualBus, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
+) -> None:
+    def answer(item: dict[str, Any]) -> None:
+        writer.write(json.dumps(item).encode() + b"\n")
+
+    try:
+        line = await asyncio.wait_for(reader.readline(), _HELLO_TIMEOUT)
+        hello = json.loads(line)
+        if not isinstance(hello, dict):
+            raise ValueError("hello is not a JSON object")
+        name = hello.get("name") or _free_name(bus, "tcp")
+        echo = bool(hello.get("echo", False))
+        listen_only = bool(hello.get("listen_only", False))
+    except (TimeoutError, ValueError, OSError) as exc:
+        answer({"ok": False, "error": f"bad hello: {exc}"})
+        return
+    holder: list[Station] = []
+    try:
+        station = bus.attach(
+            str(name),
+            echo=echo,
+            listen_only=listen_only,
+            sink=_socket_sink(writer, framed=True, station=holder),
+        )
+    except ConfigError as exc:
+        answer({"ok": False, "error": str(exc)})
+        return
+    holder.append(station)
+    answer({"ok": True, "name": station.name, "baud": bus.baud})
+    log.info("bus: station %s connected (bus://)", station.name)
+    await _pump_in(bus, station.name, reader)

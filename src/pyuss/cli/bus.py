@@ -1,0 +1,129 @@
+"""``uss bus``: run a virtual RS-485 segment for other programs until stopped.
+
+Prints one line per way in: the device path of each pty (open it as a serial port), then
+``tcp://HOST:PORT`` (raw serial-over-TCP stations, one per connection) and
+``bus://HOST:PORT`` (pyuss stations that keep exact timing and line errors), and runs until
+SIGINT or SIGTERM (or ``--duration`` seconds), then closes everything, finishes the
+recording and prints a summary on stderr. Stopping is the normal end: exit code 0.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import signal
+import sys
+from typing import Any
+
+from pyuss.bus import FaultPlan, Recorder, VirtualBus
+from pyuss.errors import ConfigError
+from pyuss.transport.queued import BAUD_RATES
+
+EXIT_OK = 0
+EXIT_USAGE = 2
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "bus",
+        help="run a virtual RS-485 bus (ptys, TCP) with true character timing",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "--baud",
+        type=int,
+        default=9600,
+        help=f"baud rate (B 2.4: {', '.join(map(str, BAUD_RATES))}; default 9600)",
+    )
+    parser.add_argument("--pty", type=int, default=0, metavar="N", help="open N pty stations")
+    parser.add_argument(
+        "--tcp", metavar="HOST:PORT", help="accept raw serial-over-TCP stations (PORT 0: any)"
+    )
+    parser.add_argument(
+        "--bus-tcp", metavar="HOST:PORT", help="accept bus:// stations (exact timing, errors)"
+    )
+    parser.add_argument(
+        "--echo", action="store_true", help="pty and tcp stations hear their own characters"
+    )
+    parser.add_argument("--record", metavar="FILE", help="record every character as JSON lines")
+    parser.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        metavar="SPEC",
+        help="inject faults, e.g. flip:p=0.01 or deaf:station=pty2,at=5,for=2 (repeatable)",
+    )
+    parser.add_argument("--seed", type=int, default=0, help="seed of the fault plan (default 0)")
+    parser.add_argument(
+        "--duration", type=float, metavar="SECONDS", help="stop by itself after SECONDS"
+    )
+    parser.set_defaults(func=run)
+
+
+def _endpoint(text: str, option: str) -> tuple[str, int]:
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or int(port) > 65535:
+        raise ConfigError(f"{option} {text!r}: expected HOST:PORT with PORT 0..65535")
+    return host.strip("[]"), int(port)
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        plan = FaultPlan.parse(args.fault)
+        bus = VirtualBus(args.baud, faults=plan, seed=args.seed)
+        tcp = None if args.tcp is None else _endpoint(args.tcp, "--tcp")
+        framed = None if args.bus_tcp is None else _endpoint(args.bus_tcp, "--bus-tcp")
+        if args.pty < 0 or args.pty > 64:
+            raise ConfigError(f"--pty {args.pty}: give 0..64 ptys")
+        if not args.pty and tcp is None and framed is None:
+            raise ConfigError("nothing to serve: give --pty N, --tcp HOST:PORT or --bus-tcp")
+        if args.duration is not None and not args.duration > 0:
+            raise ConfigError(f"--duration {args.duration}: must be > 0 seconds")
+        recorder = None if not args.record else Recorder(args.record, keep=False).attach(bus)
+    except ConfigError as exc:
+        print(f"uss bus: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        return asyncio.run(_serve(bus, args, tcp, framed))
+    finally:
+        if recorder is not None:
+            recorder.close()
+
+
+async def _serve(
+    bus: VirtualBus,
+    args: argparse.Namespace,
+    tcp: tuple[str, int] | None,
+    framed: tuple[str, int] | None,
+) -> int:
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+    try:
+        lines = await bus.serve_pty(args.pty, echo=args.echo) if args.pty else []
+        if tcp is not None:
+            host, port = await bus.serve_tcp(*tcp, echo=args.echo)
+            lines.append(f"tcp://{host}:{port}")
+        if framed is not None:
+            host, port = await bus.serve_tcp(*framed, framed=True)
+            lines.append(f"bus://{host}:{port}")
+        for line in lines:
+            print(line)
+        sys.stdout.flush()
+        with contextlib.suppress(TimeoutError):
+            await asyncio.wait_for(stop.wait(), args.duration)
+    finally:
+        await bus.close()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.remove_signal_handler(sig)
+    stats = bus.stats
+    faults = ", ".join(f"{k} {v}" for k, v in sorted(stats.faults.items())) or "none"
+    print(
+        f"uss bus: {stats.chars} characters, {stats.collisions} collisions "
+        f"({stats.garbled} garbled characters), {stats.lost} lost, faults: {faults}",
+        file=sys.stderr,
+    )
+    return EXIT_OK

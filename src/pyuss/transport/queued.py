@@ -1,0 +1,273 @@
+"""The machinery every concrete transport shares: a queue of timestamped chunks, reads with a
+timeout, input flush, loss reporting and local-echo suppression.
+
+A backend (serial worker thread, pty or socket reader, virtual bus) hands what it received to
+`QueuedTransport._deliver` on the event loop; `read()` hands it on as `Chunk`s, one per
+delivery. A lost link is reported with `_lose()`: buffered chunks are still read first, then
+`read()` raises the `TransportError`.
+
+Local echo (B 2.3: a 2-wire RS-485 adapter hears its own driver): with ``echo=True`` every
+written byte is expected back on the input. Echoed bytes are compared with what was written
+and removed; when they differ (a collision, a broken adapter), or when they do not come back
+in time, the next `read()` raises `EchoError` once, naming what was sent and what came back,
+and `stats.echo_errors` counts it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections import deque
+from dataclasses import dataclass
+
+from pyuss.errors import ConfigError, TransportError
+from pyuss.transport.base import Chunk, LineError, Transport
+
+#: Baud rates USS interfaces use (B 2.4).
+BAUD_RATES: tuple[int, ...] = (
+    300,
+    600,
+    1200,
+    2400,
+    4800,
+    9600,
+    19200,
+    38400,
+    57600,
+    76800,
+    93750,
+    115200,
+    187500,
+)
+
+#: Bits in one character frame: start, 8 data, even parity, stop (B 3.2, A 6.1).
+BITS_PER_CHAR = 11
+
+
+def check_baud(baud: object) -> int:
+    """Return ``baud`` as an int if it is one of the rates of B 2.4, else raise `ConfigError`."""
+    if isinstance(baud, bool) or not isinstance(baud, int) or baud not in BAUD_RATES:
+        allowed = ", ".join(str(b) for b in BAUD_RATES)
+        raise ConfigError(f"baud rate {baud!r} is not a USS rate (B 2.4 allows {allowed})")
+    return baud
+
+
+def char_time(baud: int) -> float:
+    """Seconds one 11-bit character occupies the line at ``baud`` (A 6.1)."""
+    return BITS_PER_CHAR / baud
+
+
+class EchoError(TransportError):
+    """The local echo differed from what was sent, or did not come back."""
+
+    def __init__(self, message: str, *, sent: bytes, received: bytes) -> None:
+        super().__init__(message)
+        self.sent = sent
+        self.received = received
+
+
+@dataclass(slots=True)
+class TransportStats:
+    """Counters a transport keeps; all start at zero."""
+
+    bytes_in: int = 0
+    bytes_out: int = 0
+    chunks_in: int = 0
+    line_errors: int = 0
+    echo_bytes: int = 0
+    echo_errors: int = 0
+    dropped_out: int = 0
+
+
+def shift_errors(
+    errors: tuple[tuple[int, LineError], ...], start: int, stop: int | None = None
+) -> tuple[tuple[int, LineError], ...]:
+    """The error list of ``data[start:stop]`` given that of ``data``."""
+    return tuple(
+        (pos - start, flag) for pos, flag in errors if pos >= start and (stop is None or pos < stop)
+    )
+
+
+class QueuedTransport(Transport):
+    """Base of the concrete transports; see the module docstring.
+
+    ``echo_timeout`` is how long after the last written character would have left the line
+    (``len(data)`` character times after `write()`) its echo may still come back.
+    """
+
+    def __init__(self, *, baud: int, echo: bool = False, echo_timeout: float = 0.2) -> None:
+        self._baud = check_baud(baud)
+        self._echo = echo
+        if echo_timeout <= 0:
+            raise ConfigError(f"echo_timeout must be > 0 seconds, not {echo_timeout!r}")
+        self._echo_timeout = echo_timeout
+        self._chunks: deque[Chunk] = deque()
+        self._ready: asyncio.Event | None = None
+        self._failure: TransportError | None = None
+        self._pending_echo = bytearray()
+        self._echo_sent = bytearray()
+        self._echo_timer: asyncio.TimerHandle | None = None
+        self._echo_error: EchoError | None = None
+        self._open = False
+        self.stats = TransportStats()
+
+    # -- the contract ---------------------------------------------------------------------------
+    @property
+    def baud(self) -> int:
+        return self._baud
+
+    @property
+    def echo(self) -> bool:
+        """Whether the local echo is expected and removed."""
+        return self._echo
+
+    @property
+    def is_open(self) -> bool:
+        return self._open
+
+    def clock(self) -> float:
+        return time.monotonic()
+
+    def flush_input(self) -> None:
+        self._chunks.clear()
+        if self._ready is not None:
+            self._ready.clear()
+
+    async def read(self, timeout: float | None = None) -> Chunk | None:
+        if self._ready is None:
+            raise TransportError(f"{self.describe()} is not open")
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            if self._echo_error is not None:
+                error, self._echo_error = self._echo_error, None
+                raise error
+            if self._chunks:
+                chunk = self._chunks.popleft()
+                if not self._chunks:
+                    self._ready.clear()
+                return chunk
+            if self._failure is not None:
+                raise self._failure
+            if not self._open:
+                raise TransportError(f"{self.describe()} is closed")
+            self._ready.clear()
+            if deadline is None:
+                await self._ready.wait()
+                continue
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return None
+            try:
+                await asyncio.wait_for(self._ready.wait(), left)
+            except TimeoutError:
+                return None
+
+    # -- what subclasses use --------------------------------------------------------------------
+    def describe(self) -> str:
+        """A short name for messages ("serial port /dev/ttyUSB0", ...)."""
+        return type(self).__name__
+
+    def _mark_open(self) -> None:
+        self._ready = asyncio.Event()
+        self._failure = None
+        self._echo_error = None
+        self._pending_echo.clear()
+        self._echo_sent.clear()
+        self._open = True
+
+    def _mark_closed(self) -> None:
+        self._open = False
+        if self._echo_timer is not None:
+            self._echo_timer.cancel()
+            self._echo_timer = None
+        if self._ready is not None:
+            self._ready.set()
+
+    def _lose(self, error: TransportError) -> None:
+        """Report a lost link: readers get ``error`` once the buffered chunks are read."""
+        if self._failure is None:
+            self._failure = error
+        if self._ready is not None:
+            self._ready.set()
+
+    def _check_writable(self) -> None:
+        if self._failure is not None:
+            raise self._failure
+        if not self._open:
+            raise TransportError(f"{self.describe()} is not open")
+
+    def _arm_echo(self, data: bytes) -> None:
+        """Call just before ``data`` goes to the line: the echo of it is expected from now on."""
+        if not self._echo or not data:
+            return
+        self._pending_echo += data
+        self._echo_sent += data
+        loop = asyncio.get_running_loop()
+        if self._echo_timer is not None:
+            self._echo_timer.cancel()
+        wait = len(self._pending_echo) * char_time(self._baud) + self._echo_timeout
+        self._echo_timer = loop.call_later(wait, self._echo_missing)
+
+    def _echo_missing(self) -> None:
+        self._echo_timer = None
+        if self._pending_echo:
+            got = bytes(self._echo_sent[: len(self._echo_sent) - len(self._pending_echo)])
+            self._echo_failed(
+                f"{self.describe()}: local echo missing: sent {bytes(self._echo_sent).hex(' ')}, "
+                f"got back {got.hex(' ') or 'nothing'}",
+                got,
+            )
+
+    def _echo_failed(self, message: str, received: bytes) -> None:
+        self.stats.echo_errors += 1
+        self._echo_error = EchoError(message, sent=bytes(self._echo_sent), received=received)
+        self._pending_echo.clear()
+        self._echo_sent.clear()
+        if self._echo_timer is not None:
+            self._echo_timer.cancel()
+            self._echo_timer = None
+        if self._ready is not None:
+            self._ready.set()
+
+    def _deliver(
+        self, data: bytes, timestamp: float, errors: tuple[tuple[int, LineError], ...] = ()
+    ) -> None:
+        """Queue received bytes (call on the event loop)."""
+        if not data or not self._open:
+            return
+        if self._pending_echo:
+            data, timestamp, errors = self._strip_echo(data, timestamp, errors)
+            if not data:
+                return
+        self.stats.bytes_in += len(data)
+        self.stats.chunks_in += 1
+        self.stats.line_errors += len(errors)
+        self._chunks.append(Chunk(data, timestamp, errors))
+        if self._ready is not None:
+            self._ready.set()
+
+    def _strip_echo(
+        self, data: bytes, timestamp: float, errors: tuple[tuple[int, LineError], ...]
+    ) -> tuple[bytes, float, tuple[tuple[int, LineError], ...]]:
+        n = min(len(self._pending_echo), len(data))
+        head = data[:n]
+        flagged = any(pos < n for pos, _ in errors)
+        if head != self._pending_echo[:n] or flagged:
+            got = bytes(self._echo_sent[: len(self._echo_sent) - len(self._pending_echo)]) + head
+            what = "flagged as line errors" if head == self._pending_echo[:n] else "differs"
+            self._echo_failed(
+                f"{self.describe()}: local echo {what}: sent {bytes(self._echo_sent).hex(' ')}, "
+                f"got back {got.hex(' ')}",
+                got,
+            )
+        else:
+            del self._pending_echo[:n]
+            self.stats.echo_bytes += n
+            if not self._pending_echo:
+                self._echo_sent.clear()
+                if self._echo_timer is not None:
+                    self._echo_timer.cancel()
+                    self._echo_timer = None
+        rest = data[n:]
+        # The remaining bytes are the last ones of the delivery: the timestamp stays theirs.
+        return rest, timestamp, shift_errors(errors, n)

@@ -1,0 +1,319 @@
+"""Serial ports through pyserial: any URL `serial.serial_for_url` accepts (``/dev/ttyUSB0``,
+``COM3``, ``rfc2217://host:port``, ``socket://host:port``, ``loop://``).
+
+Character frame 8E1 by default (B 3.2: start bit, 8 data bits, even parity, stop bit). Reading
+happens in a worker thread that blocks in the port's read and stamps each burst with
+``time.monotonic()`` the moment it wakes up: the stamp does not depend on how busy the event
+loop is (a loop reader would stamp when the loop gets round to it), and the same code serves
+every pyserial backend, including those without a file descriptor (``loop://``, ``rfc2217://``).
+Writes run in a second single worker thread, in order.
+
+Line errors: on a POSIX serial device the terminal is switched to mark bad characters
+(termios INPCK + PARMRK). The kernel then flags parity and framing errors alike, without saying
+which, so a flagged character is reported as ``LineError.PARITY | LineError.FRAMING``; a break
+reads as a flagged 0x00. Other backends cannot tell, and report no line errors.
+
+RS-485 direction control for 2-wire adapters (B 2: half duplex, one sender at a time):
+
+- ``RS485Mode.AUTO``: the adapter switches its driver itself (most USB adapters). Nothing to do.
+- ``RS485Mode.KERNEL``: the kernel driver toggles RTS (TIOCSRS485 through pyserial's
+  ``rs485_mode``); ports whose driver lacks it fail to open with a `TransportError`.
+- ``RS485Mode.RTS``: pyuss raises RTS, writes, waits until the bytes have left the line and
+  drops RTS. "Left the line" is the later of the port's drain and ``len(data)`` character times
+  (A 6.1) after the write began, because many USB adapters report the drain early; then
+  ``rts_delay_after`` more (default none: the next telegram waits a start pause of 2 character
+  times anyway, A 5.1.2).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import contextlib
+import enum
+import logging
+import threading
+import time
+
+import serial
+import serial.rs485
+
+from pyuss.errors import ConfigError, TransportError
+from pyuss.transport.base import LineError
+from pyuss.transport.queued import QueuedTransport, char_time
+
+try:  # POSIX only
+    import termios
+except ImportError:  # pragma: no cover - Windows
+    termios = None  # type: ignore[assignment]
+
+log = logging.getLogger(__name__)
+
+#: How often an idle reader thread wakes up to see whether it should stop (seconds).
+_READ_POLL = 0.1
+#: Longest a write may block in the OS before the port is taken as lost (seconds).
+_WRITE_TIMEOUT = 2.0
+#: How a character flagged by the kernel (PARMRK) is reported.
+MARKED = LineError.PARITY | LineError.FRAMING
+
+_PARITIES = {
+    "N": serial.PARITY_NONE,
+    "E": serial.PARITY_EVEN,
+    "O": serial.PARITY_ODD,
+    "M": serial.PARITY_MARK,
+    "S": serial.PARITY_SPACE,
+}
+_STOPBITS = {1: serial.STOPBITS_ONE, 1.5: serial.STOPBITS_ONE_POINT_FIVE, 2: serial.STOPBITS_TWO}
+
+
+class RS485Mode(enum.Enum):
+    """Who switches the RS-485 driver between sending and listening."""
+
+    AUTO = "auto"
+    KERNEL = "kernel"
+    RTS = "rts"
+
+    @classmethod
+    def parse(cls, value: RS485Mode | str) -> RS485Mode:
+        if isinstance(value, RS485Mode):
+            return value
+        try:
+            return cls(str(value).lower())
+        except ValueError:
+            names = ", ".join(m.value for m in cls)
+            raise ConfigError(f"RS-485 mode {value!r} is not one of {names}") from None
+
+
+class MarkDecoder:
+    """Undo the kernel's PARMRK marking: ``FF FF`` is a data byte FF, ``FF 00 c`` is character
+    ``c`` received with a parity or framing error (``FF 00 00`` also stands for a break)."""
+
+    def __init__(self) -> None:
+        self._held = b""
+
+    def feed(self, raw: bytes) -> tuple[bytes, tuple[tuple[int, LineError], ...]]:
+        buf = self._held + raw
+        self._held = b""
+        out = bytearray()
+        errors: list[tuple[int, LineError]] = []
+        i = 0
+        n = len(buf)
+        while i < n:
+            b = buf[i]
+            if b != 0xFF:
+                out.append(b)
+                i += 1
+                continue
+            if i + 1 >= n:
+                self._held = buf[i:]
+                break
+            nxt = buf[i + 1]
+            if nxt == 0xFF:
+                out.append(0xFF)
+                i += 2
+            elif nxt == 0x00:
+                if i + 2 >= n:
+                    self._held = buf[i:]
+                    break
+                errors.append((len(out), MARKED))
+                out.append(buf[i + 2])
+                i += 3
+            else:  # not a mark the kernel makes: take the byte as it is
+                out.append(0xFF)
+                i += 1
+        return bytes(out), tuple(errors)
+
+
+class SerialTransport(QueuedTransport):
+    """A serial port (any pyserial URL) as a `Transport`. See the module docstring."""
+
+    def __init__(
+        self,
+        url: str,
+        *,
+        baud: int = 9600,
+        parity: str = "E",
+        stopbits: float = 1,
+        rs485: RS485Mode | str = RS485Mode.AUTO,
+        echo: bool = False,
+        echo_timeout: float = 0.2,
+        line_errors: bool = True,
+        rts_delay_before: float = 0.0,
+        rts_delay_after: float = 0.0,
+    ) -> None:
+        super().__init__(baud=baud, echo=echo, echo_timeout=echo_timeout)
+        if not isinstance(url, str) or not url:
+            raise ConfigError(f"serial port URL must be a non-empty string, not {url!r}")
+        key = str(parity).upper()
+        if key not in _PARITIES:
+            raise ConfigError(f"parity {parity!r} is not one of N, E, O, M, S")
+        if stopbits not in _STOPBITS:
+            raise ConfigError(f"stop bits {stopbits!r} is not one of 1, 1.5, 2")
+        if rts_delay_before < 0 or rts_delay_after < 0:
+            raise ConfigError("RTS delays must be >= 0 seconds")
+        self.url = url
+        self.rs485 = RS485Mode.parse(rs485)
+        self._line_errors = line_errors
+        self._rts_before = rts_delay_before
+        self._rts_after = rts_delay_after
+        try:
+            self._port = serial.serial_for_url(
+                url,
+                baudrate=self.baud,
+                bytesize=serial.EIGHTBITS,
+                parity=_PARITIES[key],
+                stopbits=_STOPBITS[stopbits],
+                timeout=_READ_POLL,
+                write_timeout=_WRITE_TIMEOUT,
+                do_not_open=True,
+            )
+        except (ValueError, serial.SerialException) as exc:
+            raise ConfigError(f"serial port URL {url!r}: {exc}") from None
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._writer: concurrent.futures.ThreadPoolExecutor | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+
+    def describe(self) -> str:
+        return f"serial port {self.url}"
+
+    @property
+    def port(self) -> serial.SerialBase:
+        """The pyserial port object (for settings pyuss does not cover)."""
+        return self._port
+
+    async def open(self) -> None:
+        if self.is_open:
+            return
+        if self.rs485 is RS485Mode.KERNEL:
+            self._port.rs485_mode = serial.rs485.RS485Settings(
+                rts_level_for_tx=True, rts_level_for_rx=False
+            )
+        try:
+            await asyncio.to_thread(self._port.open)
+            marking = self._setup_marking()
+            if self.rs485 is RS485Mode.RTS:
+                self._port.rts = False
+        except (OSError, ValueError, serial.SerialException) as exc:
+            self._close_port()
+            what = "kernel RS-485 mode: " if self.rs485 is RS485Mode.KERNEL else ""
+            raise TransportError(f"cannot open {self.describe()}: {what}{exc}") from None
+        self._loop = asyncio.get_running_loop()
+        self._mark_open()
+        self._stop.clear()
+        self._writer = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="uss-write")
+        self._thread = threading.Thread(
+            target=self._read_worker,
+            args=(MarkDecoder() if marking else None,),
+            name=f"uss-read {self.url}",
+            daemon=True,
+        )
+        self._thread.start()
+
+    def _setup_marking(self) -> bool:
+        """Switch a POSIX terminal to mark bad characters; False where that is not possible."""
+        fd = getattr(self._port, "fd", None)
+        if not self._line_errors or termios is None or not isinstance(fd, int):
+            return False
+        attrs = termios.tcgetattr(fd)
+        attrs[0] |= termios.INPCK | termios.PARMRK
+        attrs[0] &= ~(termios.IGNPAR | termios.ISTRIP | termios.IGNBRK | termios.BRKINT)
+        termios.tcsetattr(fd, termios.TCSANOW, attrs)
+        return True
+
+    def _read_worker(self, decoder: MarkDecoder | None) -> None:
+        port = self._port
+        loop = self._loop
+        assert loop is not None
+        while not self._stop.is_set():
+            try:
+                data = port.read(1)
+                if not data:
+                    continue
+                waiting = port.in_waiting
+                if waiting:
+                    data += port.read(waiting)
+            except Exception as exc:  # pyserial raises many kinds when a port vanishes
+                if self._stop.is_set():
+                    break
+                self._post(self._lose, TransportError(f"{self.describe()} lost: {exc}"))
+                break
+            stamp = time.monotonic()
+            if decoder is None:
+                self._post(self._deliver, data, stamp, ())
+            else:
+                clean, errors = decoder.feed(data)
+                self._post(self._deliver, clean, stamp, errors)
+
+    def _post(self, func: object, *args: object) -> None:
+        assert self._loop is not None
+        try:
+            self._loop.call_soon_threadsafe(func, *args)  # type: ignore[arg-type]
+        except RuntimeError:  # the loop is closed: nobody is left to tell
+            self._stop.set()
+
+    async def write(self, data: bytes) -> None:
+        self._check_writable()
+        if not data:
+            return
+        assert self._writer is not None
+        self._arm_echo(data)
+        loop = asyncio.get_running_loop()
+        try:
+            await loop.run_in_executor(self._writer, self._write_blocking, bytes(data))
+        except (OSError, ValueError, serial.SerialException) as exc:
+            error = TransportError(f"{self.describe()}: write failed: {exc}")
+            self._lose(error)
+            raise error from None
+        self.stats.bytes_out += len(data)
+
+    def _write_blocking(self, data: bytes) -> None:
+        port = self._port
+        if self.rs485 is not RS485Mode.RTS:
+            port.write(data)
+            return
+        port.rts = True
+        try:
+            if self._rts_before:
+                time.sleep(self._rts_before)
+            began = time.monotonic()
+            port.write(data)
+            port.flush()
+            left = began + len(data) * char_time(self.baud) - time.monotonic()
+            if left > 0:
+                time.sleep(left)
+            if self._rts_after:
+                time.sleep(self._rts_after)
+        finally:
+            port.rts = False
+
+    def flush_input(self) -> None:
+        super().flush_input()
+        if self.is_open:
+            try:
+                self._port.reset_input_buffer()
+            except (OSError, serial.SerialException) as exc:
+                log.debug("%s: input flush failed: %s", self.describe(), exc)
+
+    async def close(self) -> None:
+        if not self.is_open:
+            return
+        self._mark_closed()
+        self._stop.set()
+        cancel = getattr(self._port, "cancel_read", None)
+        if cancel is not None:
+            with contextlib.suppress(Exception):  # best effort: the thread polls anyway
+                cancel()
+        if self._thread is not None:
+            await asyncio.to_thread(self._thread.join, 2.0)
+            self._thread = None
+        if self._writer is not None:
+            writer, self._writer = self._writer, None
+            await asyncio.to_thread(writer.shutdown, True)
+        self._close_port()
+
+    def _close_port(self) -> None:
+        try:
+            self._port.close()
+        except Exception as exc:  # pragma: no cover - closing a vanished port
+            log.debug("%s: close: %s", self.describe(), exc)

@@ -1,0 +1,259 @@
+"""TCP byte pipes: a transparent serial line over TCP, as RS-485/Ethernet converters offer.
+
+`TcpTransport` is the client: it connects to a converter (or to `TcpServerTransport`, or to
+the virtual bus's ``serve_tcp``) and moves raw bytes. `TcpServerTransport` listens and serves
+one peer at a time: a second peer is turned away (its connection is closed at once) while the
+first is connected; when the peer leaves, the server waits for the next one. What the owner
+writes while no peer is connected has no listener: it is counted in ``stats.dropped_out`` and
+logged, like talking on an empty line.
+
+TCP knows no character timing and no line errors: chunks are stamped with ``time.monotonic()``
+when the event loop reads them, and the delivered grouping of bytes is the network's.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import socket
+import time
+from collections.abc import Callable
+
+from pyuss.errors import ConfigError, TransportError
+from pyuss.transport.queued import QueuedTransport
+
+log = logging.getLogger(__name__)
+
+_READ_SIZE = 65536
+
+
+def check_endpoint(host: object, port: object, *, allow_zero: bool = False) -> tuple[str, int]:
+    """Validate a host name and TCP port, raising `ConfigError` naming what is wrong."""
+    if not isinstance(host, str) or not host:
+        raise ConfigError(f"host must be a non-empty name or address, not {host!r}")
+    low = 0 if allow_zero else 1
+    if isinstance(port, bool) or not isinstance(port, int) or not low <= port <= 65535:
+        raise ConfigError(f"TCP port must be an integer {low}..65535, not {port!r}")
+    return host, port
+
+
+def _no_delay(writer: asyncio.StreamWriter) -> None:
+    sock = writer.get_extra_info("socket")
+    if sock is not None:
+        with contextlib.suppress(OSError):
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+
+
+async def pump(
+    reader: asyncio.StreamReader,
+    deliver: Callable[[bytes, float], None],
+) -> str:
+    """Hand what ``reader`` receives to ``deliver`` until the stream ends; say why it ended."""
+    try:
+        while True:
+            data = await reader.read(_READ_SIZE)
+            if not data:
+                return "connection closed by the peer"
+            deliver(data, time.monotonic())
+    except OSError as exc:
+        return f"connection lost: {exc}"
+
+
+async def close_writer(writer: asyncio.StreamWriter) -> None:
+    writer.close()
+    with contextlib.suppress(OSError, asyncio.CancelledError):
+        await writer.wait_closed()
+
+
+class TcpTransport(QueuedTransport):
+    """A TCP client carrying a serial line. See the module docstring."""
+
+    def __init__(
+        self,
+        host: str,
+        port: int,
+        *,
+        baud: int = 9600,
+        echo: bool = False,
+        connect_timeout: float = 5.0,
+    ) -> None:
+        super().__init__(baud=baud, echo=echo)
+        self.host, self.port = check_endpoint(host, port)
+        if connect_timeout <= 0:
+            raise ConfigError(f"connect_timeout must be > 0 seconds, not {connect_timeout!r}")
+        self._connect_timeout = connect_timeout
+        self._writer: asyncio.StreamWriter | None = None
+        self._task: asyncio.Task[None] | None = None
+
+    def describe(self) -> str:
+        return f"tcp://{self.host}:{self.port}"
+
+    async def open(self) -> None:
+        if self.is_open:
+            return
+        try:
+            reader, writer = await asyncio.wait_for(
+                asyncio.open_connection(self.host, self.port), self._connect_timeout
+            )
+        except TimeoutError:
+            raise TransportError(
+                f"cannot connect to {self.describe()}: no answer in {self._connect_timeout} s"
+            ) from None
+        except OSError as exc:
+            raise TransportError(f"cannot connect to {self.describe()}: {exc}") from None
+        _no_delay(writer)
+        try:
+            await self._handshake(reader, writer)
+        except BaseException:
+            await close_writer(writer)
+            raise
+        self._writer = writer
+        self._mark_open()
+        self._task = asyncio.create_task(self._run(reader), name=f"uss {self.describe()}")
+
+    async def _handshake(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        """What a subclass exchanges before the line is open (nothing here); raises
+        `TransportError` to refuse."""
+
+    async def _run(self, reader: asyncio.StreamReader) -> None:
+        why = await pump(reader, self._deliver)
+        if self.is_open:
+            self._lose(TransportError(f"{self.describe()}: {why}"))
+
+    async def write(self, data: bytes) -> None:
+        self._check_writable()
+        assert self._writer is not None
+        self._arm_echo(bytes(data))
+        try:
+            self._writer.write(data)
+            await self._writer.drain()
+        except (OSError, RuntimeError) as exc:
+            error = TransportError(f"{self.describe()}: write failed: {exc}")
+            self._lose(error)
+            raise error from None
+        self.stats.bytes_out += len(data)
+
+    async def close(self) -> None:
+        if not self.is_open:
+            return
+        self._mark_closed()
+        if self._task is not None:
+            self._task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._task
+            self._task = None
+        if self._writer is not None:
+            await close_writer(self._writer)
+            self._writer = None
+
+
+class TcpServerTransport(QueuedTransport):
+    """A TCP server carrying a serial line to one peer at a time. See the module docstring.
+
+    ``port=0`` picks a free port; `port` tells which once open.
+    """
+
+    def __init__(
+        self, host: str = "127.0.0.1", port: int = 0, *, baud: int = 9600, echo: bool = False
+    ) -> None:
+        super().__init__(baud=baud, echo=echo)
+        self.host, self._port = check_endpoint(host, port, allow_zero=True)
+        self._server: asyncio.Server | None = None
+        self._peer: asyncio.StreamWriter | None = None
+        self._peer_task: asyncio.Task[None] | None = None
+        self._peer_event: asyncio.Event | None = None
+        self.peers_served = 0
+        self.peers_refused = 0
+
+    @property
+    def port(self) -> int:
+        """The TCP port listened on (the chosen one when 0 was asked for)."""
+        return self._port
+
+    @property
+    def connected(self) -> bool:
+        """Whether a peer is connected now."""
+        return self._peer is not None
+
+    def describe(self) -> str:
+        return f"tcp server {self.host}:{self._port}"
+
+    async def open(self) -> None:
+        if self.is_open:
+            return
+        try:
+            self._server = await asyncio.start_server(self._on_peer, self.host, self._port)
+        except OSError as exc:
+            raise TransportError(f"cannot listen on {self.host}:{self._port}: {exc}") from None
+        self._port = self._server.sockets[0].getsockname()[1]
+        self._peer_event = asyncio.Event()
+        self._mark_open()
+
+    async def wait_peer(self, timeout: float | None = None) -> bool:
+        """Wait until a peer is connected; False when ``timeout`` passes first."""
+        if self._peer_event is None:
+            raise TransportError(f"{self.describe()} is not open")
+        try:
+            await asyncio.wait_for(self._peer_event.wait(), timeout)
+        except TimeoutError:
+            return False
+        return True
+
+    async def _on_peer(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        who = writer.get_extra_info("peername")
+        if self._peer is not None or not self.is_open:
+            self.peers_refused += 1
+            log.info("%s: turned away %s: already serving a peer", self.describe(), who)
+            await close_writer(writer)
+            return
+        _no_delay(writer)
+        self._peer = writer
+        self.peers_served += 1
+        assert self._peer_event is not None
+        self._peer_event.set()
+        log.info("%s: peer %s connected", self.describe(), who)
+        self._peer_task = asyncio.current_task()
+        try:
+            why = await pump(reader, self._deliver)
+            log.info("%s: peer %s left: %s", self.describe(), who, why)
+        finally:
+            if self._peer is writer:
+                self._peer = None
+                self._peer_task = None
+                self._peer_event.clear()
+            await close_writer(writer)
+
+    async def write(self, data: bytes) -> None:
+        self._check_writable()
+        peer = self._peer
+        if peer is None:
+            self.stats.dropped_out += len(data)
+            log.info("%s: no peer connected: %d bytes not sent", self.describe(), len(data))
+            return
+        self._arm_echo(bytes(data))
+        try:
+            peer.write(data)
+            await peer.drain()
+        except (OSError, RuntimeError) as exc:
+            self.stats.dropped_out += len(data)
+            log.warning("%s: peer lost while writing: %s", self.describe(), exc)
+            return
+        self.stats.bytes_out += len(data)
+
+    async def close(self) -> None:
+        if not self.is_open:
+            return
+        self._mark_closed()
+        if self._server is not None:
+            self._server.close()
+        if self._peer_task is not None:
+            self._peer_task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._peer_task
+        if self._peer is not None:
+            await close_writer(self._peer)
+            self._peer = None
+        if self._server is not None:
+            await self._server.wait_closed()
+            self._server = None

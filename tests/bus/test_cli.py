@@ -1,0 +1,103 @@
+"""``uss bus`` as a user runs it: a separate process, ptys and sockets, stopped by a signal."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import serial
+
+from pyuss.cli.main import main
+
+TIMEOUT = 20
+
+
+def _start(*args: str) -> tuple[subprocess.Popen[str], list[str]]:
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pyuss.cli.main", "bus", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    return proc, []
+
+
+def _lines(proc: subprocess.Popen[str], n: int) -> list[str]:
+    assert proc.stdout is not None
+    return [proc.stdout.readline().strip() for _ in range(n)]
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_ptys_carry_bytes_until_stopped(tmp_path: Path, sig: signal.Signals) -> None:
+    record = tmp_path / "wire.jsonl"
+    proc, _ = _start("--baud", "19200", "--pty", "2", "--record", str(record))
+    try:
+        paths = _lines(proc, 2)
+        assert all(p.startswith("/dev/") for p in paths), paths
+        with (
+            serial.Serial(paths[0], 19200, parity="E", timeout=TIMEOUT) as master,
+            serial.Serial(paths[1], 19200, parity="E", timeout=TIMEOUT) as slave,
+        ):
+            master.write(bytes.fromhex("02 0C 05 10 34 00 00 00 00 04 7E 00 00 55"))
+            assert slave.read(14).hex() == "020c05103400000000047e000055"
+            slave.write(b"\x02\x02\x00\x00")
+            assert master.read(4) == b"\x02\x02\x00\x00"
+    finally:
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0, err
+    assert "18 characters, 0 collisions" in err
+    lines = record.read_text().splitlines()
+    assert json.loads(lines[0])["baud"] == 19200
+    assert [json.loads(line)["from"] for line in lines[1:]] == ["pty1"] * 14 + ["pty2"] * 4
+
+
+def test_tcp_and_bus_endpoints_are_printed() -> None:
+    proc, _ = _start("--tcp", "127.0.0.1:0", "--bus-tcp", "127.0.0.1:0", "--duration", "30")
+    try:
+        tcp, bus = _lines(proc, 2)
+        assert tcp.startswith("tcp://127.0.0.1:")
+        assert bus.startswith("bus://127.0.0.1:")
+        port = int(tcp.rsplit(":", 1)[1])
+        with (
+            serial.serial_for_url(f"socket://127.0.0.1:{port}", timeout=TIMEOUT) as a,
+            serial.serial_for_url(f"socket://127.0.0.1:{port}", timeout=TIMEOUT) as b,
+        ):
+            # Wait until the bus has both stations: b's bytes must reach a.
+            a.timeout = 0.2
+            for _ in range(100):
+                b.write(b"\x02")
+                if a.read(1) == b"\x02":
+                    break
+            a.timeout = TIMEOUT
+            a.reset_input_buffer()
+            b.write(b"\x02\x02\x00\x00")
+            assert a.read(4) == b"\x02\x02\x00\x00"
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        ([], "nothing to serve"),
+        (["--pty", "1", "--baud", "14400"], "baud rate 14400"),
+        (["--pty", "1", "--fault", "flip:p=7"], "probability"),
+        (["--tcp", "127.0.0.1"], "HOST:PORT"),
+        (["--pty", "1", "--record", "/nonexistent/dir/x.jsonl"], "cannot write a recording"),
+        (["--pty", "1", "--duration", "0"], "--duration"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(
+    args: list[str], words: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["bus", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert words in err
+    assert len(err.splitlines()) == 1

@@ -1,0 +1,40 @@
+"""PtyPort: a pseudo-terminal another program opens as a serial port."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+import serial
+
+from pyuss.errors import TransportError
+from pyuss.transport.pty import PtyPort
+from transport.helpers import joined, read_bytes
+
+
+async def test_device_path_is_a_terminal_other_programs_open() -> None:
+    async with PtyPort() as pty:
+        assert os.path.exists(pty.device_path)
+        with serial.Serial(pty.device_path, 9600, parity="E", timeout=5) as other:
+            other.write(b"\x02\x03")
+            assert joined(await read_bytes(pty, 2)) == b"\x02\x03"
+            await pty.write(b"\x02\x04")
+            assert other.read(2) == b"\x02\x04"
+        # The device may be opened again after a program closed it.
+        with serial.Serial(pty.device_path, 9600, timeout=5) as again:
+            again.write(b"x")
+            assert joined(await read_bytes(pty, 1)) == b"x"
+
+
+async def test_device_path_needs_an_open_port() -> None:
+    pty = PtyPort()
+    with pytest.raises(TransportError, match="not open"):
+        _ = pty.device_path
+
+
+async def test_writing_while_nobody_reads_fails_after_the_timeout() -> None:
+    async with PtyPort(write_timeout=0.2) as pty:
+        with pytest.raises(TransportError, match="nobody reads"):
+            for _ in range(64):
+                await pty.write(bytes(65536))
+        assert pty.stats.dropped_out > 0

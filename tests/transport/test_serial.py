@@ -1,0 +1,216 @@
+"""SerialTransport over pyserial URLs and real pseudo-terminals."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pyuss.errors import ConfigError, TransportError
+from pyuss.transport.base import LineError
+from pyuss.transport.pty import PtyPort
+from pyuss.transport.queued import EchoError
+from pyuss.transport.serialport import MARKED, MarkDecoder, RS485Mode, SerialTransport
+from transport.helpers import WAIT, joined, read_bytes
+
+
+async def test_loop_url_reads_back_what_was_written() -> None:
+    async with SerialTransport("loop://", baud=19200) as port:
+        await port.write(b"\x02\x06\x01\x00\x00\x00\x00\x05")
+        chunks = await read_bytes(port, 8)
+        assert joined(chunks) == b"\x02\x06\x01\x00\x00\x00\x00\x05"
+        stamps = [c.timestamp for c in chunks]
+        assert stamps == sorted(stamps)
+        assert all(c.timestamp <= port.clock() for c in chunks)
+
+
+async def test_default_frame_is_8e1() -> None:
+    transport = SerialTransport("loop://")
+    assert transport.port.bytesize == 8
+    assert transport.port.parity == "E"
+    assert transport.port.stopbits == 1
+    assert transport.baud == 9600
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "words"),
+    [
+        ({"baud": 1234}, "baud rate 1234"),
+        ({"baud": "9600"}, "baud rate '9600'"),
+        ({"parity": "X"}, "parity 'X'"),
+        ({"stopbits": 3}, "stop bits 3"),
+        ({"rs485": "both"}, "RS-485 mode 'both'"),
+    ],
+)
+def test_bad_settings_name_what_is_wrong(kwargs: dict[str, object], words: str) -> None:
+    with pytest.raises(ConfigError, match=words):
+        SerialTransport("loop://", **kwargs)  # type: ignore[arg-type]
+
+
+def test_unknown_url_scheme_is_a_config_error() -> None:
+    with pytest.raises(ConfigError, match="nosuch://x"):
+        SerialTransport("nosuch://x")
+
+
+async def test_missing_device_fails_to_open_with_its_name() -> None:
+    transport = SerialTransport("/dev/does-not-exist-uss")
+    with pytest.raises(TransportError, match="/dev/does-not-exist-uss"):
+        await transport.open()
+
+
+async def test_read_before_open_and_after_close_raise() -> None:
+    transport = SerialTransport("loop://")
+    with pytest.raises(TransportError, match="not open"):
+        await transport.read(0.01)
+    await transport.open()
+    await transport.close()
+    await transport.close()  # idempotent
+    with pytest.raises(TransportError, match="closed"):
+        await transport.read(0.01)
+    with pytest.raises(TransportError, match="not open"):
+        await transport.write(b"x")
+
+
+async def test_read_times_out_with_none() -> None:
+    async with SerialTransport("loop://") as port:
+        assert await port.read(0.05) is None
+
+
+async def test_flush_input_discards_what_was_not_read() -> None:
+    async with SerialTransport("loop://") as port:
+        await port.write(b"stale")
+        await read_until_buffered(port)
+        port.flush_input()
+        assert await port.read(0.1) is None
+        await port.write(b"new")
+        assert joined(await read_bytes(port, 3)) == b"new"
+
+
+async def read_until_buffered(port: SerialTransport) -> None:
+    for _ in range(100):
+        if port.stats.bytes_in:
+            return
+        await asyncio.sleep(0.02)
+
+
+async def test_echo_is_verified_and_removed() -> None:
+    # loop:// returns every byte written, as a 2-wire adapter returns its own telegram.
+    async with SerialTransport("loop://", echo=True) as port:
+        await port.write(b"\x02\x03\x05\x00\x04")
+        assert await port.read(0.3) is None
+        assert port.stats.echo_bytes == 5
+        assert port.stats.echo_errors == 0
+
+
+async def test_pty_serial_both_ways() -> None:
+    async with PtyPort(baud=19200) as pty, SerialTransport(pty.device_path, baud=19200) as port:
+        await port.write(b"\x02\x04\x00\x11\x22\x35")
+        assert joined(await read_bytes(pty, 6)) == b"\x02\x04\x00\x11\x22\x35"
+        await pty.write(bytes(range(256)))
+        assert joined(await read_bytes(port, 256)) == bytes(range(256))
+
+
+async def test_pty_byte_ff_survives_error_marking() -> None:
+    # The port marks line errors (PARMRK), so the kernel doubles every FF: it must read as one.
+    async with PtyPort() as pty, SerialTransport(pty.device_path) as port:
+        await pty.write(b"\xff\x02\xff\xff\x00\xff")
+        chunks = await read_bytes(port, 6)
+        assert joined(chunks) == b"\xff\x02\xff\xff\x00\xff"
+        assert all(c.errors == () for c in chunks)
+
+
+async def test_echo_that_differs_is_reported() -> None:
+    async with PtyPort() as pty, SerialTransport(pty.device_path, echo=True) as port:
+        await port.write(b"\x02\x03\x05")
+        assert joined(await read_bytes(pty, 3)) == b"\x02\x03\x05"
+        await pty.write(b"\x02\x03\x07")  # the echo as a collision would garble it
+        with pytest.raises(EchoError) as info:
+            await port.read(WAIT)
+        assert info.value.sent == b"\x02\x03\x05"
+        assert info.value.received == b"\x02\x03\x07"
+        assert port.stats.echo_errors == 1
+        # Afterwards the port reads normally again.
+        await pty.write(b"\x02")
+        assert joined(await read_bytes(port, 1)) == b"\x02"
+
+
+async def test_missing_echo_is_reported() -> None:
+    async with (
+        PtyPort() as pty,
+        SerialTransport(pty.device_path, echo=True, echo_timeout=0.05) as port,
+    ):
+        await port.write(b"\x02\x03")
+        with pytest.raises(EchoError, match="missing"):
+            await port.read(WAIT)
+
+
+async def test_lost_port_is_reported_to_the_reader() -> None:
+    pty = PtyPort()
+    await pty.open()
+    async with SerialTransport(pty.device_path) as port:
+        await pty.write(b"last")
+        assert joined(await read_bytes(port, 4)) == b"last"
+        await pty.close()
+        with pytest.raises(TransportError, match="lost"):
+            await port.read(WAIT)
+
+
+async def test_kernel_rs485_on_a_port_without_it_fails_to_open() -> None:
+    async with PtyPort() as pty:
+        port = SerialTransport(pty.device_path, rs485="kernel")
+        with pytest.raises(TransportError, match="RS-485"):
+            await port.open()
+        assert not port.is_open
+
+
+async def test_rts_mode_raises_rts_around_each_write(caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.INFO, logger="pySerial.loop")
+    async with SerialTransport("loop://?logging=info", rs485=RS485Mode.RTS) as port:
+        caplog.clear()
+        await port.write(b"\x02\x02\x00\x00")
+        assert joined(await read_bytes(port, 4)) == b"\x02\x02\x00\x00"
+    steps = [
+        r.getMessage()
+        for r in caplog.records
+        if "rts" in r.getMessage().lower() or "write" in r.getMessage().lower()
+    ]
+    rts = [s for s in steps if "_update_rts_state" in s]
+    assert rts[:2] == [
+        "_update_rts_state(True) -> state of CTS",
+        "_update_rts_state(False) -> state of CTS",
+    ]
+
+
+def _mark(data: bytes, bad: set[int]) -> bytes:
+    out = bytearray()
+    for i, b in enumerate(data):
+        if i in bad:
+            out += bytes((0xFF, 0x00, b))
+        elif b == 0xFF:
+            out += b"\xff\xff"
+        else:
+            out.append(b)
+    return bytes(out)
+
+
+@settings(max_examples=200)
+@given(st.data())
+def test_mark_decoder_undoes_kernel_marking_across_any_split(data: st.DataObject) -> None:
+    payload = data.draw(st.binary(max_size=40))
+    bad = data.draw(st.sets(st.integers(0, max(0, len(payload) - 1)))) if payload else set()
+    raw = _mark(payload, bad)
+    cuts = sorted(data.draw(st.lists(st.integers(0, len(raw)), max_size=4)))
+    decoder = MarkDecoder()
+    out = bytearray()
+    errors: list[tuple[int, LineError]] = []
+    last = 0
+    for cut in [*cuts, len(raw)]:
+        piece, errs = decoder.feed(raw[last:cut])
+        errors += [(pos + len(out), flag) for pos, flag in errs]
+        out += piece
+        last = cut
+    assert bytes(out) == payload
+    assert errors == [(i, MARKED) for i in sorted(bad)]
