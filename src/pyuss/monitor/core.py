@@ -157,6 +157,8 @@ class Monitor:
         self._seq = itertools.count()
         self._count = itertools.count(1)
         self._pending: Frame | None = None
+        self._tail: list[Frame] = []
+        self._last: Frame | None = None
         self._broadcast: Frame | None = None
         self._control: dict[int, int] = {}
         self._status: dict[int, int] = {}
@@ -347,26 +349,44 @@ class Monitor:
         if frame.direction is Direction.UNKNOWN and self.four_wire:
             side = Direction.REQUEST if frame.port == 0 else Direction.RESPONSE
             frame = replace(frame, direction=side)
+        last = self._last
+        if (
+            frame.telegram is None
+            and last is not None
+            and last.port == frame.port
+            and frame.start - last.end < self.early_limit - _EPS
+        ):
+            # Bytes that follow a frame without a start pause: the same sender's tail.
+            return out + self._noise(replace(frame, direction=last.direction, guessed=last.guessed))
         if frame.direction is Direction.RESPONSE:
             return out + self._on_answer(frame)
         if frame.direction is Direction.REQUEST:
             return out + self._on_request(frame)
         return out + self._on_two_wire(frame)
 
+    def _noise(self, frame: Frame) -> list[Exchange]:
+        """Bytes that form no telegram and answer nothing: after the open request, if any."""
+        self._last = frame
+        if self._pending is not None:
+            self._tail.append(frame)
+            return []
+        return [self._build(frame, None)]
+
     def _on_two_wire(self, frame: Frame) -> list[Exchange]:
         p = self._pending
-        if p is None:
-            return self._on_request(replace(frame, direction=Direction.REQUEST, guessed=True))
+        as_request = replace(frame, direction=Direction.REQUEST, guessed=True)
+        if p is None or (frame.mode is not None and frame.mode.is_broadcast):
+            return self._on_request(as_request)
         answer = replace(frame, direction=Direction.RESPONSE, guessed=True)
         delay = frame.start - p.end
-        if frame.mode is not None and frame.mode.is_broadcast:
-            return self._on_request(replace(frame, direction=Direction.REQUEST, guessed=True))
         if delay <= self.answer_window + _EPS:
             unsure = ""
             if not p.ok:
+                if frame.address is not None and frame.address != p.address:
+                    return self._on_request(as_request)
                 unsure = (
-                    "the request was damaged on the line; this telegram came within the "
-                    "response delay limit, so it is taken as the answer"
+                    "the request was damaged on the line; this came within the response delay "
+                    "limit, so it is taken as the answer"
                 )
             elif frame.address is not None and frame.address != p.address:
                 unsure = (
@@ -380,17 +400,21 @@ class Monitor:
                 "an answer; taken as a late answer, not a new request"
             )
             return self._pair(p, answer, unsure)
-        return self._on_request(replace(frame, direction=Direction.REQUEST, guessed=True))
+        return self._on_request(as_request)
 
     def _on_request(self, frame: Frame) -> list[Exchange]:
+        if frame.telegram is None:
+            return self._noise(frame)
         out: list[Exchange] = []
         if self._pending is not None:
             note = ""
             if frame.start - self._pending.end <= self.answer_window:
                 note = "the master sent its next telegram before the response delay limit"
             out += self._unanswered(self._pending, note)
-        if frame.ok and frame.mode is not None and frame.mode.is_broadcast:
-            self._broadcast = frame
+        self._last = frame
+        if frame.telegram.mode.is_broadcast:
+            if frame.ok:
+                self._broadcast = frame
             out.append(self._build(frame, None))
         else:
             self._pending = frame
@@ -400,6 +424,9 @@ class Monitor:
         p = self._pending
         if p is not None:
             return self._pair(p, frame, "")
+        if frame.telegram is None:
+            return self._noise(frame)
+        self._last = frame
         b = self._broadcast
         if b is not None and 0 <= frame.start - b.end <= self.late_limit:
             why = (
@@ -410,8 +437,14 @@ class Monitor:
             why = "an answer without a request"
         return [self._build(None, frame, [Issue(Problem.UNEXPECTED, "answer", why)])]
 
-    def _pair(self, request: Frame, answer: Frame, unsure: str) -> list[Exchange]:
+    def _close(self, exchange: Exchange) -> list[Exchange]:
+        """The open request is done: its exchange, then the bytes that followed it."""
         self._pending = None
+        tail, self._tail = self._tail, []
+        return [exchange, *(self._build(frame, None) for frame in tail)]
+
+    def _pair(self, request: Frame, answer: Frame, unsure: str) -> list[Exchange]:
+        self._last = answer
         issues: list[Issue] = []
         delay = answer.start - request.end
         if delay > self.answer_window + _EPS:
@@ -450,10 +483,9 @@ class Monitor:
                         "the answer to a mirror telegram is not the same bytes (A 5.3)",
                     )
                 )
-        return [self._build(request, answer, issues, unsure)]
+        return self._close(self._build(request, answer, issues, unsure))
 
     def _unanswered(self, request: Frame, note: str = "") -> list[Exchange]:
-        self._pending = None
         issues: list[Issue] = []
         if request.ok:
             issues.append(
@@ -464,7 +496,7 @@ class Monitor:
                     f"{_ms(self.response_limit)} (A 5.2.1.1)",
                 )
             )
-        return [self._build(request, None, issues, notes=(note,) if note else ())]
+        return self._close(self._build(request, None, issues, notes=(note,) if note else ()))
 
     def _looks_like_answer(self, request: Frame, frame: Frame) -> bool:
         rq, tg = request.telegram, frame.telegram
@@ -510,7 +542,8 @@ class Monitor:
             return None, None
         choice = self._choose(frame, address)
         if choice is None:
-            if frame.telegram.mode is AddressMode.NORMAL and len(frame.telegram.data) % 2:
+            odd = len(frame.telegram.data) % 2
+            if frame.fault is None and frame.telegram.mode is AddressMode.NORMAL and odd:
                 issues.append(
                     Issue(
                         Problem.LAYOUT,
@@ -522,7 +555,8 @@ class Monitor:
         try:
             return choice.layout.unpack(frame.telegram.data), choice
         except TelegramError as exc:
-            issues.append(Issue(Problem.LAYOUT, where, str(exc)))
+            if frame.fault is None:  # a damaged frame has its fault already
+                issues.append(Issue(Problem.LAYOUT, where, str(exc)))
             return None, choice
 
     def _learn(self, request: Frame | None, answer: Frame | None) -> None:

@@ -17,9 +17,10 @@ scored:
 - A master sets bit 10 of the control word ("control by PLC", C Table 5.4) to make its process
   data count, so a PZD1 with bit 10 set counts for a layout.
 
-The scores add up over the exchanges seen. The best layout is *inferred* when it leads every
-layout that would split the words differently by a clear margin after at least two
-exchanges; otherwise it is a *guess* and says so (`LayoutSource.GUESSED`). Ties go to the
+The scores add up over the exchanges seen. The best layout is *inferred* when the lengths
+rule out every layout that would split the words differently, or when it leads all of them
+by a clear margin after at least two exchanges; otherwise it is a *guess* and says so
+(`LayoutSource.GUESSED`). Ties go to the
 common layouts first (PKW 3, then 4, 0, variable; PZD 2 first).
 """
 
@@ -197,8 +198,7 @@ class _Evidence:
         ranked.sort(reverse=True)
         score, _, layout = ranked[0]
         rivals = [s for s, _, other in ranked[1:] if not _same_split(layout, other)]
-        margin = score - rivals[0] if rivals else _MARGIN
-        sure = self.exchanges >= _MIN_EXCHANGES and margin >= _MARGIN
+        sure = not rivals or (self.exchanges >= _MIN_EXCHANGES and score - rivals[0] >= _MARGIN)
         return LayoutChoice(layout, LayoutSource.INFERRED if sure else LayoutSource.GUESSED)
 
 
@@ -299,14 +299,17 @@ class LayoutBook:
         return None if words is None else _guess_from_length(words)
 
     def broadcast_choice(self, words: int) -> LayoutChoice | None:
-        """The layout for a broadcast of ``words`` words: the given default, else the layout
-        of an address whose telegrams have that length (A 3: a broadcast needs a common
-        telegram length), else a guess from the length."""
+        """The layout for a broadcast of ``words`` words (A 3: a broadcast needs a common
+        telegram length): a given layout that carries that many words (the default first),
+        else the given default (which then does not fit), else the layout inferred for an
+        address whose telegrams have that length, else a guess from the length."""
+        given = [self.default] if self.default is not None else []
+        given += self.per_address.values()
+        for layout in given:
+            if _split(layout, [0] * words) is not None:
+                return LayoutChoice(layout, LayoutSource.GIVEN)
         if self.default is not None:
             return LayoutChoice(self.default, LayoutSource.GIVEN)
-        for layout in self.per_address.values():
-            if layout.words == words:
-                return LayoutChoice(layout, LayoutSource.GIVEN)
         for evidence in self._evidence.values():
             best = evidence.best(words)
             if best is not None and best.layout.words == words:
