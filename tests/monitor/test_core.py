@@ -3,14 +3,12 @@ framing on real ports, merging two ports, and pairing properties."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import load_vectors
-from monitor.traffic import REQ_52, answer, request
+from monitor.traffic import REQ_52, Wire, answer, request
 from pyuss.errors import ConfigError
 from pyuss.monitor import Direction, Exchange, LayoutBook, LayoutSource, Monitor, Problem
 from pyuss.monitor.render import exchange_line
@@ -21,27 +19,6 @@ from pyuss.protocol.timing import char_time, start_pause
 VECTORS = load_vectors("uss")["telegrams"]
 BAUD = 19200
 TC = char_time(BAUD)
-
-
-@dataclass
-class Wire:
-    """Feeds a monitor chunks at chosen times (seconds), as a transport stamps them."""
-
-    monitor: Monitor
-    t: float = 100.0
-    out: list[Exchange] = field(default_factory=list)
-
-    def send(self, data: bytes, gap: float, port: int = 0) -> float:
-        """Idle ``gap`` seconds after the last byte, then ``data`` back to back; returns the
-        start of its first byte."""
-        start = self.t + gap
-        self.t = start + len(data) * char_time(self.monitor.baud)
-        self.out += self.monitor.feed(data, self.t, port=port)
-        return start
-
-    def finish(self) -> list[Exchange]:
-        self.out += self.monitor.finish()
-        return self.out
 
 
 def _layout(vector: dict[str, object]) -> Layout:

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pyuss.bus import FaultPlan, Recorder, VirtualBus
 from pyuss.monitor import Exchange, Monitor
 from pyuss.protocol import AddressMode, Layout, Pkw, Received, Receiver, Telegram
+from pyuss.protocol.timing import char_time
 from pyuss.transport.base import Chunk, Transport
 
 REQ_52 = bytes.fromhex("02 0C 05 10 34 00 00 00 00 04 7E 00 00 55")  # C 8.1 example 2
@@ -177,3 +178,24 @@ def decode(line: Line, **options: object) -> tuple[list[Exchange], Monitor]:
         out += monitor.feed(chunk.data, chunk.timestamp, chunk.errors, port=port)
     out += monitor.finish()
     return out, monitor
+
+
+@dataclass
+class Wire:
+    """Feeds a monitor chunks at chosen times (seconds), as a transport stamps them."""
+
+    monitor: Monitor
+    t: float = 100.0
+    out: list[Exchange] = field(default_factory=list)
+
+    def send(self, data: bytes, gap: float, port: int = 0) -> float:
+        """Idle ``gap`` seconds after the last byte, then ``data`` back to back; returns the
+        start of its first byte."""
+        start = self.t + gap
+        self.t = start + len(data) * char_time(self.monitor.baud)
+        self.out += self.monitor.feed(data, self.t, port=port)
+        return start
+
+    def finish(self) -> list[Exchange]:
+        self.out += self.monitor.finish()
+        return self.out

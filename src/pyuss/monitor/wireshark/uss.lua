@@ -61,6 +61,8 @@ local MODES = {
     [0x80] = "special",
     [0xA0] = "special broadcast",
 }
+local MODE_BITS = {}  -- the same by ADR bits 7..5 as a number (a masked field is shifted)
+for value, name in pairs(MODES) do MODE_BITS[value / 32] = name end
 local REQUESTS = {
     [0] = "no job",
     [1] = "read parameter value",
@@ -119,6 +121,7 @@ local STATUS_BITS = {
 }
 local DWORD_REQUESTS = { [3] = true, [8] = true, [11] = true, [13] = true }
 local DWORD_RESPONSES = { [2] = true, [5] = true, [10] = true, [12] = true }
+local READ_REQUESTS = { [1] = true, [4] = true, [6] = true, [9] = true }
 local INDEXED_REQUESTS = { [4] = true, [5] = true, [6] = true, [7] = true, [8] = true,
     [11] = true, [12] = true, [15] = true }
 local INDEXED_RESPONSES = { [3] = true, [4] = true, [5] = true, [11] = true, [12] = true,
@@ -147,7 +150,7 @@ f.stx = ProtoField.uint8("uss.stx", "STX", base.HEX)
 f.lge = ProtoField.uint8("uss.lge", "LGE", base.DEC)
 f.adr = ProtoField.uint8("uss.adr", "ADR", base.HEX)
 f.address = ProtoField.uint8("uss.address", "Address", base.DEC, nil, 0x1F)
-f.mode = ProtoField.uint8("uss.mode", "Telegram type", base.HEX, MODES, 0xE0)
+f.mode = ProtoField.uint8("uss.mode", "Telegram type (ADR bits 7..5)", base.DEC, MODE_BITS, 0xE0)
 f.net = ProtoField.bytes("uss.net", "Net data")
 f.bcc = ProtoField.uint8("uss.bcc", "BCC", base.HEX)
 f.bcc_ok = ProtoField.bool("uss.bcc.ok", "BCC correct")
@@ -271,7 +274,7 @@ local function dissect_pkw(tvb, tree, offset, words, direction, pkw_words, info)
         local value = pwe[1] * 65536 + pwe[2]
         sub:add(f.value, tvb(pwe_start, 4), value)
         label = label .. " = " .. value
-    elseif #pwe >= 1 and #pwe <= 2 and id ~= 0 and not (direction ~= 2 and (id == 1 or id == 4 or id == 6 or id == 9)) then
+    elseif #pwe >= 1 and #pwe <= 2 and id ~= 0 and id ~= 15 and not (direction ~= 2 and READ_REQUESTS[id]) then
         local at = pwe_start + 2 * (#pwe - 1)
         sub:add(f.value, tvb(at, 2), pwe[#pwe])
         label = label .. " = " .. pwe[#pwe]
