@@ -115,6 +115,39 @@ class Line:
     buses: list[VirtualBus]
 
 
+async def drive(
+    tx_bus: VirtualBus,
+    rx_bus: VirtualBus,
+    requests: Sequence[bytes],
+    slaves: Sequence[Slave],
+    *,
+    wait: float = 0.06,
+    pause: float = 0.01,
+) -> None:
+    """The master sends ``requests`` on ``tx_bus``; ``slaves`` answer on ``rx_bus`` (the same
+    bus for a 2-wire line). Stations are attached for the run and detached after it."""
+    four_wire = rx_bus is not tx_bus
+    master = tx_bus.attach("master")
+    slave_in = tx_bus.attach("slave")
+    slave_out = rx_bus.attach("slave") if four_wire else slave_in
+    master_in = rx_bus.attach("master") if four_wire else master
+    stations = list({id(s): s for s in (master, slave_in, slave_out, master_in)}.values())
+    for station in stations:
+        await station.open()
+    task = asyncio.create_task(_slave_loop(slave_in, slave_out, slaves))
+    try:
+        await _master(master, master_in, tx_bus, requests, wait, pause)
+        await tx_bus.drain()
+        await rx_bus.drain()
+        await asyncio.sleep(0.01)
+    finally:
+        task.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await task
+        for station in stations:
+            await station.close()
+
+
 async def run_line(
     requests: Sequence[bytes],
     slaves: Sequence[Slave],
@@ -130,36 +163,18 @@ async def run_line(
     """Run the master's ``requests`` against ``slaves`` and record the line(s)."""
     tx_bus = VirtualBus(baud, faults=faults, seed=seed)
     rx_bus = VirtualBus(baud, faults=faults_rx, seed=seed) if four_wire else tx_bus
-    recorders = [Recorder().attach(tx_bus)]
-    if four_wire:
-        recorders.append(Recorder().attach(rx_bus))
-    master = tx_bus.attach("master")
-    slave_in = tx_bus.attach("slave")
-    slave_out = rx_bus.attach("slave") if four_wire else slave_in
-    master_in = rx_bus.attach("master") if four_wire else master
-    stations = {id(s): s for s in (master, slave_in, slave_out, master_in)}.values()
-    for station in stations:
-        await station.open()
-    task = asyncio.create_task(_slave_loop(slave_in, slave_out, slaves))
+    buses = [tx_bus, rx_bus] if four_wire else [tx_bus]
+    recorders = [Recorder().attach(bus) for bus in buses]
     try:
-        await _master(master, master_in, tx_bus, requests, wait, pause)
-        await tx_bus.drain()
-        await rx_bus.drain()
-        await asyncio.sleep(0.01)
+        await drive(tx_bus, rx_bus, requests, slaves, wait=wait, pause=pause)
     finally:
-        task.cancel()
-        with contextlib.suppress(asyncio.CancelledError):
-            await task
-        for station in stations:
-            await station.close()
-        await tx_bus.close()
-        if four_wire:
-            await rx_bus.close()
+        for bus in buses:
+            await bus.close()
     ports = []
-    for recorder, bus in zip(recorders, (tx_bus, rx_bus), strict=False):
+    for recorder, bus in zip(recorders, buses, strict=True):
         chunks = recorder.recording().chunks()
         ports.append([Chunk(c.data, c.timestamp + bus.epoch, c.errors) for c in chunks])
-    return Line(baud, ports, [tx_bus, rx_bus] if four_wire else [tx_bus])
+    return Line(baud, ports, buses)
 
 
 def decode(line: Line, **options: object) -> tuple[list[Exchange], Monitor]:

@@ -352,7 +352,8 @@ def run(args: argparse.Namespace) -> int:
     except ConfigError as exc:
         print(f"uss monitor: {exc}", file=sys.stderr)
         return EXIT_FAILED
-    _final_summary(args, output)
+    if code == EXIT_OK or output.count:
+        _final_summary(args, output)
     return code
 
 
