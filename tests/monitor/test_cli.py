@@ -6,6 +6,7 @@ from __future__ import annotations
 import asyncio
 import json
 import signal
+import subprocess
 import sys
 from pathlib import Path
 
@@ -277,3 +278,27 @@ def test_wireshark_path_and_install(tmp_path: Path, capsys: pytest.CaptureFixtur
     blocker.write_text("")
     assert main(["wireshark", "install", "--dir", str(blocker / "sub")]) == 1
     assert "cannot install" in capsys.readouterr().err
+
+
+def test_a_reader_that_goes_away_ends_the_run_quietly(tmp_path: Path) -> None:
+    monitor = Monitor(19200, layouts=LayoutBook(Layout(3, 2)))
+    wire = Wire(monitor)
+    for pnu in range(2000):
+        wire.send(request(5, Pkw(1, pnu)), 0.01)
+        wire.send(answer(5, Pkw(1, pnu, values=(pnu,))), 0.003)
+    path = tmp_path / "big.jsonl"
+    writer = open_writer(path, baud=19200)
+    for ex in wire.finish():
+        writer.write(ex)
+    writer.close()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pyuss.cli.main", "monitor", "--read", str(path)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert proc.stdout is not None
+    assert b"read P0 -> P0 = 0" in proc.stdout.readline()
+    proc.stdout.close()  # like `| head -1`
+    _, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0
+    assert b"Traceback" not in err and b"BrokenPipe" not in err

@@ -40,19 +40,22 @@ import urllib.parse
 from collections.abc import Callable, Iterable
 from typing import Any, TextIO
 
-from pyuss.errors import ConfigError, TransportError
+from pyuss.cli.decode import describe
+from pyuss.errors import ConfigError, TelegramError, TransportError
 from pyuss.monitor.capture import CaptureWriter, open_writer, read_capture
 from pyuss.monitor.core import Monitor, default_gap
 from pyuss.monitor.infer import LayoutBook
 from pyuss.monitor.live import replay, watch
-from pyuss.monitor.model import Exchange
+from pyuss.monitor.model import Direction, Exchange, Frame
 from pyuss.monitor.pcapng import check_linktype
-from pyuss.monitor.render import exchange_json, exchange_line, summary_table
+from pyuss.monitor.render import exchange_line, summary_table
+from pyuss.protocol.layout import Layout
+from pyuss.protocol.telegram import AddressMode
 from pyuss.protocol.timing import BAUD_RATES, check_baud
 from pyuss.transport.base import Transport
 from pyuss.transport.url import open_transport
 
-__all__ = ["register", "run"]
+__all__ = ["exchange_json", "frame_json", "register", "run"]
 
 EXIT_OK = 0
 EXIT_FAILED = 1
@@ -153,6 +156,56 @@ def register(subparsers: Any) -> None:
     parser.set_defaults(func=run)
 
 
+def frame_json(frame: Frame, layout: Layout | None, origin: float = 0.0) -> dict[str, Any]:
+    """A frame as a JSON-ready dict, times less ``origin``; ``telegram`` is what
+    ``uss decode --json`` gives for its bytes with ``layout`` (None when they hold no whole
+    telegram, there is no layout for them or they do not fit it)."""
+    telegram = None
+    if frame.telegram is not None and layout is not None:
+        direction = "response" if frame.direction is Direction.RESPONSE else "request"
+        try:
+            telegram = describe(frame.raw, layout, direction)
+        except TelegramError:
+            telegram = None
+    return {
+        "start": round(frame.start - origin, 9),
+        "end": round(frame.end - origin, 9),
+        "hex": frame.raw.hex(" ").upper(),
+        "direction": frame.direction.label,
+        "guessed": frame.guessed,
+        "port": frame.port,
+        "address": frame.address,
+        "mode": None if frame.mode is None else frame.mode.label,
+        "fault": None if frame.fault is None else frame.fault.name.lower(),
+        "detail": frame.detail,
+        "telegram": telegram,
+    }
+
+
+def exchange_json(ex: Exchange, *, origin: float = 0.0) -> dict[str, Any]:
+    """An exchange as a JSON-ready dict (the keys are listed in docs/monitor.md)."""
+    decodable = ex.mode in (AddressMode.NORMAL, AddressMode.BROADCAST)
+    layout = ex.layout if decodable else None
+    return {
+        "index": ex.index,
+        "time": round(ex.time - origin, 9),
+        "kind": ex.kind,
+        "address": ex.address,
+        "mode": None if ex.mode is None else ex.mode.label,
+        "layout": None if ex.layout is None else str(ex.layout),
+        "layout_source": None if ex.layout_source is None else ex.layout_source.value,
+        "request": None if ex.request is None else frame_json(ex.request, layout, origin),
+        "answer": None if ex.answer is None else frame_json(ex.answer, layout, origin),
+        "delay_ms": None if ex.delay is None else round(ex.delay * 1000, 6),
+        "problems": [
+            {"problem": i.problem.value, "where": i.where, "text": i.text} for i in ex.issues
+        ],
+        "unsure": ex.unsure or None,
+        "notes": list(ex.notes),
+        "summary": exchange_line(ex, origin=origin),
+    }
+
+
 def _ms(value: float | None, option: str) -> float | None:
     if value is None:
         return None
@@ -191,6 +244,7 @@ class _Output:
         self.epoch = epoch
         self.origin: float | None = None
         self.count = 0
+        self.closed = False
         self.done: Callable[[], None] = lambda: None
         color = args.color == "always" or (args.color == "auto" and stream.isatty())
         self.color = color and not args.json
@@ -206,10 +260,23 @@ class _Output:
             if self.origin is None:
                 self.origin = ex.time
             if not self.args.summary:
-                self.stream.write(self.render(ex) + "\n")
+                self.show(self.render(ex) + "\n")
             if self.args.count is not None and self.count >= self.args.count:
                 self.done()
-        self.stream.flush()
+        self.show("")
+
+    def show(self, text: str) -> None:
+        """Write to the output; a reader that went away (``| head``) ends the run quietly."""
+        if self.closed:
+            return
+        try:
+            self.stream.write(text)
+            self.stream.flush()
+        except BrokenPipeError:
+            self.closed = True
+            with contextlib.suppress(OSError, ValueError):
+                os.dup2(os.open(os.devnull, os.O_WRONLY), self.stream.fileno())
+            self.done()
 
     def render(self, ex: Exchange) -> str:
         assert self.origin is not None
@@ -360,10 +427,7 @@ def run(args: argparse.Namespace) -> int:
 def _final_summary(args: argparse.Namespace, output: _Output) -> None:
     table = output.table()
     if args.summary:
-        if output.stream.isatty():
-            output.stream.write(_CLEAR)
-        output.stream.write(table + "\n")
-        output.stream.flush()
+        output.show((_CLEAR if output.stream.isatty() else "") + table + "\n")
     else:
         print(table, file=sys.stderr)
 
@@ -458,7 +522,4 @@ async def _refresh(output: _Output, interval: float, stop: asyncio.Event) -> Non
             await asyncio.wait_for(stop.wait(), interval)
         if stop.is_set():
             return
-        if output.stream.isatty():
-            output.stream.write(_CLEAR)
-        output.stream.write(output.table() + "\n\n")
-        output.stream.flush()
+        output.show((_CLEAR if output.stream.isatty() else "") + output.table() + "\n\n")

@@ -3,7 +3,7 @@
 - `Monitor` (`pyuss.monitor.core`): sans-io core; bytes or frames in, `Exchange`s out.
 - `LayoutBook` (`pyuss.monitor.infer`): given layouts and layout inference.
 - `Summary` (`pyuss.monitor.stats`): A 5.2.3 counters, error rates, response times.
-- `exchange_line`, `exchange_json`, `summary_table` (`pyuss.monitor.render`): output.
+- `exchange_line`, `summary_table` (`pyuss.monitor.render`): text output (JSON: the command).
 - `open_writer`, `read_capture` (`pyuss.monitor.capture`): pcapng and JSON-lines captures.
 - `watch`, `replay` (`pyuss.monitor.live`): run a monitor on transports or a capture.
 - `dissector_source`, `install` (`pyuss.monitor.dissector`): the Wireshark Lua dissector.
@@ -22,7 +22,7 @@ from pyuss.monitor.dissector import dissector_source, install, plugin_dir
 from pyuss.monitor.infer import LayoutBook, LayoutChoice
 from pyuss.monitor.live import replay, watch
 from pyuss.monitor.model import Direction, Exchange, Frame, Issue, LayoutSource, Problem
-from pyuss.monitor.render import exchange_json, exchange_line, summary_table
+from pyuss.monitor.render import exchange_line, summary_table
 from pyuss.monitor.stats import AddressStats, Summary
 
 __all__ = [
@@ -44,7 +44,6 @@ __all__ = [
     "Summary",
     "default_gap",
     "dissector_source",
-    "exchange_json",
     "exchange_line",
     "install",
     "open_writer",

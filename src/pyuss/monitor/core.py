@@ -74,6 +74,7 @@ REAL_PORT_GAP = 0.002
 """Smallest idle gap that starts a telegram on a real port (seconds): timestamps of USB serial
 adapters come in bursts about a millisecond apart."""
 _LATE_FACTOR = 10
+_ROUNDING = 1e-8
 _HISTORY = 64
 _EPS = 1e-9
 
@@ -130,7 +131,9 @@ class Monitor:
             if value is not None and (isinstance(value, bool) or not value > 0):
                 raise ConfigError(f"{name} must be a positive number of seconds, got {value!r}")
         self.gap = start_pause if gap is None else float(gap)
-        if self.gap < start_pause - _EPS:
+        if start_pause - _ROUNDING <= self.gap < start_pause:
+            self.gap = start_pause  # a start pause written to a file with fewer digits
+        if self.gap < start_pause:
             raise ConfigError(
                 f"gap {_ms(self.gap)} is shorter than the start pause {_ms(start_pause)} at "
                 f"{self.baud} baud (A 5.1.2): characters inside telegrams would start new ones"

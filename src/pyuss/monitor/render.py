@@ -1,4 +1,4 @@
-"""Exchanges and summaries for people (one line per exchange, a table) and scripts (JSON).
+"""Exchanges and summaries for people: one line per exchange, and a table.
 
 The line of an exchange reads, left to right::
 
@@ -21,18 +21,16 @@ With colours (a terminal), problems are red and guesses yellow.
 from __future__ import annotations
 
 import datetime as _dt
-from typing import Any
 
-from pyuss.cli.decode import describe
 from pyuss.errors import TelegramError
-from pyuss.monitor.model import Direction, Exchange, Frame, LayoutSource
+from pyuss.monitor.model import Exchange, LayoutSource
 from pyuss.monitor.stats import Summary
-from pyuss.protocol.layout import Layout, NetData
+from pyuss.protocol.layout import NetData
 from pyuss.protocol.pkw import INDEX_ALL, Pkw, RequestId, ResponseId, error_meaning
 from pyuss.protocol.pzd import ControlWord, StatusWord, raw16_to_percent
 from pyuss.protocol.telegram import AddressMode
 
-__all__ = ["exchange_json", "exchange_line", "frame_json", "summary_table"]
+__all__ = ["answer_text", "exchange_line", "job_text", "summary_table"]
 
 _RED, _YELLOW, _RESET = "\x1b[31m", "\x1b[33m", "\x1b[0m"
 _STANDARD_BITS = 11
@@ -233,56 +231,6 @@ def exchange_line(
         unsure = f"(unsure: {ex.unsure})"
         line += "  " + (f"{_YELLOW}{unsure}{_RESET}" if color else unsure)
     return line
-
-
-def frame_json(frame: Frame, layout: Layout | None) -> dict[str, Any]:
-    """A frame as a JSON-ready dict; ``telegram`` is what ``uss decode --json`` gives for its
-    bytes with ``layout`` (None when they hold no whole telegram, there is no layout for them
-    or they do not fit it)."""
-    telegram = None
-    if frame.telegram is not None and layout is not None:
-        direction = "response" if frame.direction is Direction.RESPONSE else "request"
-        try:
-            telegram = describe(frame.raw, layout, direction)
-        except TelegramError:
-            telegram = None
-    return {
-        "start": round(frame.start, 9),
-        "end": round(frame.end, 9),
-        "hex": frame.raw.hex(" ").upper(),
-        "direction": frame.direction.label,
-        "guessed": frame.guessed,
-        "port": frame.port,
-        "address": frame.address,
-        "mode": None if frame.mode is None else frame.mode.label,
-        "fault": None if frame.fault is None else frame.fault.name.lower(),
-        "detail": frame.detail,
-        "telegram": telegram,
-    }
-
-
-def exchange_json(ex: Exchange, *, origin: float = 0.0) -> dict[str, Any]:
-    """An exchange as a JSON-ready dict (the keys are listed in docs/monitor.md)."""
-    decodable = ex.mode in (AddressMode.NORMAL, AddressMode.BROADCAST)
-    layout = ex.layout if decodable else None
-    return {
-        "index": ex.index,
-        "time": round(ex.time - origin, 9),
-        "kind": ex.kind,
-        "address": ex.address,
-        "mode": None if ex.mode is None else ex.mode.label,
-        "layout": None if ex.layout is None else str(ex.layout),
-        "layout_source": None if ex.layout_source is None else ex.layout_source.value,
-        "request": None if ex.request is None else frame_json(ex.request, layout),
-        "answer": None if ex.answer is None else frame_json(ex.answer, layout),
-        "delay_ms": None if ex.delay is None else round(ex.delay * 1000, 6),
-        "problems": [
-            {"problem": i.problem.value, "where": i.where, "text": i.text} for i in ex.issues
-        ],
-        "unsure": ex.unsure or None,
-        "notes": list(ex.notes),
-        "summary": exchange_line(ex, origin=origin),
-    }
 
 
 _COLUMNS = (
