@@ -36,6 +36,7 @@ from pyuss.monitor.infer import LayoutChoice
 from pyuss.monitor.model import Direction, Exchange, Frame, LayoutSource, Problem, telegram_in
 from pyuss.protocol.diagnostics import FaultKind
 from pyuss.protocol.layout import Layout
+from pyuss.protocol.timing import check_baud
 from pyuss.transport.base import Chunk
 
 __all__ = [
@@ -45,6 +46,7 @@ __all__ = [
     "CaptureFlag",
     "CaptureRecord",
     "CaptureWriter",
+    "RecordWriter",
     "open_writer",
     "read_capture",
     "records_of",
@@ -291,6 +293,46 @@ class AtomicFile:
             file.close()
             with contextlib.suppress(OSError):
                 os.unlink(self._tmp)
+
+
+class RecordWriter:
+    """Base of the capture writers: an `AtomicFile`, the line's settings and a record count.
+    A subclass writes its header in `__init__` (after calling this one) and implements
+    `write_record`."""
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        baud: int,
+        four_wire: bool = False,
+        epoch: float = 0.0,
+        gap: float | None = None,
+    ) -> None:
+        self.baud = check_baud(baud)
+        self.four_wire = four_wire
+        self.epoch = epoch
+        self.gap = gap
+        self._file = AtomicFile(path)
+        self.path = self._file.path
+        self.packets = 0
+
+    def write(self, exchange: Exchange) -> None:
+        """Write the frames of ``exchange``."""
+        for record in records_of(exchange):
+            self.write_record(record)
+            self.packets += 1
+
+    def write_record(self, record: CaptureRecord) -> None:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Finish the file and rename it into place."""
+        self._file.close()
+
+    def discard(self) -> None:
+        """Drop what was written."""
+        self._file.discard()
 
 
 PCAPNG_SUFFIXES = (".pcapng", ".pcap", ".ntar")

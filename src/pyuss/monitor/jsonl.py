@@ -30,9 +30,9 @@ from typing import Any
 from pyuss.bus.recorder import FORMAT as BUS_FORMAT
 from pyuss.bus.recorder import load_recording
 from pyuss.errors import ConfigError
-from pyuss.monitor.capture import AtomicFile, Capture, CaptureFlag, CaptureRecord, records_of
+from pyuss.monitor.capture import Capture, CaptureFlag, CaptureRecord, RecordWriter
 from pyuss.monitor.infer import LayoutChoice
-from pyuss.monitor.model import Direction, Exchange, LayoutSource
+from pyuss.monitor.model import Direction, LayoutSource
 from pyuss.protocol.diagnostics import FaultKind
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.timing import check_baud
@@ -94,7 +94,7 @@ def record_from_json(item: Any) -> CaptureRecord:
     )
 
 
-class JsonlWriter:
+class JsonlWriter(RecordWriter):
     """Writes exchanges as JSON lines (see the module text), atomically."""
 
     def __init__(
@@ -106,10 +106,7 @@ class JsonlWriter:
         epoch: float = 0.0,
         gap: float | None = None,
     ) -> None:
-        self.baud = check_baud(baud)
-        self.epoch = epoch
-        self._file = AtomicFile(path)
-        self.path = self._file.path
+        super().__init__(path, baud=baud, four_wire=four_wire, epoch=epoch, gap=gap)
         header: dict[str, Any] = {
             "format": FORMAT,
             "version": VERSION,
@@ -119,19 +116,10 @@ class JsonlWriter:
         if gap is not None:
             header["gap_ms"] = round(gap * 1000, 6)
         self._file.write((json.dumps(header) + "\n").encode())
-        self.packets = 0
 
-    def write(self, exchange: Exchange) -> None:
-        for record in records_of(exchange):
-            line = json.dumps(record_json(record, self.epoch), separators=(", ", ": "))
-            self._file.write((line + "\n").encode())
-            self.packets += 1
-
-    def close(self) -> None:
-        self._file.close()
-
-    def discard(self) -> None:
-        self._file.discard()
+    def write_record(self, record: CaptureRecord) -> None:
+        line = json.dumps(record_json(record, self.epoch), separators=(", ", ": "))
+        self._file.write((line + "\n").encode())
 
 
 def read_jsonl(path: str | os.PathLike[str]) -> Capture:

@@ -31,13 +31,8 @@ from pathlib import Path
 
 from pyuss import __version__
 from pyuss.errors import ConfigError
-from pyuss.monitor.capture import (
-    AtomicFile,
-    Capture,
-    CaptureRecord,
-    records_of,
-)
-from pyuss.monitor.model import Direction, Exchange
+from pyuss.monitor.capture import Capture, CaptureRecord, RecordWriter
+from pyuss.monitor.model import Direction
 from pyuss.protocol.timing import check_baud
 
 __all__ = [
@@ -101,7 +96,7 @@ def _block(kind: int, body: bytes) -> bytes:
     return struct.pack("<II", kind, length) + body + struct.pack("<I", length)
 
 
-class PcapngWriter:
+class PcapngWriter(RecordWriter):
     """Writes exchanges to a pcapng file (see the module text), atomically."""
 
     def __init__(
@@ -115,10 +110,7 @@ class PcapngWriter:
         gap: float | None = None,
     ) -> None:
         self.linktype = check_linktype(linktype)
-        self.baud = check_baud(baud)
-        self.epoch = epoch
-        self._file = AtomicFile(path)
-        self.path = self._file.path
+        super().__init__(path, baud=baud, four_wire=four_wire, epoch=epoch, gap=gap)
         wiring = "4-wire" if four_wire else "2-wire"
         description = f"USS {wiring} line, {baud} baud"
         if gap is not None:
@@ -135,11 +127,6 @@ class PcapngWriter:
             ]
         )
         self._file.write(_block(SHB_TYPE, shb) + _block(IDB_TYPE, idb))
-        self.packets = 0
-
-    def write(self, exchange: Exchange) -> None:
-        for record in records_of(exchange):
-            self.write_record(record)
 
     def write_record(self, record: CaptureRecord) -> None:
         frame = record.frame
@@ -155,13 +142,6 @@ class PcapngWriter:
             + _options(options)
         )
         self._file.write(_block(EPB_TYPE, body))
-        self.packets += 1
-
-    def close(self) -> None:
-        self._file.close()
-
-    def discard(self) -> None:
-        self._file.discard()
 
 
 def _parse_options(body: bytes, offset: int, order: str) -> dict[int, list[bytes]]:
