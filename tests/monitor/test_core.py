@@ -3,6 +3,8 @@ framing on real ports, merging two ports, and pairing properties."""
 
 from __future__ import annotations
 
+import itertools
+
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -112,6 +114,28 @@ def test_answer_without_start_pause_is_decoded_but_flagged() -> None:
     assert "no start pause" in ex.issues[0].text
 
 
+def test_master_that_does_not_wait_is_told_from_a_wrong_answer() -> None:
+    wire = Wire(Monitor(BAUD, layouts=LayoutBook(Layout(3, 2))))
+    for address in (3, 4):  # history: control and status words of both addresses
+        wire.send(request(address, Pkw(0), 0x047F), 0.01)
+        wire.send(answer(address, Pkw(0), 0x0237), 0.003)
+    wire.send(request(3, Pkw(0), 0x047F), 0.01)  # slave 3 is silent, the master waits 8 ms
+    wire.send(request(4, Pkw(0), 0x047F), 0.008)
+    wire.send(answer(4, Pkw(0), 0x0237), 0.003)
+    out = wire.finish()
+    assert [(ex.kind, ex.address, ex.problems) for ex in out[2:]] == [
+        ("request", 3, (Problem.NO_ANSWER,)),
+        ("exchange", 4, ()),
+    ]
+    assert out[2].notes == ("the master sent its next telegram before the response delay limit",)
+    # Without that history the same telegram is taken as a wrong answer, and says it guesses.
+    wire = Wire(Monitor(BAUD, layouts=LayoutBook(Layout(3, 2))))
+    wire.send(request(3, Pkw(0), 0x047F), 0.01)
+    wire.send(request(4, Pkw(0), 0x047F), 0.008)
+    first = wire.finish()[0]
+    assert first.problems == (Problem.WRONG_ADDRESS,) and first.unsure
+
+
 def test_early_answer_on_four_wires() -> None:
     wire = Wire(Monitor(BAUD, four_wire=True, layouts=LayoutBook(Layout(3, 2))))
     wire.send(REQ_52, 0.01, port=0)
@@ -152,6 +176,48 @@ def test_real_port_gap_keeps_bursty_telegrams_whole() -> None:
     for data, stamp in ((REQ_52[:5], t + 5 * TC), (REQ_52[5:], t + 14 * TC + 0.003)):
         cut += strict.feed(data, stamp)
     cut += strict.finish()
+    assert Problem.RESIDUAL_TIME in [p for ex in cut for p in ex.problems]
+
+
+@pytest.mark.parametrize(
+    ("cuts", "pause", "whole"),
+    [
+        ([5], 0.003, True),  # one late burst: joined again
+        ([3, 9], 0.0021, True),  # two of them
+        ([5], 0.015, False),  # longer than the residual time allows (A 6.3): a real fault
+    ],
+)
+def test_telegrams_cut_by_port_timestamps_are_joined(
+    cuts: list[int], pause: float, whole: bool
+) -> None:
+    monitor = Monitor(BAUD, gap=0.002, layouts=LayoutBook(Layout(3, 2)))
+    t = 50.0
+    out: list[Exchange] = []
+    bounds = [0, *cuts, len(REQ_52)]
+    for a, b in itertools.pairwise(bounds):
+        t += (pause if a else 0.0) + (b - a) * TC
+        out += monitor.feed(REQ_52[a:b], t)
+    ans = answer(5, Pkw(1, 52, values=(2,)))
+    t += 0.004 + len(ans) * TC
+    out += monitor.feed(ans, t)
+    out += monitor.finish()
+    if whole:
+        (ex,) = out
+        assert ex.issues == () and ex.request is not None and ex.request.raw == REQ_52
+        assert ex.request.start == pytest.approx(50.0)
+    else:
+        assert [p for ex in out for p in ex.problems][:2] == [
+            Problem.RESIDUAL_TIME,
+            Problem.NO_STX,
+        ]
+    # Exact timestamps (the virtual bus) never join: the pause was on the line.
+    exact = Monitor(BAUD, layouts=LayoutBook(Layout(3, 2)))
+    t = 50.0
+    cut = []
+    for a, b in itertools.pairwise(bounds):
+        t += (pause if a else 0.0) + (b - a) * TC
+        cut += exact.feed(REQ_52[a:b], t)
+    cut += exact.finish()
     assert Problem.RESIDUAL_TIME in [p for ex in cut for p in ex.problems]
 
 

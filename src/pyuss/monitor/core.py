@@ -13,7 +13,10 @@ Framing
     beyond it. A run of bytes without a start pause that still holds whole telegrams (an
     answer that followed faster than the gap) is cut into those telegrams again; if the pause
     before one was shorter than the start pause less the resolution, it stays a fault
-    (``no_stx``: a slave would discard it), but is still decoded.
+    (``no_stx``: a slave would discard it), but is still decoded. With a resolution (real
+    ports), an incomplete telegram and the bytes after the pause that cut it are joined again
+    when together they form a telegram with a valid BCC within its residual time (A 6.3) plus
+    the resolution: the pause was the port's, not the line's.
 
 Two ports (4-wire line)
     Port 0 carries master to slave, port 1 slave to master. Frames of both are merged by the
@@ -64,7 +67,14 @@ from pyuss.protocol.diagnostics import FaultKind
 from pyuss.protocol.layout import Layout, NetData
 from pyuss.protocol.pkw import ResponseId
 from pyuss.protocol.receiver import Event, Received, ReceiveFault, Receiver
-from pyuss.protocol.telegram import MIN_TELEGRAM_BYTES, STX, AddressMode, bcc
+from pyuss.protocol.telegram import (
+    MAX_LGE,
+    MIN_LGE,
+    MIN_TELEGRAM_BYTES,
+    STX,
+    AddressMode,
+    bcc,
+)
 from pyuss.protocol.timing import MAX_RESPONSE_DELAY, LineTiming, check_baud
 from pyuss.transport.base import LineError
 
@@ -157,6 +167,7 @@ class Monitor:
         self._advanced = [-math.inf] * self.ports
         self._prev_end = [-math.inf] * self.ports
         self._held: list[_Held] = []
+        self._partial: list[Frame | None] = [None] * self.ports
         self._seq = itertools.count()
         self._count = itertools.count(1)
         self._pending: Frame | None = None
@@ -233,6 +244,9 @@ class Monitor:
         for p in range(self.ports):
             self._take(p, self._rx[p].poll(math.inf))
             self._advanced[p] = math.inf
+            partial, self._partial[p] = self._partial[p], None
+            if partial is not None:
+                self._queue(p, partial)
         out = self._release()
         if self._pending is not None:
             out += self._unanswered(self._pending)
@@ -247,8 +261,63 @@ class Monitor:
     def _take(self, port: int, events: Iterable[Event]) -> None:
         for event in events:
             for frame in self._frames(port, event):
-                heapq.heappush(self._held, _Held(frame, next(self._seq)))
-                self._prev_end[port] = frame.end
+                self._push(port, frame)
+
+    def _queue(self, port: int, frame: Frame) -> None:
+        heapq.heappush(self._held, _Held(frame, next(self._seq)))
+        self._prev_end[port] = frame.end
+
+    def _push(self, port: int, frame: Frame) -> None:
+        """Queue a frame; with a timing resolution (real ports), an incomplete telegram waits
+        for the rest that a late burst cut off (see `_join`)."""
+        partial = self._partial[port]
+        if partial is not None:
+            self._partial[port] = None
+            if self._join(port, partial, frame):
+                return
+            self._queue(port, partial)
+        if self.resolution > 0 and _incomplete(frame):
+            self._partial[port] = frame
+            return
+        self._queue(port, frame)
+
+    def _join_limit(self, partial: Frame) -> float:
+        """Longest a telegram may take from the start of STX (A 6.3), plus the resolution."""
+        return (
+            self.timing.char_time + self.timing.residual_max(partial.raw[1] - 2) + self.resolution
+        )
+
+    def _join(self, port: int, partial: Frame, frame: Frame) -> bool:
+        """Rejoin an incomplete telegram and the bytes after a pause that only the port's
+        timestamps made: when together they form a telegram with a valid BCC within its
+        residual time (A 6.3, plus the resolution), it is one telegram."""
+        if frame.ok or frame.fault not in _JOINABLE:
+            return False
+        raw = partial.raw + frame.raw
+        need = partial.raw[1] + 2
+        limit = self._join_limit(partial)
+        if len(raw) < need:
+            if frame.end - partial.start > limit + _EPS:
+                return False
+            self._partial[port] = replace(partial, raw=raw, end=frame.end)
+            return True
+        piece = raw[:need]
+        telegram = telegram_in(piece)
+        if telegram is None or bcc(piece) != 0:
+            return False
+        taken = need - len(partial.raw)
+        end = frame.end if taken == len(frame.raw) else frame.start + taken * self.timing.char_time
+        if end - partial.start > limit + _EPS:
+            return False
+        self._queue(port, Frame(piece, partial.start, end, telegram=telegram, port=port))
+        rest = raw[need:]
+        if rest:
+            fault = ReceiveFault(
+                FaultKind.NO_STX, rest, end, frame.end, "characters without a start pause"
+            )
+            for piece_frame in self._salvage(port, fault):
+                self._queue(port, piece_frame)
+        return True
 
     def _frames(self, port: int, event: Event) -> list[Frame]:
         if isinstance(event, Received):
@@ -319,16 +388,21 @@ class Monitor:
 
     def _watermark(self, port: int) -> float:
         rx = self._rx[port]
-        if rx.busy:
-            return rx.last_byte_end
-        return max(rx.last_byte_end, self._advanced[port])
+        mark = rx.last_byte_end if rx.busy else max(rx.last_byte_end, self._advanced[port])
+        partial = self._partial[port]
+        return mark if partial is None else min(mark, partial.end)
 
     def _release(self) -> list[Exchange]:
         out: list[Exchange] = []
+        for port, partial in enumerate(self._partial):
+            seen = max(self._rx[port].last_byte_end, self._advanced[port])
+            if partial is not None and seen - partial.start > self._join_limit(partial):
+                self._partial[port] = None
+                self._queue(port, partial)
         limit = math.inf if self.ports == 1 else min(map(self._watermark, range(self.ports)))
         while self._held and self._held[0].frame.end <= limit + _EPS:
             out += self._on_frame(heapq.heappop(self._held).frame)
-        if any(rx.busy for rx in self._rx):
+        if any(rx.busy for rx in self._rx) or any(self._partial):
             return out
         now = min(self._watermark(p) for p in range(self.ports))
         if self._held:
@@ -392,6 +466,8 @@ class Monitor:
                     "limit, so it is taken as the answer"
                 )
             elif frame.address is not None and frame.address != p.address:
+                if self._pzd1_seen(frame, self._seen_control, self._seen_status):
+                    return self._on_request(as_request)  # the master did not wait
                 unsure = (
                     f"a telegram to address {frame.address} came within the response delay "
                     f"limit after a request to address {p.address}; taken as a wrong answer"
@@ -515,15 +591,28 @@ class Monitor:
         req, ans = _unpack(choice.layout, rq.data), _unpack(choice.layout, tg.data)
         if req is None or ans is None:
             return False
-        if ans.pzd:
-            word = ans.pzd[0]
-            as_status = word in self._seen_status.get(rq.address, ())
-            as_control = word in self._seen_control.get(rq.address, ())
-            if as_status != as_control:
-                return as_status
+        if self._pzd1_seen(frame, self._seen_status, self._seen_control):
+            return True
+        if self._pzd1_seen(frame, self._seen_control, self._seen_status):
+            return False
         if req.pkw is not None and ans.pkw is not None and ans.pkw != req.pkw:
             return ans.pkw.is_answer_to(req.pkw)
         return False
+
+    def _pzd1_seen(
+        self, frame: Frame, seen: dict[int, set[int]], not_in: dict[int, set[int]]
+    ) -> bool:
+        """Whether the PZD1 of ``frame`` was seen for its address in ``seen`` (control or
+        status words) and never in ``not_in``: a hint which way a telegram went."""
+        tg = frame.telegram
+        if tg is None or frame.fault is not None or tg.mode is not AddressMode.NORMAL:
+            return False
+        choice = self.layouts.choice(tg.address, len(tg.data) // 2)
+        data = None if choice is None or len(tg.data) % 2 else _unpack(choice.layout, tg.data)
+        if data is None or not data.pzd:
+            return False
+        word = data.pzd[0]
+        return word in seen.get(tg.address, ()) and word not in not_in.get(tg.address, ())
 
     # -- decoding --------------------------------------------------------------------------
 
@@ -637,6 +726,21 @@ class Monitor:
         values = seen.setdefault(address, set())
         if len(values) < _HISTORY:
             values.add(word)
+
+
+_JOINABLE = (FaultKind.NO_STX, FaultKind.RESIDUAL_TIME, FaultKind.BAD_LGE, FaultKind.BCC)
+
+
+def _incomplete(frame: Frame) -> bool:
+    """An incomplete telegram without line errors: STX, a valid LGE, too few bytes."""
+    raw = frame.raw
+    return (
+        frame.fault is FaultKind.RESIDUAL_TIME
+        and len(raw) >= 2
+        and raw[0] == STX
+        and MIN_LGE <= raw[1] <= MAX_LGE
+        and len(raw) < raw[1] + 2
+    )
 
 
 def _words(data: bytes) -> tuple[int, ...]:
