@@ -316,6 +316,20 @@ def test_layout_inference_on_the_vectors(names: list[str], layout: Layout) -> No
     assert out[-1].layout_source is LayoutSource.INFERRED
 
 
+def test_an_address_with_little_evidence_borrows_the_bus_layout() -> None:
+    wire = Wire(Monitor(BAUD))
+    for pnu in (52, 53):
+        wire.send(request(5, Pkw(1, pnu)), 0.01)
+        wire.send(answer(5, Pkw(1, pnu, values=(1,))), 0.003)
+    # Address 6 answers an array read with an unfitting ID: on its own, 0,5 would win.
+    wire.send(request(6, Pkw(6, 4, 2)), 0.01)
+    wire.send(answer(6, Pkw(1, 4, values=(1,))), 0.003)
+    *_, six = wire.finish()
+    assert six.address == 6
+    assert (six.layout, six.layout_source) == (Layout(3, 2), LayoutSource.GUESSED)
+    assert "3,2?" in exchange_line(six)
+
+
 @settings(max_examples=40, deadline=None)
 @given(
     st.lists(

@@ -20,8 +20,9 @@ scored:
 The scores add up over the exchanges seen. The best layout is *inferred* when the lengths
 rule out every layout that would split the words differently, or when it leads all of them
 by a clear margin after at least two exchanges; otherwise it is a *guess* and says so
-(`LayoutSource.GUESSED`). Ties go to the
-common layouts first (PKW 3, then 4, 0, variable; PZD 2 first).
+(`LayoutSource.GUESSED`). While an address has only a guess, a layout clearly inferred for
+another address is preferred if its telegrams allow it: devices on one bus mostly share a
+layout. Ties go to the common layouts first (PKW 3, then 4, 0, variable; PZD 2 first).
 """
 
 from __future__ import annotations
@@ -292,11 +293,30 @@ class LayoutBook:
         if given is not None:
             return LayoutChoice(given, LayoutSource.GIVEN)
         evidence = self._evidence.get(address) if address is not None else None
-        if evidence is not None:
-            best = evidence.best(words)
-            if best is not None:
-                return best
+        best = evidence.best(words) if evidence is not None else None
+        if best is not None and best.source is LayoutSource.INFERRED:
+            return best
+        # Little evidence: devices on one bus mostly share a layout, so a layout inferred for
+        # another address is the better guess, if this address's telegrams allow it.
+        shared = self._shared(address, words, evidence)
+        if shared is not None:
+            return LayoutChoice(shared, LayoutSource.GUESSED)
+        if best is not None:
+            return best
         return None if words is None else _guess_from_length(words)
+
+    def _shared(
+        self, address: int | None, words: int | None, evidence: _Evidence | None
+    ) -> Layout | None:
+        for other, theirs in sorted(self._evidence.items()):
+            if other == address:
+                continue
+            choice = theirs.best(words)
+            if choice is None or choice.source is not LayoutSource.INFERRED:
+                continue
+            if evidence is None or choice.layout in evidence.scores:
+                return choice.layout
+        return None
 
     def broadcast_choice(self, words: int) -> LayoutChoice | None:
         """The layout for a broadcast of ``words`` words (A 3: a broadcast needs a common
