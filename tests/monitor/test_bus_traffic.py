@@ -18,7 +18,7 @@ from monitor.traffic import (
     run_line,
 )
 from pyuss.bus import Fault, FaultKind, FaultPlan
-from pyuss.monitor import Direction, Exchange, LayoutBook, LayoutSource, Problem
+from pyuss.monitor import Direction, Exchange, LayoutBook, LayoutSource, Problem, exchange_line
 from pyuss.protocol import AddressMode, Layout, Pkw, Telegram, bcc
 from pyuss.protocol.timing import char_time
 
@@ -203,6 +203,9 @@ async def test_bad_lengths_addresses_and_starts() -> None:
         [("no_stx", "request")],
         [],
     ]
+    assert "3 bytes: FF 00 13  !! no_stx: first character after the start pause is FFh" in (
+        exchange_line(exchanges[3])
+    )
     # The telegram with the wrong length is still decoded as far as its bytes go.
     assert exchanges[1].request is not None and exchanges[1].request.address == 5
     counters = monitor.summary.line.diagnostics

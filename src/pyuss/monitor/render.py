@@ -35,6 +35,7 @@ __all__ = ["answer_text", "exchange_line", "job_text", "summary_table"]
 _RED, _YELLOW, _RESET = "\x1b[31m", "\x1b[33m", "\x1b[0m"
 _STANDARD_BITS = 11
 _MAX_VALUES = 8
+_NOISE_BYTES = 16
 
 
 def _value(pkw: Pkw, double: bool) -> str:
@@ -217,8 +218,10 @@ def exchange_line(
     """One line for ``ex`` (see the module text). ``origin`` is subtracted from times (or,
     with ``absolute``, added to make them Unix time)."""
     parts = [_time(ex.time, origin, absolute), f"{_where(ex):<8}", f"{_layout(ex):<5}"]
-    if ex.kind == "noise":
-        parts.append(f"{len(ex.request.raw) if ex.request else 0} bytes")
+    if ex.kind == "noise" and ex.request is not None:
+        raw = ex.request.raw
+        shown = raw[:_NOISE_BYTES].hex(" ").upper() + (" .." if len(raw) > _NOISE_BYTES else "")
+        parts.append(f"{len(raw)} bytes: {shown}")
     parts += _net_text(ex)
     if ex.delay is not None:
         parts.append(f"{ex.delay * 1000:.3f} ms")
