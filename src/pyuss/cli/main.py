@@ -16,7 +16,15 @@ from collections.abc import Sequence
 from pyuss import __version__
 from pyuss.errors import UssError
 
-COMMANDS: tuple[str, ...] = ("demo", "decode", "bus", "bass", "ksvario")
+COMMANDS: tuple[str, ...] = (
+    "demo",
+    "decode",
+    "bus",
+    "monitor",
+    "wireshark",
+    "bass",
+    "ksvario",
+)
 
 EXIT_OK = 0
 EXIT_FAILED = 1

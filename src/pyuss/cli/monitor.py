@@ -1,0 +1,525 @@
+"""``uss monitor``: listen to a USS line without ever sending, and decode it.
+
+    uss monitor --port /dev/ttyUSB0 --baud 19200                      # 2-wire, layouts inferred
+    uss monitor --port /dev/ttyUSB0 --baud 19200 --layout 3,2 --layout 7=v,0
+    uss monitor --port /dev/ttyUSB0 --port-rx /dev/ttyUSB1 --baud 9600   # 4-wire: two ports
+    uss monitor --port bus://127.0.0.1:4000 --baud 19200 --write line.pcapng --summary
+    uss monitor --read line.pcapng                                       # replay a capture
+
+Prints one line per exchange (request and answer): time, address, layout, the parameter job
+and its answer in words, control and status words with the bits that changed, setpoint and
+actual value, response delay, and every error after ``!!``; ``(unsure: ...)`` when the
+pairing on a 2-wire line is a guess and a ``?`` after the layout when the layout is. With
+``--json`` one JSON object per exchange instead; with ``--summary`` a table per address
+(A 5.2.3 counters, error rates, response times), refreshed every ``--interval`` seconds.
+At the end the summary table goes to stderr (stdout with ``--summary``).
+
+``--port`` is master to slave (on a 2-wire line: everything), ``--port-rx`` (or a second
+``--port``) slave to master on a 4-wire line. A ``bus://`` station joins the virtual bus
+listen-only. ``--gap MS`` is the idle time that starts a telegram: the start pause of 2
+character times (A 5.1.2) on ``bus://`` (exact timestamps), at least 2 ms on real ports
+(their timestamps come in bursts). ``--write FILE`` saves a capture: ``*.pcapng`` for
+Wireshark (``uss wireshark install``) or ``*.jsonl``; ``--read FILE`` replays one (or a
+``uss bus --record`` recording) through the same decoder.
+
+Runs until Ctrl-C (or SIGTERM, ``--duration``, ``--count``, the end of ``--read``): exit code
+0. A port that fails gives exit code 1, bad arguments or files exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import json
+import os
+import signal
+import sys
+import time
+import urllib.parse
+from collections.abc import Callable, Iterable
+from typing import Any, TextIO
+
+from pyuss.cli.decode import describe
+from pyuss.errors import ConfigError, TelegramError, TransportError
+from pyuss.monitor.capture import CaptureWriter, open_writer, read_capture
+from pyuss.monitor.core import Monitor, default_gap
+from pyuss.monitor.infer import LayoutBook
+from pyuss.monitor.live import replay, watch
+from pyuss.monitor.model import Direction, Exchange, Frame
+from pyuss.monitor.pcapng import check_linktype
+from pyuss.monitor.render import exchange_line, summary_table
+from pyuss.protocol.layout import Layout
+from pyuss.protocol.telegram import AddressMode
+from pyuss.protocol.timing import BAUD_RATES, check_baud
+from pyuss.transport.base import Transport
+from pyuss.transport.url import open_transport
+
+__all__ = ["exchange_json", "frame_json", "register", "run"]
+
+EXIT_OK = 0
+EXIT_FAILED = 1
+EXIT_USAGE = 2
+_CLEAR = "\x1b[H\x1b[2J"
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "monitor",
+        help="listen to a USS line, decode and pair telegrams, write captures",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    source = parser.add_argument_group("what to listen to")
+    source.add_argument(
+        "--port",
+        action="append",
+        default=[],
+        metavar="URL",
+        help="port or URL (serial device, tcp://, bus://); a second --port = --port-rx",
+    )
+    source.add_argument(
+        "--port-rx", metavar="URL", help="4-wire line: the port carrying slave to master"
+    )
+    source.add_argument("--read", metavar="FILE", help="replay a capture or a bus recording")
+    source.add_argument("--baud", type=int, help=f"baud rate ({', '.join(map(str, BAUD_RATES))})")
+    decode = parser.add_argument_group("decoding")
+    decode.add_argument(
+        "-l",
+        "--layout",
+        action="append",
+        default=[],
+        metavar="[ADR=]PKW,PZD",
+        help="net data layout for every address (3,2) or one (5=4,2; 1+2=v,0); others are inferred",
+    )
+    decode.add_argument(
+        "--gap",
+        type=float,
+        metavar="MS",
+        help="idle time that starts a telegram (default: start pause on bus://, "
+        "at least 2 ms on real ports)",
+    )
+    decode.add_argument(
+        "--response-limit",
+        type=float,
+        metavar="MS",
+        help="response delay limit (default 20 ms, at least the start pause; A 5.2.1.1)",
+    )
+    decode.add_argument(
+        "--late-limit",
+        type=float,
+        metavar="MS",
+        help="an answer up to this long after its request counts as late, not missing "
+        "(default 10 x the response limit)",
+    )
+    output = parser.add_argument_group("output")
+    output.add_argument(
+        "-w",
+        "--write",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="write a capture: *.pcapng (Wireshark) or *.jsonl (repeatable)",
+    )
+    output.add_argument(
+        "--linktype",
+        type=int,
+        metavar="N",
+        help="pcapng user link type 147..162 (default 147, LINKTYPE_USER0)",
+    )
+    output.add_argument("--json", action="store_true", help="one JSON object per exchange")
+    output.add_argument(
+        "--summary", action="store_true", help="show the per-address summary table instead"
+    )
+    output.add_argument(
+        "--interval",
+        type=float,
+        default=1.0,
+        metavar="S",
+        help="refresh the summary every S seconds (default 1)",
+    )
+    output.add_argument(
+        "--time",
+        choices=("rel", "abs"),
+        default="rel",
+        help="times relative to the first telegram (default) or wall clock",
+    )
+    output.add_argument(
+        "--color",
+        choices=("auto", "always", "never"),
+        default="auto",
+        help="highlight errors in colour (default: when stdout is a terminal)",
+    )
+    stop = parser.add_argument_group("stopping")
+    stop.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    stop.add_argument("--count", type=int, metavar="N", help="stop after N exchanges")
+    parser.set_defaults(func=run)
+
+
+def frame_json(frame: Frame, layout: Layout | None, origin: float = 0.0) -> dict[str, Any]:
+    """A frame as a JSON-ready dict, times less ``origin``; ``telegram`` is what
+    ``uss decode --json`` gives for its bytes with ``layout`` (None when they hold no whole
+    telegram, there is no layout for them or they do not fit it)."""
+    telegram = None
+    if frame.telegram is not None and layout is not None:
+        direction = "response" if frame.direction is Direction.RESPONSE else "request"
+        try:
+            telegram = describe(frame.raw, layout, direction)
+        except TelegramError:
+            telegram = None
+    return {
+        "start": round(frame.start - origin, 9),
+        "end": round(frame.end - origin, 9),
+        "hex": frame.raw.hex(" ").upper(),
+        "direction": frame.direction.label,
+        "guessed": frame.guessed,
+        "port": frame.port,
+        "address": frame.address,
+        "mode": None if frame.mode is None else frame.mode.label,
+        "fault": None if frame.fault is None else frame.fault.name.lower(),
+        "detail": frame.detail,
+        "telegram": telegram,
+    }
+
+
+def exchange_json(ex: Exchange, *, origin: float = 0.0) -> dict[str, Any]:
+    """An exchange as a JSON-ready dict (the keys are listed in docs/monitor.md)."""
+    decodable = ex.mode in (AddressMode.NORMAL, AddressMode.BROADCAST)
+    layout = ex.layout if decodable else None
+    return {
+        "index": ex.index,
+        "time": round(ex.time - origin, 9),
+        "kind": ex.kind,
+        "address": ex.address,
+        "mode": None if ex.mode is None else ex.mode.label,
+        "layout": None if ex.layout is None else str(ex.layout),
+        "layout_source": None if ex.layout_source is None else ex.layout_source.value,
+        "request": None if ex.request is None else frame_json(ex.request, layout, origin),
+        "answer": None if ex.answer is None else frame_json(ex.answer, layout, origin),
+        "delay_ms": None if ex.delay is None else round(ex.delay * 1000, 6),
+        "problems": [
+            {"problem": i.problem.value, "where": i.where, "text": i.text} for i in ex.issues
+        ],
+        "unsure": ex.unsure or None,
+        "notes": list(ex.notes),
+        "summary": exchange_line(ex, origin=origin),
+    }
+
+
+def _ms(value: float | None, option: str) -> float | None:
+    if value is None:
+        return None
+    if not value > 0 or value != value or value == float("inf"):
+        raise ConfigError(f"{option} {value}: must be a positive number of milliseconds")
+    return value / 1000
+
+
+def _listen_only(url: str) -> str:
+    """A ``bus://`` URL as a listen-only station (the monitor never sends)."""
+    parts = urllib.parse.urlsplit(url)
+    if parts.scheme.lower() != "bus":
+        return url
+    query = urllib.parse.parse_qs(parts.query, keep_blank_values=True)
+    if "listen_only" in query:
+        return url
+    extra = "listen_only=1"
+    return urllib.parse.urlunsplit(parts._replace(query=f"{parts.query}&{extra}".lstrip("&")))
+
+
+class _Output:
+    """Prints exchanges (or keeps the summary), writes captures, counts."""
+
+    def __init__(
+        self,
+        args: argparse.Namespace,
+        monitor: Monitor,
+        writers: list[CaptureWriter],
+        stream: TextIO,
+        epoch: float,
+    ) -> None:
+        self.args = args
+        self.monitor = monitor
+        self.writers = writers
+        self.stream = stream
+        self.epoch = epoch
+        self.origin: float | None = None
+        self.count = 0
+        self.closed = False
+        self.done: Callable[[], None] = lambda: None
+        color = args.color == "always" or (args.color == "auto" and stream.isatty())
+        self.color = color and not args.json
+
+    def __call__(self, exchanges: Iterable[Exchange]) -> None:
+        for ex in exchanges:
+            if self.args.count is not None and self.count >= self.args.count:
+                self.done()
+                return
+            self.count += 1
+            for writer in self.writers:
+                writer.write(ex)
+            if self.origin is None:
+                self.origin = ex.time
+            if not self.args.summary:
+                self.show(self.render(ex) + "\n")
+            if self.args.count is not None and self.count >= self.args.count:
+                self.done()
+        self.show("")
+
+    def show(self, text: str) -> None:
+        """Write to the output; a reader that went away (``| head``) ends the run quietly."""
+        if self.closed:
+            return
+        try:
+            self.stream.write(text)
+            self.stream.flush()
+        except BrokenPipeError:
+            self.closed = True
+            with contextlib.suppress(OSError, ValueError):
+                os.dup2(os.open(os.devnull, os.O_WRONLY), self.stream.fileno())
+            self.done()
+
+    def render(self, ex: Exchange) -> str:
+        assert self.origin is not None
+        if self.args.json:
+            return json.dumps(exchange_json(ex, origin=self.origin))
+        if self.args.time == "abs":
+            return exchange_line(ex, origin=self.epoch, absolute=True, color=self.color)
+        return exchange_line(ex, origin=self.origin, color=self.color)
+
+    def table(self) -> str:
+        now = self.monitor.summary.last if self.monitor.summary.last is not None else 0.0
+        return summary_table(self.monitor.summary, now)
+
+
+def _open_writers(
+    paths: list[str],
+    baud: int,
+    four_wire: bool,
+    epoch: float,
+    linktype: int | None,
+    gap: float,
+) -> list[CaptureWriter]:
+    writers: list[CaptureWriter] = []
+    try:
+        for path in paths:
+            writers.append(
+                open_writer(
+                    path,
+                    baud=baud,
+                    four_wire=four_wire,
+                    epoch=epoch,
+                    linktype=linktype,
+                    gap=gap,
+                )
+            )
+    except ConfigError:
+        for writer in writers:
+            writer.discard()
+        raise
+    return writers
+
+
+def _finish(writers: list[CaptureWriter]) -> None:
+    errors = []
+    for writer in writers:
+        try:
+            writer.close()
+        except ConfigError as exc:
+            errors.append(str(exc))
+    if errors:
+        raise ConfigError("; ".join(errors))
+
+
+def _check(args: argparse.Namespace) -> tuple[list[str], LayoutBook]:
+    ports = list(args.port)
+    if args.port_rx is not None:
+        ports.append(args.port_rx)
+    if args.read is not None and ports:
+        raise ConfigError("give either --read FILE or --port URL, not both")
+    if args.read is None and not ports:
+        raise ConfigError("nothing to listen to: give --port URL (and --port-rx URL) or --read")
+    if len(ports) > 2:
+        raise ConfigError("at most two ports: --port (master to slave) and --port-rx")
+    if ports and args.baud is None:
+        raise ConfigError("--baud is needed with --port")
+    if args.baud is not None:
+        check_baud(args.baud)
+    if args.linktype is not None:
+        check_linktype(args.linktype)
+    if args.count is not None and args.count < 1:
+        raise ConfigError(f"--count {args.count}: must be at least 1")
+    if args.duration is not None and not args.duration > 0:
+        raise ConfigError(f"--duration {args.duration}: must be > 0 seconds")
+    if not args.interval > 0:
+        raise ConfigError(f"--interval {args.interval}: must be > 0 seconds")
+    if len(set(map(os.path.abspath, args.write))) != len(args.write):
+        raise ConfigError("--write: the same file is given twice")
+    return ports, LayoutBook.parse(args.layout)
+
+
+def _monitor(
+    args: argparse.Namespace,
+    baud: int,
+    four_wire: bool,
+    layouts: LayoutBook,
+    gap: float | None,
+    *,
+    exact: bool,
+) -> Monitor:
+    return Monitor(
+        baud,
+        four_wire=four_wire,
+        layouts=layouts,
+        gap=default_gap(baud, exact=exact) if gap is None else gap,
+        response_limit=_ms(args.response_limit, "--response-limit"),
+        late_limit=_ms(args.late_limit, "--late-limit"),
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        ports, layouts = _check(args)
+        if args.read is not None:
+            capture = read_capture(args.read)
+            if args.baud is not None and args.baud != capture.baud:
+                raise ConfigError(
+                    f"--baud {args.baud}: the capture {args.read} is at {capture.baud} baud"
+                )
+            gap = capture.gap if args.gap is None else _ms(args.gap, "--gap")
+            monitor = _monitor(args, capture.baud, False, layouts, gap, exact=True)
+            writers = _open_writers(
+                args.write, capture.baud, capture.four_wire, 0.0, args.linktype, monitor.gap
+            )
+        else:
+            urls = [_listen_only(url) for url in ports]
+            exact = all(urllib.parse.urlsplit(u).scheme.lower() == "bus" for u in urls)
+            gap = _ms(args.gap, "--gap")
+            monitor = _monitor(args, args.baud, len(urls) == 2, layouts, gap, exact=exact)
+            transports: list[Transport] = [open_transport(u, baud=args.baud) for u in urls]
+            epoch = time.time() - time.monotonic()
+            writers = _open_writers(
+                args.write, args.baud, len(urls) == 2, epoch, args.linktype, monitor.gap
+            )
+    except ConfigError as exc:
+        print(f"uss monitor: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    stream = sys.stdout
+    if args.read is not None:
+        output = _Output(args, monitor, writers, stream, 0.0)
+        return _replay(args, capture, monitor, output, writers)
+    output = _Output(args, monitor, writers, stream, epoch)
+    try:
+        code = asyncio.run(_live(args, monitor, transports, urls, output))
+    except BaseException:
+        for writer in writers:
+            writer.discard()
+        raise
+    try:
+        _finish(writers)
+    except ConfigError as exc:
+        print(f"uss monitor: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    if code == EXIT_OK or output.count:
+        _final_summary(args, output)
+    return code
+
+
+def _final_summary(args: argparse.Namespace, output: _Output) -> None:
+    table = output.table()
+    if args.summary:
+        output.show((_CLEAR if output.stream.isatty() else "") + table + "\n")
+    else:
+        print(table, file=sys.stderr)
+
+
+def _replay(
+    args: argparse.Namespace,
+    capture: Any,
+    monitor: Monitor,
+    output: _Output,
+    writers: list[CaptureWriter],
+) -> int:
+    stopped = False
+
+    def done() -> None:
+        nonlocal stopped
+        stopped = True
+
+    output.done = done
+    try:
+        for exchange in replay(capture, monitor):
+            output([exchange])
+            if stopped:
+                break
+        _finish(writers)
+    except ConfigError as exc:
+        for writer in writers:
+            writer.discard()
+        print(f"uss monitor: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except BaseException:
+        for writer in writers:
+            writer.discard()
+        raise
+    _final_summary(args, output)
+    return EXIT_OK
+
+
+async def _live(
+    args: argparse.Namespace,
+    monitor: Monitor,
+    transports: list[Transport],
+    urls: list[str],
+    output: _Output,
+) -> int:
+    stop = asyncio.Event()
+    output.done = stop.set
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+    opened: list[Transport] = []
+    refresher = None
+    try:
+        try:
+            for transport in transports:
+                await transport.open()
+                opened.append(transport)
+        except TransportError as exc:
+            print(f"uss monitor: {exc}", file=sys.stderr)
+            return EXIT_FAILED
+        wiring = "4-wire" if len(urls) == 2 else "2-wire"
+        print(
+            f"uss monitor: listening on {' and '.join(urls)} ({wiring}, {monitor.baud} baud, "
+            f"gap {monitor.gap * 1000:.3f} ms)",
+            file=sys.stderr,
+            flush=True,
+        )
+        if args.duration is not None:
+            loop.call_later(args.duration, stop.set)
+        if args.summary:
+            refresher = asyncio.create_task(_refresh(output, args.interval, stop))
+        try:
+            await watch(monitor, opened, output, stop)
+        except TransportError as exc:
+            print(f"uss monitor: {exc}", file=sys.stderr)
+            return EXIT_FAILED
+        return EXIT_OK
+    finally:
+        if refresher is not None:
+            refresher.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await refresher
+        for transport in opened:
+            with contextlib.suppress(TransportError):
+                await transport.close()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.remove_signal_handler(sig)
+
+
+async def _refresh(output: _Output, interval: float, stop: asyncio.Event) -> None:
+    while not stop.is_set():
+        with contextlib.suppress(TimeoutError):
+            await asyncio.wait_for(stop.wait(), interval)
+        if stop.is_set():
+            return
+        output.show((_CLEAR if output.stream.isatty() else "") + output.table() + "\n\n")

@@ -1,0 +1,404 @@
+"""Capture files: one record per frame, written atomically, read back for replay.
+
+Two formats carry the same information (`CaptureRecord`): pcapng (`pyuss.monitor.pcapng`,
+for Wireshark and the shipped dissector) and JSON lines (`pyuss.monitor.jsonl`, for scripts).
+`open_writer` picks the format by the file name's suffix; `read_capture` by the content, and
+also reads the character recordings of the virtual bus (``uss bus --record``), which carry
+raw characters instead of frames.
+
+Each record holds the frame (bytes, start and end time, direction, receive fault), the flags
+of its exchange (`CaptureFlag`: no answer, late answer, ...) and the layout the monitor decoded
+it with, with where that layout came from. In pcapng the record's fields other than the bytes
+and the start time travel in a 16-byte pseudo-header in front of the telegram
+(`PSEUDO_HEADER`, documented in docs/monitor.md and decoded by the dissector).
+
+Times in files are Unix time (seconds): the writer adds ``epoch`` to the monitor's times.
+
+Files are written to a temporary file next to the target and renamed into place on `close`
+after an fsync; `discard` (or an error) removes the temporary file, so the target name only
+ever holds a complete capture.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import enum
+import os
+import struct
+import tempfile
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Protocol
+
+from pyuss.errors import ConfigError
+from pyuss.monitor.infer import LayoutChoice
+from pyuss.monitor.model import Direction, Exchange, Frame, LayoutSource, Problem, telegram_in
+from pyuss.protocol.diagnostics import FaultKind
+from pyuss.protocol.layout import Layout
+from pyuss.protocol.timing import check_baud
+from pyuss.transport.base import Chunk
+
+__all__ = [
+    "PSEUDO_HEADER",
+    "PSEUDO_VERSION",
+    "Capture",
+    "CaptureFlag",
+    "CaptureRecord",
+    "CaptureWriter",
+    "RecordWriter",
+    "open_writer",
+    "read_capture",
+    "records_of",
+]
+
+PSEUDO_VERSION = 1
+PSEUDO_HEADER = struct.Struct(">BBBBHBBIi")
+"""version, header length, direction, fault, flags, PKW count, PZD count, duration in
+microseconds, response delay in microseconds (answers; ``NO_DELAY`` for none)."""
+NO_FAULT = 0xFF
+NO_LAYOUT = 0xFF
+NO_DELAY = -(2**31)
+_MAX_US = 2**32 - 1
+
+
+class CaptureFlag(enum.IntFlag):
+    """Flags of a captured frame (pseudo-header bytes 4..5, JSON ``flags``)."""
+
+    NONE = 0
+    GUESSED_DIRECTION = 0x0001
+    """The direction comes from timing and position (2-wire line), not from the port."""
+    UNSURE = 0x0002
+    """The pairing of the exchange is a guess (see the exchange's ``unsure``)."""
+    LAYOUT_GIVEN = 0x0004
+    """The layout was given by the user."""
+    LAYOUT_GUESSED = 0x0008
+    """The layout is a guess (neither given nor clearly inferred)."""
+    NO_ANSWER = 0x0010
+    LATE_ANSWER = 0x0020
+    EARLY_ANSWER = 0x0040
+    WRONG_ADDRESS = 0x0080
+    UNEXPECTED = 0x0100
+    MIRROR = 0x0200
+    LAYOUT = 0x0400
+    """The net data do not fit the layout."""
+    PORT_1 = 0x0800
+    """Received on the second port (slave to master on a 4-wire line)."""
+
+
+_PROBLEM_FLAGS = {
+    Problem.NO_ANSWER: CaptureFlag.NO_ANSWER,
+    Problem.LATE_ANSWER: CaptureFlag.LATE_ANSWER,
+    Problem.EARLY_ANSWER: CaptureFlag.EARLY_ANSWER,
+    Problem.WRONG_ADDRESS: CaptureFlag.WRONG_ADDRESS,
+    Problem.UNEXPECTED: CaptureFlag.UNEXPECTED,
+    Problem.MIRROR: CaptureFlag.MIRROR,
+    Problem.LAYOUT: CaptureFlag.LAYOUT,
+}
+
+
+@dataclass(frozen=True, slots=True)
+class CaptureRecord:
+    """One frame of a capture; ``delay`` is the response delay of an answer (seconds)."""
+
+    frame: Frame
+    flags: CaptureFlag = CaptureFlag.NONE
+    layout: LayoutChoice | None = None
+    delay: float | None = None
+
+    def pseudo_header(self) -> bytes:
+        """The 16-byte pseudo-header that precedes the telegram bytes in pcapng."""
+        f = self.frame
+        pkw = pzd = NO_LAYOUT
+        if self.layout is not None:
+            pkw, pzd = self.layout.layout.pkw, self.layout.layout.pzd
+        duration = min(_MAX_US, max(0, round((f.end - f.start) * 1e6)))
+        delay = NO_DELAY
+        if self.delay is not None:
+            delay = max(NO_DELAY + 1, min(2**31 - 1, round(self.delay * 1e6)))
+        return PSEUDO_HEADER.pack(
+            PSEUDO_VERSION,
+            PSEUDO_HEADER.size,
+            int(f.direction),
+            NO_FAULT if f.fault is None else int(f.fault),
+            int(self.flags),
+            pkw,
+            pzd,
+            duration,
+            delay,
+        )
+
+    @classmethod
+    def from_packet(cls, data: bytes, start: float, where: str) -> CaptureRecord:
+        """Parse pseudo-header and telegram bytes; `ConfigError` naming ``where`` if bad."""
+        if len(data) < 2 or data[0] != PSEUDO_VERSION or data[1] < PSEUDO_HEADER.size:
+            raise ConfigError(f"{where}: not a USS capture packet (pseudo-header version 1)")
+        if len(data) < data[1]:
+            raise ConfigError(f"{where}: packet shorter than its pseudo-header")
+        _, size, direction, fault, flags, pkw, pzd, duration, delay = PSEUDO_HEADER.unpack_from(
+            data
+        )
+        raw = bytes(data[size:])
+        try:
+            kind = None if fault == NO_FAULT else FaultKind(fault)
+            side = Direction(direction)
+            layout = None
+            if pkw != NO_LAYOUT:
+                source = (
+                    LayoutSource.GIVEN
+                    if flags & CaptureFlag.LAYOUT_GIVEN
+                    else LayoutSource.GUESSED
+                    if flags & CaptureFlag.LAYOUT_GUESSED
+                    else LayoutSource.INFERRED
+                )
+                layout = LayoutChoice(Layout(pkw, pzd), source)
+        except (ValueError, ConfigError) as exc:
+            raise ConfigError(f"{where}: bad pseudo-header: {exc}") from None
+        return cls.make(
+            raw,
+            start,
+            start + duration / 1e6,
+            side,
+            CaptureFlag(flags),
+            kind,
+            "",
+            layout,
+            None if delay == NO_DELAY else delay / 1e6,
+        )
+
+    @classmethod
+    def make(
+        cls,
+        raw: bytes,
+        start: float,
+        end: float,
+        direction: Direction,
+        flags: CaptureFlag,
+        fault: FaultKind | None,
+        detail: str,
+        layout: LayoutChoice | None,
+        delay: float | None,
+    ) -> CaptureRecord:
+        """A record from its stored fields (the telegram is decoded from ``raw``)."""
+        frame = Frame(
+            raw,
+            start,
+            end,
+            direction=direction,
+            guessed=bool(flags & CaptureFlag.GUESSED_DIRECTION),
+            fault=fault,
+            detail=detail,
+            telegram=telegram_in(raw),
+            port=1 if flags & CaptureFlag.PORT_1 else 0,
+        )
+        return cls(frame, flags, layout, delay)
+
+
+def records_of(exchange: Exchange) -> list[CaptureRecord]:
+    """The capture records of an exchange's frames, in time order."""
+    out = []
+    for frame, where in ((exchange.request, "request"), (exchange.answer, "answer")):
+        if frame is None:
+            continue
+        flags = CaptureFlag.NONE
+        if frame.guessed:
+            flags |= CaptureFlag.GUESSED_DIRECTION
+        if exchange.unsure:
+            flags |= CaptureFlag.UNSURE
+        if frame.port == 1:
+            flags |= CaptureFlag.PORT_1
+        for issue in exchange.issues:
+            flag = _PROBLEM_FLAGS.get(issue.problem)
+            if flag is not None and issue.where in (where, "exchange"):
+                if issue.where == "exchange" and where != "request":
+                    continue
+                flags |= flag
+        layout = None
+        if exchange.layout is not None and exchange.layout_source is not None:
+            layout = LayoutChoice(exchange.layout, exchange.layout_source)
+            if exchange.layout_source is LayoutSource.GIVEN:
+                flags |= CaptureFlag.LAYOUT_GIVEN
+            elif exchange.layout_source is LayoutSource.GUESSED:
+                flags |= CaptureFlag.LAYOUT_GUESSED
+        delay = exchange.delay if where == "answer" else None
+        out.append(CaptureRecord(frame, flags, layout, delay))
+    return out
+
+
+@dataclass(frozen=True, slots=True)
+class Capture:
+    """A capture read back: the line's baud rate, its records (frames), or, for a recording
+    of the virtual bus, its characters as chunks for a receiver."""
+
+    baud: int
+    records: tuple[CaptureRecord, ...] = ()
+    chunks: tuple[Chunk, ...] = ()
+    four_wire: bool = False
+    kind: str = "pcapng"
+    gap: float | None = None
+    """The gap the monitor that wrote the capture framed with (seconds), if known."""
+
+
+class CaptureWriter(Protocol):
+    """What `open_writer` returns."""
+
+    path: Path
+
+    def write(self, exchange: Exchange) -> None: ...
+
+    def close(self) -> None: ...
+
+    def discard(self) -> None: ...
+
+
+class AtomicFile:
+    """A binary file written under a temporary name and renamed into place on `close`."""
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        self.path = Path(path)
+        directory = self.path.parent if str(self.path.parent) else Path(".")
+        try:
+            fd, self._tmp = tempfile.mkstemp(
+                prefix=f".{self.path.name}.", suffix=".tmp", dir=directory
+            )
+        except OSError as exc:
+            raise ConfigError(f"cannot write a capture to {self.path}: {exc}") from None
+        self.file: IO[bytes] | None = os.fdopen(fd, "wb")
+
+    def write(self, data: bytes) -> None:
+        if self.file is None:
+            raise ConfigError(f"capture {self.path} is already closed")
+        self.file.write(data)
+
+    def close(self) -> None:
+        """Sync and rename into place; idempotent."""
+        file, self.file = self.file, None
+        if file is None:
+            return
+        try:
+            file.flush()
+            os.fsync(file.fileno())
+            file.close()
+            os.replace(self._tmp, self.path)
+        except OSError as exc:
+            file.close()
+            with contextlib.suppress(OSError):
+                os.unlink(self._tmp)
+            raise ConfigError(f"cannot finish the capture {self.path}: {exc}") from None
+
+    def discard(self) -> None:
+        """Drop the temporary file; idempotent."""
+        file, self.file = self.file, None
+        if file is not None:
+            file.close()
+            with contextlib.suppress(OSError):
+                os.unlink(self._tmp)
+
+
+class RecordWriter:
+    """Base of the capture writers: an `AtomicFile`, the line's settings and a record count.
+    A subclass writes its header in `__init__` (after calling this one) and implements
+    `write_record`."""
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        baud: int,
+        four_wire: bool = False,
+        epoch: float = 0.0,
+        gap: float | None = None,
+    ) -> None:
+        self.baud = check_baud(baud)
+        self.four_wire = four_wire
+        self.epoch = epoch
+        self.gap = gap
+        self._file = AtomicFile(path)
+        self.path = self._file.path
+        self.packets = 0
+
+    def write(self, exchange: Exchange) -> None:
+        """Write the frames of ``exchange``."""
+        for record in records_of(exchange):
+            self.write_record(record)
+            self.packets += 1
+
+    def write_record(self, record: CaptureRecord) -> None:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Finish the file and rename it into place."""
+        self._file.close()
+
+    def discard(self) -> None:
+        """Drop what was written."""
+        self._file.discard()
+
+
+PCAPNG_SUFFIXES = (".pcapng", ".pcap", ".ntar")
+JSONL_SUFFIXES = (".jsonl", ".json", ".ndjson")
+
+
+def open_writer(
+    path: str | os.PathLike[str],
+    *,
+    baud: int,
+    four_wire: bool = False,
+    epoch: float = 0.0,
+    linktype: int | None = None,
+    gap: float | None = None,
+) -> CaptureWriter:
+    """A capture writer for ``path``: pcapng for ``.pcapng`` (also ``.pcap``, ``.ntar``),
+    JSON lines for ``.jsonl`` (also ``.json``, ``.ndjson``). ``epoch`` is added to frame times
+    to make them Unix time; ``linktype`` is the pcapng user link type (147..162); ``gap`` the
+    monitor's gap (seconds), kept so that a replay judges timing the same way."""
+    from pyuss.monitor import jsonl, pcapng
+
+    suffix = Path(path).suffix.lower()
+    if suffix in PCAPNG_SUFFIXES:
+        return pcapng.PcapngWriter(
+            path,
+            baud=baud,
+            four_wire=four_wire,
+            epoch=epoch,
+            linktype=pcapng.DEFAULT_LINKTYPE if linktype is None else linktype,
+            gap=gap,
+        )
+    if suffix in JSONL_SUFFIXES:
+        if linktype is not None:
+            raise ConfigError("a link type only applies to pcapng captures")
+        return jsonl.JsonlWriter(path, baud=baud, four_wire=four_wire, epoch=epoch, gap=gap)
+    raise ConfigError(
+        f"capture file {str(path)!r}: name it *.pcapng (Wireshark) or *.jsonl (JSON lines)"
+    )
+
+
+def read_capture(path: str | os.PathLike[str]) -> Capture:
+    """Read a pcapng or JSON-lines capture of the monitor, or a recording of the virtual bus;
+    `ConfigError` naming the file and what is wrong otherwise."""
+    from pyuss.monitor import jsonl, pcapng
+
+    name = str(path)
+    try:
+        with open(path, "rb") as file:
+            head = file.read(4)
+    except OSError as exc:
+        raise ConfigError(f"cannot read capture {name}: {exc.strerror or exc}") from None
+    if head == pcapng.SHB_TYPE_BYTES:
+        return pcapng.read_pcapng(path)
+    if head[:1] == b"{":
+        return jsonl.read_jsonl(path)
+    raise ConfigError(
+        f"{name}: not a capture (neither pcapng nor JSON lines of the monitor or the bus)"
+    )
+
+
+def write_all(writer: CaptureWriter, exchanges: Iterable[Exchange]) -> None:
+    """Write ``exchanges`` and close; on any error the partial file is discarded."""
+    try:
+        for exchange in exchanges:
+            writer.write(exchange)
+    except BaseException:
+        writer.discard()
+        raise
+    writer.close()

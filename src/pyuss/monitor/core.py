@@ -1,0 +1,768 @@
+"""The sans-io monitor: timestamped bytes (or frames) in, decoded exchanges out.
+
+`Monitor` never sends and never reads a clock: it is fed what the ports read, with the times
+the transports stamped, and is told when time passes (`Monitor.advance`).
+
+Framing
+    Each port has a `pyuss.protocol.Receiver` whose start pause is the monitor's ``gap``: the
+    idle time that starts a telegram. On the virtual bus timestamps are exact and the gap is
+    the spec's 2 character times (A 5.1.2). Real serial ports stamp bytes in bursts (USB
+    adapters deliver every millisecond or so), so a small gap would cut telegrams apart; the
+    command line uses a larger gap there (`default_gap`). The difference between the gap and
+    the start pause is the monitor's timing *resolution*: timing rules are only enforced
+    beyond it. A run of bytes without a start pause that still holds whole telegrams (an
+    answer that followed faster than the gap) is cut into those telegrams again; if the pause
+    before one was shorter than the start pause less the resolution, it stays a fault
+    (``no_stx``: a slave would discard it), but is still decoded. With a resolution (real
+    ports), an incomplete telegram and the bytes after the pause that cut it are joined again
+    when together they form a telegram with a valid BCC within its residual time (A 6.3) plus
+    the resolution: the pause was the port's, not the line's.
+
+Two ports (4-wire line)
+    Port 0 carries master to slave, port 1 slave to master. Frames of both are merged by the
+    time of their last byte: a frame is passed on only when no port can still produce an
+    earlier one.
+
+Pairing (A 5.1, A 5.2.1.1)
+    A request to an address is answered by the telegram that starts within the response delay
+    limit (20 ms, at least a start pause; plus the resolution) after the request's last byte.
+    On a 4-wire line the port says what is a request and what an answer. On a 2-wire line the
+    monitor goes by timing and position: a telegram with no request open is a request, one
+    that starts within the limit after a request is its answer. When that rule is stretched
+    the exchange says so in ``unsure``: an answer from another address (or a damaged request
+    that was answered), and a late answer: a telegram to the same address after the limit
+    (but within ``late_limit``) that looks like an answer (its PZD1 was seen as a status word
+    of that address before, or its PKW answers the request's job, C Table 4.3) rather than the
+    master repeating itself. A request whose late limit passes without an answer is reported
+    as not answered. Broadcasts expect no answer (A 3); an answer to one, or to nothing, is
+    ``unexpected``. A damaged request expects none either (A 5.2.2).
+
+Counters (A 5.2.3)
+    `Monitor.summary` keeps the 16 diagnostic counters for the line and for each address,
+    with the monitor's own counts and response times (`pyuss.monitor.stats`).
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import replace
+
+from pyuss.errors import ConfigError, TelegramError
+from pyuss.monitor.infer import LayoutBook, LayoutChoice
+from pyuss.monitor.model import (
+    Direction,
+    Exchange,
+    Frame,
+    Issue,
+    LayoutSource,
+    Problem,
+    problem_of,
+    telegram_in,
+)
+from pyuss.monitor.stats import Summary
+from pyuss.protocol.diagnostics import FaultKind
+from pyuss.protocol.layout import Layout, NetData
+from pyuss.protocol.pkw import ResponseId
+from pyuss.protocol.receiver import Event, Received, ReceiveFault, Receiver
+from pyuss.protocol.telegram import (
+    MAX_LGE,
+    MIN_LGE,
+    MIN_TELEGRAM_BYTES,
+    STX,
+    AddressMode,
+    bcc,
+)
+from pyuss.protocol.timing import MAX_RESPONSE_DELAY, LineTiming, check_baud
+from pyuss.transport.base import LineError
+
+__all__ = ["REAL_PORT_GAP", "Monitor", "default_gap"]
+
+REAL_PORT_GAP = 0.002
+"""Smallest idle gap that starts a telegram on a real port (seconds): timestamps of USB serial
+adapters come in bursts about a millisecond apart."""
+_LATE_FACTOR = 10
+_ROUNDING = 1e-8
+_HISTORY = 64
+_EPS = 1e-9
+
+
+def default_gap(baud: int, *, exact: bool) -> float:
+    """The idle gap that starts a telegram: the start pause (A 5.1.2) when timestamps are exact
+    (the virtual bus), else at least `REAL_PORT_GAP`."""
+    start_pause = LineTiming(check_baud(baud)).start_pause
+    return start_pause if exact else max(start_pause, REAL_PORT_GAP)
+
+
+def _ms(seconds: float) -> str:
+    return f"{seconds * 1000:.3f} ms"
+
+
+class _Held:
+    """A frame waiting for the other port (4-wire), ordered by end time."""
+
+    __slots__ = ("frame", "key")
+
+    def __init__(self, frame: Frame, seq: int) -> None:
+        self.frame = frame
+        self.key = (frame.end, seq)
+
+    def __lt__(self, other: _Held) -> bool:
+        return self.key < other.key
+
+
+class Monitor:
+    """Passive USS monitor for one line; see the module text.
+
+    ``baud``: one of the rates of B 2.4. ``four_wire``: two ports, 0 master to slave and 1
+    slave to master. ``layouts``: the given layouts (others are inferred). ``gap``: the idle
+    time that starts a telegram (default: the start pause). ``response_limit``: the response
+    delay limit (default 20 ms, never less than the start pause, A 5.2.1.1). ``late_limit``:
+    how long after a request an answer is still taken as late rather than the request as not
+    answered (default 10 x the response limit).
+    """
+
+    def __init__(
+        self,
+        baud: int,
+        *,
+        four_wire: bool = False,
+        layouts: LayoutBook | None = None,
+        gap: float | None = None,
+        response_limit: float | None = None,
+        late_limit: float | None = None,
+    ) -> None:
+        self.baud = check_baud(baud)
+        self.timing = LineTiming(self.baud)
+        start_pause = self.timing.start_pause
+        for name, value in (("gap", gap), ("response limit", response_limit)):
+            if value is not None and (isinstance(value, bool) or not value > 0):
+                raise ConfigError(f"{name} must be a positive number of seconds, got {value!r}")
+        self.gap = start_pause if gap is None else float(gap)
+        if start_pause - _ROUNDING <= self.gap < start_pause:
+            self.gap = start_pause  # a start pause written to a file with fewer digits
+        if self.gap < start_pause:
+            raise ConfigError(
+                f"gap {_ms(self.gap)} is shorter than the start pause {_ms(start_pause)} at "
+                f"{self.baud} baud (A 5.1.2): characters inside telegrams would start new ones"
+            )
+        self.resolution = self.gap - start_pause
+        limit = MAX_RESPONSE_DELAY if response_limit is None else float(response_limit)
+        self.response_limit = max(limit, start_pause)
+        if late_limit is not None and not late_limit >= self.response_limit:
+            raise ConfigError(
+                f"late limit must be at least the response limit ({_ms(self.response_limit)})"
+            )
+        self.late_limit = _LATE_FACTOR * self.response_limit if late_limit is None else late_limit
+        self.layouts = layouts if layouts is not None else LayoutBook()
+        self.four_wire = four_wire
+        self.ports = 2 if four_wire else 1
+        fixed = self.layouts.fixed_lengths()
+        self._rx = [
+            Receiver(self.baud, start_pause=self.gap, fixed_lengths=fixed)
+            for _ in range(self.ports)
+        ]
+        self._advanced = [-math.inf] * self.ports
+        self._prev_end = [-math.inf] * self.ports
+        self._held: list[_Held] = []
+        self._partial: list[Frame | None] = [None] * self.ports
+        self._seq = itertools.count()
+        self._count = itertools.count(1)
+        self._pending: Frame | None = None
+        self._tail: list[Frame] = []
+        self._last: Frame | None = None
+        self._broadcast: Frame | None = None
+        self._control: dict[int, int] = {}
+        self._status: dict[int, int] = {}
+        self._seen_control: dict[int, set[int]] = {}
+        self._seen_status: dict[int, set[int]] = {}
+        self.summary = Summary()
+
+    # -- timing ----------------------------------------------------------------------------
+
+    @property
+    def answer_window(self) -> float:
+        """An answer that starts this long after the request's end is in time."""
+        return self.response_limit + self.resolution
+
+    @property
+    def early_limit(self) -> float:
+        """An answer that starts sooner than this after the request came without the start
+        pause (A 5.2.1.1: the response delay is never less than the start pause)."""
+        return self.timing.start_pause - self.resolution
+
+    # -- input -----------------------------------------------------------------------------
+
+    def feed(
+        self,
+        data: bytes,
+        timestamp: float,
+        errors: Iterable[tuple[int, LineError]] = (),
+        *,
+        port: int = 0,
+    ) -> list[Exchange]:
+        """Bytes a port read; ``timestamp`` is when the last one was complete (see
+        `pyuss.protocol.Receiver.feed`). Returns the exchanges that are complete now."""
+        self._check_port(port)
+        self._take(port, self._rx[port].feed(data, timestamp, errors))
+        return self._release()
+
+    def advance(self, now: float, *, port: int | None = None) -> list[Exchange]:
+        """Everything a port (every port when None) received up to ``now`` has been fed."""
+        for p in range(self.ports) if port is None else (port,):
+            self._check_port(p)
+            self._take(p, self._rx[p].poll(now))
+            self._advanced[p] = max(self._advanced[p], now)
+        return self._release()
+
+    def add_events(self, events: Sequence[Event], *, port: int = 0) -> list[Exchange]:
+        """Receiver events cut by a receiver of the caller's (the monitor's own receiver for
+        ``port`` is bypassed)."""
+        self._check_port(port)
+        self._take(port, list(events))
+        return self._release()
+
+    def add_frame(self, frame: Frame, layout: LayoutChoice | None = None) -> list[Exchange]:
+        """A frame read back from a capture (frames must come in time order). Its direction is
+        used unless it was guessed; a ``layout`` that was given when the capture was made becomes
+        the address's given layout, unless this monitor was given one."""
+        address = frame.address
+        given = layout is not None and layout.source is LayoutSource.GIVEN
+        if given and address is not None and self.layouts.given(address) is None:
+            assert layout is not None
+            self.layouts.per_address[address] = layout.layout
+        if frame.guessed:
+            frame = replace(frame, direction=Direction.UNKNOWN, guessed=False)
+        out = self._on_frame(frame)
+        out += self._expire(frame.end)
+        return out
+
+    def finish(self) -> list[Exchange]:
+        """The end of the input: report whatever is still open."""
+        for p in range(self.ports):
+            self._take(p, self._rx[p].poll(math.inf))
+            self._advanced[p] = math.inf
+            partial, self._partial[p] = self._partial[p], None
+            if partial is not None:
+                self._queue(p, partial)
+        out = self._release()
+        if self._pending is not None:
+            out += self._unanswered(self._pending)
+        return out
+
+    def _check_port(self, port: int) -> None:
+        if port not in range(self.ports):
+            raise ConfigError(f"port {port!r}: this monitor has {self.ports} port(s)")
+
+    # -- framing ---------------------------------------------------------------------------
+
+    def _take(self, port: int, events: Iterable[Event]) -> None:
+        for event in events:
+            for frame in self._frames(port, event):
+                self._push(port, frame)
+
+    def _queue(self, port: int, frame: Frame) -> None:
+        heapq.heappush(self._held, _Held(frame, next(self._seq)))
+        self._prev_end[port] = frame.end
+
+    def _push(self, port: int, frame: Frame) -> None:
+        """Queue a frame; with a timing resolution (real ports), an incomplete telegram waits
+        for the rest that a late burst cut off (see `_join`)."""
+        partial = self._partial[port]
+        if partial is not None:
+            self._partial[port] = None
+            if self._join(port, partial, frame):
+                return
+            self._queue(port, partial)
+        if self.resolution > 0 and _incomplete(frame):
+            self._partial[port] = frame
+            return
+        self._queue(port, frame)
+
+    def _join_limit(self, partial: Frame) -> float:
+        """Longest a telegram may take from the start of STX (A 6.3), plus the resolution."""
+        return (
+            self.timing.char_time + self.timing.residual_max(partial.raw[1] - 2) + self.resolution
+        )
+
+    def _join(self, port: int, partial: Frame, frame: Frame) -> bool:
+        """Rejoin an incomplete telegram and the bytes after a pause that only the port's
+        timestamps made: when together they form a telegram with a valid BCC within its
+        residual time (A 6.3, plus the resolution), it is one telegram."""
+        if frame.ok or frame.fault not in _JOINABLE:
+            return False
+        raw = partial.raw + frame.raw
+        need = partial.raw[1] + 2
+        limit = self._join_limit(partial)
+        if len(raw) < need:
+            if frame.end - partial.start > limit + _EPS:
+                return False
+            self._partial[port] = replace(partial, raw=raw, end=frame.end)
+            return True
+        piece = raw[:need]
+        telegram = telegram_in(piece)
+        if telegram is None or bcc(piece) != 0:
+            return False
+        taken = need - len(partial.raw)
+        end = frame.end if taken == len(frame.raw) else frame.start + taken * self.timing.char_time
+        if end - partial.start > limit + _EPS:
+            return False
+        self._queue(port, Frame(piece, partial.start, end, telegram=telegram, port=port))
+        rest = raw[need:]
+        if rest:
+            fault = ReceiveFault(
+                FaultKind.NO_STX, rest, end, frame.end, "characters without a start pause"
+            )
+            for piece_frame in self._salvage(port, fault):
+                self._queue(port, piece_frame)
+        return True
+
+    def _frames(self, port: int, event: Event) -> list[Frame]:
+        if isinstance(event, Received):
+            return [Frame(event.raw, event.start, event.end, telegram=event.telegram, port=port)]
+        assert isinstance(event, ReceiveFault)
+        if event.kind is FaultKind.NO_STX:
+            return self._salvage(port, event)
+        return [
+            Frame(
+                event.raw,
+                event.start,
+                event.end,
+                fault=event.kind,
+                detail=event.detail,
+                telegram=telegram_in(event.raw),
+                port=port,
+            )
+        ]
+
+    def _salvage(self, port: int, event: ReceiveFault) -> list[Frame]:
+        """Cut whole telegrams out of a run of bytes without a valid start."""
+        raw, ct = event.raw, self.timing.char_time
+        frames: list[Frame] = []
+        junk_from = 0
+        prev_end = self._prev_end[port]
+        i = 0
+
+        def junk(upto: int) -> None:
+            if upto > junk_from:
+                piece = raw[junk_from:upto]
+                start = event.start + junk_from * ct
+                end = event.end if upto == len(raw) else start + len(piece) * ct
+                detail = event.detail if junk_from == 0 else "characters without a start pause"
+                frames.append(
+                    Frame(piece, start, end, fault=FaultKind.NO_STX, detail=detail, port=port)
+                )
+
+        while i + MIN_TELEGRAM_BYTES <= len(raw):
+            size = raw[i + 1] + 2
+            piece = raw[i : i + size]
+            telegram = telegram_in(piece) if raw[i] == STX else None
+            if telegram is None or bcc(piece) != 0:
+                i += 1
+                continue
+            junk(i)
+            start = event.start + i * ct
+            end = start + size * ct
+            pause = start - (frames[-1].end if frames else prev_end)
+            if pause >= self.early_limit - _EPS:
+                frames.append(Frame(piece, start, end, telegram=telegram, port=port))
+            else:
+                detail = f"no start pause before this telegram ({_ms(max(pause, 0.0))} idle)"
+                frames.append(
+                    Frame(
+                        piece,
+                        start,
+                        end,
+                        fault=FaultKind.NO_STX,
+                        detail=detail,
+                        telegram=telegram,
+                        port=port,
+                    )
+                )
+            i += size
+            junk_from = i
+        junk(len(raw))
+        return frames
+
+    def _watermark(self, port: int) -> float:
+        rx = self._rx[port]
+        mark = rx.last_byte_end if rx.busy else max(rx.last_byte_end, self._advanced[port])
+        partial = self._partial[port]
+        return mark if partial is None else min(mark, partial.end)
+
+    def _release(self) -> list[Exchange]:
+        out: list[Exchange] = []
+        for port, partial in enumerate(self._partial):
+            seen = max(self._rx[port].last_byte_end, self._advanced[port])
+            if partial is not None and seen - partial.start > self._join_limit(partial):
+                self._partial[port] = None
+                self._queue(port, partial)
+        limit = math.inf if self.ports == 1 else min(map(self._watermark, range(self.ports)))
+        while self._held and self._held[0].frame.end <= limit + _EPS:
+            out += self._on_frame(heapq.heappop(self._held).frame)
+        if any(rx.busy for rx in self._rx) or any(self._partial):
+            return out
+        now = min(self._watermark(p) for p in range(self.ports))
+        if self._held:
+            now = min(now, self._held[0].frame.start)
+        out += self._expire(now)
+        return out
+
+    # -- pairing ---------------------------------------------------------------------------
+
+    def _expire(self, now: float) -> list[Exchange]:
+        p = self._pending
+        if p is None:
+            return []
+        window = self.late_limit if p.ok else self.answer_window
+        if now - p.end > window + _EPS:
+            return self._unanswered(p)
+        return []
+
+    def _on_frame(self, frame: Frame) -> list[Exchange]:
+        out = self._expire(frame.start)
+        if frame.direction is Direction.UNKNOWN and self.four_wire:
+            side = Direction.REQUEST if frame.port == 0 else Direction.RESPONSE
+            frame = replace(frame, direction=side)
+        last = self._last
+        if (
+            frame.telegram is None
+            and last is not None
+            and last.port == frame.port
+            and frame.start - last.end < self.early_limit - _EPS
+        ):
+            # Bytes that follow a frame without a start pause: the same sender's tail.
+            return out + self._noise(replace(frame, direction=last.direction, guessed=last.guessed))
+        if frame.direction is Direction.RESPONSE:
+            return out + self._on_answer(frame)
+        if frame.direction is Direction.REQUEST:
+            return out + self._on_request(frame)
+        return out + self._on_two_wire(frame)
+
+    def _noise(self, frame: Frame) -> list[Exchange]:
+        """Bytes that form no telegram and answer nothing: after the open request, if any."""
+        self._last = frame
+        if self._pending is not None:
+            self._tail.append(frame)
+            return []
+        return [self._build(frame, None)]
+
+    def _on_two_wire(self, frame: Frame) -> list[Exchange]:
+        p = self._pending
+        as_request = replace(frame, direction=Direction.REQUEST, guessed=True)
+        if p is None or (frame.mode is not None and frame.mode.is_broadcast):
+            return self._on_request(as_request)
+        answer = replace(frame, direction=Direction.RESPONSE, guessed=True)
+        delay = frame.start - p.end
+        if delay <= self.answer_window + _EPS:
+            unsure = ""
+            if not p.ok:
+                if frame.address is not None and frame.address != p.address:
+                    return self._on_request(as_request)
+                unsure = (
+                    "the request was damaged on the line; this came within the response delay "
+                    "limit, so it is taken as the answer"
+                )
+            elif frame.address is not None and frame.address != p.address:
+                if self._pzd1_seen(frame, self._seen_control, self._seen_status):
+                    return self._on_request(as_request)  # the master did not wait
+                unsure = (
+                    f"a telegram to address {frame.address} came within the response delay "
+                    f"limit after a request to address {p.address}; taken as a wrong answer"
+                )
+            return self._pair(p, answer, unsure)
+        if p.ok and self._looks_like_answer(p, frame):
+            unsure = (
+                "came after the response delay limit from the same address and looks like "
+                "an answer; taken as a late answer, not a new request"
+            )
+            return self._pair(p, answer, unsure)
+        return self._on_request(as_request)
+
+    def _on_request(self, frame: Frame) -> list[Exchange]:
+        if frame.telegram is None:
+            return self._noise(frame)
+        out: list[Exchange] = []
+        if self._pending is not None:
+            note = ""
+            if frame.start - self._pending.end <= self.answer_window:
+                note = "the master sent its next telegram before the response delay limit"
+            out += self._unanswered(self._pending, note)
+        self._last = frame
+        if frame.telegram.mode.is_broadcast:
+            if frame.ok:
+                self._broadcast = frame
+            out.append(self._build(frame, None))
+        else:
+            self._pending = frame
+        return out
+
+    def _on_answer(self, frame: Frame) -> list[Exchange]:
+        p = self._pending
+        if p is not None:
+            return self._pair(p, frame, "")
+        if frame.telegram is None:
+            return self._noise(frame)
+        self._last = frame
+        b = self._broadcast
+        if b is not None and 0 <= frame.start - b.end <= self.late_limit:
+            why = (
+                f"an answer {_ms(frame.start - b.end)} after a broadcast, which no slave may "
+                "answer (A 3)"
+            )
+        else:
+            why = "an answer without a request"
+        return [self._build(None, frame, [Issue(Problem.UNEXPECTED, "answer", why)])]
+
+    def _close(self, exchange: Exchange) -> list[Exchange]:
+        """The open request is done: its exchange, then the bytes that followed it."""
+        self._pending = None
+        tail, self._tail = self._tail, []
+        return [exchange, *(self._build(frame, None) for frame in tail)]
+
+    def _pair(self, request: Frame, answer: Frame, unsure: str) -> list[Exchange]:
+        self._last = answer
+        issues: list[Issue] = []
+        delay = answer.start - request.end
+        if delay > self.answer_window + _EPS:
+            issues.append(
+                Issue(
+                    Problem.LATE_ANSWER,
+                    "answer",
+                    f"the answer began {_ms(delay)} after the request, later than the response "
+                    f"delay limit of {_ms(self.response_limit)} (A 5.2.1.1)",
+                )
+            )
+        elif delay < self.early_limit - _EPS:
+            issues.append(
+                Issue(
+                    Problem.EARLY_ANSWER,
+                    "answer",
+                    f"the answer began {_ms(delay)} after the request, sooner than the start "
+                    f"pause of {_ms(self.timing.start_pause)} (A 5.2.1.1)",
+                )
+            )
+        rq, an = request.telegram, answer.telegram
+        if rq is not None and an is not None:
+            if an.address != rq.address:
+                issues.append(
+                    Issue(
+                        Problem.WRONG_ADDRESS,
+                        "answer",
+                        f"answer from address {an.address} to a request to address {rq.address}",
+                    )
+                )
+            elif rq.mode is AddressMode.MIRROR and answer.raw != request.raw:
+                issues.append(
+                    Issue(
+                        Problem.MIRROR,
+                        "answer",
+                        "the answer to a mirror telegram is not the same bytes (A 5.3)",
+                    )
+                )
+        return self._close(self._build(request, answer, issues, unsure))
+
+    def _unanswered(self, request: Frame, note: str = "") -> list[Exchange]:
+        issues: list[Issue] = []
+        if request.ok:
+            issues.append(
+                Issue(
+                    Problem.NO_ANSWER,
+                    "exchange",
+                    f"address {request.address} did not answer within "
+                    f"{_ms(self.response_limit)} (A 5.2.1.1)",
+                )
+            )
+        return self._close(self._build(request, None, issues, notes=(note,) if note else ()))
+
+    def _looks_like_answer(self, request: Frame, frame: Frame) -> bool:
+        rq, tg = request.telegram, frame.telegram
+        if rq is None or tg is None or frame.fault is not None:
+            return False
+        if tg.address != rq.address or tg.mode is not rq.mode or frame.raw == request.raw:
+            return False
+        if rq.mode is not AddressMode.NORMAL:
+            return False
+        choice = self.layouts.choice(rq.address, len(tg.data) // 2)
+        if choice is None:
+            return False
+        req, ans = _unpack(choice.layout, rq.data), _unpack(choice.layout, tg.data)
+        if req is None or ans is None:
+            return False
+        if self._pzd1_seen(frame, self._seen_status, self._seen_control):
+            return True
+        if self._pzd1_seen(frame, self._seen_control, self._seen_status):
+            return False
+        if req.pkw is not None and ans.pkw is not None and ans.pkw != req.pkw:
+            return ans.pkw.is_answer_to(req.pkw)
+        return False
+
+    def _pzd1_seen(
+        self, frame: Frame, seen: dict[int, set[int]], not_in: dict[int, set[int]]
+    ) -> bool:
+        """Whether the PZD1 of ``frame`` was seen for its address in ``seen`` (control or
+        status words) and never in ``not_in``: a hint which way a telegram went."""
+        tg = frame.telegram
+        if tg is None or frame.fault is not None or tg.mode is not AddressMode.NORMAL:
+            return False
+        choice = self.layouts.choice(tg.address, len(tg.data) // 2)
+        data = None if choice is None or len(tg.data) % 2 else _unpack(choice.layout, tg.data)
+        if data is None or not data.pzd:
+            return False
+        word = data.pzd[0]
+        return word in seen.get(tg.address, ()) and word not in not_in.get(tg.address, ())
+
+    # -- decoding --------------------------------------------------------------------------
+
+    def _choose(self, frame: Frame, address: int | None) -> LayoutChoice | None:
+        tg = frame.telegram
+        if tg is None or tg.mode not in (AddressMode.NORMAL, AddressMode.BROADCAST):
+            return None
+        if len(tg.data) % 2:
+            return None
+        words = len(tg.data) // 2
+        if tg.mode is AddressMode.BROADCAST:
+            return self.layouts.broadcast_choice(words)
+        return self.layouts.choice(address if address is not None else tg.address, words)
+
+    def _decode(
+        self, frame: Frame | None, address: int | None, issues: list[Issue], where: str
+    ) -> tuple[NetData | None, LayoutChoice | None]:
+        if frame is None or frame.telegram is None:
+            return None, None
+        choice = self._choose(frame, address)
+        if choice is None:
+            odd = len(frame.telegram.data) % 2
+            if frame.fault is None and frame.telegram.mode is AddressMode.NORMAL and odd:
+                issues.append(
+                    Issue(
+                        Problem.LAYOUT,
+                        where,
+                        f"{len(frame.telegram.data)} net bytes are not whole words (A 4)",
+                    )
+                )
+            return None, None
+        try:
+            return choice.layout.unpack(frame.telegram.data), choice
+        except TelegramError as exc:
+            if frame.fault is None:  # a damaged frame has its fault already
+                issues.append(Issue(Problem.LAYOUT, where, str(exc)))
+            return None, choice
+
+    def _learn(self, request: Frame | None, answer: Frame | None) -> None:
+        """Feed good normal telegrams to the layout inference."""
+        if request is None or not request.ok or request.mode is not AddressMode.NORMAL:
+            return
+        assert request.telegram is not None
+        rq = request.telegram.data
+        if len(rq) % 2:
+            return
+        words = _words(rq)
+        answer_words = None
+        if answer is not None and answer.ok and answer.address == request.address:
+            assert answer.telegram is not None
+            if len(answer.telegram.data) % 2 == 0:
+                answer_words = _words(answer.telegram.data)
+        self.layouts.observe(request.telegram.address, words, answer_words)
+
+    def _build(
+        self,
+        request: Frame | None,
+        answer: Frame | None,
+        extra: Sequence[Issue] = (),
+        unsure: str = "",
+        notes: Sequence[str] = (),
+    ) -> Exchange:
+        issues: list[Issue] = []
+        for frame, where in ((request, "request"), (answer, "answer")):
+            if frame is not None and frame.fault is not None:
+                issues.append(Issue(problem_of(frame.fault), where, frame.detail))
+        issues += extra
+        address = next((f.address for f in (request, answer) if f and f.address is not None), None)
+        self._learn(request, answer)
+        request_data, choice = self._decode(request, address, issues, "request")
+        answer_address = answer.address if answer is not None else None
+        answer_data, answer_choice = self._decode(answer, answer_address, issues, "answer")
+        choice = choice or answer_choice
+        all_notes = list(notes)
+        control_before = status_before = None
+        if address is not None and request is not None:
+            control_before = self._control.get(address)
+            if request.ok and request_data is not None and request_data.pzd:
+                self._note(address, request_data.pzd[0], self._control, self._seen_control)
+        if answer_address is not None and answer is not None:
+            status_before = self._status.get(answer_address)
+            if answer.ok and answer_data is not None and answer_data.pzd:
+                self._note(answer_address, answer_data.pzd[0], self._status, self._seen_status)
+        if request_data is not None and answer_data is not None:
+            all_notes += _job_notes(request_data, answer_data)
+        delay = None
+        if request is not None and answer is not None:
+            delay = answer.start - request.end
+        exchange = Exchange(
+            request,
+            answer,
+            address=address,
+            layout=None if choice is None else choice.layout,
+            layout_source=None if choice is None else choice.source,
+            request_data=request_data,
+            answer_data=answer_data,
+            delay=delay,
+            issues=tuple(issues),
+            unsure=unsure,
+            notes=tuple(all_notes),
+            control_before=control_before,
+            status_before=status_before,
+            index=next(self._count),
+        )
+        self.summary.record(exchange, self)
+        return exchange
+
+    @staticmethod
+    def _note(address: int, word: int, last: dict[int, int], seen: dict[int, set[int]]) -> None:
+        last[address] = word
+        values = seen.setdefault(address, set())
+        if len(values) < _HISTORY:
+            values.add(word)
+
+
+_JOINABLE = (FaultKind.NO_STX, FaultKind.RESIDUAL_TIME, FaultKind.BAD_LGE, FaultKind.BCC)
+
+
+def _incomplete(frame: Frame) -> bool:
+    """An incomplete telegram without line errors: STX, a valid LGE, too few bytes."""
+    raw = frame.raw
+    return (
+        frame.fault is FaultKind.RESIDUAL_TIME
+        and len(raw) >= 2
+        and raw[0] == STX
+        and MIN_LGE <= raw[1] <= MAX_LGE
+        and len(raw) < raw[1] + 2
+    )
+
+
+def _words(data: bytes) -> tuple[int, ...]:
+    return tuple(int.from_bytes(data[i : i + 2], "big") for i in range(0, len(data), 2))
+
+
+def _unpack(layout: Layout, data: bytes) -> NetData | None:
+    try:
+        return layout.unpack(data)
+    except TelegramError:
+        return None
+
+
+def _job_notes(request: NetData, answer: NetData) -> list[str]:
+    job, reply = request.pkw, answer.pkw
+    if job is None or reply is None:
+        return []
+    rid = ResponseId(reply.id)
+    if rid.is_spontaneous:
+        return ["spontaneous message (C 4.2.1.2)"]
+    if reply.is_answer_to(job):
+        return []
+    if rid is ResponseId.NO_RESPONSE:
+        return ["no response yet: the slave is still working on the job (C 4.2.1.1)"]
+    return ["the answer belongs to an earlier job (C 4.2.1.1)"]

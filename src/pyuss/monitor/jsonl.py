@@ -1,0 +1,162 @@
+"""JSON-lines captures of a USS line: a header line, then one line per frame.
+
+::
+
+    {"format": "pyuss-monitor-capture", "version": 1, "baud": 19200, "four_wire": false,
+     "gap_ms": 2.0}                                                      (one line in the file)
+    {"start": 1700000000.0123, "end": 1700000000.0203, "hex": "02 0C 05 ...",
+     "direction": "request", "port": 0, "fault": null, "detail": "", "flags": ["guessed_direction"],
+     "layout": "3,2", "layout_source": "inferred", "delay_ms": null}    (one line in the file)
+
+``start``/``end``: Unix time of the start of the first and the end of the last character;
+``direction``: ``request``, ``response`` or ``unknown``; ``fault``: the receive fault
+(``bcc``, ``parity``, ... as `pyuss.protocol.FaultKind` names in lower case) or null;
+``flags``: `pyuss.monitor.capture.CaptureFlag` names in lower case; ``layout``: ``PKW,PZD``
+the monitor decoded the frame with (null if none) and ``layout_source`` where it came from
+(``given``, ``inferred``, ``guessed``); ``delay_ms``: the response delay of an answer. The
+header's ``gap_ms`` is the idle time the monitor framed telegrams with.
+
+`read_jsonl` also reads the character recordings of the virtual bus
+(``pyuss-bus-recording``, `pyuss.bus.recorder`): they come back as chunks for a receiver.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+from pyuss.bus.recorder import FORMAT as BUS_FORMAT
+from pyuss.bus.recorder import load_recording
+from pyuss.errors import ConfigError
+from pyuss.monitor.capture import Capture, CaptureFlag, CaptureRecord, RecordWriter
+from pyuss.monitor.infer import LayoutChoice
+from pyuss.monitor.model import Direction, LayoutSource
+from pyuss.protocol.diagnostics import FaultKind
+from pyuss.protocol.layout import Layout
+from pyuss.protocol.timing import check_baud
+
+__all__ = ["FORMAT", "VERSION", "JsonlWriter", "read_jsonl"]
+
+FORMAT = "pyuss-monitor-capture"
+VERSION = 1
+
+
+def record_json(record: CaptureRecord, epoch: float = 0.0) -> dict[str, Any]:
+    """One frame line of a JSON-lines capture."""
+    frame = record.frame
+    layout = record.layout
+    return {
+        "start": round(frame.start + epoch, 9),
+        "end": round(frame.end + epoch, 9),
+        "hex": frame.raw.hex(" ").upper(),
+        "direction": frame.direction.label,
+        "port": frame.port,
+        "fault": None if frame.fault is None else frame.fault.name.lower(),
+        "detail": frame.detail,
+        "flags": [f.name.lower() for f in CaptureFlag if f and f.name and f in record.flags],
+        "layout": None if layout is None else str(layout.layout),
+        "layout_source": None if layout is None else layout.source.value,
+        "delay_ms": None if record.delay is None else round(record.delay * 1000, 6),
+    }
+
+
+def record_from_json(item: Any) -> CaptureRecord:
+    """Parse one frame line (`ValueError`, `KeyError` or `TypeError` when it is bad)."""
+    if not isinstance(item, dict):
+        raise ValueError("not a JSON object")
+    raw = bytes.fromhex(str(item["hex"]))
+    start, end = float(item["start"]), float(item["end"])
+    direction = Direction[str(item.get("direction", "unknown")).upper()]
+    fault = item.get("fault")
+    kind = None if fault is None else FaultKind[str(fault).upper()]
+    flags = CaptureFlag.NONE
+    for name in item.get("flags", []):
+        flags |= CaptureFlag[str(name).upper()]
+    if item.get("port", 0) == 1:
+        flags |= CaptureFlag.PORT_1
+    layout = None
+    if item.get("layout") is not None:
+        source = LayoutSource(item.get("layout_source") or "guessed")
+        layout = LayoutChoice(Layout.parse(str(item["layout"])), source)
+    delay = item.get("delay_ms")
+    return CaptureRecord.make(
+        raw,
+        start,
+        end,
+        direction,
+        flags,
+        kind,
+        str(item.get("detail", "")),
+        layout,
+        None if delay is None else float(delay) / 1000,
+    )
+
+
+class JsonlWriter(RecordWriter):
+    """Writes exchanges as JSON lines (see the module text), atomically."""
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        baud: int,
+        four_wire: bool = False,
+        epoch: float = 0.0,
+        gap: float | None = None,
+    ) -> None:
+        super().__init__(path, baud=baud, four_wire=four_wire, epoch=epoch, gap=gap)
+        header: dict[str, Any] = {
+            "format": FORMAT,
+            "version": VERSION,
+            "baud": baud,
+            "four_wire": four_wire,
+        }
+        if gap is not None:
+            header["gap_ms"] = round(gap * 1000, 6)
+        self._file.write((json.dumps(header) + "\n").encode())
+
+    def write_record(self, record: CaptureRecord) -> None:
+        line = json.dumps(record_json(record, self.epoch), separators=(", ", ": "))
+        self._file.write((line + "\n").encode())
+
+
+def read_jsonl(path: str | os.PathLike[str]) -> Capture:
+    """Read a JSON-lines capture of the monitor or a recording of the virtual bus."""
+    name = str(path)
+    try:
+        lines = Path(path).read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read capture {name}: {exc}") from None
+    try:
+        header = json.loads(lines[0]) if lines else None
+    except json.JSONDecodeError:
+        header = None
+    if isinstance(header, dict) and header.get("format") == BUS_FORMAT:
+        recording = load_recording(path)
+        return Capture(recording.baud, chunks=tuple(recording.chunks()), kind="bus recording")
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
+        raise ConfigError(f"{name}:1: not a capture (no {FORMAT} or {BUS_FORMAT} header)")
+    if header.get("version") != VERSION:
+        raise ConfigError(f"{name}:1: capture version {header.get('version')!r} is unknown")
+    try:
+        baud = check_baud(header.get("baud"))  # type: ignore[arg-type]
+    except ConfigError as exc:
+        raise ConfigError(f"{name}:1: {exc}") from None
+    records = []
+    for number, line in enumerate(lines[1:], start=2):
+        if not line.strip():
+            continue
+        try:
+            records.append(record_from_json(json.loads(line)))
+        except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
+            raise ConfigError(f"{name}:{number}: bad frame: {exc}") from None
+    gap = header.get("gap_ms")
+    return Capture(
+        baud,
+        tuple(records),
+        four_wire=bool(header.get("four_wire")),
+        kind="JSON lines",
+        gap=float(gap) / 1000 if isinstance(gap, int | float) and gap > 0 else None,
+    )

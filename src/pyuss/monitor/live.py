@@ -1,0 +1,81 @@
+"""Running a `Monitor` on transports (live) or on a capture (replay).
+
+`watch` reads every transport in its own task and feeds what comes to the monitor; when a
+port is quiet it tells the monitor that time has passed (`Monitor.advance`), ``lag``
+seconds behind the transport's clock, because bytes on the wire reach the program late (USB
+adapters, the event loop): a chunk stamped before ``clock() - lag`` is taken to have
+arrived by then. It never writes to a transport.
+
+`replay` runs a capture through a monitor: frames of a monitor capture are paired and decoded
+again, characters of a bus recording are framed first.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from collections.abc import Callable, Iterator, Sequence
+
+from pyuss.monitor.capture import Capture
+from pyuss.monitor.core import Monitor
+from pyuss.monitor.model import Exchange
+from pyuss.transport.base import Transport
+
+__all__ = ["LAG", "TICK", "replay", "watch"]
+
+LAG = 0.05
+"""How far behind the clock the monitor is told time has passed (seconds)."""
+TICK = 0.02
+"""How often a quiet port tells the monitor that time passes (seconds)."""
+
+
+async def watch(
+    monitor: Monitor,
+    transports: Sequence[Transport],
+    on_exchanges: Callable[[list[Exchange]], None],
+    stop: asyncio.Event,
+    *,
+    lag: float = LAG,
+    tick: float = TICK,
+) -> None:
+    """Feed ``transports`` (port 0, port 1) to ``monitor`` until ``stop`` is set, handing
+    every batch of finished exchanges to ``on_exchanges``; then report what is still open.
+    A `pyuss.errors.TransportError` of a port ends the watch and is raised."""
+    if len(transports) != monitor.ports:
+        raise ValueError(f"the monitor has {monitor.ports} port(s), got {len(transports)}")
+
+    async def read(port: int, transport: Transport) -> None:
+        while not stop.is_set():
+            chunk = await transport.read(tick)
+            if chunk is not None:
+                out = monitor.feed(chunk.data, chunk.timestamp, chunk.errors, port=port)
+            else:
+                out = monitor.advance(transport.clock() - lag, port=port)
+            if out:
+                on_exchanges(out)
+
+    tasks = [asyncio.create_task(read(i, t)) for i, t in enumerate(transports)]
+    stopper = asyncio.create_task(stop.wait())
+    try:
+        done, _ = await asyncio.wait([*tasks, stopper], return_when=asyncio.FIRST_COMPLETED)
+        for task in done:
+            if task is not stopper:
+                task.result()  # a port failed: raise its error
+    finally:
+        for task in [*tasks, stopper]:
+            task.cancel()
+        for task in [*tasks, stopper]:
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+    out = monitor.finish()
+    if out:
+        on_exchanges(out)
+
+
+def replay(capture: Capture, monitor: Monitor) -> Iterator[Exchange]:
+    """The exchanges of ``capture`` as ``monitor`` decodes them, in order."""
+    for chunk in capture.chunks:
+        yield from monitor.feed(chunk.data, chunk.timestamp, chunk.errors)
+    for record in capture.records:
+        yield from monitor.add_frame(record.frame, record.layout)
+    yield from monitor.finish()

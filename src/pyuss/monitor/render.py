@@ -1,0 +1,302 @@
+"""Exchanges and summaries for people: one line per exchange, and a table.
+
+The line of an exchange reads, left to right::
+
+    TIME  ADR  LAYOUT  JOB -> ANSWER  CW .. SP ..  SW .. AV ..  DELAY  !! PROBLEMS  (unsure: ..)
+
+- TIME: seconds since the first frame (or absolute, wall clock, with ``absolute=True``).
+- ADR: ``adr 5``; ``adr 7 mirror``, ``adr 3 special``, ``broadcast``.
+- LAYOUT: ``3,2``; a trailing ``?`` when the layout is a guess (`LayoutSource.GUESSED`).
+- JOB -> ANSWER: the parameter job and the answer in words (C 4, Tables 4.1..4.3).
+- CW/SW: control and status word (PZD1, C 5.2.1) with the bits that changed since the last
+  telegram of that address (``+ON -NO_OFF2``; the first time the bits that are set);
+  SP/AV: setpoint and actual value (PZD2) in percent of 4000h (C 5.2.2); more PZD in hex.
+- DELAY: the response delay (A 5.2.1.1).
+- ``!!`` then every problem as ``name: what`` (receive faults, no answer, late answer, wrong
+  address, ...); ``(unsure: ...)`` when the pairing on a 2-wire line is a guess.
+
+With colours (a terminal), problems are red and guesses yellow.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+
+from pyuss.errors import TelegramError
+from pyuss.monitor.model import Exchange, LayoutSource
+from pyuss.monitor.stats import Summary
+from pyuss.protocol.layout import NetData
+from pyuss.protocol.pkw import INDEX_ALL, Pkw, RequestId, ResponseId, error_meaning
+from pyuss.protocol.pzd import ControlWord, StatusWord, raw16_to_percent
+from pyuss.protocol.telegram import AddressMode
+
+__all__ = ["answer_text", "exchange_line", "job_text", "summary_table"]
+
+_RED, _YELLOW, _RESET = "\x1b[31m", "\x1b[33m", "\x1b[0m"
+_STANDARD_BITS = 11
+_MAX_VALUES = 8
+_NOISE_BYTES = 16
+
+
+def _value(pkw: Pkw, double: bool) -> str:
+    try:
+        if double:
+            value = pkw.dword()
+            return f"{value} ({value:08X}h)"
+        word = pkw.word()
+    except TelegramError:
+        return _words(pkw.values)
+    return f"{word} ({word:04X}h)"
+
+
+def _words(values: tuple[int, ...]) -> str:
+    shown = " ".join(f"{w:04X}h" for w in values[:_MAX_VALUES])
+    return shown + (f" .. ({len(values)} words)" if len(values) > _MAX_VALUES else "")
+
+
+def _sub(pkw: Pkw) -> str:
+    return "all" if pkw.subindex == INDEX_ALL else str(pkw.subindex)
+
+
+_DWORD_JOBS = {
+    RequestId.WRITE_DWORD,
+    RequestId.WRITE_ARRAY_DWORD,
+    RequestId.WRITE_ARRAY_DWORD_EEPROM,
+    RequestId.WRITE_DWORD_EEPROM,
+}
+_EEPROM_JOBS = {
+    RequestId.WRITE_ARRAY_DWORD_EEPROM,
+    RequestId.WRITE_ARRAY_WORD_EEPROM,
+    RequestId.WRITE_DWORD_EEPROM,
+    RequestId.WRITE_WORD_EEPROM,
+}
+
+
+def job_text(pkw: Pkw) -> str:
+    """A parameter job (request, C Table 4.1) in words."""
+    rid = RequestId(pkw.id)
+    p, sub = f"P{pkw.pnu}", _sub(pkw)
+    if rid is RequestId.NO_JOB:
+        return "no job"
+    if rid is RequestId.READ_VALUE:
+        return f"read {p}"
+    if rid is RequestId.READ_PBE_ELEMENT:
+        return f"read {p} description[{sub}]"
+    if rid is RequestId.WRITE_PBE_ELEMENT:
+        return f"write {p} description[{sub}] = {_words(pkw.values)}"
+    if rid is RequestId.READ_ARRAY:
+        return f"read {p}[{sub}]"
+    if rid is RequestId.READ_ARRAY_COUNT:
+        return f"read {p} array length"
+    if rid is RequestId.RESERVED_10:
+        return f"reserved request 10 {p}"
+    if rid is RequestId.TEXT:
+        write = bool(pkw.index & 0x0100)
+        field = " value texts" if pkw.index & 0x0200 else ""
+        if write:
+            return f"write text {p}[{sub}]{field} = {pkw.text()!r}"
+        return f"read text {p}[{sub}]{field}"
+    verb = "write+store" if rid in _EEPROM_JOBS else "write"
+    target = f"{p}[{sub}]" if rid.is_indexed else p
+    return f"{verb} {target} = {_value(pkw, rid in _DWORD_JOBS)}"
+
+
+def answer_text(pkw: Pkw) -> str:
+    """An answer (response, C Table 4.2) in words."""
+    aid = ResponseId(pkw.id)
+    p, sub = f"P{pkw.pnu}", _sub(pkw)
+    double = aid in (
+        ResponseId.VALUE_DWORD,
+        ResponseId.ARRAY_DWORD,
+        ResponseId.SPONTANEOUS_DWORD,
+        ResponseId.SPONTANEOUS_ARRAY_DWORD,
+    )
+    if aid is ResponseId.NO_RESPONSE:
+        return "no response"
+    if aid is ResponseId.REFUSED:
+        number = pkw.error_number
+        if number is None:
+            return "REFUSED (no error number)"
+        return f"REFUSED error {number}: {error_meaning(number)}"
+    if aid is ResponseId.NO_AUTHORITY:
+        return "NO AUTHORITY: no parameter change rights"
+    if aid in (ResponseId.RESERVED_13, ResponseId.RESERVED_14):
+        return f"reserved response {aid.value} {p}"
+    if aid is ResponseId.PBE_ELEMENT:
+        return f"{p} description[{sub}] = {_words(pkw.values)}"
+    if aid is ResponseId.ARRAY_COUNT:
+        return f"{p} array length {_value(pkw, False)}"
+    if aid is ResponseId.TEXT:
+        return f"text {p}[{sub}] = {pkw.text()!r}"
+    spont = "spontaneous " if aid.is_spontaneous else ""
+    target = f"{p}[{sub}]" if aid.is_indexed else p
+    if pkw.subindex == INDEX_ALL and aid.is_indexed:
+        return f"{spont}{target} = {_words(pkw.values)}"
+    return f"{spont}{target} = {_value(pkw, double)}"
+
+
+def _bits(word: int, before: int | None, flags: type[ControlWord] | type[StatusWord]) -> str:
+    if before is None:
+        names = [f.name for f in flags(word) if f.name and f.value < 1 << _STANDARD_BITS]
+        return "(" + " ".join(names) + ")" if names else ""
+    changed = word ^ before
+    parts = []
+    for bit in range(16):
+        if changed >> bit & 1:
+            parts.append(("+" if word >> bit & 1 else "-") + str(flags(1 << bit).name))
+    return "(" + " ".join(parts) + ")" if parts else ""
+
+
+def _pzd_text(data: NetData, before: int | None, request: bool) -> str:
+    if not data.pzd:
+        return ""
+    word = data.pzd[0]
+    first, value = ("CW", "SP") if request else ("SW", "AV")
+    flags = ControlWord if request else StatusWord
+    parts = [f"{first} {word:04X}h{_bits(word, before, flags)}"]
+    if len(data.pzd) > 1:
+        parts.append(f"{value} {raw16_to_percent(data.pzd[1]):.2f}%")
+    parts += [f"PZD{i} {w:04X}h" for i, w in enumerate(data.pzd[2:], 3)]
+    return " ".join(parts)
+
+
+def _where(ex: Exchange) -> str:
+    mode = ex.mode
+    if mode is not None and mode.is_broadcast:
+        return "broadcast" if mode is AddressMode.BROADCAST else "special broadcast"
+    if ex.address is None:
+        return "adr ?"
+    suffix = {AddressMode.MIRROR: " mirror", AddressMode.SPECIAL: " special"}.get(mode, "")  # type: ignore[arg-type]
+    return f"adr {ex.address}{suffix}"
+
+
+def _layout(ex: Exchange) -> str:
+    if ex.layout is None:
+        return "-"
+    return f"{ex.layout}{'?' if ex.layout_source is LayoutSource.GUESSED else ''}"
+
+
+def _net_text(ex: Exchange) -> list[str]:
+    """Job -> answer and the PZD texts."""
+    mode = ex.mode
+    if mode in (AddressMode.MIRROR, AddressMode.SPECIAL, AddressMode.SPECIAL_BROADCAST):
+        frames = ex.frames
+        first = next((f for f in frames if f.telegram is not None), None)
+        if first is None or first.telegram is None:
+            return []
+        text = f"data {first.telegram.data.hex(' ').upper() or '-'}"
+        if mode is AddressMode.MIRROR and ex.answer is not None and ex.request is not None:
+            text += " mirrored" if ex.answer.raw == ex.request.raw else " NOT mirrored"
+        return [text]
+    parts: list[str] = []
+    rq, an = ex.request_data, ex.answer_data
+    job = rq.pkw if rq is not None else None
+    reply = an.pkw if an is not None else None
+    if job is not None or reply is not None:
+        left = job_text(job) if job is not None else "?"
+        if ex.answer is None:
+            parts.append(left)
+        else:
+            parts.append(f"{left} -> {answer_text(reply) if reply is not None else '?'}")
+    if rq is not None and (text := _pzd_text(rq, ex.control_before, True)):
+        parts.append(text)
+    if an is not None and (text := _pzd_text(an, ex.status_before, False)):
+        parts.append(text)
+    return parts
+
+
+def _time(seconds: float, origin: float, absolute: bool) -> str:
+    if absolute:
+        stamp = _dt.datetime.fromtimestamp(seconds + origin)
+        return stamp.strftime("%H:%M:%S.%f")
+    return f"{seconds - origin:12.6f}"
+
+
+def exchange_line(
+    ex: Exchange, *, origin: float = 0.0, absolute: bool = False, color: bool = False
+) -> str:
+    """One line for ``ex`` (see the module text). ``origin`` is subtracted from times (or,
+    with ``absolute``, added to make them Unix time)."""
+    parts = [_time(ex.time, origin, absolute), f"{_where(ex):<8}", f"{_layout(ex):<5}"]
+    if ex.kind == "noise" and ex.request is not None:
+        raw = ex.request.raw
+        shown = raw[:_NOISE_BYTES].hex(" ").upper() + (" .." if len(raw) > _NOISE_BYTES else "")
+        parts.append(f"{len(raw)} bytes: {shown}")
+    parts += _net_text(ex)
+    if ex.delay is not None:
+        parts.append(f"{ex.delay * 1000:.3f} ms")
+    parts += list(ex.notes)
+    line = "  ".join(parts)
+    if ex.issues:
+        problems = "!! " + "; ".join(f"{i.problem.value}: {i.text}" for i in ex.issues)
+        line += "  " + (f"{_RED}{problems}{_RESET}" if color else problems)
+    if ex.unsure:
+        unsure = f"(unsure: {ex.unsure})"
+        line += "  " + (f"{_YELLOW}{unsure}{_RESET}" if color else unsure)
+    return line
+
+
+_COLUMNS = (
+    ("adr", 5),
+    ("layout", 13),
+    ("req", 7),
+    ("ans", 7),
+    ("noans", 6),
+    ("late", 5),
+    ("wrong", 6),
+    ("err%", 6),
+    ("status", 7),
+    ("good/min", 9),
+    ("disc/min", 9),
+    ("frame", 6),
+    ("ovr", 4),
+    ("par", 4),
+    ("stx", 4),
+    ("resid", 6),
+    ("bcc", 4),
+    ("lge", 4),
+    ("tmo", 4),
+    ("resp ms min/avg/p95/max", 0),
+)
+
+
+def summary_table(summary: Summary, now: float) -> str:
+    """The summary as a table: one row per address and one for the whole line (A 5.2.3
+    counters, error rates, response times)."""
+
+    def ms(value: float | None) -> str:
+        return "-" if value is None else f"{value:.2f}"
+
+    header = " ".join(f"{name:<{width}}" if width else name for name, width in _COLUMNS)
+    lines = [header.rstrip()]
+    for row in summary.rows(now):
+        c, r = row["counters"], row["response_time"]
+        cells = (
+            "line" if row["address"] is None else str(row["address"]),
+            row["layout"] or "-",
+            row["requests"],
+            row["answers"],
+            row["no_answer"],
+            row["late"],
+            row["wrong_address"],
+            f"{row['error_rate'] * 100:.1f}",
+            f"{row['error_status']:04X}h",
+            c["good_per_minute"],
+            c["discarded_per_minute"],
+            c["framing"],
+            c["overrun"],
+            c["parity"],
+            c["no_stx"],
+            c["residual_time"],
+            c["bcc"],
+            c["bad_lge"],
+            c["timeout"],
+            "/".join(ms(r[k]) for k in ("min_ms", "mean_ms", "p95_ms", "max_ms")),
+        )
+        lines.append(
+            " ".join(
+                f"{cell!s:<{width}}" if width else str(cell)
+                for cell, (_, width) in zip(cells, _COLUMNS, strict=True)
+            ).rstrip()
+        )
+    return "\n".join(lines)

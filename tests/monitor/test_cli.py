@@ -1,0 +1,307 @@
+"""``uss monitor`` and ``uss wireshark`` as a user runs them: on captures, and for real on
+``bus://`` stations, a pty and two ports of a 4-wire line, in a separate process."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from monitor.traffic import REQ_52, Slave, Wire, answer, drive, request
+from pyuss.bus import VirtualBus
+from pyuss.cli.main import main
+from pyuss.monitor import LayoutBook, Monitor, dissector_source, open_writer, read_capture
+from pyuss.protocol import Layout, Pkw
+
+BAUD = 38400
+TIMEOUT = 30
+JOBS = [REQ_52, request(5, Pkw(2, 18, values=(0x7000,))), request(5, Pkw(1, 99))]
+EXCHANGE_KEYS = {
+    "index",
+    "time",
+    "kind",
+    "address",
+    "mode",
+    "layout",
+    "layout_source",
+    "request",
+    "answer",
+    "delay_ms",
+    "problems",
+    "unsure",
+    "notes",
+    "summary",
+}
+FRAME_KEYS = {
+    "start",
+    "end",
+    "hex",
+    "direction",
+    "guessed",
+    "port",
+    "address",
+    "mode",
+    "fault",
+    "detail",
+    "telegram",
+}
+
+
+def _silent_for_99(tg: object) -> bytes | None:
+    from monitor.traffic import echo_job
+
+    job = Layout(3, 2).unpack(tg.data).pkw  # type: ignore[attr-defined]
+    return None if job is not None and job.pnu == 99 else echo_job()(tg)  # type: ignore[arg-type]
+
+
+SLAVES = [Slave(5, _silent_for_99, delay=0.004)]
+
+
+def _capture(path: Path) -> None:
+    monitor = Monitor(19200, layouts=LayoutBook(Layout(3, 2)))
+    wire = Wire(monitor)
+    wire.send(REQ_52, 0.01)
+    wire.send(answer(5, Pkw(1, 52, values=(16384,))), 0.004)
+    wire.send(request(5, Pkw(1, 53)), 0.01)
+    bad = bytearray(answer(5, Pkw(1, 53, values=(1,))))
+    bad[-1] ^= 0x10
+    wire.send(bytes(bad), 0.004)
+    wire.send(request(5, Pkw(1, 54)), 0.01)
+    writer = open_writer(path, baud=19200, gap=monitor.gap)
+    for ex in wire.finish():
+        writer.write(ex)
+    writer.close()
+
+
+def test_read_prints_one_line_per_exchange(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "line.pcapng"
+    _capture(path)
+    assert main(["monitor", "--read", str(path)]) == 0
+    out, err = capsys.readouterr()
+    lines = out.splitlines()
+    assert len(lines) == 3
+    assert lines[0].split()[0] == "0.000000"
+    assert "adr 5" in lines[0] and "read P52 -> P52 = 16384 (4000h)" in lines[0]
+    assert "4.000 ms" in lines[0] and "!!" not in lines[0]
+    assert "!! bcc: BCC is" in lines[1]
+    assert "!! no_answer: address 5 did not answer within 20.000 ms" in lines[2]
+    assert err.splitlines()[0].startswith("adr   layout")
+    assert err.splitlines()[1].startswith("5     3,2 given")
+
+
+def test_read_json_and_convert(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "line.pcapng"
+    _capture(path)
+    out_path = tmp_path / "copy.jsonl"
+    code = main(["monitor", "--read", str(path), "--json", "--count", "2", "-w", str(out_path)])
+    assert code == 0
+    items = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert len(items) == 2
+    first, second = items
+    assert set(first) == EXCHANGE_KEYS and set(first["request"]) == FRAME_KEYS
+    assert first["kind"] == "exchange" and first["problems"] == []
+    assert first["request"]["telegram"]["pkw"]["pnu"] == 52
+    assert first["answer"]["telegram"]["pkw"]["values"] == [0, 16384][1:]
+    assert first["answer"]["telegram"]["pzd1"]["kind"] == "status"
+    assert first["delay_ms"] == pytest.approx(4.0, abs=0.001)  # durations are stored in µs
+    assert second["problems"][0]["problem"] == "bcc"
+    assert second["answer"]["fault"] == "bcc"
+    copy = read_capture(out_path)
+    assert len(copy.records) == 4  # two exchanges, four frames
+
+
+def test_summary_view(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "line.pcapng"
+    _capture(path)
+    assert main(["monitor", "--read", str(path), "--summary"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split()[:4] == ["adr", "layout", "req", "ans"]
+    row = out[1].split()
+    # address 5: 3 requests, 2 answers, 1 without answer; status bits 4 (BCC) and 7 (timeout)
+    assert row[:2] == ["5", "3,2"] and row[3:6] == ["3", "2", "1"]
+    assert "0090h" in out[1]
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        ([], "nothing to listen to"),
+        (["--port", "/dev/null"], "--baud is needed"),
+        (["--port", "x", "--baud", "1234"], "not a USS baud rate"),
+        (["--port", "x", "--baud", "9600", "--layout", "3,3,3"], "bad layout"),
+        (["--port", "x", "--baud", "9600", "-w", "out.txt"], "*.pcapng"),
+        (["--port", "x", "--baud", "9600", "--linktype", "1"], "user link type"),
+        (["--port", "x", "--baud", "19200", "--gap", "0.1"], "shorter than the start pause"),
+        (["--port", "a", "--port", "b", "--port-rx", "c", "--baud", "9600"], "at most two"),
+        (["--port", "a", "--read", "b"], "either --read"),
+        (["--read", "/nonexistent/capture.pcapng"], "cannot read capture"),
+        (["--read", "x", "--count", "0"], "--count 0"),
+        (["--port", "tcp://", "--baud", "9600"], "HOST:PORT"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(
+    args: list[str], words: str, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    assert main(["monitor", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert words in err
+    assert len(err.splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unreachable_port_fails_with_1(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["monitor", "--port", "/nonexistent/ttyUSB9", "--baud", "9600"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "uss monitor:" in err and len(err.splitlines()) == 1
+
+
+async def _start(*args: str) -> asyncio.subprocess.Process:
+    proc = await asyncio.create_subprocess_exec(
+        sys.executable,
+        "-m",
+        "pyuss.cli.main",
+        "monitor",
+        *args,
+        stdout=asyncio.subprocess.PIPE,
+        stderr=asyncio.subprocess.PIPE,
+    )
+    assert proc.stderr is not None
+    line = await asyncio.wait_for(proc.stderr.readline(), TIMEOUT)
+    assert b"listening on" in line, line
+    return proc
+
+
+async def _json_lines(proc: asyncio.subprocess.Process) -> tuple[list[dict[str, object]], str]:
+    out, err = await asyncio.wait_for(proc.communicate(), TIMEOUT)
+    assert proc.returncode == 0, err
+    return [json.loads(line) for line in out.decode().splitlines()], err.decode()
+
+
+def _check_exchanges(items: list[dict[str, object]]) -> None:
+    assert [i["kind"] for i in items] == ["exchange", "exchange", "request"]
+    assert [[p["problem"] for p in i["problems"]] for i in items] == [  # type: ignore[attr-defined]
+        [],
+        [],
+        ["no_answer"],
+    ]
+    assert all(i["address"] == 5 for i in items)
+    assert "read P52 -> P52 = 1234" in str(items[0]["summary"])
+    assert "write P18 = 28672 (7000h) -> P18 = 1234" in str(items[1]["summary"])
+
+
+async def test_live_on_a_bus_station_writes_a_capture(tmp_path: Path) -> None:
+    bus = VirtualBus(BAUD)
+    host, port = await bus.serve_tcp(framed=True)
+    capture = tmp_path / "live.pcapng"
+    proc = await _start(
+        "--port", f"bus://{host}:{port}", "--baud", str(BAUD), "--json", "--count", "3",
+        "--layout", "3,2", "-w", str(capture),
+    )  # fmt: skip
+    await drive(bus, bus, JOBS, SLAVES)
+    items, err = await _json_lines(proc)
+    await bus.close()
+    _check_exchanges(items)
+    assert all(i["request"]["guessed"] for i in items)  # type: ignore[index]
+    assert "adr" in err  # the summary table
+    records = read_capture(capture).records
+    assert [r.frame.raw for r in records[:2]] == [REQ_52, records[1].frame.raw]
+    assert len(records) == 5
+
+
+async def test_live_on_a_pty_with_real_port_timing(tmp_path: Path) -> None:
+    bus = VirtualBus(BAUD)
+    (path,) = await bus.serve_pty(1)
+    # The bus hands characters to the pty as its event loop gets round to it, so the pty's
+    # timestamps are as coarse as a real adapter's, or worse when the machine is busy: a
+    # generous --gap, as a user would give for such a port.
+    proc = await _start("--port", path, "--baud", str(BAUD), "--json", "--count", "3", "--gap", "5")
+    await asyncio.sleep(0.2)  # the monitor's reader is running
+    await drive(bus, bus, JOBS, SLAVES)
+    items, _ = await _json_lines(proc)
+    await bus.close()
+    _check_exchanges(items)
+    # Layouts are inferred: the first exchange alone is a guess.
+    assert items[0]["layout"] == "3,2"
+
+
+async def test_live_four_wire_on_two_ports() -> None:
+    tx, rx = VirtualBus(BAUD), VirtualBus(BAUD)
+    tx_host, tx_port = await tx.serve_tcp(framed=True)
+    rx_host, rx_port = await rx.serve_tcp(framed=True)
+    proc = await _start(
+        "--port", f"bus://{tx_host}:{tx_port}", "--port-rx", f"bus://{rx_host}:{rx_port}",
+        "--baud", str(BAUD), "--json", "--count", "3", "--layout", "5=3,2",
+    )  # fmt: skip
+    await drive(tx, rx, JOBS, SLAVES)
+    items, _ = await _json_lines(proc)
+    await tx.close()
+    await rx.close()
+    _check_exchanges(items)
+    first = items[0]
+    assert first["request"]["port"] == 0 and first["answer"]["port"] == 1  # type: ignore[index]
+    assert not first["request"]["guessed"]  # type: ignore[index]
+
+
+async def test_sigint_is_a_normal_stop(tmp_path: Path) -> None:
+    bus = VirtualBus(BAUD)
+    host, port = await bus.serve_tcp(framed=True)
+    capture = tmp_path / "live.jsonl"
+    proc = await _start("--port", f"bus://{host}:{port}", "--baud", str(BAUD), "-w", str(capture))
+    await drive(bus, bus, JOBS[:1], SLAVES)
+    await asyncio.sleep(0.3)
+    proc.send_signal(signal.SIGINT)
+    out, err = await asyncio.wait_for(proc.communicate(), TIMEOUT)
+    await bus.close()
+    assert proc.returncode == 0, err
+    assert "read P52 -> P52 = 1234" in out.decode()
+    assert len(read_capture(capture).records) == 2
+    assert [p.name for p in tmp_path.iterdir()] == ["live.jsonl"]
+
+
+def test_wireshark_path_and_install(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["wireshark", "path"]) == 0
+    shipped = Path(capsys.readouterr().out.strip())
+    assert shipped == dissector_source() and shipped.read_text().startswith("-- USS")
+    target = tmp_path / "plugins"
+    assert main(["wireshark", "install", "--dir", str(target)]) == 0
+    out, err = capsys.readouterr()
+    assert Path(out.strip()) == target / "uss.lua"
+    assert (target / "uss.lua").read_bytes() == shipped.read_bytes()
+    assert "installed" in err
+    assert main(["wireshark", "install", "--dir", str(target)]) == 0
+    assert "already up to date" in capsys.readouterr().err
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    assert main(["wireshark", "install", "--dir", str(blocker / "sub")]) == 1
+    assert "cannot install" in capsys.readouterr().err
+
+
+def test_a_reader_that_goes_away_ends_the_run_quietly(tmp_path: Path) -> None:
+    monitor = Monitor(19200, layouts=LayoutBook(Layout(3, 2)))
+    wire = Wire(monitor)
+    for pnu in range(2000):
+        wire.send(request(5, Pkw(1, pnu)), 0.01)
+        wire.send(answer(5, Pkw(1, pnu, values=(pnu,))), 0.003)
+    path = tmp_path / "big.jsonl"
+    writer = open_writer(path, baud=19200)
+    for ex in wire.finish():
+        writer.write(ex)
+    writer.close()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pyuss.cli.main", "monitor", "--read", str(path)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert proc.stdout is not None
+    assert b"read P0 -> P0 = 0" in proc.stdout.readline()
+    proc.stdout.close()  # like `| head -1`
+    _, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0
+    assert b"Traceback" not in err and b"BrokenPipe" not in err

@@ -1,0 +1,161 @@
+"""tshark (Debian's package, installed by ``make test``) decodes a capture the monitor wrote,
+with the shipped Lua dissector: every field of the telegram, PKW, PZD and the pseudo-header."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from conftest import load_vectors
+from monitor.traffic import REQ_52, Wire
+from pyuss.monitor import LayoutBook, Monitor, dissector_source, open_writer
+from pyuss.protocol import Layout
+from pyuss.protocol.layout import PKW_VARIABLE
+
+TSHARK = shutil.which("tshark")
+IN_CI = bool(os.environ.get("CI"))
+pytestmark = pytest.mark.skipif(
+    TSHARK is None and not IN_CI,
+    reason="tshark is not installed (make test installs it: .ci/system-deps); in CI it must run",
+)
+V = {v["name"]: bytes.fromhex(v["hex"]) for v in load_vectors("uss")["telegrams"]}
+BAUD = 19200
+FIELDS = [
+    "uss.direction",
+    "uss.address",
+    "uss.mode",
+    "uss.lge",
+    "uss.pke.request",
+    "uss.pke.response",
+    "uss.pnu",
+    "uss.ind.subindex",
+    "uss.pwe",
+    "uss.value",
+    "uss.error",
+    "uss.text",
+    "uss.cw",
+    "uss.sw",
+    "uss.setpoint",
+    "uss.actual",
+    "uss.bcc.ok",
+    "uss.fault",
+    "uss.flags.guessed_direction",
+    "uss.flags.no_answer",
+    "uss.delay",
+    "uss.layout.pkw",
+    "uss.layout.pzd",
+]
+
+
+def _capture(path: Path) -> None:
+    """The monitor decodes the spec's examples (one monitor per layout) into one capture."""
+    writer = open_writer(path, baud=BAUD, epoch=1.7e9)
+    t = 100.0
+    bad = bytearray(V["read_word_response"])
+    bad[-1] ^= 0x01
+    parts: list[tuple[Layout, list[tuple[bytes, float]]]] = [
+        (
+            Layout(3, 2),
+            [
+                (V["read_word_request"], 0.01),
+                (V["read_word_response"], 0.004),
+                (V["read_whole_pbe_request"], 0.01),
+                (V["read_whole_pbe_refused"], 0.0035),
+                (V["mirror_request"], 0.01),
+                (V["mirror_request"], 0.004),
+                (REQ_52, 0.01),
+                (bytes(bad), 0.004),
+                (REQ_52, 0.01),  # not answered
+                (b"\xff\xfe", 0.08),  # noise
+            ],
+        ),
+        (
+            Layout(4, 0),
+            [(V["write_array_dword_request"], 0.01), (V["write_array_dword_response"], 0.002)],
+        ),
+        (
+            Layout(PKW_VARIABLE, 0),
+            [(V["read_text_request"], 0.01), (V["read_text_response"], 0.005)],
+        ),
+        (Layout(0, 2), [(V["pzd_only_request"], 0.01), (V["pzd_only_response"], 0.006)]),
+    ]
+    for layout, sends in parts:
+        wire = Wire(Monitor(BAUD, layouts=LayoutBook(layout)), t=t)
+        for data, gap in sends:
+            wire.send(data, gap)
+        for exchange in wire.finish():
+            writer.write(exchange)
+        t = wire.t + 1.0
+    writer.close()
+
+
+# One row per packet: the fields above, occurrences joined by commas ("" = absent).
+EXPECTED = [
+    "1|5|0|12|1||52|0|0x0000||||0x047e||0||1|255|1|0||3|2",
+    "2|5|0|12||1|52|0|0x4000|16384||||0x0231||0|1|255|1|0|4000|3|2",
+    "1|5|0|12|4||52|255|0x0000||||0x047e||0||1|255|1|0||3|2",
+    "2|5|0|12||7|52|255|0x0067||103|||0x0231||0|1|255|1|0|3500|3|2",
+    "1|7|2|12|||||||||||||1|255|1|0||255|255",
+    "2|7|2|12|||||||||||||1|255|1|0|4000|255|255",
+    "1|5|0|12|1||52|0|0x0000||||0x047e||0||1|255|1|0||3|2",
+    "2|5|0|12||1|52|0|0x4000|16384||||0x0231||0|0|4|1|0|4000|3|2",
+    "1|5|0|12|1||52|0|0x0000||||0x047e||0||1|255|1|1||3|2",
+    "1|||||||||||||||||3|1|0||255|255",
+    "1|5|0|10|8||4|2|0x4000,0x0000|1073741824|||||||1|255|1|0||4|0",
+    "2|5|0|10||5|4|2|0x4000,0x0000|1073741824|||||||1|255|1|0|2000|4|0",
+    "1|5|0|8|15||7|3|0x0000||||||||1|255|1|0||127|0",
+    "2|5|0|22||15|7|3|0x3330,0x3020,0x4241,0x5544,0x2020,0x2020,0x2020,0x2020|||"
+    "300 BAUD        |||||1|255|1|0|5000|127|0",
+    "1|5|0|6|||||||||0x047f||8192||1|255|1|0||0|2",
+    "2|5|0|6||||||||||0x0337||8192|1|255|1|0|6000|0|2",
+]
+
+
+def _tshark(path: Path, home: Path, *args: str) -> str:
+    assert TSHARK is not None, "tshark must be installed in CI (make test installs it)"
+    env = {**os.environ, "HOME": str(home), "XDG_CONFIG_HOME": str(home / "config")}
+    result = subprocess.run(
+        [TSHARK, "-r", str(path), "-X", f"lua_script:{dissector_source()}", *args],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "Lua: Error" not in result.stderr, result.stderr
+    return result.stdout
+
+
+def test_tshark_prints_the_fields(tmp_path: Path) -> None:
+    path = tmp_path / "line.pcapng"
+    _capture(path)
+    columns = [arg for field in FIELDS for arg in ("-e", field)]
+    out = _tshark(
+        path, tmp_path, "-T", "fields", "-E", "separator=|", "-E", "occurrence=a", *columns
+    )
+    assert out.splitlines() == EXPECTED
+
+
+def test_tshark_info_column_and_expert_info(tmp_path: Path) -> None:
+    path = tmp_path / "line.pcapng"
+    _capture(path)
+    lines = _tshark(path, tmp_path, "-T", "fields", "-e", "_ws.col.Info").splitlines()
+    assert lines[0] == "Request adr 5: read parameter value (1), PNU 52, CW 047E, SP 0.00%"
+    assert lines[1].startswith("Response adr 5: parameter value (word) (1), PNU 52 = 16384")
+    assert "error 103" in lines[3]
+    assert "[wrong BCC]" in lines[7]
+    assert "[no_answer]" in lines[8]
+    assert "'300 BAUD'" in lines[13]
+    assert lines[9].startswith("Request: 2 bytes")
+    # A filter on a decoded field works, and so does one on an expert item.
+    refused = _tshark(
+        path, tmp_path, "-Y", "uss.pke.response == 7", "-T", "fields", "-e", "frame.number"
+    )
+    assert refused.split() == ["4"]
+    bad = _tshark(path, tmp_path, "-Y", "uss.bcc.ok == 0", "-T", "fields", "-e", "frame.number")
+    assert bad.split() == ["8"]
