@@ -83,3 +83,9 @@ def test_baumueller_attribute_info_min_max() -> None:
         with pytest.raises(ParameterFault) as info:
             drive.description_element(183, number)
         assert info.value.number == DriveErrorNumber.NO_SUCH_ELEMENT  # 104
+
+
+def test_limits_of_a_parameter_with_allowed_values_are_their_extremes() -> None:
+    drive = ParameterMemory(load_profile("baumueller"))
+    assert drive.description_element(183, 5).words == (0,)
+    assert drive.description_element(183, 6).words == (4,)  # allowed 0, 3, 4

@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from conftest import load_vectors
-from pyuss.drive.database import load_profile, parse_database
+from pyuss.drive.database import Access, builtin_profiles, load_profile, parse_database
+from pyuss.drive.database import Parameter as ParameterSpec
+from pyuss.drive.datatypes import DataType
 from pyuss.drive.faults import DriveErrorNumber, NoWriteAuthority, ParameterFault
 from pyuss.drive.memory import LOCAL, WHOLE_ARRAY, ParameterChange, ParameterMemory
 from pyuss.protocol.pkw import ErrorNumber
@@ -204,3 +208,30 @@ def test_update_ignores_limits_but_not_the_type(drive: ParameterMemory) -> None:
     drive.update(52, 0x0100)  # below the 5FFFh display limit: a display shows what is
     assert drive.value(52) == 0x0100
     assert fault_number(drive.update, 52, 0x8000) == ErrorNumber.LIMIT_EXCEEDED
+
+
+def _values_of(param: ParameterSpec) -> st.SearchStrategy[object]:
+    if param.allowed is not None:
+        return st.sampled_from(param.allowed)
+    if param.dtype is DataType.FLOAT:
+        return st.floats(float(param.low), float(param.high), width=32)
+    if param.dtype is DataType.VISIBLE_STRING:
+        alphabet = st.characters(min_codepoint=0x20, max_codepoint=0x7E)
+        return st.text(alphabet, max_size=param.length)
+    if param.dtype is DataType.OCTET_STRING:
+        return st.binary(max_size=param.length)
+    return st.integers(int(param.low), int(param.high))
+
+
+@settings(max_examples=80)
+@given(data=st.data())
+def test_every_writable_value_round_trips_through_pkw_words(data: st.DataObject) -> None:
+    drive = ParameterMemory(load_profile(data.draw(st.sampled_from(builtin_profiles()))))
+    candidates = [p for p in drive.db if p.access is Access.RW and not p.reset_only]
+    param = data.draw(st.sampled_from(candidates))
+    value = param.check_write(data.draw(_values_of(param)))
+    index = None if param.array is None else drive.db.profile.index_base + param.array - 1
+    words = param.to_words(value)
+    assert drive.write_words(param.pnu, words, index, interface="uss") == words
+    assert drive.read_words(param.pnu, index) == words
+    assert drive.value(param.pnu, index) == value

@@ -201,12 +201,17 @@ class Parameter:
 
     @property
     def low(self) -> int | float:
-        """The effective lower limit (the type's when none is declared)."""
-        return self.dtype.type_range[0] if self.minimum is None else self.minimum
+        """The effective lower limit: ``min``, else the smallest allowed value, else the type's."""
+        if self.minimum is not None:
+            return self.minimum
+        return self.dtype.type_range[0] if self.allowed is None else min(self.allowed)
 
     @property
     def high(self) -> int | float:
-        return self.dtype.type_range[1] if self.maximum is None else self.maximum
+        """The effective upper limit: ``max``, else the largest allowed value, else the type's."""
+        if self.maximum is not None:
+            return self.maximum
+        return self.dtype.type_range[1] if self.allowed is None else max(self.allowed)
 
     def to_words(self, value: Value) -> tuple[int, ...]:
         """PKW words of one value."""

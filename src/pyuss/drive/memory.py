@@ -492,6 +492,8 @@ class ParameterMemory:
         for position, _, value in updates:
             changed |= values[position] != value
             values[position] = value
+        if changed:
+            self._changed(param.pnu)
         if not (param.active and changed):
             return
         if whole:
@@ -507,6 +509,9 @@ class ParameterMemory:
                     param.pnu, index, param.to_words(value), param.word_count == 2, interface
                 )
             )
+
+    def _changed(self, pnu: int) -> None:
+        """Called after a value of ``pnu`` changed (for subclasses that cache settings)."""
 
     def _stock_text_or_slot(self, param: ParameterSpec, y: int, second: bool) -> None:
         """A text may be changed where a text element exists or could exist (an index of the

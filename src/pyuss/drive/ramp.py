@@ -18,17 +18,21 @@ def rate_of(ramp_time: float) -> float:
     return math.inf if ramp_time <= 0 else 1.0 / ramp_time
 
 
+def _leg(value: float, target: float, up_rate: float, down_rate: float) -> tuple[float, float]:
+    """The next straight piece towards ``target``: (where it ends, its rate). A piece either
+    shrinks the magnitude (down rate, ending at the target or at zero) or grows it (up rate)."""
+    if value != 0.0 and (target * value <= 0.0 or abs(target) < abs(value)):
+        return (target if target * value > 0.0 else 0.0), down_rate
+    return target, up_rate
+
+
 def advance(value: float, target: float, dt: float, up_rate: float, down_rate: float) -> float:
     """Where a ramp starting at ``value`` is after ``dt`` seconds on the way to ``target``."""
     remaining = max(dt, 0.0)
     for _ in range(3):  # at most: down to zero, then up to the target
         if value == target:
             break
-        if value != 0.0 and (target * value <= 0.0 or abs(target) < abs(value)):
-            goal = target if target * value > 0.0 else 0.0
-            rate = down_rate
-        else:
-            goal, rate = target, up_rate
+        goal, rate = _leg(value, target, up_rate, down_rate)
         distance = abs(goal - value)
         if math.isinf(rate):
             value = goal
@@ -40,3 +44,16 @@ def advance(value: float, target: float, dt: float, up_rate: float, down_rate: f
             value += math.copysign(rate * remaining, goal - value)
             break
     return value
+
+
+def duration(value: float, target: float, up_rate: float, down_rate: float) -> float:
+    """Seconds a ramp from ``value`` needs to reach ``target`` (0 for a jump)."""
+    total = 0.0
+    for _ in range(3):
+        if value == target:
+            break
+        goal, rate = _leg(value, target, up_rate, down_rate)
+        if not math.isinf(rate):
+            total += abs(goal - value) / rate
+        value = goal
+    return total
