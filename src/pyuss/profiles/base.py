@@ -10,7 +10,8 @@ texts) lives in the TOML file of the same name under ``pyuss/profiles/data`` and
   `Profile.response_delay`);
 - how parameter numbers above the 11 bits of PKE travel (`Profile.encode_pnu`,
   `Profile.decode_pnu`; NOTES 8: device-specific IND bits);
-- the broadcast form it understands (`BroadcastForm`, NOTES 9);
+- the broadcast form it understands (`BroadcastForm`, NOTES 9), whether it sends spontaneous
+  messages (C 4.2.1.2) and which request IDs it knows;
 - the error numbers above the specification's (`Profile.error_meanings`,
   `Profile.error_meaning`) and which ones it answers when a job does not fit the PKW area
   (`Profile.too_large_error`, C 7) or names a reserved request ID (`Profile.unsupported_error`);
@@ -98,6 +99,10 @@ class Profile:
     answer_index_zero: bool = False
     """Answers always carry IND = 0 (6SE21, seed 002 7.5)."""
     broadcast: BroadcastForm = BroadcastForm.NONE
+    spontaneous: bool = False
+    """The device reports changes of active parameters spontaneously (C 4.2.1.2)."""
+    request_ids: frozenset[int] = frozenset(set(range(16)) - {10})
+    """The request IDs the device knows (C Table 4.1 without the reserved 10)."""
     error_meanings: Mapping[int, str] = field(default_factory=dict)
     """Device error numbers (above the specification's 0..7) and their meanings."""
     too_large_error: int = 103
@@ -135,8 +140,7 @@ class Profile:
         """``layout`` if the device accepts it, else `ConfigError` saying what it accepts."""
         if self.fixed_layout is not None and layout != self.fixed_layout:
             raise ConfigError(
-                f"profile {self.name} uses the fixed layout {self.fixed_layout} only, "
-                f"not {layout}"
+                f"profile {self.name} uses the fixed layout {self.fixed_layout} only, not {layout}"
             )
         if layout.pkw not in self.pkw_choices:
             choices = ", ".join("v" if p == PKW_VARIABLE else str(p) for p in self.pkw_choices)
@@ -180,8 +184,7 @@ class Profile:
         be or-ed into the index word (NOTES 8)."""
         if isinstance(pnu, bool) or not isinstance(pnu, int) or not 0 <= pnu <= self.max_pnu:
             raise ConfigError(
-                f"parameter number must be 0..{self.max_pnu} for profile {self.name}, "
-                f"got {pnu!r}"
+                f"parameter number must be 0..{self.max_pnu} for profile {self.name}, got {pnu!r}"
             )
         if self.pnu_page_size is None:
             return pnu, 0

@@ -8,6 +8,9 @@
   precisely known: the project allows up to the 20 ms of A 5.2.1.1. Without it, the answer sent
   is the one prepared after the previous request ("une imbrication des reponses"): the slave
   engine implements that pipeline.
+- Request IDs 0..4 only (2.2.1: no job, read value, write word, write double word, read
+  description element); the others are answered with 102 "service not implemented". The seed
+  lists no spontaneous messages: none are sent.
 - Parameter description elements 1 (attribute), 2 (info), 5 (minimum) and 6 (maximum) with the
   bit layouts of 2.2.1 (the drive's ``baumueller`` description style); other elements: 104.
 - Error numbers 101 unspecified fault, 102 service not implemented, 103 format too large for the
@@ -24,7 +27,7 @@
   word); a 32-bit value with count 2 cannot travel: USS state bit 9 (setpoint) or 8 (actual) is
   set. `value_words` and `join_value` do that mapping.
 
-Diagnostic parameters of the slave (A 5.2.3): P190..P192, beside the USS parameters 180..186.
+Diagnostic parameters of the slave (A 5.2.3): P190..P207, beside the USS parameters 180..186.
 """
 
 from __future__ import annotations
@@ -39,12 +42,12 @@ from pyuss.protocol.pkw import Pkw
 from pyuss.protocol.telegram import MAX_ADDRESS
 
 __all__ = [
+    "ACTUAL_FORMAT_FAULT",
     "BROADCAST_CODING",
     "DELAY_MODE",
     "MODE_PNU",
     "PROFILE",
     "SETPOINT_FORMAT_FAULT",
-    "ACTUAL_FORMAT_FAULT",
     "STATE_PNU",
     "address_mask",
     "addresses_in_mask",
@@ -79,6 +82,7 @@ PROFILE = Profile(
     response_delay_max=0.002,
     delayed_response_max=0.020,
     broadcast=BroadcastForm.MASKED_CONTROL,
+    request_ids=frozenset(range(5)),
     error_meanings={n: MEANINGS[n] for n in (101, 102, 103, 104)},
     too_large_error=103,
     unsupported_error=102,

@@ -13,7 +13,9 @@ fixed one, is answered with error 103 "format too large for the PKW area" (C 7, 
 whose device-specific number the project's vectors fix at 103). The reserved request ID 10 is
 answered with 102 "service not implemented".
 
-Diagnostic parameters (A 5.2.3) of the slave: P2040..P2042.
+Spontaneous messages (C 4.2.1.2) are sent for the active parameters (P52, P947 in the file).
+
+Diagnostic parameters (A 5.2.3) of the slave: P2030..P2047.
 """
 
 from __future__ import annotations
@@ -28,8 +30,9 @@ PROFILE = Profile(
     seed="000 part A, part C, appendix",
     default_layout=Layout(PKW_VARIABLE, 2),
     broadcast=BroadcastForm.ENABLE_ARRAY,
+    spontaneous=True,
     error_meanings=dict(MEANINGS),
     too_large_error=103,
     unsupported_error=102,
-    diagnostic_pnu=2040,
+    diagnostic_pnu=2030,
 )

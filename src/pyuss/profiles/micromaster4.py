@@ -17,7 +17,9 @@ number for an illegal parameter address (the project's reading: no documented nu
 SINAMICS converters do not support broadcast telegrams (G120XA operating instructions 03/2019,
 6.2.4.3: "Bit 5 = 1: Not supported in the converter"): broadcasts are ignored.
 
-Diagnostic parameters of the slave (A 5.2.3): P2090..P2092.
+The PKE toggle bit 11 is reserved on these drives (G120 function manual 9.5: "Bit 11 (SPM) is
+reserved and always = 0"): no spontaneous messages. Diagnostic parameters of the slave
+(A 5.2.3): P2090..P2107.
 """
 
 from __future__ import annotations

@@ -11,7 +11,8 @@ messages if the order cannot be executed"): error numbers 9 "description data no
 be depicted". A job whose answer does not fit the PKW area gets 202; the reserved request ID 10
 gets 201. Broadcast follows the optional mechanism of the specification (appendix).
 
-Diagnostic parameters of the slave (A 5.2.3): P520..P522, beside the USS settings P511..P513.
+No spontaneous messages. Diagnostic parameters of the slave (A 5.2.3): P520..P537, beside the
+USS settings P511..P513.
 """
 
 from __future__ import annotations

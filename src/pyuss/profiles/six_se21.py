@@ -11,7 +11,8 @@
 
 The device knows no broadcast processing (seed 002 names none). Error numbers beyond C Table 4.3
 are not documented for the device; jobs that do not fit PKW 3 get 103, the reserved request ID
-102, as in the generic profile. Diagnostic parameters of the slave: P990..P992.
+102, as in the generic profile. No spontaneous messages. Diagnostic parameters of the slave:
+P980..P997.
 """
 
 from __future__ import annotations
@@ -36,5 +37,5 @@ PROFILE = Profile(
     error_meanings={n: MEANINGS[n] for n in (102, 103)},
     too_large_error=103,
     unsupported_error=102,
-    diagnostic_pnu=990,
+    diagnostic_pnu=980,
 )
