@@ -21,6 +21,9 @@ Start pauses are measured on that line, and the answer starts the response delay
 request would have ended, as it would on a real line of that baud rate. ``timed`` overrides the
 choice (default: timed unless the transport is a pty or a raw TCP one). Short waits are
 finished by polling the clock, as the event loop's timers are only as fine as a millisecond.
+Characters reach the program some time after they ended on the line; the receiver decides that
+the line has fallen idle (the end of an incomplete telegram) only ``latency`` later (20 ms by
+default), so that late bytes are not mistaken for a pause.
 
 All engines on a port share one `Diagnostics` (A 5.2.3): the line's faults belong to the port.
 Each exchange is logged at debug level on ``pyuss.slave`` (request and answer, decoded), the
@@ -57,6 +60,9 @@ log = logging.getLogger("pyuss.slave")
 _IDLE_READ = 0.1
 """Longest single wait for the line, so that a stop request is seen soon."""
 _SPIN = 0.0015
+DEFAULT_LATENCY = 0.020
+"""How long bytes may take from the line to the program (a USB adapter's latency timer, the
+virtual bus's delivery): the line counts as idle only that much after the receiver says so."""
 """Waits shorter than this are finished by polling the clock (timer resolution: 1 ms)."""
 
 
@@ -101,9 +107,12 @@ class SlaveServer:
         response_delay: float | None = None,
         diagnostics: Diagnostics | None = None,
         timed: bool | None = None,
+        latency: float = DEFAULT_LATENCY,
     ) -> None:
         if not engines:
             raise ConfigError("a slave server needs at least one engine")
+        if not 0 <= latency <= 1:
+            raise ConfigError(f"latency must be 0..1 s, not {latency!r}")
         self.engines: dict[int, SlaveEngine] = {}
         for engine in engines:
             if engine.address in self.engines:
@@ -127,6 +136,7 @@ class SlaveServer:
         self.receiver = Receiver(self.baud, fixed_lengths=fixed, diagnostics=self.diagnostics)
         self.stats = ServerStats()
         self.timed = _timed(transport) if timed is None else timed
+        self.latency = latency
         self._char_time = 11 / self.baud
         self._line_free = -math.inf
 
@@ -159,7 +169,7 @@ class SlaveServer:
             log.warning("line: %s", exc)
             return
         if chunk is None:
-            events = self.receiver.poll(transport.clock())
+            events = self.receiver.poll(transport.clock() - self.latency)
         elif self.timed:
             events = self.receiver.feed(chunk.data, chunk.timestamp, chunk.errors)
         else:
@@ -178,7 +188,7 @@ class SlaveServer:
     def _deadlines(self) -> Iterable[float]:
         poll = self.receiver.next_poll()
         if poll is not None:
-            yield poll
+            yield poll + self.latency
         for engine in self.engines.values():
             deadline = engine.next_deadline()
             if deadline is not None:
