@@ -194,3 +194,19 @@ def test_micromaster4_too_large_and_no_broadcasts() -> None:
     assert refused(whole) == 102
     assert control == OFF1  # the broadcast was not taken
     assert not spontaneous
+
+
+def test_baumueller_write_authority_follows_parameter_126() -> None:
+    """Seed 004 1.5: only with bit 0 of 126 set may the interfaces change drive parameters."""
+    with PtySim(_baumueller([2], L32)) as sim, sim.master() as master:
+        ask = lambda job: master.ask(2, L32, job, (OFF1, 0)).pkw  # noqa: E731
+        off = ask(Pkw(2, 126, values=(0,)))
+        denied = ask(Pkw(2, 60, values=(1000,)))
+        read = ask(Pkw(1, 60))
+        on = ask(Pkw(2, 126, values=(1,)))
+        allowed = ask(Pkw(2, 60, values=(1000,)))
+    assert (off.id, off.values) == (1, (0,))
+    assert denied.id == 8
+    assert read.values == (2000,)
+    assert (on.id, on.values) == (1, (1,))
+    assert (allowed.id, allowed.values) == (1, (1000,))
