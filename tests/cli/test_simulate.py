@@ -186,3 +186,10 @@ def test_other_protocols_plug_in_by_profile() -> None:
         return
     with simulate("--profile", "ksvario", "--pty", "--address", "5") as (path, _):
         assert path.startswith("/dev/")
+
+
+def test_serial_port_by_pyserial_url() -> None:
+    proc = _start("simulate", "--serial", "loop://", "--duration", "0.3", "--address", "5")
+    out, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0, err
+    assert out.splitlines()[0] == "loop://"

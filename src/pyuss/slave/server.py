@@ -10,7 +10,8 @@ sends the answer:
 - within the profile's response delay (20 ms by A 5.2.1.1; 2 ms for Baumueller, 2.5..17.5 ms
   for the 6SE21). ``response_delay`` (seconds) chooses a fixed delay inside that window; by
   default the earliest moment is aimed at. An answer that could not start in time (a loaded
-  machine) is still sent, counted in `ServerStats.late` and logged as a warning.
+  machine) is still sent; if it is more than `LATE_MARGIN` (1 ms) late it is counted in
+  `ServerStats.late` and logged as a warning.
 
 Times are the transport's. On the virtual bus (in-process or ``bus://``) and on serial ports a
 chunk's timestamp is when its last character ended, and the delay is measured from there. A
@@ -60,6 +61,9 @@ log = logging.getLogger("pyuss.slave")
 _IDLE_READ = 0.1
 """Longest single wait for the line, so that a stop request is seen soon."""
 _SPIN = 0.0015
+LATE_MARGIN = 0.001
+"""An answer is counted late when it starts more than this after the profile's latest moment
+(the clock and the event loop have some jitter; a window may be a single moment)."""
 DEFAULT_LATENCY = 0.020
 """How long bytes may take from the line to the program (a USB adapter's latency timer, the
 virtual bus's delivery): the line counts as idle only that much after the receiver says so."""
@@ -207,7 +211,8 @@ class SlaveServer:
         if telegram.mode in (AddressMode.BROADCAST, AddressMode.SPECIAL_BROADCAST):
             for engine in self.engines.values():
                 engine.handle(telegram, event.end)
-            log.debug("%s (broadcast, no answer)", describe(telegram))
+            if log.isEnabledFor(logging.DEBUG):
+                log.debug("%s (broadcast, no answer)", describe(telegram))
             return
         target = self.engines.get(telegram.address)
         if target is None:
@@ -217,9 +222,10 @@ class SlaveServer:
     async def _answer(self, engine: SlaveEngine, event: Received) -> None:
         telegram = event.telegram
         answer = engine.handle(telegram, event.end)
-        layout = None if telegram.mode is AddressMode.MIRROR else engine.layout
+        layout = engine.layout if telegram.mode is AddressMode.NORMAL else None
         if answer is None:
-            log.debug("%s -> no answer", describe(telegram, layout))
+            if log.isEnabledFor(logging.DEBUG):
+                log.debug("%s -> no answer", describe(telegram, layout))
             return
         low, high = engine.response_window(self.baud)
         delay = low if self.response_delay is None else self.response_delay
@@ -229,8 +235,9 @@ class SlaveServer:
         await self.transport.write(data)
         self.stats.answers += 1
         log_frame("tx", data, start)
-        log.debug("%s -> %s", describe(telegram, layout), describe(answer, layout))
-        if start - event.end > high:
+        if log.isEnabledFor(logging.DEBUG):
+            log.debug("%s -> %s", describe(telegram, layout), describe(answer, layout))
+        if start - event.end > high + LATE_MARGIN:
             self.stats.late += 1
             log.warning(
                 "address %d: answer started %.3f ms after the request, later than the %.3f ms "
