@@ -6,6 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from conftest import load_vectors
 from pyuss.drive import SimulatedDrive
 from pyuss.errors import ConfigError
 from pyuss.profiles import PROFILES, BroadcastForm, baumueller, get_profile, profile_names
@@ -139,3 +140,12 @@ def test_error_meanings() -> None:
     assert get_profile("micromaster4").error_meaning(102).startswith("channel width")
     assert get_profile("nord").error_meaning(202).startswith("internal response label")
     assert get_profile("generic").error_meaning(2) == "lower or upper limit exceeded"
+
+
+def test_generic_window_matches_the_timing_vectors() -> None:
+    """The vectors' start pause and maximum response delay per baud rate (A 5.1.2, A 5.2.1.1)."""
+    generic = get_profile("generic")
+    for item in load_vectors("uss")["timing"]:
+        low, high = generic.response_delay(item["baud"])
+        assert low * 1000 == pytest.approx(item["start_pause_ms"], abs=1e-6)
+        assert high * 1000 == pytest.approx(item["max_response_delay_ms"])

@@ -61,6 +61,8 @@ log = logging.getLogger("pyuss.slave")
 _IDLE_READ = 0.1
 """Longest single wait for the line, so that a stop request is seen soon."""
 _SPIN = 0.0015
+_MAX_BACKLOG = 1.0
+"""On an untimed line, reads are not placed more than this many seconds behind their arrival."""
 LATE_MARGIN = 0.001
 """An answer is counted late when it starts more than this after the profile's latest moment
 (the clock and the event loop have some jitter; a window may be a single moment)."""
@@ -178,6 +180,8 @@ class SlaveServer:
             events = self.receiver.feed(chunk.data, chunk.timestamp, chunk.errors)
         else:
             start = max(chunk.timestamp, self._line_free)
+            if start - chunk.timestamp > _MAX_BACKLOG:
+                start = chunk.timestamp  # a peer far faster than the line: do not fall behind
             self._line_free = start + len(chunk.data) * self._char_time
             events = self.receiver.feed(chunk.data, self._line_free, chunk.errors)
         for event in events:
