@@ -19,6 +19,7 @@ from pyuss.errors import UssError
 COMMANDS: tuple[str, ...] = (
     "demo",
     "decode",
+    "simulate",
     "bus",
     "monitor",
     "wireshark",
