@@ -152,7 +152,7 @@ def test_a_damaged_store_is_refused(tmp_path: Path, capsys: pytest.CaptureFixtur
         (["--pty", "--address", "3", "--address", "3"], "each address may be given once"),
         (["--pty", "--layout", "5,2"], "PKW count must be 0, 3, 4 or 127"),
         (["--pty", "--profile", "nope"], "unknown profile 'nope'"),
-        (["--pty", "--baud", "1234"], "not a USS rate"),
+        (["--pty", "--baud", "1234"], "not a USS baud rate"),
         (["--pty", "--profile", "6se21", "--layout", "4,2"], "fixed layout 3,2 only"),
         (["--pty", "--address", "1", "--address", "2", "--store", "x"], "{address}"),
         (["--tcp", "localhost"], "HOST:PORT"),

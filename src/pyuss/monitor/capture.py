@@ -58,6 +58,19 @@ PSEUDO_HEADER = struct.Struct(">BBBBHBBIi")
 microseconds, response delay in microseconds (answers; ``NO_DELAY`` for none)."""
 NO_FAULT = 0xFF
 NO_LAYOUT = 0xFF
+FAULT_CODES: dict[FaultKind, int] = {
+    FaultKind.FRAMING: 0,
+    FaultKind.OVERRUN: 1,
+    FaultKind.PARITY: 2,
+    FaultKind.NO_STX: 3,
+    FaultKind.BCC: 4,
+    FaultKind.RESIDUAL_TIME: 5,
+    FaultKind.BAD_LGE: 6,
+    FaultKind.BAD_ADR: 8,
+}
+"""The fault byte of the pseudo-header: a file-format code of its own (the dissector's table),
+kept apart from the values of `FaultKind` so that captures stay readable across versions."""
+_FAULT_KINDS = {code: kind for kind, code in FAULT_CODES.items()}
 NO_DELAY = -(2**31)
 _MAX_US = 2**32 - 1
 
@@ -120,7 +133,7 @@ class CaptureRecord:
             PSEUDO_VERSION,
             PSEUDO_HEADER.size,
             int(f.direction),
-            NO_FAULT if f.fault is None else int(f.fault),
+            NO_FAULT if f.fault is None else FAULT_CODES[f.fault],
             int(self.flags),
             pkw,
             pzd,
@@ -140,7 +153,7 @@ class CaptureRecord:
         )
         raw = bytes(data[size:])
         try:
-            kind = None if fault == NO_FAULT else FaultKind(fault)
+            kind = None if fault == NO_FAULT else _FAULT_KINDS[fault]
             side = Direction(direction)
             layout = None
             if pkw != NO_LAYOUT:
@@ -152,7 +165,7 @@ class CaptureRecord:
                     else LayoutSource.INFERRED
                 )
                 layout = LayoutChoice(Layout(pkw, pzd), source)
-        except (ValueError, ConfigError) as exc:
+        except (ValueError, KeyError, ConfigError) as exc:
             raise ConfigError(f"{where}: bad pseudo-header: {exc}") from None
         return cls.make(
             raw,
