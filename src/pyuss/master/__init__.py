@@ -1,1 +1,60 @@
-"""pyuss.master."""
+"""The USS bus master: scheduler, parameter jobs, drive handles, sync facade.
+
+- `Master`: one bus (poll list, cyclic or acyclic traffic, timing, broadcast, mirror,
+  diagnostics); ``async with Master(url_or_transport, baud=...) as bus``.
+- `Drive`: one slave (`Master.drive`): parameters, process data, status.
+- `pyuss.master.sync`: the same for scripts without asyncio (a background thread).
+- `scan`: find slaves, their baud rate and telegram layout.
+
+See docs/master.md.
+"""
+
+from pyuss.master.description import Description, DescriptionElement
+from pyuss.master.drive import Drive
+from pyuss.master.errors import (
+    JobTimeout,
+    MasterClosed,
+    MirrorMismatch,
+    NotSending,
+    NoWriteAuthority,
+)
+from pyuss.master.jobs import SpontaneousMessage
+from pyuss.master.process import OPERATE, DriveStatus
+from pyuss.master.profile import (
+    GENERIC,
+    BroadcastForm,
+    DescriptionStyle,
+    MasterProfile,
+    resolve_profile,
+)
+from pyuss.master.scheduler import ACYCLIC, CYCLIC, Master, MirrorResult, Mode
+from pyuss.master.stats import BusDiagnostics, CycleStats, JobStats, SampleSummary, SlaveDiagnostics
+
+__all__ = [
+    "ACYCLIC",
+    "CYCLIC",
+    "GENERIC",
+    "OPERATE",
+    "BroadcastForm",
+    "BusDiagnostics",
+    "CycleStats",
+    "Description",
+    "DescriptionElement",
+    "DescriptionStyle",
+    "Drive",
+    "DriveStatus",
+    "JobStats",
+    "JobTimeout",
+    "Master",
+    "MasterClosed",
+    "MasterProfile",
+    "MirrorMismatch",
+    "MirrorResult",
+    "Mode",
+    "NoWriteAuthority",
+    "NotSending",
+    "SampleSummary",
+    "SlaveDiagnostics",
+    "SpontaneousMessage",
+    "resolve_profile",
+]
