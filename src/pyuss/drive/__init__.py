@@ -1,1 +1,61 @@
-"""pyuss.drive."""
+"""The simulated drive: parameter database, values, descriptions, EEPROM, state machine.
+
+- `pyuss.drive.database`: the declarative parameter file (TOML) and its validation
+  (`load_profile`, `load_database`, `ParameterDatabase`, `Parameter`).
+- `pyuss.drive.datatypes`: data types and their PKW words (C 6).
+- `pyuss.drive.description`: the parameter description elements (C 4.2.2, C 6; seed 004).
+- `pyuss.drive.memory`: values and the rules of reading and changing them (`ParameterMemory`).
+- `pyuss.drive.store`: the EEPROM store file (atomic, checksummed).
+- `pyuss.drive.states`, `pyuss.drive.ramp`: the drive profile's state machine (C 5.2.1) and
+  its ramp-function generator.
+- `pyuss.drive.simulated`: `SimulatedDrive`, everything bundled for a slave engine.
+
+See docs/drive.md.
+"""
+
+from pyuss.drive.database import (
+    Access,
+    DescriptionStyle,
+    Parameter,
+    ParameterDatabase,
+    ParamRef,
+    builtin_profiles,
+    load_database,
+    load_profile,
+    parse_database,
+)
+from pyuss.drive.datatypes import DataType, Value
+from pyuss.drive.description import DescriptionElement
+from pyuss.drive.faults import DriveErrorNumber, NoWriteAuthority, ParameterFault
+from pyuss.drive.memory import LOCAL, WHOLE_ARRAY, ParameterChange, ParameterMemory
+from pyuss.drive.simulated import SimulatedDrive
+from pyuss.drive.states import DriveState, DriveStateMachine, Motion
+from pyuss.drive.store import ParameterStore, StoreError
+
+__all__ = [
+    "LOCAL",
+    "WHOLE_ARRAY",
+    "Access",
+    "DataType",
+    "DescriptionElement",
+    "DescriptionStyle",
+    "DriveErrorNumber",
+    "DriveState",
+    "DriveStateMachine",
+    "Motion",
+    "NoWriteAuthority",
+    "ParamRef",
+    "Parameter",
+    "ParameterChange",
+    "ParameterDatabase",
+    "ParameterFault",
+    "ParameterMemory",
+    "ParameterStore",
+    "SimulatedDrive",
+    "StoreError",
+    "Value",
+    "builtin_profiles",
+    "load_database",
+    "load_profile",
+    "parse_database",
+]

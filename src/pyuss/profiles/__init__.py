@@ -1,1 +1,49 @@
-"""pyuss.profiles."""
+"""Device profiles: a parameter file (``data/<name>.toml``) plus the telegram-level facts of a
+device family, shared by the slave and the master.
+
+=================  =====================================================  ===================
+name               device                                                 follows
+=================  =====================================================  ===================
+``generic``        the drive profile of the USS specification             seed 000 A, C, app.
+``6se21``          SIMOVERT P 6SE21 / early MICROMASTER                   seed 002 7.5
+``baumueller``     Baumueller drives (fixed length, masked broadcast)     seed 004 part 2
+``nord``           NORD frequency inverters                               seed 001 1.3.5/1.3.6
+``micromaster4``   MICROMASTER 4 / SINAMICS (P2000 and up via IND page)   public MM4 manuals
+=================  =====================================================  ===================
+
+`get_profile` returns one; `Profile` (in `pyuss.profiles.base`) documents what it holds.
+"""
+
+from __future__ import annotations
+
+from pyuss.errors import ConfigError
+from pyuss.profiles import baumueller, generic, micromaster4, nord, six_se21
+from pyuss.profiles.base import BitRef, BroadcastForm, Profile
+
+__all__ = ["PROFILES", "BitRef", "BroadcastForm", "Profile", "get_profile", "profile_names"]
+
+PROFILES: dict[str, Profile] = {
+    p.name: p
+    for p in (
+        generic.PROFILE,
+        six_se21.PROFILE,
+        baumueller.PROFILE,
+        nord.PROFILE,
+        micromaster4.PROFILE,
+    )
+}
+"""The built-in profiles by name."""
+
+
+def profile_names() -> tuple[str, ...]:
+    """Names of the built-in profiles."""
+    return tuple(PROFILES)
+
+
+def get_profile(name: str) -> Profile:
+    """The built-in profile ``name``; `ConfigError` naming the known ones otherwise."""
+    try:
+        return PROFILES[name]
+    except (KeyError, TypeError):
+        known = ", ".join(PROFILES)
+        raise ConfigError(f"unknown profile {name!r} (known: {known})") from None

@@ -1,0 +1,367 @@
+"""``uss simulate``: simulated drives on a line, until stopped.
+
+One process serves one or more bus addresses, each a simulated drive of the chosen profile with
+its own parameters, on one of:
+
+- ``--pty``: a pseudo-terminal; the FIRST line printed is its device path (open it as a serial
+  port, e.g. ``/dev/pts/7``);
+- ``--tcp HOST:PORT``: a TCP server carrying the line (one master at a time; HOST is 127.0.0.1
+  when only ``:PORT`` is given; PORT 0 picks a free one); the first line is ``tcp://HOST:PORT``;
+- ``--serial DEVICE``: a real serial port (any pyserial URL); the first line is DEVICE;
+- ``--bus HOST:PORT``: a station of a virtual bus run by ``uss bus --bus-tcp``; the first line
+  is ``bus://HOST:PORT``.
+
+It stops cleanly on SIGINT or SIGTERM (or after ``--duration`` seconds): exit code 0, and a
+summary on stderr. Values written with the EEPROM request IDs go to ``--store FILE`` (with
+several addresses FILE must contain ``{address}``); a damaged store file is refused (exit 2).
+
+Profiles of other protocols plug in through `OTHER_PROTOCOLS`: ``--profile ksvario`` runs the
+KS VARIO PROFIBUS-DP simulator (`pyuss.ksvario.simulate`, where installed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import dataclasses
+import importlib
+import signal
+import sys
+from collections.abc import Awaitable, Callable
+from pathlib import Path
+from typing import Any
+
+from pyuss.drive.database import ParameterDatabase, load_database
+from pyuss.drive.simulated import SimulatedDrive
+from pyuss.errors import ConfigError, UssError
+from pyuss.profiles import get_profile, profile_names
+from pyuss.protocol.layout import Layout
+from pyuss.slave.engine import JobLatency, SlaveEngine
+from pyuss.slave.server import SlaveServer
+from pyuss.transport.base import Transport
+from pyuss.transport.pty import PtyPort
+from pyuss.transport.queued import BAUD_RATES, check_baud
+from pyuss.transport.tcp import TcpServerTransport
+from pyuss.transport.url import open_transport
+
+EXIT_OK = 0
+EXIT_FAILED = 1
+EXIT_USAGE = 2
+
+
+@dataclasses.dataclass(frozen=True, slots=True)
+class Options:
+    """The checked command line, as a simulator of any protocol receives it."""
+
+    profile: str
+    addresses: tuple[int, ...]
+    baud: int
+    line: str
+    """``pty``, ``tcp``, ``serial`` or ``bus``."""
+    where: str
+    """The serial device, or HOST:PORT of ``tcp`` / ``bus``."""
+    params: str | None
+    layout: Layout | None
+    store: str | None
+    failure_time: float | None
+    latency: JobLatency
+    response_delay: float | None
+    read_only: bool
+    spontaneous: bool | None
+    duration: float | None
+
+
+Announce = Callable[[str], None]
+Runner = Callable[[Options, asyncio.Event, Announce], Awaitable[None]]
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "simulate",
+        help="simulate drives (USS slaves) on a pty, TCP, serial port or virtual bus",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    names = ", ".join((*profile_names(), *OTHER_PROTOCOLS))
+    parser.add_argument(
+        "--profile", default="generic", metavar="NAME", help=f"device profile ({names})"
+    )
+    parser.add_argument(
+        "--address",
+        action="append",
+        type=_int,
+        default=[],
+        metavar="A",
+        help="bus address 0..31 (repeat for several drives; default 0)",
+    )
+    parser.add_argument(
+        "--params", metavar="FILE", help="parameter file (TOML) instead of the profile's"
+    )
+    parser.add_argument(
+        "--layout", metavar="PKW,PZD", help="PKW 0, 3, 4 or v and PZD 0..16, e.g. 3,2"
+    )
+    parser.add_argument(
+        "--baud", type=_int, default=9600, help=f"baud rate ({', '.join(map(str, BAUD_RATES))})"
+    )
+    where = parser.add_mutually_exclusive_group(required=True)
+    where.add_argument("--pty", action="store_true", help="serve on a new pseudo-terminal")
+    where.add_argument("--tcp", metavar="HOST:PORT", help="serve the line as a TCP server")
+    where.add_argument("--serial", metavar="DEVICE", help="serve on a serial port")
+    where.add_argument("--bus", metavar="HOST:PORT", help="be a station of a 'uss bus --bus-tcp'")
+    parser.add_argument("--store", metavar="FILE", help="EEPROM store file ({address} for several)")
+    parser.add_argument(
+        "--failure-time",
+        type=float,
+        metavar="SECONDS",
+        help="telegram failure time (0: off; default: the parameter file's)",
+    )
+    parser.add_argument(
+        "--latency",
+        type=_int,
+        default=0,
+        metavar="N",
+        help="parameter jobs answer N telegrams late",
+    )
+    parser.add_argument(
+        "--latency-time", type=float, default=0.0, metavar="MS", help="... and MS milliseconds late"
+    )
+    parser.add_argument(
+        "--response-delay",
+        type=float,
+        metavar="MS",
+        help="answer this many ms after a request (inside the profile's window; default: earliest)",
+    )
+    parser.add_argument(
+        "--read-only", action="store_true", help="no parameter write authority (response ID 8)"
+    )
+    parser.add_argument(
+        "--spontaneous",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="send spontaneous messages (default: as the profile does)",
+    )
+    parser.add_argument("--duration", type=float, metavar="SECONDS", help="stop after SECONDS")
+    parser.set_defaults(func=run)
+
+
+def _int(text: str) -> int:
+    try:
+        return int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+
+
+def _endpoint(text: str, option: str, *, default_host: str = "127.0.0.1") -> tuple[str, int]:
+    host, sep, port = text.rpartition(":")
+    if not sep or not port.isdigit() or int(port) > 65535:
+        raise ConfigError(f"{option} {text!r}: expected HOST:PORT with PORT 0..65535")
+    return (host.strip("[]") or default_host), int(port)
+
+
+def options(args: argparse.Namespace) -> Options:
+    """Check the arguments; `ConfigError` naming what is wrong."""
+    baud = check_baud(args.baud)
+    if args.pty:
+        line, where = "pty", ""
+    elif args.tcp is not None:
+        host, port = _endpoint(args.tcp, "--tcp")
+        line, where = "tcp", f"{host}:{port}"
+    elif args.serial is not None:
+        if not args.serial.strip():
+            raise ConfigError("--serial: give a device")
+        line, where = "serial", args.serial
+    else:
+        host, port = _endpoint(args.bus, "--bus")
+        if port == 0:
+            raise ConfigError(f"--bus {args.bus!r}: give the port the bus listens on")
+        line, where = "bus", f"{host}:{port}"
+    addresses = tuple(args.address) or (0,)
+    for address in addresses:
+        if not 0 <= address <= 31:
+            raise ConfigError(f"--address {address}: bus addresses are 0..31")
+    if len(set(addresses)) != len(addresses):
+        raise ConfigError("--address: each address may be given once")
+    if args.store is not None and len(addresses) > 1 and "{address}" not in args.store:
+        raise ConfigError("--store: with several addresses the file name must contain {address}")
+    for name, value in (("--failure-time", args.failure_time), ("--duration", args.duration)):
+        if value is not None and not value >= 0:
+            raise ConfigError(f"{name} {value}: must be >= 0 seconds")
+    if args.duration is not None and args.duration == 0:
+        raise ConfigError("--duration 0: must be > 0 seconds")
+    if args.latency < 0 or not args.latency_time >= 0:
+        raise ConfigError("--latency and --latency-time must be >= 0")
+    delay = None
+    if args.response_delay is not None:
+        if not args.response_delay > 0:
+            raise ConfigError(f"--response-delay {args.response_delay}: must be > 0 ms")
+        delay = args.response_delay / 1000
+    return Options(
+        profile=args.profile,
+        addresses=addresses,
+        baud=baud,
+        line=line,
+        where=where,
+        params=args.params,
+        layout=None if args.layout is None else Layout.parse(args.layout),
+        store=args.store,
+        failure_time=args.failure_time,
+        latency=JobLatency(args.latency, args.latency_time / 1000),
+        response_delay=delay,
+        read_only=args.read_only,
+        spontaneous=args.spontaneous,
+        duration=args.duration,
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        opts = options(args)
+        runner = OTHER_PROTOCOLS.get(opts.profile)
+        if runner is None:
+            get_profile(opts.profile)  # an unknown name is bad input
+            runner = _serve_uss
+    except ConfigError as exc:
+        print(f"uss simulate: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        return asyncio.run(_main(opts, runner))
+    except ConfigError as exc:
+        print(f"uss simulate: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except UssError as exc:
+        print(f"uss simulate: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+
+
+async def _main(opts: Options, runner: Runner) -> int:
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+
+    def announce(line: str) -> None:
+        print(line, flush=True)
+
+    async def stop_later(seconds: float) -> None:
+        await asyncio.sleep(seconds)
+        stop.set()
+
+    timer = None if opts.duration is None else asyncio.create_task(stop_later(opts.duration))
+    try:
+        await runner(opts, stop, announce)
+    finally:
+        if timer is not None:
+            timer.cancel()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.remove_signal_handler(sig)
+    return EXIT_OK
+
+
+# -- USS ------------------------------------------------------------------------------------
+
+
+def _database(opts: Options) -> ParameterDatabase:
+    return (
+        get_profile(opts.profile).database() if opts.params is None else load_database(opts.params)
+    )
+
+
+def _store(opts: Options, address: int) -> str | None:
+    if opts.store is None:
+        return None
+    path = opts.store.replace("{address}", str(address))
+    if not Path(path).parent.is_dir():
+        raise ConfigError(f"--store {path}: folder {Path(path).parent} does not exist")
+    return path
+
+
+def _line(opts: Options) -> tuple[Transport, Callable[[], str]]:
+    """The transport and, once open, the line to print first."""
+    if opts.line == "pty":
+        pty = PtyPort(baud=opts.baud)
+        return pty, lambda: pty.device_path
+    if opts.line == "tcp":
+        host, port = _endpoint(opts.where, "--tcp")
+        server = TcpServerTransport(host, port, baud=opts.baud)
+        return server, lambda: f"tcp://{host}:{server.port}"
+    if opts.line == "bus":
+        url = f"bus://{opts.where}?name=simulate"
+        bus = open_transport(url, baud=opts.baud)
+        return bus, lambda: f"bus://{opts.where}"
+    serial_line = open_transport(opts.where, baud=opts.baud)
+    return serial_line, lambda: opts.where
+
+
+async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> None:
+    profile = get_profile(opts.profile)
+    db = _database(opts)
+    transport, first_line = _line(opts)
+    await transport.open()
+    try:
+        now = transport.clock()
+        engines = []
+        for address in opts.addresses:
+            drive = SimulatedDrive(db, store=_store(opts, address), now=now)
+            engines.append(
+                SlaveEngine(
+                    address,
+                    drive,
+                    profile,
+                    layout=opts.layout,
+                    latency=opts.latency,
+                    failure_time=opts.failure_time,
+                    spontaneous=opts.spontaneous,
+                    write_authority=not opts.read_only,
+                    now=now,
+                )
+            )
+        server = SlaveServer(transport, *engines, response_delay=opts.response_delay)
+        announce(first_line())
+        for engine in engines:
+            low, high = engine.response_window(opts.baud)
+            print(
+                f"uss simulate: address {engine.address}: profile {profile.name}, "
+                f"parameters {db.profile.name}, layout {engine.layout}, answer "
+                f"{low * 1000:.3f}..{high * 1000:.3f} ms, failure time "
+                f"{engine.failure_time:g} s",
+                file=sys.stderr,
+            )
+        try:
+            await server.run(stop)
+        finally:
+            server.close()
+    finally:
+        await transport.close()
+    stats = server.stats
+    print(
+        f"uss simulate: {stats.received} telegrams received, {stats.answers} answered "
+        f"({stats.late} late), {stats.faults} discarded",
+        file=sys.stderr,
+    )
+
+
+# -- other protocols ------------------------------------------------------------------------
+
+
+async def _serve_ksvario(opts: Options, stop: asyncio.Event, announce: Announce) -> None:
+    """The KS VARIO PROFIBUS-DP simulator: one station, the first ``--address``."""
+    try:
+        module = importlib.import_module("pyuss.ksvario.simulate")
+    except ImportError:
+        raise ConfigError("profile ksvario: the KS VARIO simulator is not installed") from None
+    if len(opts.addresses) != 1:
+        raise ConfigError("profile ksvario serves one station: give one --address")
+    port = {
+        "pty": None,
+        "serial": opts.where,
+        "tcp": f"tcp-listen://{opts.where}",
+        "bus": f"bus://{opts.where}",
+    }[opts.line]
+    await module.serve(
+        station=opts.addresses[0], port=port, baud=opts.baud, on_ready=announce, stop=stop
+    )
+
+
+OTHER_PROTOCOLS: dict[str, Runner] = {"ksvario": _serve_ksvario}
+"""Profiles served by simulators of other protocols: name -> runner(options, stop, announce).
+A runner serves until ``stop`` is set and calls ``announce`` with the line to print first."""

@@ -1,0 +1,993 @@
+"""The parameter database of a simulated drive, read from a declarative TOML file.
+
+One file describes one device profile: the profile's settings (``[profile]``), the parameters
+(``[[parameter]]``), which parameters the simulation uses for what (``[drive]``: ramp times,
+jog setpoints, displays ...), the interface parameters (``[interface]``, C 3), the process data
+mapping (``[process]``), the state codes a state display shows (``[state_codes]``) and the fault
+codes the drive raises (``[faults]``). The format is documented in ``docs/drive.md``; the
+built-in profiles live in ``pyuss/profiles/data/``.
+
+Loading validates everything and refuses a bad file with a `ConfigError` naming the file, the
+parameter and the field. The database itself is immutable: values live in `SimulatedDrive`.
+
+Choices where the documents are silent (also in docs/drive.md):
+
+- Limits (``min``/``max``) are raw values, the numbers that travel in PWE; ``scaling`` gives the
+  physical value (raw x scaling, in ``unit``).
+- Limits bind every write through an interface and the default of a writable parameter. A
+  read-only parameter is a display the device itself updates; its limits describe the display
+  range and are not applied to its own value. (C 8 example 2 reads 4000h from P52 whose lower
+  limit is 5FFFh in example 4; a display parameter is the reading under which both hold.)
+- Array indices: IND addresses element ``IND - index_base``; ``index_base`` is 1 for the
+  SIMOVERT MASTERDRIVES style of the generic profile ("Index 1 = SST 1", C 3.2; C 8 example 5
+  writes "the 2nd position" with IND 2) and 0 where a device counts from 0 (MICROMASTER 4).
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+import tomllib
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from pyuss.drive.datatypes import (
+    TYPE_NAMES,
+    DataType,
+    Value,
+    decode,
+    encode,
+    is_visible,
+    round_float,
+)
+from pyuss.drive.faults import ParameterFault
+from pyuss.errors import ConfigError
+from pyuss.protocol.pkw import ErrorNumber
+
+TEXT_LENGTH = 16
+"""A text element is always 16 characters (C 8 example 7, after the PROFIBUS profile)."""
+
+MAX_ARRAY = 254
+"""IND low byte 0..254 addresses elements; 255 means the whole array (C 4.2.2)."""
+
+MAX_STRING = 240
+"""Longest octet or visible string: it must fit the variable PKW area (C 4.1.2: m <= 124)."""
+
+TIME_UNITS: dict[str, float] = {"ms": 0.001, "s": 1.0, "min": 60.0}
+
+
+class Access(enum.Enum):
+    """Who may change a parameter."""
+
+    RW = "rw"
+    """Changeable through any interface with write authority."""
+    RO = "ro"
+    """Read-only (error 1 on writes); the drive itself may update it (displays)."""
+    PROTECTED = "protected"
+    """Changeable only while the access level parameter is high enough (else error 12)."""
+
+
+class DescriptionStyle(enum.Enum):
+    """Which parameter description (PBE) layout a profile answers with."""
+
+    PROFIBUS = "profibus"
+    """Elements 1..10 of C 6 (Bild 6.1), after the PROFIBUS profile the spec cites."""
+    BAUMUELLER = "baumueller"
+    """Elements 1, 2, 5, 6: attribute, info, minimum, maximum (seed 004 2.2.1)."""
+
+
+class DisplayFormat(enum.IntEnum):
+    """Display format code of the Baumueller attribute bits 8..11 (seed 004 2.2.1)."""
+
+    BIN = 0
+    DEC = 1
+    HEX = 2
+    NORM = 4
+    FIX = 5
+    SCI = 6
+    ENG = 7
+    ASCII = 8
+
+
+TIME_ROLES = (
+    "ramp_up_time",
+    "ramp_down_time",
+    "quick_stop_time",
+    "coast_time",
+    "jog_ramp_time",
+    "tolerance_time",
+    "wait_time",
+    "init_time",
+)
+"""Roles read as a duration (unit s, ms or min)."""
+
+LEVEL_ROLES = ("jog1", "jog2", "tolerance", "compare_value")
+"""Roles read as a fraction of the reference (unit %, the reference's unit, or '' = 4000h)."""
+
+DISPLAY_ROLES = ("state", "fault", "warning", "control_word", "status_word", "setpoint", "actual")
+"""Parameters the drive writes itself: state code, fault/warning number, words, values."""
+
+ROLES = (*TIME_ROLES, *LEVEL_ROLES, "reference", *DISPLAY_ROLES)
+
+INTERFACE_ROLES = ("address", "baud", "pkw", "pzd", "failure_time")
+"""Interface parameters of C 3 the slave engine reads its settings from."""
+
+STATE_NAMES = (
+    "not_ready",
+    "switch_on_inhibit",
+    "ready_to_switch_on",
+    "ready",
+    "operation",
+    "jog",
+    "off1",
+    "off3",
+    "fault",
+)
+"""Keys of ``[state_codes]`` (the `DriveState` names in lower case)."""
+
+
+@dataclass(frozen=True, slots=True)
+class ParamRef:
+    """A parameter, or one element of an array parameter, by PNU and IND (None: scalar)."""
+
+    pnu: int
+    index: int | None = None
+
+    def __str__(self) -> str:
+        return f"P{self.pnu}" if self.index is None else f"P{self.pnu}.{self.index}"
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Parameter:
+    """One parameter as the file declares it (its value lives in the drive)."""
+
+    pnu: int
+    name: str
+    dtype: DataType
+    default: tuple[Value, ...]
+    """The factory value of every element (one element for a scalar)."""
+    array: int | None = None
+    """Number of elements, None for a scalar."""
+    length: int = 0
+    """Length of a string in characters or bytes (0 for other types)."""
+    minimum: int | float | None = None
+    maximum: int | float | None = None
+    allowed: tuple[int, ...] | None = None
+    """The only values a write may set (for example PKW counts 0, 3, 4, 127)."""
+    access: Access = Access.RW
+    active: bool = False
+    """Active parameter: a change from another interface is reported spontaneously (C 4.2.1.2)."""
+    unit: str = ""
+    scaling: float | None = None
+    """Physical value = raw value x scaling; None: the raw value is the physical one."""
+    decimals: int = 0
+    display: DisplayFormat = DisplayFormat.DEC
+    command: bool = False
+    store: bool = True
+    """May be saved with the EEPROM request IDs."""
+    reset_only: bool = False
+    """Writes may only reset it to 0 (else error 6)."""
+    stopped_only: bool = False
+    """Changeable only while the drive does not run (else error 17)."""
+    texts: Mapping[int, str] = field(default_factory=dict)
+    """Value texts (value -> text); for an array the second text field (C Table 4.6)."""
+    index_texts: tuple[str, ...] = ()
+    """Texts naming the elements of an array (C Table 4.5)."""
+    bit_texts: Mapping[int, tuple[str, str]] = field(default_factory=dict)
+    """V2: bit -> (text of 0, text of 1) (C Table 4.5)."""
+    doc: str = ""
+    seed: str = ""
+
+    @property
+    def is_array(self) -> bool:
+        return self.array is not None
+
+    @property
+    def elements(self) -> int:
+        """Number of values held (1 for a scalar)."""
+        return 1 if self.array is None else self.array
+
+    @property
+    def word_count(self) -> int:
+        """Words one value occupies in PWE."""
+        return self.dtype.word_count(self.length)
+
+    @property
+    def writable(self) -> bool:
+        return self.access is not Access.RO
+
+    @property
+    def low(self) -> int | float:
+        """The effective lower limit: ``min``, else the smallest allowed value, else the type's."""
+        if self.minimum is not None:
+            return self.minimum
+        return self.dtype.type_range[0] if self.allowed is None else min(self.allowed)
+
+    @property
+    def high(self) -> int | float:
+        """The effective upper limit: ``max``, else the largest allowed value, else the type's."""
+        if self.maximum is not None:
+            return self.maximum
+        return self.dtype.type_range[1] if self.allowed is None else max(self.allowed)
+
+    def to_words(self, value: Value) -> tuple[int, ...]:
+        """PKW words of one value."""
+        return encode(self.dtype, value, self.length)
+
+    def from_words(self, words: Sequence[int]) -> Value:
+        """The value ``words`` carry, checked against the type (errors 5 and 2)."""
+        return decode(self.dtype, words, self.length)
+
+    def coerce(self, value: object) -> Value:
+        """``value`` as this type holds it, or a `ParameterFault` (5 wrong type, 2 range)."""
+        dtype = self.dtype
+        if dtype is DataType.FLOAT:
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ParameterFault(ErrorNumber.WRONG_TYPE, f"{value!r} is not a number")
+            number = float(value)
+            if not math.isfinite(number) or abs(number) > dtype.type_range[1]:
+                raise ParameterFault(ErrorNumber.LIMIT_EXCEEDED, f"{value!r} does not fit a float")
+            return round_float(number)
+        if dtype.is_integer:
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise ParameterFault(ErrorNumber.WRONG_TYPE, f"{value!r} is not an integer")
+            low, high = dtype.type_range
+            if not low <= value <= high:
+                raise ParameterFault(
+                    ErrorNumber.LIMIT_EXCEEDED, f"{value} does not fit {dtype.label}"
+                )
+            return value
+        if dtype is DataType.VISIBLE_STRING:
+            if not isinstance(value, str):
+                raise ParameterFault(ErrorNumber.WRONG_TYPE, f"{value!r} is not a text")
+            if len(value) > self.length or not is_visible(value):
+                raise ParameterFault(
+                    ErrorNumber.LIMIT_EXCEEDED,
+                    f"text must be at most {self.length} visible ASCII characters",
+                )
+            return value.ljust(self.length)
+        if not isinstance(value, bytes | bytearray):
+            raise ParameterFault(ErrorNumber.WRONG_TYPE, f"{value!r} is not a byte string")
+        if len(value) > self.length:
+            raise ParameterFault(ErrorNumber.LIMIT_EXCEEDED, f"at most {self.length} bytes")
+        return bytes(value).ljust(self.length, b"\0")
+
+    def check_write(self, value: object) -> Value:
+        """Coerce ``value`` and apply the rules for a write: reset-only, allowed set, limits."""
+        checked = self.coerce(value)
+        if self.reset_only and checked != 0:
+            raise ParameterFault(
+                ErrorNumber.SET_NOT_ALLOWED, f"may only be reset to 0, not {value!r}"
+            )
+        if self.allowed is not None and checked not in self.allowed:
+            choices = ", ".join(str(v) for v in self.allowed)
+            raise ParameterFault(ErrorNumber.LIMIT_EXCEEDED, f"{checked!r} is not one of {choices}")
+        if isinstance(checked, int | float) and not self.low <= checked <= self.high:
+            raise ParameterFault(
+                ErrorNumber.LIMIT_EXCEEDED, f"{checked!r} is outside {self.low}..{self.high}"
+            )
+        return checked
+
+    def text_for_value(self, value: int) -> str | None:
+        return self.texts.get(value)
+
+    def __repr__(self) -> str:
+        shape = "" if self.array is None else f"[{self.array}]"
+        return f"<Parameter P{self.pnu} {self.name!r} {self.dtype.label}{shape}>"
+
+
+@dataclass(frozen=True, slots=True)
+class ProfileInfo:
+    """The ``[profile]`` table: what the file describes and how the device counts."""
+
+    name: str
+    title: str = ""
+    seed: str = ""
+    source: str = ""
+    """The file (or files, base first) the database was read from."""
+    index_base: int = 1
+    description: DescriptionStyle = DescriptionStyle.PROFIBUS
+    text_write: bool = False
+    """Texts may be changed with request ID 15 (C Table 4.1 note 3: SIMOVERT MASTERDRIVES)."""
+    max_pnu: int = 2047
+    access_level: ParamRef | None = None
+    """The parameter whose value unlocks protected parameters (the "keyword")."""
+    protected_level: int = 1
+
+
+class ParameterDatabase:
+    """The validated parameters of one profile, with the roles the simulation reads."""
+
+    def __init__(
+        self,
+        profile: ProfileInfo,
+        parameters: Mapping[int, Parameter],
+        *,
+        roles: Mapping[str, ParamRef] | None = None,
+        interface: Mapping[str, ParamRef] | None = None,
+        state_codes: Mapping[str, int] | None = None,
+        faults: Mapping[str, int] | None = None,
+        process_setpoints: Sequence[int] = (),
+        process_actuals: Sequence[int] = (),
+    ) -> None:
+        self.profile = profile
+        self._parameters = dict(sorted(parameters.items()))
+        self.roles: Mapping[str, ParamRef] = dict(roles or {})
+        self.interface: Mapping[str, ParamRef] = dict(interface or {})
+        self.state_codes: Mapping[str, int] = dict(state_codes or {})
+        self.faults: Mapping[str, int] = dict(faults or {})
+        self.process_setpoints = tuple(process_setpoints)
+        self.process_actuals = tuple(process_actuals)
+
+    def __contains__(self, pnu: object) -> bool:
+        return pnu in self._parameters
+
+    def __iter__(self) -> Iterator[Parameter]:
+        return iter(self._parameters.values())
+
+    def __len__(self) -> int:
+        return len(self._parameters)
+
+    def parameter(self, pnu: int) -> Parameter:
+        """The parameter numbered ``pnu``; error 0 "illegal PNU" if there is none."""
+        try:
+            return self._parameters[pnu]
+        except KeyError:
+            raise ParameterFault(ErrorNumber.ILLEGAL_PNU, "no such parameter", pnu=pnu) from None
+
+    def position(self, param: Parameter, index: int | None) -> int:
+        """The element an IND addresses: 0 for a scalar without index, else ``index - base``.
+
+        Refuses an index on a scalar (error 4), a missing or out-of-range index on an array
+        (error 3).
+        """
+        if param.array is None:
+            if index is not None:
+                raise ParameterFault(
+                    ErrorNumber.NOT_ARRAY, "parameter is not an array", pnu=param.pnu, index=index
+                )
+            return 0
+        if index is None:
+            raise ParameterFault(
+                ErrorNumber.BAD_INDEX, "array parameter needs an index", pnu=param.pnu
+            )
+        base = self.profile.index_base
+        if not base <= index < base + param.array:
+            raise ParameterFault(
+                ErrorNumber.BAD_INDEX,
+                f"index {index} outside {base}..{base + param.array - 1}",
+                pnu=param.pnu,
+                index=index,
+            )
+        return index - base
+
+
+# --------------------------------------------------------------------------------------------
+# loading
+
+
+BUILTIN_PACKAGE = "pyuss.profiles"
+
+
+def builtin_profiles() -> tuple[str, ...]:
+    """Names of the profile data files shipped with pyuss."""
+    folder = resources.files(BUILTIN_PACKAGE).joinpath("data")
+    return tuple(
+        sorted(p.name.removesuffix(".toml") for p in folder.iterdir() if p.name.endswith(".toml"))
+    )
+
+
+def load_profile(name: str) -> ParameterDatabase:
+    """The parameter database of a built-in profile (``generic``, ``6se21``, ...)."""
+    if name not in builtin_profiles():
+        known = ", ".join(builtin_profiles())
+        raise ConfigError(f"unknown profile {name!r} (known: {known})")
+    return _build(_read_layers(f"builtin:{name}", ()))
+
+
+def load_database(path: str | Path) -> ParameterDatabase:
+    """Read and validate a parameter file; ``extends`` in ``[profile]`` builds on another."""
+    return _build(_read_layers(str(Path(path)), ()))
+
+
+def parse_database(text: str, source: str = "<text>") -> ParameterDatabase:
+    """Validate parameter-file text (``extends`` may name built-in profiles only)."""
+    return _build([(source, _parse_toml(text, source))])
+
+
+def _parse_toml(text: str, source: str) -> dict[str, Any]:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{source}: not valid TOML: {exc}") from None
+
+
+def _read_source(ref: str) -> tuple[str, str]:
+    """(name for messages, text) of a file or ``builtin:NAME``."""
+    if ref.startswith("builtin:"):
+        name = ref.removeprefix("builtin:")
+        if name not in builtin_profiles():
+            raise ConfigError(f"unknown profile {name!r} (known: {', '.join(builtin_profiles())})")
+        res = resources.files(BUILTIN_PACKAGE).joinpath("data", f"{name}.toml")
+        return f"profile {name} ({name}.toml)", res.read_text(encoding="utf-8")
+    try:
+        return ref, Path(ref).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"{ref}: cannot read parameter file: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{ref}: parameter file is not UTF-8 text") from None
+
+
+def _read_layers(ref: str, seen: tuple[str, ...]) -> list[tuple[str, dict[str, Any]]]:
+    """The file ``ref`` and the files it extends, base first."""
+    if ref in seen:
+        raise ConfigError(f"{ref}: 'extends' forms a cycle: {' -> '.join((*seen, ref))}")
+    name, text = _read_source(ref)
+    data = _parse_toml(text, name)
+    profile = data.get("profile", {})
+    base = profile.get("extends") if isinstance(profile, dict) else None
+    if base is None:
+        return [(name, data)]
+    if not isinstance(base, str) or not base:
+        raise ConfigError(f"{name}: [profile] field 'extends': must be a profile name or a path")
+    if "/" in base or base.endswith(".toml"):
+        if ref.startswith("builtin:"):
+            raise ConfigError(f"{name}: a built-in profile can only extend built-in profiles")
+        base_ref = str((Path(ref).parent / base).resolve())
+    else:
+        base_ref = f"builtin:{base}"
+    return [*_read_layers(base_ref, (*seen, ref)), (name, data)]
+
+
+_TOP_KEYS = {"profile", "parameter", "drive", "interface", "state_codes", "faults", "process"}
+_PROFILE_KEYS = {
+    "name",
+    "title",
+    "seed",
+    "extends",
+    "index_base",
+    "description",
+    "text_write",
+    "max_pnu",
+    "access_level",
+    "protected_level",
+    "remove",
+}
+_PARAM_KEYS = {
+    "pnu",
+    "name",
+    "type",
+    "array",
+    "length",
+    "default",
+    "min",
+    "max",
+    "allowed",
+    "access",
+    "active",
+    "unit",
+    "scaling",
+    "decimals",
+    "format",
+    "command",
+    "store",
+    "reset_only",
+    "stopped_only",
+    "texts",
+    "index_texts",
+    "bit_texts",
+    "doc",
+    "seed",
+}
+
+
+class _Where:
+    """Builds error messages that name file, parameter and field."""
+
+    def __init__(self, source: str, what: str = "") -> None:
+        self.source = source
+        self.what = what
+
+    def error(self, field_name: str, problem: str) -> ConfigError:
+        where = f"{self.source}: {self.what}" if self.what else f"{self.source}:"
+        return ConfigError(f"{where} field {field_name!r}: {problem}")
+
+
+def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
+    profile_data: dict[str, Any] = {}
+    raw_params: dict[int, tuple[str, dict[str, Any]]] = {}
+    tables: dict[str, dict[str, Any]] = {
+        "drive": {},
+        "interface": {},
+        "state_codes": {},
+        "faults": {},
+        "process": {},
+    }
+    for source, data in layers:
+        unknown = set(data) - _TOP_KEYS
+        if unknown:
+            raise ConfigError(f"{source}: unknown table(s) {', '.join(sorted(unknown))}")
+        prof = data.get("profile", {})
+        if not isinstance(prof, dict):
+            raise ConfigError(f"{source}: [profile] must be a table")
+        extra = set(prof) - _PROFILE_KEYS
+        if extra:
+            raise ConfigError(f"{source}: [profile] unknown field(s) {', '.join(sorted(extra))}")
+        for removed in _int_list(prof.get("remove", []), _Where(source, "[profile]"), "remove"):
+            raw_params.pop(removed, None)
+        profile_data.update({k: v for k, v in prof.items() if k not in ("extends", "remove")})
+        for key, table in tables.items():
+            value = data.get(key, {})
+            if not isinstance(value, dict):
+                raise ConfigError(f"{source}: [{key}] must be a table")
+            table.update(value)
+        params = data.get("parameter", [])
+        if not isinstance(params, list):
+            raise ConfigError(f"{source}: 'parameter' must be an array of tables ([[parameter]])")
+        seen: set[int] = set()
+        for number, entry in enumerate(params, start=1):
+            if not isinstance(entry, dict):
+                raise ConfigError(f"{source}: parameter entry {number} is not a table")
+            pnu = entry.get("pnu")
+            if isinstance(pnu, bool) or not isinstance(pnu, int):
+                raise ConfigError(f"{source}: parameter entry {number}: field 'pnu' missing")
+            if pnu in seen:
+                raise ConfigError(f"{source}: parameter {pnu} is defined twice")
+            seen.add(pnu)
+            raw_params[pnu] = (source, entry)
+    sources = " + ".join(source for source, _ in layers)
+    profile = _profile(profile_data, layers[-1][0], sources)
+    parameters = {
+        pnu: _parameter(entry, _Where(source, f"parameter {pnu}:"), profile)
+        for pnu, (source, entry) in raw_params.items()
+    }
+    db = ParameterDatabase(
+        profile,
+        parameters,
+        roles=_refs(tables["drive"], "drive", ROLES, sources),
+        interface=_refs(tables["interface"], "interface", INTERFACE_ROLES, sources),
+        state_codes=_codes(tables["state_codes"], "state_codes", STATE_NAMES, sources),
+        faults=_codes(tables["faults"], "faults", None, sources),
+        process_setpoints=_process(tables["process"], "setpoints", sources, parameters),
+        process_actuals=_process(tables["process"], "actuals", sources, parameters),
+    )
+    if profile.access_level is not None:
+        _check_ref(profile.access_level, parameters, profile, _Where(sources, "[profile]"), "")
+    _check_roles(db, sources)
+    return db
+
+
+def _profile(data: dict[str, Any], source: str, sources: str) -> ProfileInfo:
+    where = _Where(source, "[profile]")
+    name = data.get("name")
+    if not isinstance(name, str) or not name:
+        raise where.error("name", "required, a non-empty text")
+    index_base = data.get("index_base", 1)
+    if index_base not in (0, 1) or isinstance(index_base, bool):
+        raise where.error("index_base", "must be 0 or 1")
+    style = data.get("description", "profibus")
+    try:
+        description = DescriptionStyle(style)
+    except ValueError:
+        raise where.error("description", "must be 'profibus' or 'baumueller'") from None
+    max_pnu = data.get("max_pnu", 2047)
+    if isinstance(max_pnu, bool) or not isinstance(max_pnu, int) or not 0 < max_pnu <= 65535:
+        raise where.error("max_pnu", "must be an integer 1..65535")
+    level = data.get("access_level")
+    level_ref = None if level is None else _ref(level, where, "access_level")
+    protected_level = data.get("protected_level", 1)
+    if isinstance(protected_level, bool) or not isinstance(protected_level, int):
+        raise where.error("protected_level", "must be an integer")
+    return ProfileInfo(
+        name=name,
+        title=_text(data.get("title", ""), where, "title"),
+        seed=_text(data.get("seed", ""), where, "seed"),
+        source=sources,
+        index_base=index_base,
+        description=description,
+        text_write=_flag(data.get("text_write", False), where, "text_write"),
+        max_pnu=max_pnu,
+        access_level=level_ref,
+        protected_level=protected_level,
+    )
+
+
+def _text(value: object, where: _Where, name: str) -> str:
+    if not isinstance(value, str):
+        raise where.error(name, "must be a text")
+    return value
+
+
+def _flag(value: object, where: _Where, name: str) -> bool:
+    if not isinstance(value, bool):
+        raise where.error(name, "must be true or false")
+    return value
+
+
+def _int_list(value: object, where: _Where, name: str) -> list[int]:
+    if not isinstance(value, list) or not all(
+        isinstance(v, int) and not isinstance(v, bool) for v in value
+    ):
+        raise where.error(name, "must be a list of integers")
+    return list(value)
+
+
+def _ref(value: object, where: _Where, name: str) -> ParamRef:
+    if isinstance(value, int) and not isinstance(value, bool):
+        return ParamRef(value)
+    if (
+        isinstance(value, list)
+        and len(value) == 2
+        and all(isinstance(v, int) and not isinstance(v, bool) for v in value)
+    ):
+        return ParamRef(value[0], value[1])
+    raise where.error(name, "must be a PNU or [PNU, index]")
+
+
+def _check_ref(
+    ref: ParamRef,
+    parameters: Mapping[int, Parameter],
+    profile: ProfileInfo,
+    where: _Where,
+    name: str,
+) -> Parameter:
+    label = name or "access_level"
+    param = parameters.get(ref.pnu)
+    if param is None:
+        raise where.error(label, f"refers to P{ref.pnu}, which is not defined")
+    if param.array is None and ref.index is not None:
+        raise where.error(label, f"P{ref.pnu} is not an array, it takes no index")
+    if param.array is not None:
+        base = profile.index_base
+        if ref.index is None or not base <= ref.index < base + param.array:
+            raise where.error(
+                label, f"P{ref.pnu} is an array: give [PNU, index] with a valid index"
+            )
+    if not param.dtype.is_integer and param.dtype is not DataType.FLOAT:
+        raise where.error(label, f"P{ref.pnu} must hold a number")
+    return param
+
+
+def _refs(
+    table: dict[str, Any],
+    table_name: str,
+    known: Sequence[str],
+    source: str,
+) -> dict[str, ParamRef]:
+    where = _Where(source, f"[{table_name}]")
+    result = {}
+    for key, value in table.items():
+        if key not in known:
+            raise where.error(key, f"unknown; known are {', '.join(known)}")
+        result[key] = _ref(value, where, key)
+    return result
+
+
+def _codes(
+    table: dict[str, Any], table_name: str, known: Sequence[str] | None, source: str
+) -> dict[str, int]:
+    where = _Where(source, f"[{table_name}]")
+    result = {}
+    for key, value in table.items():
+        if known is not None and key not in known:
+            raise where.error(key, f"unknown; known are {', '.join(known)}")
+        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 0xFFFF:
+            raise where.error(key, "must be an integer 0..65535")
+        result[key] = value
+    return result
+
+
+def _process(
+    table: dict[str, Any], key: str, source: str, parameters: Mapping[int, Parameter]
+) -> tuple[int, ...]:
+    where = _Where(source, "[process]")
+    extra = set(table) - {"setpoints", "actuals"}
+    if extra:
+        raise where.error(sorted(extra)[0], "unknown; known are setpoints, actuals")
+    pnus = _int_list(table.get(key, []), where, key)
+    if len(pnus) > 14:
+        raise where.error(key, "at most 14 entries (PZD3..PZD16)")
+    for pnu in pnus:
+        if pnu == 0:
+            continue  # a gap: that PZD word is not used
+        param = parameters.get(pnu)
+        if param is None:
+            raise where.error(key, f"refers to P{pnu}, which is not defined")
+        if param.is_array or param.word_count != 1 or not param.dtype.is_integer:
+            raise where.error(key, f"P{pnu} must be a 16-bit (or 8-bit) scalar")
+    return tuple(pnus)
+
+
+def _check_roles(db: ParameterDatabase, source: str) -> None:
+    where = _Where(source, "[drive]")
+    parameters = {p.pnu: p for p in db}
+    for name, ref in db.roles.items():
+        param = _check_ref(ref, parameters, db.profile, where, name)
+        unit = param.unit
+        if name in TIME_ROLES and unit not in TIME_UNITS:
+            raise where.error(name, f"P{ref.pnu} must have a time unit (s, ms, min), not {unit!r}")
+        if name in (*LEVEL_ROLES, "setpoint", "actual"):
+            ref_unit = _reference_unit(db)
+            if unit not in ("%", "") and unit != ref_unit:
+                raise where.error(
+                    name,
+                    f"P{ref.pnu} unit {unit!r} needs a 'reference' parameter with that unit "
+                    "(or use %, or no unit for 4000h = 100 %)",
+                )
+        if (
+            name in ("state", "fault", "warning", "control_word", "status_word")
+            and not param.dtype.is_integer
+        ):
+            raise where.error(name, f"P{ref.pnu} must be an integer parameter")
+    for name, ref in db.interface.items():
+        _check_ref(ref, parameters, db.profile, _Where(source, "[interface]"), name)
+
+
+def _reference_unit(db: ParameterDatabase) -> str | None:
+    ref = db.roles.get("reference")
+    return None if ref is None else db.parameter(ref.pnu).unit
+
+
+def _parameter(entry: dict[str, Any], where: _Where, profile: ProfileInfo) -> Parameter:
+    extra = set(entry) - _PARAM_KEYS
+    if extra:
+        raise where.error(sorted(extra)[0], f"unknown; known are {', '.join(sorted(_PARAM_KEYS))}")
+    pnu = entry["pnu"]
+    if not 0 <= pnu <= profile.max_pnu:
+        raise where.error("pnu", f"must be 0..{profile.max_pnu} in this profile")
+    name = entry.get("name")
+    if not isinstance(name, str) or not name:
+        raise where.error("name", "required, a non-empty text")
+    if len(name) > TEXT_LENGTH or not is_visible(name):
+        raise where.error("name", f"at most {TEXT_LENGTH} visible ASCII characters (PBE element 6)")
+    type_name = entry.get("type")
+    if not isinstance(type_name, str) or type_name not in TYPE_NAMES:
+        raise where.error("type", f"required, one of {', '.join(TYPE_NAMES)}")
+    dtype = TYPE_NAMES[type_name]
+
+    array = entry.get("array")
+    if array is not None and (
+        isinstance(array, bool) or not isinstance(array, int) or not 1 <= array <= MAX_ARRAY
+    ):
+        raise where.error("array", f"must be a number of elements 1..{MAX_ARRAY}")
+    length = entry.get("length", 0)
+    if dtype.is_string:
+        if isinstance(length, bool) or not isinstance(length, int):
+            raise where.error("length", "must be an integer")
+        if not 1 <= length <= MAX_STRING:
+            raise where.error("length", f"a string parameter needs a length 1..{MAX_STRING}")
+    elif "length" in entry:
+        raise where.error("length", "only string types have a length")
+
+    access_name = entry.get("access", "rw")
+    try:
+        access = Access(access_name)
+    except ValueError:
+        raise where.error("access", "must be 'rw', 'ro' or 'protected'") from None
+
+    numeric = dtype.is_integer or dtype is DataType.FLOAT
+    minimum = _limit(entry, "min", dtype, where)
+    maximum = _limit(entry, "max", dtype, where)
+    if dtype is DataType.V2 or not numeric:
+        for key in ("min", "max", "allowed"):
+            if key in entry:
+                raise where.error(key, f"not applicable to type {dtype.label}")
+    if minimum is not None and maximum is not None and minimum > maximum:
+        raise where.error("min", f"{minimum} is above max {maximum}")
+    allowed = None
+    if "allowed" in entry:
+        values = _int_list(entry["allowed"], where, "allowed")
+        if not values or not dtype.is_integer:
+            raise where.error("allowed", "must be a non-empty list of integers")
+        allowed = tuple(values)
+
+    unit = _text(entry.get("unit", ""), where, "unit")
+    scaling = entry.get("scaling")
+    if scaling is not None and (
+        isinstance(scaling, bool)
+        or not isinstance(scaling, int | float)
+        or not math.isfinite(scaling)
+        or scaling <= 0
+    ):
+        raise where.error("scaling", "must be a positive number")
+    decimals = entry.get("decimals", _decimals_of(scaling))
+    if isinstance(decimals, bool) or not isinstance(decimals, int) or not 0 <= decimals <= 15:
+        raise where.error("decimals", "must be 0..15")
+    display = _display(entry.get("format"), dtype, where)
+
+    texts = _value_texts(entry, dtype, array, where)
+    index_texts = _index_texts(entry, array, where)
+    bit_texts = _bit_texts(entry, dtype, array, where)
+
+    param = Parameter(
+        pnu=pnu,
+        name=name,
+        dtype=dtype,
+        default=(),
+        array=array,
+        length=length if dtype.is_string else 0,
+        minimum=minimum,
+        maximum=maximum,
+        allowed=allowed,
+        access=access,
+        active=_flag(entry.get("active", False), where, "active"),
+        unit=unit,
+        scaling=None if scaling is None else float(scaling),
+        decimals=decimals,
+        display=display,
+        command=_flag(entry.get("command", False), where, "command"),
+        store=_flag(entry.get("store", True), where, "store"),
+        reset_only=_flag(entry.get("reset_only", False), where, "reset_only"),
+        stopped_only=_flag(entry.get("stopped_only", False), where, "stopped_only"),
+        texts=texts,
+        index_texts=index_texts,
+        bit_texts=bit_texts,
+        doc=_text(entry.get("doc", ""), where, "doc"),
+        seed=_text(entry.get("seed", ""), where, "seed"),
+    )
+    defaults = _defaults(entry, param, where)
+    return _with_default(param, defaults)
+
+
+def _with_default(param: Parameter, default: tuple[Value, ...]) -> Parameter:
+    values = {name: getattr(param, name) for name in Parameter.__dataclass_fields__}
+    values["default"] = default
+    return Parameter(**values)
+
+
+def _limit(entry: dict[str, Any], key: str, dtype: DataType, where: _Where) -> int | float | None:
+    if key not in entry:
+        return None
+    value = entry[key]
+    if dtype is DataType.FLOAT:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise where.error(key, "must be a number")
+        if not math.isfinite(value) or abs(value) > dtype.type_range[1]:
+            raise where.error(key, "must be a finite single precision number")
+        return round_float(float(value))
+    if not dtype.is_integer:
+        raise where.error(key, f"not applicable to type {dtype.label}")
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise where.error(key, "must be an integer")
+    low, high = dtype.type_range
+    if not low <= value <= high:
+        raise where.error(key, f"{value} does not fit {dtype.label}")
+    return value
+
+
+def _decimals_of(scaling: object) -> int:
+    """Decimal places implied by a scaling of 10^-k (0 for any other scaling)."""
+    if isinstance(scaling, int | float) and not isinstance(scaling, bool):
+        for places in range(16):
+            if math.isclose(scaling, 10.0**-places, rel_tol=1e-9):
+                return places
+    return 0
+
+
+def _display(value: object, dtype: DataType, where: _Where) -> DisplayFormat:
+    if value is None:
+        if dtype.is_string:
+            return DisplayFormat.ASCII
+        if dtype is DataType.V2:
+            return DisplayFormat.HEX
+        return DisplayFormat.NORM if dtype is DataType.FLOAT else DisplayFormat.DEC
+    if not isinstance(value, str) or value.upper() not in DisplayFormat.__members__:
+        names = ", ".join(m.lower() for m in DisplayFormat.__members__)
+        raise where.error("format", f"must be one of {names}")
+    return DisplayFormat[value.upper()]
+
+
+def _element_text(text: object, where: _Where, key: str) -> str:
+    if not isinstance(text, str) or len(text) > TEXT_LENGTH or not is_visible(text):
+        raise where.error(key, f"texts are at most {TEXT_LENGTH} visible ASCII characters")
+    return text
+
+
+def _value_texts(
+    entry: dict[str, Any], dtype: DataType, array: int | None, where: _Where
+) -> dict[int, str]:
+    table = entry.get("texts")
+    if table is None:
+        return {}
+    if not isinstance(table, dict):
+        raise where.error("texts", 'must be a table value = "text"')
+    if not dtype.is_unsigned or dtype is DataType.V2:
+        raise where.error("texts", "value texts exist for unsigned 8/16/32 types (C Table 4.5)")
+    low, high = dtype.type_range
+    result = {}
+    for key, text in table.items():
+        try:
+            value = int(key, 0)
+        except ValueError:
+            raise where.error("texts", f"key {key!r} is not an integer value") from None
+        if not low <= value <= min(high, 253):
+            raise where.error("texts", f"value {value}: text element y = value + 1 must be <= 254")
+        result[value] = _element_text(text, where, "texts")
+    return dict(sorted(result.items()))
+
+
+def _index_texts(entry: dict[str, Any], array: int | None, where: _Where) -> tuple[str, ...]:
+    texts = entry.get("index_texts")
+    if texts is None:
+        return ()
+    if array is None:
+        raise where.error("index_texts", "only an array has index texts")
+    if not isinstance(texts, list) or len(texts) > array:
+        raise where.error("index_texts", f"must be a list of at most {array} texts")
+    return tuple(_element_text(t, where, "index_texts") for t in texts)
+
+
+def _bit_texts(
+    entry: dict[str, Any], dtype: DataType, array: int | None, where: _Where
+) -> dict[int, tuple[str, str]]:
+    table = entry.get("bit_texts")
+    if table is None:
+        return {}
+    if dtype is not DataType.V2 or array is not None:
+        raise where.error("bit_texts", "bit texts exist for a V2 parameter that is not an array")
+    if not isinstance(table, dict):
+        raise where.error("bit_texts", 'must be a table bit = ["text of 0", "text of 1"]')
+    result = {}
+    for key, pair in table.items():
+        try:
+            bit = int(key, 0)
+        except ValueError:
+            raise where.error("bit_texts", f"key {key!r} is not a bit number") from None
+        if not 0 <= bit <= 15:
+            raise where.error("bit_texts", f"bit {bit} is not 0..15")
+        if not isinstance(pair, list) or len(pair) != 2:
+            raise where.error("bit_texts", f"bit {bit}: give two texts, for 0 and for 1")
+        result[bit] = (
+            _element_text(pair[0], where, "bit_texts"),
+            _element_text(pair[1], where, "bit_texts"),
+        )
+    return dict(sorted(result.items()))
+
+
+def _defaults(entry: dict[str, Any], param: Parameter, where: _Where) -> tuple[Value, ...]:
+    raw = entry.get("default")
+    if raw is None:
+        zero: Value = (
+            ""
+            if param.dtype is DataType.VISIBLE_STRING
+            else b""
+            if param.dtype is DataType.OCTET_STRING
+            else 0.0
+            if param.dtype is DataType.FLOAT
+            else 0
+        )
+        if isinstance(zero, int | float) and param.writable:
+            zero = min(max(zero, param.low), param.high)
+            if param.allowed is not None and zero not in param.allowed:
+                zero = param.allowed[0]
+            if param.dtype.is_integer:
+                zero = int(zero)
+        raw = zero
+    if param.dtype is DataType.OCTET_STRING and isinstance(raw, str):
+        try:
+            raw = bytes.fromhex(raw)
+        except ValueError:
+            raise where.error("default", 'octets are given as hex text, e.g. "01 A0 FF"') from None
+    if isinstance(raw, list) and param.dtype is DataType.OCTET_STRING:
+        raise where.error("default", "give octets as hex text (one value for every element)")
+    if isinstance(raw, list):
+        if param.array is None:
+            raise where.error("default", "a list of defaults needs an array parameter")
+        if len(raw) != param.array:
+            raise where.error("default", f"give {param.array} values or one for all elements")
+        values = raw
+    else:
+        values = [raw] * param.elements
+    result = []
+    for value in values:
+        if param.dtype is DataType.OCTET_STRING and isinstance(value, str):
+            value = bytes.fromhex(value)
+        try:
+            checked = param.check_write(value) if param.writable else param.coerce(value)
+        except ParameterFault as exc:
+            raise where.error("default", exc.detail) from None
+        result.append(checked)
+    return tuple(result)

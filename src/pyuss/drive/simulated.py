@@ -1,0 +1,274 @@
+"""`SimulatedDrive`: parameter values, EEPROM store and the drive profile's state machine.
+
+This is the object a slave engine serves. It is a `ParameterMemory` (reads, checked writes,
+texts, descriptions, EEPROM writes, change notification) and runs a `DriveStateMachine` whose
+settings come from the parameters the profile names in ``[drive]``: writing the ramp-up time
+through USS changes the ramp of the next step.
+
+Process data: ``apply_control(control_word, setpoint, now)`` takes PZD1 and the main setpoint
+(a raw 16-bit PZD word, or with ``bits=32`` a double word, 4000h resp. 4000 0000h = 100 %,
+C 5.2.2); ``status_word()`` and ``actual_value()`` give PZD1 and the main actual value of the
+answer; ``exchange(words, now)`` does all of it for the usual mapping (PZD1 control/status,
+PZD2 main setpoint/actual, PZD3.. from ``[process]``). Time is always passed in.
+
+The displays named in ``[drive]`` (state code, fault and warning numbers, control and status
+word, ramp input and actual value) are updated by the drive at every step; an active display
+is reported to subscribers like any other change of an active parameter.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Sequence
+from pathlib import Path
+
+from pyuss.drive.database import (
+    LEVEL_ROLES,
+    TIME_ROLES,
+    TIME_UNITS,
+    ParameterDatabase,
+    ParamRef,
+    load_profile,
+)
+from pyuss.drive.datatypes import DataType
+from pyuss.drive.faults import ParameterFault
+from pyuss.drive.memory import ParameterMemory
+from pyuss.drive.states import WAIT_FOREVER, DriveState, DriveStateMachine, Motion
+from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32
+
+_DEFAULTS = Motion()
+
+
+class SimulatedDrive(ParameterMemory):
+    """A drive without hardware: parameters, persistence, state machine and ramp.
+
+    ``store`` is the file of the simulated EEPROM (None: EEPROM writes stay in RAM); ``now``
+    the time of power-up in the caller's time base.
+    """
+
+    def __init__(
+        self,
+        db: ParameterDatabase,
+        *,
+        store: str | Path | None = None,
+        now: float = 0.0,
+    ) -> None:
+        self._motion_pnus = {
+            ref.pnu
+            for name, ref in db.roles.items()
+            if name in (*TIME_ROLES, *LEVEL_ROLES, "reference")
+        }
+        self._motion_cache: Motion | None = None
+        super().__init__(db, store=store, running=lambda: self.machine.running)
+        self.machine = DriveStateMachine(now, self._motion())
+        self._publish()
+
+    @classmethod
+    def from_profile(
+        cls, name: str, *, store: str | Path | None = None, now: float = 0.0
+    ) -> SimulatedDrive:
+        """A drive of a built-in profile (``generic``, ``6se21``, ``baumueller`` ...)."""
+        return cls(load_profile(name), store=store, now=now)
+
+    # ---------------------------------------------------------------- process data
+
+    @property
+    def state(self) -> DriveState:
+        return self.machine.state
+
+    @property
+    def running(self) -> bool:
+        return self.machine.running
+
+    def step(self, now: float) -> None:
+        """Advance ramps and timers to ``now``."""
+        self.machine.motion = self._motion()
+        self.machine.step(now)
+        self._publish()
+
+    def apply_control(
+        self, control_word: int, setpoint: int | None, now: float, *, bits: int = 16
+    ) -> bool:
+        """Take PZD1 and the main setpoint (raw, two's complement; None keeps the old one).
+
+        Returns False when control bit 10 is 0: the process data are ignored (C Table 5.4).
+        """
+        self.machine.motion = self._motion()
+        fraction = None if setpoint is None else _fraction_of_raw(setpoint, bits)
+        accepted = self.machine.apply(control_word, fraction, now)
+        self._publish()
+        return accepted
+
+    def status_word(self) -> int:
+        """PZD1 of the answer (C Tables 5.5, 5.6)."""
+        return self.machine.status_word()
+
+    def actual_value(self, *, bits: int = 16) -> int:
+        """The main actual value as a raw PZD word (``bits=32``: double word), 4000h = 100 %."""
+        return _raw_of_fraction(self.machine.actual, bits)
+
+    def exchange(self, words: Sequence[int], now: float) -> tuple[int, ...]:
+        """One process data exchange: the PZD words received, the PZD words to answer.
+
+        PZD1 control word, PZD2 main setpoint (16 bit), PZD3.. the parameters of
+        ``[process] setpoints``; the answer has the same length: status word, main actual
+        value, then the parameters of ``[process] actuals`` (0 where none is named).
+        """
+        count = len(words)
+        if count == 0:
+            self.step(now)
+            return ()
+        accepted = self.apply_control(words[0], words[1] if count > 1 else None, now)
+        if accepted:
+            for word, pnu in zip(words[2:], self.db.process_setpoints, strict=False):
+                if pnu:
+                    self._take_setpoint(pnu, word)
+        reply = [self.status_word(), self.actual_value()]
+        for pnu in self.db.process_actuals:
+            reply.append(self.read_words(pnu)[0] if pnu else 0)
+        reply.extend([0] * max(0, count - len(reply)))
+        return tuple(reply[:count])
+
+    def raise_fault(
+        self, code: int, now: float | None = None, *, cause_present: bool = False
+    ) -> None:
+        """Trip fault ``code`` (for example the telegram failure time expired, C 3.1).
+
+        ``cause_present``: acknowledging is refused until `clear_fault_cause`.
+        """
+        self.machine.raise_fault(
+            code, self.machine.time if now is None else now, cause_present=cause_present
+        )
+        self._publish()
+
+    def clear_fault_cause(self, code: int) -> None:
+        self.machine.clear_fault_cause(code)
+
+    def raise_warning(self, code: int) -> None:
+        """Set a warning (status bit 7) until `clear_warning`."""
+        self.machine.raise_warning(code)
+        self._publish()
+
+    def clear_warning(self, code: int) -> None:
+        self.machine.clear_warning(code)
+        self._publish()
+
+    # ---------------------------------------------------------------- roles
+
+    def _take_setpoint(self, pnu: int, word: int) -> None:
+        param = self.db.parameter(pnu)
+        with contextlib.suppress(ParameterFault):  # a PZD word cannot be refused: old one stays
+            self.update(pnu, param.from_words([word]))
+
+    def _role(self, name: str) -> tuple[ParamRef, float] | None:
+        """The parameter of a role and its physical value (raw x scaling)."""
+        ref = self.db.roles.get(name)
+        if ref is None:
+            return None
+        raw = self.ref_value(ref)
+        assert isinstance(raw, int | float)
+        scaling = self.db.parameter(ref.pnu).scaling
+        return ref, raw * (1.0 if scaling is None else scaling)
+
+    def _seconds(self, name: str) -> float | None:
+        found = self._role(name)
+        if found is None:
+            return None
+        ref, value = found
+        return value * TIME_UNITS[self.db.parameter(ref.pnu).unit]
+
+    def _level_factor(self, ref: ParamRef) -> float:
+        """Physical value of 100 % in the unit of the role's parameter."""
+        param = self.db.parameter(ref.pnu)
+        if param.unit == "%":
+            return 100.0
+        if param.unit == "":
+            return float(FULL_SCALE_32 if param.dtype.byte_size == 4 else FULL_SCALE_16)
+        reference = self._role("reference")
+        return 1.0 if reference is None or reference[1] == 0 else reference[1]
+
+    def _fraction(self, name: str) -> float | None:
+        found = self._role(name)
+        if found is None:
+            return None
+        ref, value = found
+        return value / self._level_factor(ref)
+
+    def _changed(self, pnu: int) -> None:
+        if pnu in self._motion_pnus:
+            self._motion_cache = None
+
+    def _motion(self) -> Motion:
+        """The motion settings from the role parameters (cached until one of them changes)."""
+        if self._motion_cache is None:
+            self._motion_cache = self._read_motion()
+        return self._motion_cache
+
+    def _read_motion(self) -> Motion:
+        def pick(value: float | None, default: float) -> float:
+            return default if value is None else value
+
+        wait = self._seconds("wait_time")
+        return Motion(
+            ramp_up=pick(self._seconds("ramp_up_time"), _DEFAULTS.ramp_up),
+            ramp_down=pick(self._seconds("ramp_down_time"), _DEFAULTS.ramp_down),
+            quick_stop=pick(self._seconds("quick_stop_time"), _DEFAULTS.quick_stop),
+            coast=self._seconds("coast_time"),
+            jog_ramp=self._seconds("jog_ramp_time"),
+            jog1=pick(self._fraction("jog1"), _DEFAULTS.jog1),
+            jog2=pick(self._fraction("jog2"), _DEFAULTS.jog2),
+            tolerance=pick(self._fraction("tolerance"), _DEFAULTS.tolerance),
+            tolerance_time=pick(self._seconds("tolerance_time"), _DEFAULTS.tolerance_time),
+            compare=pick(self._fraction("compare_value"), _DEFAULTS.compare),
+            wait=WAIT_FOREVER if wait is None else wait,
+            init=pick(self._seconds("init_time"), _DEFAULTS.init),
+        )
+
+    def _publish(self) -> None:
+        """Write the displays the profile names."""
+        machine = self.machine
+        roles = self.db.roles
+        code = self.db.state_codes.get(machine.state.value)
+        plain = {
+            "state": code,
+            "fault": machine.fault_code,
+            "warning": machine.warning_code,
+            "control_word": machine.control,
+            "status_word": machine.status_word(),
+        }
+        for name, value in plain.items():
+            ref = roles.get(name)
+            if ref is not None and value is not None:
+                self._show(ref, value)
+        for name, fraction in (("setpoint", machine.ramp_input), ("actual", machine.actual)):
+            ref = roles.get(name)
+            if ref is not None:
+                param = self.db.parameter(ref.pnu)
+                physical = fraction * self._level_factor(ref)
+                self._show(ref, physical / (1.0 if param.scaling is None else param.scaling))
+
+    def _show(self, ref: ParamRef, value: float) -> None:
+        param = self.db.parameter(ref.pnu)
+        if param.dtype is DataType.FLOAT:
+            self.update(ref.pnu, float(value), ref.index)
+            return
+        low, high = param.dtype.type_range
+        self.update(ref.pnu, int(min(max(round(value), low), high)), ref.index)
+
+
+def _fraction_of_raw(raw: int, bits: int) -> float:
+    if bits not in (16, 32):
+        raise ValueError(f"setpoints are 16 or 32 bits, not {bits}")
+    mask = (1 << bits) - 1
+    value = raw & mask
+    if value >> (bits - 1):
+        value -= 1 << bits
+    return value / (FULL_SCALE_16 if bits == 16 else FULL_SCALE_32)
+
+
+def _raw_of_fraction(fraction: float, bits: int) -> int:
+    if bits not in (16, 32):
+        raise ValueError(f"actual values are 16 or 32 bits, not {bits}")
+    full = FULL_SCALE_16 if bits == 16 else FULL_SCALE_32
+    low, high = -(1 << (bits - 1)), (1 << (bits - 1)) - 1
+    return min(max(round(fraction * full), low), high) & ((1 << bits) - 1)

@@ -1,0 +1,223 @@
+"""What a device profile says about the telegram level, for the slave and the master alike.
+
+A `Profile` is data plus a few pure functions. Its parameter database (numbers, types, limits,
+texts) lives in the TOML file of the same name under ``pyuss/profiles/data`` and is read with
+`Profile.database`; everything here is about how the device speaks USS:
+
+- which layouts it accepts (`Profile.check_layout`, `Profile.default_layout`,
+  `Profile.fixed_layout`);
+- the timing it keeps: start pause and the window in which it answers (`Profile.start_pause`,
+  `Profile.response_delay`);
+- how parameter numbers above the 11 bits of PKE travel (`Profile.encode_pnu`,
+  `Profile.decode_pnu`; NOTES 8: device-specific IND bits);
+- the broadcast form it understands (`BroadcastForm`, NOTES 9), whether it sends spontaneous
+  messages (C 4.2.1.2) and which request IDs it knows;
+- the error numbers above the specification's (`Profile.error_meanings`,
+  `Profile.error_meaning`) and which ones it answers when a job does not fit the PKW area
+  (`Profile.too_large_error`, C 7) or names a reserved request ID (`Profile.unsupported_error`);
+- device behaviour switched by parameters (`BitRef`), such as Baumueller's response-delay mode.
+
+Nothing here reads a clock or does I/O; a master uses the same objects to address a device
+(PNU mapping, broadcast form, error names, time-outs).
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from functools import cache
+
+from pyuss.drive.database import ParameterDatabase, load_profile
+from pyuss.errors import ConfigError
+from pyuss.protocol.layout import PKW_VARIABLE, Layout
+from pyuss.protocol.pkw import MAX_PNU, error_meaning
+from pyuss.protocol.timing import MAX_RESPONSE_DELAY, char_time
+
+__all__ = ["BitRef", "BroadcastForm", "Profile"]
+
+_PAGE_BITS = (15, 12, 13, 14)
+"""IND bits carrying the page number, lowest weight first (bit 15 has weight 1)."""
+_PAGE_MASK = 0xF000
+
+
+class BroadcastForm(enum.Enum):
+    """How a device takes process data from a broadcast telegram (A 3, NOTES 9).
+
+    A broadcast is never answered whatever the form (A 3, A 5.2.2).
+    """
+
+    NONE = "none"
+    """The device takes nothing from broadcasts."""
+    ENABLE_ARRAY = "enable-array"
+    """The optional Siemens mechanism: a 4-word Broadcast Enable Array in the PKW area selects
+    PZD words and control bits (appendix, C 5.2.3, `pyuss.protocol.broadcast`)."""
+    MASKED_CONTROL = "masked-control"
+    """Baumueller: PZD1 is merged into the control word through the mask in PWE1; setpoints
+    and PKW jobs are not taken; optionally PZD2/PZD3 name the addresses that react (seed 004
+    2.2, NOTES 9)."""
+
+
+@dataclass(frozen=True, slots=True)
+class BitRef:
+    """One bit of a parameter that switches device behaviour (for example P181 bit 2)."""
+
+    pnu: int
+    bit: int
+    index: int | None = None
+
+    def __str__(self) -> str:
+        where = f"P{self.pnu}" if self.index is None else f"P{self.pnu}.{self.index}"
+        return f"{where} bit {self.bit}"
+
+
+@dataclass(frozen=True, slots=True)
+class Profile:
+    """A device profile: see the module docstring. Instances are the built-in profiles of
+    `pyuss.profiles` (``get_profile(name)``)."""
+
+    name: str
+    title: str
+    seed: str
+    """The seed section(s) the profile follows."""
+    default_layout: Layout
+    """The layout used when neither the user nor the parameter file sets one."""
+    fixed_layout: Layout | None = None
+    """The only layout the device knows (for example 6SE21: PKW 3, PZD 2), or None."""
+    pkw_choices: tuple[int, ...] = (0, 3, 4, PKW_VARIABLE)
+    max_pzd: int = 16
+    start_pause_chars: float = 2.0
+    """Silence before every telegram, in character times (A 5.1.2; Baumueller: 33 bits = 3)."""
+    response_delay_min: float = 0.0
+    """Earliest answer after the request's BCC in seconds (never below the start pause)."""
+    response_delay_max: float = MAX_RESPONSE_DELAY
+    """Latest answer in seconds (A 5.2.1.1: 20 ms; never below the start pause)."""
+    delayed_response_max: float = MAX_RESPONSE_DELAY
+    """Latest answer while the device's response-delay mode is on (`delay_mode`)."""
+    pnu_page_size: int | None = None
+    """Parameter numbers per page in IND bits 12..15 (MICROMASTER 4: 2000); None: PKE only."""
+    answer_index_zero: bool = False
+    """Answers always carry IND = 0 (6SE21, seed 002 7.5)."""
+    broadcast: BroadcastForm = BroadcastForm.NONE
+    spontaneous: bool = False
+    """The device reports changes of active parameters spontaneously (C 4.2.1.2)."""
+    request_ids: frozenset[int] = frozenset(set(range(16)) - {10})
+    """The request IDs the device knows (C Table 4.1 without the reserved 10)."""
+    error_meanings: Mapping[int, str] = field(default_factory=dict)
+    """Device error numbers (above the specification's 0..7) and their meanings."""
+    too_large_error: int = 103
+    """Error number of response 7 for a job whose answer does not fit the PKW area (C 7)."""
+    unsupported_error: int = 102
+    """Error number of response 7 for the reserved request ID 10."""
+    diagnostic_pnu: int = 2040
+    """First of the three diagnostic parameters of A 5.2.3 a slave offers (see `pyuss.slave`)."""
+    delay_mode: BitRef | None = None
+    """The bit that switches the response-delay mode on (Baumueller P181 bit 2)."""
+    broadcast_coding: BitRef | None = None
+    """The bit that switches broadcast address coding on (Baumueller P181 bit 1)."""
+    data: str = ""
+    """Name of the built-in parameter file (default: the profile's name)."""
+
+    def __post_init__(self) -> None:
+        self.check_layout(self.default_layout)
+        if self.fixed_layout is not None and self.fixed_layout != self.default_layout:
+            raise ConfigError(f"profile {self.name}: the fixed layout must be the default")
+        lo, hi = self.response_delay_min, self.response_delay_max
+        if not 0 <= lo <= hi:
+            raise ConfigError(f"profile {self.name}: response delay window {lo}..{hi} s")
+        if self.pnu_page_size is not None and not 1 <= self.pnu_page_size <= MAX_PNU + 1:
+            raise ConfigError(f"profile {self.name}: page size {self.pnu_page_size}")
+
+    # -- parameter file ---------------------------------------------------------------------
+
+    def database(self) -> ParameterDatabase:
+        """The profile's built-in parameter database (read once, then shared: it is immutable)."""
+        return _database(self.data or self.name)
+
+    # -- layouts ----------------------------------------------------------------------------
+
+    def check_layout(self, layout: Layout) -> Layout:
+        """``layout`` if the device accepts it, else `ConfigError` saying what it accepts."""
+        if self.fixed_layout is not None and layout != self.fixed_layout:
+            raise ConfigError(
+                f"profile {self.name} uses the fixed layout {self.fixed_layout} only, not {layout}"
+            )
+        if layout.pkw not in self.pkw_choices:
+            choices = ", ".join("v" if p == PKW_VARIABLE else str(p) for p in self.pkw_choices)
+            raise ConfigError(f"profile {self.name}: PKW must be one of {choices}, not {layout}")
+        if layout.pzd > self.max_pzd:
+            raise ConfigError(
+                f"profile {self.name}: at most {self.max_pzd} PZD words, not {layout.pzd}"
+            )
+        return layout
+
+    @property
+    def fixed_length_only(self) -> bool:
+        """The device knows no variable-length PKW area."""
+        return PKW_VARIABLE not in self.pkw_choices
+
+    # -- timing -----------------------------------------------------------------------------
+
+    def start_pause(self, baud: int) -> float:
+        """The silence the device keeps before it sends, in seconds."""
+        return self.start_pause_chars * char_time(baud)
+
+    def response_delay(self, baud: int, *, delayed: bool = False) -> tuple[float, float]:
+        """``(earliest, latest)`` start of an answer after the request's end, in seconds. Both
+        are at least the start pause (A 5.2.1.1, NOTES 10); ``delayed``: the response-delay mode
+        of the device is on."""
+        pause = self.start_pause(baud)
+        high = self.delayed_response_max if delayed else self.response_delay_max
+        return (max(pause, self.response_delay_min), max(pause, high))
+
+    # -- parameter numbers ------------------------------------------------------------------
+
+    @property
+    def max_pnu(self) -> int:
+        """The largest parameter number the device can be addressed with."""
+        if self.pnu_page_size is None:
+            return MAX_PNU
+        return 16 * self.pnu_page_size - 1
+
+    def encode_pnu(self, pnu: int) -> tuple[int, int]:
+        """``(PKE bits 0..10, IND bits)`` that address parameter ``pnu``; the IND bits are to
+        be or-ed into the index word (NOTES 8)."""
+        if isinstance(pnu, bool) or not isinstance(pnu, int) or not 0 <= pnu <= self.max_pnu:
+            raise ConfigError(
+                f"parameter number must be 0..{self.max_pnu} for profile {self.name}, got {pnu!r}"
+            )
+        if self.pnu_page_size is None:
+            return pnu, 0
+        page, number = divmod(pnu, self.pnu_page_size)
+        bits = 0
+        for weight, bit in enumerate(_PAGE_BITS):
+            if page >> weight & 1:
+                bits |= 1 << bit
+        return number, bits
+
+    def decode_pnu(self, pnu_bits: int, index: int) -> int:
+        """The parameter number a request addresses with PKE bits 0..10 and the IND word."""
+        if self.pnu_page_size is None:
+            return pnu_bits
+        return pnu_bits + self.pnu_page_size * self.page(index)
+
+    def page(self, index: int) -> int:
+        """The page number in IND bits 12..15 (0 without paging)."""
+        if self.pnu_page_size is None:
+            return 0
+        return sum(1 << weight for weight, bit in enumerate(_PAGE_BITS) if index >> bit & 1)
+
+    def strip_page(self, index: int) -> int:
+        """The IND word without the page bits: subindex and text bits."""
+        return index & ~_PAGE_MASK if self.pnu_page_size is not None else index
+
+    # -- errors -----------------------------------------------------------------------------
+
+    def error_meaning(self, number: int) -> str:
+        """The meaning of error ``number`` from a response 7, with this profile's numbers."""
+        return error_meaning(number, self.error_meanings)
+
+
+@cache
+def _database(name: str) -> ParameterDatabase:
+    return load_profile(name)

@@ -1,0 +1,420 @@
+"""The USS slave engine, without I/O: a received telegram and the time in, the answer or silence
+out.
+
+`SlaveEngine.handle` decides for every telegram the line brings (A 2.1, A 5.2.2, A 5.3, A 5.4):
+
+- A slave answers only telegrams received without error (the receiver has dropped the others)
+  and addressed to it (ADR bits 0..4). A normal telegram whose length does not fit the slave's
+  layout is discarded as a wrong LGE (A 5.2, C 7).
+- A mirror telegram (ADR bit 6) for its address is sent back unchanged (A 5.3); nothing in it
+  is processed.
+- A broadcast (ADR bit 5) is never answered (A 3); its process data are taken in the profile's
+  form (`pyuss.slave.process`, appendix, NOTES 9); parameter jobs in it are never executed.
+- A special telegram (ADR bit 7) is discarded unless a handler is registered (A 5.4); with one,
+  the handler's answer is sent (never for a special broadcast).
+- Undefined ADR combinations lead to no reaction: `Telegram` cannot even hold them, and
+  `handle_bytes` drops them with every other malformed frame.
+
+Process data come first (C 5.1: "Die PZD-Verarbeitung hat Vorrang vor der PKW-Bearbeitung"),
+then the parameter channel, with the semantics of C 4.2.1.1:
+
+- One job at a time; any change of the job (ID, PNU, IND, PWE - the toggle bit 11 is not part
+  of it) is a new job; repeating a job does not execute it again.
+- A new job's answer is ready after the configured processing latency (`JobLatency`: a number
+  of further telegrams and/or seconds; 0 by default). Until then the answer to the previous job
+  is repeated, always with the current value; the very first contact is answered "no response".
+  The job itself (a write, for example) is carried out when its answer becomes ready; a job
+  replaced before that is never carried out.
+- "No job" is answered "no response".
+- Jobs run on the drive through `pyuss.slave.channel.ParameterChannel` (request IDs, IND 255,
+  texts, EEPROM IDs, response 8 without write authority, response 7 with the right number when
+  the answer does not fit the PKW area).
+
+Spontaneous messages (C 4.2.1.2), if the profile (or the caller) enables them: a change of an
+active parameter made elsewhere (the drive itself, another interface) interrupts the answers:
+the slave flips its toggle bit (PKE bit 11) and sends the change with response ID 9..12 until
+the master acknowledges by sending the same toggle bit; then the next change, or the interrupted
+answers. Normal answers carry the slave's current toggle bit. Changes of the same element that
+wait are merged (the newest value is reported). Whole-array changes, and values that do not fit
+a fixed PKW area, are reported with PNU and IND but without values.
+
+Telegram failure time (C 3.1 "Telegrammausfallzeit"): monitoring starts with the first good
+telegram addressed to the slave; when no further one arrives within the time, the drive trips
+the profile's fault ``telegram_failure`` (status word bit 3) and the diagnostics record a
+timeout (A 5.2.3 bit 7, counter 16). The next good telegram starts the monitoring again; the
+fault stays until the master acknowledges it (control word bit 7). Broadcasts do not count.
+The time comes from the interface parameter ``failure_time`` of the parameter file (its unit
+and scaling; 0 = off) unless given. `SlaveEngine.tick` checks it; a server calls it when
+`SlaveEngine.next_deadline` has come.
+
+Baumueller drives without response-delay mode (P181 bit 2 = 0) answer with the telegram prepared
+after the previous request (seed 004 2.5): the engine then returns that one and prepares the
+next; the first request is answered with its own process data and "no response".
+
+Layout: given, or read from the drive's interface parameters ``pkw``/``pzd`` (C 3), or the
+profile's default; the address and layout in force are written back to those parameters.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import OrderedDict
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+from pyuss.drive.database import TIME_UNITS
+from pyuss.drive.faults import ParameterFault
+from pyuss.drive.memory import WHOLE_ARRAY, ParameterChange
+from pyuss.drive.simulated import SimulatedDrive
+from pyuss.errors import ConfigError, TelegramError
+from pyuss.profiles.base import Profile
+from pyuss.protocol.diagnostics import Diagnostics, FaultKind
+from pyuss.protocol.layout import PKW_VARIABLE, Layout
+from pyuss.protocol.pkw import Pkw, ResponseId
+from pyuss.protocol.telegram import MAX_ADDRESS, AddressMode, Telegram
+from pyuss.slave.channel import ParameterChannel
+from pyuss.slave.diagnostic import DiagnosticParameters, software_version
+from pyuss.slave.process import bit_set, broadcast_action, process_mapping
+
+__all__ = ["JobLatency", "SlaveEngine", "SpecialHandler"]
+
+log = logging.getLogger("pyuss.slave")
+
+SpecialHandler = Callable[[Telegram, float], Telegram | None]
+"""Handles a special telegram (ADR bit 7) at a time; returns the answer or None (A 5.4)."""
+
+_MAX_SPONTANEOUS = 64
+"""Changes waiting to be reported; beyond that the oldest are dropped (and logged)."""
+
+
+@dataclass(frozen=True, slots=True)
+class JobLatency:
+    """How long the slave takes to answer a new parameter job: the answer is ready once the job
+    has been received ``cycles`` more times and ``seconds`` have passed since it first came."""
+
+    cycles: int = 0
+    seconds: float = 0.0
+
+    def __post_init__(self) -> None:
+        if isinstance(self.cycles, bool) or not isinstance(self.cycles, int) or self.cycles < 0:
+            raise ConfigError(
+                f"job latency must be a number of telegrams >= 0, not {self.cycles!r}"
+            )
+        if not self.seconds >= 0:
+            raise ConfigError(f"job latency must be >= 0 seconds, not {self.seconds!r}")
+
+
+class SlaveEngine:
+    """The slave at bus ``address`` serving ``drive`` the way ``profile`` says (see the module
+    docstring).
+
+    Options: ``layout`` (else from the drive's interface parameters, else the profile's
+    default), ``interface`` (the name under which this interface writes parameters and
+    receives change reports), ``latency`` (`JobLatency`), ``failure_time`` (seconds, 0 = off,
+    None = from the parameter file), ``spontaneous`` (None = the profile's choice),
+    ``write_authority``, ``diagnostics`` (shared with the receiver of the port; a new one if
+    not given), ``diagnostic_pnu`` (first diagnostic parameter; None = the profile's),
+    ``special`` (handler for special telegrams), ``now`` (start time).
+    """
+
+    def __init__(
+        self,
+        address: int,
+        drive: SimulatedDrive,
+        profile: Profile,
+        *,
+        layout: Layout | None = None,
+        interface: str = "uss",
+        latency: JobLatency | None = None,
+        failure_time: float | None = None,
+        spontaneous: bool | None = None,
+        write_authority: bool = True,
+        diagnostics: Diagnostics | None = None,
+        diagnostic_pnu: int | None = None,
+        special: SpecialHandler | None = None,
+        now: float = 0.0,
+    ) -> None:
+        if isinstance(address, bool) or not isinstance(address, int):
+            raise ConfigError(f"bus address must be an integer 0..{MAX_ADDRESS}, not {address!r}")
+        if not 0 <= address <= MAX_ADDRESS:
+            raise ConfigError(f"bus address must be 0..{MAX_ADDRESS}, not {address}")
+        self.address = address
+        self.drive = drive
+        self.profile = profile
+        self.interface = interface
+        self.latency = latency or JobLatency()
+        self.special = special
+        self.layout = profile.check_layout(layout if layout is not None else self._own_layout())
+        self._write_interface()
+        self.failure_time = self._failure_time() if failure_time is None else failure_time
+        if not self.failure_time >= 0:
+            raise ConfigError(f"telegram failure time must be >= 0 s, not {self.failure_time!r}")
+        self.diagnostics = diagnostics or Diagnostics(software_version=software_version())
+        base = profile.diagnostic_pnu if diagnostic_pnu is None else diagnostic_pnu
+        self.diagnostic_parameters = DiagnosticParameters(base, self.diagnostics, drive.db)
+        self.channel = ParameterChannel(
+            drive,
+            self.layout,
+            profile,
+            interface=interface,
+            diagnostics=self.diagnostic_parameters,
+            requests=profile.request_ids,
+        )
+        drive.set_write_authority(interface, write_authority)
+        self.process = process_mapping(profile)
+        self.spontaneous = profile.spontaneous if spontaneous is None else spontaneous
+        self._changes: OrderedDict[tuple[int, int | None], ParameterChange] = OrderedDict()
+        self._unsubscribe: Callable[[], None] | None = None
+        if self.spontaneous and self.layout.pkw:
+            self._unsubscribe = drive.subscribe(interface, self._on_change)
+        # parameter channel state
+        self._job: Pkw | None = None
+        self._job_since = now
+        self._job_repeats = 0
+        self._pending = False
+        self._done: tuple[Pkw, Pkw] | None = None
+        self._toggle = False
+        self._shown: Pkw | None = None
+        # process data and monitoring
+        self._last_pzd: tuple[int, ...] = (0,) * self.layout.pzd
+        self._prepared: Telegram | None = None
+        self._last_good: float | None = None
+        self._monitoring = False
+        self.timeouts = 0
+
+    def use_diagnostics(self, diagnostics: Diagnostics) -> None:
+        """Count on ``diagnostics`` from now on (a server shares one per port)."""
+        self.diagnostics = diagnostics
+        self.diagnostic_parameters.diagnostics = diagnostics
+
+    def close(self) -> None:
+        """End the change subscription (the drive lives on)."""
+        if self._unsubscribe is not None:
+            self._unsubscribe()
+            self._unsubscribe = None
+
+    # -- settings from and to the parameters ------------------------------------------------
+
+    def _interface_value(self, role: str) -> int | float | None:
+        ref = self.drive.db.interface.get(role)
+        if ref is None:
+            return None
+        value = self.drive.ref_value(ref)
+        return value if isinstance(value, int | float) else None
+
+    def _own_layout(self) -> Layout:
+        pkw, pzd = self._interface_value("pkw"), self._interface_value("pzd")
+        if pkw is None or pzd is None:
+            return self.profile.fixed_layout or self.profile.default_layout
+        try:
+            return Layout(int(pkw), int(pzd))
+        except ConfigError as exc:
+            raise ConfigError(f"the parameter file's interface parameters: {exc}") from None
+
+    def _write_interface(self) -> None:
+        db = self.drive.db
+        for role, value in (
+            ("address", self.address),
+            ("pkw", self.layout.pkw),
+            ("pzd", self.layout.pzd),
+        ):
+            ref = db.interface.get(role)
+            if ref is None:
+                continue
+            try:
+                self.drive.update(ref.pnu, value, ref.index)
+            except ParameterFault as exc:
+                log.warning(
+                    "address %d: cannot show %s %d in %s: %s", self.address, role, value, ref, exc
+                )
+
+    def _failure_time(self) -> float:
+        ref = self.drive.db.interface.get("failure_time")
+        if ref is None:
+            return 0.0
+        param = self.drive.db.parameter(ref.pnu)
+        raw = self.drive.ref_value(ref)
+        assert isinstance(raw, int | float)
+        value = raw * (1.0 if param.scaling is None else param.scaling)
+        return max(0.0, value * TIME_UNITS.get(param.unit, 1.0))
+
+    # -- timing -----------------------------------------------------------------------------
+
+    @property
+    def delay_mode(self) -> bool:
+        """The device's response-delay mode is on (Baumueller P181 bit 2)."""
+        return bit_set(self.drive, self.profile.delay_mode)
+
+    def response_window(self, baud: int) -> tuple[float, float]:
+        """``(earliest, latest)`` start of an answer after the request's end, in seconds."""
+        return self.profile.response_delay(baud, delayed=self.delay_mode)
+
+    def next_deadline(self) -> float | None:
+        """When `tick` has something to do: the telegram failure time expires."""
+        if not self._monitoring or self._last_good is None or not self.failure_time:
+            return None
+        return self._last_good + self.failure_time
+
+    def tick(self, now: float) -> None:
+        """Let time pass: the telegram failure time expires (C 3.1)."""
+        deadline = self.next_deadline()
+        if deadline is None or now < deadline:
+            return
+        self._monitoring = False
+        self.timeouts += 1
+        self.diagnostics.record_timeout(deadline)
+        code = self.drive.db.faults.get("telegram_failure")
+        log.warning(
+            "address %d: no telegram for %.3f s: telegram failure time expired%s",
+            self.address,
+            self.failure_time,
+            "" if code is None else f", fault {code}",
+        )
+        if code is not None:
+            self.drive.raise_fault(code, deadline)
+
+    # -- telegrams --------------------------------------------------------------------------
+
+    def handle_bytes(self, raw: bytes, now: float) -> bytes | None:
+        """`handle` for the bytes of one whole telegram; malformed frames (STX, LGE, BCC,
+        undefined ADR) are dropped without a reaction. Returns the answer's bytes."""
+        try:
+            telegram = Telegram.decode(raw)
+        except TelegramError as exc:
+            log.debug("address %d: dropped %s: %s", self.address, raw.hex(" "), exc)
+            return None
+        answer = self.handle(telegram, now)
+        return None if answer is None else answer.encode()
+
+    def handle(self, telegram: Telegram, now: float) -> Telegram | None:
+        """The answer to ``telegram`` received complete and without error at ``now``, or None
+        for silence (see the module docstring)."""
+        self.tick(now)
+        mode = telegram.mode
+        if mode is AddressMode.BROADCAST:
+            self._broadcast(telegram, now)
+            return None
+        if mode is AddressMode.SPECIAL_BROADCAST:
+            if self.special is not None:
+                self.special(telegram, now)
+            return None
+        if telegram.address != self.address:
+            return None
+        if mode is AddressMode.MIRROR:
+            self._good(telegram, now)
+            return telegram
+        if mode is AddressMode.SPECIAL:
+            if self.special is None:
+                log.debug("address %d: special telegram discarded (A 5.4)", self.address)
+                return None
+            return self.special(telegram, now)
+        return self._exchange(telegram, now)
+
+    def _good(self, telegram: Telegram, now: float) -> None:
+        self._last_good = now
+        self._monitoring = True
+        self.diagnostic_parameters.note_telegram(telegram.encode())
+
+    def _exchange(self, telegram: Telegram, now: float) -> Telegram | None:
+        layout = self.layout
+        try:
+            net = layout.unpack(telegram.data)
+        except TelegramError as exc:
+            self.diagnostics.record_fault(FaultKind.BAD_LGE, now)
+            log.debug("address %d: telegram discarded: %s", self.address, exc)
+            return None
+        self._good(telegram, now)
+        pipelined = self.profile.delay_mode is not None and not self.delay_mode
+        self._last_pzd = net.pzd
+        pzd = self.process.exchange(self.drive, net.pzd, now)
+        pkw = None if net.pkw is None else self._parameter(net.pkw, now)
+        answer = Telegram(self.address, AddressMode.NORMAL, layout.pack(pkw, pzd))
+        if not pipelined:
+            self._prepared = None
+            return answer
+        prepared, self._prepared = self._prepared, answer
+        if prepared is None:
+            return Telegram(self.address, AddressMode.NORMAL, layout.pack(None, pzd))
+        return prepared
+
+    def _broadcast(self, telegram: Telegram, now: float) -> None:
+        try:
+            net = self.layout.unpack(telegram.data)
+        except TelegramError as exc:
+            log.debug("address %d: broadcast not taken: %s", self.address, exc)
+            return
+        coding = bit_set(self.drive, self.profile.broadcast_coding)
+        action = broadcast_action(
+            self.profile, self.layout, net, self._last_pzd, address=self.address, coding=coding
+        )
+        if action.pzd is not None:
+            self.process.exchange(self.drive, action.pzd, now)
+        elif action.control is not None:
+            old = self.drive.machine.control
+            word = (old & ~action.mask & 0xFFFF) | (action.control & action.mask)
+            self.process.control(self.drive, word, now)
+        else:
+            log.debug("address %d: broadcast not taken: %s", self.address, action.reason)
+
+    # -- parameter channel ------------------------------------------------------------------
+
+    def _parameter(self, request: Pkw, now: float) -> Pkw:
+        if self._shown is not None and request.spm_toggle == self._toggle:
+            self._shown = None  # the master acknowledged the spontaneous message
+        job = replace(request, spm_toggle=False)
+        if job != self._job:
+            self._job = job
+            self._job_since = now
+            self._job_repeats = 0
+            self._pending = True
+        else:
+            self._job_repeats += 1
+        latency = self.latency
+        if (
+            self._pending
+            and self._job_repeats >= latency.cycles
+            and now - self._job_since >= latency.seconds
+        ):
+            self._pending = False
+            answer = self.channel.execute(job, now)
+            self._done = (job, answer)
+        elif self._done is not None:
+            answer = self.channel.current(*self._done, now)
+        else:
+            answer = Pkw(ResponseId.NO_RESPONSE)
+        if self._shown is None and self._changes:
+            _, change = self._changes.popitem(last=False)
+            self._toggle = not self._toggle
+            self._shown = self._spontaneous(change)
+        if self._shown is not None:
+            answer = self._shown
+        return replace(answer, spm_toggle=self._toggle)
+
+    def _on_change(self, change: ParameterChange) -> None:
+        key = (change.pnu, change.index)
+        self._changes.pop(key, None)
+        self._changes[key] = change
+        while len(self._changes) > _MAX_SPONTANEOUS:
+            (pnu, index), _ = self._changes.popitem(last=False)
+            log.warning(
+                "address %d: too many spontaneous messages waiting; P%d%s not reported",
+                self.address,
+                pnu,
+                "" if index is None else f".{index}",
+            )
+
+    def _spontaneous(self, change: ParameterChange) -> Pkw:
+        """The PKW area reporting ``change`` (C 4.2.1.2, C Table 4.8)."""
+        if change.index is None:
+            rid = ResponseId.SPONTANEOUS_DWORD if change.double else ResponseId.SPONTANEOUS_WORD
+        elif change.double:
+            rid = ResponseId.SPONTANEOUS_ARRAY_DWORD
+        else:
+            rid = ResponseId.SPONTANEOUS_ARRAY_WORD
+        pnu_bits, page = self.profile.encode_pnu(change.pnu)
+        index = 0 if self.profile.answer_index_zero else page | (change.index or 0)
+        words = change.words
+        whole = change.index == WHOLE_ARRAY
+        if len(words) > self.layout.max_pwe or (whole and self.layout.pkw != PKW_VARIABLE):
+            words = ()
+        return Pkw(rid, pnu_bits, index, False, words)

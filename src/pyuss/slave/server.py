@@ -1,0 +1,270 @@
+"""`SlaveServer`: one or more slave engines on one line (a `pyuss.transport.Transport`).
+
+The server reads the line, frames telegrams with the protocol core's `Receiver` (start pause,
+residual time, LGE, BCC, line errors: A 5.2; the fixed lengths of the engines with fixed
+layouts), hands every good telegram to the engine it is addressed to (broadcasts to all), and
+sends the answer:
+
+- not before the profile's earliest answer, which is never less than the start pause after the
+  request's last character (A 5.1.2, A 5.2.1.1), and
+- within the profile's response delay (20 ms by A 5.2.1.1; 2 ms for Baumueller, 2.5..17.5 ms
+  for the 6SE21). ``response_delay`` (seconds) chooses a fixed delay inside that window; by
+  default the earliest moment is aimed at. An answer that could not start in time (a loaded
+  machine) is still sent, counted in `ServerStats.late` and logged as a warning.
+
+Times are the transport's. On the virtual bus (in-process or ``bus://``) and on serial ports a
+chunk's timestamp is when its last character ended, and the delay is measured from there. A
+pty or a TCP socket carries no timing: bytes arrive at once, a whole telegram in one read. The
+server then places each read on a line of its own at the baud rate: it starts when it arrived
+(or when the previous read would have ended on the line) and takes one character time per byte.
+Start pauses are measured on that line, and the answer starts the response delay after the
+request would have ended, as it would on a real line of that baud rate. ``timed`` overrides the
+choice (default: timed unless the transport is a pty or a raw TCP one). Short waits are
+finished by polling the clock, as the event loop's timers are only as fine as a millisecond.
+
+All engines on a port share one `Diagnostics` (A 5.2.3): the line's faults belong to the port.
+Each exchange is logged at debug level on ``pyuss.slave`` (request and answer, decoded), the
+raw frames on ``pyuss.wire`` (`pyuss.log.log_frame`). `run` serves until the ``stop`` event is
+set or the task is cancelled; a lost line raises `TransportError`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from pyuss.errors import ConfigError, TelegramError
+from pyuss.log import log_frame
+from pyuss.protocol.diagnostics import Diagnostics
+from pyuss.protocol.layout import Layout
+from pyuss.protocol.receiver import Received, ReceiveFault, Receiver
+from pyuss.protocol.telegram import AddressMode, Telegram
+from pyuss.slave.diagnostic import software_version
+from pyuss.slave.engine import SlaveEngine
+from pyuss.transport.base import Transport
+from pyuss.transport.pty import PtyPort
+from pyuss.transport.queued import EchoError
+from pyuss.transport.tcp import TcpServerTransport, TcpTransport
+
+__all__ = ["ServerStats", "SlaveServer", "describe", "serve"]
+
+log = logging.getLogger("pyuss.slave")
+
+_IDLE_READ = 0.1
+"""Longest single wait for the line, so that a stop request is seen soon."""
+_SPIN = 0.0015
+"""Waits shorter than this are finished by polling the clock (timer resolution: 1 ms)."""
+
+
+@dataclass(slots=True)
+class ServerStats:
+    """What a server did."""
+
+    received: int = 0
+    """Good telegrams read from the line (for any address)."""
+    faults: int = 0
+    """Telegrams and bytes discarded by the receiver."""
+    answers: int = 0
+    late: int = 0
+    """Answers that started after the latest moment the profile allows."""
+
+
+def describe(telegram: Telegram, layout: Layout | None = None) -> str:
+    """A telegram in one line: type, address and the net data split by ``layout``."""
+    head = f"{telegram.mode.label} adr {telegram.address}"
+    if layout is not None:
+        try:
+            net = layout.unpack(telegram.data)
+        except TelegramError:
+            pass
+        else:
+            parts = []
+            if net.pkw is not None:
+                parts.append("PKW " + " ".join(f"{w:04X}" for w in net.pkw.words()))
+            if net.pzd:
+                parts.append("PZD " + " ".join(f"{w:04X}" for w in net.pzd))
+            return f"{head}: {', '.join(parts) or 'no net data'}"
+    return f"{head}: {telegram.data.hex(' ').upper() or 'no net data'}"
+
+
+class SlaveServer:
+    """Serve ``engines`` (distinct addresses) on ``transport``; see the module docstring."""
+
+    def __init__(
+        self,
+        transport: Transport,
+        *engines: SlaveEngine,
+        response_delay: float | None = None,
+        diagnostics: Diagnostics | None = None,
+        timed: bool | None = None,
+    ) -> None:
+        if not engines:
+            raise ConfigError("a slave server needs at least one engine")
+        self.engines: dict[int, SlaveEngine] = {}
+        for engine in engines:
+            if engine.address in self.engines:
+                raise ConfigError(f"two engines have bus address {engine.address}")
+            self.engines[engine.address] = engine
+        self.transport = transport
+        self.baud = transport.baud
+        for engine in engines:
+            low, high = engine.response_window(self.baud)
+            if response_delay is not None and not low <= response_delay <= high:
+                raise ConfigError(
+                    f"response delay {response_delay * 1000:g} ms is outside the window "
+                    f"{low * 1000:.3f}..{high * 1000:.3f} ms of address {engine.address} "
+                    f"(profile {engine.profile.name}, {self.baud} baud)"
+                )
+        self.response_delay = response_delay
+        self.diagnostics = diagnostics or Diagnostics(software_version=software_version())
+        for engine in engines:
+            engine.use_diagnostics(self.diagnostics)
+        fixed = {e.address: e.layout.lge for e in engines if e.layout.lge is not None}
+        self.receiver = Receiver(self.baud, fixed_lengths=fixed, diagnostics=self.diagnostics)
+        self.stats = ServerStats()
+        self.timed = _timed(transport) if timed is None else timed
+        self._char_time = 11 / self.baud
+        self._line_free = -math.inf
+
+    # -- serving ----------------------------------------------------------------------------
+
+    async def run(self, stop: asyncio.Event | None = None) -> None:
+        """Serve until ``stop`` is set (or the task is cancelled). Opens the transport if it is
+        not open, and closes it again at the end in that case."""
+        transport = self.transport
+        opened = False
+        if not getattr(transport, "is_open", False):
+            await transport.open()
+            opened = True
+        try:
+            while stop is None or not stop.is_set():
+                await self._step()
+        finally:
+            if opened:
+                await transport.close()
+
+    async def _step(self) -> None:
+        transport = self.transport
+        now = transport.clock()
+        wait = _IDLE_READ
+        for deadline in self._deadlines():
+            wait = min(wait, max(0.0, deadline - now))
+        try:
+            chunk = await transport.read(wait)
+        except EchoError as exc:
+            log.warning("line: %s", exc)
+            return
+        if chunk is None:
+            events = self.receiver.poll(transport.clock())
+        elif self.timed:
+            events = self.receiver.feed(chunk.data, chunk.timestamp, chunk.errors)
+        else:
+            start = max(chunk.timestamp, self._line_free)
+            self._line_free = start + len(chunk.data) * self._char_time
+            events = self.receiver.feed(chunk.data, self._line_free, chunk.errors)
+        for event in events:
+            if isinstance(event, Received):
+                await self._received(event)
+            else:
+                self._fault(event)
+        now = transport.clock()
+        for engine in self.engines.values():
+            engine.tick(now)
+
+    def _deadlines(self) -> Iterable[float]:
+        poll = self.receiver.next_poll()
+        if poll is not None:
+            yield poll
+        for engine in self.engines.values():
+            deadline = engine.next_deadline()
+            if deadline is not None:
+                yield deadline
+
+    def _fault(self, event: ReceiveFault) -> None:
+        self.stats.faults += 1
+        note = f"discarded: {event.kind.name.lower()}: {event.detail}"
+        log_frame("rx", event.raw, event.end, note)
+        log.debug("line: %d bytes %s", len(event.raw), note)
+
+    async def _received(self, event: Received) -> None:
+        self.stats.received += 1
+        telegram = event.telegram
+        log_frame("rx", event.raw, event.end)
+        if telegram.mode in (AddressMode.BROADCAST, AddressMode.SPECIAL_BROADCAST):
+            for engine in self.engines.values():
+                engine.handle(telegram, event.end)
+            log.debug("%s (broadcast, no answer)", describe(telegram))
+            return
+        target = self.engines.get(telegram.address)
+        if target is None:
+            return
+        await self._answer(target, event)
+
+    async def _answer(self, engine: SlaveEngine, event: Received) -> None:
+        telegram = event.telegram
+        answer = engine.handle(telegram, event.end)
+        layout = None if telegram.mode is AddressMode.MIRROR else engine.layout
+        if answer is None:
+            log.debug("%s -> no answer", describe(telegram, layout))
+            return
+        low, high = engine.response_window(self.baud)
+        delay = low if self.response_delay is None else self.response_delay
+        await self._wait_until(event.end + delay)
+        data = answer.encode()
+        start = self.transport.clock()
+        await self.transport.write(data)
+        self.stats.answers += 1
+        log_frame("tx", data, start)
+        log.debug("%s -> %s", describe(telegram, layout), describe(answer, layout))
+        if start - event.end > high:
+            self.stats.late += 1
+            log.warning(
+                "address %d: answer started %.3f ms after the request, later than the %.3f ms "
+                "the profile allows",
+                engine.address,
+                (start - event.end) * 1000,
+                high * 1000,
+            )
+
+    async def _wait_until(self, target: float) -> None:
+        clock = self.transport.clock
+        remaining = target - clock()
+        if remaining > _SPIN:
+            await asyncio.sleep(remaining - _SPIN)
+        while clock() < target:
+            time.sleep(0)  # poll the clock for the last fraction of a millisecond
+
+    # -- helpers ----------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """End the engines' change subscriptions."""
+        for engine in self.engines.values():
+            engine.close()
+
+
+def _timed(transport: Transport) -> bool:
+    """Whether the transport's timestamps follow the line (see the module docstring)."""
+    from pyuss.bus.client import BusClientTransport
+
+    if isinstance(transport, BusClientTransport):
+        return True
+    return not isinstance(transport, PtyPort | TcpTransport | TcpServerTransport)
+
+
+async def serve(
+    transport: Transport,
+    *engines: SlaveEngine,
+    stop: asyncio.Event | None = None,
+    response_delay: float | None = None,
+) -> SlaveServer:
+    """Run a `SlaveServer` until ``stop`` is set; return it (with its statistics)."""
+    server = SlaveServer(transport, *engines, response_delay=response_delay)
+    try:
+        await server.run(stop)
+    finally:
+        server.close()
+    return server

@@ -1,0 +1,191 @@
+"""SimulatedDrive: process data, displays, parameters that steer the simulation, profiles."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from conftest import load_vectors
+from pyuss.drive.database import load_database
+from pyuss.drive.faults import DriveErrorNumber, ParameterFault
+from pyuss.drive.memory import ParameterChange
+from pyuss.drive.simulated import SimulatedDrive
+from pyuss.drive.states import DriveState
+from pyuss.protocol.pzd import ControlWord, StatusWord, join_dword, split_dword
+
+
+def vector_words(name: str) -> list[int]:
+    for vector in load_vectors("uss")["telegrams"]:
+        if vector["name"] == name:
+            return [int(w, 16) for w in vector["words_hex"]]
+    raise KeyError(name)
+
+
+def test_c8_example_1_process_data() -> None:
+    drive = SimulatedDrive.from_profile("generic")
+    request = vector_words("pzd_only_request")  # 047F, setpoint 2000h = 50 %
+    drive.exchange([0x047E, 0x0000], 0.0)  # OFF1 first: leaves the switch-on inhibit
+    first = drive.exchange(request, 0.1)
+    assert first[0] & StatusWord.OPERATION_ENABLED
+    reply = drive.exchange(request, 60.0)  # ramp done (10 s per 100 %)
+    assert list(reply) == vector_words("pzd_only_response")  # 0337h, 2000h
+
+
+def test_c8_example_2_status_after_047e() -> None:
+    drive = SimulatedDrive.from_profile("generic")
+    request = vector_words("read_word_request")
+    assert list(drive.exchange(request[3:], 0.0)) == vector_words("read_word_response")[3:]
+
+
+def test_6se21_p20_switch_on_mode_cleared_by_047e() -> None:
+    drive = SimulatedDrive.from_profile("6se21")
+    assert drive.value(20) == 3  # seed 002 7.5.1.1: P20 = 003 at power-up
+    assert drive.status_word() & StatusWord.SWITCH_ON_INHIBITED  # bit 6 in the answer
+    init = vector_words("6se21_init")
+    drive.exchange(init[3:], 0.0)  # PZD1 047Eh
+    assert not drive.status_word() & StatusWord.SWITCH_ON_INHIBITED
+    assert drive.value(20) != 3
+    assert drive.state is DriveState.READY_TO_SWITCH_ON
+
+
+def test_bit_10_zero_ignores_the_telegram() -> None:
+    drive = SimulatedDrive.from_profile("6se21")
+    assert drive.exchange([0x007E, 0x0000], 0.0)[0] & StatusWord.SWITCH_ON_INHIBITED
+    assert drive.state is DriveState.SWITCH_ON_INHIBIT
+
+
+def test_displays_follow_the_drive() -> None:
+    drive = SimulatedDrive.from_profile("generic")
+    assert drive.value(1) == 8  # r001: switch-on inhibit
+    drive.exchange([0x047E, 0], 0.0)
+    drive.exchange([0x047F, 0x2000], 0.0)
+    drive.step(2.0)  # 20 % of 50 Hz
+    assert drive.value(2) == 1000  # 10.00 Hz in 0.01 Hz
+    assert drive.value(3) == 2500  # ramp input 25.00 Hz
+    assert drive.value(1) == 14
+    assert drive.value(550) == 0x047F
+    assert drive.value(552) == drive.status_word()
+
+
+def test_parameters_steer_the_simulation() -> None:
+    drive = SimulatedDrive.from_profile("generic")
+    drive.write_words(462, [20], interface="uss")  # ramp-up 2.0 s
+    drive.write_words(796, [2500], interface="uss")  # comparison value 25 Hz = 50 %
+    drive.exchange([0x047E, 0], 0.0)
+    drive.exchange([0x047F, 0x2000], 0.0)
+    drive.step(0.5)
+    assert drive.actual_value() == 0x1000  # 25 % after 0.5 s
+    assert not drive.status_word() & StatusWord.TARGET_REACHED
+    drive.step(1.0)
+    assert drive.status_word() & StatusWord.TARGET_REACHED
+
+
+def test_jog_setpoint_in_hz_relative_to_the_reference() -> None:
+    drive = SimulatedDrive.from_profile("generic")  # jog 1 = 5.00 Hz of 50.00 Hz
+    drive.exchange([0x047E, 0], 0.0)
+    drive.exchange([0x047F | ControlWord.JOG1, 0], 0.0)
+    drive.step(10.0)
+    assert drive.state is DriveState.JOG
+    assert drive.actual_value() == 0x0666  # 10 %
+
+
+def test_stopped_only_parameter_is_refused_while_running() -> None:
+    drive = SimulatedDrive.from_profile("generic")
+    drive.exchange([0x047E, 0], 0.0)
+    drive.exchange([0x047F, 0], 0.0)
+    with pytest.raises(ParameterFault) as info:
+        drive.write(107, 60.0, interface="uss")
+    assert info.value.number == DriveErrorNumber.WRONG_STATE
+    drive.exchange([0x047E, 0], 1.0)
+    assert drive.write(107, 60.0, interface="uss") == 60.0
+
+
+def test_fault_is_shown_and_reported() -> None:
+    drive = SimulatedDrive.from_profile("generic")
+    seen: list[ParameterChange] = []
+    drive.subscribe("uss", seen.append)
+    code = drive.db.faults["telegram_failure"]
+    drive.raise_fault(code, 1.0)
+    assert drive.status_word() & StatusWord.FAULT
+    assert drive.value(947) == code
+    assert drive.value(1) == 7
+    assert ParameterChange(947, None, (code,), False, "local") in seen  # P947 is active
+    drive.exchange([0x047E, 0], 2.0)
+    drive.exchange([0x04FE, 0], 2.1)  # acknowledge
+    assert drive.value(947) == 0
+    assert drive.state is DriveState.READY_TO_SWITCH_ON
+
+
+def test_warning_sets_status_bit_7() -> None:
+    drive = SimulatedDrive.from_profile("generic")
+    drive.raise_warning(12)
+    assert drive.status_word() & StatusWord.WARNING and drive.value(953) == 12
+    drive.clear_warning(12)
+    assert not drive.status_word() & StatusWord.WARNING and drive.value(953) == 0
+
+
+def test_thirty_two_bit_setpoint_and_actual() -> None:
+    drive = SimulatedDrive.from_profile("baumueller")
+    drive.apply_control(0x047E, None, 0.0)
+    drive.apply_control(0x047F, join_dword(0x2000, 0x0000), 0.0, bits=32)
+    drive.step(10.0)
+    assert split_dword(drive.actual_value(bits=32)) == (0x2000, 0x0000)
+    assert drive.actual_value() == 0x2000
+    assert drive.value(51) == 0x2000  # normalised actual display (no unit: 4000h = 100 %)
+
+
+def test_negative_setpoint_and_clamped_actual() -> None:
+    drive = SimulatedDrive.from_profile("baumueller")
+    drive.exchange([0x047E, 0], 0.0)
+    drive.exchange([0x047F, 0xE000], 0.0)  # -50 %
+    drive.step(10.0)
+    assert drive.actual_value() == 0xE000
+    drive.exchange([0x047F, 0x7FFF], 10.0)
+    drive.step(30.0)
+    assert drive.actual_value() == 0x7FFF
+
+
+def test_exchange_keeps_the_length_and_maps_more_words(tmp_path: Path) -> None:
+    path = tmp_path / "p.toml"
+    path.write_text(
+        '[profile]\nname = "plus"\nextends = "generic"\n'
+        "[process]\nsetpoints = [18]\nactuals = [52, 0, 900]\n"
+        '[[parameter]]\npnu = 900\nname = "Address"\ntype = "uint16"\ndefault = 5\n'
+    )
+    drive = SimulatedDrive(load_database(path))
+    assert drive.exchange([], 0.0) == ()
+    assert len(drive.exchange([0x047E], 0.0)) == 1
+    reply = drive.exchange([0x047E, 0, 0x1234, 9, 9, 9], 0.0)
+    assert reply[2:] == (0x4000, 0, 5, 0)
+    assert drive.value(18) == 0x1234  # PZD3 setpoint into P18
+    drive.exchange([0x007E, 0, 0x4321], 0.1)  # bit 10 = 0: kept
+    assert drive.value(18) == 0x1234
+
+
+def test_float_parameters_of_micromaster4() -> None:
+    drive = SimulatedDrive.from_profile("micromaster4")
+    assert drive.value(2) == 1  # r0002 "ready"
+    drive.write(1120, 2.0, interface="uss")  # ramp-up 2 s
+    drive.exchange([0x047E, 0], 0.0)
+    drive.exchange([0x047F, 0x4000], 0.0)
+    drive.step(1.0)
+    assert drive.value(21) == pytest.approx(25.0)  # r0021 in Hz, float
+    assert drive.value(947, 0) == 0
+    drive.raise_fault(drive.db.faults["telegram_failure"], 1.5)
+    assert drive.value(947, 0) == 72
+    assert drive.value(2) == 2
+
+
+def test_power_cycle_of_a_simulated_drive(tmp_path: Path) -> None:
+    store = tmp_path / "d.store"
+    drive = SimulatedDrive.from_profile("generic", store=store)
+    drive.write_words(462, [20], interface="uss", eeprom=True)
+    drive.exchange([0x047E, 0], 0.0)
+    drive = SimulatedDrive.from_profile("generic", store=store, now=100.0)
+    assert drive.value(462) == 20
+    assert drive.state is DriveState.SWITCH_ON_INHIBIT
+    drive.exchange([0x047E, 0], 100.0)
+    drive.exchange([0x047F, 0x4000], 100.0)
+    drive.step(101.0)
+    assert drive.actual_value() == 0x2000  # the stored ramp time is in force
