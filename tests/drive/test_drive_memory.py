@@ -235,3 +235,16 @@ def test_every_writable_value_round_trips_through_pkw_words(data: st.DataObject)
     assert drive.write_words(param.pnu, words, index, interface="uss") == words
     assert drive.read_words(param.pnu, index) == words
     assert drive.value(param.pnu, index) == value
+
+
+def test_baumueller_write_enable_bit_of_126() -> None:
+    drive = ParameterMemory(load_profile("baumueller"))
+    assert drive.write(182, 19200, interface="bass") == 19200
+    drive.write(126, 0, interface="bass")  # bit 0 = 0: the interfaces may only read
+    assert not drive.has_write_authority("uss")
+    with pytest.raises(NoWriteAuthority):
+        drive.write_words(182, [9600], interface="uss")
+    assert drive.read_words(182) == (19200,)
+    assert drive.write(182, 9600) == 9600  # the drive itself still may
+    drive.write(126, 1, interface="uss")  # giving authority back stays possible
+    assert drive.write_words(182, [4800], interface="uss") == (4800,)

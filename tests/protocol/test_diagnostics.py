@@ -17,6 +17,11 @@ def test_status_bits_are_those_of_a_5_2_3() -> None:
     assert ErrorStatus.TIMEOUT == 1 << 7
 
 
+def test_fault_kinds_are_never_false() -> None:
+    assert all(FaultKind)
+    assert [kind.status for kind in FaultKind][:7] == [bit for bit in ErrorStatus if bit][:7]
+
+
 def test_each_fault_kind_has_its_counter_and_bit() -> None:
     for kind in FaultKind:
         diag = Diagnostics()

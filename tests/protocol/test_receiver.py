@@ -268,6 +268,15 @@ def test_line_error_on_stx_or_lge_loses_the_framing() -> None:
     assert events[0].raw == GOOD
 
 
+def test_incomplete_telegram_with_a_framing_error_reports_the_framing_error() -> None:
+    w = wire()
+    w.send(GOOD[:6], errors=[(4, LineError.FRAMING)])
+    events = w.idle()
+    assert kinds(events) == [FaultKind.FRAMING]
+    assert "framing error at byte 4" in events[0].detail
+    assert "incomplete" in events[0].detail
+
+
 def test_line_error_flags_outside_the_chunk_or_empty_are_ignored() -> None:
     events = wire().send(GOOD, errors=[(99, LineError.PARITY), (3, LineError.NONE)])
     assert kinds(events) == ["ok"]

@@ -29,10 +29,10 @@ import enum
 import math
 import tomllib
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from pyuss.drive.datatypes import (
     TYPE_NAMES,
@@ -271,9 +271,6 @@ class Parameter:
             )
         return checked
 
-    def text_for_value(self, value: int) -> str | None:
-        return self.texts.get(value)
-
     def __repr__(self) -> str:
         shape = "" if self.array is None else f"[{self.array}]"
         return f"<Parameter P{self.pnu} {self.name!r} {self.dtype.label}{shape}>"
@@ -296,6 +293,10 @@ class ProfileInfo:
     access_level: ParamRef | None = None
     """The parameter whose value unlocks protected parameters (the "keyword")."""
     protected_level: int = 1
+    write_enable: ParamRef | None = None
+    """A parameter whose bit ``write_enable_bit`` must be 1 for any interface but the drive's
+    own to change parameters (Baumueller 126 "source de communication", seed 004 1.5)."""
+    write_enable_bit: int = 0
 
 
 class ParameterDatabase:
@@ -454,6 +455,8 @@ _PROFILE_KEYS = {
     "max_pnu",
     "access_level",
     "protected_level",
+    "write_enable",
+    "write_enable_bit",
     "remove",
 }
 _PARAM_KEYS = {
@@ -554,8 +557,10 @@ def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
         process_setpoints=_process(tables["process"], "setpoints", sources, parameters),
         process_actuals=_process(tables["process"], "actuals", sources, parameters),
     )
-    if profile.access_level is not None:
-        _check_ref(profile.access_level, parameters, profile, _Where(sources, "[profile]"), "")
+    for name in ("access_level", "write_enable"):
+        ref = getattr(profile, name)
+        if ref is not None:
+            _check_ref(ref, parameters, profile, _Where(sources, "[profile]"), name)
     _check_roles(db, sources)
     return db
 
@@ -568,16 +573,19 @@ def _profile(data: dict[str, Any], source: str, sources: str) -> ProfileInfo:
     index_base = data.get("index_base", 1)
     if index_base not in (0, 1) or isinstance(index_base, bool):
         raise where.error("index_base", "must be 0 or 1")
-    style = data.get("description", "profibus")
-    try:
-        description = DescriptionStyle(style)
-    except ValueError:
-        raise where.error("description", "must be 'profibus' or 'baumueller'") from None
+    description = _choice(
+        DescriptionStyle, data.get("description", "profibus"), where, "description"
+    )
     max_pnu = data.get("max_pnu", 2047)
     if isinstance(max_pnu, bool) or not isinstance(max_pnu, int) or not 0 < max_pnu <= 65535:
         raise where.error("max_pnu", "must be an integer 1..65535")
     level = data.get("access_level")
     level_ref = None if level is None else _ref(level, where, "access_level")
+    enable = data.get("write_enable")
+    enable_ref = None if enable is None else _ref(enable, where, "write_enable")
+    enable_bit = data.get("write_enable_bit", 0)
+    if isinstance(enable_bit, bool) or enable_bit not in range(32):
+        raise where.error("write_enable_bit", "must be a bit number 0..31")
     protected_level = data.get("protected_level", 1)
     if isinstance(protected_level, bool) or not isinstance(protected_level, int):
         raise where.error("protected_level", "must be an integer")
@@ -591,8 +599,21 @@ def _profile(data: dict[str, Any], source: str, sources: str) -> ProfileInfo:
         text_write=_flag(data.get("text_write", False), where, "text_write"),
         max_pnu=max_pnu,
         access_level=level_ref,
+        write_enable=enable_ref,
+        write_enable_bit=enable_bit,
         protected_level=protected_level,
     )
+
+
+_E = TypeVar("_E", Access, DescriptionStyle)
+
+
+def _choice(kind: type[_E], value: object, where: _Where, name: str) -> _E:
+    """``value`` as a member of the enumeration ``kind`` (given by its value in the file)."""
+    for member in kind:
+        if member.value == value:
+            return member
+    raise where.error(name, "must be one of " + ", ".join(repr(m.value) for m in kind))
 
 
 def _text(value: object, where: _Where, name: str) -> str:
@@ -634,7 +655,7 @@ def _check_ref(
     where: _Where,
     name: str,
 ) -> Parameter:
-    label = name or "access_level"
+    label = name
     param = parameters.get(ref.pnu)
     if param is None:
         raise where.error(label, f"refers to P{ref.pnu}, which is not defined")
@@ -762,11 +783,7 @@ def _parameter(entry: dict[str, Any], where: _Where, profile: ProfileInfo) -> Pa
     elif "length" in entry:
         raise where.error("length", "only string types have a length")
 
-    access_name = entry.get("access", "rw")
-    try:
-        access = Access(access_name)
-    except ValueError:
-        raise where.error("access", "must be 'rw', 'ro' or 'protected'") from None
+    access = _choice(Access, entry.get("access", "rw"), where, "access")
 
     numeric = dtype.is_integer or dtype is DataType.FLOAT
     minimum = _limit(entry, "min", dtype, where)
@@ -829,13 +846,7 @@ def _parameter(entry: dict[str, Any], where: _Where, profile: ProfileInfo) -> Pa
         seed=_text(entry.get("seed", ""), where, "seed"),
     )
     defaults = _defaults(entry, param, where)
-    return _with_default(param, defaults)
-
-
-def _with_default(param: Parameter, default: tuple[Value, ...]) -> Parameter:
-    values = {name: getattr(param, name) for name in Parameter.__dataclass_fields__}
-    values["default"] = default
-    return Parameter(**values)
+    return replace(param, default=defaults)
 
 
 def _limit(entry: dict[str, Any], key: str, dtype: DataType, where: _Where) -> int | float | None:

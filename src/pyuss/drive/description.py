@@ -146,29 +146,24 @@ def element(
     param: Parameter, number: int, style: DescriptionStyle, *, changed: bool = False
 ) -> DescriptionElement:
     """Description element ``number`` of ``param`` (IND low byte 1..254)."""
-    if style is DescriptionStyle.BAUMUELLER:
-        if number not in BAUMUELLER_ELEMENTS:
-            raise ParameterFault(
-                DriveErrorNumber.NO_SUCH_ELEMENT,
-                f"description element {number} does not exist (1, 2, 5, 6 do)",
-                pnu=param.pnu,
-                index=number,
-            )
-        words: tuple[int, ...]
+    baumueller = style is DescriptionStyle.BAUMUELLER
+    table = BAUMUELLER_ELEMENTS if baumueller else PROFIBUS_ELEMENTS
+    if number not in table:
+        raise ParameterFault(
+            DriveErrorNumber.NO_SUCH_ELEMENT if baumueller else ErrorNumber.BAD_INDEX,
+            f"description element {number} does not exist ({', '.join(map(str, table))} do)",
+            pnu=param.pnu,
+            index=number,
+        )
+    words: tuple[int, ...]
+    if baumueller:
         if number == 1:
             words = (attribute(param),)
         elif number == 2:
             words = (0, info(param))
         else:
             words = _limit_words(param, "low" if number == 5 else "high")
-        return DescriptionElement(number, BAUMUELLER_ELEMENTS[number], words)
-    if number not in PROFIBUS_ELEMENTS:
-        raise ParameterFault(
-            ErrorNumber.BAD_INDEX,
-            f"description element {number} does not exist (1..10 do)",
-            pnu=param.pnu,
-            index=number,
-        )
+        return DescriptionElement(number, table[number], words)
     if number == 1:
         words = (identifier(param, changed=changed),)
     elif number == 2:

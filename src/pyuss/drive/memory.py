@@ -15,7 +15,8 @@ rules of the parameter channel (C 4.2) that belong to the drive rather than to t
   interface that made it (C 4.2.1.2; the slave engine reports it as a spontaneous message).
 
 Interfaces are named by strings; `LOCAL` is the drive itself (operator panel, internal updates).
-Write authority is granted to every interface until `set_write_authority` takes it away.
+Write authority is granted to every interface until `set_write_authority` takes it away; a
+profile may also make it depend on a bit of a parameter (``write_enable``, Baumueller 126).
 
 Texts (C 4.2.2, after the PROFIBUS profile): text elements are 16 characters, blank-padded. The
 first text field (IND bit 9 = 0) holds, for an array, the texts naming its elements (element y is
@@ -156,7 +157,16 @@ class ParameterMemory:
             self._denied.add(interface)
 
     def has_write_authority(self, interface: str) -> bool:
-        return interface not in self._denied
+        """Whether ``interface`` may change parameters now: not withdrawn, and for any
+        interface but `LOCAL` the profile's write-enable bit (if it has one) is set."""
+        if interface in self._denied:
+            return False
+        enable = self.db.profile.write_enable
+        if enable is None or interface == LOCAL:
+            return True
+        value = self.ref_value(enable)
+        assert isinstance(value, int)
+        return bool(value >> self.db.profile.write_enable_bit & 1)
 
     def _notify(self, change: ParameterChange) -> None:
         for interface, listeners in list(self._listeners.items()):
@@ -420,7 +430,11 @@ class ParameterMemory:
         return param
 
     def _authority(self, interface: str, pnu: int, index: int | None) -> None:
-        """Without write authority no change job is processed at all (C 4.2.1.1)."""
+        """Without write authority no change job is processed at all (C 4.2.1.1). The
+        write-enable parameter itself stays writable, or nobody could give authority back."""
+        enable = self.db.profile.write_enable
+        if enable is not None and pnu == enable.pnu and interface not in self._denied:
+            return
         if not self.has_write_authority(interface):
             raise NoWriteAuthority(interface, pnu=pnu, index=index)
 

@@ -80,30 +80,31 @@ class ErrorStatus(enum.IntFlag):
 class FaultKind(enum.IntEnum):
     """Why a received telegram was discarded: the classes of A 5.2.2 (and A 5.2.3 bits).
 
-    The value of each kind with a status bit is that bit's number.
+    The value of each kind with a status bit is that bit's `ErrorStatus` value; `BAD_ADR`
+    has none (its value 100h lies in the reserved bits). No kind is 0 (false).
     """
 
-    FRAMING = 0
+    FRAMING = 1 << 0
     """A character with a framing error (or a break) reported by the transport."""
-    OVERRUN = 1
+    OVERRUN = 1 << 1
     """The transport reported an overrun: characters were lost."""
-    PARITY = 2
+    PARITY = 1 << 2
     """A character with a parity error reported by the transport."""
-    NO_STX = 3
+    NO_STX = 1 << 3
     """Bytes that start no telegram: not STX after a start pause, or bytes without a pause."""
-    BCC = 4
+    BCC = 1 << 4
     """The BCC does not match."""
-    RESIDUAL_TIME = 5
+    RESIDUAL_TIME = 1 << 5
     """The telegram was not complete within its residual time, or the line fell idle first."""
-    BAD_LGE = 6
+    BAD_LGE = 1 << 6
     """LGE out of 2..254, or not the fixed length configured for the address."""
-    BAD_ADR = 8
+    BAD_ADR = 1 << 8
     """ADR bits 5..7 in a combination the spec leaves undefined (A 4.3); no status bit."""
 
     @property
     def status(self) -> ErrorStatus:
         """The `ErrorStatus` bit of this kind (`ErrorStatus.NONE` for `BAD_ADR`)."""
-        return ErrorStatus(1 << self.value) if self.value < 8 else ErrorStatus.NONE
+        return ErrorStatus(self.value) if self.value <= 0x80 else ErrorStatus.NONE
 
 
 _KIND_FIELD = {

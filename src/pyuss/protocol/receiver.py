@@ -335,6 +335,10 @@ class Receiver:
                 self._line_pos = offset + i - pos
                 return
 
+    def _line_detail(self) -> str:
+        kind = self._line.name.lower() if self._line is not None else "line"
+        return f"{kind} error at byte {self._line_pos} (STX = 0)"
+
     def _late_detail(self) -> str:
         need = self._need or "?"
         ms = (self._deadline - self._stx_end) * 1000
@@ -346,7 +350,7 @@ class Receiver:
     def _to_junk(self, kind: FaultKind, detail: str) -> None:
         if self._line is not None and kind != self._line:
             kind = self._line
-            detail = f"{kind.name.lower()} error at byte {self._line_pos}; {detail}"
+            detail = f"{self._line_detail()}; {detail}"
         self._state = _JUNK
         self._junk_kind = kind
         self._junk_detail = detail
@@ -358,9 +362,7 @@ class Receiver:
         start, end = self._start, self._last_end
         if self._line is not None:
             kind = self._line
-            self._emit_fault(
-                events, kind, raw, f"{kind.name.lower()} error at byte {self._line_pos}"
-            )
+            self._emit_fault(events, kind, raw, self._line_detail())
             return
         expected = bcc(raw[:-1])
         if expected != raw[-1]:
@@ -380,11 +382,11 @@ class Receiver:
         """The open run is over (idle line or size limit): report it."""
         raw = bytes(self._buf)
         if self._state == _TELEGRAM:
-            kind = self._line or FaultKind.RESIDUAL_TIME
+            kind = self._line if self._line is not None else FaultKind.RESIDUAL_TIME
             need = self._need or "?"
             detail = f"telegram incomplete when the line fell idle: {len(raw)} of {need} bytes"
             if self._line is not None:
-                detail = f"{kind.name.lower()} error at byte {self._line_pos}; {detail}"
+                detail = f"{self._line_detail()}; {detail}"
         else:
             kind, detail = self._junk_kind, self._junk_detail
         self._state = _IDLE

@@ -1,0 +1,249 @@
+"""`uss bass`: Baumueller's BASS service protocol over RS-232 (seed 004 part 1).
+
+    uss bass read  ADDRESS ID        --port URL [--baud 9600] [--timeout S] [--retries N]
+                                     [--signed] [--json]
+    uss bass write ADDRESS ID VALUE  --port URL [...] [--digits 4|8] [--json]
+    uss bass ring  --pty | --listen tcp-listen://127.0.0.1:PORT
+                   [--drives 1,2,3] [--locked ADDRESS]... [--duration S]
+
+ADDRESS is the drive's DIP address 0..255, ID the parameter ID 0..65535, VALUE a number
+(decimal, 0x hex, negative allowed); all accept 0x hex. The port is opened 8N1 (seed 004 1).
+``ring`` runs simulated drives on a closed RS-232 loop (seed 004 1.4.2): it prints where a PC
+can reach it (a pty device path, or tcp://HOST:PORT for ``--port``) and serves until SIGINT or
+SIGTERM, which are the normal end (exit 0). Each drive has IDs 170, 171, 126 and the IDs 2 and
+51 of the seed's examples.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import json
+import signal
+import sys
+from collections.abc import Callable
+from typing import Any
+
+from pyuss.bass.codec import BAUD, BassRequest
+from pyuss.bass.errors import BassRefusal, BassTelegramError
+from pyuss.bass.master import DEFAULT_RETRIES, DEFAULT_TIMEOUT, BassExchange, BassMaster
+from pyuss.bass.ring import MAX_STATIONS, BassRing, DictOperatingData, demo_elements
+from pyuss.errors import ConfigError
+from pyuss.transport import PtyPort, TcpServerTransport, Transport, open_transport
+
+EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+
+
+def _number(text: str, what: str, low: int, high: int) -> int:
+    try:
+        value = int(text, 0)
+    except ValueError:
+        raise ConfigError(f"{what} {text!r} is not a number") from None
+    if not low <= value <= high:
+        raise ConfigError(f"{what} {value} is outside {low}..{high}")
+    return value
+
+
+def _address(text: str) -> int:
+    return _number(text, "address", 0, 0xFF)
+
+
+def _ident(text: str) -> int:
+    return _number(text, "ID", 0, 0xFFFF)
+
+
+def _value(text: str) -> int:
+    return _number(text, "value", -0x8000_0000, 0xFFFF_FFFF)
+
+
+def _drives(text: str) -> list[int]:
+    addresses = [_address(part.strip()) for part in text.split(",") if part.strip()]
+    if not 1 <= len(addresses) <= MAX_STATIONS:
+        raise ConfigError(f"a ring has 1 to {MAX_STATIONS} drives, not {len(addresses)}")
+    return addresses
+
+
+def _port_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--port", required=True, metavar="URL", help="serial port or URL")
+    parser.add_argument("--baud", type=int, default=BAUD, help="baud rate (default 9600)")
+    parser.add_argument(
+        "--timeout", type=float, default=DEFAULT_TIMEOUT, help="seconds per attempt (default 1)"
+    )
+    parser.add_argument(
+        "--retries", type=int, default=DEFAULT_RETRIES, help="extra attempts (default 2)"
+    )
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "bass",
+        help="Baumueller BASS service protocol (RS-232): read, write, simulated ring",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sub = parser.add_subparsers(dest="bass_command", metavar="ACTION")
+    sub.required = True
+
+    read = sub.add_parser("read", help="read one element of operating data (command 003C)")
+    read.add_argument("address", metavar="ADDRESS")
+    read.add_argument("ident", metavar="ID")
+    read.add_argument("--signed", action="store_true", help="two's complement value")
+    _port_options(read)
+    read.set_defaults(func=_cmd_read)
+
+    write = sub.add_parser("write", help="write one element of operating data (command 003E)")
+    write.add_argument("address", metavar="ADDRESS")
+    write.add_argument("ident", metavar="ID")
+    write.add_argument("value", metavar="VALUE")
+    write.add_argument("--digits", type=int, choices=(4, 8), help="element width in hex digits")
+    _port_options(write)
+    write.set_defaults(func=_cmd_write)
+
+    ring = sub.add_parser("ring", help="simulate drives on a closed RS-232 loop (1.4.2)")
+    ring.add_argument(
+        "--drives", default="1", metavar="LIST", help="DIP addresses in wiring order (1,2,3)"
+    )
+    where = ring.add_mutually_exclusive_group()
+    where.add_argument(
+        "--listen", metavar="URL", help="serve on tcp-listen://127.0.0.1:PORT (default port 0)"
+    )
+    where.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal")
+    ring.add_argument(
+        "--locked",
+        action="append",
+        default=[],
+        metavar="ADDRESS",
+        help="drive whose ID 126 bit 0 is 0 (BASS writes refused); repeatable",
+    )
+    ring.add_argument("--duration", type=float, metavar="SECONDS", help="stop after SECONDS")
+    ring.set_defaults(func=_cmd_ring)
+
+
+def _run(args: argparse.Namespace, job: Callable[[argparse.Namespace], int]) -> int:
+    try:
+        return job(args)
+    except ConfigError as exc:
+        print(f"uss bass {args.bass_command}: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+async def _exchange(args: argparse.Namespace, request: BassRequest) -> BassExchange:
+    transport = open_transport(args.port, baud=args.baud, parity="N")
+    async with transport:
+        master = BassMaster(transport, timeout=args.timeout, retries=args.retries)
+        return await master.exchange(request)
+
+
+def _report(args: argparse.Namespace, request: BassRequest, value: int | None) -> int:
+    try:
+        exchange = asyncio.run(_exchange(args, request))
+    except BassRefusal as refusal:
+        if args.json:
+            print(
+                json.dumps(
+                    {
+                        "ok": False,
+                        "address": request.address,
+                        "id": request.ident,
+                        "error": refusal.number,
+                        "meaning": refusal.meaning,
+                    }
+                )
+            )
+        print(f"uss bass {args.bass_command}: {refusal}", file=sys.stderr)
+        return EXIT_FAILED
+    answer = exchange.answer
+    if value is None:
+        value = answer.to_int(signed=args.signed)
+    result = {"ok": True, "address": request.address, "id": request.ident, "value": value}
+    if args.json:
+        print(json.dumps(result | {"data": answer.data, "attempts": exchange.attempts}))
+    else:
+        print(f"{value} (0x{answer.data})" if answer.data else str(value))
+    return EXIT_OK
+
+
+def _check_link(args: argparse.Namespace) -> None:
+    if not args.timeout > 0:
+        raise ConfigError(f"--timeout must be positive, not {args.timeout}")
+    if args.retries < 0:
+        raise ConfigError(f"--retries must be 0 or more, not {args.retries}")
+
+
+def _cmd_read(args: argparse.Namespace) -> int:
+    def job(args: argparse.Namespace) -> int:
+        _check_link(args)
+        request = BassRequest.read(_address(args.address), _ident(args.ident))
+        return _report(args, request, None)
+
+    return _run(args, job)
+
+
+def _cmd_write(args: argparse.Namespace) -> int:
+    def job(args: argparse.Namespace) -> int:
+        _check_link(args)
+        value = _value(args.value)
+        try:
+            request = BassRequest.write(
+                _address(args.address), _ident(args.ident), value, args.digits
+            )
+        except BassTelegramError as exc:
+            raise ConfigError(str(exc)) from None
+        return _report(args, request, value)
+
+    return _run(args, job)
+
+
+async def _serve_ring(ring: BassRing, transport: Transport, duration: float | None) -> int:
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+    try:
+        async with transport:
+            if isinstance(transport, PtyPort):
+                print(transport.device_path)
+            elif isinstance(transport, TcpServerTransport):
+                print(f"tcp://{transport.host}:{transport.port}")
+            sys.stdout.flush()
+            serving = asyncio.create_task(ring.serve(transport))
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(stop.wait(), duration)
+        await serving
+    finally:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.remove_signal_handler(sig)
+    answered = ", ".join(f"drive {s.address}: {s.answered}" for s in ring.stations)
+    print(f"uss bass ring: requests answered: {answered}", file=sys.stderr)
+    return EXIT_OK
+
+
+def _cmd_ring(args: argparse.Namespace) -> int:
+    def job(args: argparse.Namespace) -> int:
+        addresses = _drives(args.drives)
+        locked = {_address(a) for a in args.locked}
+        if not locked <= set(addresses):
+            missing = ", ".join(str(a) for a in sorted(locked - set(addresses)))
+            raise ConfigError(f"--locked {missing}: no such drive on the ring")
+        if args.duration is not None and not args.duration > 0:
+            raise ConfigError(f"--duration {args.duration}: must be > 0 seconds")
+        ring = BassRing(
+            [
+                DictOperatingData(a, demo_elements(), write_authority=a not in locked)
+                for a in addresses
+            ]
+        )
+        transport: Transport
+        if args.listen is not None:
+            if not args.listen.lower().startswith("tcp-listen://"):
+                raise ConfigError(f"--listen {args.listen!r}: expected tcp-listen://HOST:PORT")
+            transport = open_transport(args.listen, baud=BAUD, parity="N")
+        elif args.pty:
+            transport = PtyPort(baud=BAUD)
+        else:
+            raise ConfigError("nothing to serve: give --pty or --listen tcp-listen://HOST:PORT")
+        return asyncio.run(_serve_ring(ring, transport, args.duration))
+
+    return _run(args, job)

@@ -1,0 +1,247 @@
+"""`uss ksvario`: the PMA KS VARIO over PROFIBUS-DP.
+
+    uss ksvario simulate [--pty | --port URL] [--station N]   serve a simulated coupler
+    uss ksvario read ADDRESS [COUNT] --port DEV [--station N]  parameter channel read
+    uss ksvario write ADDRESS VALUE... --port DEV               parameter channel write
+    uss ksvario gsd [--output FILE]                             the device's GSD file
+    uss ksvario address ADDRESS                                 decode an address word
+
+``read``/``write`` bring the station into data exchange with a small DP master of their own
+(`pyuss.ksvario.dp.master`), then run the job through module A.1; ``--sim`` runs them against
+an in-process simulated coupler instead of a line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from pyuss.errors import ConfigError
+from pyuss.ksvario.address import Address, View, parse_address
+from pyuss.ksvario.channel import ByteOrder, DataFormat, Value
+from pyuss.ksvario.coupler import CacheSelection, Coupler
+from pyuss.ksvario.dp.master import DpMasterLink
+from pyuss.ksvario.gsd import emit_gsd
+from pyuss.ksvario.master import KsVarioMaster, LocalLink, default_format
+from pyuss.ksvario.modules import Configuration, parse_modules
+from pyuss.ksvario.simulate import serve
+from pyuss.ksvario.userprm import UserParameters
+from pyuss.transport.url import open_transport
+
+_FORMATS = {
+    "int": DataFormat.INTEGER,
+    "real": DataFormat.REAL,
+    "char": DataFormat.CHAR,
+    "compact": DataFormat.COMPACT_CHAR,
+}
+
+
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = subparsers.add_parser("ksvario", help="PMA KS VARIO over PROFIBUS-DP")
+    sub = p.add_subparsers(dest="ksvario_command", metavar="ACTION")
+    sub.required = True
+
+    sim = sub.add_parser("simulate", help="serve a simulated KS VARIO as DP slave")
+    sim.add_argument("--pty", action="store_true", help="open a new pty (the default)")
+    sim.add_argument("--port", help="serial port or pyserial URL instead of a pty")
+    sim.add_argument("--station", type=int, default=5, help="DP station address (default 5)")
+    sim.add_argument("--baud", type=int, default=19200)
+    sim.add_argument("--channels", type=int, default=30, help="controller channels 1..30")
+    sim.set_defaults(func=_simulate)
+
+    for name, helptext in (
+        ("read", "read data through the parameter channel"),
+        ("write", "write data through the parameter channel"),
+    ):
+        q = sub.add_parser(name, help=helptext)
+        q.add_argument("address", help="0x4496, 4496h, 17558 or VIEW:AREA:DATUM (fix1:ch1:0x96)")
+        if name == "read":
+            q.add_argument("count", nargs="?", type=int, default=1, help="values to read")
+        else:
+            q.add_argument("values", nargs="+", help="values to write")
+        q.add_argument(
+            "--format",
+            choices=sorted(_FORMATS),
+            help="default: real for float addresses, int otherwise",
+        )
+        where = q.add_mutually_exclusive_group(required=True)
+        where.add_argument("--port", help="serial port, pty or transport URL of the DP line")
+        where.add_argument("--sim", action="store_true", help="an in-process simulated coupler")
+        q.add_argument("--station", type=int, default=5, help="DP station address (default 5)")
+        q.add_argument("--baud", type=int, default=19200)
+        q.add_argument("--modules", default="A.1", help="module list for Chk_Cfg (default A.1)")
+        q.add_argument("--intel", action="store_true", help="Intel byte order (user parameter)")
+        q.add_argument("--timeout", type=float, default=5.0, help="job timeout in seconds")
+        q.set_defaults(func=_read if name == "read" else _write)
+
+    g = sub.add_parser("gsd", help="print or write the device's GSD file")
+    g.add_argument("--output", "-o", help="file to write (atomically) instead of stdout")
+    g.set_defaults(func=_gsd)
+
+    a = sub.add_parser("address", help="decode an address into view, area and datum")
+    a.add_argument("address")
+    a.set_defaults(func=_address)
+
+
+def _fail(message: str) -> int:
+    print(f"uss ksvario: {message}", file=sys.stderr)
+    return 2
+
+
+def _gsd(args: argparse.Namespace) -> int:
+    text = emit_gsd()
+    if not args.output:
+        sys.stdout.write(text.replace("\r\n", "\n"))
+        return 0
+    target = Path(args.output)
+    if not target.parent.is_dir():
+        return _fail(f"cannot write {target}: folder {target.parent} does not exist")
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=".gsd-")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(text.encode("ascii"))
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, target)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        return _fail(f"cannot write {target}: {exc}")
+    print(f"wrote {target}")
+    return 0
+
+
+def _address(args: argparse.Namespace) -> int:
+    try:
+        addr = parse_address(args.address)
+    except ConfigError as exc:
+        return _fail(str(exc))
+    print(addr)
+    for view in View:
+        print(f"  {view.name.lower():9} {addr.as_view(view).encode():04X}h")
+    return 0
+
+
+def _simulate(args: argparse.Namespace) -> int:
+    if not 0 <= args.station <= 125:
+        return _fail(f"station {args.station} is out of range 0..125")
+    if not 1 <= args.channels <= 30:
+        return _fail(f"channels {args.channels} is out of range 1..30")
+
+    def ready(device: str) -> None:
+        print(device, flush=True)
+        print(f"KS VARIO station {args.station}, ident 1030h; Ctrl-C stops", file=sys.stderr)
+
+    try:
+        asyncio.run(
+            serve(
+                station=args.station,
+                port=args.port,
+                baud=args.baud,
+                channels=args.channels,
+                on_ready=ready,
+            )
+        )
+    except KeyboardInterrupt:
+        return 130
+    return 0
+
+
+def _parse_values(fmt: DataFormat, texts: list[str]) -> list[Value]:
+    out: list[Value] = []
+    for t in texts:
+        try:
+            if fmt.is_real:
+                out.append(float(t))
+            elif fmt is DataFormat.INTEGER:
+                out.append(int(t, 0))
+            elif fmt is DataFormat.CHAR:
+                out.append(ord(t) if len(t) == 1 else int(t, 0))
+            else:
+                out.append(t.encode("latin-1"))
+        except (ValueError, UnicodeEncodeError):
+            raise ConfigError(f"{t!r} is not a {fmt.name.lower()} value") from None
+    return out
+
+
+def _format_value(addr: Address, fmt: DataFormat, value: Value) -> str:
+    if isinstance(value, bytes):
+        return repr(value.decode("latin-1"))
+    if fmt is DataFormat.CHAR and isinstance(value, int):
+        return f"{value} {chr(value)!r}"
+    if fmt is DataFormat.INTEGER and addr.view is View.FIXPOINT1 and isinstance(value, int):
+        return f"{value} ({value / 10:g})"
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+async def _job(args: argparse.Namespace, addr: Address, fmt: DataFormat, write: list[Value]) -> int:
+    conf = Configuration(parse_modules(args.modules))
+    order = ByteOrder.INTEL if args.intel else ByteOrder.MOTOROLA
+    user = UserParameters(byte_order=order)
+    if args.sim:
+        coupler = Coupler(selection=CacheSelection.example(), user=user)
+        coupler.configure(conf)
+        master = KsVarioMaster(LocalLink(coupler), conf, byte_order=order, timeout=args.timeout)
+        return await _run(master, args, addr, fmt, write)
+    line = open_transport(args.port, baud=args.baud, parity="E")
+    await line.open()
+    try:
+        link = DpMasterLink(line, args.station, conf, user=user)
+        await link.connect()
+        master = KsVarioMaster(link, conf, byte_order=order, timeout=args.timeout)
+        return await _run(master, args, addr, fmt, write)
+    finally:
+        await line.close()
+
+
+async def _run(
+    master: KsVarioMaster,
+    args: argparse.Namespace,
+    addr: Address,
+    fmt: DataFormat,
+    write: list[Value],
+) -> int:
+    if write:
+        await master.write(addr, write, fmt)
+        print(f"wrote {len(write)} value(s) at {addr.encode():04X}h: {master.status.describe()}")
+        return 0
+    values = await master.read(addr, args.count, fmt)
+    step = 4 if fmt is DataFormat.COMPACT_CHAR else 1
+    for k, value in enumerate(values):
+        datum = addr.datum + k * step
+        here = Address.of(addr.view, addr.area, datum) if datum < 512 else addr
+        print(f"{here.encode():04X}h  {_format_value(addr, fmt, value)}")
+    return 0
+
+
+def _prepare(args: argparse.Namespace) -> tuple[Address, DataFormat]:
+    addr = parse_address(args.address)
+    fmt = _FORMATS[args.format] if args.format else default_format(addr)
+    if not 0 <= args.station <= 125:
+        raise ConfigError(f"station {args.station} is out of range 0..125")
+    parse_modules(args.modules)
+    return addr, fmt
+
+
+def _read(args: argparse.Namespace) -> int:
+    try:
+        addr, fmt = _prepare(args)
+        if not 1 <= args.count <= 255:
+            raise ConfigError(f"count {args.count} is out of range 1..255")
+        Configuration(parse_modules(args.modules))
+    except ConfigError as exc:
+        return _fail(str(exc))
+    return asyncio.run(_job(args, addr, fmt, []))
+
+
+def _write(args: argparse.Namespace) -> int:
+    try:
+        addr, fmt = _prepare(args)
+        values = _parse_values(fmt, args.values)
+        Configuration(parse_modules(args.modules))
+    except ConfigError as exc:
+        return _fail(str(exc))
+    return asyncio.run(_job(args, addr, fmt, values))

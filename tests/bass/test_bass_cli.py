@@ -1,0 +1,139 @@
+"""``uss bass`` as a user runs it: a simulated ring in its own process, reached over TCP and a
+pty, read and written with ``uss bass read`` / ``uss bass write``."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+from collections.abc import Iterator
+
+import pytest
+
+from pyuss.cli.main import main
+
+TIMEOUT = 20
+
+
+class Ring:
+    def __init__(self, *args: str) -> None:
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "pyuss.cli.main", "bass", "ring", *args],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        assert self.proc.stdout is not None
+        self.where = self.proc.stdout.readline().strip()
+
+    def stop(self, sig: signal.Signals = signal.SIGTERM) -> tuple[int, str]:
+        self.proc.send_signal(sig)
+        _, err = self.proc.communicate(timeout=TIMEOUT)
+        return self.proc.returncode, err
+
+
+@pytest.fixture
+def tcp_ring() -> Iterator[Ring]:
+    ring = Ring("--listen", "tcp-listen://127.0.0.1:0", "--drives", "1,2,0x10", "--locked", "2")
+    try:
+        assert ring.where.startswith("tcp://127.0.0.1:"), ring.proc.stderr
+        yield ring
+    finally:
+        if ring.proc.poll() is None:
+            ring.stop()
+
+
+def uss(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, str]:
+    code = main(["bass", *args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_read_and_write_over_tcp(tcp_ring: Ring, capsys: pytest.CaptureFixture[str]) -> None:
+    port = ("--port", tcp_ring.where, "--timeout", "5")
+    assert uss(capsys, "read", "1", "170", *port) == (0, "17 (0x0011)\n", "")
+    code, out, _ = uss(capsys, "read", "0x10", "171", *port, "--json")
+    assert code == 0
+    assert json.loads(out) == {
+        "ok": True,
+        "address": 16,
+        "id": 171,
+        "value": 9600,
+        "data": "2580",
+        "attempts": 1,
+    }
+    assert uss(capsys, "write", "1", "2", "-7500", *port)[0] == 0
+    assert uss(capsys, "read", "1", "2", "--signed", *port)[1] == "-7500 (0xE2B4)\n"
+    assert uss(capsys, "read", "1", "2", *port)[1] == "58036 (0xE2B4)\n"
+
+
+def test_refusals_exit_1_with_number_and_meaning(
+    tcp_ring: Ring, capsys: pytest.CaptureFixture[str]
+) -> None:
+    port = ("--port", tcp_ring.where, "--timeout", "5")
+    code, out, err = uss(capsys, "write", "2", "2", "5", *port, "--json")
+    assert code == 1
+    assert json.loads(out) == {
+        "ok": False,
+        "address": 2,
+        "id": 2,
+        "error": 5,
+        "meaning": "parameter is write-protected",
+    }
+    assert err == "uss bass write: drive 2 refused ID 2: error 5: parameter is write-protected\n"
+    code, out, err = uss(capsys, "write", "1", "171", "19200", *port)
+    assert (code, out) == (1, "")
+    assert "error 4: data cannot be changed" in err
+
+
+def test_no_answer_exits_1(tcp_ring: Ring, capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = uss(
+        capsys, "read", "9", "170", "--port", tcp_ring.where, "--timeout", "0.3", "--retries", "0"
+    )
+    assert (code, out) == (1, "")
+    assert "echo but no answer from drive 9" in err
+    assert err.count("\n") == 1
+
+
+def test_ring_on_a_pty_read_with_a_serial_port(capsys: pytest.CaptureFixture[str]) -> None:
+    ring = Ring("--pty", "--drives", "7")
+    try:
+        assert ring.where.startswith("/dev/"), ring.proc.stderr
+        assert (
+            uss(capsys, "write", "7", "2", "7500", "--port", ring.where, "--timeout", "5")[0] == 0
+        )
+        code, out, _ = uss(capsys, "read", "7", "2", "--port", ring.where, "--timeout", "5")
+        assert (code, out) == (0, "7500 (0x1D4C)\n")
+    finally:
+        code, err = ring.stop(signal.SIGINT)
+    assert code == 0, err
+    assert "drive 7: 2" in err
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["read", "256", "170", "--port", "tcp://127.0.0.1:9"],
+        ["read", "x", "170", "--port", "tcp://127.0.0.1:9"],
+        ["read", "1", "0x10000", "--port", "tcp://127.0.0.1:9"],
+        ["read", "1", "170", "--port", "tcp://127.0.0.1"],
+        ["read", "1", "170", "--port", "tcp://127.0.0.1:9", "--timeout", "0"],
+        ["read", "1", "170", "--port", "tcp://127.0.0.1:9", "--retries", "-1"],
+        ["write", "1", "2", "0x10000", "--digits", "4", "--port", "tcp://127.0.0.1:9"],
+        ["write", "1", "2", "0x100000000", "--port", "tcp://127.0.0.1:9"],
+        ["write", "1", "2", "1.5", "--port", "tcp://127.0.0.1:9"],
+        ["ring", "--drives", "1,2"],
+        ["ring", "--pty", "--drives", ",".join(str(a) for a in range(17))],
+        ["ring", "--pty", "--drives", "1,1"],
+        ["ring", "--pty", "--drives", "1", "--locked", "2"],
+        ["ring", "--listen", "tcp://127.0.0.1:0"],
+        ["ring", "--pty", "--duration", "0"],
+    ],
+)
+def test_bad_input_exits_2_with_one_line(
+    args: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, out, err = uss(capsys, *args)
+    assert (code, out) == (2, "")
+    assert err.startswith("uss bass ") and err.count("\n") == 1, err

@@ -1,0 +1,100 @@
+"""`uss ksvario`: gsd, address, read/write in-process and over a pty with the built-in DP master."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from ksvario_sim import SlaveThread
+
+from pyuss.cli.main import main
+from pyuss.ksvario.address import Address
+from pyuss.ksvario.coupler import Coupler
+from pyuss.ksvario.gsd import parse_gsd
+
+
+def test_gsd_to_stdout_and_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["ksvario", "gsd"]) == 0
+    assert parse_gsd(capsys.readouterr().out).ident_number == 0x1030
+    target = tmp_path / "PMA_1030.gsd"
+    assert main(["ksvario", "gsd", "--output", str(target)]) == 0
+    assert parse_gsd(target.read_text(encoding="ascii")).ident_number == 0x1030
+    assert [p.name for p in tmp_path.iterdir()] == ["PMA_1030.gsd"]
+
+
+def test_gsd_into_missing_folder_is_bad_input(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["ksvario", "gsd", "-o", str(tmp_path / "no" / "x.gsd")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_address(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["ksvario", "address", "fix1:ch1:0x96"]) == 0
+    out = capsys.readouterr().out
+    assert "4496h" in out and "channel 1" in out and "892Ch" in out
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["ksvario", "read", "0xZZZZ", "--sim"],
+        ["ksvario", "read", "0x4496", "0", "--sim"],
+        ["ksvario", "write", "0x4496", "abc", "--sim"],
+        ["ksvario", "read", "0x4496", "--sim", "--modules", "A.2"],
+        ["ksvario", "read", "0x4496", "--port", "x", "--station", "200"],
+    ],
+)
+def test_bad_input_exits_2(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("uss ksvario:") and len(err.strip().splitlines()) == 1
+
+
+def test_read_and_write_in_process(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["ksvario", "read", "0x4496", "--sim"]) == 0
+    assert capsys.readouterr().out.strip() == "4496h  1000 (100)"
+    assert main(["ksvario", "write", "0xFD09", "1.5", "2", "--sim"]) == 0
+    assert "done_ok" in capsys.readouterr().out
+
+
+def test_result_error_exits_1(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["ksvario", "read", "0x05FF", "4", "--sim"]) == 1
+    assert "bad address" in capsys.readouterr().err
+
+
+def test_read_write_over_a_pty_with_the_dp_master(capsys: pytest.CaptureFixture[str]) -> None:
+    coupler = Coupler()
+    coupler.set(Address.channel(2, 0x69), 42.5)
+    with SlaveThread(coupler, 7) as sim:
+        assert main(["ksvario", "read", "0x8CD2", "2", "--port", sim.device, "--station", "7"]) == 0
+        assert capsys.readouterr().out.splitlines() == ["8CD2h  42.5", "8CD4h  900"]
+        argv = ["ksvario", "write", "0x3E9A", "45", "--port", sim.device, "--station", "7"]
+        assert main([*argv, "--modules", "A.1,B.1"]) == 0
+    assert coupler.get(Address.channel(30, 0x9A)) == 45.0
+
+
+def test_absent_station_fails_with_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    with SlaveThread(Coupler(), 7) as sim:
+        argv = ["ksvario", "read", "0x4496", "--port", sim.device, "--station", "9"]
+        assert main(argv) == 1
+    assert "did not answer" in capsys.readouterr().err
+
+
+def test_simulate_prints_the_device_first(tmp_path: Path) -> None:
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pyuss.cli.main", "ksvario", "simulate", "--pty", "--station", "3"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert proc.stdout is not None
+        device = proc.stdout.readline().strip()
+        assert device.startswith("/dev/")
+        assert main(["ksvario", "read", "0x4496", "--port", device, "--station", "3"]) == 0
+    finally:
+        proc.terminate()
+        proc.wait(10)
