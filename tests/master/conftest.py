@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 from collections.abc import AsyncIterator, Sequence
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
@@ -9,9 +10,12 @@ from typing import Any
 
 from master.scripted import ScriptedSlave
 from pyuss.bus import FaultPlan, Recorder, VirtualBus
+from pyuss.drive.simulated import SimulatedDrive
 from pyuss.master import Master
+from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.receiver import Received, Receiver
+from pyuss.slave import JobLatency, SlaveEngine, SlaveServer
 
 
 @dataclass
@@ -61,3 +65,50 @@ def line_telegrams(recorder: Recorder, baud: int, sender: str = "master") -> lis
             if isinstance(event, Received):
                 out.append(event)
     return out
+
+
+@dataclass
+class SimSetup:
+    bus: VirtualBus
+    master: Master
+    engines: dict[int, SlaveEngine]
+    recorder: Recorder | None
+
+
+@asynccontextmanager
+async def simulated_bus(
+    drives: Sequence[tuple[int, str, Layout | None]],
+    *,
+    baud: int = 38400,
+    record: bool = False,
+    faults: FaultPlan | None = None,
+    latency: JobLatency | None = None,
+    **master_options: Any,
+) -> AsyncIterator[SimSetup]:
+    """A virtual bus with simulated drives ``(address, profile, layout)`` - each served by its
+    own `SlaveServer` station, as separate devices on a line are - and a started master."""
+    bus = VirtualBus(baud, faults=faults)
+    recorder = Recorder().attach(bus) if record else None
+    stop = asyncio.Event()
+    engines: dict[int, SlaveEngine] = {}
+    tasks = []
+    for address, profile, layout in drives:
+        drive = SimulatedDrive.from_profile(profile)
+        engine = SlaveEngine(
+            address, drive, get_profile(profile), layout=layout, latency=latency, failure_time=0
+        )
+        engines[address] = engine
+        server = SlaveServer(bus.attach(f"drive{address}"), engine)
+        tasks.append(asyncio.create_task(server.run(stop)))
+    master = Master(bus.attach("master"), **master_options)
+    try:
+        async with master:
+            yield SimSetup(bus, master, engines, recorder)
+    finally:
+        stop.set()
+        for task in tasks:
+            task.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
+        for engine in engines.values():
+            engine.close()
+        await bus.close()

@@ -10,12 +10,15 @@ import pytest
 
 from master.conftest import scripted_bus
 from pyuss.errors import ConfigError, DriveRefusal
-from pyuss.master import GENERIC, JobTimeout, NoWriteAuthority, SpontaneousMessage
+from pyuss.master import JobTimeout, NoWriteAuthority, SpontaneousMessage
 from pyuss.master.jobs import Job, ParameterChannel
 from pyuss.master.process import OPERATE
+from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw, RequestId, ResponseId
 from pyuss.protocol.pzd import ControlWord
+
+GENERIC = get_profile("generic")
 
 
 def _job(request: Pkw, results: list[Job], timeout: float = 1.0) -> Job:

@@ -20,34 +20,24 @@ from pyuss.master.errors import (
 )
 from pyuss.master.jobs import SpontaneousMessage
 from pyuss.master.process import OPERATE, DriveStatus
-from pyuss.master.profile import (
-    GENERIC,
-    BroadcastForm,
-    DescriptionStyle,
-    MasterProfile,
-    resolve_profile,
-)
+from pyuss.master.profile import resolve_profile
 from pyuss.master.scheduler import ACYCLIC, CYCLIC, Master, MirrorResult, Mode
 from pyuss.master.stats import BusDiagnostics, CycleStats, JobStats, SampleSummary, SlaveDiagnostics
 
 __all__ = [
     "ACYCLIC",
     "CYCLIC",
-    "GENERIC",
     "OPERATE",
-    "BroadcastForm",
     "BusDiagnostics",
     "CycleStats",
     "Description",
     "DescriptionElement",
-    "DescriptionStyle",
     "Drive",
     "DriveStatus",
     "JobStats",
     "JobTimeout",
     "Master",
     "MasterClosed",
-    "MasterProfile",
     "MirrorMismatch",
     "MirrorResult",
     "Mode",

@@ -38,8 +38,10 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from pyuss.drive.database import DescriptionStyle
+from pyuss.drive.datatypes import DataType
+from pyuss.drive.description import BAUMUELLER_ELEMENTS, PROFIBUS_ELEMENTS
 from pyuss.errors import TelegramError
-from pyuss.master.profile import DescriptionStyle
 from pyuss.protocol.pkw import words_to_text
 
 __all__ = [
@@ -53,32 +55,7 @@ __all__ = [
     "element_size",
 ]
 
-PROFIBUS_ELEMENTS: dict[int, str] = {
-    1: "identifier",
-    2: "number of array elements",
-    3: "standardisation factor",
-    4: "variable attribute",
-    5: "reserved",
-    6: "name",
-    7: "lower limit",
-    8: "upper limit",
-    9: "reserved",
-    10: "identifier extension",
-}
-BAUMUELLER_ELEMENTS: dict[int, str] = {1: "attribute", 2: "info", 5: "minimum", 6: "maximum"}
-
-DATA_TYPES: dict[int, str] = {
-    2: "int8",
-    3: "int16",
-    4: "int32",
-    5: "uint8",
-    6: "uint16",
-    7: "uint32",
-    8: "float",
-    9: "string",
-    10: "octets",
-    35: "V2",
-}
+DATA_TYPES: dict[int, str] = {t.value: t.label for t in DataType}
 """PROFIBUS data type codes in identifier bits 0..7."""
 
 _FIXED_SIZES = {1: 1, 2: 1, 3: 2, 4: 1, 5: 2, 6: 8, 9: 1, 10: 1}

@@ -35,6 +35,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+from pyuss.drive.database import TEXT_LENGTH, DescriptionStyle
 from pyuss.errors import ConfigError, DriveRefusal, TelegramError
 from pyuss.master.description import (
     BAUMUELLER_ELEMENTS,
@@ -47,7 +48,7 @@ from pyuss.master.description import (
 )
 from pyuss.master.jobs import SpontaneousMessage
 from pyuss.master.process import OPERATE, DriveStatus
-from pyuss.master.profile import DescriptionStyle, MasterProfile
+from pyuss.master.profile import Profile, description_style, index_base
 from pyuss.master.stats import SlaveDiagnostics
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import (
@@ -67,10 +68,7 @@ from pyuss.protocol.pzd import ControlWord, percent_to_raw16, percent_to_raw32, 
 if TYPE_CHECKING:
     from pyuss.master.scheduler import Master, MirrorResult, _Link
 
-__all__ = ["TEXT_LENGTH", "Drive"]
-
-TEXT_LENGTH = 16
-"""Characters of a text element (C 8 example 7, after the PROFIBUS profile)."""
+__all__ = ["Drive"]
 
 _DOUBLE = (ResponseId.VALUE_DWORD, ResponseId.ARRAY_DWORD)
 
@@ -112,7 +110,7 @@ class Drive:
         return self._link.layout
 
     @property
-    def profile(self) -> MasterProfile:
+    def profile(self) -> Profile:
         return self._link.profile
 
     @property
@@ -149,7 +147,7 @@ class Drive:
     ) -> Pkw:
         """Send any PKW job and return the answer that belongs to it (the raw `Pkw`).
         ``pnu``/``index`` only word error messages (default: from ``request``)."""
-        name = self.profile.decode_pnu(request) if pnu is None else pnu
+        name = self.profile.decode_pnu(request.pnu, request.index) if pnu is None else pnu
         return await self._master._job(self._link, request, name, index, timeout)
 
     async def read(
@@ -267,14 +265,14 @@ class Drive:
                 ]
             return [Pkw(answer.id, values=(w,)).word(signed=signed) for w in values]
         count = await self.array_length(pnu, timeout=timeout)
-        base = self.profile.index_base
+        base = index_base(self.profile)
         return [
             await self.read(pnu, i, signed=signed, timeout=timeout)
             for i in range(base, base + count)
         ]
 
     def _elements(self) -> dict[int, str]:
-        if self.profile.description is DescriptionStyle.BAUMUELLER:
+        if description_style(self.profile) is DescriptionStyle.BAUMUELLER:
             return BAUMUELLER_ELEMENTS
         return PROFIBUS_ELEMENTS
 
@@ -290,19 +288,21 @@ class Drive:
     async def read_description(
         self, pnu: int, element: int | None = None, *, timeout: float | None = None
     ) -> Description:
-        """The description of ``pnu`` (C 6): only ``element`` if given, else all of it.
+        """The description of ``pnu`` (C 6): only ``element`` (1..254) if given, else all of it.
 
-        Whole descriptions travel in one telegram (IND 255) with the variable layout only
-        (C 4.2.2); with a fixed layout the elements are read one by one and those the drive
-        refuses (too long for the PKW area, C 7) are left out.
+        A whole description travels in one telegram (IND 255) with the variable layout only
+        (C 4.2.2): so without ``element`` a fixed layout reads the elements one by one and
+        leaves out those the drive refuses (too long for the PKW area, C 7). ``element=255``
+        asks for the whole description in one telegram whatever the layout (a fixed-length
+        drive refuses it, C 8 example 3).
         """
-        style = self.profile.description
-        if element is not None:
+        style = description_style(self.profile)
+        if element is not None and element != INDEX_ALL:
             if isinstance(element, bool) or not isinstance(element, int) or not 1 <= element <= 254:
-                raise ConfigError(f"description element must be 1..254, got {element!r}")
+                raise ConfigError(f"description element must be 1..255, got {element!r}")
             words = await self._element_words(pnu, element, timeout)
             return Description(pnu, style, {element: decode_element(element, words, style)})
-        if self.layout.variable:
+        if element == INDEX_ALL or self.layout.variable:
             bits, ind = self._ind(pnu, INDEX_ALL)
             answer = await self.job(
                 Pkw(RequestId.READ_PBE_ELEMENT, bits, ind),

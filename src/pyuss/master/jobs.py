@@ -6,7 +6,7 @@ the slave and hands every answer to `ParameterChannel.answer`. Time is passed in
 Rules (C 4.2.1.1):
 
 - At most one open job per slave. Jobs queue in order; the open one is repeated in every
-  telegram to the slave until the answer that belongs to it arrives (`MasterProfile.answers`:
+  telegram to the slave until the answer that belongs to it arrives (`pyuss.master.profile.answers`:
   the response ID of C Table 4.3, the PNU and, for indexed jobs, IND), or until its time is up
   (`JobTimeout`). Without a job the master sends "no job".
 - Response ID 7 ends the job with `DriveRefusal` (error number and meaning, the profile's
@@ -37,7 +37,7 @@ from dataclasses import dataclass, field, replace
 
 from pyuss.errors import DriveRefusal, UssError
 from pyuss.master.errors import JobTimeout, NoWriteAuthority
-from pyuss.master.profile import MasterProfile
+from pyuss.master.profile import Profile, answers
 from pyuss.master.stats import JobStats, Samples
 from pyuss.protocol.pkw import Pkw, RequestId, ResponseId
 
@@ -108,7 +108,7 @@ class Job:
 class ParameterChannel:
     """The master side of one slave's PKW interface; see the module docstring."""
 
-    def __init__(self, address: int, profile: MasterProfile) -> None:
+    def __init__(self, address: int, profile: Profile) -> None:
         self.address = address
         self.profile = profile
         self.queue: deque[Job] = deque()
@@ -162,7 +162,7 @@ class ParameterChannel:
             if head.due is None:
                 head.due = now
             last = self.last_answer
-            if last is None or self.profile.answers(last, head.request):
+            if last is None or answers(self.profile, last, head.request):
                 self._guard += 1
                 return Pkw(_NO_JOB, spm_toggle=self.toggle)
             self.queue.popleft()
@@ -230,7 +230,7 @@ class ParameterChannel:
             indexed = response.is_indexed
             return SpontaneousMessage(
                 address=self.address,
-                pnu=self.profile.decode_pnu(pkw),
+                pnu=self.profile.decode_pnu(pkw.pnu, pkw.index),
                 response=response,
                 index=pkw.subindex if indexed else None,
                 values=pkw.values,
@@ -240,7 +240,7 @@ class ParameterChannel:
             self.toggle = pkw.spm_toggle
         self.last_answer = pkw
         job = self.current
-        if job is None or not self.profile.answers(pkw, job.request):
+        if job is None or not answers(self.profile, pkw, job.request):
             return None
         self.current = None
         if job.started is not None:
@@ -251,7 +251,7 @@ class ParameterChannel:
             number = pkw.error_number
             number = 0xFFFF if number is None else number
             error: UssError = DriveRefusal(
-                number, self.profile.meaning(number), pnu=job.pnu, index=job.index
+                number, self.profile.error_meaning(number), pnu=job.pnu, index=job.index
             )
             self._finish(job, error=error)
         elif pkw.id == ResponseId.NO_AUTHORITY:

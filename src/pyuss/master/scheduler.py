@@ -68,14 +68,14 @@ from pyuss.log import log_frame
 from pyuss.master.errors import MasterClosed, MirrorMismatch, NotSending
 from pyuss.master.jobs import Job, ParameterChannel, SpontaneousMessage
 from pyuss.master.process import DriveStatus
-from pyuss.master.profile import MasterProfile, resolve_profile
+from pyuss.master.profile import Profile, resolve_profile, response_limit
 from pyuss.master.stats import BusDiagnostics, CycleStats, Samples, SlaveDiagnostics
 from pyuss.protocol.diagnostics import Diagnostics, FaultKind
 from pyuss.protocol.layout import Layout, NetData
 from pyuss.protocol.pkw import Pkw
 from pyuss.protocol.receiver import Received, ReceiveFault, Receiver
 from pyuss.protocol.telegram import MAX_ADDRESS, AddressMode, Telegram
-from pyuss.protocol.timing import LineTiming, response_delay_limit
+from pyuss.protocol.timing import LineTiming
 from pyuss.transport.base import Transport
 from pyuss.transport.queued import check_baud
 from pyuss.transport.reconnect import LinkDown
@@ -149,7 +149,7 @@ class _Link:
         self,
         address: int,
         layout: Layout,
-        profile: MasterProfile,
+        profile: Profile,
         response_delay: float,
     ) -> None:
         self.address = address
@@ -222,9 +222,9 @@ class Master:
     ``transport``: a `Transport` or a URL for `pyuss.transport.open_transport`; ``baud`` is
     taken from the transport when not given (and must match it when given), 9600 for a URL
     by default. ``profile``: the default profile of the drives (a name or a
-    `MasterProfile`); ``layout``: their default layout (else the profile's). ``cycle_time``:
-    a fixed cycle time in seconds (A 5.1.1), None to cycle as fast as the line allows.
-    ``mode``: `CYCLIC` or `ACYCLIC`. ``response_delay``: the default response delay limit in
+    `pyuss.profiles.Profile`); ``layout``: their default layout (else the profile's).
+    ``cycle_time``: a fixed cycle time in seconds (A 5.1.1), None to cycle as fast as the line
+    allows. ``mode``: `CYCLIC` or `ACYCLIC`. ``response_delay``: the default response delay limit in
     seconds (else the profile's, 20 ms). ``job_timeout``: seconds a parameter job may take
     from its first telegram. ``rx_tolerance`` and ``latency``: see "Time bases" in the module
     docstring (None picks by transport). ``close_transport``: close the transport on exit.
@@ -237,7 +237,7 @@ class Master:
         transport: Transport | str,
         *,
         baud: int | None = None,
-        profile: MasterProfile | str | None = None,
+        profile: Profile | str | None = None,
         layout: Layout | None = None,
         cycle_time: float | None = None,
         mode: Mode = Mode.CYCLIC,
@@ -393,7 +393,7 @@ class Master:
         address: int,
         *,
         layout: Layout | str | None = None,
-        profile: MasterProfile | str | None = None,
+        profile: Profile | str | None = None,
         response_delay: float | None = None,
         poll: bool = True,
     ) -> Drive:
@@ -429,10 +429,12 @@ class Master:
             if layout is None:
                 layout = self.default_layout if prof is self.profile else prof.default_layout
             prof.check_layout(layout)
-            limit = response_delay or self.response_delay or prof.response_delay
-            if isinstance(limit, bool) or not limit > 0:
+            if response_delay is not None and (
+                isinstance(response_delay, bool) or not response_delay > 0
+            ):
                 raise ConfigError(f"response delay must be > 0 seconds, not {response_delay!r}")
-            link = _Link(address, layout, prof, response_delay_limit(self.baud, limit))
+            limit = response_limit(prof, self.baud, response_delay or self.response_delay)
+            link = _Link(address, layout, prof, limit)
             link.drive = Drive(self, link)
             self._links[address] = link
             if layout.lge is not None:
@@ -729,9 +731,7 @@ class Master:
             await self._send(special.frame, pause)
             self._after_broadcast = True
             before = self._answered_broadcasts
-            limit = response_delay_limit(
-                self.baud, self.response_delay or self.profile.response_delay
-            )
+            limit = response_limit(self.profile, self.baud, self.response_delay)
             await self._listen(self._line_free + limit + self.rx_tolerance)
             return self._answered_broadcasts - before
         link = self._links.get(special.address)
@@ -741,7 +741,7 @@ class Master:
         limit = (
             link.response_delay
             if link is not None
-            else response_delay_limit(self.baud, self.response_delay or self.profile.response_delay)
+            else response_limit(self.profile, self.baud, self.response_delay)
         )
         result = await self._transact(
             special.frame, special.address, AddressMode.MIRROR, limit, pause, link
@@ -975,7 +975,7 @@ class Master:
         end: float,
         link: _Link | None,
     ) -> _Result:
-        if link is not None and outcome in (_Outcome.SILENT, _Outcome.LATE):
+        if link is not None and outcome in (_Outcome.SILENT, _Outcome.LATE) and not self._closing:
             self._silent(link, self._clock())
         return _Result(outcome, received if outcome is _Outcome.ANSWER else None, start, end)
 
