@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import threading
 from collections.abc import AsyncIterator, Sequence
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
@@ -110,5 +111,101 @@ async def simulated_bus(
             task.cancel()
         await asyncio.gather(*tasks, return_exceptions=True)
         for engine in engines.values():
+            engine.close()
+        await bus.close()
+
+
+class SimulatorThread:
+    """Simulated drives on a virtual bus in a thread of their own, reached through ptys the
+    bus serves: what a master sees of drives in another program (no timing on the pty).
+
+    ``drives``: ``(address, profile, layout)``; ``call(fn)`` runs ``fn(setup)`` on the bus's
+    loop (to inject faults or look at the simulator).
+    """
+
+    def __init__(
+        self,
+        drives: Sequence[tuple[int, str, Layout | None]],
+        *,
+        baud: int = 38400,
+        ptys: int = 1,
+        faults: FaultPlan | None = None,
+        latency: JobLatency | None = None,
+        record: bool = False,
+    ) -> None:
+        self.drives = drives
+        self.baud = baud
+        self.ptys = ptys
+        self.faults = faults
+        self.latency = latency
+        self.record = record
+        self.paths: list[str] = []
+        self.bus: VirtualBus | None = None
+        self.recorder: Recorder | None = None
+        self.engines: dict[int, SlaveEngine] = {}
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._thread: threading.Thread | None = None
+        self._stop: asyncio.Event | None = None
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+
+    def __enter__(self) -> SimulatorThread:
+        self._thread = threading.Thread(target=self._main, name="simulated bus", daemon=True)
+        self._thread.start()
+        if not self._ready.wait(10):
+            raise RuntimeError("the simulated bus did not start")
+        if self._error is not None:
+            raise self._error
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._loop is not None and self._stop is not None:
+            self._loop.call_soon_threadsafe(self._stop.set)
+        if self._thread is not None:
+            self._thread.join(10)
+
+    def call(self, func: Any) -> Any:
+        assert self._loop is not None
+
+        async def run() -> Any:
+            return func(self)
+
+        return asyncio.run_coroutine_threadsafe(run(), self._loop).result(10)
+
+    def _main(self) -> None:
+        asyncio.run(self._serve())
+
+    async def _serve(self) -> None:
+        self._loop = asyncio.get_running_loop()
+        self._stop = asyncio.Event()
+        tasks = []
+        try:
+            bus = self.bus = VirtualBus(self.baud, faults=self.faults)
+            if self.record:
+                self.recorder = Recorder().attach(bus)
+            for address, profile, layout in self.drives:
+                drive = SimulatedDrive.from_profile(profile)
+                engine = SlaveEngine(
+                    address,
+                    drive,
+                    get_profile(profile),
+                    layout=layout,
+                    latency=self.latency,
+                    failure_time=0,
+                )
+                self.engines[address] = engine
+                server = SlaveServer(bus.attach(f"drive{address}"), engine)
+                tasks.append(asyncio.create_task(server.run(self._stop)))
+            self.paths = await bus.serve_pty(self.ptys)
+        except BaseException as exc:
+            self._error = exc
+            self._ready.set()
+            return
+        self._ready.set()
+        await self._stop.wait()
+        for task in tasks:
+            task.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
+        for engine in self.engines.values():
             engine.close()
         await bus.close()

@@ -76,7 +76,7 @@ from pyuss.protocol.pkw import Pkw
 from pyuss.protocol.receiver import Received, ReceiveFault, Receiver
 from pyuss.protocol.telegram import MAX_ADDRESS, AddressMode, Telegram
 from pyuss.protocol.timing import LineTiming
-from pyuss.transport.base import Transport
+from pyuss.transport.base import Chunk, Transport
 from pyuss.transport.queued import check_baud
 from pyuss.transport.reconnect import LinkDown
 
@@ -297,6 +297,7 @@ class Master:
             diagnostics=self._line,
         )
         self._line_free = -math.inf
+        self._rx_end = -math.inf
         self._after_broadcast = False
         self._broadcasts = 0
         self._answered_broadcasts = 0
@@ -876,9 +877,10 @@ class Master:
                 break
             chunk = await self.transport.read(left)
             if chunk is not None:
-                self._stray_events(self._receiver.feed(chunk.data, chunk.timestamp, chunk.errors))
+                self._stray_events(self._feed(chunk))
         self._stray_events(self._receiver.poll(self._clock()))
         self._receiver.reset()
+        self._rx_end = -math.inf
         self._after_broadcast = False
         start = self._clock()
         try:
@@ -891,12 +893,23 @@ class Master:
         log_frame("tx", frame, end)
         return start, end
 
+    def _feed(self, chunk: Chunk) -> list[Received | ReceiveFault]:
+        """Feed a chunk to the receiver. Chunks of transports with exact timestamps go as they
+        are; on others a gap shorter than ``rx_tolerance`` is taken for jitter of the stamps and
+        closed (the bytes follow the previous ones back to back), a longer one is kept."""
+        stamp = chunk.timestamp
+        if self.rx_tolerance > 0:
+            following = self._rx_end + len(chunk.data) * self.timing.char_time
+            stamp = following if stamp - self._rx_end <= self.rx_tolerance else stamp
+            self._rx_end = stamp
+        return self._receiver.feed(chunk.data, stamp, chunk.errors)
+
     async def _drain(self) -> None:
         while True:
             chunk = await self.transport.read(0)
             if chunk is None:
                 break
-            self._stray_events(self._receiver.feed(chunk.data, chunk.timestamp, chunk.errors))
+            self._stray_events(self._feed(chunk))
         self._stray_events(self._receiver.poll(self._clock() - self.latency))
 
     def _stray_events(self, events: list[Received | ReceiveFault]) -> None:
@@ -923,7 +936,7 @@ class Master:
                 return
             chunk = await self.transport.read(max(left, self.timing.start_pause))
             if chunk is not None:
-                self._stray_events(self._receiver.feed(chunk.data, chunk.timestamp, chunk.errors))
+                self._stray_events(self._feed(chunk))
 
     async def _transact(
         self,
@@ -965,7 +978,7 @@ class Master:
                     return self._finish(outcome, None, start, end, link)
             chunk = await self.transport.read(wait)
             if chunk is not None:
-                events = receiver.feed(chunk.data, chunk.timestamp, chunk.errors)
+                events = self._feed(chunk)
 
     def _finish(
         self,
