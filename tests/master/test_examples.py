@@ -120,11 +120,11 @@ async def test_broadcast_vectors_reach_the_drives() -> None:
         machines = [env.engines[a].drive.machine for a in (1, 2)]
         assert [m.setpoint for m in machines] == [0.0, 0.0]
         bea = BroadcastEnableArray.from_selection(words=[2])
-        assert await env.master.broadcast([0, 0x2000], pkw=bea.to_pkw_words(), layout=layout) == 0
+        assert await env.master.broadcast([0, 0x2000], enable=bea) == 0
         assert [m.setpoint for m in machines] == [0.5, 0.5]
         assert [m.control for m in machines] == [0x045F, 0x045F]
         ramp = BroadcastEnableArray.from_selection(bits={1: 0x0020})
-        assert await env.master.broadcast([0x0020, 0], pkw=ramp.to_pkw_words(), layout=layout) == 0
+        assert await env.master.broadcast([0x0020, 0], enable=ramp, layout=layout) == 0
         assert [m.control for m in machines] == [0x047F, 0x047F]
     sent = sent_by(env)
     assert VECTORS["broadcast_setpoint"] in sent

@@ -10,6 +10,7 @@ import pytest
 
 from master.conftest import simulated_bus
 from pyuss.errors import ConfigError
+from pyuss.master import ACYCLIC
 from pyuss.master.profile import answers, resolve_profile, response_limit
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
@@ -86,3 +87,36 @@ def test_response_limit_follows_the_profile_and_never_drops_below_the_start_paus
     assert response_limit(resolve_profile("generic"), 9600, 0.05) == pytest.approx(0.05)
     with pytest.raises(ConfigError, match="unknown profile"):
         resolve_profile("nonesuch")
+
+
+async def test_baumueller_masked_control_broadcast_with_address_coding() -> None:
+    layout = Layout(3, 3)
+    drives = [(1, "baumueller", layout), (2, "baumueller", layout), (3, "baumueller", layout)]
+    async with simulated_bus(drives, profile="baumueller", mode=ACYCLIC) as env:
+        handles = [env.master.drive(a, layout=layout) for a in (1, 2, 3)]
+        for drive in handles:
+            await drive.control_word(0x0406)
+        machines = {a: env.engines[a].drive.machine for a in (1, 2, 3)}
+        # Bit 0 for every drive: only the bits of the mask are taken.
+        assert await env.master.broadcast_control(0xFFFF, mask=0x0001, layout=layout) == 0
+        assert {a: m.control for a, m in machines.items()} == {1: 0x0407, 2: 0x0407, 3: 0x0407}
+        # With the coding on (P181 bit 1) only the addresses named react.
+        for address in (1, 2, 3):
+            env.engines[address].drive.update(181, 0x0002)
+        await env.master.broadcast_control(0x0000, mask=0x0001, layout=layout, addresses=[2])
+        assert {a: m.control for a, m in machines.items()} == {1: 0x0407, 2: 0x0406, 3: 0x0407}
+
+
+def test_broadcast_forms_check_what_they_are_given() -> None:
+    from pyuss.master.broadcast import enable_array_data, masked_control_data
+    from pyuss.protocol.broadcast import BroadcastEnableArray
+
+    bea = BroadcastEnableArray.from_selection(words=[2])
+    with pytest.raises(ConfigError, match="4-word PKW"):
+        enable_array_data([0, 1], bea, Layout(3, 2))
+    with pytest.raises(ConfigError, match="3 PZD words"):
+        masked_control_data(1, layout=Layout(3, 2), addresses=[1])
+    assert masked_control_data(0x47E, 0x0001, layout=Layout(4, 2)) == bytes.fromhex(
+        "0000 0000 0001 0000 047E 0000"
+    )
+    assert masked_control_data(0x47E, layout=Layout(0, 2)) == bytes.fromhex("047E 0000")

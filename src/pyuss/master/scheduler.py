@@ -65,11 +65,13 @@ from typing import TYPE_CHECKING
 
 from pyuss.errors import ConfigError, TelegramError, TransportError, UssError, UssTimeout
 from pyuss.log import log_frame
+from pyuss.master.broadcast import enable_array_data, masked_control_data
 from pyuss.master.errors import MasterClosed, MirrorMismatch, NotSending
 from pyuss.master.jobs import Job, ParameterChannel, SpontaneousMessage
 from pyuss.master.process import DriveStatus
 from pyuss.master.profile import Profile, resolve_profile, response_limit
 from pyuss.master.stats import BusDiagnostics, CycleStats, Samples, SlaveDiagnostics
+from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.diagnostics import Diagnostics, FaultKind
 from pyuss.protocol.layout import Layout, NetData
 from pyuss.protocol.pkw import Pkw
@@ -579,21 +581,44 @@ class Master:
         self,
         pzd: Sequence[int],
         *,
+        enable: BroadcastEnableArray | None = None,
         pkw: Sequence[int] | Pkw | None = None,
         layout: Layout | None = None,
     ) -> int:
-        """Send a broadcast telegram (A 3): nobody answers; returns how many telegrams arrived
-        within one response delay after it (0 unless a slave breaks A 3).
+        """Send a broadcast telegram (A 3): nobody answers. Returns how many telegrams arrived
+        within one response delay after it: 0 unless a slave breaks A 3.
 
-        ``pzd``: the process data words; ``pkw``: the PKW area (the 4 words of a Broadcast
-        Enable Array, see `pyuss.master.broadcast`, or what a profile's form puts there);
-        ``layout``: the common layout (default: PKW 4 and as many PZD words as given).
+        ``pzd``: the process data words. ``enable``: a Broadcast Enable Array (appendix,
+        `pyuss.master.broadcast.enable_array_data`); or ``pkw``: any PKW area (its words or a
+        `Pkw`); neither: no PKW area. ``layout``: the common layout (default: PKW 4 with an
+        array or PKW words, 0 without, and ``len(pzd)`` PZD words).
         """
-        self._check_usable()
+        if enable is not None:
+            if pkw is not None:
+                raise ConfigError("give a Broadcast Enable Array or PKW words, not both")
+            return await self._broadcast(enable_array_data(pzd, enable, layout))
         if layout is None:
             layout = Layout(4 if pkw is not None else 0, len(pzd))
         area = pkw if pkw is None or isinstance(pkw, Pkw) else Pkw.from_words(list(pkw))
-        data = layout.pack(area, list(pzd))
+        return await self._broadcast(layout.pack(area, list(pzd)))
+
+    async def broadcast_control(
+        self,
+        control: int,
+        *,
+        mask: int = 0xFFFF,
+        layout: Layout,
+        addresses: Iterable[int] | None = None,
+    ) -> int:
+        """Baumueller's broadcast (seed 004 2.2, NOTES 9): ``control`` merged into the control
+        word of every drive (or of ``addresses`` with broadcast coding) through ``mask``; see
+        `pyuss.master.broadcast.masked_control_data`. Returns as `broadcast`."""
+        return await self._broadcast(
+            masked_control_data(control, mask, layout=layout, addresses=addresses)
+        )
+
+    async def _broadcast(self, data: bytes) -> int:
+        self._check_usable()
         frame = Telegram(0, AddressMode.BROADCAST, data).encode()
         answered = await self._special("broadcast", frame, 0)
         assert isinstance(answered, int)

@@ -35,6 +35,7 @@ from pyuss.master.jobs import SpontaneousMessage
 from pyuss.master.process import DriveStatus
 from pyuss.master.profile import Profile
 from pyuss.master.stats import BusDiagnostics, CycleStats, SlaveDiagnostics
+from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
 from pyuss.transport.base import Transport
@@ -177,10 +178,23 @@ class Master:
         self,
         pzd: Sequence[int],
         *,
+        enable: BroadcastEnableArray | None = None,
         pkw: Sequence[int] | Pkw | None = None,
         layout: Layout | None = None,
     ) -> int:
-        return self._call(self.core.broadcast(pzd, pkw=pkw, layout=layout))
+        return self._call(self.core.broadcast(pzd, enable=enable, pkw=pkw, layout=layout))
+
+    def broadcast_control(
+        self,
+        control: int,
+        *,
+        mask: int = 0xFFFF,
+        layout: Layout,
+        addresses: Iterable[int] | None = None,
+    ) -> int:
+        return self._call(
+            self.core.broadcast_control(control, mask=mask, layout=layout, addresses=addresses)
+        )
 
     def mirror(self, address: int, data: bytes | None = None) -> scheduler.MirrorResult:
         return self._call(self.core.mirror(address, data))
