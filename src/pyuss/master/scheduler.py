@@ -58,7 +58,7 @@ import contextlib
 import enum
 import logging
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass
 from types import TracebackType
 from typing import TYPE_CHECKING
@@ -85,7 +85,7 @@ from pyuss.transport.reconnect import LinkDown
 if TYPE_CHECKING:
     from pyuss.master.drive import Drive
 
-__all__ = ["ACYCLIC", "CYCLIC", "Master", "MirrorResult", "Mode"]
+__all__ = ["ACYCLIC", "CYCLIC", "Master", "MirrorResult", "Mode", "Reply"]
 
 log = logging.getLogger("pyuss.master")
 
@@ -118,6 +118,16 @@ def _exact_timestamps(transport: Transport) -> bool:
 
 
 @dataclass(frozen=True, slots=True)
+class Reply:
+    """The answer to `Master.request`."""
+
+    telegram: Telegram
+    raw: bytes
+    response_time: float
+    """From the end of the request to the start of the answer (seconds)."""
+
+
+@dataclass(frozen=True, slots=True)
 class MirrorResult:
     """A mirror test that passed (A 5.3): the slave returned the telegram unchanged."""
 
@@ -127,6 +137,9 @@ class MirrorResult:
     """From the end of the request to the start of the answer (seconds)."""
     round_trip: float
     """From the start of the request to the end of the answer (seconds)."""
+
+
+_NORMAL = frozenset({AddressMode.NORMAL})
 
 
 class _Outcome(enum.Enum):
@@ -577,6 +590,23 @@ class Master:
         assert isinstance(result, MirrorResult)
         return result
 
+    async def request(self, telegram: Telegram) -> Reply | None:
+        """Send any telegram between the turns of the poll list and return the answer of its
+        address (of the same type; a special telegram may be answered by a normal one), or
+        None when none came within the response delay limit. Broadcasts return None at once
+        after the listening time. For probing, special telegrams (A 5.4) and tools; the
+        slave's process data and parameter channel are not touched.
+        """
+        self._check_usable()
+        if not isinstance(telegram, Telegram):
+            raise ConfigError(f"request needs a Telegram, not {telegram!r}")
+        if telegram.mode.is_broadcast:
+            await self._broadcast(telegram.data, telegram.mode)
+            return None
+        result = await self._special("request", telegram.encode(), telegram.address)
+        assert result is None or isinstance(result, Reply)
+        return result
+
     async def broadcast(
         self,
         pzd: Sequence[int],
@@ -617,9 +647,9 @@ class Master:
             masked_control_data(control, mask, layout=layout, addresses=addresses)
         )
 
-    async def _broadcast(self, data: bytes) -> int:
+    async def _broadcast(self, data: bytes, mode: AddressMode = AddressMode.BROADCAST) -> int:
         self._check_usable()
-        frame = Telegram(0, AddressMode.BROADCAST, data).encode()
+        frame = Telegram(0, mode, data).encode()
         answered = await self._special("broadcast", frame, 0)
         assert isinstance(answered, int)
         return answered
@@ -769,20 +799,25 @@ class Master:
             if link is not None
             else response_limit(self.profile, self.baud, self.response_delay)
         )
-        result = await self._transact(
-            special.frame, special.address, AddressMode.MIRROR, limit, pause, link
-        )
-        if result.outcome is not _Outcome.ANSWER or result.received is None:
-            raise NotSending(special.address, "no answer to the mirror telegram (A 5.3)")
+        mode = Telegram.decode(special.frame).mode
+        modes = {mode, AddressMode.NORMAL} if mode is AddressMode.SPECIAL else {mode}
+        result = await self._transact(special.frame, special.address, modes, limit, pause, link)
         received = result.received
+        if result.outcome is not _Outcome.ANSWER or received is None:
+            if special.kind == "request":
+                return None
+            raise NotSending(special.address, "no answer to the mirror telegram (A 5.3)")
         if link is not None:
             self._good_answer(link, received, result)
+        response_time = max(0.0, received.start - result.request_end)
+        if special.kind == "request":
+            return Reply(received.telegram, received.raw, response_time)
         if received.raw != special.frame:
             raise MirrorMismatch(special.address, special.frame, received.raw)
         return MirrorResult(
             address=special.address,
             sent=special.frame,
-            response_time=max(0.0, received.start - result.request_end),
+            response_time=response_time,
             round_trip=max(0.0, received.end - result.request_start),
         )
 
@@ -799,7 +834,7 @@ class Master:
         result = await self._transact(
             frame,
             link.address,
-            AddressMode.NORMAL,
+            _NORMAL,
             link.response_delay,
             link.profile.start_pause_chars,
             link,
@@ -967,7 +1002,7 @@ class Master:
         self,
         frame: bytes,
         address: int,
-        mode: AddressMode,
+        modes: Collection[AddressMode],
         limit: float,
         pause_chars: float,
         link: _Link | None,
@@ -983,7 +1018,7 @@ class Master:
             events += receiver.poll(now - self.latency)
             found: tuple[_Outcome, Received] | None = None
             for event in events:
-                outcome = self._judge(event, address, mode, deadline, link)
+                outcome = self._judge(event, address, modes, deadline, link)
                 if outcome is _Outcome.FAULT:
                     faulty = True
                 elif outcome is not None and found is None:
@@ -1021,7 +1056,7 @@ class Master:
         self,
         event: Received | ReceiveFault,
         address: int,
-        mode: AddressMode,
+        modes: Collection[AddressMode],
         deadline: float,
         link: _Link | None,
     ) -> _Outcome | None:
@@ -1032,8 +1067,8 @@ class Master:
                 link.diagnostics.record_fault(event.kind, event.end)
             return _Outcome.FAULT
         telegram = event.telegram
-        if telegram.address != address or telegram.mode is not mode:
-            log_frame("rx", event.raw, event.end, f"discarded: awaited {mode.label} from {address}")
+        if telegram.address != address or telegram.mode not in modes:
+            log_frame("rx", event.raw, event.end, f"discarded: not the answer of {address}")
             if link is not None:
                 link.wrong_address += 1
                 link.diagnostics.record_discarded(event.end)
