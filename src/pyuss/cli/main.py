@@ -16,7 +16,20 @@ from collections.abc import Sequence
 from pyuss import __version__
 from pyuss.errors import UssError
 
-COMMANDS: tuple[str, ...] = ("demo", "decode", "bus", "simulate", "bass", "ksvario")
+COMMANDS: tuple[str, ...] = (
+    "demo",
+    "scan",
+    "read",
+    "write",
+    "describe",
+    "mirror",
+    "run",
+    "decode",
+    "bus",
+    "simulate",
+    "bass",
+    "ksvario",
+)
 
 EXIT_OK = 0
 EXIT_FAILED = 1

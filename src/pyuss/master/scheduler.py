@@ -576,14 +576,18 @@ class Master:
     async def mirror(self, address: int, data: bytes | None = None) -> MirrorResult:
         """Send a mirror telegram (A 5.3) to ``address`` and check that it comes back unchanged.
 
-        ``data``: the net data (default: the slave's layout filled with a test pattern, so a
-        fixed-length slave accepts it). Raises `MirrorMismatch` or `NotSending`.
+        ``data``: the net data (default: a test pattern of the length of the slave's telegrams -
+        its fixed length, or the shortest variable one - so that the slave accepts it; 5 words
+        for an address without a drive handle). Raises `MirrorMismatch` or `NotSending`.
         """
         self._check_usable()
         link = self._links.get(address)
         if data is None:
-            words = link.layout.words if link is not None else None
-            count = 6 if words is None else words
+            if link is None:
+                count = 5
+            else:
+                words = link.layout.words
+                count = 3 + link.layout.pzd if words is None else words
             data = bytes((0x55 + 0x11 * i) & 0xFF for i in range(2 * count))
         frame = Telegram(address, AddressMode.MIRROR, bytes(data)).encode()
         result = await self._special("mirror", frame, address)
