@@ -22,8 +22,10 @@ BAUD = "38400"
 def sim() -> Iterator[str]:
     """A generic drive at address 5 (PKW 3, PZD 2) behind a pty; yields the device path."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "pyuss.cli.main", "simulate", "--profile", "generic"]
-        + ["--address", "5", "--layout", "3,2", "--baud", BAUD, "--pty"],
+        [
+            *(sys.executable, "-m", "pyuss.cli.main", "simulate", "--profile", "generic"),
+            *("--address", "5", "--layout", "3,2", "--baud", BAUD, "--pty"),
+        ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
