@@ -169,7 +169,7 @@ class ParameterChannel:
             return self.refused(job, self.profile.unsupported_error)
         pnu = self.profile.decode_pnu(job.pnu, job.index)
         memory = self._memory(pnu, now)
-        if _changes(job) and not memory.has_write_authority(self.interface):
+        if _changes(job) and not self._may_change(memory, pnu):
             return self._no_authority(job)
         try:
             return self._run(job, pnu, memory)
@@ -197,6 +197,14 @@ class ParameterChannel:
         except (ParameterFault, TooLarge):
             return answer
         return replace(fresh, index=answer.index)
+
+    def _may_change(self, memory: ParameterMemory, pnu: int) -> bool:
+        """Write authority for a change job. The profile's write-enable parameter is left to
+        the drive, which keeps it writable (else nobody could give authority back)."""
+        enable = memory.db.profile.write_enable
+        if enable is not None and enable.pnu == pnu:
+            return True
+        return memory.has_write_authority(self.interface)
 
     def _memory(self, pnu: int, now: float) -> ParameterMemory:
         if self.diagnostics is not None and pnu in self.diagnostics:

@@ -10,7 +10,8 @@ sends the answer:
 - within the profile's response delay (20 ms by A 5.2.1.1; 2 ms for Baumueller, 2.5..17.5 ms
   for the 6SE21). ``response_delay`` (seconds) chooses a fixed delay inside that window; by
   default the earliest moment is aimed at. An answer that could not start in time (a loaded
-  machine) is still sent, counted in `ServerStats.late` and logged as a warning.
+  machine) is still sent; if it is more than `LATE_MARGIN` (1 ms) late it is counted in
+  `ServerStats.late` and logged as a warning.
 
 Times are the transport's. On the virtual bus (in-process or ``bus://``) and on serial ports a
 chunk's timestamp is when its last character ended, and the delay is measured from there. A
@@ -21,6 +22,9 @@ Start pauses are measured on that line, and the answer starts the response delay
 request would have ended, as it would on a real line of that baud rate. ``timed`` overrides the
 choice (default: timed unless the transport is a pty or a raw TCP one). Short waits are
 finished by polling the clock, as the event loop's timers are only as fine as a millisecond.
+Characters reach the program some time after they ended on the line; the receiver decides that
+the line has fallen idle (the end of an incomplete telegram) only ``latency`` later (20 ms by
+default), so that late bytes are not mistaken for a pause.
 
 All engines on a port share one `Diagnostics` (A 5.2.3): the line's faults belong to the port.
 Each exchange is logged at debug level on ``pyuss.slave`` (request and answer, decoded), the
@@ -57,6 +61,14 @@ log = logging.getLogger("pyuss.slave")
 _IDLE_READ = 0.1
 """Longest single wait for the line, so that a stop request is seen soon."""
 _SPIN = 0.0015
+_MAX_BACKLOG = 1.0
+"""On an untimed line, reads are not placed more than this many seconds behind their arrival."""
+LATE_MARGIN = 0.001
+"""An answer is counted late when it starts more than this after the profile's latest moment
+(the clock and the event loop have some jitter; a window may be a single moment)."""
+DEFAULT_LATENCY = 0.020
+"""How long bytes may take from the line to the program (a USB adapter's latency timer, the
+virtual bus's delivery): the line counts as idle only that much after the receiver says so."""
 """Waits shorter than this are finished by polling the clock (timer resolution: 1 ms)."""
 
 
@@ -101,9 +113,12 @@ class SlaveServer:
         response_delay: float | None = None,
         diagnostics: Diagnostics | None = None,
         timed: bool | None = None,
+        latency: float = DEFAULT_LATENCY,
     ) -> None:
         if not engines:
             raise ConfigError("a slave server needs at least one engine")
+        if not 0 <= latency <= 1:
+            raise ConfigError(f"latency must be 0..1 s, not {latency!r}")
         self.engines: dict[int, SlaveEngine] = {}
         for engine in engines:
             if engine.address in self.engines:
@@ -127,6 +142,7 @@ class SlaveServer:
         self.receiver = Receiver(self.baud, fixed_lengths=fixed, diagnostics=self.diagnostics)
         self.stats = ServerStats()
         self.timed = _timed(transport) if timed is None else timed
+        self.latency = latency
         self._char_time = 11 / self.baud
         self._line_free = -math.inf
 
@@ -159,11 +175,13 @@ class SlaveServer:
             log.warning("line: %s", exc)
             return
         if chunk is None:
-            events = self.receiver.poll(transport.clock())
+            events = self.receiver.poll(transport.clock() - self.latency)
         elif self.timed:
             events = self.receiver.feed(chunk.data, chunk.timestamp, chunk.errors)
         else:
             start = max(chunk.timestamp, self._line_free)
+            if start - chunk.timestamp > _MAX_BACKLOG:
+                start = chunk.timestamp  # a peer far faster than the line: do not fall behind
             self._line_free = start + len(chunk.data) * self._char_time
             events = self.receiver.feed(chunk.data, self._line_free, chunk.errors)
         for event in events:
@@ -178,7 +196,7 @@ class SlaveServer:
     def _deadlines(self) -> Iterable[float]:
         poll = self.receiver.next_poll()
         if poll is not None:
-            yield poll
+            yield poll + self.latency
         for engine in self.engines.values():
             deadline = engine.next_deadline()
             if deadline is not None:
@@ -197,7 +215,8 @@ class SlaveServer:
         if telegram.mode in (AddressMode.BROADCAST, AddressMode.SPECIAL_BROADCAST):
             for engine in self.engines.values():
                 engine.handle(telegram, event.end)
-            log.debug("%s (broadcast, no answer)", describe(telegram))
+            if log.isEnabledFor(logging.DEBUG):
+                log.debug("%s (broadcast, no answer)", describe(telegram))
             return
         target = self.engines.get(telegram.address)
         if target is None:
@@ -207,9 +226,10 @@ class SlaveServer:
     async def _answer(self, engine: SlaveEngine, event: Received) -> None:
         telegram = event.telegram
         answer = engine.handle(telegram, event.end)
-        layout = None if telegram.mode is AddressMode.MIRROR else engine.layout
+        layout = engine.layout if telegram.mode is AddressMode.NORMAL else None
         if answer is None:
-            log.debug("%s -> no answer", describe(telegram, layout))
+            if log.isEnabledFor(logging.DEBUG):
+                log.debug("%s -> no answer", describe(telegram, layout))
             return
         low, high = engine.response_window(self.baud)
         delay = low if self.response_delay is None else self.response_delay
@@ -219,8 +239,9 @@ class SlaveServer:
         await self.transport.write(data)
         self.stats.answers += 1
         log_frame("tx", data, start)
-        log.debug("%s -> %s", describe(telegram, layout), describe(answer, layout))
-        if start - event.end > high:
+        if log.isEnabledFor(logging.DEBUG):
+            log.debug("%s -> %s", describe(telegram, layout), describe(answer, layout))
+        if start - event.end > high + LATE_MARGIN:
             self.stats.late += 1
             log.warning(
                 "address %d: answer started %.3f ms after the request, later than the %.3f ms "

@@ -1,0 +1,139 @@
+"""Slave simulator speed on the virtual bus at 187500 baud (the fastest USS rate, B 2.4).
+
+- Turnaround: from the end of a request's last character to the start of the answer's first
+  character, taken from the bus's own character times. The floor is the start pause (2
+  characters = 0.117 ms, A 5.1.2); the ceiling is 20 ms (A 5.2.1.1).
+- Capacity: 31 simulated drives (addresses 1..31) served by one process on one line, polled back
+  to back by a master on the same event loop (C 8.1 example 2 telegrams, PKW 3 + PZD 2). The
+  wire limit of one exchange is 14 + 14 characters plus two start pauses (32 characters).
+- Engine cost: `SlaveEngine.handle` alone, telegrams per second, against the line's rate.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import statistics
+import time
+
+from pyuss.bus import VirtualBus, WireChar
+from pyuss.drive import SimulatedDrive
+from pyuss.profiles import get_profile
+from pyuss.protocol.layout import Layout
+from pyuss.protocol.pkw import Pkw
+from pyuss.protocol.telegram import AddressMode, Telegram
+from pyuss.protocol.timing import char_time
+from pyuss.slave import SlaveEngine, SlaveServer
+
+BAUD = 187500
+LAYOUT = Layout(3, 2)
+PROFILE = get_profile("generic")
+
+
+def _request(address: int) -> bytes:
+    data = LAYOUT.pack(Pkw(1, 52), (0x047E, 0))
+    return Telegram(address, AddressMode.NORMAL, data).encode()
+
+
+def _engines(addresses: range, now: float) -> list[SlaveEngine]:
+    db = PROFILE.database()
+    return [
+        SlaveEngine(a, SimulatedDrive(db, now=now), PROFILE, layout=LAYOUT, now=now)
+        for a in addresses
+    ]
+
+
+async def _run(addresses: range, exchanges: int) -> tuple[list[float], float, int]:
+    """Poll ``addresses`` round-robin ``exchanges`` times; (turnarounds, seconds, answers)."""
+    bus = VirtualBus(BAUD)
+    master = bus.attach("master")
+    slave = bus.attach("slave")
+    await master.open()
+    await slave.open()
+    server = SlaveServer(slave, *_engines(addresses, slave.clock()))
+    stop = asyncio.Event()
+    task = asyncio.create_task(server.run(stop))
+    ct = char_time(BAUD)
+    turnarounds: list[float] = []
+    state: dict[str, float | int] = {"request_end": 0.0, "answer_chars": 0}
+    done = asyncio.Event()
+
+    def on_char(char: WireChar) -> None:
+        if char.sender == "master":
+            state["request_end"] = char.end
+            return
+        if state["answer_chars"] == 0:
+            turnarounds.append(char.start - float(state["request_end"]))
+        state["answer_chars"] = int(state["answer_chars"]) + 1
+        if state["answer_chars"] == 14:
+            done.set()
+
+    bus.on_char.append(on_char)
+    requests = [_request(a) for a in addresses]
+    start = time.monotonic()
+    for i in range(exchanges):
+        done.clear()
+        state["answer_chars"] = 0
+        await master.write(requests[i % len(requests)])
+        await asyncio.wait_for(done.wait(), 5.0)
+        pause_end = time.monotonic() + 2 * ct
+        while time.monotonic() < pause_end:
+            await asyncio.sleep(0)
+    elapsed = time.monotonic() - start
+    stop.set()
+    await task
+    server.close()
+    await bus.close()
+    return turnarounds, elapsed, server.stats.answers
+
+
+def _engine_rate(seconds: float = 0.5) -> float:
+    engine = _engines(range(5, 6), 0.0)[0]
+    telegram = Telegram.decode(_request(5))
+    count = 0
+    start = time.perf_counter()
+    now = 0.0
+    while True:
+        for _ in range(200):
+            now += 0.002
+            engine.handle(telegram, now)
+        count += 200
+        elapsed = time.perf_counter() - start
+        if elapsed >= seconds:
+            return count / elapsed
+
+
+def main() -> None:
+    ct = char_time(BAUD)
+    pause = 2 * ct
+    turnarounds, _, _ = asyncio.run(_run(range(5, 6), 400))
+    ms = sorted(t * 1000 for t in turnarounds)
+    median = statistics.median(ms)
+    p99 = ms[min(len(ms) - 1, int(0.99 * len(ms)))]
+    print(
+        f"turnaround at {BAUD} baud, {len(ms)} exchanges: median {median:.3f} ms, "
+        f"p99 {p99:.3f} ms, min {ms[0]:.3f} ms, max {ms[-1]:.3f} ms"
+    )
+    print(
+        f"  start pause {pause * 1000:.3f} ms (median x{median / (pause * 1000):.1f}); "
+        f"limit 20 ms (p99 at {p99 / 20 * 100:.1f} % of it)"
+    )
+
+    exchanges = 31 * 20
+    _, elapsed, answers = asyncio.run(_run(range(1, 32), exchanges))
+    wire = 1 / (32 * ct)
+    achieved = answers / elapsed
+    print(
+        f"31 drives in one process, polled back to back: {achieved:.0f} exchanges/s "
+        f"({answers} answers), wire limit {wire:.0f}/s: {achieved / wire * 100:.0f} % of the line"
+    )
+
+    engine = _engine_rate()
+    line = 1 / (14 * ct)
+    print(
+        f"engine alone (handle, PKW 3 + PZD 2): {engine:.0f} telegrams/s = "
+        f"{engine / line:.1f} x a fully loaded {BAUD} baud line ({line:.0f} telegrams/s)"
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,195 @@
+"""``uss simulate`` as a user runs it: a separate process on a pty, TCP or a virtual bus."""
+
+from __future__ import annotations
+
+import importlib.util
+import select
+import signal
+import socket
+import subprocess
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+import serial
+
+from pyuss.cli.main import main
+from slave.harness import frame
+
+TIMEOUT = 20
+READ_P52 = frame(5, "1034 0000 0000 047E 0000")  # C 8.1 example 2
+ANSWER_P52 = "02 0C 05 10 34 00 00 40 00 02 31 00 00 5C"
+
+
+def _start(*args: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-m", "pyuss.cli.main", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+@contextmanager
+def simulate(*args: str, stop: signal.Signals = signal.SIGTERM) -> Iterator[tuple[str, list[str]]]:
+    """Run ``uss simulate ARGS``; yield the first line it prints and (afterwards) its stderr."""
+    proc = _start("simulate", *args)
+    err: list[str] = []
+    try:
+        assert proc.stdout is not None
+        ready, _, _ = select.select([proc.stdout], [], [], TIMEOUT)
+        assert ready, "uss simulate printed nothing"
+        first = proc.stdout.readline().strip()
+        assert first, proc.stderr.read() if proc.stderr else ""
+        yield first, err
+    finally:
+        proc.send_signal(stop)
+        _, stderr = proc.communicate(timeout=TIMEOUT)
+        err.append(stderr)
+    assert proc.returncode == 0, stderr
+
+
+def _read_telegram(port: serial.Serial) -> bytes:
+    head = port.read(2)
+    assert len(head) == 2, "no answer"
+    return head + port.read(head[1])
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_pty_first_line_is_the_device_and_it_stops_cleanly(sig: signal.Signals) -> None:
+    with (
+        simulate("--pty", "--address", "5", "--layout", "3,2", stop=sig) as (path, err),
+        serial.Serial(path, 9600, parity="E", timeout=TIMEOUT) as port,
+    ):
+        assert path.startswith("/dev/")
+        port.write(READ_P52)
+        assert _read_telegram(port).hex(" ").upper() == ANSWER_P52
+    assert "1 telegrams received, 1 answered" in err[0]
+
+
+def test_several_addresses_on_one_pty(tmp_path: Path) -> None:
+    store = tmp_path / "drive{address}.store"
+    with (
+        simulate("--pty", "--address", "1", "--address", "2", "--store", str(store)) as (path, _),
+        serial.Serial(path, 9600, parity="E", timeout=TIMEOUT) as port,
+    ):
+        for address in (1, 2):
+            port.write(frame(address, "E012 0000 0007 047E 0000"))  # ID 14: P18 = 7, EEPROM
+            answer = _read_telegram(port)
+            assert answer[2] == address
+            assert answer[3:7] == bytes.fromhex("1012 0000")
+    assert (tmp_path / "drive1.store").exists()
+    assert (tmp_path / "drive2.store").exists()
+
+
+def test_tcp_server() -> None:
+    with simulate("--tcp", "127.0.0.1:0", "--address", "5", "--layout", "3,2") as (url, _):
+        assert url.startswith("tcp://127.0.0.1:")
+        port = int(url.rsplit(":", 1)[1])
+        with socket.create_connection(("127.0.0.1", port), timeout=TIMEOUT) as sock:
+            sock.sendall(READ_P52)
+            data = b""
+            while len(data) < 14:
+                chunk = sock.recv(64)
+                assert chunk
+                data += chunk
+    assert data.hex(" ").upper() == ANSWER_P52
+
+
+def test_station_of_a_virtual_bus() -> None:
+    bus = _start("bus", "--baud", "19200", "--pty", "1", "--bus-tcp", "127.0.0.1:0")
+    try:
+        assert bus.stdout is not None
+        pty_path = bus.stdout.readline().strip()
+        endpoint = bus.stdout.readline().strip().removeprefix("bus://")
+        with (
+            simulate("--bus", endpoint, "--baud", "19200", "--address", "5", "--layout", "3,2") as (
+                first,
+                _,
+            ),
+            serial.Serial(pty_path, 19200, parity="E", timeout=TIMEOUT) as port,
+        ):
+            assert first == f"bus://{endpoint}"
+            port.write(READ_P52)
+            assert _read_telegram(port).hex(" ").upper() == ANSWER_P52
+    finally:
+        bus.send_signal(signal.SIGTERM)
+        bus.communicate(timeout=TIMEOUT)
+
+
+def test_parameter_file_and_read_only(tmp_path: Path) -> None:
+    params = tmp_path / "conveyor.toml"
+    params.write_text(
+        '[profile]\nname = "conveyor"\nextends = "generic"\n\n'
+        '[[parameter]]\npnu = 60\nname = "Belt length"\ntype = "uint16"\ndefault = 1234\n'
+    )
+    with (
+        simulate("--pty", "--address", "5", "--params", str(params), "--read-only") as (path, _),
+        serial.Serial(path, 9600, parity="E", timeout=TIMEOUT) as port,
+    ):
+        port.write(frame(5, "103C 0000 0000 0000 0000"))  # read P60 (variable layout)
+        assert _read_telegram(port)[3:9] == bytes.fromhex("103C 0000 04D2")
+        port.write(frame(5, "203C 0000 0001 0000 0000"))  # write: no authority
+        assert _read_telegram(port)[3] >> 4 == 8
+
+
+def test_a_damaged_store_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    store = tmp_path / "drive.store"
+    store.write_bytes(b"pyuss-drive-store 1 sha256=" + b"0" * 64 + b" bytes=2\n{}")
+    code = main(["simulate", "--pty", "--store", str(store), "--duration", "5"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1
+    assert "drive.store" in err and "corrupt" in err
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--pty", "--address", "40"], "addresses are 0..31"),
+        (["--pty", "--address", "3", "--address", "3"], "each address may be given once"),
+        (["--pty", "--layout", "5,2"], "PKW count must be 0, 3, 4 or 127"),
+        (["--pty", "--profile", "nope"], "unknown profile 'nope'"),
+        (["--pty", "--baud", "1234"], "not a USS rate"),
+        (["--pty", "--profile", "6se21", "--layout", "4,2"], "fixed layout 3,2 only"),
+        (["--pty", "--address", "1", "--address", "2", "--store", "x"], "{address}"),
+        (["--tcp", "localhost"], "HOST:PORT"),
+        (["--pty", "--response-delay", "50"], "outside the window"),
+        (["--pty", "--params", "/nonexistent.toml"], "cannot read parameter file"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(
+    args: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["simulate", *args, "--duration", "5"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert message in err
+
+
+def test_stops_by_itself_after_duration() -> None:
+    proc = _start("simulate", "--pty", "--duration", "0.3")
+    out, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0, err
+    assert out.splitlines()[0].startswith("/dev/")
+
+
+def test_other_protocols_plug_in_by_profile() -> None:
+    """``--profile ksvario`` runs the KS VARIO simulator where it is installed."""
+    if importlib.util.find_spec("pyuss.ksvario.simulate") is None:
+        proc = _start("simulate", "--profile", "ksvario", "--pty", "--duration", "5")
+        _, err = proc.communicate(timeout=TIMEOUT)
+        assert proc.returncode == 2
+        assert "KS VARIO simulator is not installed" in err
+        return
+    with simulate("--profile", "ksvario", "--pty", "--address", "5") as (path, _):
+        assert path.startswith("/dev/")
+
+
+def test_serial_port_by_pyserial_url() -> None:
+    proc = _start("simulate", "--serial", "loop://", "--duration", "0.3", "--address", "5")
+    out, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0, err
+    assert out.splitlines()[0] == "loop://"

@@ -1,0 +1,185 @@
+"""Simulated drives on a real pty, and a master that speaks raw bytes with pyserial.
+
+`PtySim` runs a `SlaveServer` with engines on a `PtyPort` in an event loop of its own thread,
+so a test talks to it with plain blocking pyserial, exactly as an outside program would. Code
+that touches the drives runs in that thread (`PtySim.call`).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import select
+import threading
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future
+from typing import Any, TypeVar
+
+import serial
+
+from pyuss.drive import SimulatedDrive
+from pyuss.profiles import get_profile
+from pyuss.protocol.layout import Layout
+from pyuss.protocol.telegram import AddressMode, Telegram, bcc
+from pyuss.slave import SlaveEngine, SlaveServer
+from pyuss.transport.pty import PtyPort
+
+T = TypeVar("T")
+
+#: Generous: a loaded machine. An answer normally comes within a few milliseconds.
+WAIT = 5.0
+#: How long silence is waited for: far beyond the 20 ms an answer may take (A 5.2.1.1).
+SILENCE = 0.25
+
+Setup = Callable[[float], Sequence[SlaveEngine]]
+
+
+def engine(
+    address: int,
+    profile: str = "generic",
+    layout: str | None = None,
+    *,
+    store: str | None = None,
+    **options: Any,
+) -> Setup:
+    """A setup making one engine with a fresh drive of ``profile``."""
+
+    def make(now: float) -> Sequence[SlaveEngine]:
+        prof = get_profile(profile)
+        drive = SimulatedDrive(prof.database(), store=store, now=now)
+        shape = None if layout is None else Layout.parse(layout)
+        return [SlaveEngine(address, drive, prof, layout=shape, now=now, **options)]
+
+    return make
+
+
+class PtySim:
+    """Engines served on a pty until `close`; ``path`` is the device to open."""
+
+    def __init__(self, setup: Setup, *, baud: int = 187500, **server: Any) -> None:
+        self.baud = baud
+        self.loop = asyncio.new_event_loop()
+        self._ready: Future[None] = Future()
+        self._stop: asyncio.Event | None = None
+        self.engines: list[SlaveEngine] = []
+        self.server: SlaveServer | None = None
+        self.path = ""
+        self._thread = threading.Thread(
+            target=self._main, args=(setup, server), name="pty-sim", daemon=True
+        )
+        self._thread.start()
+        self._ready.result(WAIT)
+
+    def _main(self, setup: Setup, options: dict[str, Any]) -> None:
+        asyncio.set_event_loop(self.loop)
+        self.loop.run_until_complete(self._serve(setup, options))
+        self.loop.close()
+
+    async def _serve(self, setup: Setup, options: dict[str, Any]) -> None:
+        try:
+            self._stop = asyncio.Event()
+            pty = PtyPort(baud=self.baud)
+            await pty.open()
+            self.engines = list(setup(pty.clock()))
+            self.server = SlaveServer(pty, *self.engines, **options)
+            self.path = pty.device_path
+        except BaseException as exc:
+            self._ready.set_exception(exc)
+            raise
+        self._ready.set_result(None)
+        try:
+            await self.server.run(self._stop)
+        finally:
+            self.server.close()
+            await pty.close()
+
+    @property
+    def drive(self) -> SimulatedDrive:
+        return self.engines[0].drive
+
+    def call(self, func: Callable[[], T]) -> T:
+        """Run ``func`` in the simulator's thread and return its result."""
+
+        async def run() -> T:
+            return func()
+
+        return asyncio.run_coroutine_threadsafe(run(), self.loop).result(WAIT)
+
+    def close(self) -> None:
+        if self._stop is not None and not self.loop.is_closed():
+            self.loop.call_soon_threadsafe(self._stop.set)
+        self._thread.join(WAIT)
+
+    def __enter__(self) -> PtySim:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def master(self) -> Master:
+        return Master(self.path)
+
+
+class Master:
+    """The far end of the pty: raw bytes through pyserial. A pty has no baud rate (the
+    simulator times the line itself); the port is opened at 9600 baud, 8E1."""
+
+    def __init__(self, path: str) -> None:
+        self.port = serial.Serial(path, 9600, parity=serial.PARITY_EVEN, timeout=WAIT)
+
+    def close(self) -> None:
+        self.port.close()
+
+    def __enter__(self) -> Master:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def send(self, data: bytes | str) -> None:
+        raw = bytes.fromhex(data) if isinstance(data, str) else data
+        self.port.write(raw)
+        self.port.flush()
+
+    def _readable(self, timeout: float) -> bool:
+        # select() instead of changing the port's timeout: that re-applies the termios
+        # settings, which a pty may refuse once the other side has written
+        ready, _, _ = select.select([self.port.fileno()], [], [], timeout)
+        return bool(ready)
+
+    def read_telegram(self, timeout: float = WAIT) -> bytes | None:
+        """One telegram (STX, LGE and LGE more bytes), or None when nothing comes in time."""
+        if not self._readable(timeout):
+            return None
+        head = self.port.read(2)
+        assert len(head) == 2 and head[0] == 0x02, f"not a telegram start: {head.hex(' ')}"
+        rest = self.port.read(head[1])
+        assert len(rest) == head[1], f"telegram cut short: {(head + rest).hex(' ')}"
+        return head + rest
+
+    def exchange(self, data: bytes | str) -> bytes:
+        """Send a request and return the answer (which must come)."""
+        self.send(data)
+        answer = self.read_telegram()
+        assert answer is not None, f"no answer to {data!r}"
+        return answer
+
+    def silent(self, data: bytes | str, wait: float = SILENCE) -> bool:
+        """Send and check that no byte comes back within ``wait`` seconds."""
+        self.send(data)
+        return not self._readable(wait)
+
+    def ask(self, address: int, layout: Layout, pkw: Any = None, pzd: Sequence[int] = ()) -> Any:
+        """Send a normal telegram built from ``pkw`` (a `Pkw` or None) and PZD words; return
+        the answer's unpacked `NetData`."""
+        words = list(pzd) + [0] * (layout.pzd - len(pzd))
+        request = Telegram(address, AddressMode.NORMAL, layout.pack(pkw, words))
+        answer = Telegram.decode(self.exchange(request.encode()))
+        assert answer.address == address
+        return layout.unpack(answer.data)
+
+
+def frame(adr: int, data: bytes | str) -> bytes:
+    """A telegram with any ADR byte (also the undefined ones) and a correct BCC."""
+    net = bytes.fromhex(data.replace(" ", "")) if isinstance(data, str) else data
+    head = bytes((0x02, len(net) + 2, adr)) + net
+    return head + bytes((bcc(head),))

@@ -1,0 +1,110 @@
+"""Which telegrams a slave answers (A 2.1, A 3, A 4.3, A 5.2.2, A 5.3, A 5.4), through a pty."""
+
+from __future__ import annotations
+
+from pyuss.protocol.layout import Layout
+from pyuss.protocol.pkw import Pkw
+from pyuss.protocol.telegram import AddressMode, Telegram
+from slave.harness import PtySim, engine, frame
+
+L32 = Layout(3, 2)
+READ_P52 = "1034 0000 0000 047E 0000"
+
+
+def test_answers_only_telegrams_addressed_to_it() -> None:
+    with PtySim(engine(5, "generic", "3,2")) as sim, sim.master() as master:
+        assert master.silent(frame(6, READ_P52))
+        assert master.silent(frame(4, READ_P52))
+        answer = master.exchange(frame(5, READ_P52))
+    assert answer[2] == 5
+
+
+def test_telegrams_with_errors_are_not_answered() -> None:
+    good = frame(5, READ_P52)
+    bad_bcc = good[:-1] + bytes((good[-1] ^ 0xFF,))
+    bad_lge = bytes((0x02, 0xFF)) + good[2:]
+    with PtySim(engine(5, "generic", "3,2")) as sim, sim.master() as master:
+        assert master.silent(bad_bcc)
+        assert master.silent(bad_lge)
+        assert master.silent(frame(5, "1034 0000 0000 047E 0000 0000"))  # fixed length: LGE 14
+        assert master.exchange(good)
+        counters = sim.call(lambda: sim.server.diagnostics.snapshot(0.0))
+    assert counters.bcc == 1
+    assert counters.bad_lge >= 2
+    assert counters.good == 1
+
+
+def test_variable_layout_discards_telegrams_too_short_for_it() -> None:
+    with PtySim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
+        assert master.silent(frame(5, "1034 0000 047E 0000"))  # PKE, IND, PZD: no PWE
+        assert master.exchange(frame(5, READ_P52))
+
+
+def test_undefined_adr_combinations_lead_to_no_reaction() -> None:
+    """A 4.3 and Table 5.2: 011, 110, 111 in bits 7..5 are undefined."""
+    with PtySim(engine(5, "generic", "3,2")) as sim, sim.master() as master:
+        for mode_bits in (0x60, 0xC0, 0xE0):
+            assert master.silent(frame(mode_bits | 5, "0000 0000 0000 047F 2000"))
+        control = sim.call(lambda: sim.drive.machine.control)
+    assert control == 0  # nothing of them was taken
+
+
+def test_mirror_returns_the_telegram_unchanged_and_processes_nothing() -> None:
+    """A 5.3: the slave sends the telegram back without any change and takes nothing from it."""
+    job = frame(0x40 | 5, "2012 0000 7000 047F 2000")  # a write job and ON, mirrored
+    with PtySim(engine(5, "generic", "3,2")) as sim, sim.master() as master:
+        assert master.exchange(job) == job
+        assert master.silent(frame(0x40 | 5, "2012 0000 7000"))  # fixed length: LGE checked
+        p18, control = sim.call(lambda: (sim.drive.value(18), sim.drive.machine.control))
+    assert p18 == 0
+    assert control == 0
+
+
+def test_variable_length_slave_mirrors_any_length() -> None:
+    odd = frame(0x40 | 5, "20 12 00 00 70")  # an odd length that fits no layout
+    with PtySim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
+        assert master.exchange(odd) == odd
+
+
+def test_broadcast_jobs_are_never_executed_nor_answered() -> None:
+    with PtySim(engine(5, "generic", "4,2")) as sim, sim.master() as master:
+        assert master.silent(frame(0x20, "2012 0000 0000 7000 047F 2000"))  # no flag in word a
+        p18, control = sim.call(lambda: (sim.drive.value(18), sim.drive.machine.control))
+    assert p18 == 0
+    assert control == 0
+
+
+def test_broadcast_without_a_4_word_pkw_area_is_not_taken() -> None:
+    """The Broadcast Enable Array needs 4 PKW words; a PKW 3 slave takes nothing."""
+    with PtySim(engine(5, "generic", "3,2")) as sim, sim.master() as master:
+        assert master.silent(frame(0x20, "0005 0000 0000 047E 2000"))
+        setpoint = sim.call(lambda: sim.drive.machine.setpoint)
+    assert setpoint == 0.0
+
+
+def test_pzd16_is_never_taken_from_a_broadcast() -> None:
+    """Appendix: word 16 is not broadcast-capable, even with every enable bit set."""
+    pzd = " ".join(f"{0x1000 + i:04X}" for i in range(16))
+    with PtySim(engine(5, "generic", "4,16")) as sim, sim.master() as master:
+        master.exchange(frame(5, "0000 0000 0000 0000 " + " ".join(["0000"] * 16)))
+        assert master.silent(frame(0x20, f"FFFF FFFF FFFF FFFF {pzd}"))
+        last = sim.call(lambda: sim.engines[0]._last_pzd)
+    assert last == (0,) * 16  # the image of the last non-broadcast telegram is kept
+
+
+def test_special_telegrams_go_to_a_registered_handler() -> None:
+    """A 5.4: with special-telegram handling the slave answers them (not special broadcasts)."""
+    seen: list[Telegram] = []
+
+    def handler(telegram: Telegram, now: float) -> Telegram | None:
+        seen.append(telegram)
+        return Telegram(telegram.address, AddressMode.SPECIAL, telegram.data[::-1])
+
+    with PtySim(engine(5, "generic", "3,2", special=handler)) as sim, sim.master() as master:
+        answer = master.exchange(frame(0x85, "01 02 03"))
+        assert master.silent(frame(0xA0, "09 08"))  # special broadcast: taken, not answered
+        assert master.silent(frame(0x86, "01 02 03"))  # another address
+        normal = master.ask(5, L32, Pkw(1, 52), (0x047E, 0))
+    assert answer == frame(0x85, "03 02 01")
+    assert [t.mode for t in seen] == [AddressMode.SPECIAL, AddressMode.SPECIAL_BROADCAST]
+    assert normal.pkw.values == (0x4000,)

@@ -1,0 +1,139 @@
+"""Line timing on the virtual bus (exact character times): start pause before the answer,
+the profiles' response delays, and the receive rules of A 5.2 (A 5.1.2, A 5.2.1, A 6)."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from collections.abc import AsyncIterator
+from dataclasses import dataclass, field
+
+import pytest
+
+from pyuss.bus import Fault, FaultKind, FaultPlan, VirtualBus, WireChar
+from pyuss.drive import SimulatedDrive
+from pyuss.profiles import get_profile
+from pyuss.protocol.layout import Layout
+from pyuss.slave import SlaveEngine, SlaveServer
+from pyuss.transport.base import Transport
+from slave.harness import WAIT, frame
+
+#: Upper bounds are spec rules too, but a loaded machine may be late; they get this slack.
+SLACK = 0.25
+REQUEST = frame(5, "1034 0000 0000 047E 0000")
+
+
+@dataclass
+class Line:
+    bus: VirtualBus
+    master: Transport
+    server: SlaveServer
+    chars: list[WireChar] = field(default_factory=list)
+
+    async def exchange(self, data: bytes, *, answer: bool = True) -> float | None:
+        """Send ``data``; the time from its last character's end to the answer's first
+        character's start on the wire, or None when no answer starts within a while."""
+        self.chars.clear()
+        await self.master.write(data)
+        deadline = asyncio.get_running_loop().time() + (WAIT if answer else 0.25)
+        while asyncio.get_running_loop().time() < deadline:
+            sent = [c for c in self.chars if c.sender == "master"]
+            replies = [c for c in self.chars if c.sender == "slave"]
+            if len(sent) == len(data) and len(replies) >= 2 and len(replies) == replies[1].byte + 2:
+                await asyncio.sleep(3 * self.bus.char_time)  # a start pause before the next
+                return replies[0].start - sent[-1].end
+            await asyncio.sleep(0.002)
+        return None
+
+
+@contextlib.asynccontextmanager
+async def line(
+    profile: str,
+    baud: int,
+    *,
+    address: int = 5,
+    layout: str = "3,2",
+    faults: FaultPlan | None = None,
+    response_delay: float | None = None,
+) -> AsyncIterator[Line]:
+    bus = VirtualBus(baud, faults=faults)
+    master = bus.attach("master")
+    slave = bus.attach("slave")
+    await master.open()
+    await slave.open()
+    prof = get_profile(profile)
+    drive = SimulatedDrive(prof.database(), now=slave.clock())
+    if profile == "baumueller":
+        drive.update(181, 4)  # response-delay mode: answers to the request itself
+    engine = SlaveEngine(address, drive, prof, layout=Layout.parse(layout), now=slave.clock())
+    server = SlaveServer(slave, engine, response_delay=response_delay)
+    result = Line(bus, master, server)
+    bus.on_char.append(result.chars.append)
+    stop = asyncio.Event()
+    task = asyncio.create_task(server.run(stop))
+    try:
+        yield result
+    finally:
+        stop.set()
+        await asyncio.wait_for(task, WAIT)
+        server.close()
+        await bus.close()
+
+
+@pytest.mark.parametrize("baud", [9600, 187500])
+async def test_answer_comes_after_the_start_pause_and_within_20_ms(baud: int) -> None:
+    async with line("generic", baud) as wire:
+        delays = [await wire.exchange(REQUEST) for _ in range(5)]
+    pause = 2 * 11 / baud
+    for delay in delays:
+        assert delay is not None
+        assert pause <= delay <= 0.020 + SLACK
+    assert wire.server.stats.answers == 5
+
+
+async def test_6se21_answers_2_5_ms_or_later_at_9600_baud() -> None:
+    request = frame(1, "1014 0000 0000 047E 0000")
+    async with line("6se21", 9600, address=1) as wire:
+        delay = await wire.exchange(request)
+    assert delay is not None
+    assert 0.0025 <= delay <= 0.0175 + SLACK
+
+
+async def test_baumueller_keeps_33_bit_times_before_its_answer() -> None:
+    request = frame(5, "1034 0000 0000 047E 0000")
+    async with line("baumueller", 9600) as wire:
+        delay = await wire.exchange(request)
+    assert delay is not None
+    assert delay >= 33 / 9600
+
+
+async def test_a_chosen_response_delay() -> None:
+    async with line("generic", 19200, response_delay=0.010) as wire:
+        delay = await wire.exchange(REQUEST)
+    assert delay is not None
+    assert 0.010 <= delay <= 0.010 + SLACK
+
+
+async def test_a_telegram_with_a_parity_error_is_not_answered() -> None:
+    plan = FaultPlan([Fault(FaultKind.PARITY, station="master", nth=6)])
+    async with line("generic", 19200, faults=plan) as wire:
+        assert await wire.exchange(REQUEST, answer=False) is None
+        assert await wire.exchange(REQUEST) is not None
+        parity = wire.server.diagnostics.parity
+    assert parity == 1
+
+
+async def test_a_start_pause_inside_a_telegram_breaks_it() -> None:
+    """A gap of 2 character times or more inside a telegram (A 6.3, A 5.1.2): no answer."""
+    plan = FaultPlan([Fault(FaultKind.STRETCH, station="master", nth=8, gap=3)])
+    async with line("generic", 19200, faults=plan) as wire:
+        assert await wire.exchange(REQUEST, answer=False) is None
+        assert await wire.exchange(REQUEST) is not None
+
+
+async def test_stx_without_a_start_pause_starts_no_telegram() -> None:
+    async with line("generic", 19200) as wire:
+        glued = b"\x55" + REQUEST  # a stray character right before STX
+        assert await wire.exchange(glued, answer=False) is None
+        no_stx = wire.server.diagnostics.no_stx
+    assert no_stx == 1
