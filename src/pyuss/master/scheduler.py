@@ -826,17 +826,21 @@ class Master:
         )
 
     async def _turn(self, link: _Link) -> None:
-        """One telegram to ``link`` and its answer."""
-        now = self._clock()
-        pkw = link.channel.request(now) if link.layout.pkw else None
-        version = link.version
-        control = link.control
-        data = link.layout.pack(pkw, link.pzd())
-        frame = Telegram(link.address, AddressMode.NORMAL, data).encode()
+        """One telegram to ``link`` and its answer. The telegram is built at the last moment,
+        once the start pause is over, so that it carries the newest process data (C 5.1) and
+        a job submitted meanwhile."""
+        sent = [link.version, link.control]
+
+        def build() -> bytes:
+            pkw = link.channel.request(self._clock()) if link.layout.pkw else None
+            sent[:] = [link.version, link.control]
+            link.sent_version = max(link.sent_version, link.version)
+            data = link.layout.pack(pkw, link.pzd())
+            return Telegram(link.address, AddressMode.NORMAL, data).encode()
+
         link.polls_wanted = max(0, link.polls_wanted - 1)
-        link.sent_version = max(link.sent_version, version)
         result = await self._transact(
-            frame,
+            build,
             link.address,
             _NORMAL,
             link.response_delay,
@@ -845,7 +849,7 @@ class Master:
         )
         link.exchanges += 1
         if result.outcome is _Outcome.ANSWER and result.received is not None:
-            self._answer(link, result, version, control)
+            self._answer(link, result, sent[0], sent[1])
         link.channel.expire(self._clock())
 
     def _answer(self, link: _Link, result: _Result, version: int, control: int) -> None:
@@ -930,9 +934,13 @@ class Master:
             )
 
     # -- the line --------------------------------------------------------------------------
-    async def _send(self, frame: bytes, pause_chars: float) -> tuple[float, float]:
-        """Keep the start pause, send ``frame``; returns its start and end time."""
+    async def _send(
+        self, frame: bytes | Callable[[], bytes], pause_chars: float
+    ) -> tuple[float, float]:
+        """Keep the start pause, send ``frame`` (or what ``frame()`` builds then); returns the
+        telegram's start and end time."""
         pause = max(2.0, pause_chars) * self.timing.char_time
+        await asyncio.sleep(0)  # let tasks woken by the last answer queue their jobs first
         while True:
             await self._drain()
             quiet = max(self._line_free, self._receiver.last_byte_end)
@@ -946,6 +954,8 @@ class Master:
         self._receiver.reset()
         self._rx_end = -math.inf
         self._after_broadcast = False
+        if callable(frame):
+            frame = frame()
         start = self._clock()
         try:
             await self.transport.write(frame)
@@ -1004,7 +1014,7 @@ class Master:
 
     async def _transact(
         self,
-        frame: bytes,
+        frame: bytes | Callable[[], bytes],
         address: int,
         modes: Collection[AddressMode],
         limit: float,
