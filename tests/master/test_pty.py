@@ -134,3 +134,14 @@ def test_sync_facade_from_several_threads_over_a_pty() -> None:
         assert status.control == 0x047F
         assert drives[0].status is not None
         assert bus.diagnostics().slaves[0].address == 1
+
+
+async def test_fixed_cycle_time_over_a_pty() -> None:
+    with SimulatorThread([(1, "generic", L32), (2, "generic", L32)]) as sim:
+        async with Master(sim.paths[0], baud=sim.baud, layout=L32, cycle_time=0.05) as bus:
+            bus.set_poll_list([1, 2, 1])
+            await eventually(lambda: bus.cycle_stats().cycles >= 6)
+            stats = bus.cycle_stats()
+    # A 5.1.1: a new cycle never starts before the cycle time is over.
+    assert stats.achieved.minimum >= 0.05 - 1e-3
+    assert stats.cycle_time == 0.05
