@@ -45,7 +45,9 @@ class ModelSlave:
 
     def _current(self) -> Pkw:
         if self.answer.id == ResponseId.VALUE_WORD:
-            return Pkw(ResponseId.VALUE_WORD, self.answer.pnu, values=(self.values[self.answer.pnu],))
+            return Pkw(
+                ResponseId.VALUE_WORD, self.answer.pnu, values=(self.values[self.answer.pnu],)
+            )
         return self.answer
 
 
@@ -105,5 +107,9 @@ def test_descriptions_of_every_parameter_decode(name: str) -> None:
             assert description.is_array == param.is_array
         else:
             assert description.data_type is not None
-        if param.dtype.is_integer and param.minimum is not None and style is DescriptionStyle.PROFIBUS:
+        if (
+            param.dtype.is_integer
+            and param.minimum is not None
+            and style is DescriptionStyle.PROFIBUS
+        ):
             assert description.low == param.minimum
