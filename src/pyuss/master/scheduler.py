@@ -35,16 +35,24 @@ Time bases
     All times are the transport's ``clock()``. Transports with exact timestamps (the virtual
     bus in-process and ``bus://``) are judged exactly by the rules above. Other transports
     (serial ports, ptys, TCP) stamp bytes when the program reads them, which USB adapters do in
-    bursts every 1..16 ms; for them ``rx_tolerance`` (default 20 ms) widens the receive side:
-    the idle gap that separates telegrams (`Receiver(start_pause=...)`) and the answer's start
-    deadline. The master's own sending keeps at least the specification's start pause always.
-    ``latency`` (default 20 ms) is how long after a deadline the master still waits for bytes
-    that were on the line in time but not yet delivered; it only costs time when a slave is
-    silent.
+    bursts every 1..16 ms; for them ``rx_tolerance`` (default 20 ms) widens the receive side
+    only: a gap between two received bursts shorter than the tolerance is taken for jitter of
+    the stamps and closed (the bytes are fed to the receiver as following back to back, so the
+    residual-time check of A 5.2.1.2 is not fooled by a late stamp), the idle gap that
+    separates telegrams is at least the tolerance (`Receiver(start_pause=...)`), and the
+    answer may begin up to the tolerance after the response delay limit. The master's own
+    sending keeps at least the specification's start pause always. ``latency`` (default 20 ms)
+    is how long after a deadline the master still waits for bytes that were on the line in
+    time but not yet delivered; it only costs time when a slave is silent.
+
+    The end of a request is taken as the time the write began plus its characters' time on the
+    line (or the time the write returned, if later). A simulator behind a bare pty answers
+    sooner than a real line allows, so its response times read 0.
 
 Process data (C 5.1)
     Every telegram to a slave carries its latest control word and setpoints, as the user set
-    them at the moment the telegram is built; every answer updates the slave's status first,
+    them at the moment the telegram is built - once the start pause before it is over, so
+    nothing set earlier is left for the next turn; every answer updates the slave's status first,
     before the parameter channel looks at it, and wakes `Drive.next_update` waiters and
     `Drive.on_update` callbacks.
 
@@ -237,7 +245,8 @@ class Master:
     ``transport``: a `Transport` or a URL for `pyuss.transport.open_transport`; ``baud`` is
     taken from the transport when not given (and must match it when given), 9600 for a URL
     by default. ``profile``: the default profile of the drives (a name or a
-    `pyuss.profiles.Profile`); ``layout``: their default layout (else the profile's).
+    `pyuss.profiles.Profile`); ``layout``: their default layout, a `Layout` or ``"PKW,PZD"``
+    (else the profile's).
     ``cycle_time``: a fixed cycle time in seconds (A 5.1.1), None to cycle as fast as the line
     allows. ``mode``: `CYCLIC` or `ACYCLIC`. ``response_delay``: the default response delay limit in
     seconds (else the profile's, 20 ms). ``job_timeout``: seconds a parameter job may take
@@ -253,7 +262,7 @@ class Master:
         *,
         baud: int | None = None,
         profile: Profile | str | None = None,
-        layout: Layout | None = None,
+        layout: Layout | str | None = None,
         cycle_time: float | None = None,
         mode: Mode = Mode.CYCLIC,
         response_delay: float | None = None,
@@ -290,6 +299,8 @@ class Master:
         self.baud = transport.baud
         self.timing = LineTiming(self.baud)
         self.profile = resolve_profile(profile)
+        if isinstance(layout, str):
+            layout = Layout.parse(layout)
         self.default_layout = self.profile.check_layout(layout or self.profile.default_layout)
         self.cycle_time = float(cycle_time) if cycle_time is not None else None
         self.mode = mode
