@@ -4,19 +4,18 @@ from __future__ import annotations
 
 import asyncio
 import threading
-from collections.abc import AsyncIterator, Sequence
+from collections.abc import AsyncIterator, Callable, Sequence
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
 from typing import Any
 
 from master.scripted import ScriptedSlave
 from pyuss.bus import FaultPlan, Recorder, VirtualBus
-from pyuss.drive.simulated import SimulatedDrive
 from pyuss.master import Master
-from pyuss.profiles import get_profile
+from pyuss.master.testing import simulated_drives
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.receiver import Received, Receiver
-from pyuss.slave import JobLatency, SlaveEngine, SlaveServer
+from pyuss.slave import JobLatency, SlaveEngine
 
 
 @dataclass
@@ -86,33 +85,28 @@ async def simulated_bus(
     latency: JobLatency | None = None,
     **master_options: Any,
 ) -> AsyncIterator[SimSetup]:
-    """A virtual bus with simulated drives ``(address, profile, layout)`` - each served by its
-    own `SlaveServer` station, as separate devices on a line are - and a started master."""
+    """A virtual bus with simulated drives ``(address, profile, layout)`` and a started
+    master."""
     bus = VirtualBus(baud, faults=faults)
     recorder = Recorder().attach(bus) if record else None
-    stop = asyncio.Event()
-    engines: dict[int, SlaveEngine] = {}
-    tasks = []
-    for address, profile, layout in drives:
-        drive = SimulatedDrive.from_profile(profile)
-        engine = SlaveEngine(
-            address, drive, get_profile(profile), layout=layout, latency=latency, failure_time=0
-        )
-        engines[address] = engine
-        server = SlaveServer(bus.attach(f"drive{address}"), engine)
-        tasks.append(asyncio.create_task(server.run(stop)))
-    master = Master(bus.attach("master"), **master_options)
     try:
-        async with master:
+        async with (
+            simulated_drives(bus, drives, latency=latency) as engines,
+            Master(bus.attach("master"), **master_options) as master,
+        ):
             yield SimSetup(bus, master, engines, recorder)
     finally:
-        stop.set()
-        for task in tasks:
-            task.cancel()
-        await asyncio.gather(*tasks, return_exceptions=True)
-        for engine in engines.values():
-            engine.close()
         await bus.close()
+
+
+async def eventually(predicate: Callable[[], bool], timeout: float = 15.0) -> None:
+    """Wait (generously) until ``predicate`` holds."""
+    loop = asyncio.get_running_loop()
+    end = loop.time() + timeout
+    while not predicate():
+        if loop.time() > end:
+            raise AssertionError("condition not reached in time")
+        await asyncio.sleep(0.005)
 
 
 class SimulatorThread:
@@ -178,34 +172,17 @@ class SimulatorThread:
     async def _serve(self) -> None:
         self._loop = asyncio.get_running_loop()
         self._stop = asyncio.Event()
-        tasks = []
+        bus = self.bus = VirtualBus(self.baud, faults=self.faults)
+        if self.record:
+            self.recorder = Recorder().attach(bus)
         try:
-            bus = self.bus = VirtualBus(self.baud, faults=self.faults)
-            if self.record:
-                self.recorder = Recorder().attach(bus)
-            for address, profile, layout in self.drives:
-                drive = SimulatedDrive.from_profile(profile)
-                engine = SlaveEngine(
-                    address,
-                    drive,
-                    get_profile(profile),
-                    layout=layout,
-                    latency=self.latency,
-                    failure_time=0,
-                )
-                self.engines[address] = engine
-                server = SlaveServer(bus.attach(f"drive{address}"), engine)
-                tasks.append(asyncio.create_task(server.run(self._stop)))
-            self.paths = await bus.serve_pty(self.ptys)
+            async with simulated_drives(bus, self.drives, latency=self.latency) as engines:
+                self.engines = engines
+                self.paths = await bus.serve_pty(self.ptys)
+                self._ready.set()
+                await self._stop.wait()
         except BaseException as exc:
             self._error = exc
             self._ready.set()
-            return
-        self._ready.set()
-        await self._stop.wait()
-        for task in tasks:
-            task.cancel()
-        await asyncio.gather(*tasks, return_exceptions=True)
-        for engine in self.engines.values():
-            engine.close()
-        await bus.close()
+        finally:
+            await bus.close()

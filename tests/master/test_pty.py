@@ -10,7 +10,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
-from master.conftest import SimulatorThread, line_telegrams
+from master.conftest import SimulatorThread, eventually, line_telegrams
 from pyuss.bus import Fault, FaultPlan
 from pyuss.errors import UssTimeout
 from pyuss.master import Master, SpontaneousMessage
@@ -21,15 +21,6 @@ from pyuss.slave import JobLatency
 
 L32 = Layout(3, 2)
 L42 = Layout(4, 2)
-
-
-async def eventually(predicate, timeout: float = 15.0) -> None:  # type: ignore[no-untyped-def]
-    loop = asyncio.get_running_loop()
-    end = loop.time() + timeout
-    while not predicate():
-        if loop.time() > end:
-            raise AssertionError("condition not reached in time")
-        await asyncio.sleep(0.01)
 
 
 async def test_jobs_poll_list_spontaneous_mirror_and_broadcast_over_a_pty() -> None:

@@ -5,11 +5,10 @@ from __future__ import annotations
 
 import asyncio
 import itertools
-from collections.abc import Callable
 
 import pytest
 
-from master.conftest import line_telegrams, scripted_bus
+from master.conftest import eventually, line_telegrams, scripted_bus
 from master.scripted import ScriptedSlave
 from pyuss.bus import Fault, FaultPlan, VirtualBus
 from pyuss.errors import ConfigError, UssTimeout
@@ -18,16 +17,6 @@ from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import AddressMode
 from pyuss.protocol.timing import char_time, start_pause
-
-
-async def eventually(predicate: Callable[[], bool], timeout: float = 10.0) -> None:
-    """Wait (generously) until ``predicate`` holds."""
-    loop = asyncio.get_running_loop()
-    end = loop.time() + timeout
-    while not predicate():
-        if loop.time() > end:
-            raise AssertionError("condition not reached in time")
-        await asyncio.sleep(0.005)
 
 
 async def test_poll_list_with_repeated_entries_is_followed_in_order() -> None:

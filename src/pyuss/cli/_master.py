@@ -98,6 +98,26 @@ def add_options(parser: argparse.ArgumentParser, *, lists: bool = False) -> None
     parser.add_argument("--json", action="store_true", help="print JSON for scripts")
 
 
+def command(subparsers: Any, name: str, summary: str, doc: str | None) -> argparse.ArgumentParser:
+    """The parser of master command ``name`` with its ``ADDRESS`` argument (all but scan);
+    the caller adds its own arguments, then `finish`."""
+    parser: argparse.ArgumentParser = subparsers.add_parser(
+        name,
+        help=summary,
+        description=doc,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    if name != "scan":
+        parser.add_argument("address", type=address, help="slave address 0..31")
+    return parser
+
+
+def finish(parser: argparse.ArgumentParser, func: Callable[[argparse.Namespace], int]) -> None:
+    """Add the shared options and the function that runs the command."""
+    add_options(parser, lists=parser.prog.endswith(" scan"))
+    parser.set_defaults(func=func)
+
+
 def address(text: str) -> int:
     """A slave address 0..31 (argparse type)."""
     value = integer(text)

@@ -21,20 +21,18 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import contextlib
 import logging
-from collections.abc import AsyncIterator, Sequence
 from typing import Any
 
 from pyuss.bus import Recorder, VirtualBus
 from pyuss.cli.decode import describe, render
-from pyuss.drive.simulated import SimulatedDrive
 from pyuss.master import Drive, Master, SpontaneousMessage
 from pyuss.master.scan import scan
+from pyuss.master.testing import simulated_drives
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.receiver import Received, Receiver
-from pyuss.slave import SlaveEngine, SlaveServer
+from pyuss.slave import SlaveEngine
 
 __all__ = ["DRIVES", "register", "run"]
 
@@ -55,31 +53,6 @@ def register(subparsers: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.set_defaults(func=run)
-
-
-@contextlib.asynccontextmanager
-async def simulated_line(
-    bus: VirtualBus, drives: Sequence[tuple[int, str, Layout]]
-) -> AsyncIterator[dict[int, SlaveEngine]]:
-    """Serve ``drives`` (address, profile, layout) on ``bus``, each from its own station."""
-    stop = asyncio.Event()
-    engines: dict[int, SlaveEngine] = {}
-    tasks = []
-    for address, profile, layout in drives:
-        drive = SimulatedDrive.from_profile(profile)
-        engine = SlaveEngine(address, drive, get_profile(profile), layout=layout, failure_time=0)
-        engines[address] = engine
-        server = SlaveServer(bus.attach(f"drive{address}"), engine)
-        tasks.append(asyncio.create_task(server.run(stop)))
-    try:
-        yield engines
-    finally:
-        stop.set()
-        for task in tasks:
-            task.cancel()
-        await asyncio.gather(*tasks, return_exceptions=True)
-        for engine in engines.values():
-            engine.close()
 
 
 def say(text: str = "") -> None:
@@ -218,7 +191,7 @@ async def demo() -> int:
         say(f"   address {address}: {get_profile(profile).title} (layout {layout})")
     say()
     try:
-        async with simulated_line(bus, DRIVES) as engines:
+        async with simulated_drives(bus, DRIVES) as engines:
             await _scan(bus)
             async with Master(bus.attach("master")) as master:
                 generic = master.drive(1, layout=DRIVES[0][2], profile="generic")

@@ -10,22 +10,15 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pyuss.cli._master import EXIT_OK, add_options, address, emit, integer, open_master, run
+from pyuss.cli._master import EXIT_OK, command, emit, finish, integer, open_master, run
 from pyuss.master.description import Description
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
-        "describe",
-        help="read the description of a parameter",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    parser.add_argument("address", type=address, help="slave address 0..31")
+    parser = command(subparsers, "describe", "read the description of a parameter", __doc__)
     parser.add_argument("pnu", type=integer, metavar="PNU", help="parameter number")
     parser.add_argument("--element", type=integer, metavar="N", help="one element only (1..255)")
-    add_options(parser)
-    parser.set_defaults(func=main)
+    finish(parser, main)
 
 
 def render(description: Description) -> str:

@@ -14,10 +14,10 @@ from typing import Any
 from pyuss.cli._master import (
     EXIT_FAILED,
     EXIT_OK,
-    add_options,
-    address,
+    command,
     emit,
     error_dict,
+    finish,
     integer,
     open_master,
     run,
@@ -26,19 +26,14 @@ from pyuss.errors import ConfigError, UssError
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
-        "mirror",
-        help="send mirror telegrams and check they come back unchanged",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+    parser = command(
+        subparsers, "mirror", "send mirror telegrams and check they come back unchanged", __doc__
     )
-    parser.add_argument("address", type=address, help="slave address 0..31")
     parser.add_argument("--count", type=integer, default=1, metavar="N", help="tries (default 1)")
     parser.add_argument(
         "--data", metavar="HEX", help="net data to send (default: a pattern of the layout's length)"
     )
-    add_options(parser)
-    parser.set_defaults(func=main)
+    finish(parser, main)
 
 
 def main(args: argparse.Namespace) -> int:

@@ -15,10 +15,10 @@ from typing import Any
 from pyuss.cli._master import (
     EXIT_FAILED,
     EXIT_OK,
-    add_options,
-    address,
+    command,
     emit,
     error_dict,
+    finish,
     label,
     open_master,
     parameter,
@@ -28,19 +28,12 @@ from pyuss.errors import ConfigError, UssError
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
-        "read",
-        help="read parameter values from a drive",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    parser.add_argument("address", type=address, help="slave address 0..31")
+    parser = command(subparsers, "read", "read parameter values from a drive", __doc__)
     parser.add_argument("parameters", nargs="+", metavar="PNU[.INDEX]", help="e.g. 52 or 2010.1")
     kind = parser.add_mutually_exclusive_group()
     kind.add_argument("--signed", action="store_true", help="show values as signed numbers")
     kind.add_argument("--float", action="store_true", help="read 32-bit floating point values")
-    add_options(parser)
-    parser.set_defaults(func=main)
+    finish(parser, main)
 
 
 def show(value: int | float) -> str:

@@ -25,8 +25,8 @@ from pyuss.cli._master import (
     EXIT_FAILED,
     EXIT_INTERRUPTED,
     EXIT_OK,
-    add_options,
-    address,
+    command,
+    finish,
     open_master,
     run,
 )
@@ -38,13 +38,12 @@ from pyuss.protocol.pzd import percent_to_raw16
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
+    parser = command(
+        subparsers,
         "run",
-        help="switch a drive on, follow its ramp live, switch it off on Ctrl+C",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "switch a drive on, follow its ramp live, switch it off on Ctrl+C",
+        __doc__,
     )
-    parser.add_argument("address", type=address, help="slave address 0..31")
     parser.add_argument(
         "--setpoint", type=float, required=True, metavar="PCT", help="main setpoint in percent"
     )
@@ -59,8 +58,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument(
         "--interval", type=float, metavar="S", help="seconds between lines (default 0.1 / 1)"
     )
-    add_options(parser)
-    parser.set_defaults(func=main)
+    finish(parser, main)
 
 
 def line(status: DriveStatus | None, setpoint: float) -> str:

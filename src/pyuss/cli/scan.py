@@ -18,8 +18,9 @@ from typing import Any
 from pyuss.cli._master import (
     EXIT_FAILED,
     EXIT_OK,
-    add_options,
+    command,
     emit,
+    finish,
     master_options,
     run,
 )
@@ -33,17 +34,13 @@ from pyuss.transport.url import open_transport
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
-        "scan",
-        help="find drives, their baud rate and telegram layout",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+    parser = command(
+        subparsers, "scan", "find drives, their baud rate and telegram layout", __doc__
     )
     parser.add_argument(
         "--address", default="0-31", metavar="RANGE", help="addresses, e.g. 0-31 or 1,5,7-9"
     )
-    add_options(parser, lists=True)
-    parser.set_defaults(func=main)
+    finish(parser, main)
 
 
 def ranges(text: str) -> list[int]:

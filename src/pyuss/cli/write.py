@@ -14,9 +14,9 @@ from typing import Any
 
 from pyuss.cli._master import (
     EXIT_OK,
-    add_options,
-    address,
+    command,
     emit,
+    finish,
     label,
     open_master,
     parameter,
@@ -27,21 +27,14 @@ from pyuss.errors import ConfigError
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
-        "write",
-        help="write a parameter value of a drive",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    parser.add_argument("address", type=address, help="slave address 0..31")
+    parser = command(subparsers, "write", "write a parameter value of a drive", __doc__)
     parser.add_argument("parameter", metavar="PNU[.INDEX]", help="e.g. 18 or 4.2")
     parser.add_argument("value", metavar="VALUE", help="integer (0x.. hex) or float")
     parser.add_argument("--eeprom", action="store_true", help="store in the drive's EEPROM too")
     size = parser.add_mutually_exclusive_group()
     size.add_argument("--dword", action="store_true", help="write a double word (32 bits)")
     size.add_argument("--word", action="store_true", help="write a word (16 bits)")
-    add_options(parser)
-    parser.set_defaults(func=main)
+    finish(parser, main)
 
 
 def number(text: str) -> int | float:
