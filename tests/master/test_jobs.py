@@ -303,3 +303,14 @@ async def test_requests_the_layout_cannot_carry_are_refused_before_sending() -> 
             await drive.read(2048)
         with pytest.raises(ConfigError, match="PZD"):
             await drive.setpoint(10.0, pzd=3)
+
+
+async def test_a_cancelled_job_leaves_the_channel_usable() -> None:
+    async with scripted_bus((5,)) as env:
+        env.slaves[5].lag = 3
+        drive = env.master.drive(5)
+        with pytest.raises(TimeoutError):
+            await asyncio.wait_for(drive.write(52, 9), 0.005)
+        assert not drive._link.channel.busy
+        assert await drive.write(52, 10) == 10
+        assert await drive.read(52) == 10

@@ -12,7 +12,7 @@ import pytest
 
 from master.conftest import SimulatorThread, eventually, line_telegrams
 from pyuss.bus import Fault, FaultPlan
-from pyuss.errors import UssTimeout
+from pyuss.errors import TransportError, UssTimeout
 from pyuss.master import Master, SpontaneousMessage
 from pyuss.master import sync as sync_master
 from pyuss.protocol.broadcast import BroadcastEnableArray
@@ -136,3 +136,20 @@ async def test_fixed_cycle_time_over_a_pty() -> None:
     # A 5.1.1: a new cycle never starts before the cycle time is over.
     assert stats.achieved.minimum >= 0.05 - 1e-3
     assert stats.cycle_time == 0.05
+
+
+async def test_a_lost_port_fails_every_waiter_and_later_calls() -> None:
+    sim = SimulatorThread([(5, "generic", L32)])
+    with sim:
+        bus = Master(sim.paths[0], baud=sim.baud, layout=L32, job_timeout=30)
+        await bus.start()
+        drive = bus.drive(5)
+        assert await drive.read(52) == 0x4000
+        sim.call(lambda s: s.engines[5].drive.update(52, 1))
+    # The simulator's thread ended and closed the pty: the port is gone.
+    with pytest.raises(TransportError):
+        for _ in range(100):
+            await drive.read((52, 18)[_ % 2])
+    with pytest.raises(TransportError):
+        await drive.read(52)
+    await bus.close()
