@@ -193,3 +193,16 @@ def test_serial_port_by_pyserial_url() -> None:
     out, err = proc.communicate(timeout=TIMEOUT)
     assert proc.returncode == 0, err
     assert out.splitlines()[0] == "loop://"
+
+
+def test_bass_ring_plugs_in_by_profile() -> None:
+    """``--profile bass``: a BASS ring; seed 004 1.1 example 2 reads ID 51 of drive 0."""
+    request = b"#00003C0033FD\r\n"
+    with (
+        simulate("--profile", "bass", "--pty", "--address", "0") as (path, _),
+        serial.Serial(path, 9600, timeout=TIMEOUT) as port,
+    ):
+        port.write(request)
+        assert port.read_until(b"\n") == request  # the drive echoes the request first
+        answer = port.read_until(b"\n")
+    assert answer.startswith(b"#00") and answer.endswith(b"\r\n")

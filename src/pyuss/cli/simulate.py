@@ -16,13 +16,16 @@ summary on stderr. Values written with the EEPROM request IDs go to ``--store FI
 several addresses FILE must contain ``{address}``); a damaged store file is refused (exit 2).
 
 Profiles of other protocols plug in through `OTHER_PROTOCOLS`: ``--profile ksvario`` runs the
-KS VARIO PROFIBUS-DP simulator (`pyuss.ksvario.simulate`, where installed).
+KS VARIO PROFIBUS-DP simulator (`pyuss.ksvario.simulate`, where installed), ``--profile bass``
+a closed RS-232 ring of Baumueller drives speaking BASS (`pyuss.bass.ring`, 9600 baud 8N1, one
+drive per ``--address``).
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import dataclasses
 import importlib
 import signal
@@ -275,20 +278,23 @@ def _store(opts: Options, address: int) -> str | None:
     return path
 
 
-def _line(opts: Options) -> tuple[Transport, Callable[[], str]]:
+def _line(
+    opts: Options, *, baud: int | None = None, parity: str = "E"
+) -> tuple[Transport, Callable[[], str]]:
     """The transport and, once open, the line to print first."""
+    baud = opts.baud if baud is None else baud
     if opts.line == "pty":
-        pty = PtyPort(baud=opts.baud)
+        pty = PtyPort(baud=baud)
         return pty, lambda: pty.device_path
     if opts.line == "tcp":
         host, port = _endpoint(opts.where, "--tcp")
-        server = TcpServerTransport(host, port, baud=opts.baud)
+        server = TcpServerTransport(host, port, baud=baud)
         return server, lambda: f"tcp://{host}:{server.port}"
     if opts.line == "bus":
         url = f"bus://{opts.where}?name=simulate"
-        bus = open_transport(url, baud=opts.baud)
+        bus = open_transport(url, baud=baud)
         return bus, lambda: f"bus://{opts.where}"
-    serial_line = open_transport(opts.where, baud=opts.baud)
+    serial_line = open_transport(opts.where, baud=baud, parity=parity)
     return serial_line, lambda: opts.where
 
 
@@ -362,6 +368,28 @@ async def _serve_ksvario(opts: Options, stop: asyncio.Event, announce: Announce)
     )
 
 
-OTHER_PROTOCOLS: dict[str, Runner] = {"ksvario": _serve_ksvario}
+async def _serve_bass(opts: Options, stop: asyncio.Event, announce: Announce) -> None:
+    """A closed RS-232 ring of BASS drives (seed 004 part 1), one per ``--address`` (its DIP
+    address), with the demonstration operating data of `pyuss.bass.ring`; 9600 baud, 8N1."""
+    from pyuss.bass.codec import BAUD
+    from pyuss.bass.ring import BassRing, DictOperatingData, demo_elements
+
+    if opts.line == "bus":
+        raise ConfigError("profile bass: a BASS ring is RS-232, not a station of a USS bus")
+    ring = BassRing([DictOperatingData(a, demo_elements()) for a in opts.addresses])
+    transport, first_line = _line(opts, baud=BAUD, parity="N")
+    await transport.open()
+    serving = asyncio.create_task(ring.serve(transport))
+    try:
+        announce(first_line())
+        await stop.wait()
+    finally:
+        serving.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await serving
+        await transport.close()
+
+
+OTHER_PROTOCOLS: dict[str, Runner] = {"ksvario": _serve_ksvario, "bass": _serve_bass}
 """Profiles served by simulators of other protocols: name -> runner(options, stop, announce).
 A runner serves until ``stop`` is set and calls ``announce`` with the line to print first."""

@@ -145,7 +145,6 @@ class SlaveEngine:
         self.latency = latency or JobLatency()
         self.special = special
         self.layout = profile.check_layout(layout if layout is not None else self._own_layout())
-        self._write_interface()
         self.failure_time = self._failure_time() if failure_time is None else failure_time
         if not self.failure_time >= 0:
             raise ConfigError(f"telegram failure time must be >= 0 s, not {self.failure_time!r}")
@@ -160,6 +159,7 @@ class SlaveEngine:
             diagnostics=self.diagnostic_parameters,
             requests=profile.request_ids,
         )
+        self._write_interface()
         drive.set_write_authority(interface, write_authority)
         self.process = process_mapping(profile)
         self.spontaneous = profile.spontaneous if spontaneous is None else spontaneous
