@@ -223,3 +223,17 @@ async def test_the_master_keeps_at_least_the_spec_start_pause_with_a_coarse_tole
     await slave.stop()
     await bus.close()
     assert char_time(9600) * 2 < 0.02
+
+
+async def test_acyclic_process_data_are_repeated_until_answered() -> None:
+    async with scripted_bus((3,), mode=ACYCLIC) as env:
+        drive = env.master.drive(3)
+        env.slaves[3].silent = True
+        sending = asyncio.create_task(drive.control_word(0x047E, timeout=5))
+        await eventually(lambda: len(env.slaves[3].log.requests) >= 2)
+        env.slaves[3].silent = False
+        status = await sending
+        assert status.control == 0x047E
+        count = len(env.slaves[3].log.requests)
+        await asyncio.sleep(0.1)
+        assert len(env.slaves[3].log.requests) == count  # nothing more to send

@@ -183,8 +183,7 @@ class _Link:
         self.control = 0
         self.setpoints = [0] * max(layout.pzd - 1, 0)
         self.version = 0
-        self.sent_version = 0
-        self.answered_version = -1
+        self.answered_version = 0
         self.status: DriveStatus | None = None
         self.diagnostics = Diagnostics()
         self.not_sending = False
@@ -209,7 +208,8 @@ class _Link:
 
     @property
     def wants_turn(self) -> bool:
-        return self.channel.busy or self.sent_version < self.version or self.polls_wanted > 0
+        """Acyclic mode: a job, process data not yet answered, or an exchange asked for."""
+        return self.channel.busy or self.answered_version < self.version or self.polls_wanted > 0
 
     def snapshot(self, now: float) -> SlaveDiagnostics:
         return SlaveDiagnostics(
@@ -845,7 +845,6 @@ class Master:
         def build() -> bytes:
             pkw = link.channel.request(self._clock()) if link.layout.pkw else None
             sent[:] = [link.version, link.control]
-            link.sent_version = max(link.sent_version, link.version)
             data = link.layout.pack(pkw, link.pzd())
             return Telegram(link.address, AddressMode.NORMAL, data).encode()
 
