@@ -108,7 +108,7 @@ def command(subparsers: Any, name: str, summary: str, doc: str | None) -> argpar
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     if name != "scan":
-        parser.add_argument("address", type=address, help="slave address 0..31")
+        parser.add_argument("address", type=address, metavar="ADDRESS", help="slave address 0..31")
     return parser
 
 

@@ -4,7 +4,8 @@
   diagnostics); ``async with Master(url_or_transport, baud=...) as bus``.
 - `Drive`: one slave (`Master.drive`): parameters, process data, status.
 - `pyuss.master.sync`: the same for scripts without asyncio (a background thread).
-- `scan`: find slaves, their baud rate and telegram layout.
+- `pyuss.master.scan`: find slaves, their baud rate and telegram layout.
+- `pyuss.master.testing`: simulated drives on a virtual bus, to try a master.
 
 See docs/master.md.
 """
@@ -21,7 +22,7 @@ from pyuss.master.errors import (
 from pyuss.master.jobs import SpontaneousMessage
 from pyuss.master.process import OPERATE, DriveStatus
 from pyuss.master.profile import resolve_profile
-from pyuss.master.scheduler import ACYCLIC, CYCLIC, Master, MirrorResult, Mode
+from pyuss.master.scheduler import ACYCLIC, CYCLIC, Master, MirrorResult, Mode, Reply
 from pyuss.master.stats import BusDiagnostics, CycleStats, JobStats, SampleSummary, SlaveDiagnostics
 
 __all__ = [
@@ -43,6 +44,7 @@ __all__ = [
     "Mode",
     "NoWriteAuthority",
     "NotSending",
+    "Reply",
     "SampleSummary",
     "SlaveDiagnostics",
     "SpontaneousMessage",
