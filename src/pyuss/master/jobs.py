@@ -249,10 +249,13 @@ class ParameterChannel:
         if pkw.id == ResponseId.REFUSED:
             self._refused += 1
             number = pkw.error_number
-            number = 0xFFFF if number is None else number
-            error: UssError = DriveRefusal(
-                number, self.profile.error_meaning(number), pnu=job.pnu, index=job.index
-            )
+            if number is None:  # cannot happen with a layout's PKW area: PWE1 always travels
+                error: UssError = DriveRefusal(
+                    0xFFFF, "no error number sent", pnu=job.pnu, index=job.index
+                )
+            else:
+                meaning = self.profile.error_meaning(number)
+                error = DriveRefusal(number, meaning, pnu=job.pnu, index=job.index)
             self._finish(job, error=error)
         elif pkw.id == ResponseId.NO_AUTHORITY:
             self._refused += 1
