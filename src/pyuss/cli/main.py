@@ -18,11 +18,17 @@ from pyuss.errors import UssError
 
 COMMANDS: tuple[str, ...] = (
     "demo",
-    "decode",
+    "scan",
+    "read",
+    "write",
+    "describe",
+    "mirror",
+    "run",
     "simulate",
     "bus",
     "monitor",
     "wireshark",
+    "decode",
     "bass",
     "ksvario",
 )

@@ -1,1 +1,52 @@
-"""pyuss.master."""
+"""The USS bus master: scheduler, parameter jobs, drive handles, sync facade.
+
+- `Master`: one bus (poll list, cyclic or acyclic traffic, timing, broadcast, mirror,
+  diagnostics); ``async with Master(url_or_transport, baud=...) as bus``.
+- `Drive`: one slave (`Master.drive`): parameters, process data, status.
+- `pyuss.master.sync`: the same for scripts without asyncio (a background thread).
+- `pyuss.master.scan`: find slaves, their baud rate and telegram layout.
+- `pyuss.master.testing`: simulated drives on a virtual bus, to try a master.
+
+See docs/master.md.
+"""
+
+from pyuss.master.description import Description, DescriptionElement
+from pyuss.master.drive import Drive
+from pyuss.master.errors import (
+    JobTimeout,
+    MasterClosed,
+    MirrorMismatch,
+    NotSending,
+    NoWriteAuthority,
+)
+from pyuss.master.jobs import SpontaneousMessage
+from pyuss.master.process import OPERATE, DriveStatus
+from pyuss.master.profile import resolve_profile
+from pyuss.master.scheduler import ACYCLIC, CYCLIC, Master, MirrorResult, Mode, Reply
+from pyuss.master.stats import BusDiagnostics, CycleStats, JobStats, SampleSummary, SlaveDiagnostics
+
+__all__ = [
+    "ACYCLIC",
+    "CYCLIC",
+    "OPERATE",
+    "BusDiagnostics",
+    "CycleStats",
+    "Description",
+    "DescriptionElement",
+    "Drive",
+    "DriveStatus",
+    "JobStats",
+    "JobTimeout",
+    "Master",
+    "MasterClosed",
+    "MirrorMismatch",
+    "MirrorResult",
+    "Mode",
+    "NoWriteAuthority",
+    "NotSending",
+    "Reply",
+    "SampleSummary",
+    "SlaveDiagnostics",
+    "SpontaneousMessage",
+    "resolve_profile",
+]

@@ -1,0 +1,206 @@
+"""What the master commands (scan, read, write, describe, mirror, run) share.
+
+Options of every master command: ``--port URL`` (a serial port such as ``/dev/ttyUSB0``, a
+pty, ``tcp://HOST:PORT``, ``bus://HOST:PORT``; any URL `pyuss.transport.open_transport`
+takes), ``--baud B``, ``--profile NAME``, ``--layout PKW,PZD``, ``--timeout S`` (per
+parameter job), ``--response-delay MS``, ``--tolerance MS`` (receive tolerance for ports with
+coarse timestamps) and ``--json``.
+
+Exit codes: 0 done; 1 the operation failed (no answer, drive refused, mirror changed, port
+failed); 2 bad input (arguments, values, a request the layout cannot carry); 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import sys
+from collections.abc import Callable, Coroutine
+from typing import Any
+
+from pyuss.errors import ConfigError, DriveRefusal, UssError
+from pyuss.master.errors import NoWriteAuthority
+from pyuss.master.scheduler import Master, Mode
+from pyuss.profiles import profile_names
+from pyuss.protocol.layout import Layout
+from pyuss.protocol.telegram import MAX_ADDRESS
+from pyuss.transport.queued import BAUD_RATES, check_baud
+from pyuss.transport.url import open_transport
+
+EXIT_OK = 0
+EXIT_FAILED = 1
+EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+
+
+def integer(text: str) -> int:
+    """An integer in decimal or with a 0x/0b/0o prefix (argparse type)."""
+    try:
+        return int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+
+
+def add_options(parser: argparse.ArgumentParser, *, lists: bool = False) -> None:
+    """The options every master command takes; ``lists``: ``--baud`` takes a list and
+    ``--layout`` may be repeated (``uss scan``)."""
+    parser.add_argument(
+        "--port",
+        required=True,
+        metavar="URL",
+        help="serial port or URL: /dev/ttyUSB0, COM3, /dev/pts/7, tcp://HOST:PORT, bus://HOST:PORT",
+    )
+    if lists:
+        parser.add_argument(
+            "--baud", default="9600", metavar="LIST", help="baud rates, e.g. 9600,19200 or all"
+        )
+    else:
+        parser.add_argument(
+            "--baud",
+            type=integer,
+            default=9600,
+            help=f"baud rate ({', '.join(map(str, BAUD_RATES))}; default 9600)",
+        )
+    parser.add_argument(
+        "--profile",
+        default="generic",
+        metavar="NAME",
+        help=f"device profile ({', '.join(profile_names())}; default generic)",
+    )
+    parser.add_argument(
+        "--layout",
+        action="append" if lists else "store",
+        metavar="PKW,PZD",
+        help="probe only with this layout (repeatable)"
+        if lists
+        else "telegram layout: PKW 0, 3, 4 or v and PZD 0..16 (default: the profile's)",
+    )
+    parser.add_argument(
+        "--timeout",
+        type=float,
+        default=2.0,
+        metavar="S",
+        help="seconds a parameter job may take (default 2)",
+    )
+    parser.add_argument(
+        "--response-delay",
+        type=float,
+        metavar="MS",
+        help="response delay limit in ms (default: the profile's, 20 ms)",
+    )
+    parser.add_argument(
+        "--tolerance",
+        type=float,
+        metavar="MS",
+        help="receive tolerance for ports that deliver bytes in bursts (default 20 ms; 0 on bus://)",
+    )
+    parser.add_argument("--json", action="store_true", help="print JSON for scripts")
+
+
+def command(subparsers: Any, name: str, summary: str, doc: str | None) -> argparse.ArgumentParser:
+    """The parser of master command ``name`` with its ``ADDRESS`` argument (all but scan);
+    the caller adds its own arguments, then `finish`."""
+    parser: argparse.ArgumentParser = subparsers.add_parser(
+        name,
+        help=summary,
+        description=doc,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    if name != "scan":
+        parser.add_argument("address", type=address, metavar="ADDRESS", help="slave address 0..31")
+    return parser
+
+
+def finish(parser: argparse.ArgumentParser, func: Callable[[argparse.Namespace], int]) -> None:
+    """Add the shared options and the function that runs the command."""
+    add_options(parser, lists=parser.prog.endswith(" scan"))
+    parser.set_defaults(func=func)
+
+
+def address(text: str) -> int:
+    """A slave address 0..31 (argparse type)."""
+    value = integer(text)
+    if not 0 <= value <= MAX_ADDRESS:
+        raise argparse.ArgumentTypeError(f"address {value} is not 0..{MAX_ADDRESS}")
+    return value
+
+
+def parameter(text: str) -> tuple[int, int | None]:
+    """``PNU`` or ``PNU.INDEX`` (also ``PNU[INDEX]``, an optional ``P``/``r`` prefix)."""
+    raw = text.strip()
+    body = raw[1:] if raw[:1] in ("P", "p", "r", "R") else raw
+    body = body.replace("[", ".").rstrip("]")
+    pnu_text, dot, index_text = body.partition(".")
+    try:
+        pnu = int(pnu_text, 0)
+        index = int(index_text, 0) if dot else None
+    except ValueError:
+        raise ConfigError(f"{text!r} is not PNU or PNU.INDEX (for example 52 or 2010.1)") from None
+    if pnu < 0 or (index is not None and not 0 <= index <= 254):
+        raise ConfigError(f"{text!r}: PNU must be >= 0 and INDEX 0..254")
+    return pnu, index
+
+
+def label(pnu: int, index: int | None) -> str:
+    return f"P{pnu}" + ("" if index is None else f".{index}")
+
+
+def master_options(args: argparse.Namespace) -> dict[str, Any]:
+    """Keyword arguments for `Master` from the shared options (`ConfigError` if bad)."""
+    options: dict[str, Any] = {"profile": args.profile, "job_timeout": args.timeout}
+    if not args.timeout > 0:
+        raise ConfigError(f"--timeout {args.timeout}: must be > 0 seconds")
+    if isinstance(args.layout, str):
+        options["layout"] = Layout.parse(args.layout)
+    if args.response_delay is not None:
+        if not args.response_delay > 0:
+            raise ConfigError(f"--response-delay {args.response_delay}: must be > 0 ms")
+        options["response_delay"] = args.response_delay / 1000
+    if args.tolerance is not None:
+        if not args.tolerance >= 0:
+            raise ConfigError(f"--tolerance {args.tolerance}: must be >= 0 ms")
+        options["rx_tolerance"] = args.tolerance / 1000
+    return options
+
+
+def open_master(args: argparse.Namespace, *, mode: Mode = Mode.ACYCLIC, **extra: Any) -> Master:
+    """A master on ``--port`` at ``--baud`` (not started)."""
+    check_baud(args.baud)
+    options = master_options(args)
+    options.update(extra)
+    transport = open_transport(args.port, baud=args.baud)
+    return Master(transport, mode=mode, **options)
+
+
+def error_dict(exc: BaseException) -> dict[str, Any]:
+    """An error as JSON: its type, message and, for refusals, number and meaning."""
+    item: dict[str, Any] = {"type": type(exc).__name__, "message": str(exc)}
+    if isinstance(exc, DriveRefusal):
+        item.update(number=exc.number, meaning=exc.meaning)
+    elif isinstance(exc, NoWriteAuthority):
+        item.update(response_id=8)
+    return item
+
+
+def emit(args: argparse.Namespace, data: Any, text: str) -> None:
+    """Print ``data`` as JSON with ``--json``, else ``text``."""
+    if args.json:
+        print(json.dumps(data, default=str))
+    elif text:
+        print(text)
+    sys.stdout.flush()
+
+
+def run(name: str, args: argparse.Namespace, body: Callable[[], Coroutine[Any, Any, int]]) -> int:
+    """Run a command's coroutine; bad input gives one line on stderr and exit code 2. Other
+    `UssError`s are left to ``uss`` (one line, exit code 1)."""
+    try:
+        return asyncio.run(body())
+    except ConfigError as exc:
+        print(f"uss {name}: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+def fail(name: str, exc: UssError) -> None:
+    print(f"uss {name}: {exc}", file=sys.stderr)

@@ -1,0 +1,57 @@
+"""``uss describe ADDRESS PNU``: read the parameter description (PBE, C 6) of a parameter.
+
+With the variable layout the whole description comes in one telegram (IND 255); with a fixed
+layout element by element, leaving out the elements the drive refuses for being too long for
+its PKW area (C 7). ``--element N`` reads one element only.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from pyuss.cli._master import EXIT_OK, command, emit, finish, integer, open_master, run
+from pyuss.master.description import Description
+
+
+def register(subparsers: Any) -> None:
+    parser = command(subparsers, "describe", "read the description of a parameter", __doc__)
+    parser.add_argument("pnu", type=integer, metavar="PNU", help="parameter number")
+    parser.add_argument("--element", type=integer, metavar="N", help="one element only (1..255)")
+    finish(parser, main)
+
+
+def render(description: Description) -> str:
+    lines = [f"P{description.pnu} ({description.style.value} description)"]
+    summary = [
+        ("name", description.name),
+        ("data type", description.data_type),
+        ("read-only", description.read_only),
+        ("array", description.is_array),
+        ("active", description.active),
+        ("array elements", description.array_length),
+        ("scaling", description.scaling),
+        ("lower limit", description.low),
+        ("upper limit", description.high),
+    ]
+    for name, value in summary:
+        if value is not None:
+            lines.append(f"  {name:<15} {value}")
+    lines.append("  elements:")
+    for element in description.elements.values():
+        words = " ".join(f"{w:04X}" for w in element.words)
+        value = "" if element.value is None else f"  = {element.value!r}"
+        lines.append(f"    {element.number:>3} {element.name:<26} {words}{value}")
+    return "\n".join(lines)
+
+
+def main(args: argparse.Namespace) -> int:
+    async def body() -> int:
+        async with open_master(args) as bus:
+            drive = bus.drive(args.address)
+            description = await drive.read_description(args.pnu, args.element)
+        data = {"address": args.address, **description.to_dict()}
+        emit(args, data, render(description))
+        return EXIT_OK
+
+    return run("describe", args, body)

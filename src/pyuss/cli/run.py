@@ -1,0 +1,194 @@
+"""``uss run ADDRESS --setpoint PCT``: run a drive and follow it live.
+
+Sets the main setpoint (PZD2, 4000h = 100 %), switches the drive on (control word 047Eh, then
+047Fh) and shows its state, status word and actual value while it ramps - on one line that
+updates itself in a terminal, one line per ``--interval`` otherwise, JSON lines with
+``--json``. Ctrl+C or SIGTERM (or the end of ``--duration``) switches it off cleanly: OFF1
+(047Eh), then the master keeps the telegrams going until the drive reports that operation is
+no longer enabled (at most ``--stop-timeout`` seconds); a second Ctrl+C stops at once with
+OFF2 (coast). Exit code 0 after ``--duration``, 130 after Ctrl+C or SIGTERM, 1 when the drive
+reports a fault or stops answering.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import json
+import os
+import signal
+import sys
+from typing import Any
+
+from pyuss.cli._master import (
+    EXIT_FAILED,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    command,
+    finish,
+    open_master,
+    run,
+)
+from pyuss.errors import ConfigError, UssError
+from pyuss.master.drive import Drive
+from pyuss.master.process import DriveStatus
+from pyuss.master.scheduler import CYCLIC
+from pyuss.protocol.pzd import percent_to_raw16
+
+
+def register(subparsers: Any) -> None:
+    parser = command(
+        subparsers,
+        "run",
+        "switch a drive on, follow its ramp live, switch it off on Ctrl+C",
+        __doc__,
+    )
+    parser.add_argument(
+        "--setpoint", type=float, required=True, metavar="PCT", help="main setpoint in percent"
+    )
+    parser.add_argument("--duration", type=float, metavar="S", help="switch off after S seconds")
+    parser.add_argument(
+        "--stop-timeout",
+        type=float,
+        default=30.0,
+        metavar="S",
+        help="longest wait for the drive to stop after OFF1 (default 30)",
+    )
+    parser.add_argument(
+        "--interval", type=float, metavar="S", help="seconds between lines (default 0.1 / 1)"
+    )
+    finish(parser, main)
+
+
+def line(status: DriveStatus | None, setpoint: float) -> str:
+    if status is None:
+        return "waiting for the drive..."
+    actual = status.actual_percent
+    shown = "-" if actual is None else f"{actual:7.2f} %"
+    return (
+        f"{status.state:<24} status {status.word:04X}h  setpoint {setpoint:7.2f} %  actual {shown}"
+    )
+
+
+class Live:
+    """Shows the drive's latest status now and then."""
+
+    def __init__(self, args: argparse.Namespace, drive: Drive) -> None:
+        self.args = args
+        self.drive = drive
+        self.tty = sys.stdout.isatty() and not args.json
+        self.interval = args.interval or (0.1 if self.tty else 1.0)
+
+    def show(self, final: bool = False) -> None:
+        try:
+            self._show(final)
+        except BrokenPipeError:  # the reader went away (``| head``): stop showing, keep going
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+            os.close(devnull)
+
+    def _show(self, final: bool) -> None:
+        status = self.drive.status
+        if self.args.json:
+            data = {"setpoint": self.args.setpoint, **(status.to_dict() if status else {})}
+            print(json.dumps(data), flush=True)
+        elif self.tty:
+            end = "\n" if final else ""
+            print("\r" + line(status, self.args.setpoint), end=end, flush=True)
+        else:
+            print(line(status, self.args.setpoint), flush=True)
+
+    async def follow(self, done: asyncio.Event) -> None:
+        while not done.is_set():
+            self.show()
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(done.wait(), self.interval)
+
+
+def main(args: argparse.Namespace) -> int:
+    async def body() -> int:
+        if args.duration is not None and not args.duration > 0:
+            raise ConfigError(f"--duration {args.duration}: must be > 0 seconds")
+        if not args.stop_timeout > 0:
+            raise ConfigError(f"--stop-timeout {args.stop_timeout}: must be > 0 seconds")
+        if args.interval is not None and not args.interval > 0:
+            raise ConfigError(f"--interval {args.interval}: must be > 0 seconds")
+        percent_to_raw16(args.setpoint)  # a setpoint out of range is bad input
+        loop = asyncio.get_running_loop()
+        stop = asyncio.Event()
+        signals: list[int] = []
+
+        def on_signal(number: int) -> None:
+            signals.append(number)
+            stop.set()
+
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, on_signal, sig)
+        try:
+            return await drive_it(args, stop, signals)
+        finally:
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                loop.remove_signal_handler(sig)
+
+    return run("run", args, body)
+
+
+async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[int]) -> int:
+    code = EXIT_OK
+    async with open_master(args, mode=CYCLIC) as bus:
+        drive = bus.drive(args.address)
+        live = Live(args, drive)
+        shown = asyncio.Event()
+        follower = asyncio.create_task(live.follow(shown))
+        try:
+            await drive.setpoint(args.setpoint)
+            await drive.on()
+            faulted = asyncio.Event()
+            drive.on_update(lambda s: faulted.set() if s.fault else None)
+            waiters = [asyncio.create_task(stop.wait()), asyncio.create_task(faulted.wait())]
+            _done, pending = await asyncio.wait(
+                waiters, timeout=args.duration, return_when=asyncio.FIRST_COMPLETED
+            )
+            for task in pending:
+                task.cancel()
+            if faulted.is_set():
+                code = EXIT_FAILED
+                print(f"\nuss run: drive {args.address} reports a fault", file=sys.stderr)
+            await switch_off(args, drive, stop, signals)
+        except ConfigError:
+            raise
+        except UssError as exc:
+            print(f"\nuss run: {exc}", file=sys.stderr)
+            code = EXIT_FAILED
+            with contextlib.suppress(UssError):
+                await drive.off1(timeout=1.0)
+        finally:
+            shown.set()
+            await follower
+            live.show(final=True)
+    if signals and code == EXIT_OK:
+        return EXIT_INTERRUPTED
+    return code
+
+
+async def switch_off(
+    args: argparse.Namespace, drive: Drive, stop: asyncio.Event, signals: list[int]
+) -> None:
+    """OFF1 and wait for the drive to stop; a second signal coasts it down at once (OFF2)."""
+    count = len(signals)
+    await drive.off1()
+    stop.clear()
+
+    async def stopped() -> None:
+        await drive.wait_until(lambda s: not s.running, timeout=args.stop_timeout)
+
+    task = asyncio.create_task(stopped())
+    again = asyncio.create_task(stop.wait())
+    done, _ = await asyncio.wait({task, again}, return_when=asyncio.FIRST_COMPLETED)
+    if again in done and len(signals) > count:
+        task.cancel()
+        await drive.off2()
+        return
+    again.cancel()
+    await task

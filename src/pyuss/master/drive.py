@@ -1,0 +1,580 @@
+"""`Drive`: the handle of one slave on a `Master` bus - parameters and process data.
+
+Parameters (C 4) go through the slave's parameter channel (`pyuss.master.jobs`): every method
+is one or more jobs, queued behind the jobs of other tasks; errors are typed: `DriveRefusal`
+(response 7 with error number and meaning), `NoWriteAuthority` (response 8), `JobTimeout`,
+`ConfigError` for requests the layout cannot carry (C 7).
+
+- Values: `read` / `write` take the parameter number (``pnu``; numbers from 2000 on where the
+  profile extends them through IND bits) and, for array parameters, the element ``index``
+  (C 4.2.2: read with request 6, write with 7/8, or 11/12 with ``eeprom=True``). Without an
+  index: request 1, and 2/3 (14/13 with ``eeprom``). Values come back as the unsigned word or
+  double word the drive sent (``signed=True`` for two's complement, `read_float` for IEEE 754).
+  A `write` of a float or of an integer outside -32768..65535 is a double word; ``dword=True``
+  forces one (32-bit parameters with small values need it), ``dword=False`` a word.
+- `array_length` (request 9), `read_array` (IND 255 in one telegram with the variable layout,
+  element by element otherwise, counting from the profile's first index).
+- `read_description`: one element (request 4, IND = element), or the whole description (IND
+  255 with the variable layout; element by element with a fixed one, where elements too long
+  for the PKW area are left out), decoded by `pyuss.master.description`.
+- `read_text` / `write_text` (request 15, variable layout only, C 4.2.2 Tables 4.5/4.6).
+
+Process data (C 5): the control word and setpoints are sent in every telegram to the slave
+from the moment they are set. The commands return once a telegram carrying them was answered,
+with the status of that answer: `on` (047Eh then 047Fh), `off1` (047Eh), `off2` (047Ch),
+`off3` (047Ah), and, changing the current word, `enable` (bit 3), `acknowledge` (a rising edge
+of bit 7: set, then cleared), `jog` (bits 8, 9); `setpoint` (percent with
+4000h = 100 %, or raw; 16 or 32 bits), `control_word`. `status` is the latest answer's
+process data, `next_update` waits for the next, `on_update` registers a callback.
+Parameter jobs never touch the process data: reading a parameter leaves the control word as
+the user set it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from pyuss.drive.database import TEXT_LENGTH, DescriptionStyle
+from pyuss.errors import ConfigError, DriveRefusal, TelegramError
+from pyuss.master.description import (
+    BAUMUELLER_ELEMENTS,
+    PROFIBUS_ELEMENTS,
+    Description,
+    DescriptionElement,
+    decode_description,
+    decode_element,
+    element_size,
+)
+from pyuss.master.jobs import SpontaneousMessage
+from pyuss.master.process import OPERATE, DriveStatus
+from pyuss.master.profile import Profile, description_style, index_base
+from pyuss.master.stats import SlaveDiagnostics
+from pyuss.protocol.layout import Layout
+from pyuss.protocol.pkw import (
+    INDEX_ALL,
+    Pkw,
+    RequestId,
+    ResponseId,
+    TextIndex,
+    pwe_dword,
+    pwe_float,
+    pwe_text,
+    pwe_word,
+    words_to_text,
+)
+from pyuss.protocol.pzd import ControlWord, percent_to_raw16, percent_to_raw32, split_dword
+
+if TYPE_CHECKING:
+    from pyuss.master.scheduler import Master, MirrorResult, _Link
+
+__all__ = ["Drive"]
+
+_DOUBLE = (ResponseId.VALUE_DWORD, ResponseId.ARRAY_DWORD)
+
+
+def _index(index: int | None) -> int | None:
+    if index is None:
+        return None
+    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= 254:
+        raise ConfigError(f"index must be 0..254 (255 means the whole array), got {index!r}")
+    return index
+
+
+def _value(answer: Pkw, *, signed: bool = False) -> int:
+    try:
+        if answer.id in _DOUBLE:
+            return answer.dword(signed=signed)
+        return answer.word(signed=signed)
+    except TelegramError as exc:
+        raise TelegramError(f"P{answer.pnu}: answer {answer.id} carries no value: {exc}") from None
+
+
+class Drive:
+    """One slave of a `Master` (made by `Master.drive`); see the module docstring."""
+
+    def __init__(self, master: Master, link: _Link) -> None:
+        self._master = master
+        self._link = link
+
+    def __repr__(self) -> str:
+        return f"<Drive {self.address} layout {self.layout} profile {self.profile.name}>"
+
+    # -- what it is ------------------------------------------------------------------------
+    @property
+    def address(self) -> int:
+        return self._link.address
+
+    @property
+    def layout(self) -> Layout:
+        return self._link.layout
+
+    @property
+    def profile(self) -> Profile:
+        return self._link.profile
+
+    @property
+    def response_delay(self) -> float:
+        """The response delay limit in seconds (A 5.2.1.1)."""
+        return self._link.response_delay
+
+    @property
+    def not_sending(self) -> bool:
+        """ "Slave x does not send" (A 5.2.1.1): set when it did not answer in time, cleared by
+        its next good telegram."""
+        return self._link.not_sending
+
+    def diagnostics(self) -> SlaveDiagnostics:
+        """A 5.2.3 counters of its answers, response times, jobs."""
+        return self._master._slave_diagnostics(self._link)
+
+    async def mirror(self) -> MirrorResult:
+        """A mirror test (A 5.3) with a telegram of the slave's length."""
+        return await self._master.mirror(self.address)
+
+    # -- parameter jobs ----------------------------------------------------------------------
+    def _ind(self, pnu: int, subindex: int = 0, text: TextIndex | int = 0) -> tuple[int, int]:
+        bits, high = self.profile.encode_pnu(pnu)
+        return bits, subindex | int(text) | high
+
+    async def job(
+        self,
+        request: Pkw,
+        *,
+        pnu: int | None = None,
+        index: int | None = None,
+        timeout: float | None = None,
+    ) -> Pkw:
+        """Send any PKW job and return the answer that belongs to it (the raw `Pkw`).
+        ``pnu``/``index`` only word error messages (default: from ``request``)."""
+        name = self.profile.decode_pnu(request.pnu, request.index) if pnu is None else pnu
+        return await self._master._job(self._link, request, name, index, timeout)
+
+    async def read(
+        self,
+        pnu: int,
+        index: int | None = None,
+        *,
+        signed: bool = False,
+        timeout: float | None = None,
+    ) -> int:
+        """The value of parameter ``pnu`` (element ``index`` of an array)."""
+        index = _index(index)
+        if index is None:
+            bits, ind = self._ind(pnu)
+            request = Pkw(RequestId.READ_VALUE, bits, ind)
+        else:
+            bits, ind = self._ind(pnu, index)
+            request = Pkw(RequestId.READ_ARRAY, bits, ind)
+        answer = await self.job(request, pnu=pnu, index=index, timeout=timeout)
+        return _value(answer, signed=signed)
+
+    async def read_float(
+        self, pnu: int, index: int | None = None, *, timeout: float | None = None
+    ) -> float:
+        """The value of a floating point parameter (IEEE 754, 32 bits, C 6)."""
+        index = _index(index)
+        if index is None:
+            bits, ind = self._ind(pnu)
+            request = Pkw(RequestId.READ_VALUE, bits, ind)
+        else:
+            bits, ind = self._ind(pnu, index)
+            request = Pkw(RequestId.READ_ARRAY, bits, ind)
+        answer = await self.job(request, pnu=pnu, index=index, timeout=timeout)
+        if answer.id not in _DOUBLE:
+            raise TelegramError(f"P{pnu}: the drive sent a word, not a floating point value")
+        return answer.float32()
+
+    async def write(
+        self,
+        pnu: int,
+        value: int | float,
+        index: int | None = None,
+        *,
+        dword: bool | None = None,
+        eeprom: bool = False,
+        timeout: float | None = None,
+    ) -> int | float:
+        """Write ``value`` to ``pnu`` (element ``index``); ``eeprom=True`` stores it in the
+        drive's non-volatile memory as well (requests 11..14). Returns the value the drive
+        answered with (a float for a float written)."""
+        index = _index(index)
+        is_float = isinstance(value, float)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ConfigError(f"value must be an integer or a float, not {value!r}")
+        if is_float:
+            if dword is False:
+                raise ConfigError("a floating point value is a double word (C 6)")
+            words: tuple[int, ...] = pwe_float(float(value))
+            double = True
+        else:
+            assert isinstance(value, int)
+            double = dword if dword is not None else not -0x8000 <= value <= 0xFFFF
+            words = pwe_dword(value) if double else pwe_word(value)
+        if double and self.layout.pkw == 3:
+            raise ConfigError(
+                f"a double word does not fit layout {self.layout}: PKW 3 holds one word, "
+                "double words need PKW 4 or the variable layout (C 7)"
+            )
+        if index is None:
+            rid = (
+                (RequestId.WRITE_DWORD_EEPROM if eeprom else RequestId.WRITE_DWORD)
+                if double
+                else (RequestId.WRITE_WORD_EEPROM if eeprom else RequestId.WRITE_WORD)
+            )
+            bits, ind = self._ind(pnu)
+        else:
+            rid = (
+                (RequestId.WRITE_ARRAY_DWORD_EEPROM if eeprom else RequestId.WRITE_ARRAY_DWORD)
+                if double
+                else (RequestId.WRITE_ARRAY_WORD_EEPROM if eeprom else RequestId.WRITE_ARRAY_WORD)
+            )
+            bits, ind = self._ind(pnu, index)
+        answer = await self.job(
+            Pkw(rid, bits, ind, values=words), pnu=pnu, index=index, timeout=timeout
+        )
+        if is_float:
+            return answer.float32()
+        return _value(answer, signed=isinstance(value, int) and value < 0)
+
+    async def array_length(self, pnu: int, *, timeout: float | None = None) -> int:
+        """How many elements array parameter ``pnu`` has (request 9)."""
+        bits, ind = self._ind(pnu)
+        answer = await self.job(
+            Pkw(RequestId.READ_ARRAY_COUNT, bits, ind), pnu=pnu, timeout=timeout
+        )
+        return answer.word()
+
+    async def read_array(
+        self, pnu: int, *, signed: bool = False, timeout: float | None = None
+    ) -> list[int]:
+        """Every element of array parameter ``pnu``: one telegram (IND 255) with the variable
+        layout, one per element otherwise."""
+        if self.layout.variable:
+            bits, ind = self._ind(pnu, INDEX_ALL)
+            answer = await self.job(
+                Pkw(RequestId.READ_ARRAY, bits, ind), pnu=pnu, index=INDEX_ALL, timeout=timeout
+            )
+            values = answer.values
+            if answer.id == ResponseId.ARRAY_DWORD:
+                if len(values) % 2:
+                    raise TelegramError(f"P{pnu}: {len(values)} words are not whole double words")
+                return [
+                    Pkw(answer.id, values=values[i : i + 2]).dword(signed=signed)
+                    for i in range(0, len(values), 2)
+                ]
+            return [Pkw(answer.id, values=(w,)).word(signed=signed) for w in values]
+        count = await self.array_length(pnu, timeout=timeout)
+        base = index_base(self.profile)
+        return [
+            await self.read(pnu, i, signed=signed, timeout=timeout)
+            for i in range(base, base + count)
+        ]
+
+    def _elements(self) -> dict[int, str]:
+        if description_style(self.profile) is DescriptionStyle.BAUMUELLER:
+            return BAUMUELLER_ELEMENTS
+        return PROFIBUS_ELEMENTS
+
+    async def _element_words(
+        self, pnu: int, element: int, timeout: float | None
+    ) -> tuple[int, ...]:
+        bits, ind = self._ind(pnu, element)
+        answer = await self.job(
+            Pkw(RequestId.READ_PBE_ELEMENT, bits, ind), pnu=pnu, index=element, timeout=timeout
+        )
+        return answer.values
+
+    async def read_description(
+        self, pnu: int, element: int | None = None, *, timeout: float | None = None
+    ) -> Description:
+        """The description of ``pnu`` (C 6): only ``element`` (1..254) if given, else all of it.
+
+        A whole description travels in one telegram (IND 255) with the variable layout only
+        (C 4.2.2): so without ``element`` a fixed layout reads the elements one by one and
+        leaves out those the drive refuses (too long for the PKW area, C 7). ``element=255``
+        asks for the whole description in one telegram whatever the layout (a fixed-length
+        drive refuses it, C 8 example 3).
+        """
+        style = description_style(self.profile)
+        if element is not None and element != INDEX_ALL:
+            if isinstance(element, bool) or not isinstance(element, int) or not 1 <= element <= 254:
+                raise ConfigError(f"description element must be 1..255, got {element!r}")
+            words = await self._element_words(pnu, element, timeout)
+            return Description(pnu, style, {element: decode_element(element, words, style)})
+        if element == INDEX_ALL or self.layout.variable:
+            bits, ind = self._ind(pnu, INDEX_ALL)
+            answer = await self.job(
+                Pkw(RequestId.READ_PBE_ELEMENT, bits, ind),
+                pnu=pnu,
+                index=INDEX_ALL,
+                timeout=timeout,
+            )
+            return decode_description(pnu, answer.values, style)
+        elements: dict[int, DescriptionElement] = {}
+        type_code: int | None = None
+        attribute: int | None = None
+        for number in self._elements():
+            try:
+                words = await self._element_words(pnu, number, timeout)
+            except DriveRefusal:
+                continue
+            size = element_size(number, style, type_code=type_code, attribute=attribute)
+            if size is not None and len(words) > size:
+                words = words[-size:]  # a word travels in PWE2 with PKW 4 (C 4.2.3)
+            if number == 1 and words:
+                attribute = words[-1]
+                type_code = words[-1] & 0xFF
+            elements[number] = decode_element(
+                number, words, style, type_code=type_code, attribute=attribute
+            )
+        return Description(pnu, style, elements)
+
+    def _text_request(
+        self, pnu: int, index: int, write: bool, value_texts: bool
+    ) -> tuple[int, int]:
+        if not self.layout.variable:
+            raise ConfigError(
+                f"texts need the variable layout (PKW 127), slave {self.address} uses "
+                f"{self.layout} (C 4.2.2)"
+            )
+        if isinstance(index, bool) or not isinstance(index, int) or not 1 <= index <= 254:
+            raise ConfigError(f"text element must be 1..254, got {index!r} (C Table 4.5)")
+        text = (TextIndex.WRITE if write else TextIndex.READ) | (
+            TextIndex.VALUE_TEXTS if value_texts else TextIndex.READ
+        )
+        return self._ind(pnu, index, text)
+
+    async def read_text(
+        self, pnu: int, index: int, *, value_texts: bool = False, timeout: float | None = None
+    ) -> str:
+        """Text element ``index`` of ``pnu`` (request 15, C Table 4.5); ``value_texts`` selects
+        the second text field of an array parameter (IND bit 9, C Table 4.6)."""
+        bits, ind = self._text_request(pnu, index, False, value_texts)
+        answer = await self.job(
+            Pkw(RequestId.TEXT, bits, ind), pnu=pnu, index=index, timeout=timeout
+        )
+        return words_to_text(answer.values)
+
+    async def write_text(
+        self,
+        pnu: int,
+        index: int,
+        text: str,
+        *,
+        value_texts: bool = False,
+        timeout: float | None = None,
+    ) -> str:
+        """Write text element ``index`` of ``pnu`` (16 characters, blank padded)."""
+        bits, ind = self._text_request(pnu, index, True, value_texts)
+        words = pwe_text(text, TEXT_LENGTH)
+        answer = await self.job(
+            Pkw(RequestId.TEXT, bits, ind, values=words), pnu=pnu, index=index, timeout=timeout
+        )
+        return words_to_text(answer.values)
+
+    # -- process data ------------------------------------------------------------------------
+    @property
+    def status(self) -> DriveStatus | None:
+        """The process data of the latest answer (None before the first)."""
+        return self._link.status
+
+    @property
+    def control(self) -> int:
+        """The control word sent in every telegram."""
+        return self._link.control
+
+    @property
+    def setpoints(self) -> tuple[int, ...]:
+        """PZD2... as sent."""
+        return tuple(self._link.setpoints)
+
+    def _need_pzd(self, words: int = 1) -> None:
+        if self.layout.pzd < words:
+            raise ConfigError(
+                f"slave {self.address} has layout {self.layout}: {words} PZD words needed (C 5)"
+            )
+
+    def set_control(self, word: int) -> None:
+        """Send ``word`` as control word from the next telegram on (no waiting)."""
+        self._need_pzd()
+        if isinstance(word, bool) or not isinstance(word, int) or not 0 <= word <= 0xFFFF:
+            raise ConfigError(f"control word must be 0..FFFFh, got {word!r}")
+        self._master._set_pzd(self._link, control=word)
+
+    def set_pzd(self, number: int, value: int) -> None:
+        """Set PZD word ``number`` (2..16; 1 is the control word) to a raw 16-bit value."""
+        if number == 1:
+            self.set_control(value)
+            return
+        self._need_pzd(number if isinstance(number, int) else 2)
+        if isinstance(number, bool) or not isinstance(number, int) or number < 2:
+            raise ConfigError(f"PZD number must be 1..{self.layout.pzd}, got {number!r}")
+        if isinstance(value, bool) or not isinstance(value, int) or not -0x8000 <= value <= 0xFFFF:
+            raise ConfigError(f"PZD{number} must be a 16-bit value, got {value!r}")
+        self._master._set_pzd(self._link, setpoints={number: value & 0xFFFF})
+
+    async def _send(
+        self,
+        control: int | None,
+        setpoints: dict[int, int] | None = None,
+        timeout: float | None = None,
+    ) -> DriveStatus:
+        version = self._master._set_pzd(self._link, control=control, setpoints=setpoints)
+        return await self._master._delivered(self._link, version, timeout)
+
+    async def control_word(self, word: int, *, timeout: float | None = None) -> DriveStatus:
+        """Send ``word`` as control word; returns the status of the answer to it."""
+        self.set_control(word)
+        return await self._master._delivered(self._link, self._link.version, timeout)
+
+    async def setpoint(
+        self,
+        percent: float | None = None,
+        *,
+        raw: int | None = None,
+        pzd: int = 2,
+        dword: bool = False,
+        timeout: float | None = None,
+    ) -> DriveStatus:
+        """Set the main setpoint (PZD2, or PZD ``pzd``): ``percent`` with 4000h = 100 %
+        (4000 0000h with ``dword``, sent high word first in PZD ``pzd`` and ``pzd + 1``), or a
+        ``raw`` value. Returns the status of the answer to the first telegram carrying it."""
+        if (percent is None) == (raw is None):
+            raise ConfigError("give either a percentage or a raw value")
+        words = 2 if dword else 1
+        if isinstance(pzd, bool) or not isinstance(pzd, int) or pzd < 2:
+            raise ConfigError(f"setpoints are PZD2 and up, got PZD{pzd!r}")
+        self._need_pzd(pzd + words - 1)
+        values: dict[int, int]
+        if dword:
+            value = percent_to_raw32(percent) if percent is not None else raw
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int)
+                or not -0x8000_0000 <= value <= 0xFFFF_FFFF
+            ):
+                raise ConfigError(f"raw 32-bit setpoint must be a 32-bit value, got {raw!r}")
+            high, low = split_dword(value & 0xFFFF_FFFF)
+            values = {pzd: high, pzd + 1: low}
+        else:
+            value = percent_to_raw16(percent) if percent is not None else raw
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int)
+                or not -0x8000 <= value <= 0xFFFF
+            ):
+                raise ConfigError(f"raw setpoint must be a 16-bit value, got {raw!r}")
+            values = {pzd: value & 0xFFFF}
+        return await self._send(None, values, timeout)
+
+    def _base(self) -> int:
+        """The current control word, or 047Eh if the master does not control the drive yet."""
+        word = self._link.control
+        return word if word & ControlWord.CONTROL_BY_PLC else int(OPERATE)
+
+    async def on(self, *, timeout: float | None = None) -> DriveStatus:
+        """Switch on: 047Eh (OFF1 with every enable: leaves "switch-on inhibited"), then 047Fh
+        (C Tables 5.2..5.5). Returns the status of the answer to the ON telegram."""
+        self._need_pzd()
+        keep = self._link.control & (ControlWord.JOG1 | ControlWord.JOG2)
+        await self._send(int(OPERATE) | keep, timeout=timeout)
+        return await self._send(int(OPERATE | ControlWord.ON) | keep, timeout=timeout)
+
+    async def off1(self, *, timeout: float | None = None) -> DriveStatus:
+        """OFF1: ramp down and switch off (control bit 0 = 0)."""
+        self._need_pzd()
+        return await self._send(int(OPERATE), timeout=timeout)
+
+    async def off2(self, *, timeout: float | None = None) -> DriveStatus:
+        """OFF2: pulses off at once, the motor coasts (control bit 1 = 0)."""
+        self._need_pzd()
+        return await self._send(int(OPERATE) & ~int(ControlWord.NO_OFF2), timeout=timeout)
+
+    async def off3(self, *, timeout: float | None = None) -> DriveStatus:
+        """OFF3: quick stop (control bit 2 = 0)."""
+        self._need_pzd()
+        return await self._send(int(OPERATE) & ~int(ControlWord.NO_OFF3), timeout=timeout)
+
+    async def enable(self, enabled: bool = True, *, timeout: float | None = None) -> DriveStatus:
+        """Enable (or inhibit) operation: control bit 3."""
+        self._need_pzd()
+        word = self._base()
+        word = (
+            word | ControlWord.ENABLE_OPERATION
+            if enabled
+            else word & ~int(ControlWord.ENABLE_OPERATION)
+        )
+        return await self._send(word, timeout=timeout)
+
+    async def acknowledge(self, *, timeout: float | None = None) -> DriveStatus:
+        """Acknowledge a fault: a rising edge of control bit 7 (set, answered, cleared)."""
+        self._need_pzd()
+        word = self._base() & ~int(ControlWord.ACKNOWLEDGE_FAULT)
+        await self._send(word | ControlWord.ACKNOWLEDGE_FAULT, timeout=timeout)
+        return await self._send(word, timeout=timeout)
+
+    async def jog(self, which: int | None, *, timeout: float | None = None) -> DriveStatus:
+        """Jog 1 or 2 on (control bit 8 or 9), or off with None or 0."""
+        self._need_pzd()
+        if which not in (None, 0, 1, 2):
+            raise ConfigError(f"jog takes 1, 2 or None, got {which!r}")
+        word = self._base() & ~int(ControlWord.JOG1 | ControlWord.JOG2)
+        if which == 1:
+            word |= ControlWord.JOG1
+        elif which == 2:
+            word |= ControlWord.JOG2
+        return await self._send(word, timeout=timeout)
+
+    async def next_update(self, *, timeout: float | None = None) -> DriveStatus:
+        """The process data of the next answer from the slave."""
+        return await self._master._next_update(self._link, timeout)
+
+    async def wait_until(
+        self, condition: Callable[[DriveStatus], bool], *, timeout: float = 10.0
+    ) -> DriveStatus:
+        """Wait for an answer whose status meets ``condition`` (e.g. ``lambda s: s.running``)."""
+        loop_time = self._master.transport.clock
+        end = loop_time() + timeout
+        status = self.status
+        while status is None or not condition(status):
+            left = end - loop_time()
+            if left <= 0:
+                from pyuss.errors import UssTimeout
+
+                state = (
+                    "no answer yet"
+                    if status is None
+                    else f"status {status.word:04X}h ({status.state})"
+                )
+                raise UssTimeout(
+                    f"slave {self.address}: condition not met within {timeout:g} s: {state}"
+                )
+            status = await self.next_update(timeout=left)
+        return status
+
+    def on_update(self, callback: Callable[[DriveStatus], object]) -> Callable[[], None]:
+        """Call ``callback`` with the process data of every answer; returns a function that
+        removes it. Callbacks run in the master's task and must not block."""
+        callbacks = self._link.update_callbacks
+        callbacks.append(callback)
+
+        def remove() -> None:
+            if callback in callbacks:
+                callbacks.remove(callback)
+
+        return remove
+
+    def on_spontaneous(
+        self, callback: Callable[[SpontaneousMessage], object]
+    ) -> Callable[[], None]:
+        """Call ``callback`` for every new spontaneous message of this slave (C 4.2.1.2);
+        the master acknowledges it by itself. Returns a function that removes it."""
+        callbacks = self._link.spontaneous_callbacks
+        callbacks.append(callback)
+
+        def remove() -> None:
+            if callback in callbacks:
+                callbacks.remove(callback)
+
+        return remove

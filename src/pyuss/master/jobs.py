@@ -1,0 +1,288 @@
+"""The parameter channel of one slave, master side (C 4.2.1.1, C 4.2.1.2), without I/O.
+
+The scheduler asks `ParameterChannel.request` for the PKW area of every telegram it sends to
+the slave and hands every answer to `ParameterChannel.answer`. Time is passed in.
+
+Rules (C 4.2.1.1):
+
+- At most one open job per slave. Jobs queue in order; the open one is repeated in every
+  telegram to the slave until the answer that belongs to it arrives (`pyuss.master.profile.answers`:
+  the response ID of C Table 4.3, the PNU and, for indexed jobs, IND), or until its time is up
+  (`JobTimeout`). Without a job the master sends "no job".
+- Response ID 7 ends the job with `DriveRefusal` (error number and meaning, the profile's
+  meanings for device numbers), ID 8 with `NoWriteAuthority`.
+- An old answer is never taken for a new one. A slave repeats the answer to the previous job
+  until it has processed the next one ("Übergangsphase zwischen Alt-Auftrag und Neu-Auftrag"),
+  and some jobs share their answer's signature: "write P52 = 5" and then "read P52" are both
+  answered with ID 1, PNU 52. So before a job starts, the master looks at the slave's latest
+  answer (spontaneous messages aside): if that answer would be accepted as the answer to the
+  new job - or nothing is known about it (first contact, after a job timed out) - the master
+  sends "no job" until the slave answers "no response" (which answers no job but "no job"),
+  and only then the new job. Two jobs in a row whose answers cannot be confused follow each
+  other directly. A job's time starts when it is first due, so a slave that never answers
+  "no response" times the job out.
+- Spontaneous messages (IDs 9..12, C 4.2.1.2) interrupt the job: a message is new when its
+  toggle bit (PKE bit 11) differs from the master's, which then takes the slave's value - the
+  master changes its own bit 11, acknowledging it - and hands the message on once. Repeats
+  (same bit) are ignored; the interrupted job goes on being sent. The master's bit starts at
+  the value of the slave's first answer, so a bit left over from an earlier session is not
+  taken for a message; a first answer that is a spontaneous message is delivered.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+from pyuss.errors import DriveRefusal, UssError
+from pyuss.master.errors import JobTimeout, NoWriteAuthority
+from pyuss.master.profile import Profile, answers
+from pyuss.master.stats import JobStats, Samples
+from pyuss.protocol.pkw import Pkw, RequestId, ResponseId
+
+__all__ = ["Job", "ParameterChannel", "SpontaneousMessage", "describe_job"]
+
+_NO_JOB = RequestId.NO_JOB
+
+
+@dataclass(frozen=True, slots=True)
+class SpontaneousMessage:
+    """A spontaneous message (C 4.2.1.2): a parameter changed through another interface."""
+
+    address: int
+    pnu: int
+    response: ResponseId
+    index: int | None
+    """The array element for IDs 11 and 12 (IND low byte; 255 = the whole array)."""
+    values: tuple[int, ...]
+    time: float
+
+    @property
+    def value(self) -> int | None:
+        """The new value: a word for IDs 9 and 11, a double word for 10 and 12; None when the
+        message carries no value (a whole array on a fixed-length interface)."""
+        if not self.values:
+            return None
+        pkw = Pkw(self.response, 0, 0, values=self.values)
+        double = self.response in (ResponseId.SPONTANEOUS_DWORD, ResponseId.SPONTANEOUS_ARRAY_DWORD)
+        if double and len(self.values) == 2:
+            return pkw.dword()
+        return pkw.word()
+
+
+def describe_job(request: Pkw, pnu: int, index: int | None) -> str:
+    """``"read parameter value P52"`` and the like, for messages."""
+    where = f"P{pnu}" + ("" if index is None else f".{index}")
+    try:
+        what = RequestId(request.id).text
+    except ValueError:  # pragma: no cover - Pkw ids are 0..15, all named
+        what = f"request {request.id}"
+    return f"{what} {where}"
+
+
+@dataclass(eq=False)
+class Job:
+    """One parameter job: the PKW area to send and who waits for the answer.
+
+    ``done`` is called once, when ``answer`` or ``error`` is set.
+    """
+
+    request: Pkw
+    pnu: int
+    index: int | None
+    timeout: float
+    done: Callable[[Job], None]
+    answer: Pkw | None = None
+    error: BaseException | None = None
+    due: float | None = None
+    started: float | None = None
+    sent: int = 0
+    finished: bool = field(default=False)
+
+    @property
+    def text(self) -> str:
+        return describe_job(self.request, self.pnu, self.index)
+
+
+class ParameterChannel:
+    """The master side of one slave's PKW interface; see the module docstring."""
+
+    def __init__(self, address: int, profile: Profile) -> None:
+        self.address = address
+        self.profile = profile
+        self.queue: deque[Job] = deque()
+        self.current: Job | None = None
+        self.last_answer: Pkw | None = None
+        """The slave's latest answer other than a spontaneous message; None: not known."""
+        self.toggle = False
+        """The master's PKE bit 11 (C 4.2.1.2)."""
+        self.synced = False
+        self.not_sending = False
+        """Set by the scheduler; only used to word timeout messages."""
+        self._completed = 0
+        self._refused = 0
+        self._timed_out = 0
+        self._guard = 0
+        self._spontaneous = 0
+        self._telegrams = Samples()
+        self._latency = Samples()
+
+    # -- jobs ------------------------------------------------------------------------------
+    @property
+    def busy(self) -> bool:
+        """True while a job is open or queued."""
+        return self.current is not None or bool(self.queue)
+
+    def submit(self, job: Job) -> None:
+        self.queue.append(job)
+
+    def cancel(self, job: Job) -> None:
+        """Forget ``job`` (its waiter gave up). An open job leaves the slave's answer unknown."""
+        if job is self.current:
+            self.current = None
+            self.last_answer = None
+        elif job in self.queue:
+            self.queue.remove(job)
+        job.finished = True
+
+    def fail_all(self, error: BaseException) -> None:
+        """End every job with ``error`` (the master closes)."""
+        jobs = ([self.current] if self.current is not None else []) + list(self.queue)
+        self.current = None
+        self.queue.clear()
+        for job in jobs:
+            self._finish(job, error=error)
+
+    def request(self, now: float) -> Pkw:
+        """The PKW area for the telegram sent at ``now``."""
+        self.expire(now)
+        if self.current is None and self.queue:
+            head = self.queue[0]
+            if head.due is None:
+                head.due = now
+            last = self.last_answer
+            if last is None or answers(self.profile, last, head.request):
+                self._guard += 1
+                return Pkw(_NO_JOB, spm_toggle=self.toggle)
+            self.queue.popleft()
+            self.current = head
+            head.started = now
+        job = self.current
+        if job is None:
+            return Pkw(_NO_JOB, spm_toggle=self.toggle)
+        job.sent += 1
+        return replace(job.request, spm_toggle=self.toggle)
+
+    def expire(self, now: float) -> None:
+        """End the open job, or a queued one still waiting for the slave to clear its old
+        answer, once its time is up."""
+        job = self.current
+        if job is not None and job.started is not None and now - job.started > job.timeout:
+            self.current = None
+            self.last_answer = None
+            self._timed_out += 1
+            state = "; the slave does not send" if self.not_sending else ""
+            self._finish(
+                job,
+                error=JobTimeout(
+                    f"slave {self.address}: no answer to {job.text} within {job.timeout:g} s "
+                    f"({job.sent} telegrams sent{state}; C 4.2.1.1)",
+                    address=self.address,
+                    pnu=job.pnu,
+                    sent=job.sent,
+                ),
+            )
+        if self.current is None and self.queue:
+            head = self.queue[0]
+            if head.due is not None and now - head.due > head.timeout:
+                self.queue.popleft()
+                self._timed_out += 1
+                if self.not_sending:
+                    why = "the slave does not send"
+                else:
+                    why = (
+                        "the slave kept repeating an answer that could be taken for the "
+                        "answer to it and did not answer 'no job' with 'no response'"
+                    )
+                self._finish(
+                    head,
+                    error=JobTimeout(
+                        f"slave {self.address}: {head.text} not sent within {head.timeout:g} s: "
+                        f"{why} (C 4.2.1.1)",
+                        address=self.address,
+                        pnu=head.pnu,
+                        sent=0,
+                    ),
+                )
+
+    # -- answers ---------------------------------------------------------------------------
+    def answer(self, pkw: Pkw, now: float) -> SpontaneousMessage | None:
+        """Take the PKW area of an answer; returns a new spontaneous message, if it is one."""
+        first = not self.synced
+        self.synced = True
+        if ResponseId(pkw.id).is_spontaneous:
+            if not first and pkw.spm_toggle == self.toggle:
+                return None  # a repeat of a message already acknowledged
+            self.toggle = pkw.spm_toggle
+            self._spontaneous += 1
+            response = ResponseId(pkw.id)
+            indexed = response.is_indexed
+            return SpontaneousMessage(
+                address=self.address,
+                pnu=self.profile.decode_pnu(pkw.pnu, pkw.index),
+                response=response,
+                index=pkw.subindex if indexed else None,
+                values=pkw.values,
+                time=now,
+            )
+        if first:
+            self.toggle = pkw.spm_toggle
+        self.last_answer = pkw
+        job = self.current
+        if job is None or not answers(self.profile, pkw, job.request):
+            return None
+        self.current = None
+        if job.started is not None:
+            self._latency.add(now - job.started)
+        self._telegrams.add(job.sent)
+        if pkw.id == ResponseId.REFUSED:
+            self._refused += 1
+            number = pkw.error_number
+            if number is None:  # cannot happen with a layout's PKW area: PWE1 always travels
+                error: UssError = DriveRefusal(
+                    0xFFFF, "no error number sent", pnu=job.pnu, index=job.index
+                )
+            else:
+                meaning = self.profile.error_meaning(number)
+                error = DriveRefusal(number, meaning, pnu=job.pnu, index=job.index)
+            self._finish(job, error=error)
+        elif pkw.id == ResponseId.NO_AUTHORITY:
+            self._refused += 1
+            self._finish(
+                job, error=NoWriteAuthority(address=self.address, pnu=job.pnu, index=job.index)
+            )
+        else:
+            self._completed += 1
+            self._finish(job, answer=pkw)
+        return None
+
+    def stats(self) -> JobStats:
+        return JobStats(
+            completed=self._completed,
+            refused=self._refused,
+            timed_out=self._timed_out,
+            guard_telegrams=self._guard,
+            spontaneous=self._spontaneous,
+            telegrams=self._telegrams.summary(),
+            latency=self._latency.summary(),
+        )
+
+    @staticmethod
+    def _finish(job: Job, *, answer: Pkw | None = None, error: BaseException | None = None) -> None:
+        if job.finished:
+            return
+        job.finished = True
+        job.answer = answer
+        job.error = error
+        job.done(job)

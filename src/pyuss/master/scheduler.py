@@ -1,0 +1,1110 @@
+"""The bus master: poll list, cycle, line timing, answers, process data and job turns.
+
+One `Master` runs one bus with one task, the scheduler, which alone talks to the transport:
+every telegram on the line is one "turn" of the scheduler, so nothing interleaves however many
+tasks (or threads, through `pyuss.master.sync`) use the bus at once.
+
+Telegram traffic (A 2, A 5.1)
+    - Cyclic mode (the default, A 2.1): the master goes round the poll list ("Umlaufliste",
+      A 5.1) again and again; an address may appear several times to be served more often; a
+      one-entry list is a point-to-point link. With ``cycle_time`` the master waits after the
+      last entry for the rest of the cycle (A 5.1.1); `Master.cycle_stats` gives the achieved
+      cycle time, its jitter and the overruns.
+    - Acyclic mode (A 2.2): telegrams only on demand - a slave gets turns while it has a
+      parameter job, new process data to deliver, or a `Master.exchange` asks for one.
+    - Between turns the scheduler sends what was asked of it: broadcasts (`Master.broadcast`)
+      and mirror telegrams (`Master.mirror`).
+
+Timing (A 5.1.2, A 5.2.1)
+    - Before every telegram the master keeps a start pause after the end of the last byte on
+      the line, its own or received (chunk timestamps): 2 character times, or more where the
+      slave's profile asks for more (NOTES 2).
+    - The answer must begin within the slave's response delay limit (20 ms by default, never
+      below the start pause; a profile or the caller may set another) after the end of the
+      request, and the core `Receiver` checks its residual time and BCC. Otherwise the master
+      marks "slave x does not send" (`Drive.not_sending`), counts the timeout (A 5.2.3 bit 7
+      and counter 16) and goes on with the next entry; the mark is cleared only by the next
+      good telegram from that slave, which stays in the poll list. A slave that answers late
+      is treated the same and its answer is not used.
+    - Answers from another address or of another type, and answers that do not fit the
+      slave's layout, are discarded and counted (A 5.2, A 5.2.2). Telegrams that arrive when no
+      answer is awaited are counted as stray; after a broadcast the master listens for one
+      response delay: nobody may answer (A 3), and whoever does is counted.
+
+Time bases
+    All times are the transport's ``clock()``. Transports with exact timestamps (the virtual
+    bus in-process and ``bus://``) are judged exactly by the rules above. Other transports
+    (serial ports, ptys, TCP) stamp bytes when the program reads them, which USB adapters do in
+    bursts every 1..16 ms; for them ``rx_tolerance`` (default 20 ms) widens the receive side
+    only: a gap between two received bursts shorter than the tolerance is taken for jitter of
+    the stamps and closed (the bytes are fed to the receiver as following back to back, so the
+    residual-time check of A 5.2.1.2 is not fooled by a late stamp), the idle gap that
+    separates telegrams is at least the tolerance (`Receiver(start_pause=...)`), and the
+    answer may begin up to the tolerance after the response delay limit. The master's own
+    sending keeps at least the specification's start pause always. ``latency`` (default 20 ms)
+    is how long after a deadline the master still waits for bytes that were on the line in
+    time but not yet delivered; it only costs time when a slave is silent.
+
+    The end of a request is taken as the time the write began plus its characters' time on the
+    line (or the time the write returned, if later). A simulator behind a bare pty answers
+    sooner than a real line allows, so its response times read 0.
+
+Process data (C 5.1)
+    Every telegram to a slave carries its latest control word and setpoints, as the user set
+    them at the moment the telegram is built - once the start pause before it is over, so
+    nothing set earlier is left for the next turn; every answer updates the slave's status first,
+    before the parameter channel looks at it, and wakes `Drive.next_update` waiters and
+    `Drive.on_update` callbacks.
+
+Parameter jobs (C 4.2.1.1, C 4.2.1.2): see `pyuss.master.jobs`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import enum
+import logging
+import math
+from collections.abc import Callable, Collection, Iterable, Sequence
+from dataclasses import dataclass
+from types import TracebackType
+from typing import TYPE_CHECKING
+
+from pyuss.errors import ConfigError, TelegramError, TransportError, UssError, UssTimeout
+from pyuss.log import log_frame
+from pyuss.master.broadcast import enable_array_data, masked_control_data
+from pyuss.master.errors import MasterClosed, MirrorMismatch, NotSending
+from pyuss.master.jobs import Job, ParameterChannel, SpontaneousMessage
+from pyuss.master.process import DriveStatus
+from pyuss.master.profile import Profile, resolve_profile, response_limit
+from pyuss.master.stats import BusDiagnostics, CycleStats, Samples, SlaveDiagnostics
+from pyuss.protocol.broadcast import BroadcastEnableArray
+from pyuss.protocol.diagnostics import Diagnostics, FaultKind
+from pyuss.protocol.layout import Layout, NetData
+from pyuss.protocol.pkw import Pkw
+from pyuss.protocol.receiver import Received, ReceiveFault, Receiver
+from pyuss.protocol.telegram import MAX_ADDRESS, AddressMode, Telegram
+from pyuss.protocol.timing import LineTiming
+from pyuss.transport.base import Chunk, Transport
+from pyuss.transport.queued import check_baud
+from pyuss.transport.reconnect import LinkDown
+
+if TYPE_CHECKING:
+    from pyuss.master.drive import Drive
+
+__all__ = ["ACYCLIC", "CYCLIC", "Master", "MirrorResult", "Mode", "Reply"]
+
+log = logging.getLogger("pyuss.master")
+
+DEFAULT_TOLERANCE = 0.020
+"""Receive tolerance for transports that stamp bytes when read (USB adapters: 1..16 ms)."""
+DEFAULT_LATENCY = 0.020
+"""How long past a deadline the master still waits for bytes that were on the line in time."""
+DEFAULT_JOB_TIMEOUT = 2.0
+
+
+class Mode(enum.Enum):
+    """Telegram traffic (A 2)."""
+
+    CYCLIC = "cyclic"
+    """Go round the poll list continuously (A 2.1); what drives need."""
+    ACYCLIC = "acyclic"
+    """Telegrams only on demand (A 2.2); slaves cannot watch for telegram failures."""
+
+
+CYCLIC = Mode.CYCLIC
+ACYCLIC = Mode.ACYCLIC
+
+
+def _exact_timestamps(transport: Transport) -> bool:
+    """Transports whose chunk timestamps are the true end times on the line."""
+    from pyuss.bus.client import BusClientTransport
+    from pyuss.bus.core import Station
+
+    return isinstance(transport, Station | BusClientTransport)
+
+
+@dataclass(frozen=True, slots=True)
+class Reply:
+    """The answer to `Master.request`."""
+
+    telegram: Telegram
+    raw: bytes
+    response_time: float
+    """From the end of the request to the start of the answer (seconds)."""
+
+
+@dataclass(frozen=True, slots=True)
+class MirrorResult:
+    """A mirror test that passed (A 5.3): the slave returned the telegram unchanged."""
+
+    address: int
+    sent: bytes
+    response_time: float
+    """From the end of the request to the start of the answer (seconds)."""
+    round_trip: float
+    """From the start of the request to the end of the answer (seconds)."""
+
+
+_NORMAL = frozenset({AddressMode.NORMAL})
+
+
+class _Outcome(enum.Enum):
+    ANSWER = "answer"
+    SILENT = "silent"
+    FAULT = "fault"
+    LATE = "late"
+
+
+@dataclass(slots=True)
+class _Result:
+    outcome: _Outcome
+    received: Received | None
+    request_start: float
+    request_end: float
+
+
+class _Link:
+    """Everything the master keeps about one slave."""
+
+    def __init__(
+        self,
+        address: int,
+        layout: Layout,
+        profile: Profile,
+        response_delay: float,
+    ) -> None:
+        self.address = address
+        self.layout = layout
+        self.profile = profile
+        self.response_delay = response_delay
+        self.channel = ParameterChannel(address, profile)
+        self.control = 0
+        self.setpoints = [0] * max(layout.pzd - 1, 0)
+        self.version = 0
+        self.answered_version = 0
+        self.status: DriveStatus | None = None
+        self.diagnostics = Diagnostics()
+        self.not_sending = False
+        self.exchanges = 0
+        self.answers = 0
+        self.timeouts = 0
+        self.late = 0
+        self.wrong_address = 0
+        self.unusable = 0
+        self.response_times = Samples()
+        self.polls_wanted = 0
+        self.update_waiters: list[asyncio.Future[DriveStatus]] = []
+        self.version_waiters: list[tuple[int, asyncio.Future[DriveStatus]]] = []
+        self.update_callbacks: list[Callable[[DriveStatus], object]] = []
+        self.spontaneous_callbacks: list[Callable[[SpontaneousMessage], object]] = []
+        self.drive: Drive | None = None
+
+    def pzd(self) -> list[int]:
+        if not self.layout.pzd:
+            return []
+        return [self.control, *self.setpoints]
+
+    @property
+    def wants_turn(self) -> bool:
+        """Acyclic mode: a job, process data not yet answered, or an exchange asked for."""
+        return self.channel.busy or self.answered_version < self.version or self.polls_wanted > 0
+
+    def snapshot(self, now: float) -> SlaveDiagnostics:
+        return SlaveDiagnostics(
+            address=self.address,
+            not_sending=self.not_sending,
+            counters=self.diagnostics.snapshot(now),
+            exchanges=self.exchanges,
+            answers=self.answers,
+            timeouts=self.timeouts,
+            late=self.late,
+            wrong_address=self.wrong_address,
+            unusable=self.unusable,
+            response_time=self.response_times.summary(),
+            jobs=self.channel.stats(),
+        )
+
+
+@dataclass(slots=True)
+class _Special:
+    kind: str
+    frame: bytes
+    address: int
+    future: asyncio.Future[object]
+
+
+class Master:
+    """A USS bus master (see the module docstring). Use it as an async context manager::
+
+        async with Master("/dev/ttyUSB0", baud=19200) as bus:
+            drive = bus.drive(5, layout=Layout(3, 2))
+            print(await drive.read(52))
+
+    ``transport``: a `Transport` or a URL for `pyuss.transport.open_transport`; ``baud`` is
+    taken from the transport when not given (and must match it when given), 9600 for a URL
+    by default. ``profile``: the default profile of the drives (a name or a
+    `pyuss.profiles.Profile`); ``layout``: their default layout, a `Layout` or ``"PKW,PZD"``
+    (else the profile's).
+    ``cycle_time``: a fixed cycle time in seconds (A 5.1.1), None to cycle as fast as the line
+    allows. ``mode``: `CYCLIC` or `ACYCLIC`. ``response_delay``: the default response delay limit in
+    seconds (else the profile's, 20 ms). ``job_timeout``: seconds a parameter job may take
+    from its first telegram. ``rx_tolerance`` and ``latency``: see "Time bases" in the module
+    docstring (None picks by transport). ``close_transport``: close the transport on exit.
+
+    Nothing is opened and no event loop is touched until `start` (or ``async with``).
+    """
+
+    def __init__(
+        self,
+        transport: Transport | str,
+        *,
+        baud: int | None = None,
+        profile: Profile | str | None = None,
+        layout: Layout | str | None = None,
+        cycle_time: float | None = None,
+        mode: Mode = Mode.CYCLIC,
+        response_delay: float | None = None,
+        job_timeout: float = DEFAULT_JOB_TIMEOUT,
+        rx_tolerance: float | None = None,
+        latency: float | None = None,
+        close_transport: bool = True,
+    ) -> None:
+        if isinstance(transport, str):
+            from pyuss.transport.url import open_transport
+
+            transport = open_transport(transport, baud=check_baud(baud or 9600))
+        elif not isinstance(transport, Transport):
+            raise ConfigError(f"transport must be a Transport or a URL, not {transport!r}")
+        if baud is not None and check_baud(baud) != transport.baud:
+            raise ConfigError(f"baud {baud} given, but the transport runs at {transport.baud}")
+        if not isinstance(mode, Mode):
+            raise ConfigError(f"mode must be CYCLIC or ACYCLIC, not {mode!r}")
+        if cycle_time is not None and not (
+            isinstance(cycle_time, int | float)
+            and not isinstance(cycle_time, bool)
+            and cycle_time > 0
+        ):
+            raise ConfigError(
+                f"cycle time must be a positive number of seconds, not {cycle_time!r}"
+            )
+        for name, value in (("job_timeout", job_timeout), ("response_delay", response_delay)):
+            if value is not None and (isinstance(value, bool) or not value > 0):
+                raise ConfigError(f"{name} must be a positive number of seconds, not {value!r}")
+        for name, value in (("rx_tolerance", rx_tolerance), ("latency", latency)):
+            if value is not None and (isinstance(value, bool) or not value >= 0):
+                raise ConfigError(f"{name} must be >= 0 seconds, not {value!r}")
+        self.transport = transport
+        self.baud = transport.baud
+        self.timing = LineTiming(self.baud)
+        self.profile = resolve_profile(profile)
+        if isinstance(layout, str):
+            layout = Layout.parse(layout)
+        self.default_layout = self.profile.check_layout(layout or self.profile.default_layout)
+        self.cycle_time = float(cycle_time) if cycle_time is not None else None
+        self.mode = mode
+        self.response_delay = response_delay
+        self.job_timeout = float(job_timeout)
+        exact = _exact_timestamps(transport)
+        self.rx_tolerance = (
+            (0.0 if exact else DEFAULT_TOLERANCE) if rx_tolerance is None else rx_tolerance
+        )
+        self.latency = DEFAULT_LATENCY if latency is None else latency
+        self.close_transport = close_transport
+        self._links: dict[int, _Link] = {}
+        self._poll: list[int] = []
+        self._specials: list[_Special] = []
+        self._spontaneous_callbacks: list[Callable[[SpontaneousMessage], object]] = []
+        self._line = Diagnostics()
+        self._receiver = Receiver(
+            self.baud,
+            start_pause=max(self.timing.start_pause, self.rx_tolerance),
+            diagnostics=self._line,
+        )
+        self._line_free = -math.inf
+        self._rx_end = -math.inf
+        self._after_broadcast = False
+        self._broadcasts = 0
+        self._answered_broadcasts = 0
+        self._stray = 0
+        self._cycles = Samples()
+        self._cycle_count = 0
+        self._overruns = 0
+        self._last_cycle_start: float | None = None
+        self._wake: asyncio.Event | None = None
+        self._task: asyncio.Task[None] | None = None
+        self._failure: TransportError | None = None
+        self._closing = False
+        self._rotation = 0
+
+    # -- life cycle ------------------------------------------------------------------------
+    async def __aenter__(self) -> Master:
+        await self.start()
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        await self.close()
+
+    @property
+    def running(self) -> bool:
+        return self._task is not None and not self._task.done()
+
+    async def start(self) -> None:
+        """Open the transport and start the scheduler."""
+        if self._task is not None:
+            raise ConfigError("the master was started already")
+        await self.transport.open()
+        self._wake = asyncio.Event()
+        self._task = asyncio.create_task(self._run(), name=f"uss master {self.baud} baud")
+
+    async def close(self) -> None:
+        """Stop after the current telegram, fail what waits, close the transport."""
+        self._closing = True
+        if self._wake is not None:
+            self._wake.set()
+        if self._task is not None:
+            task = self._task
+            try:
+                await asyncio.wait_for(asyncio.shield(task), self._stop_time())
+            except TimeoutError:
+                task.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await task
+        self._fail(self._failure or MasterClosed("the master was closed"))
+        if self.close_transport:
+            await self.transport.close()
+
+    def _stop_time(self) -> float:
+        longest = max((link.response_delay for link in self._links.values()), default=0.02)
+        return 1.0 + longest + self.latency + self.timing.transmit(512)
+
+    def _fail(self, error: TransportError) -> None:
+        if self._failure is None:
+            self._failure = error
+        for link in self._links.values():
+            link.channel.fail_all(error)
+            for future in link.update_waiters:
+                if not future.done():
+                    future.set_exception(error)
+            link.update_waiters.clear()
+            for _, future in link.version_waiters:
+                if not future.done():
+                    future.set_exception(error)
+            link.version_waiters.clear()
+        for special in self._specials:
+            if not special.future.done():
+                special.future.set_exception(error)
+        self._specials.clear()
+
+    def _check_usable(self) -> None:
+        if self._failure is not None:
+            raise self._failure
+        if self._closing:
+            raise MasterClosed("the master is closing")
+        if self._task is None:
+            raise MasterClosed("the master is not started: use 'async with Master(...)'")
+
+    def _poke(self) -> None:
+        if self._wake is not None:
+            self._wake.set()
+
+    # -- drives and the poll list ----------------------------------------------------------
+    def drive(
+        self,
+        address: int,
+        *,
+        layout: Layout | str | None = None,
+        profile: Profile | str | None = None,
+        response_delay: float | None = None,
+        poll: bool = True,
+    ) -> Drive:
+        """The handle of the slave at ``address`` (the same object on every call).
+
+        The first call fixes its ``layout`` (a `Layout` or ``"PKW,PZD"``; default: the
+        master's), ``profile`` and ``response_delay`` limit; later calls may repeat them but
+        not change them. ``poll``: add the address to the poll list if it is not in it yet.
+        """
+        from pyuss.master.drive import Drive
+
+        if isinstance(address, bool) or not isinstance(address, int):
+            raise ConfigError(f"slave address must be an integer 0..{MAX_ADDRESS}, not {address!r}")
+        if not 0 <= address <= MAX_ADDRESS:
+            raise ConfigError(f"slave address must be 0..{MAX_ADDRESS}, not {address}")
+        if isinstance(layout, str):
+            layout = Layout.parse(layout)
+        prof = resolve_profile(profile) if profile is not None else None
+        link = self._links.get(address)
+        if link is not None:
+            if layout is not None and layout != link.layout:
+                raise ConfigError(f"slave {address} uses layout {link.layout}, not {layout}")
+            if prof is not None and prof.name != link.profile.name:
+                raise ConfigError(
+                    f"slave {address} uses profile {link.profile.name}, not {prof.name}"
+                )
+            if response_delay is not None and response_delay != link.response_delay:
+                raise ConfigError(
+                    f"slave {address} has response delay limit {link.response_delay:g} s"
+                )
+        else:
+            prof = prof or self.profile
+            if layout is None:
+                layout = self.default_layout if prof is self.profile else prof.default_layout
+            prof.check_layout(layout)
+            if response_delay is not None and (
+                isinstance(response_delay, bool) or not response_delay > 0
+            ):
+                raise ConfigError(f"response delay must be > 0 seconds, not {response_delay!r}")
+            limit = response_limit(prof, self.baud, response_delay or self.response_delay)
+            link = _Link(address, layout, prof, limit)
+            link.drive = Drive(self, link)
+            self._links[address] = link
+            if layout.lge is not None:
+                self._receiver.fixed_lengths[address] = layout.lge
+        if poll and address not in self._poll:
+            self._poll.append(address)
+            self._poke()
+        assert link.drive is not None
+        return link.drive
+
+    @property
+    def drives(self) -> tuple[Drive, ...]:
+        """Every drive handle made so far, by address."""
+        return tuple(self._links[a].drive for a in sorted(self._links))  # type: ignore[misc]
+
+    @property
+    def poll_list(self) -> tuple[int, ...]:
+        """The addresses of the poll list in order (A 5.1)."""
+        return tuple(self._poll)
+
+    def set_poll_list(self, addresses: Iterable[int]) -> None:
+        """Set the poll list; an address may appear several times (A 5.1). Addresses without a
+        drive handle get one with the master's defaults."""
+        entries = list(addresses)
+        for address in entries:
+            self.drive(address, poll=False)
+        self._poll = entries
+        self._poke()
+
+    def on_spontaneous(self, callback: Callable[[SpontaneousMessage], object]) -> None:
+        """Call ``callback`` for every new spontaneous message of any slave (C 4.2.1.2)."""
+        self._spontaneous_callbacks.append(callback)
+
+    # -- what drives and users ask ---------------------------------------------------------
+    def _clock(self) -> float:
+        return self.transport.clock()
+
+    async def _job(
+        self, link: _Link, request: Pkw, pnu: int, index: int | None, timeout: float | None
+    ) -> Pkw:
+        self._check_usable()
+        if not link.layout.pkw:
+            raise ConfigError(
+                f"slave {link.address} has layout {link.layout}: without a PKW area no "
+                "parameter can be read or written (C 4.1)"
+            )
+        if self.mode is Mode.CYCLIC and link.address not in self._poll:
+            raise ConfigError(
+                f"slave {link.address} is not in the poll list: it gets no telegrams in cyclic mode"
+            )
+        loop = asyncio.get_running_loop()
+        future: asyncio.Future[Pkw] = loop.create_future()
+
+        def done(job: Job) -> None:
+            if future.done():
+                return
+            if job.error is not None:
+                future.set_exception(job.error)
+            else:
+                assert job.answer is not None
+                future.set_result(job.answer)
+
+        job = Job(request, pnu, index, self.job_timeout if timeout is None else timeout, done)
+        link.channel.submit(job)
+        self._poke()
+        try:
+            return await future
+        except asyncio.CancelledError:
+            link.channel.cancel(job)
+            raise
+
+    def _set_pzd(
+        self, link: _Link, control: int | None = None, setpoints: dict[int, int] | None = None
+    ) -> int:
+        """Change process data; returns the version to wait for."""
+        if control is not None:
+            link.control = int(control) & 0xFFFF
+        for number, value in (setpoints or {}).items():
+            link.setpoints[number - 2] = value & 0xFFFF
+        link.version += 1
+        self._poke()
+        return link.version
+
+    async def _delivered(self, link: _Link, version: int, timeout: float | None) -> DriveStatus:
+        """Wait for the answer to a telegram that carried process data ``version``."""
+        self._check_usable()
+        if self.mode is Mode.CYCLIC and link.address not in self._poll:
+            raise ConfigError(f"slave {link.address} is not in the poll list")
+        if link.answered_version >= version and link.status is not None:
+            return link.status
+        future: asyncio.Future[DriveStatus] = asyncio.get_running_loop().create_future()
+        link.version_waiters.append((version, future))
+        self._poke()
+        return await self._await_status(link, future, timeout)
+
+    async def _next_update(self, link: _Link, timeout: float | None) -> DriveStatus:
+        self._check_usable()
+        future: asyncio.Future[DriveStatus] = asyncio.get_running_loop().create_future()
+        link.update_waiters.append(future)
+        if self.mode is Mode.ACYCLIC:
+            link.polls_wanted += 1
+            self._poke()
+        return await self._await_status(link, future, timeout)
+
+    async def _await_status(
+        self, link: _Link, future: asyncio.Future[DriveStatus], timeout: float | None
+    ) -> DriveStatus:
+        wait = self.job_timeout if timeout is None else timeout
+        try:
+            return await asyncio.wait_for(future, wait)
+        except TimeoutError:
+            if link.not_sending:
+                raise NotSending(link.address, f"no answer within {wait:g} s") from None
+            raise UssTimeout(f"slave {link.address}: no answer within {wait:g} s") from None
+
+    async def exchange(self, address: int, *, timeout: float | None = None) -> DriveStatus:
+        """One telegram to ``address`` now (acyclic mode) or its next answer (cyclic)."""
+        link = self._links.get(address)
+        if link is None:
+            raise ConfigError(f"no drive at address {address}: call bus.drive({address}) first")
+        return await self._next_update(link, timeout)
+
+    async def mirror(self, address: int, data: bytes | None = None) -> MirrorResult:
+        """Send a mirror telegram (A 5.3) to ``address`` and check that it comes back unchanged.
+
+        ``data``: the net data (default: a test pattern of the length of the slave's telegrams -
+        its fixed length, or the shortest variable one - so that the slave accepts it; 5 words
+        for an address without a drive handle). Raises `MirrorMismatch` or `NotSending`.
+        """
+        self._check_usable()
+        link = self._links.get(address)
+        if data is None:
+            if link is None:
+                count = 5
+            else:
+                words = link.layout.words
+                count = 3 + link.layout.pzd if words is None else words
+            data = bytes((0x55 + 0x11 * i) & 0xFF for i in range(2 * count))
+        frame = Telegram(address, AddressMode.MIRROR, bytes(data)).encode()
+        result = await self._special("mirror", frame, address)
+        assert isinstance(result, MirrorResult)
+        return result
+
+    async def request(self, telegram: Telegram) -> Reply | None:
+        """Send any telegram between the turns of the poll list and return the answer of its
+        address (of the same type; a special telegram may be answered by a normal one), or
+        None when none came within the response delay limit. Broadcasts return None at once
+        after the listening time. For probing, special telegrams (A 5.4) and tools; the
+        slave's process data and parameter channel are not touched.
+        """
+        self._check_usable()
+        if not isinstance(telegram, Telegram):
+            raise ConfigError(f"request needs a Telegram, not {telegram!r}")
+        if telegram.mode.is_broadcast:
+            await self._broadcast(telegram.data, telegram.mode)
+            return None
+        result = await self._special("request", telegram.encode(), telegram.address)
+        assert result is None or isinstance(result, Reply)
+        return result
+
+    async def broadcast(
+        self,
+        pzd: Sequence[int],
+        *,
+        enable: BroadcastEnableArray | None = None,
+        pkw: Sequence[int] | Pkw | None = None,
+        layout: Layout | None = None,
+    ) -> int:
+        """Send a broadcast telegram (A 3): nobody answers. Returns how many telegrams arrived
+        within one response delay after it: 0 unless a slave breaks A 3.
+
+        ``pzd``: the process data words. ``enable``: a Broadcast Enable Array (appendix,
+        `pyuss.master.broadcast.enable_array_data`); or ``pkw``: any PKW area (its words or a
+        `Pkw`); neither: no PKW area. ``layout``: the common layout (default: PKW 4 with an
+        array or PKW words, 0 without, and ``len(pzd)`` PZD words).
+        """
+        if enable is not None:
+            if pkw is not None:
+                raise ConfigError("give a Broadcast Enable Array or PKW words, not both")
+            return await self._broadcast(enable_array_data(pzd, enable, layout))
+        if layout is None:
+            layout = Layout(4 if pkw is not None else 0, len(pzd))
+        area = pkw if pkw is None or isinstance(pkw, Pkw) else Pkw.from_words(list(pkw))
+        return await self._broadcast(layout.pack(area, list(pzd)))
+
+    async def broadcast_control(
+        self,
+        control: int,
+        *,
+        mask: int = 0xFFFF,
+        layout: Layout,
+        addresses: Iterable[int] | None = None,
+    ) -> int:
+        """Baumueller's broadcast (seed 004 2.2, NOTES 9): ``control`` merged into the control
+        word of every drive (or of ``addresses`` with broadcast coding) through ``mask``; see
+        `pyuss.master.broadcast.masked_control_data`. Returns as `broadcast`."""
+        return await self._broadcast(
+            masked_control_data(control, mask, layout=layout, addresses=addresses)
+        )
+
+    async def _broadcast(self, data: bytes, mode: AddressMode = AddressMode.BROADCAST) -> int:
+        self._check_usable()
+        frame = Telegram(0, mode, data).encode()
+        answered = await self._special("broadcast", frame, 0)
+        assert isinstance(answered, int)
+        return answered
+
+    async def _special(self, kind: str, frame: bytes, address: int) -> object:
+        future: asyncio.Future[object] = asyncio.get_running_loop().create_future()
+        self._specials.append(_Special(kind, frame, address, future))
+        self._poke()
+        return await future
+
+    # -- figures ---------------------------------------------------------------------------
+    def cycle_stats(self) -> CycleStats:
+        """Achieved cycle times (A 5.1.1)."""
+        return CycleStats(
+            cycles=self._cycle_count,
+            cycle_time=self.cycle_time,
+            achieved=self._cycles.summary(),
+            overruns=self._overruns,
+        )
+
+    def diagnostics(self) -> BusDiagnostics:
+        """A snapshot of the line and of every slave."""
+        now = self._clock()
+        return BusDiagnostics(
+            baud=self.baud,
+            line=self._line.snapshot(now),
+            cycles=self.cycle_stats(),
+            broadcasts=self._broadcasts,
+            answered_broadcasts=self._answered_broadcasts,
+            stray=self._stray,
+            slaves=tuple(self._links[a].snapshot(now) for a in sorted(self._links)),
+        )
+
+    def _slave_diagnostics(self, link: _Link) -> SlaveDiagnostics:
+        return link.snapshot(self._clock())
+
+    # -- the scheduler ---------------------------------------------------------------------
+    async def _run(self) -> None:
+        try:
+            while not self._closing:
+                if await self._do_specials():
+                    continue
+                if self.mode is Mode.CYCLIC:
+                    await self._cycle()
+                else:
+                    link = self._next_demand()
+                    if link is None:
+                        await self._sleep(None)
+                    else:
+                        await self._turn(link)
+        except TransportError as exc:
+            log.error("master stopped: %s", exc)
+            self._fail(exc)
+        except asyncio.CancelledError:
+            raise
+        except Exception as exc:  # a bug must not leave waiters hanging
+            log.exception("master stopped by an internal error")
+            self._fail(MasterClosed(f"the master stopped: {exc!r}"))
+
+    async def _sleep(self, timeout: float | None) -> None:
+        assert self._wake is not None
+        self._wake.clear()
+        if self._closing or self._specials:
+            return
+        if timeout is None:
+            await self._wake.wait()
+            return
+        if timeout > 0:
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._wake.wait(), timeout)
+
+    async def _cycle(self) -> None:
+        entries = tuple(self._poll)
+        if not entries:
+            await self._sleep(None)
+            return
+        start = self._clock()
+        if self._last_cycle_start is not None:
+            self._cycles.add(start - self._last_cycle_start)
+        self._last_cycle_start = start
+        for address in entries:
+            if self._closing:
+                return
+            await self._do_specials()
+            link = self._links.get(address)
+            if link is not None:
+                await self._turn(link)
+        self._cycle_count += 1
+        if self.cycle_time is None:
+            return
+        end = start + self.cycle_time
+        if self._clock() > end:
+            self._overruns += 1
+            return
+        while not self._closing:
+            left = end - self._clock()
+            if left <= 0:
+                return
+            if not await self._do_specials():
+                await self._sleep(left)
+
+    def _next_demand(self) -> _Link | None:
+        addresses = sorted(self._links)
+        if not addresses:
+            return None
+        for step in range(len(addresses)):
+            address = addresses[(self._rotation + step) % len(addresses)]
+            link = self._links[address]
+            if link.wants_turn:
+                self._rotation = (self._rotation + step + 1) % len(addresses)
+                return link
+        return None
+
+    async def _do_specials(self) -> bool:
+        if not self._specials:
+            return False
+        while self._specials and not self._closing:
+            special = self._specials.pop(0)
+            try:
+                result = await self._run_special(special)
+            except TransportError:
+                raise
+            except UssError as exc:
+                if not special.future.done():
+                    special.future.set_exception(exc)
+            else:
+                if not special.future.done():
+                    special.future.set_result(result)
+        return True
+
+    async def _run_special(self, special: _Special) -> object:
+        if special.kind == "broadcast":
+            self._broadcasts += 1
+            pause = max((ln.profile.start_pause_chars for ln in self._links.values()), default=2)
+            await self._send(special.frame, pause)
+            self._after_broadcast = True
+            before = self._answered_broadcasts
+            limit = response_limit(self.profile, self.baud, self.response_delay)
+            await self._listen(self._line_free + limit + self.rx_tolerance)
+            return self._answered_broadcasts - before
+        link = self._links.get(special.address)
+        pause = (
+            link.profile.start_pause_chars if link is not None else self.profile.start_pause_chars
+        )
+        limit = (
+            link.response_delay
+            if link is not None
+            else response_limit(self.profile, self.baud, self.response_delay)
+        )
+        mode = Telegram.decode(special.frame).mode
+        modes = {mode, AddressMode.NORMAL} if mode is AddressMode.SPECIAL else {mode}
+        result = await self._transact(special.frame, special.address, modes, limit, pause, link)
+        received = result.received
+        if result.outcome is not _Outcome.ANSWER or received is None:
+            if special.kind == "request":
+                return None
+            raise NotSending(special.address, "no answer to the mirror telegram (A 5.3)")
+        if link is not None:
+            self._good_answer(link, received, result)
+        response_time = max(0.0, received.start - result.request_end)
+        if special.kind == "request":
+            return Reply(received.telegram, received.raw, response_time)
+        if received.raw != special.frame:
+            raise MirrorMismatch(special.address, special.frame, received.raw)
+        return MirrorResult(
+            address=special.address,
+            sent=special.frame,
+            response_time=response_time,
+            round_trip=max(0.0, received.end - result.request_start),
+        )
+
+    async def _turn(self, link: _Link) -> None:
+        """One telegram to ``link`` and its answer. The telegram is built at the last moment,
+        once the start pause is over, so that it carries the newest process data (C 5.1) and
+        a job submitted meanwhile."""
+        sent = [link.version, link.control]
+
+        def build() -> bytes:
+            pkw = link.channel.request(self._clock()) if link.layout.pkw else None
+            sent[:] = [link.version, link.control]
+            data = link.layout.pack(pkw, link.pzd())
+            return Telegram(link.address, AddressMode.NORMAL, data).encode()
+
+        link.polls_wanted = max(0, link.polls_wanted - 1)
+        result = await self._transact(
+            build,
+            link.address,
+            _NORMAL,
+            link.response_delay,
+            link.profile.start_pause_chars,
+            link,
+        )
+        link.exchanges += 1
+        if result.outcome is _Outcome.ANSWER and result.received is not None:
+            self._answer(link, result, sent[0], sent[1])
+        link.channel.expire(self._clock())
+
+    def _answer(self, link: _Link, result: _Result, version: int, control: int) -> None:
+        received = result.received
+        assert received is not None
+        try:
+            net = link.layout.unpack(received.telegram.data)
+        except TelegramError as exc:
+            link.unusable += 1
+            link.diagnostics.record_fault(FaultKind.BAD_LGE, received.end)
+            log.warning(
+                "slave %d: answer does not fit layout %s: %s", link.address, link.layout, exc
+            )
+            return
+        self._good_answer(link, received, result)
+        self._process_data(link, net, received.end, version, control)
+        if net.pkw is not None:
+            message = link.channel.answer(net.pkw, received.end)
+            if message is not None:
+                self._deliver_spontaneous(link, message)
+
+    def _good_answer(self, link: _Link, received: Received, result: _Result) -> None:
+        link.answers += 1
+        link.diagnostics.record_received(received.end)
+        link.response_times.add(max(0.0, received.start - result.request_end))
+        if link.not_sending:
+            link.not_sending = False
+            link.channel.not_sending = False
+            log.info("slave %d sends again", link.address)
+
+    def _process_data(
+        self, link: _Link, net: NetData, when: float, version: int, control: int
+    ) -> None:
+        if not net.pzd:
+            status = DriveStatus(link.address, 0, (), when, control)
+        else:
+            status = DriveStatus(link.address, net.pzd[0], tuple(net.pzd[1:]), when, control)
+        link.status = status
+        link.answered_version = max(link.answered_version, version)
+        waiters, link.update_waiters = link.update_waiters, []
+        for future in waiters:
+            if not future.done():
+                future.set_result(status)
+        keep = []
+        for wanted, future in link.version_waiters:
+            if wanted <= version:
+                if not future.done():
+                    future.set_result(status)
+            else:
+                keep.append((wanted, future))
+        link.version_waiters = keep
+        for callback in list(link.update_callbacks):
+            try:
+                callback(status)
+            except Exception:
+                log.exception("slave %d: process data callback failed", link.address)
+
+    def _deliver_spontaneous(self, link: _Link, message: SpontaneousMessage) -> None:
+        log.info(
+            "slave %d: spontaneous message P%d %s %s",
+            link.address,
+            message.pnu,
+            message.response.text,
+            message.values,
+        )
+        for callback in (*link.spontaneous_callbacks, *self._spontaneous_callbacks):
+            try:
+                callback(message)
+            except Exception:
+                log.exception("slave %d: spontaneous message callback failed", link.address)
+
+    def _silent(self, link: _Link, when: float) -> None:
+        link.timeouts += 1
+        link.diagnostics.record_timeout(when)
+        if not link.not_sending:
+            link.not_sending = True
+            link.channel.not_sending = True
+            log.warning(
+                "slave %d does not send (no answer within %.1f ms)",
+                link.address,
+                link.response_delay * 1000,
+            )
+
+    # -- the line --------------------------------------------------------------------------
+    async def _send(
+        self, frame: bytes | Callable[[], bytes], pause_chars: float
+    ) -> tuple[float, float]:
+        """Keep the start pause, send ``frame`` (or what ``frame()`` builds then); returns the
+        telegram's start and end time."""
+        pause = max(2.0, pause_chars) * self.timing.char_time
+        await asyncio.sleep(0)  # let tasks woken by the last answer queue their jobs first
+        while True:
+            await self._drain()
+            quiet = max(self._line_free, self._receiver.last_byte_end)
+            left = quiet + pause - self._clock()
+            if left <= 0:
+                break
+            chunk = await self.transport.read(left)
+            if chunk is not None:
+                self._stray_events(self._feed(chunk))
+        self._stray_events(self._receiver.poll(self._clock()))
+        self._receiver.reset()
+        self._rx_end = -math.inf
+        self._after_broadcast = False
+        if callable(frame):
+            frame = frame()
+        start = self._clock()
+        try:
+            await self.transport.write(frame)
+        except LinkDown as exc:
+            log.warning("master: telegram not sent: %s", exc)
+            await asyncio.sleep(min(0.1, self.latency + 0.01))
+        end = max(start + self.timing.transmit(len(frame)), self._clock())
+        self._line_free = end
+        log_frame("tx", frame, end)
+        return start, end
+
+    def _feed(self, chunk: Chunk) -> list[Received | ReceiveFault]:
+        """Feed a chunk to the receiver. Chunks of transports with exact timestamps go as they
+        are; on others a gap shorter than ``rx_tolerance`` is taken for jitter of the stamps and
+        closed (the bytes follow the previous ones back to back), a longer one is kept."""
+        stamp = chunk.timestamp
+        if self.rx_tolerance > 0:
+            following = self._rx_end + len(chunk.data) * self.timing.char_time
+            stamp = following if stamp - self._rx_end <= self.rx_tolerance else stamp
+            self._rx_end = stamp
+        return self._receiver.feed(chunk.data, stamp, chunk.errors)
+
+    async def _drain(self) -> None:
+        while True:
+            chunk = await self.transport.read(0)
+            if chunk is None:
+                break
+            self._stray_events(self._feed(chunk))
+        self._stray_events(self._receiver.poll(self._clock() - self.latency))
+
+    def _stray_events(self, events: list[Received | ReceiveFault]) -> None:
+        for event in events:
+            if isinstance(event, Received):
+                log_frame("rx", event.raw, event.end, "stray")
+                if self._after_broadcast:
+                    self._answered_broadcasts += 1
+                    log.warning(
+                        "a telegram from address %d answered a broadcast (A 3 forbids it)",
+                        event.telegram.address,
+                    )
+                else:
+                    self._stray += 1
+            else:
+                log_frame("rx", event.raw, event.end, f"fault {event.kind.name}")
+
+    async def _listen(self, until: float) -> None:
+        """Take in what arrives until ``until`` (plus latency) and the line is quiet."""
+        while True:
+            await self._drain()
+            left = until + self.latency - self._clock()
+            if left <= 0 and not self._receiver.busy:
+                return
+            chunk = await self.transport.read(max(left, self.timing.start_pause))
+            if chunk is not None:
+                self._stray_events(self._feed(chunk))
+
+    async def _transact(
+        self,
+        frame: bytes | Callable[[], bytes],
+        address: int,
+        modes: Collection[AddressMode],
+        limit: float,
+        pause_chars: float,
+        link: _Link | None,
+    ) -> _Result:
+        """Send ``frame`` and wait for the answer of ``address`` (A 5.2)."""
+        start, end = await self._send(frame, pause_chars)
+        deadline = end + limit + self.rx_tolerance
+        faulty = False
+        receiver = self._receiver
+        events: list[Received | ReceiveFault] = []
+        while True:
+            now = self._clock()
+            events += receiver.poll(now - self.latency)
+            found: tuple[_Outcome, Received] | None = None
+            for event in events:
+                outcome = self._judge(event, address, modes, deadline, link)
+                if outcome is _Outcome.FAULT:
+                    faulty = True
+                elif outcome is not None and found is None:
+                    assert isinstance(event, Received)
+                    found = (outcome, event)
+            events = []
+            if found is not None:
+                return self._finish(found[0], found[1], start, end, link)
+            if receiver.busy:
+                nxt = receiver.next_poll()
+                wait = (nxt if nxt is not None else now) + self.latency - now
+                wait = max(wait, self.timing.char_time)
+            else:
+                wait = deadline + self.latency - now
+                if wait <= 0:
+                    outcome = _Outcome.FAULT if faulty else _Outcome.SILENT
+                    return self._finish(outcome, None, start, end, link)
+            chunk = await self.transport.read(wait)
+            if chunk is not None:
+                events = self._feed(chunk)
+
+    def _finish(
+        self,
+        outcome: _Outcome,
+        received: Received | None,
+        start: float,
+        end: float,
+        link: _Link | None,
+    ) -> _Result:
+        if link is not None and outcome in (_Outcome.SILENT, _Outcome.LATE) and not self._closing:
+            self._silent(link, self._clock())
+        return _Result(outcome, received if outcome is _Outcome.ANSWER else None, start, end)
+
+    def _judge(
+        self,
+        event: Received | ReceiveFault,
+        address: int,
+        modes: Collection[AddressMode],
+        deadline: float,
+        link: _Link | None,
+    ) -> _Outcome | None:
+        """Classify one event while the answer of ``address`` is awaited."""
+        if isinstance(event, ReceiveFault):
+            log_frame("rx", event.raw, event.end, f"fault {event.kind.name}: {event.detail}")
+            if link is not None:
+                link.diagnostics.record_fault(event.kind, event.end)
+            return _Outcome.FAULT
+        telegram = event.telegram
+        if telegram.address != address or telegram.mode not in modes:
+            log_frame("rx", event.raw, event.end, f"discarded: not the answer of {address}")
+            if link is not None:
+                link.wrong_address += 1
+                link.diagnostics.record_discarded(event.end)
+            return None
+        log_frame("rx", event.raw, event.end)
+        if event.start > deadline + self.timing.char_time * 1e-3:
+            if link is not None:
+                link.late += 1
+            log.debug(
+                "slave %d answered %.1f ms after the deadline: not used",
+                address,
+                (event.start - deadline) * 1000,
+            )
+            return _Outcome.LATE
+        return _Outcome.ANSWER

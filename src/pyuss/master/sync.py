@@ -1,0 +1,387 @@
+"""The master for scripts without asyncio: the same core, run in a background thread.
+
+::
+
+    from pyuss.master.sync import Master
+
+    with Master("/dev/ttyUSB0", baud=19200) as bus:
+        drive = bus.drive(5, layout="3,2")
+        print(drive.read(52))
+        drive.on()
+        drive.setpoint(50.0)
+
+`Master` starts one thread with its own event loop on `open` (or ``with``) and runs the
+asyncio `pyuss.master.Master` there; every method hands its call to that loop and waits for
+the result, so the logic exists once. Calls from several threads at once are safe: they queue
+in the scheduler like the jobs of several tasks. Callbacks (`Drive.on_update`,
+`Drive.on_spontaneous`, `Master.on_spontaneous`) run in the background thread and must not
+block it. Errors are the same exceptions as in the asyncio API. ``call_timeout`` bounds how
+long a call may wait for the loop (default: no bound beyond the operation's own timeouts).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from collections.abc import Callable, Coroutine, Iterable, Sequence
+from types import TracebackType
+from typing import Any, TypeVar
+
+from pyuss.master import scheduler
+from pyuss.master.description import Description
+from pyuss.master.drive import Drive as AsyncDrive
+from pyuss.master.errors import MasterClosed
+from pyuss.master.jobs import SpontaneousMessage
+from pyuss.master.process import DriveStatus
+from pyuss.master.profile import Profile
+from pyuss.master.stats import BusDiagnostics, CycleStats, SlaveDiagnostics
+from pyuss.protocol.broadcast import BroadcastEnableArray
+from pyuss.protocol.layout import Layout
+from pyuss.protocol.pkw import Pkw
+from pyuss.transport.base import Transport
+
+__all__ = ["Drive", "Master"]
+
+T = TypeVar("T")
+
+
+class Master:
+    """A bus master for synchronous code; takes the arguments of `pyuss.master.Master`."""
+
+    def __init__(
+        self,
+        transport: Transport | str,
+        *,
+        call_timeout: float | None = None,
+        **options: Any,
+    ) -> None:
+        self._transport = transport
+        self._options = options
+        self._call_timeout = call_timeout
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._thread: threading.Thread | None = None
+        self._master: scheduler.Master | None = None
+        self._drives: dict[int, Drive] = {}
+
+    # -- the background loop ---------------------------------------------------------------
+    def _call(self, coro: Coroutine[Any, Any, T]) -> T:
+        loop = self._loop
+        if loop is None:
+            coro.close()
+            raise MasterClosed("the master is not open: use 'with Master(...)' or open()")
+        future = asyncio.run_coroutine_threadsafe(coro, loop)
+        try:
+            return future.result(self._call_timeout)
+        except TimeoutError:
+            future.cancel()
+            raise
+
+    def _run(self, func: Callable[[], T]) -> T:
+        """Run a plain function on the loop thread (the core is not thread-safe)."""
+
+        async def call() -> T:
+            return func()
+
+        return self._call(call())
+
+    @property
+    def core(self) -> scheduler.Master:
+        """The asyncio master running in the background thread."""
+        if self._master is None:
+            raise MasterClosed("the master is not open")
+        return self._master
+
+    def open(self) -> None:
+        """Start the background thread, open the transport and start the scheduler."""
+        if self._loop is not None:
+            return
+        loop = asyncio.new_event_loop()
+        thread = threading.Thread(target=loop.run_forever, name="uss master", daemon=True)
+        thread.start()
+        self._loop, self._thread = loop, thread
+
+        async def start() -> scheduler.Master:
+            master = scheduler.Master(self._transport, **self._options)
+            await master.start()
+            return master
+
+        try:
+            self._master = self._call(start())
+        except BaseException:
+            self._stop_loop()
+            raise
+
+    def close(self) -> None:
+        """Stop the scheduler, close the transport, end the thread."""
+        if self._loop is None:
+            return
+        try:
+            if self._master is not None:
+                self._call(self._master.close())
+        finally:
+            self._master = None
+            self._stop_loop()
+
+    def _stop_loop(self) -> None:
+        loop, thread = self._loop, self._thread
+        self._loop = self._thread = None
+        if loop is None:
+            return
+        loop.call_soon_threadsafe(loop.stop)
+        if thread is not None:
+            thread.join(5.0)
+        loop.close()
+
+    def __enter__(self) -> Master:
+        self.open()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    # -- the bus ---------------------------------------------------------------------------
+    def drive(
+        self,
+        address: int,
+        *,
+        layout: Layout | str | None = None,
+        profile: Profile | str | None = None,
+        response_delay: float | None = None,
+        poll: bool = True,
+    ) -> Drive:
+        """The handle of the slave at ``address`` (see `pyuss.master.Master.drive`)."""
+        core = self.core
+        handle = self._run(
+            lambda: core.drive(
+                address, layout=layout, profile=profile, response_delay=response_delay, poll=poll
+            )
+        )
+        if address not in self._drives:
+            self._drives[address] = Drive(self, handle)
+        return self._drives[address]
+
+    @property
+    def poll_list(self) -> tuple[int, ...]:
+        return self.core.poll_list
+
+    def set_poll_list(self, addresses: Iterable[int]) -> None:
+        entries = list(addresses)
+        core = self.core
+        self._run(lambda: core.set_poll_list(entries))
+
+    def broadcast(
+        self,
+        pzd: Sequence[int],
+        *,
+        enable: BroadcastEnableArray | None = None,
+        pkw: Sequence[int] | Pkw | None = None,
+        layout: Layout | None = None,
+    ) -> int:
+        return self._call(self.core.broadcast(pzd, enable=enable, pkw=pkw, layout=layout))
+
+    def broadcast_control(
+        self,
+        control: int,
+        *,
+        mask: int = 0xFFFF,
+        layout: Layout,
+        addresses: Iterable[int] | None = None,
+    ) -> int:
+        return self._call(
+            self.core.broadcast_control(control, mask=mask, layout=layout, addresses=addresses)
+        )
+
+    def mirror(self, address: int, data: bytes | None = None) -> scheduler.MirrorResult:
+        return self._call(self.core.mirror(address, data))
+
+    def exchange(self, address: int, *, timeout: float | None = None) -> DriveStatus:
+        return self._call(self.core.exchange(address, timeout=timeout))
+
+    def diagnostics(self) -> BusDiagnostics:
+        core = self.core
+        return self._run(core.diagnostics)
+
+    def cycle_stats(self) -> CycleStats:
+        core = self.core
+        return self._run(core.cycle_stats)
+
+    def on_spontaneous(self, callback: Callable[[SpontaneousMessage], object]) -> None:
+        core = self.core
+        self._run(lambda: core.on_spontaneous(callback))
+
+
+class Drive:
+    """One slave, synchronously: the methods of `pyuss.master.Drive` without ``await``."""
+
+    def __init__(self, bus: Master, drive: AsyncDrive) -> None:
+        self._bus = bus
+        self._drive = drive
+
+    def __repr__(self) -> str:
+        return repr(self._drive).replace("<Drive", "<sync Drive", 1)
+
+    @property
+    def core(self) -> AsyncDrive:
+        """The asyncio handle (use it only on the background loop)."""
+        return self._drive
+
+    @property
+    def address(self) -> int:
+        return self._drive.address
+
+    @property
+    def layout(self) -> Layout:
+        return self._drive.layout
+
+    @property
+    def profile(self) -> Profile:
+        return self._drive.profile
+
+    @property
+    def not_sending(self) -> bool:
+        return self._drive.not_sending
+
+    @property
+    def status(self) -> DriveStatus | None:
+        return self._drive.status
+
+    @property
+    def control(self) -> int:
+        return self._drive.control
+
+    def diagnostics(self) -> SlaveDiagnostics:
+        return self._bus._run(self._drive.diagnostics)
+
+    def mirror(self) -> scheduler.MirrorResult:
+        return self._bus._call(self._drive.mirror())
+
+    # parameters
+    def job(self, request: Pkw, *, timeout: float | None = None) -> Pkw:
+        return self._bus._call(self._drive.job(request, timeout=timeout))
+
+    def read(
+        self,
+        pnu: int,
+        index: int | None = None,
+        *,
+        signed: bool = False,
+        timeout: float | None = None,
+    ) -> int:
+        return self._bus._call(self._drive.read(pnu, index, signed=signed, timeout=timeout))
+
+    def read_float(
+        self, pnu: int, index: int | None = None, *, timeout: float | None = None
+    ) -> float:
+        return self._bus._call(self._drive.read_float(pnu, index, timeout=timeout))
+
+    def write(
+        self,
+        pnu: int,
+        value: int | float,
+        index: int | None = None,
+        *,
+        dword: bool | None = None,
+        eeprom: bool = False,
+        timeout: float | None = None,
+    ) -> int | float:
+        return self._bus._call(
+            self._drive.write(pnu, value, index, dword=dword, eeprom=eeprom, timeout=timeout)
+        )
+
+    def array_length(self, pnu: int, *, timeout: float | None = None) -> int:
+        return self._bus._call(self._drive.array_length(pnu, timeout=timeout))
+
+    def read_array(
+        self, pnu: int, *, signed: bool = False, timeout: float | None = None
+    ) -> list[int]:
+        return self._bus._call(self._drive.read_array(pnu, signed=signed, timeout=timeout))
+
+    def read_description(
+        self, pnu: int, element: int | None = None, *, timeout: float | None = None
+    ) -> Description:
+        return self._bus._call(self._drive.read_description(pnu, element, timeout=timeout))
+
+    def read_text(
+        self, pnu: int, index: int, *, value_texts: bool = False, timeout: float | None = None
+    ) -> str:
+        return self._bus._call(
+            self._drive.read_text(pnu, index, value_texts=value_texts, timeout=timeout)
+        )
+
+    def write_text(
+        self,
+        pnu: int,
+        index: int,
+        text: str,
+        *,
+        value_texts: bool = False,
+        timeout: float | None = None,
+    ) -> str:
+        return self._bus._call(
+            self._drive.write_text(pnu, index, text, value_texts=value_texts, timeout=timeout)
+        )
+
+    # process data
+    def set_control(self, word: int) -> None:
+        self._bus._run(lambda: self._drive.set_control(word))
+
+    def set_pzd(self, number: int, value: int) -> None:
+        self._bus._run(lambda: self._drive.set_pzd(number, value))
+
+    def control_word(self, word: int, *, timeout: float | None = None) -> DriveStatus:
+        return self._bus._call(self._drive.control_word(word, timeout=timeout))
+
+    def setpoint(
+        self,
+        percent: float | None = None,
+        *,
+        raw: int | None = None,
+        pzd: int = 2,
+        dword: bool = False,
+        timeout: float | None = None,
+    ) -> DriveStatus:
+        return self._bus._call(
+            self._drive.setpoint(percent, raw=raw, pzd=pzd, dword=dword, timeout=timeout)
+        )
+
+    def on(self, *, timeout: float | None = None) -> DriveStatus:
+        return self._bus._call(self._drive.on(timeout=timeout))
+
+    def off1(self, *, timeout: float | None = None) -> DriveStatus:
+        return self._bus._call(self._drive.off1(timeout=timeout))
+
+    def off2(self, *, timeout: float | None = None) -> DriveStatus:
+        return self._bus._call(self._drive.off2(timeout=timeout))
+
+    def off3(self, *, timeout: float | None = None) -> DriveStatus:
+        return self._bus._call(self._drive.off3(timeout=timeout))
+
+    def enable(self, enabled: bool = True, *, timeout: float | None = None) -> DriveStatus:
+        return self._bus._call(self._drive.enable(enabled, timeout=timeout))
+
+    def acknowledge(self, *, timeout: float | None = None) -> DriveStatus:
+        return self._bus._call(self._drive.acknowledge(timeout=timeout))
+
+    def jog(self, which: int | None, *, timeout: float | None = None) -> DriveStatus:
+        return self._bus._call(self._drive.jog(which, timeout=timeout))
+
+    def next_update(self, *, timeout: float | None = None) -> DriveStatus:
+        return self._bus._call(self._drive.next_update(timeout=timeout))
+
+    def wait_until(
+        self, condition: Callable[[DriveStatus], bool], *, timeout: float = 10.0
+    ) -> DriveStatus:
+        return self._bus._call(self._drive.wait_until(condition, timeout=timeout))
+
+    def on_update(self, callback: Callable[[DriveStatus], object]) -> Callable[[], None]:
+        return self._bus._run(lambda: self._drive.on_update(callback))
+
+    def on_spontaneous(
+        self, callback: Callable[[SpontaneousMessage], object]
+    ) -> Callable[[], None]:
+        return self._bus._run(lambda: self._drive.on_spontaneous(callback))

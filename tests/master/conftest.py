@@ -1,0 +1,188 @@
+"""Fixtures for master tests: a virtual bus with scripted slaves."""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from collections.abc import AsyncIterator, Callable, Sequence
+from contextlib import asynccontextmanager
+from dataclasses import dataclass
+from typing import Any
+
+from master.scripted import ScriptedSlave
+from pyuss.bus import FaultPlan, Recorder, VirtualBus
+from pyuss.master import Master
+from pyuss.master.testing import simulated_drives
+from pyuss.protocol.layout import Layout
+from pyuss.protocol.receiver import Received, Receiver
+from pyuss.slave import JobLatency, SlaveEngine
+
+
+@dataclass
+class Setup:
+    bus: VirtualBus
+    master: Master
+    slaves: dict[int, ScriptedSlave]
+    recorder: Recorder | None
+
+
+LAYOUT_32 = Layout(3, 2)
+
+
+@asynccontextmanager
+async def scripted_bus(
+    addresses: Sequence[int] = (5,),
+    *,
+    baud: int = 38400,
+    layout: Layout = LAYOUT_32,
+    faults: FaultPlan | None = None,
+    record: bool = False,
+    **master_options: Any,
+) -> AsyncIterator[Setup]:
+    """A bus at ``baud`` with one scripted slave per address and a started master."""
+    bus = VirtualBus(baud, faults=faults)
+    recorder = Recorder().attach(bus) if record else None
+    slaves = {a: await ScriptedSlave(bus, a, layout).start() for a in addresses}
+    master = Master(bus.attach("master"), layout=layout, **master_options)
+    try:
+        async with master:
+            yield Setup(bus, master, slaves, recorder)
+    finally:
+        for slave in slaves.values():
+            await slave.stop()
+        await bus.close()
+
+
+def line_telegrams(recorder: Recorder, baud: int, sender: str = "master") -> list[Received]:
+    """The telegrams ``sender`` put on the line, decoded from the recording (times in seconds
+    since the bus started)."""
+    receiver = Receiver(baud)
+    out: list[Received] = []
+    for record in recorder.records:
+        if record.sender != sender:
+            continue
+        for event in receiver.feed(bytes((record.byte,)), record.t):
+            if isinstance(event, Received):
+                out.append(event)
+    return out
+
+
+@dataclass
+class SimSetup:
+    bus: VirtualBus
+    master: Master
+    engines: dict[int, SlaveEngine]
+    recorder: Recorder | None
+
+
+@asynccontextmanager
+async def simulated_bus(
+    drives: Sequence[tuple[int, str, Layout | None]],
+    *,
+    baud: int = 38400,
+    record: bool = False,
+    faults: FaultPlan | None = None,
+    latency: JobLatency | None = None,
+    **master_options: Any,
+) -> AsyncIterator[SimSetup]:
+    """A virtual bus with simulated drives ``(address, profile, layout)`` and a started
+    master."""
+    bus = VirtualBus(baud, faults=faults)
+    recorder = Recorder().attach(bus) if record else None
+    try:
+        async with (
+            simulated_drives(bus, drives, latency=latency) as engines,
+            Master(bus.attach("master"), **master_options) as master,
+        ):
+            yield SimSetup(bus, master, engines, recorder)
+    finally:
+        await bus.close()
+
+
+async def eventually(predicate: Callable[[], bool], timeout: float = 15.0) -> None:
+    """Wait (generously) until ``predicate`` holds."""
+    loop = asyncio.get_running_loop()
+    end = loop.time() + timeout
+    while not predicate():
+        if loop.time() > end:
+            raise AssertionError("condition not reached in time")
+        await asyncio.sleep(0.005)
+
+
+class SimulatorThread:
+    """Simulated drives on a virtual bus in a thread of their own, reached through ptys the
+    bus serves: what a master sees of drives in another program (no timing on the pty).
+
+    ``drives``: ``(address, profile, layout)``; ``call(fn)`` runs ``fn(setup)`` on the bus's
+    loop (to inject faults or look at the simulator).
+    """
+
+    def __init__(
+        self,
+        drives: Sequence[tuple[int, str, Layout | None]],
+        *,
+        baud: int = 38400,
+        ptys: int = 1,
+        faults: FaultPlan | None = None,
+        latency: JobLatency | None = None,
+        record: bool = False,
+    ) -> None:
+        self.drives = drives
+        self.baud = baud
+        self.ptys = ptys
+        self.faults = faults
+        self.latency = latency
+        self.record = record
+        self.paths: list[str] = []
+        self.bus: VirtualBus | None = None
+        self.recorder: Recorder | None = None
+        self.engines: dict[int, SlaveEngine] = {}
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._thread: threading.Thread | None = None
+        self._stop: asyncio.Event | None = None
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+
+    def __enter__(self) -> SimulatorThread:
+        self._thread = threading.Thread(target=self._main, name="simulated bus", daemon=True)
+        self._thread.start()
+        if not self._ready.wait(10):
+            raise RuntimeError("the simulated bus did not start")
+        if self._error is not None:
+            raise self._error
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._loop is not None and self._stop is not None:
+            self._loop.call_soon_threadsafe(self._stop.set)
+        if self._thread is not None:
+            self._thread.join(10)
+
+    def call(self, func: Any) -> Any:
+        assert self._loop is not None
+
+        async def run() -> Any:
+            return func(self)
+
+        return asyncio.run_coroutine_threadsafe(run(), self._loop).result(10)
+
+    def _main(self) -> None:
+        asyncio.run(self._serve())
+
+    async def _serve(self) -> None:
+        self._loop = asyncio.get_running_loop()
+        self._stop = asyncio.Event()
+        bus = self.bus = VirtualBus(self.baud, faults=self.faults)
+        if self.record:
+            self.recorder = Recorder().attach(bus)
+        try:
+            async with simulated_drives(bus, self.drives, latency=self.latency) as engines:
+                self.engines = engines
+                self.paths = await bus.serve_pty(self.ptys)
+                self._ready.set()
+                await self._stop.wait()
+        except BaseException as exc:
+            self._error = exc
+            self._ready.set()
+        finally:
+            await bus.close()

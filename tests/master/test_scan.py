@@ -1,0 +1,68 @@
+"""Scanning a line for slaves, their baud rate and layout; raw requests."""
+
+from __future__ import annotations
+
+import asyncio
+
+from master.conftest import simulated_bus
+from pyuss.bus import VirtualBus
+from pyuss.master.scan import Found, probe_layouts, scan
+from pyuss.profiles import get_profile
+from pyuss.protocol.layout import PKW_VARIABLE, Layout
+from pyuss.protocol.telegram import AddressMode, Telegram
+
+
+def test_probe_layouts_one_per_length_profile_first() -> None:
+    layouts = probe_layouts(get_profile("baumueller"))
+    assert layouts[0] == Layout(3, 2)
+    assert len({layout.lge for layout in layouts}) == len(layouts)
+    assert all(not layout.variable for layout in layouts)
+    assert probe_layouts(get_profile("6se21")) == [Layout(3, 2)]
+    assert probe_layouts(None, [Layout(3, 2), Layout(4, 1)]) == [Layout(3, 2)]  # same length
+
+
+async def test_scan_finds_addresses_layouts_and_the_baud_rate() -> None:
+    drives = [
+        (1, "generic", Layout(3, 2)),
+        (7, "generic", Layout(PKW_VARIABLE, 2)),
+        (9, "6se21", Layout(3, 2)),
+        (12, "generic", Layout(0, 2)),
+        (20, "generic", Layout(4, 0)),
+    ]
+    async with simulated_bus(drives, baud=19200) as env:
+        await env.master.close()  # the scan has the line to itself
+        other = VirtualBus(9600)
+        stations = {19200: env.bus, 9600: other}
+        seen: list[tuple[int, int]] = []
+        found = await scan(
+            lambda baud: stations[baud].attach(f"scan{baud}"),
+            [9600, 19200],
+            [1, 2, 7, 9, 12, 20],
+            progress=lambda done, total: seen.append((done, total)),
+            latency=0.005,
+        )
+        await other.close()
+    by_address = {f.address: f for f in found}
+    assert set(by_address) == {1, 7, 9, 12, 20}
+    assert all(f.baud == 19200 for f in found)
+    assert by_address[1].layout == Layout(3, 2)
+    assert by_address[7].layout == Layout(PKW_VARIABLE, 2)
+    assert by_address[9].layout == Layout(3, 2)
+    assert by_address[12].layout == Layout(0, 2)
+    assert by_address[20].layout == Layout(4, 0)
+    assert by_address[1].status is not None
+    assert seen[-1][0] == seen[-1][1]  # the progress ends complete
+    assert isinstance(found[0], Found) and found[0].to_dict()["baud"] == 19200
+
+
+async def test_request_sends_any_telegram_and_returns_the_answer() -> None:
+    async with simulated_bus([(5, "generic", Layout(3, 2))]) as env:
+        bus = env.master
+        mirror = Telegram(5, AddressMode.MIRROR, bytes(range(10)))
+        reply = await bus.request(mirror)
+        assert reply is not None and reply.telegram == mirror
+        # A special telegram is dropped by a slave without special telegrams (A 5.4).
+        assert await bus.request(Telegram(5, AddressMode.SPECIAL, bytes(10))) is None
+        assert await bus.request(Telegram(6, AddressMode.NORMAL, bytes(10))) is None
+        assert await bus.request(Telegram(0, AddressMode.BROADCAST, bytes(14))) is None
+        await asyncio.sleep(0)
