@@ -11,6 +11,15 @@ its own parameters, on one of:
 - ``--bus HOST:PORT``: a station of a virtual bus run by ``uss bus --bus-tcp``; the first line
   is ``bus://HOST:PORT``.
 
+``--profile baumueller`` drives also have Baumueller's BASS service interface (seed 004 part 1):
+``--bass-pty``, ``--bass-tcp HOST:PORT`` or ``--bass-serial DEVICE`` serves it (RS-232, 9600
+baud 8N1, `pyuss.bass.drive`). Each drive is then ONE drive on two interfaces: a BASS write is
+seen over USS, and a BASS write of an active parameter makes the USS side send a spontaneous
+message (on by default with a BASS side; ``--no-spontaneous`` turns it off). All drives of the
+process form one closed BASS ring, wired in address order, each with its bus address as DIP
+address. Output order: the first line is the USS device as above, the second the BASS device
+(``/dev/pts/8``, ``tcp://HOST:PORT`` or DEVICE); stderr says which is which.
+
 It stops cleanly on SIGINT or SIGTERM (or after ``--duration`` seconds): exit code 0, and a
 summary on stderr. Values written with the EEPROM request IDs go to ``--store FILE`` (with
 several addresses FILE must contain ``{address}``); a damaged store file is refused (exit 2).
@@ -30,10 +39,13 @@ import dataclasses
 import importlib
 import signal
 import sys
-from collections.abc import Awaitable, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable
 from pathlib import Path
 from typing import Any
 
+from pyuss.bass.codec import BAUD as BASS_BAUD
+from pyuss.bass.drive import DriveOperatingData, drive_ring
+from pyuss.bass.ring import MAX_STATIONS, BassRing, DictOperatingData, demo_elements
 from pyuss.drive.database import ParameterDatabase, load_database
 from pyuss.drive.simulated import SimulatedDrive
 from pyuss.errors import ConfigError, UssError
@@ -50,6 +62,8 @@ from pyuss.transport.url import open_transport
 EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_USAGE = 2
+BASS_PROFILE = "baumueller"
+"""The profile whose drives also have the BASS service interface (seed 004)."""
 
 
 @dataclasses.dataclass(frozen=True, slots=True)
@@ -72,6 +86,10 @@ class Options:
     read_only: bool
     spontaneous: bool | None
     duration: float | None
+    bass_line: str | None = None
+    """``pty``, ``tcp`` or ``serial`` for the BASS service interface (baumueller); None: none."""
+    bass_where: str = ""
+    """The serial device, or HOST:PORT of ``tcp``, of the BASS side."""
 
 
 Announce = Callable[[str], None]
@@ -111,6 +129,12 @@ def register(subparsers: Any) -> None:
     where.add_argument("--tcp", metavar="HOST:PORT", help="serve the line as a TCP server")
     where.add_argument("--serial", metavar="DEVICE", help="serve on a serial port")
     where.add_argument("--bus", metavar="HOST:PORT", help="be a station of a 'uss bus --bus-tcp'")
+    bass = parser.add_mutually_exclusive_group()
+    bass.add_argument(
+        "--bass-pty", action="store_true", help="baumueller: BASS service interface on a new pty"
+    )
+    bass.add_argument("--bass-tcp", metavar="HOST:PORT", help="baumueller: BASS as a TCP server")
+    bass.add_argument("--bass-serial", metavar="DEVICE", help="baumueller: BASS on a serial port")
     parser.add_argument("--store", metavar="FILE", help="EEPROM store file ({address} for several)")
     parser.add_argument(
         "--failure-time",
@@ -193,6 +217,7 @@ def options(args: argparse.Namespace) -> Options:
         raise ConfigError("--duration 0: must be > 0 seconds")
     if args.latency < 0 or not args.latency_time >= 0:
         raise ConfigError("--latency and --latency-time must be >= 0")
+    bass_line, bass_where = _bass_side(args, addresses, line, where)
     delay = None
     if args.response_delay is not None:
         if not args.response_delay > 0:
@@ -213,7 +238,37 @@ def options(args: argparse.Namespace) -> Options:
         read_only=args.read_only,
         spontaneous=args.spontaneous,
         duration=args.duration,
+        bass_line=bass_line,
+        bass_where=bass_where,
     )
+
+
+def _bass_side(
+    args: argparse.Namespace, addresses: tuple[int, ...], line: str, where: str
+) -> tuple[str | None, str]:
+    """The BASS side the arguments ask for: ``(line, where)``, or ``(None, "")``."""
+    if args.bass_pty:
+        bass_line, bass_where = "pty", ""
+    elif args.bass_tcp is not None:
+        host, port = _endpoint(args.bass_tcp, "--bass-tcp")
+        bass_line, bass_where = "tcp", f"{host}:{port}"
+    elif args.bass_serial is not None:
+        if not args.bass_serial.strip():
+            raise ConfigError("--bass-serial: give a device")
+        bass_line, bass_where = "serial", args.bass_serial
+    else:
+        return None, ""
+    option = f"--bass-{bass_line}"
+    if args.profile != BASS_PROFILE:
+        raise ConfigError(
+            f"{option}: only --profile {BASS_PROFILE} drives have the BASS service interface"
+        )
+    if len(addresses) > MAX_STATIONS:
+        raise ConfigError(f"{option}: a BASS ring has at most {MAX_STATIONS} drives")
+    shared = bass_line != "pty" and (line, where) == (bass_line, bass_where)
+    if shared and not where.endswith(":0"):  # port 0: two free ports are picked
+        raise ConfigError(f"{option} {bass_where}: the USS side uses it already")
+    return bass_line, bass_where
 
 
 def run(args: argparse.Namespace) -> int:
@@ -282,20 +337,26 @@ def _line(
     opts: Options, *, baud: int | None = None, parity: str = "E"
 ) -> tuple[Transport, Callable[[], str]]:
     """The transport and, once open, the line to print first."""
-    baud = opts.baud if baud is None else baud
-    if opts.line == "pty":
+    return _open_line(opts.line, opts.where, opts.baud if baud is None else baud, parity)
+
+
+def _open_line(
+    line: str, where: str, baud: int, parity: str
+) -> tuple[Transport, Callable[[], str]]:
+    """The transport of a ``line`` kind at ``where`` and, once open, the line naming it."""
+    if line == "pty":
         pty = PtyPort(baud=baud)
         return pty, lambda: pty.device_path
-    if opts.line == "tcp":
-        host, port = _endpoint(opts.where, "--tcp")
+    if line == "tcp":
+        host, port = _endpoint(where, "--tcp")
         server = TcpServerTransport(host, port, baud=baud)
         return server, lambda: f"tcp://{host}:{server.port}"
-    if opts.line == "bus":
-        url = f"bus://{opts.where}?name=simulate"
+    if line == "bus":
+        url = f"bus://{where}?name=simulate"
         bus = open_transport(url, baud=baud)
-        return bus, lambda: f"bus://{opts.where}"
-    serial_line = open_transport(opts.where, baud=baud, parity=parity)
-    return serial_line, lambda: opts.where
+        return bus, lambda: f"bus://{where}"
+    serial_line = open_transport(where, baud=baud, parity=parity)
+    return serial_line, lambda: where
 
 
 async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> None:
@@ -303,6 +364,9 @@ async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> 
     db = _database(opts)
     transport, first_line = _line(opts)
     await transport.open()
+    spontaneous = opts.spontaneous
+    if spontaneous is None and opts.bass_line is not None:
+        spontaneous = True  # one drive, two interfaces: BASS changes are reported (C 4.2.1.2)
     try:
         now = transport.clock()
         engines = []
@@ -316,26 +380,37 @@ async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> 
                     layout=opts.layout,
                     latency=opts.latency,
                     failure_time=opts.failure_time,
-                    spontaneous=opts.spontaneous,
+                    spontaneous=spontaneous,
                     write_authority=not opts.read_only,
                     now=now,
                 )
             )
         server = SlaveServer(transport, *engines, response_delay=opts.response_delay)
-        announce(first_line())
-        for engine in engines:
-            low, high = engine.response_window(opts.baud)
-            print(
-                f"uss simulate: address {engine.address}: profile {profile.name}, "
-                f"parameters {db.profile.name}, layout {engine.layout}, answer "
-                f"{low * 1000:.3f}..{high * 1000:.3f} ms, failure time "
-                f"{engine.failure_time:g} s",
-                file=sys.stderr,
-            )
-        try:
-            await server.run(stop)
-        finally:
-            server.close()
+        async with _bass_side_of(opts, engines, transport.clock) as bass:
+            uss_device = first_line()
+            announce(uss_device)
+            if bass is not None:
+                announce(bass.device)
+            for engine in engines:
+                low, high = engine.response_window(opts.baud)
+                print(
+                    f"uss simulate: address {engine.address}: profile {profile.name}, "
+                    f"parameters {db.profile.name}, layout {engine.layout}, answer "
+                    f"{low * 1000:.3f}..{high * 1000:.3f} ms, failure time "
+                    f"{engine.failure_time:g} s",
+                    file=sys.stderr,
+                )
+            if bass is not None:
+                order = ", ".join(str(s.address) for s in bass.ring.stations)
+                print(
+                    f"uss simulate: USS (RS-485, {opts.baud} baud) on {uss_device}; BASS "
+                    f"(RS-232, {BASS_BAUD} baud 8N1) on {bass.device}: ring of drives {order}",
+                    file=sys.stderr,
+                )
+            try:
+                await server.run(stop)
+            finally:
+                server.close()
     finally:
         await transport.close()
     stats = server.stats
@@ -344,6 +419,48 @@ async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> 
         f"({stats.late} late), {stats.faults} discarded",
         file=sys.stderr,
     )
+    if bass is not None:
+        answered = ", ".join(f"drive {s.address}: {s.answered}" for s in bass.ring.stations)
+        print(f"uss simulate: BASS requests answered: {answered}", file=sys.stderr)
+
+
+@dataclasses.dataclass(slots=True)
+class _BassSide:
+    ring: BassRing
+    device: str
+
+
+@contextlib.asynccontextmanager
+async def _bass_side_of(
+    opts: Options, engines: list[SlaveEngine], clock: Callable[[], float]
+) -> AsyncIterator[_BassSide | None]:
+    """The BASS service interface of the drives, served while the block runs (None: none)."""
+    if opts.bass_line is None:
+        yield None
+        return
+    ring = drive_ring([(e.address, e.drive) for e in engines], clock=clock)
+    transport, device = _open_line(opts.bass_line, opts.bass_where, BASS_BAUD, "N")
+    try:
+        async with _ring_served(ring, transport):
+            yield _BassSide(ring, device())
+    finally:
+        for station in ring.stations:
+            if isinstance(station.data, DriveOperatingData):
+                station.data.close()
+
+
+@contextlib.asynccontextmanager
+async def _ring_served(ring: BassRing, transport: Transport) -> AsyncIterator[None]:
+    """Open ``transport`` and carry the PC side of ``ring`` on it while the block runs."""
+    await transport.open()
+    serving = asyncio.create_task(ring.serve(transport))
+    try:
+        yield
+    finally:
+        serving.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await serving
+        await transport.close()
 
 
 # -- other protocols ------------------------------------------------------------------------
@@ -371,23 +488,13 @@ async def _serve_ksvario(opts: Options, stop: asyncio.Event, announce: Announce)
 async def _serve_bass(opts: Options, stop: asyncio.Event, announce: Announce) -> None:
     """A closed RS-232 ring of BASS drives (seed 004 part 1), one per ``--address`` (its DIP
     address), with the demonstration operating data of `pyuss.bass.ring`; 9600 baud, 8N1."""
-    from pyuss.bass.codec import BAUD
-    from pyuss.bass.ring import BassRing, DictOperatingData, demo_elements
-
     if opts.line == "bus":
         raise ConfigError("profile bass: a BASS ring is RS-232, not a station of a USS bus")
     ring = BassRing([DictOperatingData(a, demo_elements()) for a in opts.addresses])
-    transport, first_line = _line(opts, baud=BAUD, parity="N")
-    await transport.open()
-    serving = asyncio.create_task(ring.serve(transport))
-    try:
+    transport, first_line = _line(opts, baud=BASS_BAUD, parity="N")
+    async with _ring_served(ring, transport):
         announce(first_line())
         await stop.wait()
-    finally:
-        serving.cancel()
-        with contextlib.suppress(asyncio.CancelledError):
-            await serving
-        await transport.close()
 
 
 OTHER_PROTOCOLS: dict[str, Runner] = {"ksvario": _serve_ksvario, "bass": _serve_bass}
