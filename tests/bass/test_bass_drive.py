@@ -71,33 +71,37 @@ def test_ids_are_parameter_numbers_with_the_parameter_width() -> None:
     assert decode_answer(ring.inject(BassRequest.read(4, 60).encode())[15:]).to_int() == 1234
 
 
+REFUSED = [
+    (BassRequest.read(1, 999), E.ELEMENT_NOT_AVAILABLE),
+    (BassRequest(1, 0x3E, 2, "1D4"), E.DATA_TOO_SHORT),
+    (BassRequest.write(1, 70, 1, digits=4), E.DATA_TOO_SHORT),  # int32: 8 digits
+    (BassRequest(1, 0x3E, 2, "01D4C"), E.DATA_TOO_LONG),
+    (BassRequest(1, 0x3C, 2, "0001"), E.DATA_TOO_LONG),  # a read carries no data
+    (BassRequest.write(1, ID_SV_BAUD, 19200), E.DATA_NOT_CHANGEABLE),
+    (BassRequest.write(1, ID_SV_STATE, 1), E.DATA_NOT_CHANGEABLE),
+    (BassRequest.write(1, 51, 1), E.DATA_NOT_CHANGEABLE),  # actual speed: read-only
+    (BassRequest.write(1, 2, -10001), E.BELOW_MINIMUM),
+    (BassRequest.write(1, 2, 10001), E.ABOVE_MAXIMUM),
+    (BassRequest.write(1, 183, 5), E.ABOVE_MAXIMUM),  # PKW count: 0, 3 or 4
+    (BassRequest.write(1, 183, 2), E.DATA_NOT_VALID),
+    (BassRequest(1, 0x0040, 2), E.ACCESS_NOT_VALID),  # not a read or write command
+]
+
+
 async def test_every_error_number_of_table_1_3() -> None:
     drive = baumueller()
     ring = drive_ring([(1, drive)])
+    locked = (BassRequest.write(1, 2, 5), E.WRITE_PROTECTED)
+    assert {n for _, n in [*REFUSED, locked]} == set(E) - {E.NO_ERROR}
     async with ring.port() as port:
         master = BassMaster(port, timeout=1.0, retries=0)
-
-        async def refused(request: BassRequest) -> int:
+        for request, number in [*REFUSED, locked]:
+            if (request, number) == locked:
+                drive.write(ID_COMM_SOURCE, 0)  # the drive's own panel takes the authority away
             with pytest.raises(BassRefusal) as info:
                 await master.exchange(request)
-            return info.value.number
-
-        assert await refused(BassRequest.read(1, 999)) == E.ELEMENT_NOT_AVAILABLE
-        assert await refused(BassRequest(1, 0x3E, 2, "1D4")) == E.DATA_TOO_SHORT
-        assert await refused(BassRequest.write(1, 70, 1, digits=4)) == E.DATA_TOO_SHORT
-        assert await refused(BassRequest(1, 0x3E, 2, "01D4C")) == E.DATA_TOO_LONG
-        assert await refused(BassRequest(1, 0x3C, 2, "0001")) == E.DATA_TOO_LONG
-        assert await refused(BassRequest.write(1, ID_SV_BAUD, 19200)) == E.DATA_NOT_CHANGEABLE
-        assert await refused(BassRequest.write(1, ID_SV_STATE, 1)) == E.DATA_NOT_CHANGEABLE
-        assert await refused(BassRequest.write(1, 51, 1)) == E.DATA_NOT_CHANGEABLE
-        assert await refused(BassRequest.write(1, 2, -10001)) == E.BELOW_MINIMUM
-        assert await refused(BassRequest.write(1, 2, 10001)) == E.ABOVE_MAXIMUM
-        assert await refused(BassRequest.write(1, 183, 5)) == E.ABOVE_MAXIMUM  # allowed 0, 3, 4
-        assert await refused(BassRequest.write(1, 183, 2)) == E.DATA_NOT_VALID
-        assert await refused(BassRequest(1, 0x0040, 2)) == E.ACCESS_NOT_VALID
-        drive.write(ID_COMM_SOURCE, 0)  # the drive's own panel takes the authority away
-        assert await refused(BassRequest.write(1, 2, 5)) == E.WRITE_PROTECTED
-        assert drive.value(2) == 0 and drive.value(183) == 3  # nothing refused was written
+            assert (request.ident, info.value.number) == (request.ident, number)
+    assert drive.value(2) == 0 and drive.value(183) == 3  # nothing refused was written
 
 
 def float_bits(value: float) -> str:

@@ -21,7 +21,7 @@ from pyuss.bass.codec import BassAnswer, decode_answer
 from pyuss.bass.master import BassMaster
 from pyuss.cli.main import main
 from pyuss.master import Master, SpontaneousMessage
-from pyuss.transport import open_transport
+from pyuss.transport import PtyPort, open_transport
 
 TIMEOUT = 20  # generous: real ptys and a second process on a loaded machine
 PORT_OPTIONS = ("--timeout", "5")
@@ -179,6 +179,17 @@ def test_both_interfaces_over_tcp(capsys: pytest.CaptureFixture[str]) -> None:
         code, result = bass_json(capsys, "read", "6", "170", "--port", sim.bass)
         assert (code, result["value"]) == (0, 0x0061)
     assert "BASS (RS-232, 9600 baud 8N1) on tcp://127.0.0.1:" in sim.stderr
+
+
+async def test_bass_side_on_a_serial_device() -> None:
+    """``--bass-serial DEVICE``: the simulator opens a serial device (here the far end of a pty
+    this test holds, as a PC's null-modem cable would be) at 9600 8N1."""
+    async with PtyPort(baud=9600) as pc:
+        assert isinstance(pc, PtyPort)
+        with simulate("--pty", "--bass-serial", pc.device_path, "--address", "2") as sim:
+            assert sim.bass == pc.device_path
+            assert await BassMaster(pc, timeout=5).read(2, 170) == 0x0021
+    assert f"BASS (RS-232, 9600 baud 8N1) on {pc.device_path}" in sim.stderr
 
 
 @pytest.mark.parametrize(

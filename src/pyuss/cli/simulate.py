@@ -185,18 +185,29 @@ def _endpoint(text: str, option: str, *, default_host: str = "127.0.0.1") -> tup
     return (host.strip("[]") or default_host), int(port)
 
 
+def _chosen_line(
+    prefix: str, pty: bool, tcp: str | None, serial: str | None
+) -> tuple[str, str] | None:
+    """``(line, where)`` of the options ``{prefix}pty``, ``{prefix}tcp`` and ``{prefix}serial``
+    (None: none of them given)."""
+    if pty:
+        return "pty", ""
+    if tcp is not None:
+        host, port = _endpoint(tcp, f"{prefix}tcp")
+        return "tcp", f"{host}:{port}"
+    if serial is not None:
+        if not serial.strip():
+            raise ConfigError(f"{prefix}serial: give a device")
+        return "serial", serial
+    return None
+
+
 def options(args: argparse.Namespace) -> Options:
     """Check the arguments; `ConfigError` naming what is wrong."""
     baud = check_baud(args.baud)
-    if args.pty:
-        line, where = "pty", ""
-    elif args.tcp is not None:
-        host, port = _endpoint(args.tcp, "--tcp")
-        line, where = "tcp", f"{host}:{port}"
-    elif args.serial is not None:
-        if not args.serial.strip():
-            raise ConfigError("--serial: give a device")
-        line, where = "serial", args.serial
+    chosen = _chosen_line("--", args.pty, args.tcp, args.serial)
+    if chosen is not None:
+        line, where = chosen
     else:
         host, port = _endpoint(args.bus, "--bus")
         if port == 0:
@@ -247,17 +258,10 @@ def _bass_side(
     args: argparse.Namespace, addresses: tuple[int, ...], line: str, where: str
 ) -> tuple[str | None, str]:
     """The BASS side the arguments ask for: ``(line, where)``, or ``(None, "")``."""
-    if args.bass_pty:
-        bass_line, bass_where = "pty", ""
-    elif args.bass_tcp is not None:
-        host, port = _endpoint(args.bass_tcp, "--bass-tcp")
-        bass_line, bass_where = "tcp", f"{host}:{port}"
-    elif args.bass_serial is not None:
-        if not args.bass_serial.strip():
-            raise ConfigError("--bass-serial: give a device")
-        bass_line, bass_where = "serial", args.bass_serial
-    else:
+    chosen = _chosen_line("--bass-", args.bass_pty, args.bass_tcp, args.bass_serial)
+    if chosen is None:
         return None, ""
+    bass_line, bass_where = chosen
     option = f"--bass-{bass_line}"
     if args.profile != BASS_PROFILE:
         raise ConfigError(
