@@ -22,3 +22,20 @@ def test_demo_runs_and_shows_each_step(capsys: pytest.CaptureFixture[str]) -> No
     assert "50.00 %" in out and "ready to switch on" in out
     assert "02 0C 01 10 34 00 00 00 00 00 00 00 00 2B" in out  # read P52, decoded from the line
     assert "Diagnostics:" in out
+
+
+def test_a_reader_that_goes_away_ends_the_command_quietly() -> None:
+    """`uss ... | head` must not end in a traceback when head stops reading."""
+    import subprocess
+    import sys
+
+    proc = subprocess.run(
+        f"{sys.executable} -m pyuss.cli.main demo | head -1",
+        shell=True,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert proc.stdout.startswith("A virtual RS-485 bus")
+    assert "Traceback" not in proc.stderr, proc.stderr

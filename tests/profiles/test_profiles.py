@@ -133,6 +133,9 @@ def test_value_channel_formats() -> None:
     assert baumueller.value_words(1, 1, double=False) == ()
     assert baumueller.join_value((0, 0x8000), double=False, signed=True) == -0x8000
     assert baumueller.masked_control_pkw(0x0021).words() == (0, 0, 0x0021)
+    # With PKW 4 the mask must stay in PWE1, where the drives read it (NOTES 9).
+    four = Layout(4, 2).pack(baumueller.masked_control_pkw(0x0021, 4), [0x047F, 0])
+    assert four[4:6] == b"\x00\x21" and four[6:8] == b"\x00\x00"
 
 
 def test_error_meanings() -> None:

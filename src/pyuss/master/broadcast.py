@@ -25,10 +25,9 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 
 from pyuss.errors import ConfigError
-from pyuss.profiles.baumueller import address_mask
+from pyuss.profiles.baumueller import address_mask, masked_control_pkw
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.layout import Layout
-from pyuss.protocol.pkw import Pkw
 
 __all__ = ["enable_array_data", "masked_control_data"]
 
@@ -73,5 +72,4 @@ def masked_control_data(
         if layout.pzd < 3:
             raise ConfigError("broadcast address coding needs 3 PZD words (seed 004 2.2)")
         pzd[1], pzd[2] = address_mask(addresses)
-    values = (mask,) if layout.pkw == 3 else (mask, 0)
-    return layout.pack(Pkw(0, values=values), pzd)
+    return layout.pack(masked_control_pkw(mask, layout.pkw), pzd)

@@ -111,11 +111,16 @@ def addresses_in_mask(high: int, low: int) -> frozenset[int]:
     return frozenset(a for a in range(MAX_ADDRESS + 1) if mask >> a & 1)
 
 
-def masked_control_pkw(mask: int) -> Pkw:
-    """The PKW area of a masked control-word broadcast: request ID 0, PWE1 = ``mask``."""
+def masked_control_pkw(mask: int, pkw_count: int = 3) -> Pkw:
+    """The PKW area of a masked control-word broadcast: request ID 0, PWE1 = ``mask``.
+
+    With a PKW area of 4 words a single value would travel in PWE2 (C 4.2.3), so PWE2 is given
+    explicitly as 0 and the mask stays in PWE1, where the drives read it (NOTES 9)."""
     if isinstance(mask, bool) or not isinstance(mask, int) or not 0 <= mask <= 0xFFFF:
         raise ConfigError(f"control word mask must be 0..FFFFh, got {mask!r}")
-    return Pkw(0, values=(mask,))
+    if pkw_count not in (3, 4):
+        raise ConfigError(f"the masked broadcast needs a PKW area of 3 or 4 words, not {pkw_count}")
+    return Pkw(0, values=(mask,) if pkw_count == 3 else (mask, 0))
 
 
 def value_words(value: int, pzd_count: int, *, double: bool) -> tuple[int, ...] | None:
