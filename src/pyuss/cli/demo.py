@@ -61,7 +61,7 @@ def say(text: str = "") -> None:
 
 async def _scan(bus: VirtualBus) -> None:
     say('1. Scan of addresses 0..9 ("no job" probes of the common fixed lengths):')
-    found = await scan(lambda baud: bus.attach("scanner"), [BAUD], range(10), latency=0.005)
+    found = await scan(lambda baud: bus.attach("scanner"), [BAUD], range(10), latency=0.02)
     for f in found:
         status = "-" if f.status is None else f"{f.status:04X}h"
         say(f"   address {f.address}: layout {f.layout}, status word {status}")
