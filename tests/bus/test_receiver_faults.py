@@ -105,15 +105,17 @@ async def test_gaps_beyond_the_residual_time_are_reported() -> None:
 
 async def test_collision_is_reported_as_line_errors() -> None:
     bus = VirtualBus(BAUD)
-    async with (
-        bus.attach("master") as master,
-        bus.attach("other") as other,
-        bus.attach("slave") as slave,
-    ):
-        await master.write(REQUEST.encode())
-        await other.write(RESPONSE.encode())
+    async with bus.attach("slave") as slave:
+        # Both telegrams put on the line at explicit times, the second a third of a character
+        # behind the first, so the overlap does not depend on how fast the test process runs.
+        tc = 11 / BAUD
+        start = slave.clock() + 0.01
+        for i, byte in enumerate(REQUEST.encode()):
+            bus.inject("master", start + i * tc, byte)
+        for i, byte in enumerate(RESPONSE.encode()):
+            bus.inject("other", start + (i + 1 / 3) * tc, byte)
         await bus.drain()
-        chunks = await read_bytes(slave, 28, timeout=0.2)
+        chunks = await read_bytes(slave, 14, timeout=0.5)
     await bus.close()
     kinds = _kinds(_events(chunks))
     assert bus.stats.collisions == 1
