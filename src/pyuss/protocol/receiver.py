@@ -57,6 +57,7 @@ from dataclasses import dataclass
 
 from pyuss.errors import ConfigError
 from pyuss.protocol.diagnostics import Diagnostics, FaultKind
+from pyuss.protocol.line import LineError
 from pyuss.protocol.telegram import (
     MAX_ADDRESS,
     MAX_LGE,
@@ -71,7 +72,6 @@ from pyuss.protocol.telegram import (
     parse_adr,
 )
 from pyuss.protocol.timing import LineTiming
-from pyuss.transport.base import LineError
 
 __all__ = ["Event", "FaultKind", "ReceiveFault", "Received", "Receiver"]
 

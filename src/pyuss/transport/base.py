@@ -8,19 +8,12 @@ each stamped with the time its last byte arrived, so the sans-io receiver
 from __future__ import annotations
 
 import abc
-import enum
 from dataclasses import dataclass, field
 from types import TracebackType
 
+from pyuss.protocol.line import LineError
 
-class LineError(enum.IntFlag):
-    """Character-level errors a backend can report (A 5.2.2: parity, framing, overrun)."""
-
-    NONE = 0
-    PARITY = 1
-    FRAMING = 2
-    OVERRUN = 4
-    BREAK = 8
+__all__ = ["Chunk", "LineError", "Transport"]
 
 
 @dataclass(frozen=True, slots=True)

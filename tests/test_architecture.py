@@ -1,0 +1,51 @@
+"""The layering of docs/architecture.md holds: the protocol layer is pure and stands alone,
+and no lower layer reaches up into a higher one."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "pyuss"
+
+# What each package may import from pyuss (besides itself, errors and log).
+ALLOWED: dict[str, set[str]] = {
+    "protocol": set(),
+    "transport": {"protocol", "bus"},  # bus:// URLs open the virtual bus client (lazily)
+    "bus": {"protocol", "transport"},
+    "drive": {"protocol"},
+    "profiles": {"protocol", "drive"},
+    "slave": {"protocol", "transport", "bus", "drive", "profiles"},
+    "monitor": {"protocol", "transport", "bus"},
+}
+# Pure means no I/O and no clock: none of these in the protocol layer.
+IMPURE = {"asyncio", "socket", "serial", "time", "os", "threading", "subprocess", "select"}
+
+
+def _imports(package: str) -> set[str]:
+    found: set[str] = set()
+    for path in (SRC / package).rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                found.add(node.module)
+            elif isinstance(node, ast.Import):
+                found.update(alias.name for alias in node.names)
+    return found
+
+
+@pytest.mark.parametrize("package", sorted(ALLOWED))
+def test_no_layer_reaches_up(package: str) -> None:
+    used = {
+        name.split(".")[1]
+        for name in _imports(package)
+        if name.startswith("pyuss.") and name.count(".") >= 1
+    }
+    used -= {package, "errors", "log"}
+    assert used <= ALLOWED[package], f"pyuss.{package} imports {sorted(used - ALLOWED[package])}"
+
+
+def test_protocol_layer_does_no_io_and_reads_no_clock() -> None:
+    roots = {name.split(".")[0] for name in _imports("protocol")}
+    assert not roots & IMPURE, f"pyuss.protocol imports {sorted(roots & IMPURE)}"
