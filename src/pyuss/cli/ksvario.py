@@ -15,11 +15,9 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import os
 import sys
-import tempfile
-from pathlib import Path
 
+from pyuss.atomicfile import write_atomically
 from pyuss.errors import ConfigError
 from pyuss.ksvario.address import Address, View, parse_address
 from pyuss.ksvario.channel import ByteOrder, DataFormat, Value
@@ -97,19 +95,11 @@ def _gsd(args: argparse.Namespace) -> int:
     if not args.output:
         sys.stdout.write(text.replace("\r\n", "\n"))
         return 0
-    target = Path(args.output)
-    if not target.parent.is_dir():
-        return _fail(f"cannot write {target}: folder {target.parent} does not exist")
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=".gsd-")
     try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(text.encode("ascii"))
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, target)
-    except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
-        return _fail(f"cannot write {target}: {exc}")
+        write_atomically(args.output, text.encode("ascii"), "the GSD file")
+    except ConfigError as exc:
+        return _fail(str(exc))
+    target = args.output
     print(f"wrote {target}")
     return 0
 
