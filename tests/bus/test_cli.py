@@ -91,6 +91,9 @@ def test_tcp_and_bus_endpoints_are_printed() -> None:
         (["--tcp", "127.0.0.1"], "HOST:PORT"),
         (["--pty", "1", "--record", "/nonexistent/dir/x.jsonl"], "cannot write a recording"),
         (["--pty", "1", "--duration", "0"], "--duration"),
+        (["--pty", "2", "--duration", "1", "--fault", "deaf:station=pty9,at=1,for=1"], "'pty9'"),
+        (["--pty", "2", "--duration", "1", "--fault", "flip:station=master,p=0.1"], "'master'"),
+        (["--tcp", "127.0.0.1:0", "--duration", "1", "--fault", "dead:station=pty1"], "'pty1'"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(

@@ -45,12 +45,33 @@ def test_address(capsys: pytest.CaptureFixture[str]) -> None:
         ["ksvario", "write", "0x4496", "abc", "--sim"],
         ["ksvario", "read", "0x4496", "--sim", "--modules", "A.2"],
         ["ksvario", "read", "0x4496", "--port", "x", "--station", "200"],
+        ["ksvario", "read", "0x4496", "--port", "x", "--baud", "1234"],
+        ["ksvario", "read", "0x4496", "--sim", "--timeout", "-1"],
+        ["ksvario", "write", "0x4496", "1", "--sim", "--timeout", "0"],
+        ["ksvario", "simulate", "--pty", "--baud", "1234"],
     ],
 )
 def test_bad_input_exits_2(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.startswith("uss ksvario:") and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (["ksvario", "address", "zz"], "'zz' is not a number"),
+        (["ksvario", "read", "fix1:ch1:qq", "--sim"], "'qq' is not a number"),
+        (["ksvario", "write", "0x4496", "abc", "--sim"], "'abc' is not an integer"),
+        (["ksvario", "write", "0x8CD2", "abc", "--sim"], "'abc' is not a real number"),
+    ],
+)
+def test_bad_numbers_are_named_in_plain_words(
+    argv: list[str], words: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert words in err and "literal" not in err, err
 
 
 def test_read_and_write_in_process(capsys: pytest.CaptureFixture[str]) -> None:

@@ -22,16 +22,15 @@ another bus with their original spacing.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import itertools
 import json
 import os
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
+from pyuss.atomicfile import AtomicWriter
 from pyuss.bus.core import VirtualBus, WireChar
 from pyuss.errors import ConfigError
 from pyuss.transport.base import Chunk, LineError
@@ -136,8 +135,7 @@ class Recorder:
         self.keep = keep
         self.records: list[Record] = []
         self._bus: VirtualBus | None = None
-        self._file: IO[str] | None = None
-        self._tmp: str | None = None
+        self._file: AtomicWriter | None = None
 
     def attach(self, bus: VirtualBus) -> Recorder:
         """Record ``bus`` from now on (and create the temporary file)."""
@@ -145,14 +143,7 @@ class Recorder:
             raise ConfigError("a recorder records one bus")
         self._bus = bus
         if self.path is not None:
-            directory = self.path.parent if str(self.path.parent) else Path(".")
-            try:
-                fd, self._tmp = tempfile.mkstemp(
-                    prefix=f".{self.path.name}.", suffix=".tmp", dir=directory
-                )
-            except OSError as exc:
-                raise ConfigError(f"cannot write a recording to {self.path}: {exc}") from None
-            self._file = os.fdopen(fd, "w", encoding="utf-8")
+            self._file = AtomicWriter(self.path, "a recording", text=True)
             header = {"format": FORMAT, "version": VERSION, "baud": bus.baud, "seed": bus.seed}
             self._file.write(json.dumps(header) + "\n")
         bus.on_char.append(self)
@@ -178,30 +169,15 @@ class Recorder:
         """Finish the file: sync, then rename into place. Idempotent."""
         if self._bus is not None and self in self._bus.on_char:
             self._bus.on_char.remove(self)
-        if self._file is None or self._tmp is None or self.path is None:
-            return
-        file, self._file = self._file, None
-        try:
-            file.flush()
-            os.fsync(file.fileno())
+        if self._file is not None:
+            file, self._file = self._file, None
             file.close()
-            os.replace(self._tmp, self.path)
-        except OSError:
-            file.close()
-            with contextlib.suppress(OSError):
-                os.unlink(self._tmp)
-            raise
-        self._tmp = None
 
     def discard(self) -> None:
         """Drop the temporary file without writing the recording."""
         if self._file is not None:
-            self._file.close()
-            self._file = None
-        if self._tmp is not None:
-            with contextlib.suppress(OSError):
-                os.unlink(self._tmp)
-            self._tmp = None
+            file, self._file = self._file, None
+            file.discard()
 
 
 def load_recording(path: str | os.PathLike[str]) -> Recording:

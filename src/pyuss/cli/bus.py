@@ -81,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError("nothing to serve: give --pty N, --tcp HOST:PORT or --bus-tcp")
         if args.duration is not None and not args.duration > 0:
             raise ConfigError(f"--duration {args.duration}: must be > 0 seconds")
+        _check_stations(plan, args.pty, tcp is not None, framed is not None)
         recorder = None if not args.record else Recorder(args.record, keep=False).attach(bus)
     except ConfigError as exc:
         print(f"uss bus: {exc}", file=sys.stderr)
@@ -90,6 +91,28 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if recorder is not None:
             recorder.close()
+
+
+def _check_stations(plan: FaultPlan, ptys: int, tcp: bool, framed: bool) -> None:
+    """A fault aimed at a station this bus cannot have would silently never fire. Stations are
+    ``pty1``..``ptyN`` and ``tcp1``... (one per connection); ``bus://`` stations name
+    themselves, so with ``--bus-tcp`` any name may come."""
+    if framed:
+        return
+    for fault in plan.faults:
+        name = fault.station
+        if name is None:
+            continue
+        number = name[3:]
+        if name.startswith("pty") and number.isdigit() and 1 <= int(number) <= ptys:
+            continue
+        if tcp and name.startswith("tcp") and number.isdigit() and int(number) >= 1:
+            continue
+        known = [f"pty1..pty{ptys}"] if ptys else []
+        known += ["tcp1, tcp2, ... (one per connection)"] if tcp else []
+        raise ConfigError(
+            f"--fault: no station {name!r} on this bus (stations: {', '.join(known)})"
+        )
 
 
 async def _serve(

@@ -15,11 +15,9 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import os
 import sys
-import tempfile
-from pathlib import Path
 
+from pyuss.atomicfile import write_atomically
 from pyuss.errors import ConfigError
 from pyuss.ksvario.address import Address, View, parse_address
 from pyuss.ksvario.channel import ByteOrder, DataFormat, Value
@@ -30,7 +28,16 @@ from pyuss.ksvario.master import KsVarioMaster, LocalLink, default_format
 from pyuss.ksvario.modules import Configuration, parse_modules
 from pyuss.ksvario.simulate import serve
 from pyuss.ksvario.userprm import UserParameters
+from pyuss.protocol.timing import check_baud
 from pyuss.transport.url import open_transport
+
+_KINDS = {
+    DataFormat.INTEGER: "an integer",
+    DataFormat.REAL: "a real number",
+    DataFormat.REAL3: "a real number",
+    DataFormat.CHAR: "a character",
+    DataFormat.COMPACT_CHAR: "a text",
+}
 
 _FORMATS = {
     "int": DataFormat.INTEGER,
@@ -97,19 +104,11 @@ def _gsd(args: argparse.Namespace) -> int:
     if not args.output:
         sys.stdout.write(text.replace("\r\n", "\n"))
         return 0
-    target = Path(args.output)
-    if not target.parent.is_dir():
-        return _fail(f"cannot write {target}: folder {target.parent} does not exist")
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=".gsd-")
     try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(text.encode("ascii"))
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, target)
-    except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
-        return _fail(f"cannot write {target}: {exc}")
+        write_atomically(args.output, text.encode("ascii"), "the GSD file")
+    except ConfigError as exc:
+        return _fail(str(exc))
+    target = args.output
     print(f"wrote {target}")
     return 0
 
@@ -130,6 +129,10 @@ def _simulate(args: argparse.Namespace) -> int:
         return _fail(f"station {args.station} is out of range 0..125")
     if not 1 <= args.channels <= 30:
         return _fail(f"channels {args.channels} is out of range 1..30")
+    try:
+        check_baud(args.baud)
+    except ConfigError as exc:
+        return _fail(str(exc))
 
     def ready(device: str) -> None:
         print(device, flush=True)
@@ -163,7 +166,7 @@ def _parse_values(fmt: DataFormat, texts: list[str]) -> list[Value]:
             else:
                 out.append(t.encode("latin-1"))
         except (ValueError, UnicodeEncodeError):
-            raise ConfigError(f"{t!r} is not a {fmt.name.lower()} value") from None
+            raise ConfigError(f"{t!r} is not {_KINDS[fmt]}") from None
     return out
 
 
@@ -222,6 +225,10 @@ def _prepare(args: argparse.Namespace) -> tuple[Address, DataFormat]:
     fmt = _FORMATS[args.format] if args.format else default_format(addr)
     if not 0 <= args.station <= 125:
         raise ConfigError(f"station {args.station} is out of range 0..125")
+    if not args.sim:
+        check_baud(args.baud)
+    if not args.timeout > 0:
+        raise ConfigError(f"--timeout {args.timeout}: must be > 0 seconds")
     parse_modules(args.modules)
     return addr, fmt
 

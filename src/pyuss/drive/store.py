@@ -18,15 +18,13 @@ refused with a `StoreError` naming the file; it is never loaded in part.
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
-import os
 import re
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 
+from pyuss.atomicfile import write_atomically
 from pyuss.errors import ConfigError
 
 MAGIC = "pyuss-drive-store"
@@ -98,27 +96,6 @@ def _is_int(value: object) -> bool:
     return isinstance(value, int) and not isinstance(value, bool)
 
 
-def write_atomically(path: Path, data: bytes) -> None:
-    """Replace ``path`` by ``data`` so that a crash leaves either the old or the new file."""
-    folder = path.parent
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    dir_fd = os.open(folder, os.O_RDONLY)
-    try:
-        os.fsync(dir_fd)
-    finally:
-        os.close(dir_fd)
-
-
 class ParameterStore:
     """The store file of one drive (the simulated EEPROM)."""
 
@@ -141,8 +118,6 @@ class ParameterStore:
     def save(self, values: Mapping[Key, tuple[int, ...]]) -> None:
         """Write all stored values atomically."""
         try:
-            write_atomically(self.path, encode_store(self.profile, values))
-        except OSError as exc:
-            raise StoreError(
-                f"{self.path}: cannot write the store: {exc.strerror or exc}"
-            ) from None
+            write_atomically(self.path, encode_store(self.profile, values), "the store")
+        except ConfigError as exc:
+            raise StoreError(str(exc)) from None

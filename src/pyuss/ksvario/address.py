@@ -145,11 +145,14 @@ _VIEW_NAMES = {
 
 def _parse_number(text: str) -> int:
     t = text.strip().lower()
-    if t.startswith("0x"):
-        return int(t[2:], 16)
-    if t.endswith("h"):
-        return int(t[:-1], 16)
-    return int(t, 10)
+    try:
+        if t.startswith("0x"):
+            return int(t[2:], 16)
+        if t.endswith("h"):
+            return int(t[:-1], 16)
+        return int(t, 10)
+    except ValueError:
+        raise ValueError(f"{text!r} is not a number (0x4496, 4496h or 17558)") from None
 
 
 def parse_address(text: str) -> Address:

@@ -21,16 +21,15 @@ ever holds a complete capture.
 
 from __future__ import annotations
 
-import contextlib
 import enum
 import os
 import struct
-import tempfile
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Protocol
+from typing import Protocol
 
+from pyuss.atomicfile import AtomicWriter
 from pyuss.errors import ConfigError
 from pyuss.monitor.infer import LayoutChoice
 from pyuss.monitor.model import Direction, Exchange, Frame, LayoutSource, Problem, telegram_in
@@ -264,52 +263,8 @@ class CaptureWriter(Protocol):
     def discard(self) -> None: ...
 
 
-class AtomicFile:
-    """A binary file written under a temporary name and renamed into place on `close`."""
-
-    def __init__(self, path: str | os.PathLike[str]) -> None:
-        self.path = Path(path)
-        directory = self.path.parent if str(self.path.parent) else Path(".")
-        try:
-            fd, self._tmp = tempfile.mkstemp(
-                prefix=f".{self.path.name}.", suffix=".tmp", dir=directory
-            )
-        except OSError as exc:
-            raise ConfigError(f"cannot write a capture to {self.path}: {exc}") from None
-        self.file: IO[bytes] | None = os.fdopen(fd, "wb")
-
-    def write(self, data: bytes) -> None:
-        if self.file is None:
-            raise ConfigError(f"capture {self.path} is already closed")
-        self.file.write(data)
-
-    def close(self) -> None:
-        """Sync and rename into place; idempotent."""
-        file, self.file = self.file, None
-        if file is None:
-            return
-        try:
-            file.flush()
-            os.fsync(file.fileno())
-            file.close()
-            os.replace(self._tmp, self.path)
-        except OSError as exc:
-            file.close()
-            with contextlib.suppress(OSError):
-                os.unlink(self._tmp)
-            raise ConfigError(f"cannot finish the capture {self.path}: {exc}") from None
-
-    def discard(self) -> None:
-        """Drop the temporary file; idempotent."""
-        file, self.file = self.file, None
-        if file is not None:
-            file.close()
-            with contextlib.suppress(OSError):
-                os.unlink(self._tmp)
-
-
 class RecordWriter:
-    """Base of the capture writers: an `AtomicFile`, the line's settings and a record count.
+    """Base of the capture writers: an `AtomicWriter`, the line's settings and a record count.
     A subclass writes its header in `__init__` (after calling this one) and implements
     `write_record`."""
 
@@ -326,7 +281,7 @@ class RecordWriter:
         self.four_wire = four_wire
         self.epoch = epoch
         self.gap = gap
-        self._file = AtomicFile(path)
+        self._file = AtomicWriter(path, "a capture")
         self.path = self._file.path
         self.packets = 0
 

@@ -12,10 +12,10 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
-import tempfile
 from importlib import resources
 from pathlib import Path
 
+from pyuss.atomicfile import write_atomically
 from pyuss.errors import ConfigError
 
 __all__ = ["DISSECTOR_NAME", "dissector_source", "install", "plugin_dir"]
@@ -51,17 +51,9 @@ def install(directory: Path | None = None) -> tuple[Path, bool]:
             return target, False
     try:
         target_dir.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{DISSECTOR_NAME}.", suffix=".tmp", dir=target_dir)
     except OSError as exc:
-        raise ConfigError(f"cannot install the dissector into {target_dir}: {exc}") from None
-    try:
-        with os.fdopen(fd, "wb") as file:
-            file.write(source)
-            file.flush()
-            os.fsync(file.fileno())
-        os.replace(tmp, target)
-    except OSError as exc:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise ConfigError(f"cannot install the dissector as {target}: {exc}") from None
+        raise ConfigError(
+            f"cannot install the dissector into {target_dir}: {exc.strerror}"
+        ) from None
+    write_atomically(target, source, "the dissector")
     return target, True
