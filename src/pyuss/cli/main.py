@@ -34,6 +34,10 @@ COMMANDS: tuple[str, ...] = (
     "ksvario",
 )
 
+ONE_SHOT = frozenset({"scan", "read", "write", "describe", "mirror"})
+"""Commands whose outcome is their one line of output: their log warnings (a slave that does
+not send, ...) stay quiet unless -v asks for them, so a failure reads as one line."""
+
 EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_USAGE = 2
@@ -50,7 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--verbose",
         action="count",
         default=0,
-        help="more logging (-vv shows raw frames on the pyuss.wire logger)",
+        help="-v: warnings and progress, -vv: also raw frames (pyuss.wire logger)",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
@@ -63,7 +67,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    level = logging.WARNING - 10 * min(args.verbose, 2)
+    quiet = logging.ERROR if args.command in ONE_SHOT else logging.WARNING
+    level = quiet if args.verbose == 0 else (logging.INFO if args.verbose == 1 else logging.DEBUG)
     logging.basicConfig(level=level, format="%(asctime)s %(name)s %(levelname)s %(message)s")
     try:
         code: int = args.func(args)
