@@ -162,16 +162,29 @@ def test_residual_time_uses_the_exact_deadline_after_lge() -> None:
     assert "residual time" in events[0].detail
 
 
-def test_deadline_for_252_bytes_is_loaded_on_stx() -> None:
-    # With a very long start pause only the residual time can end the telegram.
-    rx = Receiver(BAUD, start_pause=10.0)
-    rx.feed(b"\x02", 100.0)
-    limit = residual_time_max(BAUD, 252)
-    assert rx.poll(100.0 + limit - 0.001) == []
-    assert rx.busy
-    assert rx.poll(100.0 + limit + 0.001) == []  # failed, reported once the line is idle
-    events = rx.poll(100.0 + 10.0)
+@pytest.mark.parametrize(
+    ("lge_after", "detail"),
+    [
+        # LGE just inside the n = 252 deadline: taken, and the exact deadline for n = 10
+        # (1.5 x 13 characters = 22.344 ms) replaces it - already past, so the telegram fails.
+        (-0.001, "(22.344 ms after STX): 2 of 14 bytes"),
+        # LGE just after the n = 252 deadline (1.5 x 255 characters = 438.281 ms): too late.
+        (+0.001, "(438.281 ms after STX): 1 of ? bytes"),
+    ],
+    ids=["lge-in-time", "lge-late"],
+)
+def test_deadline_on_stx_is_for_252_bytes_and_exact_after_lge(
+    lge_after: float, detail: str
+) -> None:
+    rx = Receiver(BAUD, start_pause=10.0)  # only the residual time can end the telegram
+    assert rx.feed(b"\x02", 100.0) == []  # STX complete at 100.0
+    lge_time = 100.0 + residual_time_max(BAUD, 252) + lge_after
+    assert rx.feed(GOOD[1:2], lge_time) == []
+    assert rx.poll(lge_time + 0.001) == []
+    events = rx.poll(lge_time + 10.0)
     assert kinds(events) == [FaultKind.RESIDUAL_TIME]
+    assert events[0].raw == GOOD[:2]
+    assert events[0].detail.endswith(detail)
 
 
 def test_late_bytes_of_a_telegram_are_part_of_its_fault() -> None:
