@@ -381,3 +381,46 @@ def test_a_telegram_after_garbage_and_a_start_pause_is_found(
         events += w.send(raw[pos : pos + step], gap=0.0)
     assert isinstance(events[-1], Received)
     assert events[-1].raw == raw
+
+
+segments = st.lists(
+    st.tuples(
+        st.one_of(
+            st.binary(min_size=1, max_size=60),
+            st.sampled_from(RAW),
+            st.tuples(st.binary(max_size=5), st.sampled_from(RAW)).map(lambda p: p[0] + p[1]),
+        ),
+        st.floats(0.0, 4.0),
+        st.lists(st.integers(1, 10), max_size=10),
+    ),
+    min_size=1,
+    max_size=8,
+)
+
+
+@given(segments)
+@settings(max_examples=150, deadline=None)
+def test_events_do_not_depend_on_how_the_bytes_are_chunked(
+    parts: list[tuple[bytes, float, list[int]]],
+) -> None:
+    """The same line (segments after idle gaps, bytes back to back inside a segment) gives
+    the same events whether each segment comes in one chunk or cut into pieces."""
+
+    def events(cut: bool) -> list[tuple[object, bytes]]:
+        w = wire()
+        got: list[Event] = []
+        for data, gap, sizes in parts:
+            pieces, pos = [], 0
+            for size in sizes if cut else ():
+                if pos < len(data):
+                    pieces.append(data[pos : pos + size])
+                    pos += size
+            if pos < len(data):
+                pieces.append(data[pos:])
+            got += w.send(pieces[0], gap)
+            for piece in pieces[1:]:
+                got += w.send(piece, 0.0)
+        got += w.idle(10)
+        return [(kinds([e])[0], e.raw) for e in got]
+
+    assert events(cut=True) == events(cut=False)
