@@ -8,11 +8,15 @@ import sys
 from typing import Any
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from conftest import load_vectors
-from pyuss.cli.decode import parse_hex
+from pyuss.cli.decode import describe, parse_hex, render
 from pyuss.cli.main import main
 from pyuss.errors import ConfigError
+from pyuss.protocol.layout import MAX_WORDS, PKW_VARIABLE, Layout
+from pyuss.protocol.telegram import AddressMode, Telegram
 
 VECTORS = load_vectors("uss")["telegrams"]
 BY_NAME = {v["name"]: v for v in VECTORS}
@@ -167,6 +171,8 @@ def test_hex_forms(capsys: pytest.CaptureFixture[str], hexes: list[str]) -> None
         (["41" + BY_NAME["read_word_request"]["hex"][2:]], "3,2", "not STX"),
         ([BY_NAME["read_word_request"]["hex"][:-3]], "3,2", "announces 14 bytes, got 13"),
         (["02 02 65 65"], "0,0", "undefined"),
+        (["0x"], "3,2", "bad hex '0x'"),
+        (["02 0C 0x5G"], "3,2", "bad hex '0x5G'"),
     ],
 )
 def test_bad_input_gives_one_line_and_exit_2(
@@ -202,3 +208,58 @@ def test_the_uss_command_runs_decode() -> None:
     assert proc.stderr.strip() == "uss decode: 2 bytes are too short for a telegram " + (
         "(at least 4: STX, LGE, ADR, BCC)"
     )
+
+
+@pytest.mark.parametrize(
+    ("argv", "text"),
+    [
+        ([BY_NAME["read_word_request"]["hex"]], "no layout given: --layout PKW,PZD is required"),
+        ([BY_NAME["read_word_request"]["hex"], "-l", "3,2", "-d", "sideways"], "bad direction"),
+    ],
+)
+def test_missing_layout_and_bad_direction_are_bad_input(
+    capsys: pytest.CaptureFixture[str], argv: list[str], text: str
+) -> None:
+    assert main(["decode", *argv]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err.startswith(f"uss decode: {text}")
+    assert captured.err.count("\n") == 1
+    assert main(["decode", *argv, "--json"]) == 2
+    error = json.loads(capsys.readouterr().out)
+    assert set(error) == {"error"}
+    assert text in error["error"]
+
+
+def test_refused_answer_with_padding_is_decoded(capsys: pytest.CaptureFixture[str]) -> None:
+    # Response 7 in the variable layout, padded to 3 PWE words: the number travels in PWE1.
+    raw = "02 0C 05 70 05 00 00 00 05 00 00 00 00 7B"
+    code, info = run_json(capsys, raw, "-l", "v,0", "-d", "response")
+    assert code == 0
+    assert info["pkw"]["values"] == [5, 0, 0]
+    assert info["pkw"]["error_number"] == 5
+    assert info["pkw"]["error_text"] == "wrong data type"
+
+
+@st.composite
+def fitting_telegrams(draw: st.DrawFn) -> tuple[bytes, Layout]:
+    """Any telegram with a defined ADR whose net data fit the layout drawn with it."""
+    layout = Layout(draw(st.sampled_from((0, 3, 4, PKW_VARIABLE))), draw(st.integers(0, 16)))
+    words = draw(st.integers(layout.pzd + 3, MAX_WORDS)) if layout.variable else layout.words
+    assert words is not None
+    address = draw(st.integers(0, 31))
+    mode = draw(st.sampled_from(list(AddressMode)))
+    data = draw(st.binary(min_size=2 * words, max_size=2 * words))
+    return Telegram(address, mode, data).encode(), layout
+
+
+@given(fitting_telegrams(), st.sampled_from(["request", "response"]))
+@settings(max_examples=300)
+def test_every_telegram_that_fits_its_layout_is_decoded(
+    case: tuple[bytes, Layout], way: str
+) -> None:
+    raw, layout = case
+    info = describe(raw, layout, way)
+    assert info["bcc_ok"] is True
+    assert bytes.fromhex(info["hex"]) == raw
+    assert render(info).startswith("telegram   ")

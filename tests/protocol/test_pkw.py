@@ -176,6 +176,9 @@ def test_word_and_dword_readers() -> None:
     assert Pkw(2, values=(0x1234, 0x5678)).dword() == 0x1234_5678
     assert Pkw(7, values=(5,)).error_number == 5
     assert Pkw(1, values=(5,)).error_number is None
+    assert Pkw(7, values=(0, 5)).error_number == 5  # PKW 4: a word travels in PWE2
+    assert Pkw(7, values=(5, 0, 0)).error_number == 5  # variable, padded: PWE1
+    assert Pkw(7).error_number is None
     with pytest.raises(TelegramError, match="word value"):
         Pkw(1).word()
     with pytest.raises(TelegramError, match="double word"):

@@ -162,16 +162,29 @@ def test_residual_time_uses_the_exact_deadline_after_lge() -> None:
     assert "residual time" in events[0].detail
 
 
-def test_deadline_for_252_bytes_is_loaded_on_stx() -> None:
-    # With a very long start pause only the residual time can end the telegram.
-    rx = Receiver(BAUD, start_pause=10.0)
-    rx.feed(b"\x02", 100.0)
-    limit = residual_time_max(BAUD, 252)
-    assert rx.poll(100.0 + limit - 0.001) == []
-    assert rx.busy
-    assert rx.poll(100.0 + limit + 0.001) == []  # failed, reported once the line is idle
-    events = rx.poll(100.0 + 10.0)
+@pytest.mark.parametrize(
+    ("lge_after", "detail"),
+    [
+        # LGE just inside the n = 252 deadline: taken, and the exact deadline for n = 10
+        # (1.5 x 13 characters = 22.344 ms) replaces it - already past, so the telegram fails.
+        (-0.001, "(22.344 ms after STX): 2 of 14 bytes"),
+        # LGE just after the n = 252 deadline (1.5 x 255 characters = 438.281 ms): too late.
+        (+0.001, "(438.281 ms after STX): 1 of ? bytes"),
+    ],
+    ids=["lge-in-time", "lge-late"],
+)
+def test_deadline_on_stx_is_for_252_bytes_and_exact_after_lge(
+    lge_after: float, detail: str
+) -> None:
+    rx = Receiver(BAUD, start_pause=10.0)  # only the residual time can end the telegram
+    assert rx.feed(b"\x02", 100.0) == []  # STX complete at 100.0
+    lge_time = 100.0 + residual_time_max(BAUD, 252) + lge_after
+    assert rx.feed(GOOD[1:2], lge_time) == []
+    assert rx.poll(lge_time + 0.001) == []
+    events = rx.poll(lge_time + 10.0)
     assert kinds(events) == [FaultKind.RESIDUAL_TIME]
+    assert events[0].raw == GOOD[:2]
+    assert events[0].detail.endswith(detail)
 
 
 def test_late_bytes_of_a_telegram_are_part_of_its_fault() -> None:
@@ -368,3 +381,46 @@ def test_a_telegram_after_garbage_and_a_start_pause_is_found(
         events += w.send(raw[pos : pos + step], gap=0.0)
     assert isinstance(events[-1], Received)
     assert events[-1].raw == raw
+
+
+segments = st.lists(
+    st.tuples(
+        st.one_of(
+            st.binary(min_size=1, max_size=60),
+            st.sampled_from(RAW),
+            st.tuples(st.binary(max_size=5), st.sampled_from(RAW)).map(lambda p: p[0] + p[1]),
+        ),
+        st.floats(0.0, 4.0),
+        st.lists(st.integers(1, 10), max_size=10),
+    ),
+    min_size=1,
+    max_size=8,
+)
+
+
+@given(segments)
+@settings(max_examples=150, deadline=None)
+def test_events_do_not_depend_on_how_the_bytes_are_chunked(
+    parts: list[tuple[bytes, float, list[int]]],
+) -> None:
+    """The same line (segments after idle gaps, bytes back to back inside a segment) gives
+    the same events whether each segment comes in one chunk or cut into pieces."""
+
+    def events(cut: bool) -> list[tuple[object, bytes]]:
+        w = wire()
+        got: list[Event] = []
+        for data, gap, sizes in parts:
+            pieces, pos = [], 0
+            for size in sizes if cut else ():
+                if pos < len(data):
+                    pieces.append(data[pos : pos + size])
+                    pos += size
+            if pos < len(data):
+                pieces.append(data[pos:])
+            got += w.send(pieces[0], gap)
+            for piece in pieces[1:]:
+                got += w.send(piece, 0.0)
+        got += w.idle(10)
+        return [(kinds([e])[0], e.raw) for e in got]
+
+    assert events(cut=True) == events(cut=False)

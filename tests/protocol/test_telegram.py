@@ -97,6 +97,12 @@ def test_undefined_mode_is_refused_when_encoding(mode: int) -> None:
         Telegram(1, mode, b"")  # type: ignore[arg-type]
 
 
+@pytest.mark.parametrize("mode", [0x10, 0x61, 0x100, -1, "x", True])
+def test_a_mode_that_is_no_adr_type_is_refused(mode: object) -> None:
+    with pytest.raises(AddressError, match=r"ADR bits 5\.\.7 in place"):
+        adr_byte(1, mode)  # type: ignore[arg-type]
+
+
 @pytest.mark.parametrize("address", [-1, 32, 255])
 def test_address_out_of_range_is_refused(address: int) -> None:
     with pytest.raises(AddressError, match=r"0\.\.31"):

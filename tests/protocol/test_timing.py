@@ -59,6 +59,47 @@ def test_the_thirteen_baud_rates_of_b_2_4() -> None:
         check_baud(14400)
 
 
+# Every rate of B 2.4, worked out by hand (ms): character (11 bits), start pause (2 characters),
+# maximum residual time before LGE is known (1.5 x 255 characters), response delay limit
+# (20 ms, but at least the start pause). docs/protocol.md shows the same table.
+ALL_RATES = [
+    (300, 36.666667, 73.333333, 14025.0, 73.333333),
+    (600, 18.333333, 36.666667, 7012.5, 36.666667),
+    (1200, 9.166667, 18.333333, 3506.25, 20.0),
+    (2400, 4.583333, 9.166667, 1753.125, 20.0),
+    (4800, 2.291667, 4.583333, 876.5625, 20.0),
+    (9600, 1.145833, 2.291667, 438.28125, 20.0),
+    (19200, 0.572917, 1.145833, 219.140625, 20.0),
+    (38400, 0.286458, 0.572917, 109.570313, 20.0),
+    (57600, 0.190972, 0.381944, 73.046875, 20.0),
+    (76800, 0.143229, 0.286458, 54.785156, 20.0),
+    (93750, 0.117333, 0.234667, 44.88, 20.0),
+    (115200, 0.095486, 0.190972, 36.523438, 20.0),
+    (187500, 0.058667, 0.117333, 22.44, 20.0),
+]
+
+
+@pytest.mark.parametrize(
+    ("baud", "char_ms", "pause_ms", "residual_ms", "response_ms"),
+    ALL_RATES,
+    ids=[str(row[0]) for row in ALL_RATES],
+)
+def test_timing_of_every_baud_rate(
+    baud: int, char_ms: float, pause_ms: float, residual_ms: float, response_ms: float
+) -> None:
+    line = LineTiming(check_baud(baud))
+    assert line.char_time * MS == pytest.approx(char_ms, abs=1e-6)
+    assert line.start_pause * MS == pytest.approx(pause_ms, abs=1e-6)
+    assert line.residual_max(252) * MS == pytest.approx(residual_ms, abs=1e-6)
+    assert line.residual_flush(252) * MS == pytest.approx(residual_ms / 1.5, abs=1e-6)
+    assert line.response_delay_limit * MS == pytest.approx(response_ms, abs=1e-6)
+    assert line.start_pause <= line.response_delay_limit
+
+
+def test_every_baud_rate_is_in_the_table() -> None:
+    assert [row[0] for row in ALL_RATES] == list(BAUD_RATES)
+
+
 def test_character_is_eleven_bits_and_flush_time_is_n_plus_3() -> None:
     assert char_time(11000) == pytest.approx(0.001)
     assert residual_time_flush(11000, 0) == pytest.approx(0.003)

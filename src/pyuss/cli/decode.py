@@ -9,9 +9,9 @@ PZD 0..16); ``--direction`` whether the telegram is a request (master to slave, 
 or a response, which decides the names of IDs and of the bits of PZD1.
 
 A telegram with a wrong BCC is still decoded (``bcc_ok`` false) and exits with 0. Bad hex, a
-bad layout, bytes that are no telegram (no STX, LGE not matching the length, undefined ADR)
-or net data that do not fit the layout give one line on stderr and exit code 2; with
-``--json`` that line is a JSON object ``{"error": "..."}`` on stdout.
+missing or bad layout, a bad direction, bytes that are no telegram (no STX, LGE not matching
+the length, undefined ADR) or net data that do not fit the layout give one line on stderr and
+exit code 2; with ``--json`` that line is a JSON object ``{"error": "..."}`` on stdout.
 
 The JSON object is a stable interface; its keys are documented in docs/protocol.md:
 ``hex``, ``address``, ``mode``, ``adr``, ``lge``, ``bcc``, ``bcc_expected``, ``bcc_ok``,
@@ -61,15 +61,14 @@ def register(subparsers: Any) -> None:
     parser.add_argument(
         "-l",
         "--layout",
-        required=True,
         metavar="PKW,PZD",
-        help="net data layout: PKW 0, 3, 4 or v (variable), PZD 0..16, e.g. 3,2",
+        help="net data layout (required): PKW 0, 3, 4 or v (variable), PZD 0..16, e.g. 3,2",
     )
     parser.add_argument(
         "-d",
         "--direction",
-        choices=DIRECTIONS,
         default="request",
+        metavar="{request,response}",
         help="request: master to slave (default); response: slave to master",
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
@@ -84,15 +83,14 @@ def parse_hex(parts: list[str] | str) -> bytes:
     if not tokens:
         raise ConfigError("no hex bytes given")
     digits = []
-    for token in tokens:
-        if token[:2] in ("0x", "0X"):
-            token = token[2:]
+    for given in tokens:
+        token = given[2:] if given[:2] in ("0x", "0X") else given
         if len(token) == 1:
             token = "0" + token
         if not re.fullmatch(r"[0-9A-Fa-f]+", token):
-            raise ConfigError(f"bad hex {token!r}: only the digits 0-9 and A-F are allowed")
+            raise ConfigError(f"bad hex {given!r}: only the digits 0-9 and A-F are allowed")
         if len(token) % 2:
-            raise ConfigError(f"bad hex {token!r}: an odd number of digits")
+            raise ConfigError(f"bad hex {given!r}: an odd number of digits")
         digits.append(token)
     return bytes.fromhex("".join(digits))
 
@@ -124,7 +122,7 @@ def describe(raw: bytes, layout: Layout, direction: str = "request") -> dict[str
     """Everything ``uss decode`` knows about ``raw`` as a JSON-ready dict. Raises
     `TelegramError` when the bytes are no telegram or do not fit ``layout``."""
     if direction not in DIRECTIONS:
-        raise ConfigError(f"direction must be request or response, got {direction!r}")
+        raise ConfigError(f"bad direction {direction!r}: expected request or response")
     telegram = Telegram.decode(raw, check_bcc=False)
     expected = bcc(raw[:-1])
     net = layout.unpack(telegram.data)
@@ -230,6 +228,8 @@ def render(info: dict[str, Any]) -> str:
 def run(args: argparse.Namespace) -> int:
     try:
         raw = parse_hex(args.hex)
+        if args.layout is None:
+            raise ConfigError("no layout given: --layout PKW,PZD is required, e.g. --layout 3,2")
         layout = Layout.parse(args.layout)
         info = describe(raw, layout, args.direction)
     except (ConfigError, TelegramError) as exc:

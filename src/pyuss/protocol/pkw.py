@@ -535,10 +535,15 @@ class Pkw:
 
     @property
     def error_number(self) -> int | None:
-        """The error number of a response 7 (refused), else None."""
+        """The error number of a response 7 (refused), else None.
+
+        It is a word value, placed as words are (C 4.2.3): PWE2 of a 4-word PKW area, PWE1
+        otherwise. More than two PWE words only occur with the variable layout, where a word
+        travels in PWE1, so the number is read from there (a slave may pad its answer).
+        """
         if self.id != ResponseId.REFUSED or not self.values:
             return None
-        return self.word()
+        return self.values[1] if len(self.values) == 2 else self.values[0]
 
     # -- matching -------------------------------------------------------------------------
 

@@ -127,9 +127,14 @@ def adr_byte(address: int, mode: AddressMode | int = AddressMode.NORMAL) -> int:
     try:
         kind = AddressMode(mode)
     except ValueError:
+        if isinstance(mode, bool) or not isinstance(mode, int) or mode & ~_MODE_MASK:
+            raise AddressError(
+                f"telegram type must be ADR bits 5..7 in place (00h, 20h, 40h, 80h or A0h), "
+                f"got {mode!r}"
+            ) from None
         raise AddressError(
-            f"ADR bits 5..7 = {int(mode) >> 5:03b} is a combination the USS spec leaves "
-            "undefined (A 4.3 Table 4.1)"
+            f"ADR bits 7..5 = {mode >> 5:03b} is a combination the USS spec leaves "
+            "undefined (A 4.3 Table 4.1, A 5.4 Table 5.2)"
         ) from None
     return kind.value | address
 
