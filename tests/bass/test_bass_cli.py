@@ -3,14 +3,19 @@ pty, read and written with ``uss bass read`` / ``uss bass write``."""
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 import signal
 import subprocess
 import sys
+import threading
+import tty
 from collections.abc import Iterator
 
 import pytest
 
+from pyuss.bass.codec import BassRequest
 from pyuss.cli.main import main
 
 TIMEOUT = 20
@@ -109,6 +114,39 @@ def test_ring_on_a_pty_read_with_a_serial_port(capsys: pytest.CaptureFixture[str
         code, err = ring.stop(signal.SIGINT)
     assert code == 0, err
     assert "drive 7: 2" in err
+
+
+def test_ring_keeps_serving_and_stops_cleanly_while_nobody_reads_its_pty() -> None:
+    """A PC that sends and never reads fills the pty: the ring's output is lost with a warning,
+    it keeps serving, and SIGTERM in the middle of a stuck write is still a clean end."""
+    ring = Ring("--pty", "--drives", "1")
+    fd = os.open(ring.where, os.O_RDWR | os.O_NOCTTY)
+    sending = threading.Event()
+    sending.set()
+
+    def flood() -> None:
+        burst = BassRequest.read(1, 170).encode() * 100
+        with contextlib.suppress(OSError):  # the ring has gone: the pty hangs up
+            while sending.is_set():
+                os.write(fd, burst)
+
+    sender = threading.Thread(target=flood, daemon=True)
+    try:
+        tty.setraw(fd)
+        sender.start()
+        assert ring.proc.stderr is not None
+        while "the ring's output is lost" not in (line := ring.proc.stderr.readline()):
+            assert line, "the ring ended"
+        code, err = ring.stop()
+    finally:
+        sending.clear()
+        os.close(fd)
+        sender.join(TIMEOUT)
+        if ring.proc.poll() is None:
+            ring.stop()
+    assert code == 0, err
+    assert "Traceback" not in err
+    assert "requests answered: drive 1: " in err
 
 
 @pytest.mark.parametrize(

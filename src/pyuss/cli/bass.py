@@ -202,16 +202,14 @@ async def _serve_ring(ring: BassRing, transport: Transport, duration: float | No
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
     try:
-        async with transport:
+        async with ring.serving(transport):
             if isinstance(transport, PtyPort):
                 print(transport.device_path)
             elif isinstance(transport, TcpServerTransport):
                 print(f"tcp://{transport.host}:{transport.port}")
             sys.stdout.flush()
-            serving = asyncio.create_task(ring.serve(transport))
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(stop.wait(), duration)
-        await serving
     finally:
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.remove_signal_handler(sig)
