@@ -12,10 +12,13 @@ import sys
 import threading
 import tty
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
+import serial
 
-from pyuss.bass.codec import BassRequest
+from bass.protocol_recording import recorded
+from pyuss.bass.codec import BassAnswer, BassLineReader, BassRequest
 from pyuss.cli.main import main
 
 TIMEOUT = 20
@@ -114,6 +117,40 @@ def test_ring_on_a_pty_read_with_a_serial_port(capsys: pytest.CaptureFixture[str
         code, err = ring.stop(signal.SIGINT)
     assert code == 0, err
     assert "drive 7: 2" in err
+
+
+@pytest.mark.parametrize("action", [["read", "1", "170"], ["write", "1", "170", "0"]])
+def test_the_line_is_opened_8n1_at_9600(
+    action: list[str],
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path,
+) -> None:
+    """Seed 004 1: 8 data bits, no parity, 1 stop bit, 9600 baud - not USS's 8E1. The drive is
+    the far end of a pty; the line is opened through ``recording://``, which notes the frame
+    (`bass.protocol_recording`: a pty cannot show it)."""
+    monkeypatch.setattr(serial, "protocol_handler_packages", ["bass"])
+    record = tmp_path / "settings"
+    pc_end, device = os.openpty()
+
+    def drive() -> None:
+        reader = BassLineReader()
+        while not (items := reader.feed(os.read(pc_end, 64))):
+            pass
+        os.write(pc_end, items[0].raw + BassAnswer.value(1, 170, 0x11).encode())
+
+    answering = threading.Thread(target=drive, daemon=True)
+    try:
+        tty.setraw(device)
+        answering.start()
+        url = f"recording://{os.ttyname(device)}?record={record}"
+        code, _, err = uss(capsys, *action, "--port", url, "--timeout", "5")
+        answering.join(TIMEOUT)
+    finally:
+        os.close(pc_end)
+        os.close(device)
+    assert code == 0, err
+    assert recorded(str(record))[-1] == [9600, 8, "N", 1]
 
 
 def test_ring_keeps_serving_and_stops_cleanly_while_nobody_reads_its_pty() -> None:
