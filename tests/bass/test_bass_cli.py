@@ -100,7 +100,11 @@ def test_no_answer_exits_1(tcp_ring: Ring, capsys: pytest.CaptureFixture[str]) -
         capsys, "read", "9", "170", "--port", tcp_ring.where, "--timeout", "0.3", "--retries", "0"
     )
     assert (code, out) == (1, "")
-    assert "echo but no answer from drive 9" in err
+    assert err.startswith("uss bass read: echo but no answer from drive 9")
+    assert err.count("\n") == 1
+    code, out, err = uss(capsys, "read", "1", "170", "--port", "/dev/nonexistent-bass")
+    assert (code, out) == (1, "")
+    assert err.startswith("uss bass read: cannot open serial port /dev/nonexistent-bass")
     assert err.count("\n") == 1
 
 
@@ -195,6 +199,8 @@ def test_ring_keeps_serving_and_stops_cleanly_while_nobody_reads_its_pty() -> No
         ["read", "1", "170", "--port", "tcp://127.0.0.1"],
         ["read", "1", "170", "--port", "tcp://127.0.0.1:9", "--timeout", "0"],
         ["read", "1", "170", "--port", "tcp://127.0.0.1:9", "--retries", "-1"],
+        ["read", "1", "170", "--port", "tcp://127.0.0.1:9", "--baud", "0"],
+        ["write", "1", "2", "3", "--port", "tcp://127.0.0.1:9", "--baud", "9601"],
         ["write", "1", "2", "0x10000", "--digits", "4", "--port", "tcp://127.0.0.1:9"],
         ["write", "1", "2", "0x100000000", "--port", "tcp://127.0.0.1:9"],
         ["write", "1", "2", "1.5", "--port", "tcp://127.0.0.1:9"],
