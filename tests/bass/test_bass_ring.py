@@ -130,8 +130,12 @@ async def test_write_authority_through_id_126_bit_0() -> None:
         drive.set_write_authority(True)
         await master.write(5, 2, 2000)
         assert drive.value(2) == 2000
+        # only bit 0 counts
+        await master.write(5, ID_COMM_SOURCE, 0x0003)
+        assert await master.read(5, ID_SV_STATE) & 0xF == 1
         # the PC may give up the authority itself; then it is locked out
-        await master.write(5, ID_COMM_SOURCE, 0)
+        await master.write(5, ID_COMM_SOURCE, 0xFFFE)
+        assert await master.read(5, ID_SV_STATE) & 0xF == 0
         with pytest.raises(BassRefusal):
             await master.write(5, 2, 3000)
 
