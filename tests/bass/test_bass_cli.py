@@ -3,14 +3,22 @@ pty, read and written with ``uss bass read`` / ``uss bass write``."""
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 import signal
 import subprocess
 import sys
+import threading
+import tty
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
+import serial
 
+from bass.protocol_recording import recorded
+from pyuss.bass.codec import BassAnswer, BassLineReader, BassRequest
 from pyuss.cli.main import main
 
 TIMEOUT = 20
@@ -92,7 +100,11 @@ def test_no_answer_exits_1(tcp_ring: Ring, capsys: pytest.CaptureFixture[str]) -
         capsys, "read", "9", "170", "--port", tcp_ring.where, "--timeout", "0.3", "--retries", "0"
     )
     assert (code, out) == (1, "")
-    assert "echo but no answer from drive 9" in err
+    assert err.startswith("uss bass read: echo but no answer from drive 9")
+    assert err.count("\n") == 1
+    code, out, err = uss(capsys, "read", "1", "170", "--port", "/dev/nonexistent-bass")
+    assert (code, out) == (1, "")
+    assert err.startswith("uss bass read: cannot open serial port /dev/nonexistent-bass")
     assert err.count("\n") == 1
 
 
@@ -111,6 +123,73 @@ def test_ring_on_a_pty_read_with_a_serial_port(capsys: pytest.CaptureFixture[str
     assert "drive 7: 2" in err
 
 
+@pytest.mark.parametrize("action", [["read", "1", "170"], ["write", "1", "170", "0"]])
+def test_the_line_is_opened_8n1_at_9600(
+    action: list[str],
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path,
+) -> None:
+    """Seed 004 1: 8 data bits, no parity, 1 stop bit, 9600 baud - not USS's 8E1. The drive is
+    the far end of a pty; the line is opened through ``recording://``, which notes the frame
+    (`bass.protocol_recording`: a pty cannot show it)."""
+    monkeypatch.setattr(serial, "protocol_handler_packages", ["bass"])
+    record = tmp_path / "settings"
+    pc_end, device = os.openpty()
+
+    def drive() -> None:
+        reader = BassLineReader()
+        while not (items := reader.feed(os.read(pc_end, 64))):
+            pass
+        os.write(pc_end, items[0].raw + BassAnswer.value(1, 170, 0x11).encode())
+
+    answering = threading.Thread(target=drive, daemon=True)
+    try:
+        tty.setraw(device)
+        answering.start()
+        url = f"recording://{os.ttyname(device)}?record={record}"
+        code, _, err = uss(capsys, *action, "--port", url, "--timeout", "5")
+        answering.join(TIMEOUT)
+    finally:
+        os.close(pc_end)
+        os.close(device)
+    assert code == 0, err
+    assert recorded(str(record))[-1] == [9600, 8, "N", 1]
+
+
+def test_ring_keeps_serving_and_stops_cleanly_while_nobody_reads_its_pty() -> None:
+    """A PC that sends and never reads fills the pty: the ring's output is lost with a warning,
+    it keeps serving, and SIGTERM in the middle of a stuck write is still a clean end."""
+    ring = Ring("--pty", "--drives", "1")
+    fd = os.open(ring.where, os.O_RDWR | os.O_NOCTTY)
+    sending = threading.Event()
+    sending.set()
+
+    def flood() -> None:
+        burst = BassRequest.read(1, 170).encode() * 100
+        with contextlib.suppress(OSError):  # the ring has gone: the pty hangs up
+            while sending.is_set():
+                os.write(fd, burst)
+
+    sender = threading.Thread(target=flood, daemon=True)
+    try:
+        tty.setraw(fd)
+        sender.start()
+        assert ring.proc.stderr is not None
+        while "the ring's output is lost" not in (line := ring.proc.stderr.readline()):
+            assert line, "the ring ended"
+        code, err = ring.stop()
+    finally:
+        sending.clear()
+        os.close(fd)
+        sender.join(TIMEOUT)
+        if ring.proc.poll() is None:
+            ring.stop()
+    assert code == 0, err
+    assert "Traceback" not in err
+    assert "requests answered: drive 1: " in err
+
+
 @pytest.mark.parametrize(
     "args",
     [
@@ -120,6 +199,8 @@ def test_ring_on_a_pty_read_with_a_serial_port(capsys: pytest.CaptureFixture[str
         ["read", "1", "170", "--port", "tcp://127.0.0.1"],
         ["read", "1", "170", "--port", "tcp://127.0.0.1:9", "--timeout", "0"],
         ["read", "1", "170", "--port", "tcp://127.0.0.1:9", "--retries", "-1"],
+        ["read", "1", "170", "--port", "tcp://127.0.0.1:9", "--baud", "0"],
+        ["write", "1", "2", "3", "--port", "tcp://127.0.0.1:9", "--baud", "9601"],
         ["write", "1", "2", "0x10000", "--digits", "4", "--port", "tcp://127.0.0.1:9"],
         ["write", "1", "2", "0x100000000", "--port", "tcp://127.0.0.1:9"],
         ["write", "1", "2", "1.5", "--port", "tcp://127.0.0.1:9"],

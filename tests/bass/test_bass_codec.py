@@ -343,3 +343,14 @@ def test_reader_reports_each_kind_of_fault_and_resynchronises() -> None:
     assert reader.pending == b"#00003C"
     (unfinished,) = reader.flush()
     assert isinstance(unfinished, BassFault) and unfinished.kind is FaultKind.MISSING_EOF
+
+
+def test_an_overlong_line_is_named_in_one_short_message() -> None:
+    first, *rest = BassLineReader(max_line=100).feed(b"#" + b"0" * 2000 + b"\r\n")
+    assert isinstance(first, BassFault) and rest
+    assert all(isinstance(i, BassFault) and i.kind is FaultKind.OVERLONG for i in rest)
+    message = str(first.to_error())
+    assert message.startswith("line too long: over 100 bytes in b'#000")
+    assert message.endswith("0'... (101 bytes)")
+    assert len(message) < 120
+    assert str(BassFault(FaultKind.BAD_CHECKSUM, b"#00\r\n").to_error()).endswith("in b'#00\\r\\n'")

@@ -170,6 +170,10 @@ def test_write_authority_is_id_126_bit_0_and_170_shows_it() -> None:
     assert data.read(ID_SV_STATE) == 0x151 and drive.value(ID_SV_STATE) == 0x151
     data.write(ID_COMM_SOURCE, 0)  # the PC gives up the authority itself
     assert drive.value(ID_SV_STATE) == 0x150
+    drive.write(ID_COMM_SOURCE, 0xFFFE)  # only bit 0 counts
+    assert not data.write_authorized() and data.read(ID_SV_STATE) == 0x150
+    drive.write(ID_COMM_SOURCE, 0x0003)
+    assert data.write_authorized() and data.read(ID_SV_STATE) == 0x151
     drive.write(ID_COMM_SOURCE, 1)
     drive.set_write_authority("bass", False)  # an interface can also be locked alone
     assert data.read(ID_SV_STATE) == 0x150

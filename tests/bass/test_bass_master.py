@@ -6,13 +6,25 @@ master's handling of what comes back is.
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 from collections.abc import Callable
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from pyuss.bass.codec import BassAnswer, BassLine, BassLineReader, BassRequest, BassStatus
+from pyuss.bass.codec import (
+    BassAnswer,
+    BassLine,
+    BassLineReader,
+    BassRequest,
+    BassStatus,
+    encode_text,
+)
 from pyuss.bass.errors import (
     BassEchoError,
+    BassError,
     BassErrorNumber,
     BassProtocolError,
     BassRefusal,
@@ -246,3 +258,63 @@ def test_sync_facade() -> None:
         master.write(3, 2, -1)
     assert drive.requests[1] == BassRequest.write(3, 2, -1).encode()
     assert BassRequest.write(3, 2, -1).data == "FFFF"
+
+
+def text(request: BassRequest, raw: bytes, attempt: int) -> list[bytes]:
+    """ID 90 is a good text, any other one whose two length words disagree."""
+    data = encode_text("Drive 1") if request.ident == 90 else "00020003414243"
+    return [raw, BassAnswer(request.address, 0, request.ident, data).encode()]
+
+
+async def test_read_text_with_a_device_command() -> None:
+    """Texts come with two length words (seed 004 1.1, 1.2); the command is the device's own."""
+    drive = ScriptedDrive(text)
+    async with drive.port:
+        master = BassMaster(drive.port, timeout=0.5, retries=0)
+        assert await master.read_text(1, 90, 0x0040) == "Drive 1"
+        with pytest.raises(BassTelegramError) as info:
+            await master.read_text(1, 91, 0x0040)
+    assert info.value.fault is FaultKind.BAD_TEXT
+    assert drive.requests[0] == BassRequest(1, 0x0040, 90).encode()
+
+
+def test_sync_read_text() -> None:
+    with SyncBassMaster(ScriptedDrive(text).port, timeout=0.5) as master:
+        assert master.read_text(1, 90, 0x0040) == "Drive 1"
+
+
+replies = st.lists(
+    st.binary(max_size=40)
+    | st.sampled_from(
+        [
+            BassAnswer.value(1, 170, 0x11).encode(),
+            BassAnswer.value(2, 170, 0x21).encode(),
+            BassAnswer.refusal(1, 170, 4).encode(),
+            b"#01000000AA\r\n",
+            b"#0100",
+            b"\r\n",
+        ]
+    ),
+    max_size=6,
+)
+
+
+@given(st.booleans(), replies)
+@settings(max_examples=60, deadline=None)
+def test_whatever_comes_back_the_master_answers_or_raises_a_bass_error(
+    echo: bool, reply: list[bytes]
+) -> None:
+    """Malformed lines, garbage, stray answers, nothing at all: a value, or a `BassError`."""
+
+    def script(request: BassRequest, raw: bytes, attempt: int) -> list[bytes]:
+        return [raw, *reply] if echo else reply
+
+    async def run() -> None:
+        drive = ScriptedDrive(script)
+        async with drive.port:
+            with contextlib.suppress(BassError):
+                assert isinstance(
+                    await BassMaster(drive.port, timeout=0.01, retries=1).read(1, 170), int
+                )
+
+    asyncio.run(run())

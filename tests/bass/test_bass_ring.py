@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import asyncio
+import os
+import termios
+import time
+import tty
 
 import pytest
 import serial
@@ -126,8 +130,12 @@ async def test_write_authority_through_id_126_bit_0() -> None:
         drive.set_write_authority(True)
         await master.write(5, 2, 2000)
         assert drive.value(2) == 2000
+        # only bit 0 counts
+        await master.write(5, ID_COMM_SOURCE, 0x0003)
+        assert await master.read(5, ID_SV_STATE) & 0xF == 1
         # the PC may give up the authority itself; then it is locked out
-        await master.write(5, ID_COMM_SOURCE, 0)
+        await master.write(5, ID_COMM_SOURCE, 0xFFFE)
+        assert await master.read(5, ID_SV_STATE) & 0xF == 0
         with pytest.raises(BassRefusal):
             await master.write(5, 2, 3000)
 
@@ -299,3 +307,38 @@ def test_signed_element_round_trip_and_limits(value: int) -> None:
     else:
         assert answer.to_int(signed=True) == value
         assert drive.value(2) == value
+
+
+async def test_a_pc_that_stops_reading_does_not_stop_the_ring() -> None:
+    """The PC sends without reading until the pty's buffer is full and the ring's output is
+    lost; then it empties its input and asks something else: the ring is still serving."""
+    ring = ring_of_three()
+    async with PtyPort(write_timeout=0.1) as pty:
+        assert isinstance(pty, PtyPort)
+        serving = asyncio.create_task(ring.serve(pty))
+        batch = BassRequest.read(5, ID_SV_STATE).encode() * 500
+        ask = BassRequest.read(0x12, ID_SV_BAUD).encode()
+
+        def flood_then_ask() -> bytes:
+            fd = os.open(pty.device_path, os.O_RDWR | os.O_NOCTTY)
+            try:
+                tty.setraw(fd)
+                while pty.stats.dropped_out == 0:  # a batch at a time, never reading
+                    os.write(fd, batch)
+                    time.sleep(0.2)
+                termios.tcflush(fd, termios.TCIFLUSH)
+            finally:
+                os.close(fd)
+            with serial.Serial(pty.device_path, 9600, timeout=WAIT) as port:
+                port.write(ask)
+                seen = b""
+                while not (ask in seen and seen.split(ask)[-1].endswith(b"\n")):
+                    more = port.read(max(1, port.in_waiting))  # what the flood left, then ours
+                    assert more, "the ring went quiet"
+                    seen += more
+                return seen.split(ask)[-1]
+
+        answer = await asyncio.to_thread(flood_then_ask)
+        assert not serving.done()
+    await asyncio.wait_for(serving, WAIT)
+    assert answer == BassAnswer.value(0x12, ID_SV_BAUD, 9600).encode()

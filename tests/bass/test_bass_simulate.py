@@ -6,18 +6,22 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
 import select
 import signal
 import subprocess
 import sys
+import tty
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 
 import pytest
 import serial
 
+from bass.protocol_recording import recorded
 from conftest import load_vectors
-from pyuss.bass.codec import BassAnswer, decode_answer
+from pyuss.bass.codec import BassAnswer, BassRequest, decode_answer
 from pyuss.bass.master import BassMaster
 from pyuss.cli.main import main
 from pyuss.master import Master, SpontaneousMessage
@@ -209,3 +213,56 @@ def test_bad_bass_options_exit_2_with_one_line(
     code, out, err = uss(capsys, "simulate", *args)
     assert (code, out) == (2, "")
     assert err.startswith("uss simulate: --") and err.count("\n") == 1, err
+
+
+RECORDING_MAIN = (
+    "import sys, serial; serial.protocol_handler_packages.append('bass'); "
+    "from pyuss.cli.main import main; sys.exit(main(sys.argv[1:]))"
+)
+
+
+@pytest.mark.parametrize(
+    ("args", "lines"),
+    [
+        (["--profile", "baumueller", "--pty", "--bass-serial"], 2),
+        (["--profile", "bass", "--serial"], 1),
+    ],
+)
+def test_the_simulators_bass_serial_line_is_8n1_at_9600(
+    args: list[str], lines: int, tmp_path: Path
+) -> None:
+    """Seed 004 1: the drives' side of the RS-232 line is 8N1 at 9600 baud too, whatever the
+    USS side uses. The PC is the far end of a pty; the simulator opens the device through
+    ``recording://`` (`bass.protocol_recording`), which notes the frame a pty cannot show."""
+    record = tmp_path / "settings"
+    pc_end, device = os.openpty()
+    try:
+        tty.setraw(device)
+        url = f"recording://{os.ttyname(device)}?record={record}"
+        proc = subprocess.Popen(
+            [sys.executable, "-c", RECORDING_MAIN, "simulate", *args, url, "--address", "2"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=os.environ | {"PYTHONPATH": str(Path(__file__).parents[1])},
+        )
+        try:
+            assert proc.stdout is not None
+            printed = [proc.stdout.readline().strip() for _ in range(lines)]
+            assert printed[-1] == url, proc.communicate(timeout=TIMEOUT)[1]
+            request = BassRequest.read(2, 170).encode()
+            os.write(pc_end, request)
+            back = b""
+            while back.count(b"\n") < 2:
+                ready, _, _ = select.select([pc_end], [], [], TIMEOUT)
+                assert ready, "no echo and answer"
+                back += os.read(pc_end, 64)
+        finally:
+            proc.send_signal(signal.SIGTERM)
+            _, err = proc.communicate(timeout=TIMEOUT)
+    finally:
+        os.close(pc_end)
+        os.close(device)
+    assert proc.returncode == 0, err
+    assert back == request + BassAnswer.value(2, 170, 0x21).encode()
+    assert recorded(str(record))[-1] == [9600, 8, "N", 1]

@@ -46,6 +46,8 @@ HEADER_DIGITS = ADDRESS_DIGITS + WORD_DIGITS + IDENT_DIGITS
 MIN_BODY = HEADER_DIGITS + CHECKSUM_DIGITS
 MAX_LINE = 1024
 """Default longest line the reader accepts, '#' and CR LF included (the seed gives no limit)."""
+SHOWN = 64
+"""Bytes of a malformed line an error message shows (an overlong one is cut there)."""
 BAUD = 9600
 """Seed 004 1: 8 data bits, no parity, 1 stop bit, 9600 baud, full duplex."""
 
@@ -180,8 +182,11 @@ class BassFault:
     detail: str = ""
 
     def to_error(self) -> BassTelegramError:
+        """The fault as an error; its message shows at most `SHOWN` bytes of the line."""
         extra = f": {self.detail}" if self.detail else ""
-        return BassTelegramError(f"{self.kind.value}{extra} in {self.raw!r}", self.kind)
+        shown = repr(self.raw[:SHOWN]) + ("" if len(self.raw) <= SHOWN else "...")
+        size = "" if len(self.raw) <= SHOWN else f" ({len(self.raw)} bytes)"
+        return BassTelegramError(f"{self.kind.value}{extra} in {shown}{size}", self.kind)
 
 
 def _frame(address: int, word: int, ident: int, data: str) -> bytes:
@@ -330,8 +335,10 @@ class BassLineReader:
     - A line starts at '#' and ends at LF; it must end in CR LF (else ``MISSING_EOF``). A '#'
       inside a line ends the unfinished line as ``MISSING_EOF`` and starts a new one.
     - Bytes outside a line up to the next LF or '#' are one ``MISSING_BOF`` fault.
-    - A line or stretch longer than ``max_line`` bytes is reported as ``OVERLONG`` as soon as
-      it passes the limit; the rest of it, up to its end, follows as a further ``OVERLONG``.
+    - A line longer than ``max_line`` bytes is reported as ``OVERLONG`` as soon as it passes
+      the limit, and so is each further ``max_line + 1`` bytes of it; the rest, up to its end,
+      is a last ``OVERLONG``. Bytes outside a line are cut the same way (``MISSING_BOF``), so
+      the reader never holds more than ``max_line`` bytes.
     """
 
     def __init__(self, max_line: int = MAX_LINE) -> None:

@@ -202,6 +202,9 @@ class SyncBassMaster:
     def write(self, address: int, ident: int, value: int, *, digits: int | None = None) -> None:
         self._run_runner().run(self.master.write(address, ident, value, digits=digits))
 
+    def read_text(self, address: int, ident: int, command: int) -> str:
+        return self._run_runner().run(self.master.read_text(address, ident, command))
+
     def exchange(self, request: BassRequest) -> BassExchange:
         return self._run_runner().run(self.master.exchange(request))
 

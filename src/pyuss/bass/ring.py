@@ -35,8 +35,10 @@ a serial port, or a `pyuss.transport.TcpServerTransport` on 127.0.0.1.
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import logging
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import AsyncIterator, Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Protocol, runtime_checkable
 
@@ -331,11 +333,27 @@ class BassRing:
         port.on_write = lambda data: port.deliver(self.inject(data))
         return port
 
+    @contextlib.asynccontextmanager
+    async def serving(self, transport: Transport) -> AsyncIterator[None]:
+        """Open ``transport`` and run `serve` on it while the block runs; at its end the
+        service stops first (even in the middle of a write), then the transport is closed."""
+        async with transport:
+            task = asyncio.create_task(self.serve(transport))
+            try:
+                yield
+            finally:
+                task.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await task
+
     async def serve(self, transport: Transport) -> None:
         """Carry the ring's PC side on an open ``transport`` until it is closed.
 
         For example a `pyuss.transport.PtyPort` (other programs open its device like a serial
         port) or a `pyuss.transport.TcpServerTransport` (one TCP client at a time).
+
+        What the PC does not take (a pty nobody reads, its buffer full) is lost, as on an
+        RS-232 line whose receiver does not read: the ring goes on serving the next requests.
         """
         while True:
             try:
@@ -346,5 +364,9 @@ class BassRing:
             if chunk is None:
                 continue
             out = self.inject(chunk.data)
-            if out:
+            if not out:
+                continue
+            try:
                 await transport.write(out)
+            except TransportError as exc:  # a lost line ends the service at the next read
+                log.warning("the ring's output is lost: %s", exc)

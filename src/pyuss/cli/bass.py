@@ -29,7 +29,8 @@ from pyuss.bass.codec import BAUD, BassRequest
 from pyuss.bass.errors import BassRefusal, BassTelegramError
 from pyuss.bass.master import DEFAULT_RETRIES, DEFAULT_TIMEOUT, BassExchange, BassMaster
 from pyuss.bass.ring import MAX_STATIONS, BassRing, DictOperatingData, demo_elements
-from pyuss.errors import ConfigError
+from pyuss.errors import ConfigError, UssError
+from pyuss.protocol.timing import BAUD_RATES
 from pyuss.transport import PtyPort, TcpServerTransport, Transport, open_transport
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
@@ -66,7 +67,12 @@ def _drives(text: str) -> list[int]:
 
 def _port_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--port", required=True, metavar="URL", help="serial port or URL")
-    parser.add_argument("--baud", type=int, default=BAUD, help="baud rate (default 9600)")
+    parser.add_argument(
+        "--baud",
+        type=int,
+        default=BAUD,
+        help=f"baud rate ({', '.join(map(str, BAUD_RATES))}; BASS drives: 9600, the default)",
+    )
     parser.add_argument(
         "--timeout", type=float, default=DEFAULT_TIMEOUT, help="seconds per attempt (default 1)"
     )
@@ -127,6 +133,9 @@ def _run(args: argparse.Namespace, job: Callable[[argparse.Namespace], int]) -> 
     except ConfigError as exc:
         print(f"uss bass {args.bass_command}: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except UssError as exc:  # no answer, a line that failed: named like a refusal
+        print(f"uss bass {args.bass_command}: {exc}", file=sys.stderr)
+        return EXIT_FAILED
 
 
 async def _exchange(args: argparse.Namespace, request: BassRequest) -> BassExchange:
@@ -166,6 +175,9 @@ def _report(args: argparse.Namespace, request: BassRequest, value: int | None) -
 
 
 def _check_link(args: argparse.Namespace) -> None:
+    if args.baud not in BAUD_RATES:
+        rates = ", ".join(map(str, BAUD_RATES))
+        raise ConfigError(f"--baud {args.baud} is not one of {rates} (BASS drives: 9600)")
     if not args.timeout > 0:
         raise ConfigError(f"--timeout must be positive, not {args.timeout}")
     if args.retries < 0:
@@ -202,16 +214,14 @@ async def _serve_ring(ring: BassRing, transport: Transport, duration: float | No
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
     try:
-        async with transport:
+        async with ring.serving(transport):
             if isinstance(transport, PtyPort):
                 print(transport.device_path)
             elif isinstance(transport, TcpServerTransport):
                 print(f"tcp://{transport.host}:{transport.port}")
             sys.stdout.flush()
-            serving = asyncio.create_task(ring.serve(transport))
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(stop.wait(), duration)
-        await serving
     finally:
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.remove_signal_handler(sig)

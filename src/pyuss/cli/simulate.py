@@ -445,26 +445,12 @@ async def _bass_side_of(
     ring = drive_ring([(e.address, e.drive) for e in engines], clock=clock)
     transport, device = _open_line(opts.bass_line, opts.bass_where, BASS_BAUD, "N")
     try:
-        async with _ring_served(ring, transport):
+        async with ring.serving(transport):
             yield _BassSide(ring, device())
     finally:
         for station in ring.stations:
             if isinstance(station.data, DriveOperatingData):
                 station.data.close()
-
-
-@contextlib.asynccontextmanager
-async def _ring_served(ring: BassRing, transport: Transport) -> AsyncIterator[None]:
-    """Open ``transport`` and carry the PC side of ``ring`` on it while the block runs."""
-    await transport.open()
-    serving = asyncio.create_task(ring.serve(transport))
-    try:
-        yield
-    finally:
-        serving.cancel()
-        with contextlib.suppress(asyncio.CancelledError):
-            await serving
-        await transport.close()
 
 
 # -- other protocols ------------------------------------------------------------------------
@@ -496,7 +482,7 @@ async def _serve_bass(opts: Options, stop: asyncio.Event, announce: Announce) ->
         raise ConfigError("profile bass: a BASS ring is RS-232, not a station of a USS bus")
     ring = BassRing([DictOperatingData(a, demo_elements()) for a in opts.addresses])
     transport, first_line = _line(opts, baud=BASS_BAUD, parity="N")
-    async with _ring_served(ring, transport):
+    async with ring.serving(transport):
         announce(first_line())
         await stop.wait()
 
