@@ -183,6 +183,13 @@ def test_fault_text_form() -> None:
         ("delay:station=s1", "seconds"),
         ("flip:nth=0", "nth"),
         ("insert:byte=300", "0..255"),
+        ("flip:at=nan", "finite at"),
+        ("flip:at=inf", "finite at"),
+        ("flip:for=nan", "for > 0"),
+        ("stretch:gap=inf", "gap must be finite"),
+        ("stretch:gap=nan", "gap must be finite"),
+        ("delay:station=s1,seconds=inf", "seconds finite"),
+        ("delay:station=s1,seconds=nan", "seconds finite"),
     ],
 )
 def test_bad_fault_text_names_the_problem(text: str, words: str) -> None:
