@@ -150,6 +150,24 @@ async def test_two_wire_echo_is_checked_and_removed_by_the_station(medium: str) 
     await bus.close()
 
 
+async def test_echo_for_named_raw_tcp_stations_only() -> None:
+    bus = VirtualBus(BAUD)
+    host, port = await bus.serve_tcp(echo={"tcp1"})
+    async with TcpTransport(host, port, baud=BAUD) as one:
+        await _wait_stations(bus, 1)
+        async with TcpTransport(host, port, baud=BAUD) as two:
+            await _wait_stations(bus, 2)
+            assert bus.stations["tcp1"].hears_own and not bus.stations["tcp2"].hears_own
+            await one.write(b"\x02\x02\x00\x00")
+            assert joined(await read_bytes(two, 4)) == b"\x02\x02\x00\x00"
+            assert joined(await read_bytes(one, 4)) == b"\x02\x02\x00\x00"
+            await two.write(b"\x02\x02\x01\x01")
+            assert joined(await read_bytes(one, 4)) == b"\x02\x02\x01\x01"
+            await one.write(b"\x02\x02\x02\x02")
+            assert joined(await read_bytes(two, 4)) == b"\x02\x02\x02\x02"
+    await bus.close()
+
+
 async def test_bus_client_sees_the_line_errors_of_the_bus() -> None:
     bus = VirtualBus(BAUD, faults=FaultPlan([Fault(FaultKind.PARITY, station="master", nth=2)]))
     host, port = await bus.serve_tcp(framed=True)

@@ -33,7 +33,7 @@ import itertools
 import logging
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
 
 from pyuss.bus.faults import FaultEngine, FaultPlan, frame_bits
@@ -359,14 +359,19 @@ class VirtualBus:
             if buf:
                 station.receive(bytes(buf), last_end, tuple(errors))
 
-    async def serve_pty(self, n: int, *, echo: bool = False) -> list[str]:
+    async def serve_pty(self, n: int, *, echo: bool | Collection[str] = False) -> list[str]:
         """Open ``n`` pty stations; their device paths (see `pyuss.bus.serve`)."""
         from pyuss.bus.serve import serve_pty
 
         return await serve_pty(self, n, echo=echo)
 
     async def serve_tcp(
-        self, host: str = "127.0.0.1", port: int = 0, *, framed: bool = False, echo: bool = False
+        self,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        *,
+        framed: bool = False,
+        echo: bool | Collection[str] = False,
     ) -> tuple[str, int]:
         """Accept stations over TCP; the address bound (see `pyuss.bus.serve`)."""
         from pyuss.bus.serve import serve_tcp

@@ -5,6 +5,9 @@ Prints one line per way in: the device path of each pty (open it as a serial por
 ``bus://HOST:PORT`` (pyuss stations that keep exact timing and line errors), and runs until
 SIGINT or SIGTERM (or ``--duration`` seconds), then closes everything, finishes the
 recording and prints a summary on stderr. Stopping is the normal end: exit code 0.
+
+``--echo`` makes stations hear their own characters, as 2-wire adapters do: alone, every pty
+and tcp station; with names (``--echo pty1,tcp2``), only those.
 """
 
 from __future__ import annotations
@@ -45,7 +48,12 @@ def register(subparsers: Any) -> None:
         "--bus-tcp", metavar="HOST:PORT", help="accept bus:// stations (exact timing, errors)"
     )
     parser.add_argument(
-        "--echo", action="store_true", help="pty and tcp stations hear their own characters"
+        "--echo",
+        nargs="?",
+        const="",
+        metavar="STATIONS",
+        help="stations that hear their own characters, as 2-wire adapters do: every pty and "
+        "tcp station, or only those named (--echo pty1,tcp2); bus:// stations choose their own",
     )
     parser.add_argument("--record", metavar="FILE", help="record every character as JSON lines")
     parser.add_argument(
@@ -81,38 +89,47 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError("nothing to serve: give --pty N, --tcp HOST:PORT or --bus-tcp")
         if args.duration is not None and not args.duration > 0:
             raise ConfigError(f"--duration {args.duration}: must be > 0 seconds")
-        _check_stations(plan, args.pty, tcp is not None, framed is not None)
+        if not framed:  # bus:// stations name themselves: any name may come
+            for fault in plan.faults:
+                if fault.station is not None:
+                    _check_station(fault.station, "--fault", args.pty, tcp is not None)
+        echo = _echo_stations(args.echo, args.pty, tcp is not None)
         recorder = None if not args.record else Recorder(args.record, keep=False).attach(bus)
     except ConfigError as exc:
         print(f"uss bus: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    started: list[bool] = []
     try:
-        return asyncio.run(_serve(bus, args, tcp, framed))
+        return asyncio.run(_serve(bus, args, tcp, framed, echo, started))
     finally:
         if recorder is not None:
-            recorder.close()
+            if started:
+                recorder.close()
+            else:  # the bus never ran: no recording of nothing
+                recorder.discard()
 
 
-def _check_stations(plan: FaultPlan, ptys: int, tcp: bool, framed: bool) -> None:
-    """A fault aimed at a station this bus cannot have would silently never fire. Stations are
-    ``pty1``..``ptyN`` and ``tcp1``... (one per connection); ``bus://`` stations name
-    themselves, so with ``--bus-tcp`` any name may come."""
-    if framed:
+def _check_station(name: str, option: str, ptys: int, tcp: bool) -> None:
+    """A station this bus can have: ``pty1``..``ptyN`` and ``tcp1``... (one per connection).
+    A fault or echo aimed at another one would silently never apply."""
+    number = name[3:]
+    if name.startswith("pty") and number.isdigit() and 1 <= int(number) <= ptys:
         return
-    for fault in plan.faults:
-        name = fault.station
-        if name is None:
-            continue
-        number = name[3:]
-        if name.startswith("pty") and number.isdigit() and 1 <= int(number) <= ptys:
-            continue
-        if tcp and name.startswith("tcp") and number.isdigit() and int(number) >= 1:
-            continue
-        known = [f"pty1..pty{ptys}"] if ptys else []
-        known += ["tcp1, tcp2, ... (one per connection)"] if tcp else []
-        raise ConfigError(
-            f"--fault: no station {name!r} on this bus (stations: {', '.join(known)})"
-        )
+    if tcp and name.startswith("tcp") and number.isdigit() and int(number) >= 1:
+        return
+    known = [f"pty1..pty{ptys}"] if ptys else []
+    known += ["tcp1, tcp2, ... (one per connection)"] if tcp else []
+    raise ConfigError(f"{option}: no station {name!r} on this bus (stations: {', '.join(known)})")
+
+
+def _echo_stations(text: str | None, ptys: int, tcp: bool) -> bool | frozenset[str]:
+    """``--echo``: absent (nobody), alone (every pty and tcp station) or a list of names."""
+    if text is None or text == "":
+        return text is not None
+    names = [name.strip() for name in text.split(",")]
+    for name in names:
+        _check_station(name, "--echo", ptys, tcp)
+    return frozenset(names)
 
 
 async def _serve(
@@ -120,19 +137,22 @@ async def _serve(
     args: argparse.Namespace,
     tcp: tuple[str, int] | None,
     framed: tuple[str, int] | None,
+    echo: bool | frozenset[str],
+    started: list[bool],
 ) -> int:
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
     try:
-        lines = await bus.serve_pty(args.pty, echo=args.echo) if args.pty else []
+        lines = await bus.serve_pty(args.pty, echo=echo) if args.pty else []
         if tcp is not None:
-            host, port = await bus.serve_tcp(*tcp, echo=args.echo)
+            host, port = await bus.serve_tcp(*tcp, echo=echo)
             lines.append(f"tcp://{host}:{port}")
         if framed is not None:
             host, port = await bus.serve_tcp(*framed, framed=True)
             lines.append(f"bus://{host}:{port}")
+        started.append(True)
         for line in lines:
             print(line)
         sys.stdout.flush()
