@@ -1,5 +1,6 @@
 """The same exchanges over every way of reaching the virtual bus: in-process stations, ptys
-with pyserial on both ends, raw TCP on 127.0.0.1, and ``bus://`` (framed TCP)."""
+with pyserial on both ends, raw TCP on 127.0.0.1 (pyuss ``tcp://`` and pyserial
+``socket://``), and ``bus://`` (framed TCP)."""
 
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ from pyuss.transport.base import Chunk, LineError
 from transport.helpers import WAIT, byte_ends, flat_errors, joined, read_bytes
 
 BAUD = 19200
-MEDIA = ["inproc", "pty", "tcp", "bus"]
+MEDIA = ["inproc", "pty", "tcp", "socket", "bus"]
 
 
 @dataclass
@@ -52,6 +53,10 @@ async def _open_line(medium: str, bus: VirtualBus) -> tuple[Transport, Transport
     if medium == "tcp":
         host, port = await bus.serve_tcp("127.0.0.1", 0)
         return tuple(TcpTransport(host, port, baud=BAUD) for _ in range(3))  # type: ignore[return-value]
+    if medium == "socket":
+        host, port = await bus.serve_tcp("127.0.0.1", 0)
+        urls = [f"socket://{host}:{port}"] * 3
+        return tuple(open_transport(url, baud=BAUD) for url in urls)  # type: ignore[return-value]
     host, port = await bus.serve_tcp("127.0.0.1", 0, framed=True)
     return (
         open_transport(f"bus://{host}:{port}?name=master", baud=BAUD),

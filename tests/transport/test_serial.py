@@ -6,6 +6,7 @@ import asyncio
 import logging
 
 import pytest
+import serial
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -14,7 +15,8 @@ from pyuss.transport.base import LineError
 from pyuss.transport.pty import PtyPort
 from pyuss.transport.queued import EchoError
 from pyuss.transport.serialport import MARKED, MarkDecoder, RS485Mode, SerialTransport
-from transport.helpers import WAIT, joined, read_bytes
+from pyuss.transport.tcp import TcpServerTransport
+from transport.helpers import WAIT, Rfc2217Server, joined, read_bytes
 
 
 async def test_loop_url_reads_back_what_was_written() -> None:
@@ -25,6 +27,41 @@ async def test_loop_url_reads_back_what_was_written() -> None:
         stamps = [c.timestamp for c in chunks]
         assert stamps == sorted(stamps)
         assert all(c.timestamp <= port.clock() for c in chunks)
+
+
+async def test_socket_url_carries_bytes_both_ways() -> None:
+    server = TcpServerTransport()
+    await server.open()
+    async with SerialTransport(f"socket://127.0.0.1:{server.port}", baud=19200) as port:
+        assert await server.wait_peer(WAIT)
+        await port.write(b"\x02\x02\x00\x00")
+        assert joined(await read_bytes(server, 4)) == b"\x02\x02\x00\x00"
+        await server.write(bytes(range(256)))
+        assert joined(await read_bytes(port, 256)) == bytes(range(256))
+        await server.close()  # the converter goes away: the loss is reported
+        with pytest.raises(TransportError, match="lost"):
+            await port.read(WAIT)
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning:serial.rfc2217")
+async def test_rfc2217_url_sets_the_remote_port_to_8e1_and_the_baud() -> None:
+    remote = serial.serial_for_url("loop://", baudrate=9600, parity="N", timeout=0.05)
+    server = Rfc2217Server(remote)
+    host, tcp_port = server.address
+    try:
+        async with SerialTransport(f"rfc2217://{host}:{tcp_port}", baud=19200) as port:
+            # The remote port loops back what it is sent.
+            await port.write(b"\x02\x04\x00\xff\x11\xe8")
+            assert joined(await read_bytes(port, 6)) == b"\x02\x04\x00\xff\x11\xe8"
+            assert (remote.baudrate, remote.bytesize, remote.parity, remote.stopbits) == (
+                19200,
+                8,
+                "E",
+                1,
+            )
+    finally:
+        server.close()
+        remote.close()
 
 
 async def test_default_frame_is_8e1() -> None:

@@ -53,6 +53,8 @@ log = logging.getLogger(__name__)
 _READ_POLL = 0.1
 #: Longest a write may block in the OS before the port is taken as lost (seconds).
 _WRITE_TIMEOUT = 2.0
+#: pyserial backends that refuse a write timeout (they raise NotImplementedError on open).
+_NO_WRITE_TIMEOUT = ("rfc2217://",)
 #: How a character flagged by the kernel (PARMRK) is reported.
 MARKED = LineError.PARITY | LineError.FRAMING
 
@@ -164,7 +166,7 @@ class SerialTransport(QueuedTransport):
                 parity=_PARITIES[key],
                 stopbits=_STOPBITS[stopbits],
                 timeout=_READ_POLL,
-                write_timeout=_WRITE_TIMEOUT,
+                write_timeout=None if url.lower().startswith(_NO_WRITE_TIMEOUT) else _WRITE_TIMEOUT,
                 do_not_open=True,
             )
         except (ValueError, serial.SerialException) as exc:
@@ -194,7 +196,7 @@ class SerialTransport(QueuedTransport):
             marking = self._setup_marking()
             if self.rs485 is RS485Mode.RTS:
                 self._port.rts = False
-        except (OSError, ValueError, serial.SerialException) as exc:
+        except (OSError, ValueError, NotImplementedError, serial.SerialException) as exc:
             self._close_port()
             what = "kernel RS-485 mode: " if self.rs485 is RS485Mode.KERNEL else ""
             raise TransportError(f"cannot open {self.describe()}: {what}{exc}") from None
