@@ -125,10 +125,12 @@ async def test_timestamps_never_go_back(line: Line) -> None:
 
 
 async def test_simultaneous_senders_collide(line: Line) -> None:
-    ones, twos = bytes([0x01] * 100), bytes([0x02] * 100)  # 57 ms each at 19200 baud
+    # 250 characters each: 143 ms at 19200 baud, so the two overlap on the line even when one
+    # reaches the bus tens of milliseconds after the other (threads, sockets, a loaded machine).
+    ones, twos = bytes([0x01] * 250), bytes([0x02] * 250)
     await asyncio.gather(line.master.write(ones), line.slave.write(twos))
     await line.bus.drain(WAIT)
-    seen = await read_bytes(line.monitor, 200, timeout=0.3)
+    seen = await read_bytes(line.monitor, 500, timeout=0.3)
     assert line.bus.stats.collisions >= 1
     assert line.bus.stats.garbled >= 1
     # Nobody received both telegrams intact.

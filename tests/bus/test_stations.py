@@ -44,18 +44,19 @@ async def test_station_with_echo_hears_itself() -> None:
 
 
 async def test_overlapping_senders_garble_each_other_and_count_a_collision() -> None:
-    # 300 baud: a bit lasts 3.3 ms, so the two writes below land within the same bit even when
-    # the test process is descheduled for a while between them on a loaded machine.
-    bus = VirtualBus(300)
+    bus = VirtualBus(9600)
     recorder = Recorder().attach(bus)
     async with (
         bus.attach("a", echo=True) as a,
-        bus.attach("b") as b,
+        bus.attach("b"),
         bus.attach("monitor", listen_only=True) as monitor,
     ):
-        # Both write in the same instant: their frames lie on top of each other.
-        await a.write(b"\x01\x0f")
-        await b.write(b"\x02\xf0")
+        # Both send in the same instant: their frames lie on top of each other. The times are
+        # given, so how fast this process runs does not move one against the other.
+        start = monitor.clock() + 0.01
+        for i, (one, two) in enumerate(zip(b"\x01\x0f", b"\x02\xf0", strict=True)):
+            bus.inject("a", start + i * bus.char_time, one)
+            bus.inject("b", start + i * bus.char_time, two)
         chunks = await read_bytes(monitor, 2)
         echo = await read_bytes(a, 2)
     await bus.close()
