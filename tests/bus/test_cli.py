@@ -122,6 +122,8 @@ def test_a_bus_that_cannot_start_leaves_no_recording(tmp_path: Path) -> None:
     ("args", "words"),
     [
         ([], "nothing to serve"),
+        (["--pty", "33"], "--pty 33: give 0..32 ptys"),
+        (["--pty", "-1"], "--pty -1: give 0..32 ptys"),
         (["--pty", "1", "--baud", "14400"], "14400 is not a USS baud rate"),
         (["--pty", "1", "--fault", "flip:p=7"], "probability"),
         (["--tcp", "127.0.0.1"], "HOST:PORT"),

@@ -20,6 +20,7 @@ import sys
 from typing import Any
 
 from pyuss.bus import FaultPlan, Recorder, VirtualBus
+from pyuss.bus.core import MAX_SENDERS
 from pyuss.errors import ConfigError
 from pyuss.transport.queued import BAUD_RATES
 
@@ -83,8 +84,11 @@ def run(args: argparse.Namespace) -> int:
         bus = VirtualBus(args.baud, faults=plan, seed=args.seed)
         tcp = None if args.tcp is None else _endpoint(args.tcp, "--tcp")
         framed = None if args.bus_tcp is None else _endpoint(args.bus_tcp, "--bus-tcp")
-        if args.pty < 0 or args.pty > 64:
-            raise ConfigError(f"--pty {args.pty}: give 0..64 ptys")
+        if not 0 <= args.pty <= MAX_SENDERS:
+            raise ConfigError(
+                f"--pty {args.pty}: give 0..{MAX_SENDERS} ptys "
+                f"(B 1: a bus has one master and up to 31 slaves)"
+            )
         if not args.pty and tcp is None and framed is None:
             raise ConfigError("nothing to serve: give --pty N, --tcp HOST:PORT or --bus-tcp")
         if args.duration is not None and not args.duration > 0:
