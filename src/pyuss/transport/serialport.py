@@ -34,6 +34,7 @@ import enum
 import logging
 import threading
 import time
+import urllib.parse
 
 import serial
 import serial.rs485
@@ -66,6 +67,20 @@ _PARITIES = {
     "S": serial.PARITY_SPACE,
 }
 _STOPBITS = {1: serial.STOPBITS_ONE, 1.5: serial.STOPBITS_ONE_POINT_FIVE, 2: serial.STOPBITS_TWO}
+
+
+def _check_network_url(url: str) -> None:
+    """``socket://`` and ``rfc2217://`` need HOST:PORT; say so rather than pyserial's riddle."""
+    parts = urllib.parse.urlsplit(url)
+    scheme = parts.scheme.lower()
+    if scheme not in ("socket", "rfc2217"):
+        return
+    try:
+        port = parts.port
+    except ValueError:
+        port = None
+    if not parts.hostname or port is None or not 0 < port < 65536:
+        raise ConfigError(f"serial port URL {url!r}: expected {scheme}://HOST:PORT")
 
 
 class RS485Mode(enum.Enum):
@@ -146,6 +161,7 @@ class SerialTransport(QueuedTransport):
         super().__init__(baud=baud, echo=echo, echo_timeout=echo_timeout)
         if not isinstance(url, str) or not url:
             raise ConfigError(f"serial port URL must be a non-empty string, not {url!r}")
+        _check_network_url(url)
         key = str(parity).upper()
         if key not in _PARITIES:
             raise ConfigError(f"parity {parity!r} is not one of N, E, O, M, S")
