@@ -207,6 +207,14 @@ async def test_kernel_rs485_on_a_port_without_it_fails_to_open() -> None:
         assert (settings.rts_level_for_tx, settings.rts_level_for_rx) == (True, False)
 
 
+async def test_rts_mode_on_a_port_without_modem_lines_fails_to_open() -> None:
+    async with PtyPort() as pty:
+        port = SerialTransport(pty.device_path, rs485="rts")
+        with pytest.raises(TransportError, match="RTS direction control"):
+            await port.open()
+        assert not port.is_open
+
+
 async def test_rts_mode_raises_rts_around_each_write(caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO, logger="pySerial.loop")
     baud = 2400

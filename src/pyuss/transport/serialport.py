@@ -214,7 +214,10 @@ class SerialTransport(QueuedTransport):
                 self._port.rts = False
         except (OSError, ValueError, NotImplementedError, serial.SerialException) as exc:
             self._close_port()
-            what = "kernel RS-485 mode: " if self.rs485 is RS485Mode.KERNEL else ""
+            what = {
+                RS485Mode.KERNEL: "kernel RS-485 mode: ",
+                RS485Mode.RTS: "RTS direction control: ",
+            }.get(self.rs485, "")
             raise TransportError(f"cannot open {self.describe()}: {what}{exc}") from None
         self._loop = asyncio.get_running_loop()
         self._mark_open()
