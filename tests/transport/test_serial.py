@@ -195,24 +195,25 @@ async def test_lost_port_is_reported_to_the_reader() -> None:
             await port.read(WAIT)
 
 
-async def test_kernel_rs485_on_a_port_without_it_fails_to_open() -> None:
+@pytest.mark.parametrize(
+    ("mode", "words"), [("kernel", "kernel RS-485 mode"), ("rts", "RTS direction control")]
+)
+async def test_direction_control_a_port_cannot_do_fails_to_open(mode: str, words: str) -> None:
+    # A pty has neither the kernel's RS-485 mode nor modem lines.
     async with PtyPort() as pty:
-        port = SerialTransport(pty.device_path, rs485="kernel")
-        with pytest.raises(TransportError, match="RS-485"):
+        port = SerialTransport(pty.device_path, rs485=mode)
+        with pytest.raises(TransportError, match=words):
             await port.open()
         assert not port.is_open
-        # What was asked of the kernel: RTS high while sending, low while listening.
+
+
+async def test_kernel_mode_asks_for_rts_high_while_sending() -> None:
+    port = SerialTransport("loop://", rs485="kernel")
+    assert port.port.rs485_mode is None  # set when the port opens
+    async with port:
         settings = port.port.rs485_mode
         assert settings is not None
         assert (settings.rts_level_for_tx, settings.rts_level_for_rx) == (True, False)
-
-
-async def test_rts_mode_on_a_port_without_modem_lines_fails_to_open() -> None:
-    async with PtyPort() as pty:
-        port = SerialTransport(pty.device_path, rs485="rts")
-        with pytest.raises(TransportError, match="RTS direction control"):
-            await port.open()
-        assert not port.is_open
 
 
 async def test_rts_mode_raises_rts_around_each_write(caplog: pytest.LogCaptureFixture) -> None:
