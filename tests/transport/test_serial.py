@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from pyuss.errors import ConfigError, TransportError
 from pyuss.transport.base import LineError
 from pyuss.transport.pty import PtyPort
-from pyuss.transport.queued import EchoError
+from pyuss.transport.queued import BAUD_RATES, EchoError
 from pyuss.transport.serialport import MARKED, MarkDecoder, RS485Mode, SerialTransport
 from pyuss.transport.tcp import TcpServerTransport
 from transport.helpers import WAIT, Rfc2217Server, joined, read_bytes
@@ -70,6 +70,16 @@ async def test_default_frame_is_8e1() -> None:
     assert transport.port.parity == "E"
     assert transport.port.stopbits == 1
     assert transport.baud == 9600
+
+
+async def test_every_baud_rate_of_b_2_4_sets_up_a_terminal() -> None:
+    # 76800, 93750 and 187500 are no standard termios rates: pyserial sets them as custom ones.
+    async with PtyPort() as pty:
+        for baud in BAUD_RATES:
+            async with SerialTransport(pty.device_path, baud=baud) as port:
+                assert port.port.baudrate == baud
+                await port.write(b"\x02")
+                assert joined(await read_bytes(pty, 1)) == b"\x02"
 
 
 @pytest.mark.parametrize(
