@@ -19,7 +19,7 @@ import signal
 import sys
 from typing import Any
 
-from pyuss.bus import FaultPlan, Recorder, VirtualBus
+from pyuss.bus import FaultKind, FaultPlan, Recorder, VirtualBus
 from pyuss.bus.core import MAX_SENDERS
 from pyuss.errors import ConfigError
 from pyuss.transport.queued import BAUD_RATES
@@ -41,7 +41,9 @@ def register(subparsers: Any) -> None:
         default=9600,
         help=f"baud rate (B 2.4: {', '.join(map(str, BAUD_RATES))}; default 9600)",
     )
-    parser.add_argument("--pty", type=int, default=0, metavar="N", help="open N pty stations")
+    parser.add_argument(
+        "--pty", type=int, default=0, metavar="N", help="open N pty stations, pty1..ptyN (<= 32)"
+    )
     parser.add_argument(
         "--tcp", metavar="HOST:PORT", help="accept raw serial-over-TCP stations (PORT 0: any)"
     )
@@ -62,7 +64,9 @@ def register(subparsers: Any) -> None:
         action="append",
         default=[],
         metavar="SPEC",
-        help="inject faults, e.g. flip:p=0.01 or deaf:station=pty2,at=5,for=2 (repeatable)",
+        help="inject faults: KIND[:key=value,...] with KIND one of "
+        f"{', '.join(k.value for k in FaultKind)}, e.g. flip:p=0.01 or "
+        "deaf:station=pty2,at=5,for=2 (repeatable; docs/bus.md lists the keys)",
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the fault plan (default 0)")
     parser.add_argument(
