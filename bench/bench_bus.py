@@ -6,8 +6,9 @@ character, delivery time minus ideal end time (the lag: never negative, since th
 delivers early). Then the same through ptys, comparing two ways of stamping what a serial
 port reads: pyuss's worker thread (`SerialTransport`) and a reader in the event loop that also
 runs the bus; each chunk's stamp minus the ideal end time of its last byte.
-CPU is process CPU time over wall time while the traffic runs (the bus plus the two stations
-and the probe, all in this process).
+CPU, over wall time while the traffic runs: the bus's own (CPU time spent in putting
+characters on the line and handing them over, `VirtualBus.send` and the delivery timer), and
+the whole process's (the bus plus the two stations and the probe, all in this process).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import os
 import statistics
 import time
 import tty
+from collections.abc import Callable
 
 from pyuss.bus import Recorder, VirtualBus
 from pyuss.transport import SerialTransport, Transport
@@ -53,8 +55,26 @@ async def _traffic(bus: VirtualBus, seconds: float) -> int:
     return cycles
 
 
-async def _in_process(baud: int) -> tuple[list[float], float, int]:
+def _meter(bus: VirtualBus) -> list[float]:
+    """Count the CPU time the bus spends in ``send`` and its delivery timer (one-item list)."""
+    spent = [0.0]
+    for name in ("send", "_tick"):
+        inner = getattr(bus, name)
+
+        def timed(*args: object, _inner: Callable[..., None] = inner) -> None:
+            begin = time.thread_time()
+            try:
+                _inner(*args)
+            finally:
+                spent[0] += time.thread_time() - begin
+
+        setattr(bus, name, timed)
+    return spent
+
+
+async def _in_process(baud: int) -> tuple[list[float], float, float, int]:
     bus = VirtualBus(baud)
+    spent = _meter(bus)
     lags: list[float] = []
     tc = bus.char_time
 
@@ -66,9 +86,10 @@ async def _in_process(baud: int) -> tuple[list[float], float, int]:
     bus.attach("probe", listen_only=True, sink=probe)
     wall0, cpu0 = time.monotonic(), time.process_time()
     cycles = await _traffic(bus, SECONDS)
-    cpu = (time.process_time() - cpu0) / (time.monotonic() - wall0)
+    wall = time.monotonic() - wall0
+    cpu = (time.process_time() - cpu0) / wall
     await bus.close()
-    return lags, cpu, cycles
+    return lags, spent[0] / wall, cpu, cycles
 
 
 async def _through_pty(baud: int) -> tuple[list[float], list[float]]:
@@ -122,12 +143,13 @@ def _ms(values: list[float]) -> str:
 def main() -> None:
     print(f"delivery lag per character (delivery time - ideal end time), {SECONDS} s each")
     for baud in BAUDS:
-        lags, cpu, cycles = asyncio.run(_in_process(baud))
+        lags, bus_cpu, cpu, cycles = asyncio.run(_in_process(baud))
         tc = 11 / baud
         print(
             f"  {baud:6d} baud, in-process: {_ms(lags)}; "
             f"median/character time {statistics.median(lags) / tc:5.2f}; "
-            f"CPU {cpu * 100:5.1f} % of one core ({cycles} request/response cycles)"
+            f"CPU of one core: bus {bus_cpu * 100:5.1f} %, process {cpu * 100:5.1f} % "
+            f"({cycles} request/response cycles)"
         )
         threaded, looped = asyncio.run(_through_pty(baud))
         print(f"  {baud:6d} baud, pty, thread reader (SerialTransport): {_ms(threaded)}")

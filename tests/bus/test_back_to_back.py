@@ -1,5 +1,6 @@
 """The same exchanges over every way of reaching the virtual bus: in-process stations, ptys
-with pyserial on both ends, raw TCP on 127.0.0.1, and ``bus://`` (framed TCP)."""
+with pyserial on both ends, raw TCP on 127.0.0.1 (pyuss ``tcp://`` and pyserial
+``socket://``), and ``bus://`` (framed TCP)."""
 
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ from pyuss.transport.base import Chunk, LineError
 from transport.helpers import WAIT, byte_ends, flat_errors, joined, read_bytes
 
 BAUD = 19200
-MEDIA = ["inproc", "pty", "tcp", "bus"]
+MEDIA = ["inproc", "pty", "tcp", "socket", "bus"]
 
 
 @dataclass
@@ -52,6 +53,10 @@ async def _open_line(medium: str, bus: VirtualBus) -> tuple[Transport, Transport
     if medium == "tcp":
         host, port = await bus.serve_tcp("127.0.0.1", 0)
         return tuple(TcpTransport(host, port, baud=BAUD) for _ in range(3))  # type: ignore[return-value]
+    if medium == "socket":
+        host, port = await bus.serve_tcp("127.0.0.1", 0)
+        urls = [f"socket://{host}:{port}"] * 3
+        return tuple(open_transport(url, baud=BAUD) for url in urls)  # type: ignore[return-value]
     host, port = await bus.serve_tcp("127.0.0.1", 0, framed=True)
     return (
         open_transport(f"bus://{host}:{port}?name=master", baud=BAUD),
@@ -120,10 +125,12 @@ async def test_timestamps_never_go_back(line: Line) -> None:
 
 
 async def test_simultaneous_senders_collide(line: Line) -> None:
-    ones, twos = bytes([0x01] * 100), bytes([0x02] * 100)  # 57 ms each at 19200 baud
+    # 250 characters each: 143 ms at 19200 baud, so the two overlap on the line even when one
+    # reaches the bus tens of milliseconds after the other (threads, sockets, a loaded machine).
+    ones, twos = bytes([0x01] * 250), bytes([0x02] * 250)
     await asyncio.gather(line.master.write(ones), line.slave.write(twos))
     await line.bus.drain(WAIT)
-    seen = await read_bytes(line.monitor, 200, timeout=0.3)
+    seen = await read_bytes(line.monitor, 500, timeout=0.3)
     assert line.bus.stats.collisions >= 1
     assert line.bus.stats.garbled >= 1
     # Nobody received both telegrams intact.
@@ -147,6 +154,24 @@ async def test_two_wire_echo_is_checked_and_removed_by_the_station(medium: str) 
         await slave.write(b"\x02\x02\x01\x01")
         assert joined(await read_bytes(master, 4)) == b"\x02\x02\x01\x01"
         assert master.stats.echo_bytes == 4  # type: ignore[attr-defined]
+    await bus.close()
+
+
+async def test_echo_for_named_raw_tcp_stations_only() -> None:
+    bus = VirtualBus(BAUD)
+    host, port = await bus.serve_tcp(echo={"tcp1"})
+    async with TcpTransport(host, port, baud=BAUD) as one:
+        await _wait_stations(bus, 1)
+        async with TcpTransport(host, port, baud=BAUD) as two:
+            await _wait_stations(bus, 2)
+            assert bus.stations["tcp1"].hears_own and not bus.stations["tcp2"].hears_own
+            await one.write(b"\x02\x02\x00\x00")
+            assert joined(await read_bytes(two, 4)) == b"\x02\x02\x00\x00"
+            assert joined(await read_bytes(one, 4)) == b"\x02\x02\x00\x00"
+            await two.write(b"\x02\x02\x01\x01")
+            assert joined(await read_bytes(one, 4)) == b"\x02\x02\x01\x01"
+            await one.write(b"\x02\x02\x02\x02")
+            assert joined(await read_bytes(two, 4)) == b"\x02\x02\x02\x02"
     await bus.close()
 
 

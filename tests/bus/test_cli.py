@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import signal
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -82,10 +83,47 @@ def test_tcp_and_bus_endpoints_are_printed() -> None:
     assert proc.returncode == 0
 
 
+def test_echo_for_the_named_station_only() -> None:
+    proc = _start("--baud", "38400", "--pty", "2", "--echo", "pty1", "--duration", "60")
+    try:
+        paths = _lines(proc, 2)
+        with (
+            serial.Serial(paths[0], 38400, parity="E", timeout=TIMEOUT) as one,
+            serial.Serial(paths[1], 38400, parity="E", timeout=TIMEOUT) as two,
+        ):
+            one.write(b"\x02\x02\x00\x00")
+            assert two.read(4) == b"\x02\x02\x00\x00"
+            assert one.read(4) == b"\x02\x02\x00\x00"  # pty1 hears itself
+            two.write(b"\x02\x02\x01\x01")
+            assert one.read(4) == b"\x02\x02\x01\x01"
+            one.write(b"\x02\x02\x02\x02")
+            assert two.read(4) == b"\x02\x02\x02\x02"  # pty2 did not hear itself before
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0, err
+
+
+def test_a_bus_that_cannot_start_leaves_no_recording(tmp_path: Path) -> None:
+    record = tmp_path / "wire.jsonl"
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        proc = _start("--tcp", f"127.0.0.1:{port}", "--record", str(record), "--duration", "5")
+        _, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 1
+    assert f"cannot listen on 127.0.0.1:{port}" in err
+    assert len(err.strip().splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize(
     ("args", "words"),
     [
         ([], "nothing to serve"),
+        (["--pty", "33"], "--pty 33: give 0..32 ptys"),
+        (["--pty", "-1"], "--pty -1: give 0..32 ptys"),
         (["--pty", "1", "--baud", "14400"], "14400 is not a USS baud rate"),
         (["--pty", "1", "--fault", "flip:p=7"], "probability"),
         (["--tcp", "127.0.0.1"], "HOST:PORT"),
@@ -94,6 +132,9 @@ def test_tcp_and_bus_endpoints_are_printed() -> None:
         (["--pty", "2", "--duration", "1", "--fault", "deaf:station=pty9,at=1,for=1"], "'pty9'"),
         (["--pty", "2", "--duration", "1", "--fault", "flip:station=master,p=0.1"], "'master'"),
         (["--tcp", "127.0.0.1:0", "--duration", "1", "--fault", "dead:station=pty1"], "'pty1'"),
+        (["--pty", "2", "--duration", "1", "--echo", "pty1,pty3"], "--echo: no station 'pty3'"),
+        (["--pty", "2", "--duration", "1", "--echo", "master"], "--echo: no station 'master'"),
+        (["--pty", "2", "--bus-tcp", "127.0.0.1:0", "--echo", "m"], "--echo: no station 'm'"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(

@@ -9,6 +9,7 @@ import time
 import pytest
 
 from pyuss.bus import Fault, FaultKind, FaultPlan, Recorder, VirtualBus, parse_fault
+from pyuss.bus.faults import FaultEngine
 from pyuss.errors import ConfigError
 from pyuss.transport.base import Chunk, LineError
 from transport.helpers import byte_ends, flat_errors, joined, read_bytes
@@ -105,6 +106,29 @@ async def test_window_in_the_future_does_not_apply_yet() -> None:
     assert joined(await _send(plan)) == REQUEST
 
 
+def test_deaf_and_dead_windows_start_and_end() -> None:
+    plan = FaultPlan(
+        [
+            Fault(FaultKind.DEAF, station="s1", at=2.0, duration=1.5),
+            Fault(FaultKind.DEAD, station="s2", at=1.0, duration=0.5),
+        ]
+    )
+    engine = FaultEngine(plan, seed=0)
+    for t, s1_deaf, s2_deaf in [
+        (0.0, False, False),
+        (1.0, False, True),
+        (1.49, False, True),
+        (1.5, False, False),
+        (2.0, True, False),
+        (3.49, True, False),
+        (3.5, False, False),
+    ]:
+        assert (engine.deaf("s1", t), engine.deaf("s2", t)) == (s1_deaf, s2_deaf), t
+        assert not engine.dead("s1", t)  # deaf stations still send
+        assert engine.dead("s2", t) == s2_deaf
+        assert not engine.deaf("other", t)
+
+
 async def test_extra_delay_before_a_stations_answer() -> None:
     plan = FaultPlan([Fault(FaultKind.DELAY, station="slave", seconds=0.03)])
     bus = VirtualBus(BAUD, faults=plan)
@@ -183,6 +207,13 @@ def test_fault_text_form() -> None:
         ("delay:station=s1", "seconds"),
         ("flip:nth=0", "nth"),
         ("insert:byte=300", "0..255"),
+        ("flip:at=nan", "finite at"),
+        ("flip:at=inf", "finite at"),
+        ("flip:for=nan", "for > 0"),
+        ("stretch:gap=inf", "gap must be finite"),
+        ("stretch:gap=nan", "gap must be finite"),
+        ("delay:station=s1,seconds=inf", "seconds finite"),
+        ("delay:station=s1,seconds=nan", "seconds finite"),
     ],
 )
 def test_bad_fault_text_names_the_problem(text: str, words: str) -> None:

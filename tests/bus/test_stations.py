@@ -9,7 +9,7 @@ from pyuss.bus.core import sample
 from pyuss.bus.faults import frame_bits
 from pyuss.errors import ConfigError, TransportError
 from pyuss.transport.base import LineError
-from transport.helpers import joined, read_bytes
+from transport.helpers import flat_errors, joined, read_bytes
 
 
 async def test_every_other_station_hears_a_sender_but_not_the_sender() -> None:
@@ -44,18 +44,19 @@ async def test_station_with_echo_hears_itself() -> None:
 
 
 async def test_overlapping_senders_garble_each_other_and_count_a_collision() -> None:
-    # 300 baud: a bit lasts 3.3 ms, so the two writes below land within the same bit even when
-    # the test process is descheduled for a while between them on a loaded machine.
-    bus = VirtualBus(300)
+    bus = VirtualBus(9600)
     recorder = Recorder().attach(bus)
     async with (
         bus.attach("a", echo=True) as a,
-        bus.attach("b") as b,
+        bus.attach("b"),
         bus.attach("monitor", listen_only=True) as monitor,
     ):
-        # Both write in the same instant: their frames lie on top of each other.
-        await a.write(b"\x01\x0f")
-        await b.write(b"\x02\xf0")
+        # Both send in the same instant: their frames lie on top of each other. The times are
+        # given, so how fast this process runs does not move one against the other.
+        start = monitor.clock() + 0.01
+        for i, (one, two) in enumerate(zip(b"\x01\x0f", b"\x02\xf0", strict=True)):
+            bus.inject("a", start + i * bus.char_time, one)
+            bus.inject("b", start + i * bus.char_time, two)
         chunks = await read_bytes(monitor, 2)
         echo = await read_bytes(a, 2)
     await bus.close()
@@ -83,6 +84,27 @@ async def test_collision_half_a_character_late_is_a_framing_error() -> None:
     assert joined(chunks) == b"\x0f"
     assert chunks[0].errors == ((0, LineError.FRAMING),)
     assert bus.stats.collisions == 1
+
+
+async def test_the_tail_of_a_swallowed_character_garbles_the_next_one() -> None:
+    # a sends FF FF; b's 00 starts 5 bits into a's first character. b's character goes down
+    # with a's first, but its last bits are still on the line while a's second one begins.
+    bus = VirtualBus(9600)
+    bit = 1 / 9600
+    recorder = Recorder().attach(bus)
+    async with bus.attach("monitor", listen_only=True) as monitor:
+        start = monitor.clock() + 0.01
+        bus.inject("a", start, 0xFF)
+        bus.inject("b", start + 5 * bit, 0x00)
+        bus.inject("a", start + 11 * bit, 0xFF)
+        chunks = await read_bytes(monitor, 2)
+    await bus.close()
+    # Second character: data bits 0..2 meet b's data bits 5..7 and parity (all 0), bit 3 its
+    # stop bit; F8 has odd parity.
+    assert joined(chunks) == b"\x0f\xf8"
+    assert flat_errors(chunks) == [(0, LineError.FRAMING), (1, LineError.PARITY)]
+    assert [r.sender for r in recorder.records] == ["a+b", "a+b"]
+    assert bus.stats.collisions == 1 and bus.stats.garbled == 2
 
 
 def test_sampling_a_lone_frame_gives_the_byte_back() -> None:

@@ -10,6 +10,7 @@ import pytest
 
 from conftest import load_vectors
 from pyuss.bus import Recorder, VirtualBus
+from pyuss.transport import SerialTransport
 from transport.helpers import joined, read_bytes
 
 #: Ideal times are computed, not measured: they agree with n x 11 / baud to float rounding.
@@ -52,10 +53,31 @@ async def test_telegram_of_n_bytes_takes_n_times_11_over_baud(baud: int) -> None
         assert ends[i] - ends[i - 1] == pytest.approx(sizes[i] * 11 / baud, abs=EXACT)
 
 
+@pytest.mark.parametrize("baud", [1200, 9600])
+async def test_a_program_on_a_pty_gets_a_telegram_no_sooner_than_the_wire_would(
+    baud: int,
+) -> None:
+    # Ptys carry no timing of their own: the bus writes each character to the reader's pty
+    # when it has left the line, so the last byte of n cannot arrive before n x 11 / baud.
+    telegram = _telegram("read_word_request")
+    bus = VirtualBus(baud)
+    writer_path, reader_path = await bus.serve_pty(2)
+    async with (
+        SerialTransport(writer_path, baud=baud) as writer,
+        SerialTransport(reader_path, baud=baud) as reader,
+    ):
+        before = time.monotonic()
+        await writer.write(telegram)
+        chunks = await read_bytes(reader, len(telegram))
+    await bus.close()
+    assert joined(chunks) == telegram
+    assert chunks[-1].timestamp - before >= len(telegram) * 11 / baud
+
+
 async def test_recorded_gaps_are_the_gaps_the_sender_made() -> None:
-    # 1200 baud: two characters last 18 ms, so the second write lands while the first is
-    # still on the line even on a loaded machine.
-    baud = 1200
+    # 300 baud: two characters last 73 ms, so the second write lands while the first is
+    # still on the line even when this process is descheduled for a while on a loaded machine.
+    baud = 300
     tc = 11 / baud
     bus = VirtualBus(baud)
     recorder = Recorder().attach(bus)

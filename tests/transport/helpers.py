@@ -1,6 +1,13 @@
-"""Helpers for transport tests: collect what a transport delivers until a condition holds."""
+"""Helpers for transport tests: collect what a transport delivers until a condition holds; an
+RFC 2217 server."""
 
 from __future__ import annotations
+
+import socket
+import threading
+from typing import Any, cast
+
+from serial import rfc2217
 
 from pyuss.transport.base import Chunk, LineError, Transport
 
@@ -43,3 +50,64 @@ def byte_ends(chunks: list[Chunk], baud: int) -> list[float]:
         n = len(chunk.data)
         out += [chunk.timestamp - (n - 1 - i) * tc for i in range(n)]
     return out
+
+
+class Rfc2217Server:
+    """A small RFC 2217 server (pyserial's `PortManager`) in front of a pyserial port, on
+    127.0.0.1, serving one client in two threads, as ``examples/rfc2217_server.py`` does."""
+
+    def __init__(self, port: Any) -> None:
+        self.port = port
+        self._listener = socket.create_server(("127.0.0.1", 0))
+        self.address: tuple[str, int] = self._listener.getsockname()[:2]
+        self._alive = threading.Event()
+        self._alive.set()
+        self._threads = [threading.Thread(target=self._serve, daemon=True)]
+        self._threads[0].start()
+
+    def _serve(self) -> None:
+        try:
+            conn, _ = self._listener.accept()
+        except OSError:
+            return
+        conn.settimeout(0.1)
+        manager = rfc2217.PortManager(self.port, cast(Any, _Connection(conn)))
+        to_client = threading.Thread(target=self._to_client, args=(conn, manager), daemon=True)
+        self._threads.append(to_client)
+        to_client.start()
+        with conn:
+            while self._alive.is_set():
+                try:
+                    data = conn.recv(1024)
+                except TimeoutError:
+                    continue
+                except OSError:
+                    break
+                if not data:
+                    break
+                self.port.write(b"".join(manager.filter(data)))
+            self._alive.clear()
+
+    def _to_client(self, conn: socket.socket, manager: rfc2217.PortManager) -> None:
+        while self._alive.is_set():
+            try:
+                data = self.port.read(self.port.in_waiting or 1)
+                if data:
+                    conn.sendall(b"".join(manager.escape(data)))
+                manager.check_modem_lines()
+            except OSError:
+                break
+
+    def close(self) -> None:
+        self._alive.clear()
+        self._listener.close()
+        for thread in self._threads:
+            thread.join(5)
+
+
+class _Connection:
+    def __init__(self, conn: socket.socket) -> None:
+        self._conn = conn
+
+    def write(self, data: bytes) -> None:
+        self._conn.sendall(data)

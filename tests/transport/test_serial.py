@@ -6,15 +6,17 @@ import asyncio
 import logging
 
 import pytest
+import serial
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pyuss.errors import ConfigError, TransportError
 from pyuss.transport.base import LineError
 from pyuss.transport.pty import PtyPort
-from pyuss.transport.queued import EchoError
+from pyuss.transport.queued import BAUD_RATES, EchoError
 from pyuss.transport.serialport import MARKED, MarkDecoder, RS485Mode, SerialTransport
-from transport.helpers import WAIT, joined, read_bytes
+from pyuss.transport.tcp import TcpServerTransport
+from transport.helpers import WAIT, Rfc2217Server, joined, read_bytes
 
 
 async def test_loop_url_reads_back_what_was_written() -> None:
@@ -27,12 +29,57 @@ async def test_loop_url_reads_back_what_was_written() -> None:
         assert all(c.timestamp <= port.clock() for c in chunks)
 
 
+async def test_socket_url_carries_bytes_both_ways() -> None:
+    server = TcpServerTransport()
+    await server.open()
+    async with SerialTransport(f"socket://127.0.0.1:{server.port}", baud=19200) as port:
+        assert await server.wait_peer(WAIT)
+        await port.write(b"\x02\x02\x00\x00")
+        assert joined(await read_bytes(server, 4)) == b"\x02\x02\x00\x00"
+        await server.write(bytes(range(256)))
+        assert joined(await read_bytes(port, 256)) == bytes(range(256))
+        await server.close()  # the converter goes away: the loss is reported
+        with pytest.raises(TransportError, match="lost"):
+            await port.read(WAIT)
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning:serial.rfc2217")
+async def test_rfc2217_url_sets_the_remote_port_to_8e1_and_the_baud() -> None:
+    remote = serial.serial_for_url("loop://", baudrate=9600, parity="N", timeout=0.05)
+    server = Rfc2217Server(remote)
+    host, tcp_port = server.address
+    try:
+        async with SerialTransport(f"rfc2217://{host}:{tcp_port}", baud=19200) as port:
+            # The remote port loops back what it is sent.
+            await port.write(b"\x02\x04\x00\xff\x11\xe8")
+            assert joined(await read_bytes(port, 6)) == b"\x02\x04\x00\xff\x11\xe8"
+            assert (remote.baudrate, remote.bytesize, remote.parity, remote.stopbits) == (
+                19200,
+                8,
+                "E",
+                1,
+            )
+    finally:
+        server.close()
+        remote.close()
+
+
 async def test_default_frame_is_8e1() -> None:
     transport = SerialTransport("loop://")
     assert transport.port.bytesize == 8
     assert transport.port.parity == "E"
     assert transport.port.stopbits == 1
     assert transport.baud == 9600
+
+
+async def test_every_baud_rate_of_b_2_4_sets_up_a_terminal() -> None:
+    # 76800, 93750 and 187500 are no standard termios rates: pyserial sets them as custom ones.
+    async with PtyPort() as pty:
+        for baud in BAUD_RATES:
+            async with SerialTransport(pty.device_path, baud=baud) as port:
+                assert port.port.baudrate == baud
+                await port.write(b"\x02")
+                assert joined(await read_bytes(pty, 1)) == b"\x02"
 
 
 @pytest.mark.parametrize(
@@ -158,30 +205,42 @@ async def test_lost_port_is_reported_to_the_reader() -> None:
             await port.read(WAIT)
 
 
-async def test_kernel_rs485_on_a_port_without_it_fails_to_open() -> None:
+@pytest.mark.parametrize(
+    ("mode", "words"), [("kernel", "kernel RS-485 mode"), ("rts", "RTS direction control")]
+)
+async def test_direction_control_a_port_cannot_do_fails_to_open(mode: str, words: str) -> None:
+    # A pty has neither the kernel's RS-485 mode nor modem lines.
     async with PtyPort() as pty:
-        port = SerialTransport(pty.device_path, rs485="kernel")
-        with pytest.raises(TransportError, match="RS-485"):
+        port = SerialTransport(pty.device_path, rs485=mode)
+        with pytest.raises(TransportError, match=words):
             await port.open()
         assert not port.is_open
 
 
+async def test_kernel_mode_asks_for_rts_high_while_sending() -> None:
+    port = SerialTransport("loop://", rs485="kernel")
+    assert port.port.rs485_mode is None  # set when the port opens
+    async with port:
+        settings = port.port.rs485_mode
+        assert settings is not None
+        assert (settings.rts_level_for_tx, settings.rts_level_for_rx) == (True, False)
+
+
 async def test_rts_mode_raises_rts_around_each_write(caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO, logger="pySerial.loop")
-    async with SerialTransport("loop://?logging=info", rs485=RS485Mode.RTS) as port:
+    baud = 2400
+    async with SerialTransport("loop://?logging=info", baud=baud, rs485=RS485Mode.RTS) as port:
         caplog.clear()
         await port.write(b"\x02\x02\x00\x00")
         assert joined(await read_bytes(port, 4)) == b"\x02\x02\x00\x00"
-    steps = [
-        r.getMessage()
-        for r in caplog.records
-        if "rts" in r.getMessage().lower() or "write" in r.getMessage().lower()
-    ]
-    rts = [s for s in steps if "_update_rts_state" in s]
-    assert rts[:2] == [
+    rts = [r for r in caplog.records if "_update_rts_state" in r.getMessage()]
+    assert [r.getMessage() for r in rts[:2]] == [
         "_update_rts_state(True) -> state of CTS",
         "_update_rts_state(False) -> state of CTS",
     ]
+    # RTS stays up at least while the 4 characters are on the line (A 6.1: 11 bits each), even
+    # though loop:// takes the bytes at once: the hold comes from the character time.
+    assert rts[1].created - rts[0].created >= 4 * 11 / baud
 
 
 def _mark(data: bytes, bad: set[int]) -> bytes:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from pyuss.cli.main import main
 from pyuss.errors import ConfigError
 from pyuss.transport.reconnect import ReconnectingTransport
 from pyuss.transport.serialport import RS485Mode, SerialTransport
@@ -25,6 +26,56 @@ def test_choice_by_url() -> None:
     assert isinstance(open_transport("loop://", reconnect=True), ReconnectingTransport)
 
 
+def test_line_options_in_the_query() -> None:
+    port = open_transport("loop://?rs485=rts&echo=1&reconnect=1")
+    assert isinstance(port, ReconnectingTransport)
+    inner = port.inner
+    assert isinstance(inner, SerialTransport)
+    assert (inner.url, inner.rs485, inner.echo) == ("loop://", RS485Mode.RTS, True)
+    # pyserial's own options stay in the URL it gets.
+    serial = open_transport("socket://127.0.0.1:4001?logging=debug&echo=yes")
+    assert isinstance(serial, SerialTransport)
+    assert serial.url == "socket://127.0.0.1:4001?logging=debug" and serial.echo
+    device = open_transport("/dev/ttyS9?rs485=kernel", rs485="rts")
+    assert isinstance(device, SerialTransport)
+    assert (device.url, device.rs485, device.echo) == ("/dev/ttyS9", RS485Mode.KERNEL, False)
+    tcp = open_transport("tcp://127.0.0.1:4001?echo=1")
+    assert isinstance(tcp, TcpTransport) and tcp.echo
+    assert isinstance(open_transport("tcp://127.0.0.1:4001?reconnect=on"), ReconnectingTransport)
+    assert isinstance(open_transport("bus://127.0.0.1:4001?reconnect=1"), ReconnectingTransport)
+
+
+async def test_echo_asked_for_in_the_url_is_removed() -> None:
+    async with open_transport("loop://?echo=1", baud=38400) as port:
+        await port.write(b"\x02\x02\x00\x00")
+        assert await port.read(0.3) is None
+        assert isinstance(port, SerialTransport) and port.stats.echo_bytes == 4
+
+
+def test_a_command_on_an_echoing_line_does_not_take_its_own_request_for_the_answer(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # loop:// returns every byte: without echo=1 the request would read as the answer.
+    assert main(["read", "--port", "loop://?echo=1", "--timeout", "0.3", "5", "1"]) == 1
+    assert "does not send" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("url", "words"),
+    [
+        ("socket://nohost", "expected socket://HOST:PORT"),
+        ("rfc2217://", "expected rfc2217://HOST:PORT"),
+        ("loop://?rs485=both", "RS-485 mode 'both'"),
+    ],
+)
+def test_a_command_given_a_bad_port_url_says_so_with_exit_2(
+    url: str, words: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["read", "--port", url, "5", "1"]) == 2
+    err = capsys.readouterr().err
+    assert words in err and len(err.strip().splitlines()) == 1
+
+
 @pytest.mark.parametrize(
     ("url", "kwargs", "words"),
     [
@@ -36,6 +87,15 @@ def test_choice_by_url() -> None:
         ("tcp://127.0.0.1:4001/path", {}, "unexpected path"),
         ("nosuch://x", {}, "nosuch"),
         ("loop://", {"baud": 12345}, "12345 is not a USS baud rate"),
+        ("loop://?rs485=both", {}, "RS-485 mode 'both'"),
+        ("loop://?echo=maybe", {}, "echo='maybe'"),
+        ("loop://?echo=1&echo=0", {}, "'echo' given more than once"),
+        ("socket://127.0.0.1", {}, "expected socket://HOST:PORT"),
+        ("socket://127.0.0.1:x", {}, "expected socket://HOST:PORT"),
+        ("rfc2217://:4001", {}, "expected rfc2217://HOST:PORT"),
+        ("tcp://127.0.0.1:4001?rs485=rts", {}, "unknown option 'rs485'"),
+        ("tcp-listen://127.0.0.1:0?echo=1", {}, "unknown option 'echo'"),
+        ("bus://127.0.0.1:4001?reconnect=x", {}, "reconnect='x'"),
     ],
 )
 def test_bad_urls_and_settings(url: str, kwargs: dict[str, object], words: str) -> None:

@@ -7,7 +7,8 @@ behind its own bytes, never behind another station's (there is no carrier sense 
 When characters of two stations overlap in time, both are garbled: the line is modelled as
 dominant-low (a 0 from any driver wins), and every receiver samples the resulting levels in
 the middle of each bit of the frame that began with the first start bit, so it sees a byte
-with the framing and parity errors the sampling yields. Each such garbled character is a
+with the framing and parity errors the sampling yields (the tail of a character swallowed that
+way still drives the line during the next one). Each such garbled character is part of a
 collision (`BusStats.collisions` counts the episodes, `BusStats.garbled` the characters).
 
 Delivery: a character is handed to the receivers when its end time has come, in the event
@@ -33,7 +34,7 @@ import itertools
 import logging
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
 
 from pyuss.bus.faults import FaultEngine, FaultPlan, frame_bits
@@ -188,6 +189,7 @@ class VirtualBus:
         self._timer: asyncio.TimerHandle | None = None
         self._timer_at = 0.0
         self._last_garbled_end = -1.0
+        self._on_line: list[_Pending] = []
         self._windows: list[tuple[str, str, float, float]] = []
         self.on_char: list[Callable[[WireChar], None]] = []
         self.closers: list[Callable[[], object]] = []
@@ -320,16 +322,22 @@ class VirtualBus:
 
     def _resolve(self, group: list[_Pending], end: float) -> WireChar:
         first = group[0]
-        frames = [(p.start, p.frame) for p in group]
+        tc = self.char_time
+        # Frames consumed by an earlier character may still drive the line during this one
+        # (their tail): the receivers sample them too.
+        self._on_line = [p for p in self._on_line if p.start + tc > first.start + _EPS]
+        tails = self._on_line
+        frames = [(p.start, p.frame) for p in (*tails, *group)]
         byte, flags = sample(frames, first.start, self.bit_time)
         notes = tuple(n for p in group for n in p.notes)
-        senders = sorted({p.sender for p in group})
+        senders = sorted({p.sender for p in (*tails, *group)})
         if len(senders) > 1:
             self.stats.garbled += 1
             if self._last_garbled_end < first.start - _EPS:
                 self.stats.collisions += 1
-            self._last_garbled_end = max(p.start for p in group) + self.char_time
+            self._last_garbled_end = max(self._last_garbled_end, max(p.start for p in group) + tc)
             notes = (*notes, "collision")
+        self._on_line += group
         return WireChar(first.start, end, byte, flags, "+".join(senders), notes)
 
     def _record(self, char: WireChar) -> None:
@@ -359,14 +367,19 @@ class VirtualBus:
             if buf:
                 station.receive(bytes(buf), last_end, tuple(errors))
 
-    async def serve_pty(self, n: int, *, echo: bool = False) -> list[str]:
+    async def serve_pty(self, n: int, *, echo: bool | Collection[str] = False) -> list[str]:
         """Open ``n`` pty stations; their device paths (see `pyuss.bus.serve`)."""
         from pyuss.bus.serve import serve_pty
 
         return await serve_pty(self, n, echo=echo)
 
     async def serve_tcp(
-        self, host: str = "127.0.0.1", port: int = 0, *, framed: bool = False, echo: bool = False
+        self,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        *,
+        framed: bool = False,
+        echo: bool | Collection[str] = False,
     ) -> tuple[str, int]:
         """Accept stations over TCP; the address bound (see `pyuss.bus.serve`)."""
         from pyuss.bus.serve import serve_tcp

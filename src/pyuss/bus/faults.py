@@ -104,16 +104,19 @@ class Fault:
             raise ConfigError(f"fault nth counts from 1, not {self.nth!r}")
         if self.count is not None and self.count < 0:
             raise ConfigError(f"fault count must be >= 0, not {self.count!r}")
-        if self.at < 0 or not self.duration > 0:
+        if not (0 <= self.at < math.inf and self.duration > 0):
             raise ConfigError(
-                f"fault window needs at >= 0 and for > 0, not {self.at}, {self.duration}"
+                f"fault window needs a finite at >= 0 and for > 0, not {self.at}, {self.duration}"
             )
         if not 1 <= self.bits <= 8:
             raise ConfigError(f"a flip changes 1..8 data bits, not {self.bits!r}")
         if self.byte is not None and not 0 <= self.byte <= 255:
             raise ConfigError(f"inserted byte must be 0..255, not {self.byte!r}")
-        if self.gap <= 0 or self.seconds < 0:
-            raise ConfigError("fault gap must be > 0 character times and seconds >= 0")
+        if not (0 < self.gap < math.inf and 0 <= self.seconds < math.inf):
+            raise ConfigError(
+                f"fault gap must be finite and > 0 character times, seconds finite and >= 0, "
+                f"not gap={self.gap}, seconds={self.seconds}"
+            )
         if self.kind in (FaultKind.DEAF, FaultKind.DEAD, FaultKind.DELAY) and not self.station:
             raise ConfigError(f"fault {self.kind.value} needs station=NAME")
         if self.kind is FaultKind.DELAY and self.seconds <= 0:

@@ -19,6 +19,7 @@ import contextlib
 import itertools
 import json
 import logging
+from collections.abc import Collection
 from typing import Any
 
 from pyuss.bus.core import Station, VirtualBus
@@ -35,6 +36,16 @@ _MAX_BACKLOG = 1 << 20
 _HELLO_TIMEOUT = 5.0
 
 
+Echo = bool | Collection[str]
+"""Which stations hear their own characters: all (True), none (False) or those named."""
+
+
+def _hears_own(echo: Echo, name: str) -> bool:
+    if isinstance(echo, bool):
+        return echo
+    return name == echo if isinstance(echo, str) else name in echo
+
+
 def _free_name(bus: VirtualBus, prefix: str) -> str:
     for i in itertools.count(1):
         name = f"{prefix}{i}"
@@ -43,8 +54,9 @@ def _free_name(bus: VirtualBus, prefix: str) -> str:
     raise AssertionError("unreachable")
 
 
-async def serve_pty(bus: VirtualBus, n: int, *, echo: bool = False) -> list[str]:
-    """Open ``n`` ptys as stations; return their device paths."""
+async def serve_pty(bus: VirtualBus, n: int, *, echo: Echo = False) -> list[str]:
+    """Open ``n`` ptys as stations; return their device paths. ``echo``: True for every pty,
+    or the names of the ptys (``pty1``, ...) that hear their own characters."""
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise ConfigError(f"number of ptys must be a positive integer, not {n!r}")
     paths = []
@@ -59,7 +71,7 @@ async def serve_pty(bus: VirtualBus, n: int, *, echo: bool = False) -> list[str]
             if pty.is_open:
                 pty.write_nowait(data)
 
-        bus.attach(name, echo=echo, sink=sink)
+        bus.attach(name, echo=_hears_own(echo, name), sink=sink)
         task = asyncio.create_task(_pty_in(bus, name, pty), name=f"uss bus {name}")
 
         async def closer(
@@ -93,9 +105,11 @@ async def serve_tcp(
     port: int = 0,
     *,
     framed: bool = False,
-    echo: bool = False,
+    echo: Echo = False,
 ) -> tuple[str, int]:
-    """Listen for stations on ``host:port`` (0: any free port); return the address bound."""
+    """Listen for stations on ``host:port`` (0: any free port); return the address bound.
+    ``echo`` (raw stations): True for every one, or the names (``tcp1``, ...) of those that
+    hear their own characters; framed stations choose for themselves."""
     host, port = check_endpoint(host, port, allow_zero=True)
     writers: set[asyncio.StreamWriter] = set()
 
@@ -147,13 +161,15 @@ def _socket_sink(writer: asyncio.StreamWriter, *, framed: bool, station: list[St
 
 
 async def _raw_station(
-    bus: VirtualBus, reader: asyncio.StreamReader, writer: asyncio.StreamWriter, echo: bool
+    bus: VirtualBus, reader: asyncio.StreamReader, writer: asyncio.StreamWriter, echo: Echo
 ) -> None:
     name = _free_name(bus, "tcp")
     holder: list[Station] = []
     try:
         station = bus.attach(
-            name, echo=echo, sink=_socket_sink(writer, framed=False, station=holder)
+            name,
+            echo=_hears_own(echo, name),
+            sink=_socket_sink(writer, framed=False, station=holder),
         )
     except ConfigError as exc:
         log.warning("bus: turned away a TCP station: %s", exc)

@@ -5,6 +5,9 @@ Prints one line per way in: the device path of each pty (open it as a serial por
 ``bus://HOST:PORT`` (pyuss stations that keep exact timing and line errors), and runs until
 SIGINT or SIGTERM (or ``--duration`` seconds), then closes everything, finishes the
 recording and prints a summary on stderr. Stopping is the normal end: exit code 0.
+
+``--echo`` makes stations hear their own characters, as 2-wire adapters do: alone, every pty
+and tcp station; with names (``--echo pty1,tcp2``), only those.
 """
 
 from __future__ import annotations
@@ -16,7 +19,8 @@ import signal
 import sys
 from typing import Any
 
-from pyuss.bus import FaultPlan, Recorder, VirtualBus
+from pyuss.bus import FaultKind, FaultPlan, Recorder, VirtualBus
+from pyuss.bus.core import MAX_SENDERS
 from pyuss.errors import ConfigError
 from pyuss.transport.queued import BAUD_RATES
 
@@ -37,7 +41,9 @@ def register(subparsers: Any) -> None:
         default=9600,
         help=f"baud rate (B 2.4: {', '.join(map(str, BAUD_RATES))}; default 9600)",
     )
-    parser.add_argument("--pty", type=int, default=0, metavar="N", help="open N pty stations")
+    parser.add_argument(
+        "--pty", type=int, default=0, metavar="N", help="open N pty stations, pty1..ptyN (<= 32)"
+    )
     parser.add_argument(
         "--tcp", metavar="HOST:PORT", help="accept raw serial-over-TCP stations (PORT 0: any)"
     )
@@ -45,7 +51,12 @@ def register(subparsers: Any) -> None:
         "--bus-tcp", metavar="HOST:PORT", help="accept bus:// stations (exact timing, errors)"
     )
     parser.add_argument(
-        "--echo", action="store_true", help="pty and tcp stations hear their own characters"
+        "--echo",
+        nargs="?",
+        const="",
+        metavar="STATIONS",
+        help="stations that hear their own characters, as 2-wire adapters do: every pty and "
+        "tcp station, or only those named (--echo pty1,tcp2); bus:// stations choose their own",
     )
     parser.add_argument("--record", metavar="FILE", help="record every character as JSON lines")
     parser.add_argument(
@@ -53,7 +64,9 @@ def register(subparsers: Any) -> None:
         action="append",
         default=[],
         metavar="SPEC",
-        help="inject faults, e.g. flip:p=0.01 or deaf:station=pty2,at=5,for=2 (repeatable)",
+        help="inject faults: KIND[:key=value,...] with KIND one of "
+        f"{', '.join(k.value for k in FaultKind)}, e.g. flip:p=0.01 or "
+        "deaf:station=pty2,at=5,for=2 (repeatable; docs/bus.md lists the keys)",
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the fault plan (default 0)")
     parser.add_argument(
@@ -75,44 +88,56 @@ def run(args: argparse.Namespace) -> int:
         bus = VirtualBus(args.baud, faults=plan, seed=args.seed)
         tcp = None if args.tcp is None else _endpoint(args.tcp, "--tcp")
         framed = None if args.bus_tcp is None else _endpoint(args.bus_tcp, "--bus-tcp")
-        if args.pty < 0 or args.pty > 64:
-            raise ConfigError(f"--pty {args.pty}: give 0..64 ptys")
+        if not 0 <= args.pty <= MAX_SENDERS:
+            raise ConfigError(
+                f"--pty {args.pty}: give 0..{MAX_SENDERS} ptys "
+                f"(B 1: a bus has one master and up to 31 slaves)"
+            )
         if not args.pty and tcp is None and framed is None:
             raise ConfigError("nothing to serve: give --pty N, --tcp HOST:PORT or --bus-tcp")
         if args.duration is not None and not args.duration > 0:
             raise ConfigError(f"--duration {args.duration}: must be > 0 seconds")
-        _check_stations(plan, args.pty, tcp is not None, framed is not None)
+        if not framed:  # bus:// stations name themselves: any name may come
+            for fault in plan.faults:
+                if fault.station is not None:
+                    _check_station(fault.station, "--fault", args.pty, tcp is not None)
+        echo = _echo_stations(args.echo, args.pty, tcp is not None)
         recorder = None if not args.record else Recorder(args.record, keep=False).attach(bus)
     except ConfigError as exc:
         print(f"uss bus: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    started: list[bool] = []
     try:
-        return asyncio.run(_serve(bus, args, tcp, framed))
+        return asyncio.run(_serve(bus, args, tcp, framed, echo, started))
     finally:
         if recorder is not None:
-            recorder.close()
+            if started:
+                recorder.close()
+            else:  # the bus never ran: no recording of nothing
+                recorder.discard()
 
 
-def _check_stations(plan: FaultPlan, ptys: int, tcp: bool, framed: bool) -> None:
-    """A fault aimed at a station this bus cannot have would silently never fire. Stations are
-    ``pty1``..``ptyN`` and ``tcp1``... (one per connection); ``bus://`` stations name
-    themselves, so with ``--bus-tcp`` any name may come."""
-    if framed:
+def _check_station(name: str, option: str, ptys: int, tcp: bool) -> None:
+    """A station this bus can have: ``pty1``..``ptyN`` and ``tcp1``... (one per connection).
+    A fault or echo aimed at another one would silently never apply."""
+    number = name[3:]
+    if name.startswith("pty") and number.isdigit() and 1 <= int(number) <= ptys:
         return
-    for fault in plan.faults:
-        name = fault.station
-        if name is None:
-            continue
-        number = name[3:]
-        if name.startswith("pty") and number.isdigit() and 1 <= int(number) <= ptys:
-            continue
-        if tcp and name.startswith("tcp") and number.isdigit() and int(number) >= 1:
-            continue
-        known = [f"pty1..pty{ptys}"] if ptys else []
-        known += ["tcp1, tcp2, ... (one per connection)"] if tcp else []
-        raise ConfigError(
-            f"--fault: no station {name!r} on this bus (stations: {', '.join(known)})"
-        )
+    if tcp and name.startswith("tcp") and number.isdigit() and int(number) >= 1:
+        return
+    known = [f"pty1..pty{ptys}"] if ptys else []
+    known += ["tcp1, tcp2, ... (one per connection)"] if tcp else []
+    raise ConfigError(f"{option}: no station {name!r} on this bus (stations: {', '.join(known)})")
+
+
+def _echo_stations(text: str | None, ptys: int, tcp: bool) -> bool | frozenset[str]:
+    """``--echo``: absent (nobody), alone (every pty and tcp station) or a list of names."""
+    if text is None or text == "":
+        return text is not None
+    names = [name.strip() for name in text.split(",")]
+    for name in names:
+        _check_station(name, "--echo", ptys, tcp)
+    return frozenset(names)
 
 
 async def _serve(
@@ -120,19 +145,22 @@ async def _serve(
     args: argparse.Namespace,
     tcp: tuple[str, int] | None,
     framed: tuple[str, int] | None,
+    echo: bool | frozenset[str],
+    started: list[bool],
 ) -> int:
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
     try:
-        lines = await bus.serve_pty(args.pty, echo=args.echo) if args.pty else []
+        lines = await bus.serve_pty(args.pty, echo=echo) if args.pty else []
         if tcp is not None:
-            host, port = await bus.serve_tcp(*tcp, echo=args.echo)
+            host, port = await bus.serve_tcp(*tcp, echo=echo)
             lines.append(f"tcp://{host}:{port}")
         if framed is not None:
             host, port = await bus.serve_tcp(*framed, framed=True)
             lines.append(f"bus://{host}:{port}")
+        started.append(True)
         for line in lines:
             print(line)
         sys.stdout.flush()

@@ -10,6 +10,7 @@ from __future__ import annotations
 import abc
 from dataclasses import dataclass, field
 from types import TracebackType
+from typing import Self
 
 from pyuss.protocol.line import LineError
 
@@ -66,7 +67,7 @@ class Transport(abc.ABC):
     def baud(self) -> int:
         """The line's baud rate, for character timing."""
 
-    async def __aenter__(self) -> Transport:
+    async def __aenter__(self) -> Self:
         await self.open()
         return self
 

@@ -8,8 +8,9 @@ seconds before the first try and doubling the wait after each failed try up to
 sees its slaves not answering, which is what happened on the wire. Writes while the link is
 down raise `LinkDown` (a `TransportError`): the bytes were not sent, and the caller must know.
 
-Readers get a `TransportError` only when reconnecting is given up: after ``max_attempts``
-failed tries in a row (``None``: never) or when `give_up()` is called. The first `open()` is
+Each failed try is logged with its error and the next wait. Readers get a `TransportError`
+only when reconnecting is given up: after ``max_attempts`` failed tries in a row (``None``:
+never) or when `give_up()` is called, or when reconnecting itself breaks. The first `open()` is
 not retried: a wrong port name or address is reported at once.
 """
 
@@ -18,13 +19,21 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 from pyuss.errors import ConfigError, TransportError
 from pyuss.transport.base import Transport
 from pyuss.transport.queued import EchoError, QueuedTransport
 
 log = logging.getLogger(__name__)
+
+
+def backoff(initial: float, cap: float) -> Iterator[float]:
+    """The waits before each reconnect try: ``initial``, then doubled each time up to ``cap``."""
+    delay = initial
+    while True:
+        yield delay
+        delay = min(delay * 2, cap)
 
 
 class LinkDown(TransportError):
@@ -89,6 +98,15 @@ class ReconnectingTransport(QueuedTransport):
         self._giving_up = asyncio.Event()
         self._mark_open()
         self._task = asyncio.create_task(self._supervise(), name="uss reconnect")
+        self._task.add_done_callback(self._supervisor_ended)
+
+    def _supervisor_ended(self, task: asyncio.Task[None]) -> None:
+        """Whatever stops the supervisor unexpectedly reaches the readers, never only a log."""
+        if task.cancelled() or task.exception() is None:
+            return
+        exc = task.exception()
+        log.error("%s: reconnecting failed: %r", self.describe(), exc)
+        self._lose(TransportError(f"{self.describe()}: reconnecting failed: {exc!r}"))
 
     def give_up(self) -> None:
         """Stop reconnecting: readers get a `TransportError` once the link is down."""
@@ -122,7 +140,8 @@ class ReconnectingTransport(QueuedTransport):
 
     async def _reconnect(self, cause: TransportError) -> TransportError | None:
         assert self._giving_up is not None
-        delay = self._initial
+        delays = backoff(self._initial, self._max)
+        delay = next(delays)
         attempts = 0
         last = cause
         while True:
@@ -137,12 +156,19 @@ class ReconnectingTransport(QueuedTransport):
             except TransportError as exc:
                 attempts += 1
                 last = exc
-                log.info("%s: reconnect try %d failed: %s", self.describe(), attempts, exc)
                 if self._max_attempts is not None and attempts >= self._max_attempts:
+                    log.warning("%s: reconnect try %d failed: %s", self.describe(), attempts, exc)
                     return TransportError(
                         f"{self.describe()}: gave up after {attempts} tries; last: {exc}"
                     )
-                delay = min(delay * 2, self._max)
+                delay = next(delays)
+                log.info(
+                    "%s: reconnect try %d failed: %s; next try in %g s",
+                    self.describe(),
+                    attempts,
+                    exc,
+                    delay,
+                )
                 continue
             self._inner = inner
             self._connected = True
@@ -171,9 +197,8 @@ class ReconnectingTransport(QueuedTransport):
             return
         self._mark_closed()
         if self._task is not None:
-            self._task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._task
-            self._task = None
+            task, self._task = self._task, None
+            task.cancel()
+            await asyncio.wait({task})  # its failure, if any, was reported to the readers
         self._connected = False
         await self._inner.close()

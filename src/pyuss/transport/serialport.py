@@ -34,6 +34,7 @@ import enum
 import logging
 import threading
 import time
+import urllib.parse
 
 import serial
 import serial.rs485
@@ -53,6 +54,8 @@ log = logging.getLogger(__name__)
 _READ_POLL = 0.1
 #: Longest a write may block in the OS before the port is taken as lost (seconds).
 _WRITE_TIMEOUT = 2.0
+#: pyserial backends that refuse a write timeout (they raise NotImplementedError on open).
+_NO_WRITE_TIMEOUT = ("rfc2217://",)
 #: How a character flagged by the kernel (PARMRK) is reported.
 MARKED = LineError.PARITY | LineError.FRAMING
 
@@ -64,6 +67,20 @@ _PARITIES = {
     "S": serial.PARITY_SPACE,
 }
 _STOPBITS = {1: serial.STOPBITS_ONE, 1.5: serial.STOPBITS_ONE_POINT_FIVE, 2: serial.STOPBITS_TWO}
+
+
+def _check_network_url(url: str) -> None:
+    """``socket://`` and ``rfc2217://`` need HOST:PORT; say so rather than pyserial's riddle."""
+    parts = urllib.parse.urlsplit(url)
+    scheme = parts.scheme.lower()
+    if scheme not in ("socket", "rfc2217"):
+        return
+    try:
+        port = parts.port
+    except ValueError:
+        port = None
+    if not parts.hostname or port is None or not 0 < port < 65536:
+        raise ConfigError(f"serial port URL {url!r}: expected {scheme}://HOST:PORT")
 
 
 class RS485Mode(enum.Enum):
@@ -144,6 +161,7 @@ class SerialTransport(QueuedTransport):
         super().__init__(baud=baud, echo=echo, echo_timeout=echo_timeout)
         if not isinstance(url, str) or not url:
             raise ConfigError(f"serial port URL must be a non-empty string, not {url!r}")
+        _check_network_url(url)
         key = str(parity).upper()
         if key not in _PARITIES:
             raise ConfigError(f"parity {parity!r} is not one of N, E, O, M, S")
@@ -164,7 +182,7 @@ class SerialTransport(QueuedTransport):
                 parity=_PARITIES[key],
                 stopbits=_STOPBITS[stopbits],
                 timeout=_READ_POLL,
-                write_timeout=_WRITE_TIMEOUT,
+                write_timeout=None if url.lower().startswith(_NO_WRITE_TIMEOUT) else _WRITE_TIMEOUT,
                 do_not_open=True,
             )
         except (ValueError, serial.SerialException) as exc:
@@ -194,9 +212,12 @@ class SerialTransport(QueuedTransport):
             marking = self._setup_marking()
             if self.rs485 is RS485Mode.RTS:
                 self._port.rts = False
-        except (OSError, ValueError, serial.SerialException) as exc:
+        except (OSError, ValueError, NotImplementedError, serial.SerialException) as exc:
             self._close_port()
-            what = "kernel RS-485 mode: " if self.rs485 is RS485Mode.KERNEL else ""
+            what = {
+                RS485Mode.KERNEL: "kernel RS-485 mode: ",
+                RS485Mode.RTS: "RTS direction control: ",
+            }.get(self.rs485, "")
             raise TransportError(f"cannot open {self.describe()}: {what}{exc}") from None
         self._loop = asyncio.get_running_loop()
         self._mark_open()

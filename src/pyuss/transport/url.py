@@ -12,6 +12,17 @@ anything else                  `SerialTransport`: what pyserial's ``serial_for_u
                                (``/dev/ttyUSB0``, ``COM3``, ``socket://``, ``rfc2217://``,
                                ``loop://``)
 =============================  ==============================================================
+
+Line options in the query, so that every command taking a port URL can use them:
+
+- serial ports: ``rs485=auto|kernel|rts`` (direction control), ``echo=1`` (the adapter returns
+  what it sends: checked and removed), ``reconnect=1``; e.g. ``/dev/ttyUSB0?rs485=rts&echo=1``.
+  Other query options (``socket://h:p?logging=debug``) go to pyserial.
+- ``tcp://``: ``echo=1`` (the converter echoes), ``reconnect=1``.
+- ``bus://``: ``name=``, ``echo=1`` (the bus returns the station's own characters, raw),
+  ``listen_only=1``, ``reconnect=1``.
+
+A query option overrides the keyword argument of the same name.
 """
 
 from __future__ import annotations
@@ -65,6 +76,28 @@ def flag(url: str, key: str, value: str) -> bool:
     raise ConfigError(f"{url!r}: option {key}={value!r} is not 1/0, yes/no, true/false")
 
 
+#: Query options pyuss takes from a serial port URL (the others are pyserial's).
+SERIAL_OPTIONS = ("rs485", "echo", "reconnect")
+
+
+def serial_options(url: str) -> tuple[str, dict[str, str]]:
+    """Split ``url`` into the URL pyserial gets and the `SERIAL_OPTIONS` given in its query."""
+    base, sep, query = url.partition("?")
+    if not sep:
+        return url, {}
+    ours: dict[str, str] = {}
+    rest: list[str] = []
+    for item in query.split("&"):
+        key, _, value = item.partition("=")
+        if key in SERIAL_OPTIONS:
+            if key in ours:
+                raise ConfigError(f"{url!r}: option {key!r} given more than once")
+            ours[key] = value
+        elif item:
+            rest.append(item)
+    return (f"{base}?{'&'.join(rest)}" if rest else base), ours
+
+
 def open_transport(
     url: str,
     *,
@@ -87,20 +120,31 @@ def open_transport(
         raise ConfigError(f"transport URL must be a non-empty string, not {url!r}")
     url = url.strip()
     scheme = urllib.parse.urlsplit(url).scheme.lower() if "://" in url else ""
+    port_url = url
+    if scheme == "tcp":
+        options = query_flags(url, ("echo", "reconnect"))
+    elif scheme == "bus":
+        options = query_flags(url, ("name", "echo", "listen_only", "reconnect"))
+    elif scheme == "tcp-listen":
+        options = query_flags(url, ())
+    else:
+        port_url, options = serial_options(url)
+        rs485 = RS485Mode.parse(options.get("rs485", rs485))
+    if "echo" in options and scheme != "bus":
+        echo = flag(url, "echo", options["echo"])
+    if "reconnect" in options:
+        reconnect = flag(url, "reconnect", options["reconnect"])
 
     def build() -> Transport:
         if scheme == "tcp":
-            query_flags(url, ())
             host, port = check_endpoint(*split_endpoint(url))
             return TcpTransport(host, port, baud=baud, echo=echo)
         if scheme == "tcp-listen":
-            query_flags(url, ())
             host, port = check_endpoint(*split_endpoint(url), allow_zero=True)
             return TcpServerTransport(host, port, baud=baud, echo=echo)
         if scheme == "bus":
             from pyuss.bus.client import BusClientTransport
 
-            options = query_flags(url, ("name", "echo", "listen_only"))
             host, port = check_endpoint(*split_endpoint(url))
             return BusClientTransport(
                 host,
@@ -112,7 +156,7 @@ def open_transport(
                 listen_only=flag(url, "listen_only", options.get("listen_only", "0")),
             )
         return SerialTransport(
-            url, baud=baud, parity=parity, stopbits=stopbits, rs485=rs485, echo=echo
+            port_url, baud=baud, parity=parity, stopbits=stopbits, rs485=rs485, echo=echo
         )
 
     transport = build()
