@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import os
 
 import pytest
@@ -38,3 +39,15 @@ async def test_writing_while_nobody_reads_fails_after_the_timeout() -> None:
             for _ in range(64):
                 await pty.write(bytes(65536))
         assert pty.stats.dropped_out > 0
+
+
+async def test_closing_while_a_write_waits_for_room_ends_the_write_with_a_transport_error() -> None:
+    pty = PtyPort(write_timeout=30.0)
+    await pty.open()
+    writing = asyncio.create_task(pty.write(bytes(1 << 20)))  # more than the kernel buffers
+    while pty.stats.bytes_out == 0:
+        await asyncio.sleep(0.01)
+    await pty.close()
+    with pytest.raises(TransportError, match="closed while writing"):
+        await writing
+    assert pty.stats.dropped_out > 0

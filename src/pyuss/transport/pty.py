@@ -37,6 +37,7 @@ class PtyPort(QueuedTransport):
         self._master = -1
         self._slave = -1
         self._path: str | None = None
+        self._write_waiter: asyncio.Future[None] | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
 
     @property
@@ -114,6 +115,11 @@ class PtyPort(QueuedTransport):
                         f"{len(view)} bytes not written after {self._write_timeout} s"
                     )
                 await self._writable(deadline)
+                if not self.is_open:
+                    self.stats.dropped_out += len(view)
+                    raise TransportError(
+                        f"{self.describe()} was closed while writing; {len(view)} bytes not written"
+                    )
 
     def write_nowait(self, data: bytes) -> int:
         """Write what the kernel takes now, without waiting; the rest is dropped and counted
@@ -132,22 +138,25 @@ class PtyPort(QueuedTransport):
         return n
 
     async def _writable(self, deadline: float) -> None:
+        """Wait until the kernel takes more bytes, the deadline passes or the port is closed."""
         loop = asyncio.get_running_loop()
         ready: asyncio.Future[None] = loop.create_future()
+        fd = self._master
 
         def wake() -> None:
             if not ready.done():
                 ready.set_result(None)
 
-        loop.add_writer(self._master, wake)
+        loop.add_writer(fd, wake)
+        self._write_waiter = ready
         try:
             await asyncio.wait_for(ready, max(0.0, deadline - time.monotonic()))
         except TimeoutError:
             pass
-        except OSError as exc:  # pragma: no cover - a closed descriptor
-            raise TransportError(f"{self.describe()}: {exc}") from None
         finally:
-            loop.remove_writer(self._master)
+            self._write_waiter = None
+            if self._master == fd:  # close() has dropped the writer of a closed descriptor
+                loop.remove_writer(fd)
 
     def flush_input(self) -> None:
         super().flush_input()
@@ -164,6 +173,11 @@ class PtyPort(QueuedTransport):
             return
         self._stop_reading()
         self._mark_closed()
+        if self._write_waiter is not None:  # a write waiting for room ends (TransportError)
+            if self._loop is not None:
+                self._loop.remove_writer(self._master)
+            if not self._write_waiter.done():
+                self._write_waiter.set_result(None)
         for fd in (self._master, self._slave):
             with contextlib.suppress(OSError):
                 os.close(fd)
