@@ -56,3 +56,22 @@ def test_a_damaged_store_is_refused_with_a_clear_message(tmp_path: Path) -> None
     store.write_bytes(bytes(data[:-10]))  # torn: shorter than its header says
     with pytest.raises(StoreError, match="torn"):
         SimulatedDrive.from_profile("generic", store=store)
+
+
+def test_an_eeprom_write_that_cannot_be_stored_is_refused_and_serving_goes_on(
+    tmp_path: Path,
+) -> None:
+    """The store's folder vanishes while the drive runs: the EEPROM job is refused with error 1,
+    RAM keeps the old value, and the slave goes on answering."""
+    folder = tmp_path / "eeprom"
+    folder.mkdir()
+    store = folder / "drive5.store"
+    with PtySim(engine(5, "generic", "v,2", store=str(store))) as sim, sim.master() as master:
+        folder.rmdir()
+        refused = master.ask(5, LV, Pkw(14, 18, values=(0x1234,)), OFF1).pkw
+        in_ram = master.ask(5, LV, Pkw(1, 18), OFF1).pkw
+        ram_write = master.ask(5, LV, Pkw(2, 18, values=(0x0042,)), OFF1).pkw
+    assert (refused.id, refused.pnu, refused.values) == (7, 18, (1,))
+    assert in_ram.values == (0,)
+    assert ram_write.values == (0x0042,)
+    assert not folder.exists()

@@ -35,7 +35,11 @@ change job without write authority becomes response 8 (C 4.2.1.1, checked before
 such jobs are "not processed"). A job whose answer does not fit the PKW area - a double word in
 3 words, a whole array, a whole description or a text under a fixed length (C 4.2.2 "Index
 Low-Byte 255", C 7) - is answered with 7 and the profile's ``too_large_error``. Request IDs a
-profile does not know (Baumueller: 0..4 only) get its ``unsupported_error``.
+profile does not know (Baumueller: 0..4 only) get its ``unsupported_error``. An EEPROM write
+(IDs 11..14) whose store file cannot be written (the disk is full, the folder is gone) is not
+carried out: it is answered with 7 and error 1 "parameter not changeable", the reason is logged
+as a warning, and the slave goes on serving (the project's choice; a real drive whose EEPROM
+fails answers a refusal too).
 
 Word placement: with PKW 4 a word travels in PWE2, with PKW 3 and the variable length in PWE1
 (C 4.2.3 "Hinweis", NOTES 6) - for the answer `pyuss.protocol.layout.Layout.pack` does it, for
@@ -48,17 +52,21 @@ the parameter addressed is the profile's `decode_pnu` of them and IND.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import replace
 
 from pyuss.drive.database import Parameter
 from pyuss.drive.faults import NoWriteAuthority, ParameterFault
 from pyuss.drive.memory import ParameterMemory
+from pyuss.drive.store import StoreError
 from pyuss.profiles.base import Profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import INDEX_ALL, ErrorNumber, Pkw, RequestId, ResponseId, TextIndex
 from pyuss.slave.diagnostic import DiagnosticParameters
 
 __all__ = ["ALL_REQUESTS", "ParameterChannel", "TooLarge", "request_word"]
+
+log = logging.getLogger("pyuss.slave")
 
 R = RequestId
 A = ResponseId
@@ -179,6 +187,9 @@ class ParameterChannel:
             return self.refused(job, fault.number)
         except TooLarge:
             return self.refused(job, self.profile.too_large_error)
+        except StoreError as exc:
+            log.warning("P%d: EEPROM write not carried out: %s", pnu, exc)
+            return self.refused(job, ErrorNumber.NOT_CHANGEABLE)
 
     def current(self, job: Pkw, answer: Pkw, now: float) -> Pkw:
         """The answer to ``job`` (carried out before, answered with ``answer``) with the values
