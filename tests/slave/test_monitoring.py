@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import time
 
-from pyuss.drive import DriveState, SimulatedDrive
+from pyuss.drive import DriveState, SimulatedDrive, parse_database
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
 from pyuss.slave import SlaveEngine
+from pyuss.slave.engine import TELEGRAM_FAILURE_FAULT
 from slave.harness import PtySim, engine, frame
 
 LV = Layout(127, 2)
@@ -60,6 +61,28 @@ def test_telegram_failure_time_trips_a_fault_shown_in_the_status_word() -> None:
     assert timeouts.values == (1,)
     assert not recovered.pzd[0] & 0x0008
     assert recovered.pzd[0] & 0x0001  # ready to switch on again
+
+
+def test_failure_time_trips_a_fault_even_when_the_file_names_no_fault_code() -> None:
+    """A parameter file of the user's own without ``[faults]``: the drive still trips a fault
+    that the status word shows (C 3.1)."""
+    bare = parse_database(
+        '[profile]\nname = "bare"\n\n[drive]\nfault = 1\n\n'
+        '[[parameter]]\npnu = 1\nname = "Fault"\ntype = "uint16"\naccess = "ro"\n'
+    )
+
+    def make(now: float) -> list[SlaveEngine]:
+        drive = SimulatedDrive(bare, now=now)
+        profile = get_profile("generic")
+        return [SlaveEngine(5, drive, profile, layout=LV, failure_time=0.2, now=now)]
+
+    with PtySim(make) as sim, sim.master() as master:
+        first = master.ask(5, LV, Pkw(0), OFF1)
+        time.sleep(0.4)
+        tripped = master.ask(5, LV, Pkw(1, 1), OFF1)
+    assert not first.pzd[0] & 0x0008
+    assert tripped.pzd[0] & 0x0008  # status bit 3: fault
+    assert tripped.pkw.values == (TELEGRAM_FAILURE_FAULT,)
 
 
 def test_failure_time_from_the_interface_parameter() -> None:
