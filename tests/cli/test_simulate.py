@@ -158,6 +158,10 @@ def test_a_damaged_store_is_refused(tmp_path: Path, capsys: pytest.CaptureFixtur
         (["--tcp", "localhost"], "HOST:PORT"),
         (["--pty", "--response-delay", "50"], "outside the window"),
         (["--pty", "--params", "/nonexistent.toml"], "cannot read parameter file"),
+        (["--pty", "--failure-time", "inf"], "--failure-time inf: must be a number of seconds"),
+        (["--pty", "--failure-time", "-1"], "--failure-time -1.0: must be a number of seconds"),
+        (["--pty", "--latency-time", "nan"], "--latency-time must be numbers >= 0"),
+        (["--pty", "--latency", "-2"], "--latency-time must be numbers >= 0"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(
