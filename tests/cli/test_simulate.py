@@ -135,6 +135,39 @@ def test_parameter_file_and_read_only(tmp_path: Path) -> None:
         assert _read_telegram(port)[3] >> 4 == 8
 
 
+def _first_line(proc: subprocess.Popen[str]) -> str:
+    assert proc.stdout is not None
+    ready, _, _ = select.select([proc.stdout], [], [], TIMEOUT)
+    assert ready, "uss simulate printed nothing"
+    return proc.stdout.readline().strip()
+
+
+def test_power_cycle_eeprom_writes_survive_a_kill(tmp_path: Path) -> None:
+    """The simulator is killed (no clean stop) right after answering an EEPROM write: the value
+    was on disk before the answer, so it is there after a restart; a RAM write is not."""
+    store = tmp_path / "drive5.store"
+    args = ("simulate", "--pty", "--address", "5", "--layout", "3,2", "--store", str(store))
+    first = _start(*args)
+    try:
+        with serial.Serial(_first_line(first), 9600, parity="E", timeout=TIMEOUT) as port:
+            port.write(frame(5, "E012 0000 1234 047E 0000"))  # ID 14: P18 = 1234h, EEPROM
+            assert _read_telegram(port)[3:9] == bytes.fromhex("1012 0000 1234")
+            port.write(frame(5, "21C1 0000 0007 047E 0000"))  # ID 2: P449 = 7, RAM only
+            assert _read_telegram(port)[3:9] == bytes.fromhex("11C1 0000 0007")
+    finally:
+        first.kill()
+        first.communicate(timeout=TIMEOUT)
+    with (
+        simulate(*args[1:]) as (path, _),
+        serial.Serial(path, 9600, parity="E", timeout=TIMEOUT) as port,
+    ):
+        port.write(frame(5, "1012 0000 0000 047E 0000"))
+        assert _read_telegram(port)[3:9] == bytes.fromhex("1012 0000 1234")
+        port.write(frame(5, "11C1 0000 0000 047E 0000"))
+        assert _read_telegram(port)[3:9] == bytes.fromhex("11C1 0000 FE0C")  # factory -500
+    assert [p.name for p in tmp_path.iterdir()] == ["drive5.store"]  # no temporary file left
+
+
 def test_a_damaged_store_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     store = tmp_path / "drive.store"
     store.write_bytes(b"pyuss-drive-store 1 sha256=" + b"0" * 64 + b" bytes=2\n{}")
