@@ -206,6 +206,17 @@ def test_bad_input_is_one_line_and_exit_2(
     assert message in err
 
 
+def test_a_layout_from_the_parameter_file_the_profile_refuses_is_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    params = tmp_path / "mine.toml"
+    params.write_text('[profile]\nname = "mine"\nextends = "generic"\n')  # P685.1 = 127
+    assert main(["simulate", "--pty", "--profile", "baumueller", "--params", str(params)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert "not v,2 (the layout of the parameter file's interface parameters P685.1" in err
+
+
 def test_stops_by_itself_after_duration() -> None:
     proc = _start("simulate", "--pty", "--duration", "0.3")
     out, err = proc.communicate(timeout=TIMEOUT)

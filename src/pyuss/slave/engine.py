@@ -149,7 +149,7 @@ class SlaveEngine:
         self.interface = interface
         self.latency = latency or JobLatency()
         self.special = special
-        self.layout = profile.check_layout(layout if layout is not None else self._own_layout())
+        self.layout = profile.check_layout(layout) if layout is not None else self._file_layout()
         self.failure_time = self._failure_time() if failure_time is None else failure_time
         if not self.failure_time >= 0:
             raise ConfigError(f"telegram failure time must be >= 0 s, not {self.failure_time!r}")
@@ -215,6 +215,20 @@ class SlaveEngine:
             return Layout(int(pkw), int(pzd))
         except ConfigError as exc:
             raise ConfigError(f"the parameter file's interface parameters: {exc}") from None
+
+    def _file_layout(self) -> Layout:
+        """The layout of the drive's interface parameters (or the profile's default), checked
+        against the profile; the error says where a refused layout came from."""
+        own = self._own_layout()
+        try:
+            return self.profile.check_layout(own)
+        except ConfigError as exc:
+            refs = [self.drive.db.interface.get(role) for role in ("pkw", "pzd")]
+            where = ", ".join(str(ref) for ref in refs if ref is not None)
+            raise ConfigError(
+                f"{exc} (the layout of the parameter file's interface parameters {where}; "
+                "give the layout explicitly)"
+            ) from None
 
     def _write_interface(self) -> None:
         db = self.drive.db
