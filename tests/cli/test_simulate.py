@@ -69,6 +69,24 @@ def test_pty_first_line_is_the_device_and_it_stops_cleanly(sig: signal.Signals) 
     assert "1 telegrams received, 1 answered" in err[0]
 
 
+def test_each_exchange_is_logged_at_debug_level() -> None:
+    proc = _start("-vv", "simulate", "--pty", "--address", "5", "--layout", "3,2")
+    try:
+        with serial.Serial(_first_line(proc), 9600, parity="E", timeout=TIMEOUT) as port:
+            port.write(READ_P52)
+            assert _read_telegram(port).hex(" ").upper() == ANSWER_P52
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0, err
+    assert (
+        "normal adr 5: PKW 1034 0000 0000, PZD 047E 0000 -> "
+        "normal adr 5: PKW 1034 0000 4000, PZD 0231 0000"
+    ) in err  # the exchange, decoded (pyuss.slave)
+    assert "rx t=" in err and "tx t=" in err  # the raw frames (pyuss.wire)
+    assert ANSWER_P52 in err
+
+
 def test_several_addresses_on_one_pty(tmp_path: Path) -> None:
     store = tmp_path / "drive{address}.store"
     with (
