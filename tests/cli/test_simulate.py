@@ -32,16 +32,20 @@ def _start(*args: str) -> subprocess.Popen[str]:
     )
 
 
+def _first_line(proc: subprocess.Popen[str]) -> str:
+    assert proc.stdout is not None
+    ready, _, _ = select.select([proc.stdout], [], [], TIMEOUT)
+    assert ready, "uss simulate printed nothing"
+    return proc.stdout.readline().strip()
+
+
 @contextmanager
 def simulate(*args: str, stop: signal.Signals = signal.SIGTERM) -> Iterator[tuple[str, list[str]]]:
     """Run ``uss simulate ARGS``; yield the first line it prints and (afterwards) its stderr."""
     proc = _start("simulate", *args)
     err: list[str] = []
     try:
-        assert proc.stdout is not None
-        ready, _, _ = select.select([proc.stdout], [], [], TIMEOUT)
-        assert ready, "uss simulate printed nothing"
-        first = proc.stdout.readline().strip()
+        first = _first_line(proc)
         assert first, proc.stderr.read() if proc.stderr else ""
         yield first, err
     finally:
@@ -151,13 +155,6 @@ def test_parameter_file_and_read_only(tmp_path: Path) -> None:
         assert _read_telegram(port)[3:9] == bytes.fromhex("103C 0000 04D2")
         port.write(frame(5, "203C 0000 0001 0000 0000"))  # write: no authority
         assert _read_telegram(port)[3] >> 4 == 8
-
-
-def _first_line(proc: subprocess.Popen[str]) -> str:
-    assert proc.stdout is not None
-    ready, _, _ = select.select([proc.stdout], [], [], TIMEOUT)
-    assert ready, "uss simulate printed nothing"
-    return proc.stdout.readline().strip()
 
 
 def test_power_cycle_eeprom_writes_survive_a_kill(tmp_path: Path) -> None:
