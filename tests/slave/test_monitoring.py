@@ -97,3 +97,19 @@ def test_failure_time_from_the_interface_parameter() -> None:
     nord = SimulatedDrive.from_profile("nord")
     nord.write(513, 15)  # 0.1 s units
     assert SlaveEngine(5, nord, get_profile("nord")).failure_time == 1.5
+
+
+def test_changing_a_diagnostic_parameter_is_refused_and_serving_goes_on() -> None:
+    """The diagnostic parameters are read-only displays: a change job gets error 1 (also on a
+    Baumueller drive, whose write authority is parameter 126), and without write authority
+    response ID 8, as every change job (C 4.2.1.1)."""
+    l32 = Layout(3, 2)
+    with PtySim(engine(5, "baumueller", "3,2")) as sim, sim.master() as master:
+        master.ask(5, l32, Pkw(2, 181, values=(4,)), OFF1)  # response-delay mode: direct answers
+        written = master.ask(5, l32, Pkw(2, 190, values=(1,)), OFF1).pkw  # P190: hardware
+        read = master.ask(5, l32, Pkw(1, 190 + 6), OFF1).pkw  # good telegrams so far
+    assert (written.id, written.values) == (7, (1,))
+    assert (read.id, read.values) == (1, (3,))
+    with PtySim(engine(5, "generic", "v,2", write_authority=False)) as sim, sim.master() as master:
+        denied = master.ask(5, LV, Pkw(2, BASE + 6, values=(0,)), OFF1).pkw
+    assert denied.id == 8

@@ -177,9 +177,9 @@ class ParameterChannel:
             return self.refused(job, self.profile.unsupported_error)
         pnu = self.profile.decode_pnu(job.pnu, job.index)
         memory = self._memory(pnu, now)
-        if _changes(job) and not self._may_change(memory, pnu):
-            return self._no_authority(job)
         try:
+            if _changes(job) and not self._may_change(pnu):
+                return self._no_authority(job)
             return self._run(job, pnu, memory)
         except NoWriteAuthority:
             return self._no_authority(job)
@@ -209,13 +209,14 @@ class ParameterChannel:
             return answer
         return replace(fresh, index=answer.index)
 
-    def _may_change(self, memory: ParameterMemory, pnu: int) -> bool:
-        """Write authority for a change job. The profile's write-enable parameter is left to
-        the drive, which keeps it writable (else nobody could give authority back)."""
-        enable = memory.db.profile.write_enable
+    def _may_change(self, pnu: int) -> bool:
+        """Write authority for a change job: the drive's, also for the slave's diagnostic
+        parameters. The profile's write-enable parameter is left to the drive, which keeps it
+        writable (else nobody could give authority back)."""
+        enable = self.memory.db.profile.write_enable
         if enable is not None and enable.pnu == pnu:
             return True
-        return memory.has_write_authority(self.interface)
+        return self.memory.has_write_authority(self.interface)
 
     def _memory(self, pnu: int, now: float) -> ParameterMemory:
         if self.diagnostics is not None and pnu in self.diagnostics:
