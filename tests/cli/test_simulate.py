@@ -32,16 +32,20 @@ def _start(*args: str) -> subprocess.Popen[str]:
     )
 
 
+def _first_line(proc: subprocess.Popen[str]) -> str:
+    assert proc.stdout is not None
+    ready, _, _ = select.select([proc.stdout], [], [], TIMEOUT)
+    assert ready, "uss simulate printed nothing"
+    return proc.stdout.readline().strip()
+
+
 @contextmanager
 def simulate(*args: str, stop: signal.Signals = signal.SIGTERM) -> Iterator[tuple[str, list[str]]]:
     """Run ``uss simulate ARGS``; yield the first line it prints and (afterwards) its stderr."""
     proc = _start("simulate", *args)
     err: list[str] = []
     try:
-        assert proc.stdout is not None
-        ready, _, _ = select.select([proc.stdout], [], [], TIMEOUT)
-        assert ready, "uss simulate printed nothing"
-        first = proc.stdout.readline().strip()
+        first = _first_line(proc)
         assert first, proc.stderr.read() if proc.stderr else ""
         yield first, err
     finally:
@@ -67,6 +71,24 @@ def test_pty_first_line_is_the_device_and_it_stops_cleanly(sig: signal.Signals) 
         port.write(READ_P52)
         assert _read_telegram(port).hex(" ").upper() == ANSWER_P52
     assert "1 telegrams received, 1 answered" in err[0]
+
+
+def test_each_exchange_is_logged_at_debug_level() -> None:
+    proc = _start("-vv", "simulate", "--pty", "--address", "5", "--layout", "3,2")
+    try:
+        with serial.Serial(_first_line(proc), 9600, parity="E", timeout=TIMEOUT) as port:
+            port.write(READ_P52)
+            assert _read_telegram(port).hex(" ").upper() == ANSWER_P52
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0, err
+    assert (
+        "normal adr 5: PKW 1034 0000 0000, PZD 047E 0000 -> "
+        "normal adr 5: PKW 1034 0000 4000, PZD 0231 0000"
+    ) in err  # the exchange, decoded (pyuss.slave)
+    assert "rx t=" in err and "tx t=" in err  # the raw frames (pyuss.wire)
+    assert ANSWER_P52 in err
 
 
 def test_several_addresses_on_one_pty(tmp_path: Path) -> None:
@@ -135,6 +157,32 @@ def test_parameter_file_and_read_only(tmp_path: Path) -> None:
         assert _read_telegram(port)[3] >> 4 == 8
 
 
+def test_power_cycle_eeprom_writes_survive_a_kill(tmp_path: Path) -> None:
+    """The simulator is killed (no clean stop) right after answering an EEPROM write: the value
+    was on disk before the answer, so it is there after a restart; a RAM write is not."""
+    store = tmp_path / "drive5.store"
+    args = ("simulate", "--pty", "--address", "5", "--layout", "3,2", "--store", str(store))
+    first = _start(*args)
+    try:
+        with serial.Serial(_first_line(first), 9600, parity="E", timeout=TIMEOUT) as port:
+            port.write(frame(5, "E012 0000 1234 047E 0000"))  # ID 14: P18 = 1234h, EEPROM
+            assert _read_telegram(port)[3:9] == bytes.fromhex("1012 0000 1234")
+            port.write(frame(5, "21C1 0000 0007 047E 0000"))  # ID 2: P449 = 7, RAM only
+            assert _read_telegram(port)[3:9] == bytes.fromhex("11C1 0000 0007")
+    finally:
+        first.kill()
+        first.communicate(timeout=TIMEOUT)
+    with (
+        simulate(*args[1:]) as (path, _),
+        serial.Serial(path, 9600, parity="E", timeout=TIMEOUT) as port,
+    ):
+        port.write(frame(5, "1012 0000 0000 047E 0000"))
+        assert _read_telegram(port)[3:9] == bytes.fromhex("1012 0000 1234")
+        port.write(frame(5, "11C1 0000 0000 047E 0000"))
+        assert _read_telegram(port)[3:9] == bytes.fromhex("11C1 0000 FE0C")  # factory -500
+    assert [p.name for p in tmp_path.iterdir()] == ["drive5.store"]  # no temporary file left
+
+
 def test_a_damaged_store_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     store = tmp_path / "drive.store"
     store.write_bytes(b"pyuss-drive-store 1 sha256=" + b"0" * 64 + b" bytes=2\n{}")
@@ -158,6 +206,10 @@ def test_a_damaged_store_is_refused(tmp_path: Path, capsys: pytest.CaptureFixtur
         (["--tcp", "localhost"], "HOST:PORT"),
         (["--pty", "--response-delay", "50"], "outside the window"),
         (["--pty", "--params", "/nonexistent.toml"], "cannot read parameter file"),
+        (["--pty", "--failure-time", "inf"], "--failure-time inf: must be a number of seconds"),
+        (["--pty", "--failure-time", "-1"], "--failure-time -1.0: must be a number of seconds"),
+        (["--pty", "--latency-time", "nan"], "--latency-time must be numbers >= 0"),
+        (["--pty", "--latency", "-2"], "--latency-time must be numbers >= 0"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(
@@ -167,6 +219,17 @@ def test_bad_input_is_one_line_and_exit_2(
     err = capsys.readouterr().err
     assert err.count("\n") == 1, err
     assert message in err
+
+
+def test_a_layout_from_the_parameter_file_the_profile_refuses_is_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    params = tmp_path / "mine.toml"
+    params.write_text('[profile]\nname = "mine"\nextends = "generic"\n')  # P685.1 = 127
+    assert main(["simulate", "--pty", "--profile", "baumueller", "--params", str(params)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert "not v,2 (the layout of the parameter file's interface parameters P685.1" in err
 
 
 def test_stops_by_itself_after_duration() -> None:

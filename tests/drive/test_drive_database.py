@@ -165,3 +165,20 @@ def test_extends_cycle_is_refused(tmp_path: Path) -> None:
     (tmp_path / "b.toml").write_text('[profile]\nname = "b"\nextends = "a.toml"\n')
     with pytest.raises(ConfigError, match="cycle"):
         load_database(tmp_path / "a.toml")
+
+
+def test_parameter_text_extends_a_builtin_profile() -> None:
+    db = parse_database(
+        '[profile]\nname = "more"\nextends = "generic"\n\n'
+        '[[parameter]]\npnu = 60\nname = "Extra"\ntype = "int16"\n'
+    )
+    assert 60 in db and 683 in db  # the generic parameters are there
+    assert db.faults["telegram_failure"] == 65
+    with pytest.raises(ConfigError, match="can only extend built-in profiles"):
+        parse_database('[profile]\nname = "x"\nextends = "base.toml"\n')
+
+
+def test_extends_an_unknown_profile_names_the_file(tmp_path: Path) -> None:
+    path = _write(tmp_path, '[profile]\nname = "x"\nextends = "genric"\n')
+    with pytest.raises(ConfigError, match=r"\.toml: \[profile\] field 'extends': unknown profile"):
+        load_database(path)

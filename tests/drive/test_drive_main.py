@@ -46,3 +46,10 @@ def test_show_lists_a_profile_and_details_a_parameter(
     detail = capsys.readouterr().out
     assert "'300 BAUD        '" in detail and "element  7 lower limit" in detail
     assert main(["show", "generic", "999"]) == 2
+
+
+def test_show_names_an_unknown_source(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["show", "genric"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "genric: neither a built-in profile (6se21, baumueller, generic" in err

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from pyuss.drive import SimulatedDrive, parse_database
+from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
 from pyuss.protocol.telegram import AddressMode, Telegram
+from pyuss.slave import SlaveEngine
 from slave.harness import PtySim, engine, frame
 
 L32 = Layout(3, 2)
@@ -108,3 +111,50 @@ def test_special_telegrams_go_to_a_registered_handler() -> None:
     assert answer == frame(0x85, "03 02 01")
     assert [t.mode for t in seen] == [AddressMode.SPECIAL, AddressMode.SPECIAL_BROADCAST]
     assert normal.pkw.values == (0x4000,)
+
+
+BEA_FILE = """
+[profile]
+name = "bea"
+extends = "generic"
+
+[process]
+setpoints = [60, 61, 62]
+
+[[parameter]]
+pnu = 60
+name = "Setpoint PZD3"
+type = "uint16"
+
+[[parameter]]
+pnu = 61
+name = "Command PZD4"
+type = "uint16"
+
+[[parameter]]
+pnu = 62
+name = "Command PZD5"
+type = "uint16"
+"""
+
+
+def test_broadcast_enable_words_c_and_d_select_bits_of_pzd_4_and_5() -> None:
+    """Appendix: word a enables PZD 3, 4, 5 (not 1, 2); word c selects bits of PZD 4, d of
+    PZD 5; word b is ignored as word 1 is not enabled. The rest keeps the last values."""
+
+    def make(now: float) -> list[SlaveEngine]:
+        drive = SimulatedDrive(parse_database(BEA_FILE), now=now)
+        return [SlaveEngine(5, drive, get_profile("generic"), layout=Layout(4, 5), now=now)]
+
+    with PtySim(make) as sim, sim.master() as master:
+        master.exchange(frame(5, "0000 0000 0000 0000 047E 1000 1111 2222 3333"))
+        # a = 0039h (flag, PZD 3, 4, 5), b = FFFFh, c = 00FFh, d = F000h
+        assert master.silent(frame(0x20, "0039 FFFF 00FF F000 047F 4000 AAAA BBBB CCCC"))
+        taken = sim.call(
+            lambda: (
+                sim.drive.machine.control,
+                sim.drive.machine.setpoint,
+                [sim.drive.value(p) for p in (60, 61, 62)],
+            )
+        )
+    assert taken == (0x047E, 0.25, [0xAAAA, 0x22BB, 0xC333])

@@ -14,7 +14,13 @@ from pyuss.protocol.pkw import Pkw
 from pyuss.protocol.telegram import AddressMode, Telegram
 from pyuss.slave import JobLatency, SlaveEngine
 
-CASES = [("generic", Layout(127, 2)), ("baumueller", Layout(4, 3)), ("micromaster4", Layout(3, 2))]
+CASES = [
+    ("generic", Layout(127, 2)),
+    ("baumueller", Layout(4, 3)),
+    ("micromaster4", Layout(3, 2)),
+    ("6se21", Layout(3, 2)),
+    ("nord", Layout(127, 4)),
+]
 
 
 def _engine(profile: str, layout: Layout) -> SlaveEngine:
@@ -23,6 +29,18 @@ def _engine(profile: str, layout: Layout) -> SlaveEngine:
 
 
 ENGINES = {name: _engine(name, layout) for name, layout in CASES}
+
+
+def _numbers(profile: str) -> list[int]:
+    """PKE parameter bits worth trying: the file's parameters, the slave's diagnostic
+    parameters and one that does not exist."""
+    prof = get_profile(profile)
+    numbers = {p.pnu for p in prof.database()} | {999}
+    numbers |= set(range(prof.diagnostic_pnu, prof.diagnostic_pnu + 18))
+    return sorted({n % 2048 for n in numbers})
+
+
+NUMBERS = {name: _numbers(name) for name, _ in CASES}
 
 
 @pytest.mark.parametrize(("profile", "layout"), CASES)
@@ -36,7 +54,7 @@ def test_any_job_gets_an_answer_of_the_layout(
     count = data.draw(st.integers(1, min(words, 12))) if layout.variable else words
     pkw = Pkw(
         data.draw(st.integers(0, 15)),
-        data.draw(st.sampled_from([0, 4, 18, 52, 60, 107, 181, 683, 2010 % 2048])),
+        data.draw(st.sampled_from(NUMBERS[profile])),
         data.draw(st.one_of(st.integers(0, 0xFFFF), st.sampled_from([0, 1, 2, 255, 0x8001]))),
         data.draw(st.booleans()),
         tuple(data.draw(st.lists(st.integers(0, 0xFFFF), min_size=count, max_size=count))),

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import time
 
-from pyuss.drive import DriveState, SimulatedDrive
+from pyuss.drive import DriveState, SimulatedDrive, parse_database
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
 from pyuss.slave import SlaveEngine
+from pyuss.slave.engine import TELEGRAM_FAILURE_FAULT
 from slave.harness import PtySim, engine, frame
 
 LV = Layout(127, 2)
@@ -49,6 +50,8 @@ def test_telegram_failure_time_trips_a_fault_shown_in_the_status_word() -> None:
         first = master.ask(5, LV, Pkw(0), OFF1)
         time.sleep(0.6)
         state = sim.call(lambda: sim.drive.state)  # the server noticed without a telegram
+        # monitoring off from here, so that a stalled test process cannot trip it again
+        sim.call(lambda: setattr(sim.engines[0], "failure_time", 0.0))
         tripped = master.ask(5, LV, Pkw(0), OFF1)
         timeouts = master.ask(5, LV, Pkw(1, BASE + 15, spm_toggle=True), OFF1).pkw
         master.ask(5, LV, Pkw(0, spm_toggle=True), (0x04FE, 0))  # acknowledge: rising bit 7
@@ -62,6 +65,28 @@ def test_telegram_failure_time_trips_a_fault_shown_in_the_status_word() -> None:
     assert recovered.pzd[0] & 0x0001  # ready to switch on again
 
 
+def test_failure_time_trips_a_fault_even_when_the_file_names_no_fault_code() -> None:
+    """A parameter file of the user's own without ``[faults]``: the drive still trips a fault
+    that the status word shows (C 3.1)."""
+    bare = parse_database(
+        '[profile]\nname = "bare"\n\n[drive]\nfault = 1\n\n'
+        '[[parameter]]\npnu = 1\nname = "Fault"\ntype = "uint16"\naccess = "ro"\n'
+    )
+
+    def make(now: float) -> list[SlaveEngine]:
+        drive = SimulatedDrive(bare, now=now)
+        profile = get_profile("generic")
+        return [SlaveEngine(5, drive, profile, layout=LV, failure_time=0.2, now=now)]
+
+    with PtySim(make) as sim, sim.master() as master:
+        first = master.ask(5, LV, Pkw(0), OFF1)
+        time.sleep(0.4)
+        tripped = master.ask(5, LV, Pkw(1, 1), OFF1)
+    assert not first.pzd[0] & 0x0008
+    assert tripped.pzd[0] & 0x0008  # status bit 3: fault
+    assert tripped.pkw.values == (TELEGRAM_FAILURE_FAULT,)
+
+
 def test_failure_time_from_the_interface_parameter() -> None:
     """P687.1 (ms) sets the generic drive's failure time; 0 switches monitoring off."""
     profile = get_profile("generic")
@@ -72,3 +97,19 @@ def test_failure_time_from_the_interface_parameter() -> None:
     nord = SimulatedDrive.from_profile("nord")
     nord.write(513, 15)  # 0.1 s units
     assert SlaveEngine(5, nord, get_profile("nord")).failure_time == 1.5
+
+
+def test_changing_a_diagnostic_parameter_is_refused_and_serving_goes_on() -> None:
+    """The diagnostic parameters are read-only displays: a change job gets error 1 (also on a
+    Baumueller drive, whose write authority is parameter 126), and without write authority
+    response ID 8, as every change job (C 4.2.1.1)."""
+    l32 = Layout(3, 2)
+    with PtySim(engine(5, "baumueller", "3,2")) as sim, sim.master() as master:
+        master.ask(5, l32, Pkw(2, 181, values=(4,)), OFF1)  # response-delay mode: direct answers
+        written = master.ask(5, l32, Pkw(2, 190, values=(1,)), OFF1).pkw  # P190: hardware
+        read = master.ask(5, l32, Pkw(1, 190 + 6), OFF1).pkw  # good telegrams so far
+    assert (written.id, written.values) == (7, (1,))
+    assert (read.id, read.values) == (1, (3,))
+    with PtySim(engine(5, "generic", "v,2", write_authority=False)) as sim, sim.master() as master:
+        denied = master.ask(5, LV, Pkw(2, BASE + 6, values=(0,)), OFF1).pkw
+    assert denied.id == 8

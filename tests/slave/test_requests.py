@@ -7,11 +7,15 @@ from typing import Any
 
 import pytest
 
+from pyuss.drive import SimulatedDrive, parse_database
+from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw, make_index, pwe_float, pwe_text
+from pyuss.slave import SlaveEngine
 from slave.harness import PtySim, engine
 
 OFF1 = (0x047E, 0)
+LV = Layout(127, 2)
 TEXT_WRITE = 0x0100
 SECOND_FIELD = 0x0200
 
@@ -209,3 +213,112 @@ def test_without_write_authority_reads_are_processed() -> None:
     read, text = answers("v,2", Pkw(1, 52), Pkw(15, 7, 3), write_authority=False)
     assert read.values == (0x4000,)
     assert text.text() == "300 BAUD"
+
+
+# -- a parameter file of the user's own -------------------------------------------------------
+
+TYPES_FILE = """
+[profile]
+name = "types"
+extends = "generic"
+
+[[parameter]]
+pnu = 60
+name = "Int8"
+type = "int8"
+min = -100
+max = 100
+default = -5
+
+[[parameter]]
+pnu = 61
+name = "Uint8"
+type = "uint8"
+default = 200
+
+[[parameter]]
+pnu = 62
+name = "Int32"
+type = "int32"
+default = -70000
+
+[[parameter]]
+pnu = 63
+name = "Uint32"
+type = "uint32"
+default = 0x12345678
+
+[[parameter]]
+pnu = 64
+name = "Float"
+type = "float"
+default = 1.5
+
+[[parameter]]
+pnu = 65
+name = "Bits"
+type = "v2"
+default = 0x8001
+
+[[parameter]]
+pnu = 66
+name = "Octets"
+type = "octets"
+length = 4
+default = "01 A0 FF 00"
+
+[[parameter]]
+pnu = 67
+name = "Label"
+type = "string"
+length = 6
+default = "ABC"
+
+[[parameter]]
+pnu = 68
+name = "Protected"
+type = "int16"
+access = "protected"
+
+[[parameter]]
+pnu = 69
+name = "Position"
+type = "uint16"
+active = true
+unit = "mm"
+scaling = 0.1
+"""
+
+
+def test_every_data_type_and_attribute_of_a_parameter_file() -> None:
+    def make(now: float) -> list[SlaveEngine]:
+        drive = SimulatedDrive(parse_database(TYPES_FILE), now=now)
+        return [SlaveEngine(5, drive, get_profile("generic"), layout=LV, now=now)]
+
+    with PtySim(make) as sim, sim.master() as master:
+        ask = lambda job: master.ask(5, LV, job, OFF1).pkw  # noqa: E731
+        values = [ask(Pkw(1, pnu)) for pnu in range(60, 68)]
+        codes = [ask(Pkw(4, pnu, 1)).values[0] & 0xFF for pnu in range(60, 68)]
+        beyond = ask(Pkw(2, 60, values=(101,)))
+        locked = ask(Pkw(2, 68, values=(1,)))
+        ask(Pkw(2, 51, values=(3,)))  # the keyword parameter opens protected parameters
+        unlocked = ask(Pkw(2, 68, values=(1,)))
+        factor = ask(Pkw(4, 69, 3))
+        sim.call(lambda: sim.drive.write(69, 250, interface="panel"))
+        reported = ask(Pkw(0))
+    assert [(a.id, a.values) for a in values] == [
+        (1, (0xFFFB,)),  # -5
+        (1, (200,)),
+        (2, (0xFFFE, 0xEE90)),  # -70000, high word first
+        (2, (0x1234, 0x5678)),
+        (2, pwe_float(1.5)),
+        (1, (0x8001,)),
+        (1, (0x01A0, 0xFF00)),  # octets in storage order
+        (1, pwe_text("ABC", 6)),
+    ]
+    assert codes == [2, 5, 4, 7, 8, 35, 10, 9]  # PBE element 1, bits 0..7: the type code
+    assert refused(beyond) == 2
+    assert refused(locked) == 12
+    assert (unlocked.id, unlocked.values) == (1, (1,))
+    assert factor.values == pwe_float(0.1)  # PBE element 3: the scaling
+    assert (reported.id, reported.pnu, reported.values) == (9, 69, (250,))

@@ -137,3 +137,16 @@ async def test_stx_without_a_start_pause_starts_no_telegram() -> None:
         assert await wire.exchange(glued, answer=False) is None
         no_stx = wire.server.diagnostics.no_stx
     assert no_stx == 1
+
+
+@pytest.mark.parametrize(("gap", "answered"), [(1.5, True), (1.9, False)])
+async def test_nord_residual_telegram_time(gap: float, answered: bool) -> None:
+    """Seed 001 1.3.5: a request must be complete 1.5 x (n + 4) character times after the start
+    of its STX, 21 for these 14 bytes. Gaps before characters 2..5 of 4 x 1.5 = 6 character
+    times (20 in all) keep it; 4 x 1.9 = 7.6 (21.6 in all) break it."""
+    plan = FaultPlan([Fault(FaultKind.STRETCH, station="master", gap=gap, count=5)])
+    async with line("nord", 19200, faults=plan) as wire:
+        delay = await wire.exchange(REQUEST, answer=answered)
+        residual = wire.server.diagnostics.residual_time
+    assert (delay is not None) == answered
+    assert residual == (0 if answered else 1)

@@ -37,6 +37,7 @@ import asyncio
 import contextlib
 import dataclasses
 import importlib
+import math
 import signal
 import sys
 from collections.abc import AsyncIterator, Awaitable, Callable
@@ -222,12 +223,12 @@ def options(args: argparse.Namespace) -> Options:
     if args.store is not None and len(addresses) > 1 and "{address}" not in args.store:
         raise ConfigError("--store: with several addresses the file name must contain {address}")
     for name, value in (("--failure-time", args.failure_time), ("--duration", args.duration)):
-        if value is not None and not value >= 0:
-            raise ConfigError(f"{name} {value}: must be >= 0 seconds")
+        if value is not None and not 0 <= value < math.inf:
+            raise ConfigError(f"{name} {value}: must be a number of seconds >= 0")
     if args.duration is not None and args.duration == 0:
         raise ConfigError("--duration 0: must be > 0 seconds")
-    if args.latency < 0 or not args.latency_time >= 0:
-        raise ConfigError("--latency and --latency-time must be >= 0")
+    if args.latency < 0 or not 0 <= args.latency_time < math.inf:
+        raise ConfigError("--latency and --latency-time must be numbers >= 0")
     bass_line, bass_where = _bass_side(args, addresses, line, where)
     delay = None
     if args.response_delay is not None:

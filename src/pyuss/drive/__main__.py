@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from pyuss.drive.database import ParameterDatabase, builtin_profiles, load_database, load_profile
 from pyuss.drive.datatypes import DataType
@@ -20,7 +21,12 @@ from pyuss.errors import ConfigError
 
 
 def _load(source: str) -> ParameterDatabase:
-    return load_profile(source) if source in builtin_profiles() else load_database(source)
+    if source in builtin_profiles():
+        return load_profile(source)
+    if not Path(source).exists():
+        known = ", ".join(builtin_profiles())
+        raise ConfigError(f"{source}: neither a built-in profile ({known}) nor a file")
+    return load_database(source)
 
 
 def _value(value: object) -> str:

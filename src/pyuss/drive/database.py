@@ -396,7 +396,7 @@ def load_database(path: str | Path) -> ParameterDatabase:
 
 def parse_database(text: str, source: str = "<text>") -> ParameterDatabase:
     """Validate parameter-file text (``extends`` may name built-in profiles only)."""
-    return _build([(source, _parse_toml(text, source))])
+    return _build(_with_bases(None, source, _parse_toml(text, source), ()))
 
 
 def _parse_toml(text: str, source: str) -> dict[str, Any]:
@@ -427,7 +427,14 @@ def _read_layers(ref: str, seen: tuple[str, ...]) -> list[tuple[str, dict[str, A
     if ref in seen:
         raise ConfigError(f"{ref}: 'extends' forms a cycle: {' -> '.join((*seen, ref))}")
     name, text = _read_source(ref)
-    data = _parse_toml(text, name)
+    return _with_bases(ref, name, _parse_toml(text, name), seen)
+
+
+def _with_bases(
+    ref: str | None, name: str, data: dict[str, Any], seen: tuple[str, ...]
+) -> list[tuple[str, dict[str, Any]]]:
+    """The layers of ``data`` (read from the file ``ref``, None for text given directly):
+    the ones it extends, base first, then itself."""
     profile = data.get("profile", {})
     base = profile.get("extends") if isinstance(profile, dict) else None
     if base is None:
@@ -435,12 +442,19 @@ def _read_layers(ref: str, seen: tuple[str, ...]) -> list[tuple[str, dict[str, A
     if not isinstance(base, str) or not base:
         raise ConfigError(f"{name}: [profile] field 'extends': must be a profile name or a path")
     if "/" in base or base.endswith(".toml"):
-        if ref.startswith("builtin:"):
-            raise ConfigError(f"{name}: a built-in profile can only extend built-in profiles")
+        if ref is None or ref.startswith("builtin:"):
+            what = "a built-in profile" if ref is not None else "parameter text"
+            raise ConfigError(f"{name}: {what} can only extend built-in profiles")
         base_ref = str((Path(ref).parent / base).resolve())
+    elif base not in builtin_profiles():
+        known = ", ".join(builtin_profiles())
+        raise ConfigError(
+            f"{name}: [profile] field 'extends': unknown profile {base!r} (known: {known}; "
+            "or a path to a .toml file)"
+        )
     else:
         base_ref = f"builtin:{base}"
-    return [*_read_layers(base_ref, (*seen, ref)), (name, data)]
+    return [*_read_layers(base_ref, (*seen, ref or name)), (name, data)]
 
 
 _TOP_KEYS = {"profile", "parameter", "drive", "interface", "state_codes", "faults", "process"}

@@ -110,7 +110,7 @@ class Profile:
     unsupported_error: int = 102
     """Error number of response 7 for the reserved request ID 10."""
     diagnostic_pnu: int = 2040
-    """First of the three diagnostic parameters of A 5.2.3 a slave offers (see `pyuss.slave`)."""
+    """First of the 18 diagnostic parameters of A 5.2.3 a slave offers (`pyuss.slave`)."""
     delay_mode: BitRef | None = None
     """The bit that switches the response-delay mode on (Baumueller P181 bit 2)."""
     broadcast_coding: BitRef | None = None

@@ -35,7 +35,11 @@ change job without write authority becomes response 8 (C 4.2.1.1, checked before
 such jobs are "not processed"). A job whose answer does not fit the PKW area - a double word in
 3 words, a whole array, a whole description or a text under a fixed length (C 4.2.2 "Index
 Low-Byte 255", C 7) - is answered with 7 and the profile's ``too_large_error``. Request IDs a
-profile does not know (Baumueller: 0..4 only) get its ``unsupported_error``.
+profile does not know (Baumueller: 0..4 only) get its ``unsupported_error``. An EEPROM write
+(IDs 11..14) whose store file cannot be written (the disk is full, the folder is gone) is not
+carried out: it is answered with 7 and error 1 "parameter not changeable", the reason is logged
+as a warning, and the slave goes on serving (the project's choice; a real drive whose EEPROM
+fails answers a refusal too).
 
 Word placement: with PKW 4 a word travels in PWE2, with PKW 3 and the variable length in PWE1
 (C 4.2.3 "Hinweis", NOTES 6) - for the answer `pyuss.protocol.layout.Layout.pack` does it, for
@@ -48,17 +52,21 @@ the parameter addressed is the profile's `decode_pnu` of them and IND.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import replace
 
 from pyuss.drive.database import Parameter
 from pyuss.drive.faults import NoWriteAuthority, ParameterFault
 from pyuss.drive.memory import ParameterMemory
+from pyuss.drive.store import StoreError
 from pyuss.profiles.base import Profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import INDEX_ALL, ErrorNumber, Pkw, RequestId, ResponseId, TextIndex
 from pyuss.slave.diagnostic import DiagnosticParameters
 
 __all__ = ["ALL_REQUESTS", "ParameterChannel", "TooLarge", "request_word"]
+
+log = logging.getLogger("pyuss.slave")
 
 R = RequestId
 A = ResponseId
@@ -169,9 +177,9 @@ class ParameterChannel:
             return self.refused(job, self.profile.unsupported_error)
         pnu = self.profile.decode_pnu(job.pnu, job.index)
         memory = self._memory(pnu, now)
-        if _changes(job) and not self._may_change(memory, pnu):
-            return self._no_authority(job)
         try:
+            if _changes(job) and not self._may_change(pnu):
+                return self._no_authority(job)
             return self._run(job, pnu, memory)
         except NoWriteAuthority:
             return self._no_authority(job)
@@ -179,6 +187,9 @@ class ParameterChannel:
             return self.refused(job, fault.number)
         except TooLarge:
             return self.refused(job, self.profile.too_large_error)
+        except StoreError as exc:
+            log.warning("P%d: EEPROM write not carried out: %s", pnu, exc)
+            return self.refused(job, ErrorNumber.NOT_CHANGEABLE)
 
     def current(self, job: Pkw, answer: Pkw, now: float) -> Pkw:
         """The answer to ``job`` (carried out before, answered with ``answer``) with the values
@@ -198,13 +209,14 @@ class ParameterChannel:
             return answer
         return replace(fresh, index=answer.index)
 
-    def _may_change(self, memory: ParameterMemory, pnu: int) -> bool:
-        """Write authority for a change job. The profile's write-enable parameter is left to
-        the drive, which keeps it writable (else nobody could give authority back)."""
-        enable = memory.db.profile.write_enable
+    def _may_change(self, pnu: int) -> bool:
+        """Write authority for a change job: the drive's, also for the slave's diagnostic
+        parameters. The profile's write-enable parameter is left to the drive, which keeps it
+        writable (else nobody could give authority back)."""
+        enable = self.memory.db.profile.write_enable
         if enable is not None and enable.pnu == pnu:
             return True
-        return memory.has_write_authority(self.interface)
+        return self.memory.has_write_authority(self.interface)
 
     def _memory(self, pnu: int, now: float) -> ParameterMemory:
         if self.diagnostics is not None and pnu in self.diagnostics:

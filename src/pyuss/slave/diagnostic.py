@@ -38,6 +38,8 @@ description layout), so they read like any other parameter of the device.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from pyuss import __version__
 from pyuss.drive.database import Access, DisplayFormat, Parameter, ParameterDatabase
 from pyuss.drive.datatypes import DataType
@@ -164,7 +166,10 @@ class DiagnosticParameters:
         params[telegram.pnu] = telegram
         length = _parameter(base + 17, "USS last tlg len", DataType.UINT16, "its length")
         params[length.pnu] = length
-        self.memory = ParameterMemory(ParameterDatabase(drive_db.profile, params))
+        # read-only displays: the keyword and write-enable parameters of the drive are not
+        # theirs (write authority is the drive's, checked by the parameter channel)
+        profile = replace(drive_db.profile, access_level=None, write_enable=None)
+        self.memory = ParameterMemory(ParameterDatabase(profile, params))
 
     def __contains__(self, pnu: object) -> bool:
         return isinstance(pnu, int) and self.base <= pnu < self.base + COUNT

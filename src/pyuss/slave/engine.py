@@ -40,7 +40,8 @@ a fixed PKW area, are reported with PNU and IND but without values.
 
 Telegram failure time (C 3.1 "Telegrammausfallzeit"): monitoring starts with the first good
 telegram addressed to the slave; when no further one arrives within the time, the drive trips
-the profile's fault ``telegram_failure`` (status word bit 3) and the diagnostics record a
+the fault ``telegram_failure`` of its parameter file (`TELEGRAM_FAILURE_FAULT` when the file
+names none; status word bit 3) and the diagnostics record a
 timeout (A 5.2.3 bit 7, counter 16). The next good telegram starts the monitoring again; the
 fault stays until the master acknowledges it (control word bit 7). Broadcasts do not count.
 The time comes from the interface parameter ``failure_time`` of the parameter file (its unit
@@ -76,12 +77,16 @@ from pyuss.slave.channel import ParameterChannel
 from pyuss.slave.diagnostic import DiagnosticParameters, software_version
 from pyuss.slave.process import bit_set, broadcast_action, process_mapping
 
-__all__ = ["JobLatency", "SlaveEngine", "SpecialHandler"]
+__all__ = ["TELEGRAM_FAILURE_FAULT", "JobLatency", "SlaveEngine", "SpecialHandler"]
 
 log = logging.getLogger("pyuss.slave")
 
 SpecialHandler = Callable[[Telegram, float], Telegram | None]
 """Handles a special telegram (ADR bit 7) at a time; returns the answer or None (A 5.4)."""
+
+TELEGRAM_FAILURE_FAULT = 65
+"""Fault code tripped when the telegram failure time expires and the parameter file's
+``[faults]`` table names no ``telegram_failure`` (the generic profile's number)."""
 
 _MAX_SPONTANEOUS = 64
 """Changes waiting to be reported; beyond that the oldest are dropped (and logged)."""
@@ -144,7 +149,7 @@ class SlaveEngine:
         self.interface = interface
         self.latency = latency or JobLatency()
         self.special = special
-        self.layout = profile.check_layout(layout if layout is not None else self._own_layout())
+        self.layout = profile.check_layout(layout) if layout is not None else self._file_layout()
         self.failure_time = self._failure_time() if failure_time is None else failure_time
         if not self.failure_time >= 0:
             raise ConfigError(f"telegram failure time must be >= 0 s, not {self.failure_time!r}")
@@ -211,6 +216,20 @@ class SlaveEngine:
         except ConfigError as exc:
             raise ConfigError(f"the parameter file's interface parameters: {exc}") from None
 
+    def _file_layout(self) -> Layout:
+        """The layout of the drive's interface parameters (or the profile's default), checked
+        against the profile; the error says where a refused layout came from."""
+        own = self._own_layout()
+        try:
+            return self.profile.check_layout(own)
+        except ConfigError as exc:
+            refs = [self.drive.db.interface.get(role) for role in ("pkw", "pzd")]
+            where = ", ".join(str(ref) for ref in refs if ref is not None)
+            raise ConfigError(
+                f"{exc} (the layout of the parameter file's interface parameters {where}; "
+                "give the layout explicitly)"
+            ) from None
+
     def _write_interface(self) -> None:
         db = self.drive.db
         for role, value in (
@@ -263,15 +282,14 @@ class SlaveEngine:
         self._monitoring = False
         self.timeouts += 1
         self.diagnostics.record_timeout(deadline)
-        code = self.drive.db.faults.get("telegram_failure")
+        code = self.drive.db.faults.get("telegram_failure", TELEGRAM_FAILURE_FAULT)
         log.warning(
-            "address %d: no telegram for %.3f s: telegram failure time expired%s",
+            "address %d: no telegram for %.3f s: telegram failure time expired, fault %d",
             self.address,
             self.failure_time,
-            "" if code is None else f", fault {code}",
+            code,
         )
-        if code is not None:
-            self.drive.raise_fault(code, deadline)
+        self.drive.raise_fault(code, deadline)
 
     # -- telegrams --------------------------------------------------------------------------
 

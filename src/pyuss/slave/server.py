@@ -61,6 +61,7 @@ log = logging.getLogger("pyuss.slave")
 _IDLE_READ = 0.1
 """Longest single wait for the line, so that a stop request is seen soon."""
 _SPIN = 0.0015
+"""Waits shorter than this are finished by polling the clock (timer resolution: 1 ms)."""
 _MAX_BACKLOG = 1.0
 """On an untimed line, reads are not placed more than this many seconds behind their arrival."""
 LATE_MARGIN = 0.001
@@ -69,7 +70,6 @@ LATE_MARGIN = 0.001
 DEFAULT_LATENCY = 0.020
 """How long bytes may take from the line to the program (a USB adapter's latency timer, the
 virtual bus's delivery): the line counts as idle only that much after the receiver says so."""
-"""Waits shorter than this are finished by polling the clock (timer resolution: 1 ms)."""
 
 
 @dataclass(slots=True)
