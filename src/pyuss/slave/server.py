@@ -29,7 +29,10 @@ default), so that late bytes are not mistaken for a pause.
 All engines on a port share one `Diagnostics` (A 5.2.3): the line's faults belong to the port.
 Each exchange is logged at debug level on ``pyuss.slave`` (request and answer, decoded), the
 raw frames on ``pyuss.wire`` (`pyuss.log.log_frame`). `run` serves until the ``stop`` event is
-set or the task is cancelled; a lost line raises `TransportError`.
+set or the task is cancelled; a lost line raises `TransportError` at the next read. An answer
+the line does not take (a pty whose reader has stopped reading, its buffer full) is dropped with
+a warning and counted in `ServerStats.unsent`, as a drive on RS-485 goes on answering a master
+that does not listen; the server keeps serving.
 """
 
 from __future__ import annotations
@@ -41,7 +44,7 @@ import time
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from pyuss.errors import ConfigError, TelegramError
+from pyuss.errors import ConfigError, TelegramError, TransportError
 from pyuss.log import log_frame
 from pyuss.protocol.diagnostics import Diagnostics
 from pyuss.protocol.layout import Layout
@@ -81,6 +84,8 @@ class ServerStats:
     faults: int = 0
     """Telegrams and bytes discarded by the receiver."""
     answers: int = 0
+    unsent: int = 0
+    """Answers the line did not take (nobody reads a pty): dropped, the server goes on."""
     late: int = 0
     """Answers that started after the latest moment the profile allows."""
 
@@ -236,7 +241,12 @@ class SlaveServer:
         await self._wait_until(event.end + delay)
         data = answer.encode()
         start = self.transport.clock()
-        await self.transport.write(data)
+        try:
+            await self.transport.write(data)
+        except TransportError as exc:  # a line that is really lost ends `run` at the next read
+            self.stats.unsent += 1
+            log.warning("address %d: answer not sent: %s", engine.address, exc)
+            return
         self.stats.answers += 1
         log_frame("tx", data, start)
         if log.isEnabledFor(logging.DEBUG):
