@@ -38,6 +38,7 @@ from pyuss.master.stats import BusDiagnostics, CycleStats, SlaveDiagnostics
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
+from pyuss.protocol.telegram import Telegram
 from pyuss.transport.base import Transport
 
 __all__ = ["Drive", "Master"]
@@ -161,9 +162,23 @@ class Master:
                 address, layout=layout, profile=profile, response_delay=response_delay, poll=poll
             )
         )
-        if address not in self._drives:
-            self._drives[address] = Drive(self, handle)
-        return self._drives[address]
+        return self._wrap(handle)
+
+    def _wrap(self, handle: AsyncDrive) -> Drive:
+        if handle.address not in self._drives:
+            self._drives[handle.address] = Drive(self, handle)
+        return self._drives[handle.address]
+
+    @property
+    def drives(self) -> tuple[Drive, ...]:
+        """Every drive handle made so far, by address."""
+        core = self.core
+        return tuple(self._wrap(handle) for handle in self._run(lambda: core.drives))
+
+    @property
+    def running(self) -> bool:
+        """True while the scheduler runs (between `open` and `close`)."""
+        return self._master is not None and self._master.running
 
     @property
     def poll_list(self) -> tuple[int, ...]:
@@ -198,6 +213,9 @@ class Master:
 
     def mirror(self, address: int, data: bytes | None = None) -> scheduler.MirrorResult:
         return self._call(self.core.mirror(address, data))
+
+    def request(self, telegram: Telegram) -> scheduler.Reply | None:
+        return self._call(self.core.request(telegram))
 
     def exchange(self, address: int, *, timeout: float | None = None) -> DriveStatus:
         return self._call(self.core.exchange(address, timeout=timeout))
@@ -243,6 +261,10 @@ class Drive:
         return self._drive.profile
 
     @property
+    def response_delay(self) -> float:
+        return self._drive.response_delay
+
+    @property
     def not_sending(self) -> bool:
         return self._drive.not_sending
 
@@ -254,6 +276,10 @@ class Drive:
     def control(self) -> int:
         return self._drive.control
 
+    @property
+    def setpoints(self) -> tuple[int, ...]:
+        return self._drive.setpoints
+
     def diagnostics(self) -> SlaveDiagnostics:
         return self._bus._run(self._drive.diagnostics)
 
@@ -261,8 +287,15 @@ class Drive:
         return self._bus._call(self._drive.mirror())
 
     # parameters
-    def job(self, request: Pkw, *, timeout: float | None = None) -> Pkw:
-        return self._bus._call(self._drive.job(request, timeout=timeout))
+    def job(
+        self,
+        request: Pkw,
+        *,
+        pnu: int | None = None,
+        index: int | None = None,
+        timeout: float | None = None,
+    ) -> Pkw:
+        return self._bus._call(self._drive.job(request, pnu=pnu, index=index, timeout=timeout))
 
     def read(
         self,
