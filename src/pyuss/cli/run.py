@@ -138,6 +138,11 @@ async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[
     code = EXIT_OK
     async with open_master(args, mode=CYCLIC) as bus:
         drive = bus.drive(args.address)
+        if drive.layout.pzd < 2:
+            raise ConfigError(
+                f"layout {drive.layout}: running a drive needs PZD1 (control word) and PZD2 "
+                "(main setpoint), give --layout with 2 or more PZD words (C 5)"
+            )
         live = Live(args, drive)
         shown = asyncio.Event()
         follower = asyncio.create_task(live.follow(shown))
@@ -175,9 +180,14 @@ async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[
 async def switch_off(
     args: argparse.Namespace, drive: Drive, stop: asyncio.Event, signals: list[int]
 ) -> None:
-    """OFF1 and wait for the drive to stop; a second signal coasts it down at once (OFF2)."""
+    """OFF1 and wait for the drive to stop; a second signal - or any signal once stopping
+    began - coasts it down at once (OFF2)."""
     count = len(signals)
-    await drive.off1()
+    if count < 2:
+        await drive.off1()
+    if len(signals) >= 2 or len(signals) > count:  # also one that came while OFF1 was sent
+        await drive.off2()
+        return
     stop.clear()
 
     async def stopped() -> None:
