@@ -278,3 +278,16 @@ def test_scan_in_a_terminal_shows_a_progress_bar(sim: str) -> None:
     assert bars[-1].endswith("] 18/18")  # 3 addresses x 6 probe lengths, complete at the end
     assert "#" * 30 in bars[-1]
     assert _screen(seen)[-1].split()[:3] == ["5", BAUD, "3,2"]
+
+
+@pytest.mark.parametrize("name", ["scan", "read", "write", "describe", "mirror", "run"])
+def test_every_command_takes_the_shared_options_and_documents_exit_codes(
+    name: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as info:
+        main([name, "--help"])
+    assert info.value.code == 0
+    text = capsys.readouterr().out
+    for option in ("--port", "--baud", "--profile", "--layout", "--json"):
+        assert option in text
+    assert "exit codes:" in text and "130" in text

@@ -114,9 +114,19 @@ def command(subparsers: Any, name: str, summary: str, doc: str | None) -> argpar
     return parser
 
 
+EPILOG = """\
+exit codes:
+  0    done
+  1    the operation failed: no answer, refused by the drive, changed mirror
+       telegram, no drive found, drive fault, port failed
+  2    bad input (arguments, values, a request the layout cannot carry)
+  130  interrupted (uss run: after switching the drive off)"""
+
+
 def finish(parser: argparse.ArgumentParser, func: Callable[[argparse.Namespace], int]) -> None:
-    """Add the shared options and the function that runs the command."""
+    """Add the shared options, the exit codes and the function that runs the command."""
     add_options(parser, lists=parser.prog.endswith(" scan"))
+    parser.epilog = EPILOG
     parser.set_defaults(func=func)
 
 
