@@ -237,3 +237,23 @@ async def test_acyclic_process_data_are_repeated_until_answered() -> None:
         count = len(env.slaves[3].log.requests)
         await asyncio.sleep(0.1)
         assert len(env.slaves[3].log.requests) == count  # nothing more to send
+
+
+async def test_does_not_send_is_cleared_only_by_a_good_telegram() -> None:
+    # Slave 2 is silent first, then its first three answers are garbled on the line (a
+    # parity error in one character each, counted from its first character sent).
+    plan = FaultPlan([Fault("parity", station="slave2", nth=n) for n in (3, 17, 31)])
+    async with scripted_bus((1, 2), faults=plan) as env:
+        env.slaves[2].silent = True
+        one, two = env.master.drive(1), env.master.drive(2)
+        await eventually(lambda: two.not_sending)
+        seen: list[bool] = []  # the mark as each further request reaches slave 2
+        env.slaves[2].on_request = lambda _: seen.append(two.not_sending)
+        env.slaves[2].silent = False
+        await eventually(lambda: not two.not_sending)
+        await eventually(lambda: len(seen) >= 6)
+        diag = two.diagnostics()
+    # set through the three garbled answers, cleared by the fourth, good one (A 5.2.1.1)
+    assert seen[:5] == [True, True, True, True, False]
+    assert diag.counters.parity >= 3 and diag.answers >= 1
+    assert not one.not_sending
