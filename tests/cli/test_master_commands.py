@@ -90,6 +90,8 @@ def test_bad_input_exits_2_with_one_line(sim: str, capsys: pytest.CaptureFixture
     assert info.value.code == 2
     code, _, err = uss(capsys, "read", "5", "52", "--port", sim, "--baud", "1234")
     assert code == 2 and "1234" in err
+    code, out, err = uss(capsys, "mirror", "5", "--data", "00" * 300, *common(sim))
+    assert code == 2 and "252" in err and len(err.splitlines()) == 1 and not out
     for setpoint in ("inf", "nan", "300"):
         code, out, err = uss(capsys, "run", "5", "--setpoint", setpoint, *common(sim))
         assert code == 2 and len(err.splitlines()) == 1 and not out, err

@@ -87,6 +87,13 @@ async def test_setpoints_raw_and_32_bit_and_jog_2() -> None:
             await drive.setpoint(raw=0x10000)
         with pytest.raises(ConfigError):
             await drive.jog(3)
+        for value in (float("nan"), float("inf")):
+            with pytest.raises(ConfigError, match="finite"):
+                await drive.write(107, value)
+        with pytest.raises(ConfigError, match=r"0\.\.31"):
+            await env.master.mirror(40)
+        with pytest.raises(ConfigError, match="252"):
+            await env.master.mirror(5, bytes(300))
 
 
 def test_response_limit_is_never_below_the_profiles_start_pause() -> None:
