@@ -188,7 +188,7 @@ async def scan(
             progress(done, total)
     if failed and len(failed) == len(bauds):
         raise failed[0][1]
-    for baud, exc in failed:
+    for baud, error in failed:
         if skipped is not None:
-            skipped(baud, exc)
+            skipped(baud, error)
     return found
