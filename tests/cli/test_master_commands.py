@@ -15,7 +15,9 @@ from collections.abc import Iterator
 
 import pytest
 
+from master.conftest import SimulatorThread
 from pyuss.cli.main import main
+from pyuss.protocol.layout import Layout
 
 BAUD = "38400"
 
@@ -293,3 +295,30 @@ def test_every_command_takes_the_shared_options_and_documents_exit_codes(
     for option in ("--port", "--baud", "--profile", "--layout", "--json"):
         assert option in text
     assert "exit codes:" in text and "130" in text
+
+
+def test_run_ends_with_exit_1_when_the_drive_stops_answering() -> None:
+    with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
+        port = ["--port", sim.paths[0], "--baud", str(sim.baud), "--layout", "3,2"]
+        # no --duration: it runs until something ends it
+        argv = ["run", "5", "--setpoint", "10", "--timeout", "0.5", *port]
+        process = subprocess.Popen(
+            [sys.executable, "-m", "pyuss.cli.main", *argv],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            deadline = time.monotonic() + 30
+            while time.monotonic() < deadline:
+                if sim.call(lambda s: s.engines[5].drive.running):
+                    break
+                time.sleep(0.05)
+            sim.call(lambda s: s.bus.make_dead("drive5", 600))  # it stops answering
+            _, err = process.communicate(timeout=60)
+        finally:
+            if process.poll() is None:  # pragma: no cover - it hung: fail below
+                process.kill()
+                process.wait()
+    assert process.returncode == 1, err
+    assert "slave 5 does not send" in err
