@@ -257,3 +257,26 @@ async def test_does_not_send_is_cleared_only_by_a_good_telegram() -> None:
     assert seen[:5] == [True, True, True, True, False]
     assert diag.counters.parity >= 3 and diag.answers >= 1
     assert not one.not_sending
+
+
+async def test_a_pause_without_a_poll_list_is_not_counted_as_a_cycle() -> None:
+    async with scripted_bus((1,), cycle_time=0.02) as env:
+        drive = env.master.drive(1, poll=False)
+        seen: list[tuple[int, int]] = []  # (cycles done, cycle times measured) at each answer
+
+        def count(_: object) -> None:
+            stats = env.master.cycle_stats()
+            seen.append((stats.cycles, stats.achieved.count))
+
+        drive.on_update(count)
+        env.master.set_poll_list([1])
+        await eventually(lambda: len(seen) >= 3)
+        # one answer per cycle, inside it: every cycle but the first has its time measured
+        assert all(done == measured for done, measured in seen)
+        env.master.set_poll_list([])
+        await asyncio.sleep(0.1)
+        env.master.set_poll_list([1])
+        before = len(seen)
+        await eventually(lambda: len(seen) >= before + 3)
+    # the time without a poll list was not taken for one long cycle (A 5.1.1)
+    assert all(done == measured + 1 for done, measured in seen[before:])

@@ -742,6 +742,7 @@ class Master:
     async def _cycle(self) -> None:
         entries = tuple(self._poll)
         if not entries:
+            self._last_cycle_start = None  # the time without a poll list is no cycle
             await self._sleep(None)
             return
         start = self._clock()
