@@ -140,10 +140,13 @@ def test_mirror_and_a_silent_address(sim: str, capsys: pytest.CaptureFixture[str
 
 
 def test_scan_finds_the_drive(sim: str, capsys: pytest.CaptureFixture[str]) -> None:
-    code, out, _ = uss(capsys, "scan", "--port", sim, "--baud", BAUD, "--address", "4-6", "--json")
+    rates = f"{BAUD},{BAUD}"  # a rate given twice is probed once
+    code, out, _ = uss(capsys, "scan", "--port", sim, "--baud", rates, "--address", "4-6", "--json")
     assert code == 0
     found = json.loads(out)
     assert [(f["address"], f["layout"], f["baud"]) for f in found] == [(5, "3,2", 38400)]
+    code, _, err = uss(capsys, "scan", "--port", sim, "--profile", "6se21", "--layout", "4,2")
+    assert code == 2 and "6se21" in err and len(err.splitlines()) == 1
     code, out, _ = uss(capsys, "scan", "--port", sim, "--baud", BAUD, "--address", "7")
     assert code == 1 and "no drive answered" in out
     code, _, err = uss(capsys, "scan", "--port", sim, "--address", "30-40")

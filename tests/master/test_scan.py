@@ -8,7 +8,7 @@ import pytest
 
 from master.conftest import simulated_bus
 from pyuss.bus import VirtualBus
-from pyuss.errors import TransportError
+from pyuss.errors import ConfigError, TransportError
 from pyuss.master.scan import Found, probe_layouts, scan
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
@@ -23,6 +23,8 @@ def test_probe_layouts_one_per_length_profile_first() -> None:
     assert all(not layout.variable for layout in layouts)
     assert probe_layouts(get_profile("6se21")) == [Layout(3, 2)]
     assert probe_layouts(None, [Layout(3, 2), Layout(4, 1)]) == [Layout(3, 2)]  # same length
+    with pytest.raises(ConfigError, match="fixed layout 3,2 only"):  # asked for, not possible
+        probe_layouts(get_profile("6se21"), [Layout(4, 2)])
 
 
 async def test_scan_finds_addresses_layouts_and_the_baud_rate() -> None:

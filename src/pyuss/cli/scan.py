@@ -66,14 +66,16 @@ def ranges(text: str) -> list[int]:
 def rates(text: str) -> list[int]:
     if text.strip().lower() == "all":
         return list(BAUD_RATES)
-    out = []
+    out: list[int] = []
     for part in text.split(","):
         try:
-            out.append(check_baud(int(part.strip())))
+            baud = check_baud(int(part.strip()))
         except ValueError:
             raise ConfigError(
                 f"--baud {text!r}: expected a list such as 9600,19200 or all"
             ) from None
+        if baud not in out:
+            out.append(baud)
     return out
 
 

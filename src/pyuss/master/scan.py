@@ -22,7 +22,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from pyuss.errors import TelegramError, TransportError
+from pyuss.errors import ConfigError, TelegramError, TransportError
 from pyuss.master.scheduler import ACYCLIC, Master
 from pyuss.profiles import Profile
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
@@ -67,7 +67,9 @@ class Found:
 
 
 def probe_layouts(profile: Profile | None = None, layouts: Sequence[Layout] = ()) -> list[Layout]:
-    """The fixed layouts to probe with, one per telegram length, in order."""
+    """The fixed layouts to probe with, one per telegram length, in order. ``layouts`` given
+    replace the common ones and must suit ``profile`` (`ConfigError`); of the common ones,
+    those the profile does not allow are left out."""
     candidates: list[Layout] = []
     if layouts:
         candidates += layouts
@@ -83,7 +85,9 @@ def probe_layouts(profile: Profile | None = None, layouts: Sequence[Layout] = ()
         if profile is not None:
             try:
                 profile.check_layout(layout)
-            except Exception:
+            except ConfigError:
+                if layouts:
+                    raise
                 continue
         assert layout.lge is not None
         if layout.lge not in lengths:
