@@ -7,6 +7,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import threading
+from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
@@ -151,7 +152,10 @@ def test_the_sync_facade_runs_the_same_core_in_one_thread() -> None:
         assert not loop_threads()
         with master:
             assert master.running and len(loop_threads()) == 1
+            with ThreadPoolExecutor(8) as pool:  # one handle per address, whoever asks first
+                handles = list(pool.map(lambda _: master.drive(5), range(16)))
             drive = master.drive(5)
+            assert all(handle is drive for handle in handles)
             assert master.drives == (drive,)
             assert master.core.drives == (drive.core,)
             assert drive.read(52) == 0x4000

@@ -157,14 +157,20 @@ class Master:
     ) -> Drive:
         """The handle of the slave at ``address`` (see `pyuss.master.Master.drive`)."""
         core = self.core
-        handle = self._run(
-            lambda: core.drive(
-                address, layout=layout, profile=profile, response_delay=response_delay, poll=poll
+        return self._run(
+            lambda: self._wrap(
+                core.drive(
+                    address,
+                    layout=layout,
+                    profile=profile,
+                    response_delay=response_delay,
+                    poll=poll,
+                )
             )
         )
-        return self._wrap(handle)
 
     def _wrap(self, handle: AsyncDrive) -> Drive:
+        """The one sync handle of ``handle`` (called on the loop thread, so never twice)."""
         if handle.address not in self._drives:
             self._drives[handle.address] = Drive(self, handle)
         return self._drives[handle.address]
@@ -173,7 +179,7 @@ class Master:
     def drives(self) -> tuple[Drive, ...]:
         """Every drive handle made so far, by address."""
         core = self.core
-        return tuple(self._wrap(handle) for handle in self._run(lambda: core.drives))
+        return self._run(lambda: tuple(self._wrap(handle) for handle in core.drives))
 
     @property
     def running(self) -> bool:
