@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import itertools
+import json
 
 import pytest
 
@@ -88,7 +89,13 @@ async def test_a_slave_that_stops_answering_and_comes_back() -> None:
         await eventually(lambda: not two.not_sending)
         assert await two.read(52) == 0x4000
         diag = two.diagnostics()
+        snapshot = json.loads(json.dumps(env.master.diagnostics().to_dict()))
     assert diag.timeouts >= 1
+    assert [s["address"] for s in snapshot["slaves"]] == [1, 2]
+    assert snapshot["slaves"][1]["counters"]["timeout"] >= 1
+    assert snapshot["slaves"][1]["counters"]["error_status"] & 0x80
+    assert snapshot["slaves"][1]["jobs"]["completed"] == 1
+    assert snapshot["cycles"]["cycles"] >= 1 and "stdev" in snapshot["cycles"]["achieved"]
     assert diag.counters.timeout == diag.timeouts
     assert diag.counters.error_status & 0x80  # A 5.2.3 bit 7: response delay exceeded
     assert not one.not_sending
