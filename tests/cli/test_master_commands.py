@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import os
+import pty
+import select
 import signal
 import subprocess
 import sys
@@ -13,7 +15,9 @@ from collections.abc import Iterator
 
 import pytest
 
+from master.conftest import SimulatorThread
 from pyuss.cli.main import main
+from pyuss.protocol.layout import Layout
 
 BAUD = "38400"
 
@@ -88,6 +92,13 @@ def test_bad_input_exits_2_with_one_line(sim: str, capsys: pytest.CaptureFixture
     assert info.value.code == 2
     code, _, err = uss(capsys, "read", "5", "52", "--port", sim, "--baud", "1234")
     assert code == 2 and "1234" in err
+    code, out, err = uss(capsys, "mirror", "5", "--data", "00" * 300, *common(sim))
+    assert code == 2 and "252" in err and len(err.splitlines()) == 1 and not out
+    for setpoint in ("inf", "nan", "300"):
+        code, out, err = uss(capsys, "run", "5", "--setpoint", setpoint, *common(sim))
+        assert code == 2 and len(err.splitlines()) == 1 and not out, err
+    code, out, err = uss(capsys, "run", "5", "--setpoint", "10", "--port", sim, "--layout", "3,0")
+    assert code == 2 and "PZD2" in err and len(err.splitlines()) == 1 and not out
 
 
 def test_a_missing_port_fails_with_exit_1(capsys: pytest.CaptureFixture[str]) -> None:
@@ -105,6 +116,20 @@ def test_describe_element_and_fixed_layout_walk(
     assert code == 0 and json.loads(out)["elements"][0]["words"] == [0x5FFF]
     code, _, err = uss(capsys, "describe", "5", "52", "--element", "255", *common(sim))
     assert code == 1 and "error 103" in err
+    code, out, _ = uss(capsys, "describe", "5", "52", "--element", "255", *common(sim), "--json")
+    error = json.loads(out)["error"]
+    assert code == 1 and (error["type"], error["number"]) == ("DriveRefusal", 103)
+
+
+def test_failures_with_json_are_json(sim: str, capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = uss(capsys, "write", "5", "999", "1", *common(sim), "--json")
+    data = json.loads(out)
+    assert code == 1 and (data["pnu"], data["error"]["number"]) == (999, 0)
+    assert data["error"]["meaning"] == "illegal parameter number"
+    code, out, _ = uss(capsys, "write", "9", "18", "1", *common(sim), "--json", "--timeout", "0.3")
+    assert code == 1 and json.loads(out)["error"]["type"] == "JobTimeout"
+    code, out, err = uss(capsys, "write", "5", "18", "x", *common(sim), "--json")
+    assert code == 2 and not out and len(err.splitlines()) == 1  # bad input stays one line
 
 
 def test_mirror_and_a_silent_address(sim: str, capsys: pytest.CaptureFixture[str]) -> None:
@@ -115,10 +140,13 @@ def test_mirror_and_a_silent_address(sim: str, capsys: pytest.CaptureFixture[str
 
 
 def test_scan_finds_the_drive(sim: str, capsys: pytest.CaptureFixture[str]) -> None:
-    code, out, _ = uss(capsys, "scan", "--port", sim, "--baud", BAUD, "--address", "4-6", "--json")
+    rates = f"{BAUD},{BAUD}"  # a rate given twice is probed once
+    code, out, _ = uss(capsys, "scan", "--port", sim, "--baud", rates, "--address", "4-6", "--json")
     assert code == 0
     found = json.loads(out)
     assert [(f["address"], f["layout"], f["baud"]) for f in found] == [(5, "3,2", 38400)]
+    code, _, err = uss(capsys, "scan", "--port", sim, "--profile", "6se21", "--layout", "4,2")
+    assert code == 2 and "6se21" in err and len(err.splitlines()) == 1
     code, out, _ = uss(capsys, "scan", "--port", sim, "--baud", BAUD, "--address", "7")
     assert code == 1 and "no drive answered" in out
     code, _, err = uss(capsys, "scan", "--port", sim, "--address", "30-40")
@@ -165,3 +193,135 @@ def test_run_stops_cleanly_on_sigterm(sim: str) -> None:
     out, err = process.communicate(timeout=60)
     assert process.returncode == 130, err
     assert out.strip().splitlines()[-1].startswith("ready to switch on")
+
+
+def _in_a_terminal(argv: list[str]) -> tuple[int, int]:
+    """Start ``uss ARGV`` with a pty as its controlling terminal, as a shell would; returns
+    the child's pid and the terminal's master side (``\\x03`` written to it is Ctrl+C)."""
+    pid, fd = pty.fork()
+    if pid == 0:  # pragma: no cover - the child
+        os.execv(sys.executable, [sys.executable, "-m", "pyuss.cli.main", *argv])
+    return pid, fd
+
+
+def _read_until(fd: int, text: str, seen: bytearray, timeout: float = 60) -> bool:
+    """Read the terminal into ``seen`` until ``text`` shows after the last mark, or EOF."""
+    deadline = time.monotonic() + timeout
+    start = len(seen)
+    while time.monotonic() < deadline:
+        ready, _, _ = select.select([fd], [], [], 0.2)
+        if ready:
+            try:
+                chunk = os.read(fd, 4096)
+            except OSError:  # EIO: the child closed the terminal
+                return False
+            if not chunk:
+                return False
+            seen += chunk
+            if text and text.encode() in seen[start:]:
+                return True
+    return False
+
+
+def _finish(pid: int, fd: int, seen: bytearray) -> int:
+    _read_until(fd, "", seen)
+    os.close(fd)
+    _, status = os.waitpid(pid, 0)
+    return os.waitstatus_to_exitcode(status)
+
+
+def _screen(seen: bytearray) -> list[str]:
+    """What stays on the terminal: each line as its last carriage return left it."""
+    text = seen.decode(errors="replace").replace("\r\n", "\n")
+    return [line.split("\r")[-1] for line in text.split("\n") if line.split("\r")[-1].strip()]
+
+
+def test_run_in_a_terminal_switches_off_on_ctrl_c(
+    sim: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for pnu in ("462", "464"):  # ramp times 0.1 s
+        assert uss(capsys, "write", "5", pnu, "1", *common(sim))[0] == 0
+    pid, fd = _in_a_terminal(["run", "5", "--setpoint", "10", *common(sim)])
+    seen = bytearray()
+    assert _read_until(fd, "operation enabled", seen), seen.decode(errors="replace")
+    assert b"\r" in seen  # one line that updates itself
+    os.write(fd, b"\x03")  # Ctrl+C typed on the terminal
+    code = _finish(pid, fd, seen)
+    assert code == 130, seen.decode(errors="replace")
+    assert _screen(seen)[-1].startswith("ready to switch on")  # OFF1, ramped down, stopped
+    assert "Traceback" not in seen.decode(errors="replace")
+    code, out, _ = uss(capsys, "read", "5", "552", *common(sim), "--json")
+    word = json.loads(out)["parameters"][0]["value"]
+    assert code == 0 and not word & 0x0004  # the drive itself: operation no longer enabled
+
+
+def test_run_a_second_ctrl_c_coasts_the_drive_down(
+    sim: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert uss(capsys, "write", "5", "462", "1", *common(sim))[0] == 0  # up in 0.1 s
+    assert uss(capsys, "write", "5", "464", "600", *common(sim))[0] == 0  # down in 60 s
+    try:
+        pid, fd = _in_a_terminal(["run", "5", "--setpoint", "100", *common(sim)])
+        seen = bytearray()
+        assert _read_until(fd, "actual  100.00 %", seen), seen.decode(errors="replace")
+        os.write(fd, b"\x03")  # OFF1: the drive ramps down slowly ...
+        assert _read_until(fd, "actual   99.", seen), seen.decode(errors="replace")
+        os.write(fd, b"\x03")  # ... and a second Ctrl+C coasts it down at once (OFF2)
+        code = _finish(pid, fd, seen)
+    finally:
+        uss(capsys, "write", "5", "464", "1", *common(sim))
+    assert code == 130, seen.decode(errors="replace")
+    assert _screen(seen)[-1].startswith("switch-on inhibited")  # after OFF2 (C Table 5.5)
+
+
+def test_scan_in_a_terminal_shows_a_progress_bar(sim: str) -> None:
+    pid, fd = _in_a_terminal(["scan", "--port", sim, "--baud", BAUD, "--address", "4-6"])
+    seen = bytearray()
+    code = _finish(pid, fd, seen)
+    text = seen.decode(errors="replace")
+    assert code == 0, text
+    bars = [part for part in text.replace("\n", "\r").split("\r") if part.startswith("scanning [")]
+    assert len(bars) > 3  # it moves
+    assert bars[-1].endswith("] 18/18")  # 3 addresses x 6 probe lengths, complete at the end
+    assert "#" * 30 in bars[-1]
+    assert _screen(seen)[-1].split()[:3] == ["5", BAUD, "3,2"]
+
+
+@pytest.mark.parametrize("name", ["scan", "read", "write", "describe", "mirror", "run"])
+def test_every_command_takes_the_shared_options_and_documents_exit_codes(
+    name: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as info:
+        main([name, "--help"])
+    assert info.value.code == 0
+    text = capsys.readouterr().out
+    for option in ("--port", "--baud", "--profile", "--layout", "--json"):
+        assert option in text
+    assert "exit codes:" in text and "130" in text
+
+
+def test_run_ends_with_exit_1_when_the_drive_stops_answering() -> None:
+    with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
+        port = ["--port", sim.paths[0], "--baud", str(sim.baud), "--layout", "3,2"]
+        # no --duration: it runs until something ends it
+        argv = ["run", "5", "--setpoint", "10", "--timeout", "0.5", *port]
+        process = subprocess.Popen(
+            [sys.executable, "-m", "pyuss.cli.main", *argv],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            deadline = time.monotonic() + 30
+            while time.monotonic() < deadline:
+                if sim.call(lambda s: s.engines[5].drive.running):
+                    break
+                time.sleep(0.05)
+            sim.call(lambda s: s.bus.make_dead("drive5", 600))  # it stops answering
+            _, err = process.communicate(timeout=60)
+        finally:
+            if process.poll() is None:  # pragma: no cover - it hung: fail below
+                process.kill()
+                process.wait()
+    assert process.returncode == 1, err
+    assert "slave 5 does not send" in err

@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import asyncio
 
+import pytest
+
 from master.conftest import simulated_bus
 from pyuss.bus import VirtualBus
+from pyuss.errors import ConfigError, TransportError
 from pyuss.master.scan import Found, probe_layouts, scan
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.telegram import AddressMode, Telegram
+from pyuss.transport.url import open_transport
 
 
 def test_probe_layouts_one_per_length_profile_first() -> None:
@@ -19,6 +23,8 @@ def test_probe_layouts_one_per_length_profile_first() -> None:
     assert all(not layout.variable for layout in layouts)
     assert probe_layouts(get_profile("6se21")) == [Layout(3, 2)]
     assert probe_layouts(None, [Layout(3, 2), Layout(4, 1)]) == [Layout(3, 2)]  # same length
+    with pytest.raises(ConfigError, match="fixed layout 3,2 only"):  # asked for, not possible
+        probe_layouts(get_profile("6se21"), [Layout(4, 2)])
 
 
 async def test_scan_finds_addresses_layouts_and_the_baud_rate() -> None:
@@ -66,3 +72,23 @@ async def test_request_sends_any_telegram_and_returns_the_answer() -> None:
         assert await bus.request(Telegram(6, AddressMode.NORMAL, bytes(10))) is None
         assert await bus.request(Telegram(0, AddressMode.BROADCAST, bytes(14))) is None
         await asyncio.sleep(0)
+
+
+async def test_a_rate_the_line_cannot_be_opened_at_is_left_out() -> None:
+    async with simulated_bus([(3, "generic", Layout(4, 2))], baud=19200) as env:
+        await env.master.close()
+        host, port = await env.bus.serve_tcp(framed=True)  # bus:// runs at 19200 only
+        url = f"bus://{host}:{port}"
+        notes: list[tuple[int, str]] = []
+        found = await scan(
+            lambda baud: open_transport(url, baud=baud),
+            [9600, 19200, 38400],
+            [2, 3],
+            skipped=lambda baud, exc: notes.append((baud, str(exc))),
+            latency=0.005,
+        )
+        assert [(f.address, f.baud, f.layout) for f in found] == [(3, 19200, Layout(4, 2))]
+        assert [baud for baud, _ in notes] == [9600, 38400]
+        assert "19200" in notes[0][1]
+        with pytest.raises(TransportError, match="19200"):  # no rate at all: the error
+            await scan(lambda baud: open_transport(url, baud=baud), [9600], [3])

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import itertools
+import json
 
 import pytest
 
@@ -88,7 +89,13 @@ async def test_a_slave_that_stops_answering_and_comes_back() -> None:
         await eventually(lambda: not two.not_sending)
         assert await two.read(52) == 0x4000
         diag = two.diagnostics()
+        snapshot = json.loads(json.dumps(env.master.diagnostics().to_dict()))
     assert diag.timeouts >= 1
+    assert [s["address"] for s in snapshot["slaves"]] == [1, 2]
+    assert snapshot["slaves"][1]["counters"]["timeout"] >= 1
+    assert snapshot["slaves"][1]["counters"]["error_status"] & 0x80
+    assert snapshot["slaves"][1]["jobs"]["completed"] == 1
+    assert snapshot["cycles"]["cycles"] >= 1 and "stdev" in snapshot["cycles"]["achieved"]
     assert diag.counters.timeout == diag.timeouts
     assert diag.counters.error_status & 0x80  # A 5.2.3 bit 7: response delay exceeded
     assert not one.not_sending
@@ -237,3 +244,46 @@ async def test_acyclic_process_data_are_repeated_until_answered() -> None:
         count = len(env.slaves[3].log.requests)
         await asyncio.sleep(0.1)
         assert len(env.slaves[3].log.requests) == count  # nothing more to send
+
+
+async def test_does_not_send_is_cleared_only_by_a_good_telegram() -> None:
+    # Slave 2 is silent first, then its first three answers are garbled on the line (a
+    # parity error in one character each, counted from its first character sent).
+    plan = FaultPlan([Fault("parity", station="slave2", nth=n) for n in (3, 17, 31)])
+    async with scripted_bus((1, 2), faults=plan) as env:
+        env.slaves[2].silent = True
+        one, two = env.master.drive(1), env.master.drive(2)
+        await eventually(lambda: two.not_sending)
+        seen: list[bool] = []  # the mark as each further request reaches slave 2
+        env.slaves[2].on_request = lambda _: seen.append(two.not_sending)
+        env.slaves[2].silent = False
+        await eventually(lambda: not two.not_sending)
+        await eventually(lambda: len(seen) >= 6)
+        diag = two.diagnostics()
+    # set through the three garbled answers, cleared by the fourth, good one (A 5.2.1.1)
+    assert seen[:5] == [True, True, True, True, False]
+    assert diag.counters.parity >= 3 and diag.answers >= 1
+    assert not one.not_sending
+
+
+async def test_a_pause_without_a_poll_list_is_not_counted_as_a_cycle() -> None:
+    async with scripted_bus((1,), cycle_time=0.02) as env:
+        drive = env.master.drive(1, poll=False)
+        seen: list[tuple[int, int]] = []  # (cycles done, cycle times measured) at each answer
+
+        def count(_: object) -> None:
+            stats = env.master.cycle_stats()
+            seen.append((stats.cycles, stats.achieved.count))
+
+        drive.on_update(count)
+        env.master.set_poll_list([1])
+        await eventually(lambda: len(seen) >= 3)
+        # one answer per cycle, inside it: every cycle but the first has its time measured
+        assert all(done == measured for done, measured in seen)
+        env.master.set_poll_list([])
+        await asyncio.sleep(0.1)
+        env.master.set_poll_list([1])
+        before = len(seen)
+        await eventually(lambda: len(seen) >= before + 3)
+    # the time without a poll list was not taken for one long cycle (A 5.1.1)
+    assert all(done == measured + 1 for done, measured in seen[before:])

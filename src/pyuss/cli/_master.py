@@ -16,8 +16,8 @@ import argparse
 import asyncio
 import json
 import sys
-from collections.abc import Callable, Coroutine
-from typing import Any
+from collections.abc import Awaitable, Callable, Coroutine
+from typing import Any, TypeVar
 
 from pyuss.errors import ConfigError, DriveRefusal, UssError
 from pyuss.master.errors import NoWriteAuthority
@@ -27,6 +27,8 @@ from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import MAX_ADDRESS
 from pyuss.transport.queued import BAUD_RATES, check_baud
 from pyuss.transport.url import open_transport
+
+T = TypeVar("T")
 
 EXIT_OK = 0
 EXIT_FAILED = 1
@@ -112,9 +114,19 @@ def command(subparsers: Any, name: str, summary: str, doc: str | None) -> argpar
     return parser
 
 
+EPILOG = """\
+exit codes:
+  0    done
+  1    the operation failed: no answer, refused by the drive, changed mirror
+       telegram, no drive found, drive fault, port failed
+  2    bad input (arguments, values, a request the layout cannot carry)
+  130  interrupted (uss run: after switching the drive off)"""
+
+
 def finish(parser: argparse.ArgumentParser, func: Callable[[argparse.Namespace], int]) -> None:
-    """Add the shared options and the function that runs the command."""
+    """Add the shared options, the exit codes and the function that runs the command."""
     add_options(parser, lists=parser.prog.endswith(" scan"))
+    parser.epilog = EPILOG
     parser.set_defaults(func=func)
 
 
@@ -181,6 +193,23 @@ def error_dict(exc: BaseException) -> dict[str, Any]:
     elif isinstance(exc, NoWriteAuthority):
         item.update(response_id=8)
     return item
+
+
+async def outcome(
+    args: argparse.Namespace, data: dict[str, Any], operation: Awaitable[T]
+) -> T | None:
+    """Await one operation of a command. Bad input (`ConfigError`) and, without ``--json``,
+    any failure propagate (one line, exit code 2 or 1); with ``--json`` a failure is printed
+    as ``{**data, "error": ...}`` and None returned, for the caller to exit with 1."""
+    try:
+        return await operation
+    except ConfigError:
+        raise
+    except UssError as exc:
+        if not args.json:
+            raise
+        emit(args, {**data, "error": error_dict(exc)}, "")
+        return None
 
 
 def emit(args: argparse.Namespace, data: Any, text: str) -> None:

@@ -10,7 +10,17 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pyuss.cli._master import EXIT_OK, command, emit, finish, integer, open_master, run
+from pyuss.cli._master import (
+    EXIT_FAILED,
+    EXIT_OK,
+    command,
+    emit,
+    finish,
+    integer,
+    open_master,
+    outcome,
+    run,
+)
 from pyuss.master.description import Description
 
 
@@ -49,7 +59,13 @@ def main(args: argparse.Namespace) -> int:
     async def body() -> int:
         async with open_master(args) as bus:
             drive = bus.drive(args.address)
-            description = await drive.read_description(args.pnu, args.element)
+            description = await outcome(
+                args,
+                {"address": args.address, "pnu": args.pnu},
+                drive.read_description(args.pnu, args.element),
+            )
+        if description is None:
+            return EXIT_FAILED
         data = {"address": args.address, **description.to_dict()}
         emit(args, data, render(description))
         return EXIT_OK

@@ -52,6 +52,8 @@ def main(args: argparse.Namespace) -> int:
             for n in range(1, args.count + 1):
                 try:
                     result = await bus.mirror(args.address, data)
+                except ConfigError:
+                    raise
                 except UssError as exc:
                     tries.append({"ok": False, "error": error_dict(exc)})
                     if not args.json:

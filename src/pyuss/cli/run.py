@@ -7,7 +7,7 @@ updates itself in a terminal, one line per ``--interval`` otherwise, JSON lines 
 (047Eh), then the master keeps the telegrams going until the drive reports that operation is
 no longer enabled (at most ``--stop-timeout`` seconds); a second Ctrl+C stops at once with
 OFF2 (coast). Exit code 0 after ``--duration``, 130 after Ctrl+C or SIGTERM, 1 when the drive
-reports a fault or stops answering.
+reports a fault, gives no answer for ``--timeout`` seconds, or the port fails.
 """
 
 from __future__ import annotations
@@ -138,21 +138,26 @@ async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[
     code = EXIT_OK
     async with open_master(args, mode=CYCLIC) as bus:
         drive = bus.drive(args.address)
+        if drive.layout.pzd < 2:
+            raise ConfigError(
+                f"layout {drive.layout}: running a drive needs PZD1 (control word) and PZD2 "
+                "(main setpoint), give --layout with 2 or more PZD words (C 5)"
+            )
         live = Live(args, drive)
         shown = asyncio.Event()
         follower = asyncio.create_task(live.follow(shown))
         try:
             await drive.setpoint(args.setpoint)
             await drive.on()
-            faulted = asyncio.Event()
-            drive.on_update(lambda s: faulted.set() if s.fault else None)
-            waiters = [asyncio.create_task(stop.wait()), asyncio.create_task(faulted.wait())]
-            _done, pending = await asyncio.wait(
-                waiters, timeout=args.duration, return_when=asyncio.FIRST_COMPLETED
+            watcher = asyncio.create_task(watch(drive, args.timeout))
+            stopper = asyncio.create_task(stop.wait())
+            done, pending = await asyncio.wait(
+                {watcher, stopper}, timeout=args.duration, return_when=asyncio.FIRST_COMPLETED
             )
             for task in pending:
                 task.cancel()
-            if faulted.is_set():
+            if watcher in done:
+                watcher.result()  # raises when the drive stopped answering or the port failed
                 code = EXIT_FAILED
                 print(f"\nuss run: drive {args.address} reports a fault", file=sys.stderr)
             await switch_off(args, drive, stop, signals)
@@ -172,12 +177,24 @@ async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[
     return code
 
 
+async def watch(drive: Drive, timeout: float) -> None:
+    """Return when the drive reports a fault; raise `NotSending` when it gave no answer for
+    ``timeout`` seconds, the transport's error when the port failed."""
+    while not (await drive.next_update(timeout=timeout)).fault:
+        pass
+
+
 async def switch_off(
     args: argparse.Namespace, drive: Drive, stop: asyncio.Event, signals: list[int]
 ) -> None:
-    """OFF1 and wait for the drive to stop; a second signal coasts it down at once (OFF2)."""
+    """OFF1 and wait for the drive to stop; a second signal - or any signal once stopping
+    began - coasts it down at once (OFF2)."""
     count = len(signals)
-    await drive.off1()
+    if count < 2:
+        await drive.off1()
+    if len(signals) >= 2 or len(signals) > count:  # also one that came while OFF1 was sent
+        await drive.off2()
+        return
     stop.clear()
 
     async def stopped() -> None:

@@ -6,7 +6,9 @@ default 9600; ``all`` for the 13 rates of B 2.4) with "no job" telegrams whose c
 from them. A drive with a fixed telegram length answers only a telegram of its own length, so
 the common fixed layouts are tried in turn (``--layout`` gives the list instead, repeatable);
 a variable-length drive is recognised by the length of its answers. A progress bar goes to
-stderr when it is a terminal. Exit code 0 when at least one drive answered, 1 when none did.
+stderr when it is a terminal. A rate the port cannot be opened at (a ``bus://`` line runs at
+one rate only) is not probed, with a note on stderr. Exit code 0 when at least one drive
+answered, 1 when none did.
 """
 
 from __future__ import annotations
@@ -64,14 +66,16 @@ def ranges(text: str) -> list[int]:
 def rates(text: str) -> list[int]:
     if text.strip().lower() == "all":
         return list(BAUD_RATES)
-    out = []
+    out: list[int] = []
     for part in text.split(","):
         try:
-            out.append(check_baud(int(part.strip())))
+            baud = check_baud(int(part.strip()))
         except ValueError:
             raise ConfigError(
                 f"--baud {text!r}: expected a list such as 9600,19200 or all"
             ) from None
+        if baud not in out:
+            out.append(baud)
     return out
 
 
@@ -121,6 +125,7 @@ def main(args: argparse.Namespace) -> int:
         port = args.port
         open_transport(port, baud=bauds[0])  # a bad URL is bad input (exit 2) before probing
         bar = Bar()
+        notes: list[str] = []
         try:
             found = await scan(
                 lambda baud: open_transport(port, baud=baud),
@@ -129,10 +134,13 @@ def main(args: argparse.Namespace) -> int:
                 profile=profile,
                 layouts=layouts,
                 progress=bar,
+                skipped=lambda baud, exc: notes.append(f"uss scan: {baud} baud not probed: {exc}"),
                 **options,
             )
         finally:
             bar.close()
+        for note in notes:
+            print(note, file=sys.stderr)
         emit(args, [f.to_dict() for f in found], render(found))
         return EXIT_OK if found else EXIT_FAILED
 

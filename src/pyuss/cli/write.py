@@ -13,12 +13,14 @@ import argparse
 from typing import Any
 
 from pyuss.cli._master import (
+    EXIT_FAILED,
     EXIT_OK,
     command,
     emit,
     finish,
     label,
     open_master,
+    outcome,
     parameter,
     run,
 )
@@ -57,10 +59,15 @@ def main(args: argparse.Namespace) -> int:
         pnu, index = parameter(args.parameter)
         value = number(args.value)
         dword = True if args.dword else (False if args.word else None)
+        data: dict[str, Any] = {"address": args.address, "pnu": pnu, "index": index}
         async with open_master(args) as bus:
             drive = bus.drive(args.address)
-            answer = await drive.write(pnu, value, index, dword=dword, eeprom=args.eeprom)
-        data = {"address": args.address, "pnu": pnu, "index": index, "value": answer}
+            answer = await outcome(
+                args, data, drive.write(pnu, value, index, dword=dword, eeprom=args.eeprom)
+            )
+        if answer is None:
+            return EXIT_FAILED
+        data["value"] = answer
         stored = " (stored in EEPROM)" if args.eeprom else ""
         emit(args, data, f"{label(pnu, index)} = {show(answer)}{stored}")
         return EXIT_OK

@@ -32,6 +32,7 @@ the user set it.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -203,6 +204,8 @@ class Drive:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise ConfigError(f"value must be an integer or a float, not {value!r}")
         if is_float:
+            if not math.isfinite(value):
+                raise ConfigError(f"value must be a finite number, not {value!r}")
             if dword is False:
                 raise ConfigError("a floating point value is a double word (C 6)")
             words: tuple[int, ...] = pwe_float(float(value))

@@ -58,10 +58,11 @@ def answers(profile: Profile, answer: Pkw, request: Pkw) -> bool:
 def response_limit(profile: Profile, baud: int, limit: float | None = None) -> float:
     """How long the master waits for the start of an answer: ``limit`` if given, else the
     latest answer ``profile`` allows (its response-delay mode included); never below the start
-    pause (A 5.2.1.1)."""
+    pause (A 5.2.1.1) - the profile's, where it asks for a longer one (Baumueller: 3 character
+    times, NOTES 2), since the slave keeps it before its answer too."""
     if limit is None:
         limit = max(profile.response_delay(baud, delayed=True)[1], profile.response_delay(baud)[1])
-    return response_delay_limit(baud, limit)
+    return max(response_delay_limit(baud, limit), profile.start_pause(baud))
 
 
 def index_base(profile: Profile) -> int:

@@ -22,7 +22,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from pyuss.errors import TelegramError
+from pyuss.errors import ConfigError, TelegramError, TransportError
 from pyuss.master.scheduler import ACYCLIC, Master
 from pyuss.profiles import Profile
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
@@ -67,7 +67,9 @@ class Found:
 
 
 def probe_layouts(profile: Profile | None = None, layouts: Sequence[Layout] = ()) -> list[Layout]:
-    """The fixed layouts to probe with, one per telegram length, in order."""
+    """The fixed layouts to probe with, one per telegram length, in order. ``layouts`` given
+    replace the common ones and must suit ``profile`` (`ConfigError`); of the common ones,
+    those the profile does not allow are left out."""
     candidates: list[Layout] = []
     if layouts:
         candidates += layouts
@@ -83,7 +85,9 @@ def probe_layouts(profile: Profile | None = None, layouts: Sequence[Layout] = ()
         if profile is not None:
             try:
                 profile.check_layout(layout)
-            except Exception:
+            except ConfigError:
+                if layouts:
+                    raise
                 continue
         assert layout.lge is not None
         if layout.lge not in lengths:
@@ -142,11 +146,16 @@ async def scan(
     profile: Profile | str | None = None,
     layouts: Sequence[Layout] = (),
     progress: Callable[[int, int], None] | None = None,
+    skipped: Callable[[int, TransportError], None] | None = None,
     **master_options: Any,
 ) -> list[Found]:
     """Probe ``addresses`` at each of ``bauds``; ``transport(baud)`` makes the transport for a
     baud rate (for example ``lambda b: open_transport(url, baud=b)``). ``progress(done,
-    total)`` is called after each probe. Other options go to `Master`."""
+    total)`` is called after each probe. Other options go to `Master`.
+
+    A rate the transport cannot be opened at (a ``bus://`` line runs at one rate only) is
+    left out and the scan goes on; once it is over, ``skipped(baud, error)`` is called for
+    each such rate. When no rate could be opened at all, the first error is raised."""
     from pyuss.master.profile import resolve_profile
 
     prof = resolve_profile(profile)
@@ -164,13 +173,26 @@ async def scan(
             progress(done, total)
 
     found: list[Found] = []
+    failed: list[tuple[int, TransportError]] = []
     for baud in bauds:
         before = done
-        async with Master(transport(baud), profile=prof, mode=ACYCLIC, **master_options) as bus:
-            hits = await _scan_line(bus, baud, addresses, candidates, variable, tick)
-        found += hits
-        skipped = len(addresses) * len(candidates) - (done - before)
-        done += skipped
-        if progress is not None and skipped:
+        bus = Master(transport(baud), profile=prof, mode=ACYCLIC, **master_options)
+        try:
+            await bus.start()
+        except TransportError as exc:
+            failed.append((baud, exc))
+        else:
+            try:
+                found += await _scan_line(bus, baud, addresses, candidates, variable, tick)
+            finally:
+                await bus.close()
+        left = len(addresses) * len(candidates) - (done - before)
+        done += left
+        if progress is not None and left:
             progress(done, total)
+    if failed and len(failed) == len(bauds):
+        raise failed[0][1]
+    for baud, error in failed:
+        if skipped is not None:
+            skipped(baud, error)
     return found

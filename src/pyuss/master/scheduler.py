@@ -600,7 +600,10 @@ class Master:
                 words = link.layout.words
                 count = 3 + link.layout.pzd if words is None else words
             data = bytes((0x55 + 0x11 * i) & 0xFF for i in range(2 * count))
-        frame = Telegram(address, AddressMode.MIRROR, bytes(data)).encode()
+        try:
+            frame = Telegram(address, AddressMode.MIRROR, bytes(data)).encode()
+        except (TelegramError, TypeError) as exc:
+            raise ConfigError(f"mirror telegram to {address!r}: {exc}") from None
         result = await self._special("mirror", frame, address)
         assert isinstance(result, MirrorResult)
         return result
@@ -739,6 +742,7 @@ class Master:
     async def _cycle(self) -> None:
         entries = tuple(self._poll)
         if not entries:
+            self._last_cycle_start = None  # the time without a poll list is no cycle
             await self._sleep(None)
             return
         start = self._clock()

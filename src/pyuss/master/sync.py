@@ -38,6 +38,7 @@ from pyuss.master.stats import BusDiagnostics, CycleStats, SlaveDiagnostics
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
+from pyuss.protocol.telegram import Telegram
 from pyuss.transport.base import Transport
 
 __all__ = ["Drive", "Master"]
@@ -156,14 +157,34 @@ class Master:
     ) -> Drive:
         """The handle of the slave at ``address`` (see `pyuss.master.Master.drive`)."""
         core = self.core
-        handle = self._run(
-            lambda: core.drive(
-                address, layout=layout, profile=profile, response_delay=response_delay, poll=poll
+        return self._run(
+            lambda: self._wrap(
+                core.drive(
+                    address,
+                    layout=layout,
+                    profile=profile,
+                    response_delay=response_delay,
+                    poll=poll,
+                )
             )
         )
-        if address not in self._drives:
-            self._drives[address] = Drive(self, handle)
-        return self._drives[address]
+
+    def _wrap(self, handle: AsyncDrive) -> Drive:
+        """The one sync handle of ``handle`` (called on the loop thread, so never twice)."""
+        if handle.address not in self._drives:
+            self._drives[handle.address] = Drive(self, handle)
+        return self._drives[handle.address]
+
+    @property
+    def drives(self) -> tuple[Drive, ...]:
+        """Every drive handle made so far, by address."""
+        core = self.core
+        return self._run(lambda: tuple(self._wrap(handle) for handle in core.drives))
+
+    @property
+    def running(self) -> bool:
+        """True while the scheduler runs (between `open` and `close`)."""
+        return self._master is not None and self._master.running
 
     @property
     def poll_list(self) -> tuple[int, ...]:
@@ -198,6 +219,9 @@ class Master:
 
     def mirror(self, address: int, data: bytes | None = None) -> scheduler.MirrorResult:
         return self._call(self.core.mirror(address, data))
+
+    def request(self, telegram: Telegram) -> scheduler.Reply | None:
+        return self._call(self.core.request(telegram))
 
     def exchange(self, address: int, *, timeout: float | None = None) -> DriveStatus:
         return self._call(self.core.exchange(address, timeout=timeout))
@@ -243,6 +267,10 @@ class Drive:
         return self._drive.profile
 
     @property
+    def response_delay(self) -> float:
+        return self._drive.response_delay
+
+    @property
     def not_sending(self) -> bool:
         return self._drive.not_sending
 
@@ -254,6 +282,10 @@ class Drive:
     def control(self) -> int:
         return self._drive.control
 
+    @property
+    def setpoints(self) -> tuple[int, ...]:
+        return self._drive.setpoints
+
     def diagnostics(self) -> SlaveDiagnostics:
         return self._bus._run(self._drive.diagnostics)
 
@@ -261,8 +293,15 @@ class Drive:
         return self._bus._call(self._drive.mirror())
 
     # parameters
-    def job(self, request: Pkw, *, timeout: float | None = None) -> Pkw:
-        return self._bus._call(self._drive.job(request, timeout=timeout))
+    def job(
+        self,
+        request: Pkw,
+        *,
+        pnu: int | None = None,
+        index: int | None = None,
+        timeout: float | None = None,
+    ) -> Pkw:
+        return self._bus._call(self._drive.job(request, pnu=pnu, index=index, timeout=timeout))
 
     def read(
         self,

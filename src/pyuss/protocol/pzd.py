@@ -26,6 +26,7 @@ Setpoints and actual values are normalised: 4000h = 100 % for 16-bit values, 400
 from __future__ import annotations
 
 import enum
+import math
 
 from pyuss.errors import ConfigError
 
@@ -161,8 +162,12 @@ def describe_bits(word: int, table: dict[int, tuple[str, str]]) -> list[tuple[in
 
 
 def _to_raw(percent: float, full: int, bits: int) -> int:
-    if isinstance(percent, bool) or not isinstance(percent, int | float) or percent != percent:
-        raise ConfigError(f"percentage must be a number, got {percent!r}")
+    if (
+        isinstance(percent, bool)
+        or not isinstance(percent, int | float)
+        or not math.isfinite(percent)
+    ):
+        raise ConfigError(f"percentage must be a finite number, got {percent!r}")
     raw = round(percent * full / 100)
     low, high = -(1 << (bits - 1)), (1 << (bits - 1)) - 1
     if not low <= raw <= high:
