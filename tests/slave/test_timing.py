@@ -139,13 +139,23 @@ async def test_stx_without_a_start_pause_starts_no_telegram() -> None:
     assert no_stx == 1
 
 
-@pytest.mark.parametrize(("gap", "answered"), [(1.5, True), (1.9, False)])
-async def test_nord_residual_telegram_time(gap: float, answered: bool) -> None:
+@pytest.mark.parametrize(
+    ("profile", "gap", "answered"),
+    [
+        ("nord", 1.5, True),
+        ("nord", 1.7, True),
+        ("nord", 1.9, False),
+        ("generic", 1.5, True),
+        ("generic", 1.7, False),
+    ],
+)
+async def test_nord_residual_telegram_time(profile: str, gap: float, answered: bool) -> None:
     """Seed 001 1.3.5: a request must be complete 1.5 x (n + 4) character times after the start
-    of its STX, 21 for these 14 bytes. Gaps before characters 2..5 of 4 x 1.5 = 6 character
-    times (20 in all) keep it; 4 x 1.9 = 7.6 (21.6 in all) break it."""
+    of its STX, 21 for these 14 bytes; A 6.3 allows 1 + 1.5 x (n + 3) = 20.5. Gaps before
+    characters 2..5 of 4 x 1.5 = 6 character times (20 in all) keep it for both; 4 x 1.7 = 6.8
+    (20.8 in all) only for NORD; 4 x 1.9 = 7.6 (21.6 in all) for neither."""
     plan = FaultPlan([Fault(FaultKind.STRETCH, station="master", gap=gap, count=5)])
-    async with line("nord", 19200, faults=plan) as wire:
+    async with line(profile, 19200, faults=plan) as wire:
         delay = await wire.exchange(REQUEST, answer=answered)
         residual = wire.server.diagnostics.residual_time
     assert (delay is not None) == answered

@@ -321,6 +321,7 @@ class Master:
             self.baud,
             start_pause=max(self.timing.start_pause, self.rx_tolerance),
             diagnostics=self._line,
+            residual_extra_chars=self.profile.residual_extra_chars,
         )
         self._line_free = -math.inf
         self._rx_end = -math.inf

@@ -88,6 +88,9 @@ class Profile:
     max_pzd: int = 16
     start_pause_chars: float = 2.0
     """Silence before every telegram, in character times (A 5.1.2; Baumueller: 33 bits = 3)."""
+    residual_extra_chars: float = 0.0
+    """Character times the device allows beyond A 6.3's maximum residual time (NORD counts
+    1.5 x (n + 4) from the start of STX: 0.5 more; `pyuss.protocol.timing`)."""
     response_delay_min: float = 0.0
     """Earliest answer after the request's BCC in seconds (never below the start pause)."""
     response_delay_max: float = MAX_RESPONSE_DELAY

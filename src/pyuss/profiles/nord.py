@@ -2,8 +2,10 @@
 
 Seed 001 gives the timing: start pause at least 2 character times (11 bits each), response
 delay at most 20 ms, maximum residual telegram time ``1.5 x (n + 4)`` character times, counted
-from the start of STX - the same deadline as A 6.3 counted from its end (NOTES 3), which the
-receiver of `pyuss.protocol` keeps. The character delay time must stay below the start pause.
+from the start of STX. That is half a character more than A 6.3's ``1.5 x (n + 3)`` from the
+end of STX (NOTES 3 reads the two as one rule; they differ by that half character), so the
+profile gives the receiver ``residual_extra_chars=0.5``. The character delay time must stay
+below the start pause.
 
 Beyond the seed the project follows NORD's public USS manual BU 0050 (section 1.5, "error
 messages if the order cannot be executed"): error numbers 9 "description data not present",
@@ -26,6 +28,7 @@ PROFILE = Profile(
     seed="001 1.3.5, 1.3.6",
     default_layout=Layout(4, 2),
     broadcast=BroadcastForm.ENABLE_ARRAY,
+    residual_extra_chars=0.5,
     error_meanings={
         9: "description data not present",
         201: "invalid order element in the last order received",

@@ -129,8 +129,9 @@ class Receiver:
         fixed_lengths: Mapping[int, int] | None = None,
         start_pause: float | None = None,
         diagnostics: Diagnostics | None = None,
+        residual_extra_chars: float = 0.0,
     ) -> None:
-        self.timing = LineTiming(baud)
+        self.timing = LineTiming(baud, residual_extra_chars=residual_extra_chars)
         self._ct = self.timing.char_time
         if start_pause is None:
             start_pause = self.timing.start_pause

@@ -10,8 +10,10 @@ All times are in seconds (floats); nothing here reads a clock.
 - Flush residual time: LGE, ADR, n net bytes and BCC sent back to back: ``(n + 3)`` character
   times (A 6.2).
 - Maximum residual time: 1.5 times the flush residual time, counted from the end of STX
-  (A 6.3, NOTES 3; NORD's ``1.5 x (n + 4)`` is the same deadline counted from the start of
-  STX). Before LGE is known a receiver uses n = 252 (A 5.2.1.2).
+  (A 6.3, NOTES 3). Before LGE is known a receiver uses n = 252 (A 5.2.1.2). NORD (seed 001
+  1.3.5) writes ``1.5 x (n + 4)`` counted from the start of STX: half a character more than
+  A 6.3 (``1 + 1.5 x (n + 3)`` from the start of STX). A device profile that counts that way
+  gives the half character as ``LineTiming(residual_extra_chars=0.5)``.
 - Response delay: from the end of the request's BCC to the start of the answer's STX; at most
   20 ms, and never less than the start pause (A 5.2.1.1, NOTES 10). At low baud rates the start
   pause is longer than 20 ms (300 baud: 73.3 ms), so the limit is the larger of the two.
@@ -133,8 +135,13 @@ class LineTiming:
     """2 character times (A 5.1.2)."""
     response_delay_limit: float = field(init=False)
     """max(20 ms, start pause) (A 5.2.1.1)."""
+    residual_extra_chars: float = 0.0
+    """Character times a device allows beyond A 6.3's maximum residual time (NORD: 0.5)."""
 
     def __post_init__(self) -> None:
+        extra = self.residual_extra_chars
+        if isinstance(extra, bool) or not isinstance(extra, int | float) or not 0 <= extra < 252:
+            raise ConfigError(f"residual_extra_chars must be 0..252 character times, not {extra!r}")
         object.__setattr__(self, "char_time", char_time(self.baud))
         object.__setattr__(self, "start_pause", start_pause(self.baud))
         object.__setattr__(self, "response_delay_limit", response_delay_limit(self.baud))
@@ -144,9 +151,9 @@ class LineTiming:
         return residual_time_flush(self.baud, n)
 
     def residual_max(self, n: int) -> float:
-        """`residual_time_max` for this line; ``residual_max(252)`` is the deadline loaded at
-        STX."""
-        return residual_time_max(self.baud, n)
+        """`residual_time_max` for this line, plus ``residual_extra_chars``;
+        ``residual_max(252)`` is the deadline loaded at STX."""
+        return residual_time_max(self.baud, n) + self.residual_extra_chars * self.char_time
 
     def transmit(self, nbytes: int) -> float:
         """Time to send ``nbytes`` characters back to back."""

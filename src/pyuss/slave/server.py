@@ -144,7 +144,13 @@ class SlaveServer:
         for engine in engines:
             engine.use_diagnostics(self.diagnostics)
         fixed = {e.address: e.layout.lge for e in engines if e.layout.lge is not None}
-        self.receiver = Receiver(self.baud, fixed_lengths=fixed, diagnostics=self.diagnostics)
+        self.receiver = Receiver(
+            self.baud,
+            fixed_lengths=fixed,
+            diagnostics=self.diagnostics,
+            # one receiver per line: the most lenient device on it sets the deadline
+            residual_extra_chars=max(e.profile.residual_extra_chars for e in engines),
+        )
         self.stats = ServerStats()
         self.timed = _timed(transport) if timed is None else timed
         self.latency = latency
