@@ -336,3 +336,17 @@ def test_display_word_follows_the_job() -> None:
     client.reset()
     assert client.status.word == DisplayWord.RESET and not client.busy
     assert client.request() == _hex("16 00 00 00 00 00 00 00")
+
+
+def test_unknown_data_format_is_a_wrong_service() -> None:
+    """ANZW bit 14 (8.1): a job with a data format the channel does not know ends at once."""
+    client = ChannelClient()
+    with pytest.raises(ConfigError, match="service wrong"):
+        client.start_read(7, 0x0400, 1, 0.0)  # type: ignore[arg-type]
+    assert client.status.word == DisplayWord.WRONG_SERVICE | DisplayWord.DONE_ERROR
+    assert client.status.done and not client.status.ok and not client.busy
+    assert "wrong_service" in client.status.describe()
+    client.start_read(DataFormat.INTEGER, 0x0400, 1, 0.0)  # the channel is free again
+    with pytest.raises(ConfigError, match="service wrong"):
+        client.start_write(9, 0x0400, [1], 0.0)  # type: ignore[arg-type]
+    assert client.status.running  # a running job keeps its display word
