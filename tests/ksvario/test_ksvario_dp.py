@@ -162,6 +162,7 @@ def test_repeated_fcb_gets_the_same_answer_without_acting_twice() -> None:
     slave, _coupler = bring_up("A.1")
     start = bytes.fromhex("10 00 00 04 00 00 00 01")
     first = slave.handle(_req(None, start, REQ | FC.FCV), 0.0)
+    assert first is not None and first[0] == SD3  # 8 input bytes of A.1 travel in SD3
     assert slave.exchanges == 1
     again = slave.handle(_req(None, start, REQ | FC.FCV), 0.0)
     assert again == first and slave.exchanges == 1
