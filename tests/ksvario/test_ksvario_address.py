@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -15,8 +17,14 @@ VECTORS = load_vectors("ksvario")
 
 @pytest.mark.parametrize("vec", VECTORS["addresses"], ids=lambda v: v["seed"][:5])
 def test_vector_addresses_round_trip(vec: dict[str, str]) -> None:
+    """Each vector decodes to the channel and view its name gives, and encodes back."""
     word = int(vec["address"], 16)
-    assert Address.decode(word).encode() == int(vec["expect"], 16)
+    address = Address.decode(word)
+    assert address.encode() == int(vec["expect"], 16)
+    found = re.search(r"channel (\d+) (Integer|FixPoint1|Float)", vec["name"])
+    assert found is not None, vec["name"]
+    assert address.channel_number == int(found.group(1))
+    assert address.view.name == found.group(2).upper()
 
 
 def test_worked_examples_are_built_from_area_and_datum() -> None:

@@ -269,3 +269,84 @@ def test_client_refuses_bad_jobs() -> None:
     client.start_read(DataFormat.INTEGER, 0x400, 1, 0.0)
     with pytest.raises(ConfigError, match="still running"):
         client.start_read(DataFormat.INTEGER, 0x400, 1, 0.0)
+
+
+def test_real_format_3_is_a_real_job() -> None:
+    """ID1 = 3 is the second real format (4.1): Cnt.Real counts it, values are 4-byte floats."""
+    start = StartRequest(DataFormat.REAL3, 0x8CD2, 0, 2, 0)
+    assert start.encode() == _hex("10 03 00 8C D2 00 02 00")
+    store = Store()
+    server = ChannelServer(store)
+    w = ChannelClient()
+    w.start_write(DataFormat.REAL3, 0x8CD2, [2.5, -1.25], 0.0)
+    trace = run(w, server)
+    assert trace[0][0] == start.encode()
+    assert trace[1][0] == _hex("68 01 00 00 40 20 00 00")  # 2.5, Motorola
+    r = ChannelClient()
+    r.start_read(DataFormat.REAL3, 0x8CD2, 2, 0.0)
+    trace = run(r, server)
+    assert trace[0][1][6:8] == bytes((2, 0))  # the counts come back as Cnt.Real
+    assert r.values == [2.5, -1.25]
+
+
+def test_count_echo_is_the_flow_control() -> None:
+    """4.3/4.4: the next data telegram goes out only once the coupler mirrored the Count of the
+    last one. With answers that arrive one bus cycle late (the master sees each answer again in
+    the next cycle), a stale echo of Count k-1 must not count as the answer to Count k."""
+    store = Store()
+    for k, v in enumerate((11, 22, 33)):
+        store.data[(2, k)] = v
+    server = ChannelServer(store)
+    client = ChannelClient()
+    client.start_read(DataFormat.INTEGER, 0x0400, 3, 0.0)
+    late = bytes(8)
+    sent: list[bytes] = []
+    for cycle in range(100):
+        req = client.request()
+        sent.append(req)
+        answer = server.exchange(req, cycle * 0.01)
+        client.feed(late, cycle * 0.01)
+        late = answer
+        if client.status.done:
+            break
+    assert client.values == [11, 22, 33]
+    data_counts = [r[1] for r in sent if r[0] == TelegramId.DATA]
+    assert sorted(set(data_counts)) == [1, 2, 3]
+    assert data_counts == sorted(data_counts)
+
+
+def test_display_word_follows_the_job() -> None:
+    """ANZW (8.1): running and waiting for the acknowledgement, then waiting for the end
+    telegram, then done; the write bit while a write runs; bit 4 after a reset."""
+    server = ChannelServer(Store())
+    client = ChannelClient()
+    client.start_write(DataFormat.INTEGER, 0x0400, [1, 2], 0.0)
+    seen = []
+    for cycle in range(20):
+        seen.append(client.status.word)
+        client.feed(server.exchange(client.request(), cycle), cycle)
+        if client.status.done:
+            break
+    running = DisplayWord.RUNNING | DisplayWord.WRITE
+    assert seen[0] == running | DisplayWord.WAIT_ACK
+    assert running | DisplayWord.WAIT_END in seen
+    assert client.status.word == DisplayWord.DONE_OK | DisplayWord.WRITE
+    assert client.status.describe() == "ANZW 0022h: done_ok, write; result 0 (OK)"
+    client.start_read(DataFormat.INTEGER, 0x0400, 1, 0.0)
+    client.reset()
+    assert client.status.word == DisplayWord.RESET and not client.busy
+    assert client.request() == _hex("16 00 00 00 00 00 00 00")
+
+
+def test_unknown_data_format_is_a_wrong_service() -> None:
+    """ANZW bit 14 (8.1): a job with a data format the channel does not know ends at once."""
+    client = ChannelClient()
+    with pytest.raises(ConfigError, match="service wrong"):
+        client.start_read(7, 0x0400, 1, 0.0)  # type: ignore[arg-type]
+    assert client.status.word == DisplayWord.WRONG_SERVICE | DisplayWord.DONE_ERROR
+    assert client.status.done and not client.status.ok and not client.busy
+    assert "wrong_service" in client.status.describe()
+    client.start_read(DataFormat.INTEGER, 0x0400, 1, 0.0)  # the channel is free again
+    with pytest.raises(ConfigError, match="service wrong"):
+        client.start_write(9, 0x0400, [1], 0.0)  # type: ignore[arg-type]
+    assert client.status.running  # a running job keeps its display word

@@ -49,6 +49,14 @@ def test_address(capsys: pytest.CaptureFixture[str]) -> None:
         ["ksvario", "read", "0x4496", "--sim", "--timeout", "-1"],
         ["ksvario", "write", "0x4496", "1", "--sim", "--timeout", "0"],
         ["ksvario", "simulate", "--pty", "--baud", "1234"],
+        ["ksvario", "simulate", "--pty", "--baud", "38400"],  # a USS rate, not a DP one
+        # values the channel cannot carry are bad input before any line is opened
+        ["ksvario", "write", "0x4496", "99999", "--port", "x"],
+        ["ksvario", "write", "0x8CD2", "1e40", "--port", "x"],
+        ["ksvario", "write", "0x10", "ABCDE", "--format", "compact", "--port", "x"],
+        ["ksvario", "write", "0x10", "300", "--format", "char", "--port", "x"],
+        ["ksvario", "read", "0x4496", "--port", "x", "--modules", "A.7,B.1"],  # no A.1
+        ["ksvario", "read", "0x4496", "--port", "x", "--baud", "31250"],  # no line carries it
     ],
 )
 def test_bad_input_exits_2(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
@@ -81,6 +89,13 @@ def test_read_and_write_in_process(capsys: pytest.CaptureFixture[str]) -> None:
     assert "done_ok" in capsys.readouterr().out
 
 
+def test_rows_count_from_the_address_typed(capsys: pytest.CaptureFixture[str]) -> None:
+    """An odd float address (as FD09h in example 4.5.4) is shown as typed; rows go on in steps
+    of two address words (one float each). Pb1 of channel 1 (datum 96h) is 100 here."""
+    assert main(["ksvario", "read", "0x892D", "3", "--sim", "--format", "real3"]) == 0
+    assert capsys.readouterr().out.splitlines() == ["892Dh  100", "892Fh  0", "8931h  0"]
+
+
 def test_result_error_exits_1(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["ksvario", "read", "0x05FF", "4", "--sim"]) == 1
     assert "bad address" in capsys.readouterr().err
@@ -104,9 +119,21 @@ def test_absent_station_fails_with_one_line(capsys: pytest.CaptureFixture[str]) 
     assert "did not answer" in capsys.readouterr().err
 
 
-def test_simulate_prints_the_device_first(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("serve", "read"),
+    [
+        (["ksvario", "simulate", "--pty", "--station", "3"], ["--station", "3"]),
+        # ``uss simulate --profile ksvario`` serves one DP station (addresses up to 125)
+        (
+            ["simulate", "--profile", "ksvario", "--pty", "--address", "100", "--baud", "93750"],
+            ["--station", "100", "--baud", "93750"],
+        ),
+    ],
+    ids=["uss ksvario simulate", "uss simulate --profile ksvario"],
+)
+def test_simulator_prints_the_device_first_and_answers(serve: list[str], read: list[str]) -> None:
     proc = subprocess.Popen(
-        [sys.executable, "-m", "pyuss.cli.main", "ksvario", "simulate", "--pty", "--station", "3"],
+        [sys.executable, "-m", "pyuss.cli.main", *serve],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -115,7 +142,24 @@ def test_simulate_prints_the_device_first(tmp_path: Path) -> None:
         assert proc.stdout is not None
         device = proc.stdout.readline().strip()
         assert device.startswith("/dev/")
-        assert main(["ksvario", "read", "0x4496", "--port", device, "--station", "3"]) == 0
+        assert main(["ksvario", "read", "0x4496", "--port", device, *read]) == 0
     finally:
         proc.terminate()
         proc.wait(10)
+
+
+@pytest.mark.parametrize(
+    ("extra", "words"),
+    [
+        (["--address", "126"], "DP station addresses are 0..125"),
+        (["--address", "5", "--baud", "500000"], "do not carry"),
+        (["--address", "5", "--params", "x.toml"], "does not take --params"),
+        (["--address", "5", "--layout", "3,2", "--read-only"], "--layout, --read-only"),
+    ],
+)
+def test_uss_simulate_profile_ksvario_bad_input(
+    extra: list[str], words: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["simulate", "--profile", "ksvario", "--pty", *extra]) == 2
+    err = capsys.readouterr().err
+    assert words in err and len(err.strip().splitlines()) == 1, err

@@ -4,17 +4,22 @@ end, the three views, caches per selection, multiplexers over the image, A.7, fa
 from __future__ import annotations
 
 import math
+import struct
+from typing import Any
 
 import pytest
 
+from conftest import load_vectors
 from pyuss.errors import ConfigError, UssTimeout
 from pyuss.ksvario.address import Address, View
 from pyuss.ksvario.channel import ByteOrder, DataFormat, DisplayWord, Result
 from pyuss.ksvario.coupler import CacheSelection, Coupler, ForceKind
 from pyuss.ksvario.errors import ChannelResultError
-from pyuss.ksvario.master import KsVarioMaster, LocalLink
+from pyuss.ksvario.master import CyclicLink, KsVarioMaster, LocalLink
 from pyuss.ksvario.modules import Configuration
 from pyuss.ksvario.userprm import FailSafe, UserParameters
+
+VECTORS = load_vectors("ksvario")
 
 
 def make(modules: str = "A.1,A.4", **kw: object) -> tuple[Coupler, KsVarioMaster]:
@@ -214,3 +219,137 @@ def test_fail_safe(fail_safe: FailSafe) -> None:
     assert coupler.device_diagnosis().inputs  # forced analogue input is FAIL in both modes
     expect = 0.0 if fail_safe is FailSafe.ZERO else 5.0
     assert coupler.get(din) == expect and coupler.get(out) == expect
+
+
+class Recorder:
+    """A link that keeps every (output image, input image) pair of the bus cycles."""
+
+    def __init__(self, link: CyclicLink) -> None:
+        self.link = link
+        self.cycles: list[tuple[bytes, bytes]] = []
+
+    async def exchange(self, outputs: bytes) -> bytes:
+        inputs = await self.link.exchange(outputs)
+        self.cycles.append((outputs, inputs))
+        return inputs
+
+
+def _pattern(text: str, data: bytes) -> bool:
+    return all(p.lower() == "xx" or int(p, 16) == data[i] for i, p in enumerate(text.split()))
+
+
+#: The four worked examples of seed 003 4.5: datum, channel, values the coupler holds or gets.
+EXAMPLES: dict[str, dict[str, Any]] = {
+    "4.5.1": {"channel": 1, "datum": 0x96, "held": [123.4], "read": [1234]},
+    "4.5.2": {"channel": 2, "datum": 0x69, "held": [10.5, 950.0, 42.25, -7.0]},
+    "4.5.3": {"channel": 30, "datum": 0x9A, "write": [45]},
+    "4.5.4": {"channel": 30, "datum": 0x84, "write": [1.5, 99.0, 0.25]},
+}
+
+
+@pytest.mark.parametrize("vec", VECTORS["start_telegrams"], ids=lambda v: v["seed"])
+async def test_worked_example_end_to_end(vec: dict[str, str]) -> None:
+    """Seed 003 4.5.1 - 4.5.4 on the cyclic image of a simulated coupler (module A.1): the
+    start telegram of the vector and its answer, data telegrams with Count 1..n mirrored for
+    flow control, the end telegram with result 0, and the data where the example puts them."""
+    ex = EXAMPLES[vec["seed"]]
+    coupler = Coupler()
+    conf = Configuration(["A.1"])
+    coupler.configure(conf)
+    link = Recorder(LocalLink(coupler))
+    master = KsVarioMaster(link, conf)
+    master_start = bytes.fromhex(vec["master"])
+    address = (master_start[3] << 8) | master_start[4]
+    for k, value in enumerate(ex.get("held", [])):
+        coupler.set(Address.channel(ex["channel"], ex["datum"] + k), value)
+    written = ex.get("write")
+    if written is None:
+        values = await master.read(address, master_start[2])
+    else:
+        await master.write(address, written)
+    telegrams = []  # each distinct (request, answer) pair once, in order
+    for pair in link.cycles:
+        if not telegrams or telegrams[-1] != pair:
+            telegrams.append(pair)
+    start, *data, end = telegrams
+    assert start[0] == master_start
+    assert _pattern(vec["device"], start[1])
+    n = len(written) if written is not None else master_start[2]
+    assert [(r[0], r[1], a[0], a[1]) for r, a in data] == [
+        (0x68, k, 0x68, k) for k in range(1, n + 1)
+    ]
+    assert end[0] == bytes.fromhex("16 00 00 00 00 00 00 00")
+    assert end[1][0] == 0x16 and end[1][2] == 0  # result 0
+    is_real = master_start[1] in (1, 3)
+    if written is None:
+        held = [struct.unpack(">f", struct.pack(">f", v))[0] for v in ex["held"]]
+        assert values == ex.get("read", held)
+        carried = [a[4:8] for _, a in data]
+    else:
+        stored = [coupler.get(Address.channel(ex["channel"], ex["datum"] + k)) for k in range(n)]
+        assert stored == [float(v) for v in written]
+        carried = [r[4:8] for r, _ in data]
+    expect = values if written is None else written
+    for field, value in zip(carried, expect, strict=True):
+        if is_real:
+            assert field == struct.pack(">f", value)
+        else:
+            assert field == bytes(2) + struct.pack(">h", value)
+
+
+async def test_real3_and_char_write_through_the_coupler() -> None:
+    """ID1 3 reads reals like ID1 1 (4.1); a char write (ID1 2) lands as character codes."""
+    coupler, master = make()
+    coupler.set(Address.channel(1, 0x96), 2.5)
+    assert await master.read(0x4496, fmt=DataFormat.REAL3) == [2.5]
+    await master.write(0x0020, [ord("K"), ord("S")], fmt=DataFormat.CHAR)
+    assert await master.read(0x0020, 1, fmt=DataFormat.COMPACT_CHAR) == [b"KS\x00\x00"]
+
+
+@pytest.mark.parametrize("key", ["A.3", "A.4", "A.5"])
+async def test_whole_cache_through_each_fixed_multiplexer(key: str) -> None:
+    """A.3, A.4, A.5 carry 1, 4, 8 data per message (3.5); A.6 has its own test above."""
+    sel = CacheSelection(
+        free_read=tuple((1, d) for d in range(120)),
+        free_write=tuple((2, d) for d in range(120)),
+        per_channel_read=tuple(range(200, 232)),
+        per_channel_write=tuple(range(300, 332)),
+    )
+    coupler, master = make(f"A.1,{key}", selection=sel)
+    for i, a in enumerate(sel.read_entries()):
+        coupler.set(a, i / 10)
+    assert await master.read_cache(1, 1080) == list(range(1080))
+    await master.write_cache(1, [3 * i for i in range(1080)])
+    assert [coupler.view_word(a) for a in sel.write_entries()] == [3 * i for i in range(1080)]
+
+
+async def test_coupler_that_shows_index_0_first() -> None:
+    """3.4.2: a coupler that cannot send data and Index_Read consistently answers a new index
+    with 0 first; the master takes the data only under the index it asked for."""
+    sel = CacheSelection(per_channel_read=tuple(range(32)), channels=30)
+    coupler, master = make("A.1,A.2,B.5,B.5", selection=sel, consistent_mux=False)
+    for i, a in enumerate(sel.read_entries()):
+        coupler.set(a, i / 10)
+    link = Recorder(master.link)
+    master.link = link
+    assert await master.read_cache(1, 960) == list(range(960))
+    index_in = [int.from_bytes(inp[8:10], "big") for _, inp in link.cycles]
+    assert 0 in index_in and index_in[-1] != 0
+
+
+async def test_forced_input_is_written_from_the_bus() -> None:
+    """2.3: a physical input is read-only to the bus until it is forced; then the parameter
+    channel and the write cache both write it."""
+    sel = CacheSelection(free_write=((1, 0x01),))
+    coupler, master = make("A.1,B.6", selection=sel)
+    x1 = Address.channel(1, 0x01)
+    coupler.set_limits(x1, writable=False)
+    with pytest.raises(ChannelResultError) as err:
+        await master.write(x1.as_view(View.FLOAT), [55.5])
+    assert err.value.result == Result.INVALID_VALUE
+    coupler.force(x1, ForceKind.ANALOG_INPUT)
+    await master.write(x1.as_view(View.FLOAT), [55.5])
+    assert coupler.get(x1) == 55.5
+    master.outputs[8:10] = bytes.fromhex("00C8")  # 20.0 in FixPoint1 through B.6
+    await master.cycle()
+    assert coupler.get(x1) == 20.0

@@ -6,8 +6,9 @@ import re
 
 import pytest
 
-from conftest import SHARED
+from conftest import SHARED, load_vectors
 from pyuss.errors import ConfigError
+from pyuss.ksvario.diag import IDENT_NUMBER, Diagnosis
 from pyuss.ksvario.gsd import emit_gsd, parse_gsd
 from pyuss.ksvario.modules import MODULES
 
@@ -17,6 +18,13 @@ def _seed_gsd() -> str:
     start = text.index("#Profibus_DP")
     body = text[start:]
     return re.sub(r"^```\s*$", "", body, flags=re.M)
+
+
+def test_ident_number_of_the_vectors() -> None:
+    """The vector's ident number 1030h is the GSD's and diagnosis bytes 5-6 (6.1.1)."""
+    ident = int(load_vectors("ksvario")["gsd_ident_number"], 16)
+    assert parse_gsd(emit_gsd()).ident_number == ident == IDENT_NUMBER
+    assert Diagnosis().encode()[4:6] == ident.to_bytes(2, "big")
 
 
 def test_emitted_gsd_parses_back() -> None:

@@ -123,3 +123,34 @@ def test_fixed_module_bytes() -> None:
     raw = encode_fixed(3, 4, [0x1234])
     assert raw == bytes.fromhex("0003 0004 1234")
     assert decode_fixed(raw) == (3, 4, (0x1234,))
+
+
+def test_master_takes_no_data_under_index_read_0() -> None:
+    """3.4.2: Index_Read 0 in IndexIN means the data are not valid yet; the master waits for
+    the index it asked for."""
+    client = MuxClient(read_per=2, write_per=0, read_range=(7, 8))
+    assert client.request().index_read == 7
+    client.feed(MuxIn(0, 0, (999, 999)))  # half-updated data, index not confirmed yet
+    assert not client.done and client.read_words == []
+    client.feed(MuxIn(7, 0, (70, 80)))
+    assert client.done and client.read_words == [70, 80]
+
+
+def test_inconsistent_coupler_answers_a_new_read_index_with_0_first() -> None:
+    caches = CachePair()
+    caches.read.write(1, [1, 2, 3, 4, 5, 6])
+    server = MuxServer(caches, read_count=2, write_count=0, consistent=False)
+    assert server.exchange(MuxOut(1, 0)) == MuxIn(0, 0, (1, 2))
+    assert server.exchange(MuxOut(1, 0)) == MuxIn(1, 0, (1, 2))
+    assert server.exchange(MuxOut(5, 0)).index_read == 0
+    assert server.exchange(MuxOut(5, 0)) == MuxIn(5, 0, (5, 6))
+
+
+@pytest.mark.parametrize("n", FIXED_SIZES)
+def test_whole_cache_against_an_inconsistent_coupler(n: int) -> None:
+    caches = CachePair()
+    caches.read.write(1, [(i * 5) & 0xFFFF for i in range(1, CACHE_SIZE + 1)])
+    server = MuxServer(caches, read_count=n, write_count=n, consistent=False)
+    client = MuxClient(read_per=n, write_per=n, read_range=(1, CACHE_SIZE))
+    drive(client, server)
+    assert client.read_words == caches.read.words

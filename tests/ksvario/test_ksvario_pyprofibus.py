@@ -11,6 +11,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+import pyprofibus
+import pyprofibus.gsd.interp as gsd_interp
 import pytest
 from ksvario_sim import SlaveThread
 
@@ -18,14 +20,24 @@ from pyuss.ksvario.address import Address
 from pyuss.ksvario.channel import ChannelClient, DataFormat
 from pyuss.ksvario.coupler import CacheSelection, Coupler
 from pyuss.ksvario.gsd import emit_gsd
-
-pyprofibus = pytest.importorskip("pyprofibus")
-gsd_interp = pytest.importorskip("pyprofibus.gsd.interp")
+from pyuss.ksvario.modules import Configuration
 
 STATION = 8
 
 
-def _write_conf(tmp: Path, device: str, gsd: Path) -> Path:
+def _write_conf(
+    tmp: Path,
+    device: str,
+    gsd: Path,
+    modules: tuple[str, ...] = (
+        "A.1: General-Parameter channel",
+        "B.1: I/O - 1 word IN",
+        "B.6: I/O - 1 word OUT",
+    ),
+    sizes: tuple[int, int] = (10, 10),
+) -> Path:
+    """A pyprofibus configuration: ``sizes`` are (input_size, output_size) as pyprofibus
+    counts them, from the slave's side (input = master -> slave)."""
     conf = tmp / "ksvario.conf"
     conf.write_text(
         "\n".join(
@@ -47,11 +59,9 @@ def _write_conf(tmp: Path, device: str, gsd: Path) -> Path:
                 "freeze_mode=0",
                 "group_mask=1",
                 "watchdog_ms=2000",
-                "module_0=A.1: General-Parameter channel",
-                "module_1=B.1: I/O - 1 word IN",
-                "module_2=B.6: I/O - 1 word OUT",
-                "input_size=10",
-                "output_size=10",
+                *(f"module_{i}={name}" for i, name in enumerate(modules)),
+                f"input_size={sizes[0]}",
+                f"output_size={sizes[1]}",
                 "",
             ]
         ),
@@ -128,3 +138,42 @@ def test_pyprofibus_master_reaches_data_exchange_and_moves_channel_data(tmp_path
     assert coupler.get(Address.channel(30, 0x85)) == 2.5
     assert b1_word == 215
     assert coupler.get(Address.channel(1, 0x10)) == 10.0
+
+
+class CountingCoupler(Coupler):
+    """The simulated coupler, counting the configurations (Chk_Cfg) it takes."""
+
+    configured = 0
+
+    def configure(self, configuration: Configuration) -> None:
+        self.configured += 1
+        super().configure(configuration)
+
+
+def test_pyprofibus_master_drives_an_output_only_configuration(tmp_path: Path) -> None:
+    """With output modules only the coupler has no input bytes: it acknowledges Data_Exchange
+    with the short acknowledgement E5, which is what pyprofibus's master waits for. Twenty
+    output words reach the coupler in one data exchange phase (a master that missed its
+    answers would give up on the slave and parameterise it again)."""
+    gsd_path = tmp_path / "PMA_1030.gsd"
+    gsd_path.write_text(emit_gsd(), encoding="ascii", newline="")
+    coupler = CountingCoupler(selection=CacheSelection(free_write=((1, 0x10),)))
+    modules = ("B.6: I/O - 1 word OUT",)
+    with SlaveThread(coupler, STATION) as sim:
+        path = _write_conf(tmp_path, sim.device, gsd_path, modules, (2, 0))
+        conf = pyprofibus.PbConf.fromFile(str(path))
+        master = conf.makeDPM()
+        try:
+            desc = conf.slaveConfs[0].makeDpSlaveDesc()
+            master.addSlave(desc)
+            master.initialize()
+            deadline = time.monotonic() + 60
+            for word in range(1, 21):
+                while coupler.get(Address.channel(1, 0x10)) != word / 10:
+                    assert time.monotonic() < deadline, f"word {word} never reached the coupler"
+                    desc.setMasterOutData(bytearray(word.to_bytes(2, "big")))
+                    master.run()
+        finally:
+            master.destroy()
+    assert sim.error is None
+    assert coupler.configured == 1

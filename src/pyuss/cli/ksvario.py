@@ -20,16 +20,15 @@ import sys
 from pyuss.atomicfile import write_atomically
 from pyuss.errors import ConfigError
 from pyuss.ksvario.address import Address, View, parse_address
-from pyuss.ksvario.channel import ByteOrder, DataFormat, Value
+from pyuss.ksvario.channel import ByteOrder, DataFormat, Value, encode_value
 from pyuss.ksvario.coupler import CacheSelection, Coupler
+from pyuss.ksvario.dp.fdl import LINE_BAUD_RATES, check_baud
 from pyuss.ksvario.dp.master import DpMasterLink
 from pyuss.ksvario.gsd import emit_gsd
 from pyuss.ksvario.master import KsVarioMaster, LocalLink, default_format
 from pyuss.ksvario.modules import Configuration, parse_modules
-from pyuss.ksvario.simulate import serve
+from pyuss.ksvario.simulate import dp_line, serve
 from pyuss.ksvario.userprm import UserParameters
-from pyuss.protocol.timing import check_baud
-from pyuss.transport.url import open_transport
 
 _KINDS = {
     DataFormat.INTEGER: "an integer",
@@ -42,9 +41,12 @@ _KINDS = {
 _FORMATS = {
     "int": DataFormat.INTEGER,
     "real": DataFormat.REAL,
+    "real3": DataFormat.REAL3,
     "char": DataFormat.CHAR,
     "compact": DataFormat.COMPACT_CHAR,
 }
+
+_BAUD_HELP = f"PROFIBUS-DP baud rate ({', '.join(map(str, LINE_BAUD_RATES))}; default 19200)"
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -56,7 +58,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     sim.add_argument("--pty", action="store_true", help="open a new pty (the default)")
     sim.add_argument("--port", help="serial port or pyserial URL instead of a pty")
     sim.add_argument("--station", type=int, default=5, help="DP station address (default 5)")
-    sim.add_argument("--baud", type=int, default=19200)
+    sim.add_argument("--baud", type=int, default=19200, help=_BAUD_HELP)
     sim.add_argument("--channels", type=int, default=30, help="controller channels 1..30")
     sim.set_defaults(func=_simulate)
 
@@ -73,13 +75,14 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         q.add_argument(
             "--format",
             choices=sorted(_FORMATS),
-            help="default: real for float addresses, int otherwise",
+            help="int, real (ID1 1), real3 (ID1 3), char, compact; default: real for float "
+            "addresses, int otherwise",
         )
         where = q.add_mutually_exclusive_group(required=True)
         where.add_argument("--port", help="serial port, pty or transport URL of the DP line")
         where.add_argument("--sim", action="store_true", help="an in-process simulated coupler")
         q.add_argument("--station", type=int, default=5, help="DP station address (default 5)")
-        q.add_argument("--baud", type=int, default=19200)
+        q.add_argument("--baud", type=int, default=19200, help=_BAUD_HELP)
         q.add_argument("--modules", default="A.1", help="module list for Chk_Cfg (default A.1)")
         q.add_argument("--intel", action="store_true", help="Intel byte order (user parameter)")
         q.add_argument("--timeout", type=float, default=5.0, help="job timeout in seconds")
@@ -154,19 +157,24 @@ def _simulate(args: argparse.Namespace) -> int:
 
 
 def _parse_values(fmt: DataFormat, texts: list[str]) -> list[Value]:
+    """The values typed on the command line, each checked against what ``fmt`` carries, so a
+    value the channel cannot carry is bad input before the line is opened."""
     out: list[Value] = []
     for t in texts:
+        value: Value
         try:
             if fmt.is_real:
-                out.append(float(t))
+                value = float(t)
             elif fmt is DataFormat.INTEGER:
-                out.append(int(t, 0))
+                value = int(t, 0)
             elif fmt is DataFormat.CHAR:
-                out.append(ord(t) if len(t) == 1 else int(t, 0))
+                value = ord(t) if len(t) == 1 else int(t, 0)
             else:
-                out.append(t.encode("latin-1"))
+                value = t.encode("latin-1")
         except (ValueError, UnicodeEncodeError):
             raise ConfigError(f"{t!r} is not {_KINDS[fmt]}") from None
+        encode_value(fmt, value, ByteOrder.MOTOROLA)  # range: ConfigError naming the value
+        out.append(value)
     return out
 
 
@@ -189,7 +197,7 @@ async def _job(args: argparse.Namespace, addr: Address, fmt: DataFormat, write: 
         coupler.configure(conf)
         master = KsVarioMaster(LocalLink(coupler), conf, byte_order=order, timeout=args.timeout)
         return await _run(master, args, addr, fmt, write)
-    line = open_transport(args.port, baud=args.baud, parity="E")
+    line = dp_line(args.port, baud=args.baud)
     await line.open()
     try:
         link = DpMasterLink(line, args.station, conf, user=user)
@@ -212,11 +220,11 @@ async def _run(
         print(f"wrote {len(write)} value(s) at {addr.encode():04X}h: {master.status.describe()}")
         return 0
     values = await master.read(addr, args.count, fmt)
-    step = 4 if fmt is DataFormat.COMPACT_CHAR else 1
+    # one row per value, at the address word of its first datum counted from the word typed
+    # (a float datum spans two address words; a compact-char value four data)
+    step = (4 if fmt is DataFormat.COMPACT_CHAR else 1) * (2 if addr.view is View.FLOAT else 1)
     for k, value in enumerate(values):
-        datum = addr.datum + k * step
-        here = Address.of(addr.view, addr.area, datum) if datum < 512 else addr
-        print(f"{here.encode():04X}h  {_format_value(addr, fmt, value)}")
+        print(f"{addr.encode() + k * step:04X}h  {_format_value(addr, fmt, value)}")
     return 0
 
 
@@ -229,7 +237,9 @@ def _prepare(args: argparse.Namespace) -> tuple[Address, DataFormat]:
         check_baud(args.baud)
     if not args.timeout > 0:
         raise ConfigError(f"--timeout {args.timeout}: must be > 0 seconds")
-    parse_modules(args.modules)
+    conf = Configuration(parse_modules(args.modules))
+    if "A.1" not in (m.key for m in conf.modules):
+        raise ConfigError(f"--modules {args.modules}: the jobs need the parameter channel A.1")
     return addr, fmt
 
 
@@ -238,7 +248,6 @@ def _read(args: argparse.Namespace) -> int:
         addr, fmt = _prepare(args)
         if not 1 <= args.count <= 255:
             raise ConfigError(f"count {args.count} is out of range 1..255")
-        Configuration(parse_modules(args.modules))
     except ConfigError as exc:
         return _fail(str(exc))
     return asyncio.run(_job(args, addr, fmt, []))
@@ -248,7 +257,6 @@ def _write(args: argparse.Namespace) -> int:
     try:
         addr, fmt = _prepare(args)
         values = _parse_values(fmt, args.values)
-        Configuration(parse_modules(args.modules))
     except ConfigError as exc:
         return _fail(str(exc))
     return asyncio.run(_job(args, addr, fmt, values))

@@ -25,7 +25,9 @@ summary on stderr. Values written with the EEPROM request IDs go to ``--store FI
 several addresses FILE must contain ``{address}``); a damaged store file is refused (exit 2).
 
 Profiles of other protocols plug in through `OTHER_PROTOCOLS`: ``--profile ksvario`` runs the
-KS VARIO PROFIBUS-DP simulator (`pyuss.ksvario.simulate`, where installed), ``--profile bass``
+KS VARIO PROFIBUS-DP simulator (`pyuss.ksvario.simulate`, where installed) as the one DP station
+``--address`` (0..125) at a PROFIBUS-DP ``--baud``, and refuses the options of USS drives,
+``--profile bass``
 a closed RS-232 ring of Baumueller drives speaking BASS (`pyuss.bass.ring`, 9600 baud 8N1, one
 drive per ``--address``).
 """
@@ -114,7 +116,7 @@ def register(subparsers: Any) -> None:
         type=_int,
         default=[],
         metavar="A",
-        help="bus address 0..31 (repeat for several drives; default 0)",
+        help="bus address 0..31 (repeat for several drives; default 0); ksvario: DP station 0..125",
     )
     parser.add_argument(
         "--params", metavar="FILE", help="parameter file (TOML) instead of the profile's"
@@ -205,7 +207,14 @@ def _chosen_line(
 
 def options(args: argparse.Namespace) -> Options:
     """Check the arguments; `ConfigError` naming what is wrong."""
-    baud = check_baud(args.baud)
+    # a KS VARIO is a PROFIBUS-DP station: DP baud rates and station addresses 0..125
+    ksvario = args.profile == "ksvario"
+    if ksvario:
+        from pyuss.ksvario.dp.fdl import check_baud as check_dp_baud
+
+        baud = check_dp_baud(args.baud)
+    else:
+        baud = check_baud(args.baud)
     chosen = _chosen_line("--", args.pty, args.tcp, args.serial)
     if chosen is not None:
         line, where = chosen
@@ -216,7 +225,9 @@ def options(args: argparse.Namespace) -> Options:
         line, where = "bus", f"{host}:{port}"
     addresses = tuple(args.address) or (0,)
     for address in addresses:
-        if not 0 <= address <= 31:
+        if ksvario and not 0 <= address <= 125:
+            raise ConfigError(f"--address {address}: DP station addresses are 0..125")
+        if not ksvario and not 0 <= address <= 31:
             raise ConfigError(f"--address {address}: bus addresses are 0..31")
     if len(set(addresses)) != len(addresses):
         raise ConfigError("--address: each address may be given once")
@@ -465,6 +476,19 @@ async def _serve_ksvario(opts: Options, stop: asyncio.Event, announce: Announce)
         raise ConfigError("profile ksvario: the KS VARIO simulator is not installed") from None
     if len(opts.addresses) != 1:
         raise ConfigError("profile ksvario serves one station: give one --address")
+    drive_only = {
+        "--params": opts.params is not None,
+        "--layout": opts.layout is not None,
+        "--store": opts.store is not None,
+        "--failure-time": opts.failure_time is not None,
+        "--latency": opts.latency != JobLatency(),
+        "--response-delay": opts.response_delay is not None,
+        "--read-only": opts.read_only,
+        "--spontaneous": opts.spontaneous is not None,
+    }
+    given = [name for name, on in drive_only.items() if on]
+    if given:
+        raise ConfigError(f"profile ksvario does not take {', '.join(given)} (USS drive options)")
     port = {
         "pty": None,
         "serial": opts.where,

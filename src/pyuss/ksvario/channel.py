@@ -531,17 +531,30 @@ class ChannelClient:
     def start_read(self, fmt: DataFormat, address: int | Address, count: int, now: float) -> None:
         if not 1 <= count <= MAX_COUNT:
             raise ConfigError(f"read count must be 1..{MAX_COUNT}, got {count}")
-        self._begin(_Job(DataFormat(fmt), int(address), False, read_count=count), now)
+        self._begin(_Job(self._service(fmt), int(address), False, read_count=count), now)
 
     def start_write(
         self, fmt: DataFormat, address: int | Address, values: Sequence[Value], now: float
     ) -> None:
-        fmt = DataFormat(fmt)
+        fmt = self._service(fmt)
         if not 1 <= len(values) <= MAX_COUNT:
             raise ConfigError(f"write 1..{MAX_COUNT} values, got {len(values)}")
         for value in values:
             encode_value(fmt, value, self.byte_order)  # validates
         self._begin(_Job(fmt, int(address), True, values=list(values)), now)
+
+    def _service(self, fmt: DataFormat | int) -> DataFormat:
+        """The data format of a new job. One the channel does not know (ID1 not 0..4) ends the
+        job at once with ANZW bit 14 "service wrong" and done with error (8.1), and raises."""
+        try:
+            return DataFormat(fmt)
+        except ValueError:
+            if not self.busy:
+                self._step = _Step.DONE
+                self._job = None
+                self._result = None
+                self._word = int(DisplayWord.WRONG_SERVICE | DisplayWord.DONE_ERROR)
+            raise ConfigError(f"data format {fmt!r} is not ID1 0..4: service wrong") from None
 
     def _begin(self, job: _Job, now: float) -> None:
         if not 0 <= job.address <= 0xFFFF:

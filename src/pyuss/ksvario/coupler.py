@@ -26,9 +26,14 @@ Wertänderung übernommen"), and, if module A.7 is configured, only while its by
 its 0 -> 1 edge (3.1).
 
 Forcing and fail-safe (2.3, 2.4): `force` marks a datum as a forced analogue input, digital
-input or output, written from the bus. `bus_failure` applies the user parameters' fail-safe:
-forced analogue inputs go to FAIL (diagnosis byte 15 bit 0); with fail-safe "zero" forced
-digital inputs and forced outputs also go to 0.
+input or output, written from the bus. A physical input is read-only to the bus (declare it with
+``set_limits(..., writable=False)``) until it is forced: then the bus writes it, through the
+parameter channel as through the write cache. `bus_failure` applies the user parameters'
+fail-safe: forced analogue inputs go to FAIL (diagnosis byte 15 bit 0); with fail-safe "zero"
+forced digital inputs and forced outputs also go to 0.
+
+``consistent_mux=False`` makes the multiplexers answer a new read index with Index_Read 0 for
+one cycle first, as a coupler that cannot send data and index consistently does (3.4.2).
 """
 
 from __future__ import annotations
@@ -141,10 +146,12 @@ class Coupler:
         selection: CacheSelection | None = None,
         user: UserParameters | None = None,
         max_block: int = 128,
+        consistent_mux: bool = True,
     ) -> None:
         if not 1 <= channels <= CHANNELS:
             raise ConfigError(f"a coupler serves 1..{CHANNELS} channels, not {channels}")
         self.channels = channels
+        self.consistent_mux = consistent_mux
         self.data: dict[int, list[float]] = {
             area: [0.0] * DATA_PER_AREA for area in range(channels + 2)
         }
@@ -239,7 +246,8 @@ class Coupler:
             new.append((d, number))
         for d, number in new:
             lim = self._limits.get((address.area, d), _Limits())
-            if not math.isfinite(number) or not lim.writable or not lim.low <= number <= lim.high:
+            writable = lim.writable or (address.area, d) in self.forced
+            if not math.isfinite(number) or not writable or not lim.low <= number <= lim.high:
                 return Result.INVALID_VALUE
         for d, number in new:
             self.data[address.area][d] = number
@@ -292,12 +300,14 @@ class Coupler:
         if var_pos is not None:
             r = sum(s.module.inputs for s in self._var_io) // 2
             w = sum(s.module.outputs for s in self._var_io) // 2
-            self._var_mux = MuxServer(self, r, w)
+            self._var_mux = MuxServer(self, r, w, consistent=self.consistent_mux)
         self._direct_io = [
             s for s in configuration.slots if s.module.is_io and s not in self._var_io
         ]
         self._fixed = {
-            s.position: MuxServer(self, s.module.mux_size, s.module.mux_size)
+            s.position: MuxServer(
+                self, s.module.mux_size, s.module.mux_size, consistent=self.consistent_mux
+            )
             for s in configuration.slots
             if s.module.is_fixed_mux
         }
@@ -368,7 +378,8 @@ class Coupler:
 
     # ------------------------------------------------------------------ forcing, fail-safe
     def force(self, address: Address, kind: ForceKind = ForceKind.ANALOG_INPUT) -> None:
-        """Mark a datum as forced from the bus (2.3)."""
+        """Mark a datum as forced from the bus (2.3): the bus may write it even if it is
+        read-only (a physical input), and the fail-safe applies to it."""
         if not self._exists(address.area, address.datum):
             raise ConfigError(f"no datum at {address}")
         self.forced[(address.area, address.datum)] = kind

@@ -108,12 +108,21 @@ class MuxIn:
 
 class MuxServer:
     """The coupler's side of one multiplexer (variable or fixed): ``read_count`` words of read
-    data and ``write_count`` words of write data travel with each exchange."""
+    data and ``write_count`` words of write data travel with each exchange.
 
-    def __init__(self, access: CacheAccess, read_count: int, write_count: int) -> None:
+    ``consistent=False`` plays a coupler that cannot put data and Index_Read on the bus
+    consistently (3.4.2): when the master asks for a new block, the first answer carries the
+    new data with Index_Read 0 ("Daten momentan nicht übernehmen"), the next ones the index.
+    """
+
+    def __init__(
+        self, access: CacheAccess, read_count: int, write_count: int, *, consistent: bool = True
+    ) -> None:
         self.access = access
         self.read_count = read_count
         self.write_count = write_count
+        self.consistent = consistent
+        self._read_shown = 0
 
     def exchange(self, out: MuxOut) -> MuxIn:
         if len(out.data) != self.write_count:
@@ -130,7 +139,11 @@ class MuxServer:
         data = [0] * self.read_count
         if out.index_read and block_in_range(out.index_read, self.read_count):
             data = self.access.read_cache(out.index_read, self.read_count)
-            in_read = out.index_read
+            if self.consistent or self._read_shown == out.index_read:
+                in_read = out.index_read
+            self._read_shown = out.index_read
+        else:
+            self._read_shown = 0
         return MuxIn(in_read, in_write, tuple(data))
 
 

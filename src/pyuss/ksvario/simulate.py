@@ -14,10 +14,22 @@ import asyncio
 from collections.abc import Callable
 
 from pyuss.ksvario.coupler import CacheSelection, Coupler
+from pyuss.ksvario.dp.fdl import check_baud
 from pyuss.ksvario.dp.server import run_slave
 from pyuss.ksvario.dp.slave import DpSlave
+from pyuss.transport.base import Transport
 from pyuss.transport.pty import PtyPort
 from pyuss.transport.url import open_transport
+
+
+def dp_line(port: str | None = None, *, baud: int = 19200) -> Transport:
+    """The line of a DP station or master, not opened yet: a new `PtyPort` when ``port`` is
+    None, else the transport ``port`` names, serial ports with PROFIBUS characters (8E1).
+    ``baud`` must be a PROFIBUS-DP rate the lines carry (`pyuss.ksvario.dp.fdl.check_baud`)."""
+    check_baud(baud)
+    if port is None:
+        return PtyPort(baud=baud)
+    return open_transport(port, baud=baud, parity="E", stopbits=1)
 
 
 async def serve(
@@ -33,11 +45,10 @@ async def serve(
     """Run the simulated coupler as DP slave ``station`` until cancelled or ``stop`` is set."""
     coupler = coupler or Coupler(channels=channels, selection=CacheSelection.example())
     slave = DpSlave(coupler, station)
-    pty = PtyPort(baud=baud) if port is None else None
-    line = pty if pty is not None else open_transport(port or "", baud=baud, parity="E")
+    line = dp_line(port, baud=baud)
     await line.open()
     try:
-        device = pty.device_path if pty is not None else port or ""
+        device = line.device_path if isinstance(line, PtyPort) else port or ""
         if on_ready is not None:
             on_ready(device)
         await run_slave(slave, line, stop)

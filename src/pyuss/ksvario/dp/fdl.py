@@ -23,7 +23,41 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
+from pyuss.errors import ConfigError
 from pyuss.ksvario.errors import FdlError
+from pyuss.protocol.timing import BAUD_RATES as USS_BAUD_RATES
+
+#: The PROFIBUS-DP baud rates the KS VARIO recognises by itself (seed 003 1, "Automatische
+#: Baudratenerkennung"): 9.6, 19.2, 31.25, 45.45, 93.75, 187.5, 500 kbit/s, 1.5, 3, 6, 12 Mbit/s.
+BAUD_RATES: tuple[int, ...] = (
+    9600,
+    19200,
+    31250,
+    45450,
+    93750,
+    187500,
+    500000,
+    1500000,
+    3000000,
+    6000000,
+    12000000,
+)
+#: The DP rates the shared `pyuss.transport` lines carry (those that are USS rates too, B 2.4).
+LINE_BAUD_RATES: tuple[int, ...] = tuple(b for b in BAUD_RATES if b in USS_BAUD_RATES)
+
+
+def check_baud(baud: int) -> int:
+    """Return ``baud`` if it is a PROFIBUS-DP baud rate a `pyuss.transport` line carries, else
+    raise `ConfigError` saying which rates are possible."""
+    lines = ", ".join(str(b) for b in LINE_BAUD_RATES)
+    if isinstance(baud, bool) or baud not in BAUD_RATES:
+        raise ConfigError(f"{baud!r} is not a PROFIBUS-DP baud rate (lines carry {lines})")
+    if baud not in LINE_BAUD_RATES:
+        raise ConfigError(
+            f"{baud} is a PROFIBUS-DP baud rate the serial lines do not carry (they carry {lines})"
+        )
+    return baud
+
 
 SD1 = 0x10
 SD2 = 0x68

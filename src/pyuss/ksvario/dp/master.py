@@ -111,9 +111,16 @@ class DpMasterLink:
         return diag
 
     async def exchange(self, outputs: bytes) -> bytes:
+        """One Data_Exchange. A slave without input bytes may answer with the short
+        acknowledgement; an answer with DH (new diagnosis) makes the link read the diagnosis
+        (into `diagnosis`) before it returns the inputs."""
         answer = await self._transact(self._request(outputs))
+        if answer.sd == 0xE5 and self.configuration.input_bytes == 0:
+            return b""
         if answer.sd == 0xE5 or answer.fc & 0x0F not in (FC.DL, FC.DH):
             raise ProtocolError(
                 f"Data_Exchange refused by station {self.station} (FC {answer.fc:02X}h)"
             )
+        if answer.fc & 0x0F == FC.DH:
+            await self.read_diagnosis()
         return answer.du

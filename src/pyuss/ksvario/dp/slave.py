@@ -12,12 +12,18 @@ bytes to send back (or None). The services a DP master uses at start-up and in o
 * Global_Control (DSAP 58, SDN)   -> no answer; Clear_Data applies the fail-safe, freeze and
                                      sync are reflected in the diagnosis;
 * Rd_Inp / Rd_Outp (DSAP 56 / 57) -> the current input / output image;
-* Data_Exchange (no SAP)          -> the input image, FC DL, or DH while new diagnosis waits.
+* Data_Exchange (no SAP)          -> the input image with FC DL, or DH while the diagnosis
+                                     differs from what the master last read (new diagnosis
+                                     waits); a configuration without input bytes is answered
+                                     with the short acknowledgement E5 (SD1 with DH when new
+                                     diagnosis waits).
 
 States follow the DP slave: WAIT_PRM -> WAIT_CFG -> DATA_EXCH. Data_Exchange outside
 DATA_EXCH is answered RS (service not activated). With FCV set, a request whose FCB equals
 the previous one from the same master is a repetition: the stored answer is sent again without
-acting twice. The watchdog (Set_Prm WD_On, 10 ms x factor 1 x factor 2) drops a slave that
+acting twice. A repetition repeats the telegram, so a request with the same FCB but other
+content is taken as new (some masters, pyprofibus among them, do not toggle FCB after a short
+acknowledgement). The watchdog (Set_Prm WD_On, 10 ms x factor 1 x factor 2) drops a slave that
 hears nothing from its master back to WAIT_PRM and applies the fail-safe (seed 2.4).
 """
 
@@ -69,12 +75,13 @@ class DpSlave:
         self.freeze = False
         self.sync = False
         self.group = 0
-        self.diag_pending = False
+        self._diag_read = b""
         self.outputs = b""
         self.inputs = b""
         self.last_seen = 0.0
         self.exchanges = 0
         self._last_fcb: dict[int, int] = {}
+        self._last_request: dict[int, Frame] = {}
         self._last_answer: dict[int, bytes] = {}
         self._expected_cfg: Configuration | None = None
 
@@ -134,15 +141,20 @@ class DpSlave:
             return Frame(0x10, frame.sa, self.address, FC.OK).encode()
         if frame.function not in (FC.SRD_HI, FC.SRD_LO, FC.SDN_HI, FC.SDN_LO):
             return self._reply(frame, FC.RS)
+        if self.master is not None and frame.sa == self.master:
+            self.last_seen = now
         fcb = frame.fc & FC.FCB
         if frame.fc & FC.FCV:
-            if self._last_fcb.get(frame.sa) == fcb and frame.sa in self._last_answer:
+            if (
+                self._last_fcb.get(frame.sa) == fcb
+                and self._last_request.get(frame.sa) == frame
+                and frame.sa in self._last_answer
+            ):
                 return self._last_answer[frame.sa]  # a repetition: answer again, act once
             self._last_fcb[frame.sa] = fcb
         else:
             self._last_fcb.pop(frame.sa, None)
-        if self.master is not None and frame.sa == self.master:
-            self.last_seen = now
+        self._last_request[frame.sa] = frame
         answer = self._dispatch(frame, now)
         if frame.function in (FC.SDN_HI, FC.SDN_LO):
             return None
@@ -160,8 +172,8 @@ class DpSlave:
         if sap is None:
             return self._data_exchange(frame, now)
         if sap == SAP.SLAVE_DIAG:
-            self.diag_pending = False
-            return self._reply(frame, FC.DL, self.diagnosis().encode(), SAP.SLAVE_DIAG)
+            self._diag_read = self.diagnosis().encode()
+            return self._reply(frame, FC.DL, self._diag_read, SAP.SLAVE_DIAG)
         if sap == SAP.SET_PRM:
             self._set_prm(frame, now)
             return _ACK
@@ -262,5 +274,13 @@ class DpSlave:
         self.outputs = frame.du
         self.inputs = self.coupler.exchange(frame.du, now)
         self.exchanges += 1
-        fc = FC.DH if self.diag_pending else FC.DL
-        return self._reply(frame, fc, self.inputs)
+        if self.diag_pending:
+            return self._reply(frame, FC.DH, self.inputs)
+        if not self.inputs:
+            return _ACK
+        return self._reply(frame, FC.DL, self.inputs)
+
+    @property
+    def diag_pending(self) -> bool:
+        """New diagnosis waits: it differs from what the master last read with Slave_Diag."""
+        return self.diagnosis().encode() != self._diag_read
