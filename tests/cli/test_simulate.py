@@ -210,6 +210,10 @@ def test_a_damaged_store_is_refused(tmp_path: Path, capsys: pytest.CaptureFixtur
         (["--pty", "--failure-time", "-1"], "--failure-time -1.0: must be a number of seconds"),
         (["--pty", "--latency-time", "nan"], "--latency-time must be numbers >= 0"),
         (["--pty", "--latency", "-2"], "--latency-time must be numbers >= 0"),
+        (
+            ["--pty", "--profile", "bass", "--params", "x.toml", "--read-only"],
+            "profile bass does not take --params, --read-only (USS drive options)",
+        ),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(

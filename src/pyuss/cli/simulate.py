@@ -468,14 +468,9 @@ async def _bass_side_of(
 # -- other protocols ------------------------------------------------------------------------
 
 
-async def _serve_ksvario(opts: Options, stop: asyncio.Event, announce: Announce) -> None:
-    """The KS VARIO PROFIBUS-DP simulator: one station, the first ``--address``."""
-    try:
-        module = importlib.import_module("pyuss.ksvario.simulate")
-    except ImportError:
-        raise ConfigError("profile ksvario: the KS VARIO simulator is not installed") from None
-    if len(opts.addresses) != 1:
-        raise ConfigError("profile ksvario serves one station: give one --address")
+def _refuse_drive_options(opts: Options) -> None:
+    """Options of the USS drive simulator are bad input for a simulator of another protocol,
+    rather than silently ignored."""
     drive_only = {
         "--params": opts.params is not None,
         "--layout": opts.layout is not None,
@@ -488,7 +483,20 @@ async def _serve_ksvario(opts: Options, stop: asyncio.Event, announce: Announce)
     }
     given = [name for name, on in drive_only.items() if on]
     if given:
-        raise ConfigError(f"profile ksvario does not take {', '.join(given)} (USS drive options)")
+        raise ConfigError(
+            f"profile {opts.profile} does not take {', '.join(given)} (USS drive options)"
+        )
+
+
+async def _serve_ksvario(opts: Options, stop: asyncio.Event, announce: Announce) -> None:
+    """The KS VARIO PROFIBUS-DP simulator: one station, the first ``--address``."""
+    try:
+        module = importlib.import_module("pyuss.ksvario.simulate")
+    except ImportError:
+        raise ConfigError("profile ksvario: the KS VARIO simulator is not installed") from None
+    if len(opts.addresses) != 1:
+        raise ConfigError("profile ksvario serves one station: give one --address")
+    _refuse_drive_options(opts)
     port = {
         "pty": None,
         "serial": opts.where,
@@ -505,6 +513,7 @@ async def _serve_bass(opts: Options, stop: asyncio.Event, announce: Announce) ->
     address), with the demonstration operating data of `pyuss.bass.ring`; 9600 baud, 8N1."""
     if opts.line == "bus":
         raise ConfigError("profile bass: a BASS ring is RS-232, not a station of a USS bus")
+    _refuse_drive_options(opts)
     ring = BassRing([DictOperatingData(a, demo_elements()) for a in opts.addresses])
     transport, first_line = _line(opts, baud=BASS_BAUD, parity="N")
     async with ring.serving(transport):
