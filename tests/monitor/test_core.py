@@ -336,8 +336,8 @@ def test_an_address_with_little_evidence_borrows_the_bus_layout() -> None:
         st.tuples(
             st.integers(0, 31),
             st.integers(0, 2047),
-            st.sampled_from(["answer", "none", "late"]),
-            st.floats(2.2, 19.0),
+            st.sampled_from(["answer", "none", "late", "glitch"]),
+            st.floats(2.2, 15.0),
         ),
         min_size=1,
         max_size=12,
@@ -346,24 +346,56 @@ def test_an_address_with_little_evidence_borrows_the_bus_layout() -> None:
 def test_two_wire_pairing_property(
     script: list[tuple[int, int, str, float]],
 ) -> None:
-    """Requests and answers with chosen gaps: each in-time answer pairs with its request,
-    each silent slave is reported as not answering, each late one as late."""
+    """Requests and answers with chosen gaps: each in-time answer pairs with its request, also
+    after a stray character on the line (a driver switching on), each silent slave is
+    reported as not answering, each late one as late."""
     wire = Wire(Monitor(BAUD, layouts=LayoutBook(Layout(3, 2))))
+    expected: list[tuple[int | None, str, float]] = []
     for address, pnu, what, delay_tc in script:
         wire.send(request(address, Pkw(1, pnu), 0x047E + (address & 1)), 0.08)
+        reply = answer(address, Pkw(1, pnu, values=(pnu ^ 0x5555,)))
+        expected.append((address, what, delay_tc))
         if what == "answer":
-            wire.send(answer(address, Pkw(1, pnu, values=(pnu ^ 0x5555,))), delay_tc * TC)
+            wire.send(reply, delay_tc * TC)
         elif what == "late":
-            wire.send(answer(address, Pkw(1, pnu, values=(pnu ^ 0x5555,))), 0.035)
+            wire.send(reply, 0.035)
+        elif what == "glitch":
+            wire.send(b"\xff", delay_tc * TC)
+            wire.send(reply, 3 * TC)
+            expected.append((None, "noise", 0.0))
     out = wire.finish()
-    assert len(out) == len(script)
-    for ex, (address, _, what, delay_tc) in zip(out, script, strict=True):
-        assert ex.address == address
+    assert [(ex.address, ex.kind) for ex in out] == [
+        (address, {"none": "request", "noise": "noise"}.get(what, "exchange"))
+        for address, what, _ in expected
+    ]
+    for ex, (_, what, delay_tc) in zip(out, expected, strict=True):
         if what == "answer":
-            assert ex.kind == "exchange" and ex.issues == ()
+            assert ex.issues == ()
             assert ex.delay == pytest.approx(delay_tc * TC)
         elif what == "none":
-            assert ex.kind == "request" and ex.problems == (Problem.NO_ANSWER,)
-        else:
-            assert ex.kind == "exchange" and ex.problems == (Problem.LATE_ANSWER,)
+            assert ex.problems == (Problem.NO_ANSWER,)
+        elif what == "late":
+            assert ex.problems == (Problem.LATE_ANSWER,)
             assert ex.unsure
+        elif what == "glitch":
+            assert ex.issues == () and ex.unsure == ""
+            assert ex.delay == pytest.approx((delay_tc + 4) * TC)  # FF, 3 idle characters
+        else:
+            assert ex.problems == (Problem.NO_STX,)
+
+
+def test_stray_character_before_an_answer_on_four_wires() -> None:
+    wire = Wire(Monitor(BAUD, four_wire=True, layouts=LayoutBook(Layout(3, 2))))
+    wire.send(REQ_52, 0.01, port=0)
+    wire.send(b"\x00", 0.002, port=1)
+    wire.send(answer(5, Pkw(1, 52, values=(7,))), 3 * TC, port=1)
+    wire.send(request(5, Pkw(1, 53)), 0.01, port=0)
+    wire.send(b"\x00", 0.002, port=1)  # this time nothing follows: the answer, damaged
+    out = wire.finish()
+    assert [(ex.kind, ex.problems) for ex in out] == [
+        ("exchange", ()),
+        ("noise", (Problem.NO_STX,)),
+        ("exchange", (Problem.NO_STX,)),
+    ]
+    assert out[0].answer_data is not None and out[0].answer_data.pkw == Pkw(1, 52, values=(7,))
+    assert out[1].request is not None and out[1].request.port == 1

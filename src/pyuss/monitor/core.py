@@ -35,7 +35,10 @@ Pairing (A 5.1, A 5.2.1.1)
     of that address before, or its PKW answers the request's job, C Table 4.3) rather than the
     master repeating itself. A request whose late limit passes without an answer is reported
     as not answered. Broadcasts expect no answer (A 3); an answer to one, or to nothing, is
-    ``unexpected``. A damaged request expects none either (A 5.2.2).
+    ``unexpected``. A damaged request expects none either (A 5.2.2). Bytes without a telegram
+    within the response delay limit are the damaged answer unless a telegram that answers
+    the request follows (a driver switching on can put a stray character before the answer):
+    then they are noise after the exchange.
 
 Counters (A 5.2.3)
     `Monitor.summary` keeps the 16 diagnostic counters for the line and for each address,
@@ -172,6 +175,7 @@ class Monitor:
         self._count = itertools.count(1)
         self._pending: Frame | None = None
         self._tail: list[Frame] = []
+        self._suspects: list[Frame] = []
         self._last: Frame | None = None
         self._broadcast: Frame | None = None
         self._control: dict[int, int] = {}
@@ -248,8 +252,7 @@ class Monitor:
             if partial is not None:
                 self._queue(p, partial)
         out = self._release()
-        if self._pending is not None:
-            out += self._unanswered(self._pending)
+        out += self._expire(math.inf)
         return out
 
     def _check_port(self, port: int) -> None:
@@ -416,6 +419,8 @@ class Monitor:
         p = self._pending
         if p is None:
             return []
+        if self._suspects and now - p.end > self.answer_window + _EPS:
+            return self._pair_suspect(p)
         window = self.late_limit if p.ok else self.answer_window
         if now - p.end > window + _EPS:
             return self._unanswered(p)
@@ -435,6 +440,11 @@ class Monitor:
         ):
             # Bytes that follow a frame without a start pause: the same sender's tail.
             return out + self._noise(replace(frame, direction=last.direction, guessed=last.guessed))
+        if self._suspects:
+            held = self._settle(frame)
+            if held is None:
+                return out
+            out += held
         if frame.direction is Direction.RESPONSE:
             return out + self._on_answer(frame)
         if frame.direction is Direction.REQUEST:
@@ -457,14 +467,13 @@ class Monitor:
         answer = replace(frame, direction=Direction.RESPONSE, guessed=True)
         delay = frame.start - p.end
         if delay <= self.answer_window + _EPS:
+            if frame.telegram is None:
+                return self._suspect(answer)
             unsure = ""
             if not p.ok:
                 if frame.address is not None and frame.address != p.address:
                     return self._on_request(as_request)
-                unsure = (
-                    "the request was damaged on the line; this came within the response delay "
-                    "limit, so it is taken as the answer"
-                )
+                unsure = _DAMAGED_REQUEST
             elif frame.address is not None and frame.address != p.address:
                 if self._pzd1_seen(frame, self._seen_control, self._seen_status):
                     return self._on_request(as_request)  # the master did not wait
@@ -502,6 +511,8 @@ class Monitor:
     def _on_answer(self, frame: Frame) -> list[Exchange]:
         p = self._pending
         if p is not None:
+            if frame.telegram is None and frame.start - p.end <= self.answer_window + _EPS:
+                return self._suspect(frame)
             return self._pair(p, frame, "")
         if frame.telegram is None:
             return self._noise(frame)
@@ -516,10 +527,56 @@ class Monitor:
             why = "an answer without a request"
         return [self._build(None, frame, [Issue(Problem.UNEXPECTED, "answer", why)])]
 
+    def _suspect(self, frame: Frame) -> list[Exchange]:
+        """Bytes without a telegram within the response delay limit of the open request:
+        the answer, damaged, unless a telegram that answers the request follows in time
+        (a driver switching on can put a stray character on the line before the answer)."""
+        self._suspects.append(frame)
+        self._last = frame
+        return []
+
+    def _settle(self, frame: Frame) -> list[Exchange] | None:
+        """A frame after bytes held by `_suspect`: None when it is more such bytes (held as
+        well); else the held bytes become the noise before the answer ``frame`` (nothing to
+        report yet) or, when ``frame`` is no answer, the damaged answer of the open request."""
+        p = self._pending
+        assert p is not None
+        if frame.telegram is None and frame.start - p.end <= self.answer_window + _EPS:
+            side = self._suspects[0]
+            self._suspects.append(replace(frame, direction=side.direction, guessed=side.guessed))
+            self._last = frame
+            return None
+        if self._answers(p, frame):
+            self._tail += self._suspects
+            self._suspects = []
+            return []
+        return self._pair_suspect(p)
+
+    def _pair_suspect(self, request: Frame) -> list[Exchange]:
+        """The first bytes held by `_suspect` are the answer to ``request``."""
+        first, *rest = self._suspects
+        self._suspects = []
+        self._tail += rest
+        return self._pair(request, first, "" if request.ok else _DAMAGED_REQUEST)
+
+    def _answers(self, request: Frame, frame: Frame) -> bool:
+        """Whether the telegram ``frame`` is the answer to the open ``request`` (after bytes
+        held by `_suspect`): an answer by its port, or one from the request's address within
+        the response delay limit (or later, looking like an answer)."""
+        if frame.telegram is None or frame.direction is Direction.REQUEST:
+            return False
+        if frame.direction is Direction.RESPONSE:
+            return True
+        if frame.address != request.address or frame.telegram.mode.is_broadcast:
+            return False
+        if frame.start - request.end <= self.answer_window + _EPS:
+            return True
+        return request.ok and self._looks_like_answer(request, frame)
+
     def _close(self, exchange: Exchange) -> list[Exchange]:
         """The open request is done: its exchange, then the bytes that followed it."""
         self._pending = None
-        tail, self._tail = self._tail, []
+        tail, self._tail = sorted(self._tail, key=lambda f: f.start), []
         return [exchange, *(self._build(frame, None) for frame in tail)]
 
     def _pair(self, request: Frame, answer: Frame, unsure: str) -> list[Exchange]:
@@ -728,6 +785,10 @@ class Monitor:
             values.add(word)
 
 
+_DAMAGED_REQUEST = (
+    "the request was damaged on the line; this came within the response delay limit, so it "
+    "is taken as the answer"
+)
 _JOINABLE = (FaultKind.NO_STX, FaultKind.RESIDUAL_TIME, FaultKind.BAD_LGE, FaultKind.BCC)
 
 
