@@ -156,6 +156,30 @@ def test_bad_input_is_one_line_and_exit_2(
     assert list(tmp_path.iterdir()) == []
 
 
+def test_bad_capture_files_are_one_line_and_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    good = tmp_path / "good.pcapng"
+    _capture(good)
+    data = good.read_bytes()
+    files = {
+        "cut.pcapng": (data[: len(data) // 2], "truncated"),
+        "garbage.bin": (bytes(range(7, 250, 3)), "not a capture"),
+        "wrong.jsonl": (b'{"format": "pyuss-bus-recording"}\n', ""),
+        "text.txt": (b"hello\n", "not a capture"),
+    }
+    for name, (content, words) in files.items():
+        path = tmp_path / name
+        path.write_bytes(content)
+        out = tmp_path / "out.pcapng"
+        assert main(["monitor", "--read", str(path), "-w", str(out)]) == 2, name
+        err = capsys.readouterr().err.strip()
+        assert err.startswith(f"uss monitor: {path}") or name in err, err
+        assert words in err and len(err.splitlines()) == 1, err
+        assert not out.exists()
+        assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
 def test_unreachable_port_fails_with_1(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["monitor", "--port", "/nonexistent/ttyUSB9", "--baud", "9600"]) == 1
     err = capsys.readouterr().err.strip()

@@ -239,9 +239,24 @@ class Monitor:
             self.layouts.per_address[address] = layout.layout
         if frame.guessed:
             frame = replace(frame, direction=Direction.UNKNOWN, guessed=False)
+        frame = self._check_fixed_length(frame)
         out = self._on_frame(frame)
         out += self._expire(frame.end)
         return out
+
+    def _check_fixed_length(self, frame: Frame) -> Frame:
+        """A telegram read back from a capture, judged like the receiver judges live bytes: a
+        normal or mirror telegram whose LGE is not the fixed length given for its address is
+        `FaultKind.BAD_LGE` (A 4.2.2, A 5.2)."""
+        tg = frame.telegram
+        if frame.fault is not None or tg is None or tg.mode not in _FIXED_LENGTH_MODES:
+            return frame
+        layout = self.layouts.given(tg.address)
+        fixed = None if layout is None else layout.lge
+        if fixed is None or fixed == frame.raw[1]:
+            return frame
+        detail = f"LGE {frame.raw[1]}, but address {tg.address} uses the fixed length LGE {fixed}"
+        return replace(frame, fault=FaultKind.BAD_LGE, detail=detail)
 
     def finish(self) -> list[Exchange]:
         """The end of the input: report whatever is still open."""
@@ -785,6 +800,7 @@ class Monitor:
             values.add(word)
 
 
+_FIXED_LENGTH_MODES = (AddressMode.NORMAL, AddressMode.MIRROR)
 _DAMAGED_REQUEST = (
     "the request was damaged on the line; this came within the response delay limit, so it "
     "is taken as the answer"

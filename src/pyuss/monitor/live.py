@@ -73,9 +73,11 @@ async def watch(
 
 
 def replay(capture: Capture, monitor: Monitor) -> Iterator[Exchange]:
-    """The exchanges of ``capture`` as ``monitor`` decodes them, in order."""
+    """The exchanges of ``capture`` as ``monitor`` decodes them, in order. Frames are taken
+    in time order, whatever their order in the file (pcapng allows any, and merged or edited
+    captures have them)."""
     for chunk in capture.chunks:
         yield from monitor.feed(chunk.data, chunk.timestamp, chunk.errors)
-    for record in capture.records:
+    for record in sorted(capture.records, key=lambda r: r.frame.start):
         yield from monitor.add_frame(record.frame, record.layout)
     yield from monitor.finish()
