@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -15,8 +16,16 @@ import pytest
 from monitor.traffic import REQ_52, Slave, Wire, answer, drive, request
 from pyuss.bus import VirtualBus
 from pyuss.cli.main import main
-from pyuss.monitor import LayoutBook, Monitor, dissector_source, open_writer, read_capture
+from pyuss.monitor import (
+    LayoutBook,
+    Listener,
+    Monitor,
+    dissector_source,
+    open_writer,
+    read_capture,
+)
 from pyuss.protocol import Layout, Pkw
+from pyuss.transport.serialport import SerialTransport
 
 BAUD = 38400
 TIMEOUT = 30
@@ -253,6 +262,66 @@ async def test_live_on_a_pty_with_real_port_timing(tmp_path: Path) -> None:
     _check_exchanges(items)
     # Layouts are inferred: the first exchange alone is a guess.
     assert items[0]["layout"] == "3,2"
+
+
+async def test_the_monitor_never_writes_to_its_port() -> None:
+    # A pty pair of our own: whatever the monitor wrote to its end would come out of ours.
+    ours, theirs = os.openpty()
+    os.set_blocking(ours, False)
+    try:
+        proc = await _start("--port", os.ttyname(theirs), "--baud", str(BAUD), "--json")
+        await asyncio.sleep(0.2)  # the port is open (raw mode: no echo by the tty)
+        for data in (REQ_52, answer(5, Pkw(1, 52, values=(1234,)))) * 2:
+            os.write(ours, data)
+            await asyncio.sleep(0.01)
+        assert proc.stdout is not None
+        first = json.loads(await asyncio.wait_for(proc.stdout.readline(), TIMEOUT))
+        assert "read P52 -> P52 = 1234" in first["summary"]
+        await asyncio.sleep(0.3)
+        with pytest.raises(BlockingIOError):
+            os.read(ours, 100)  # nothing
+        proc.send_signal(signal.SIGINT)
+        _, err = await asyncio.wait_for(proc.communicate(), TIMEOUT)
+        assert proc.returncode == 0, err
+        with pytest.raises(BlockingIOError):
+            os.read(ours, 100)
+    finally:
+        os.close(ours)
+        os.close(theirs)
+
+
+async def test_a_bus_station_is_listen_only_whatever_the_url_says() -> None:
+    bus = VirtualBus(BAUD)
+    host, port = await bus.serve_tcp(framed=True)
+    url = f"bus://{host}:{port}?name=mon&listen_only=0"
+    try:
+        proc = await _start("--port", url, "--baud", str(BAUD), "--duration", "0.5")
+        for _ in range(100):
+            if "mon" in bus.stations:
+                break
+            await asyncio.sleep(0.01)
+        assert bus.stations["mon"].listen_only
+        _, err = await asyncio.wait_for(proc.communicate(), TIMEOUT)
+        assert proc.returncode == 0, err
+    finally:
+        await bus.close()
+
+
+def test_listener_cannot_send_and_opens_serial_ports_with_rts_off() -> None:
+    transport = SerialTransport("loop://", baud=BAUD)
+    assert transport.port.rts  # pyserial's default: RTS on when the port opens
+    listener = Listener(transport)
+    assert not hasattr(listener, "write") and not hasattr(listener, "_write")
+    assert transport.port.rts is False
+
+    async def run() -> None:
+        await listener.open()
+        try:
+            assert transport.port.rts is False
+        finally:
+            await listener.close()
+
+    asyncio.run(run())
 
 
 async def test_live_four_wire_on_two_ports() -> None:
