@@ -399,3 +399,19 @@ def test_stray_character_before_an_answer_on_four_wires() -> None:
     ]
     assert out[0].answer_data is not None and out[0].answer_data.pkw == Pkw(1, 52, values=(7,))
     assert out[1].request is not None and out[1].request.port == 1
+
+
+def test_per_minute_rates_fall_when_the_line_goes_quiet() -> None:
+    monitor = Monitor(BAUD, layouts=LayoutBook(Layout(3, 2)))
+    assert monitor.now is None
+    wire = Wire(monitor)
+    for pnu in range(5):
+        wire.send(request(5, Pkw(1, pnu)), 0.01)
+        wire.send(answer(5, Pkw(1, pnu, values=(1,))), 0.003)
+    assert monitor.now == pytest.approx(wire.t)
+    row = monitor.summary.rows(monitor.now)[0]
+    assert row["counters"]["good_per_minute"] == 10  # A 5.2.3 parameter 5
+    monitor.advance(wire.t + 61)  # a minute of silence: the live runner says time passed
+    assert monitor.now == pytest.approx(wire.t + 61)
+    row = monitor.summary.rows(monitor.now)[0]
+    assert row["counters"]["good_per_minute"] == 0 and row["counters"]["good"] == 10

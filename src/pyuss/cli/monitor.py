@@ -289,8 +289,8 @@ class _Output:
         return exchange_line(ex, origin=self.origin, color=self.color)
 
     def table(self) -> str:
-        now = self.monitor.summary.last if self.monitor.summary.last is not None else 0.0
-        return summary_table(self.monitor.summary, now)
+        now = self.monitor.now
+        return summary_table(self.monitor.summary, 0.0 if now is None else now)
 
 
 def _open_writers(

@@ -187,6 +187,17 @@ class Monitor:
     # -- timing ----------------------------------------------------------------------------
 
     @property
+    def now(self) -> float | None:
+        """The latest time the monitor knows of: the end of the last byte or frame, or a later
+        time `advance` was told (None before anything came). The summary's per-minute rates
+        are taken up to it, so they fall when the line goes quiet."""
+        times = [*self._advanced, *(rx.last_byte_end for rx in self._rx)]
+        if self.summary.last is not None:
+            times.append(self.summary.last)
+        known = [t for t in times if math.isfinite(t)]
+        return max(known) if known else None
+
+    @property
     def answer_window(self) -> float:
         """An answer that starts this long after the request's end is in time."""
         return self.response_limit + self.resolution
