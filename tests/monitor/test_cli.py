@@ -374,6 +374,32 @@ def test_wireshark_path_and_install(tmp_path: Path, capsys: pytest.CaptureFixtur
     blocker.write_text("")
     assert main(["wireshark", "install", "--dir", str(blocker / "sub")]) == 1
     assert "cannot install" in capsys.readouterr().err
+    assert main(["wireshark", "install", "--dir", str(blocker)]) == 2
+    assert "not a folder" in capsys.readouterr().err
+
+
+def test_wireshark_install_replaces_only_its_own_dissector(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    shipped = dissector_source().read_bytes()
+    installed = tmp_path / "uss.lua"
+    # An earlier version of pyuss's dissector is updated.
+    installed.write_bytes(shipped.splitlines(keepends=True)[0] + b"-- older\n")
+    assert main(["wireshark", "install", "--dir", str(tmp_path)]) == 0
+    assert "updated" in capsys.readouterr().err
+    assert installed.read_bytes() == shipped
+    # Someone else's uss.lua is left alone, unless --force.
+    theirs = b'local p = Proto("siemens_uss", "their USS dissector")\n'
+    installed.write_bytes(theirs)
+    assert main(["wireshark", "install", "--dir", str(tmp_path)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "is not the pyuss dissector" in err and "--force" in err
+    assert len(err.splitlines()) == 1
+    assert installed.read_bytes() == theirs
+    assert main(["wireshark", "install", "--dir", str(tmp_path), "--force"]) == 0
+    assert "updated" in capsys.readouterr().err
+    assert installed.read_bytes() == shipped
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["uss.lua"]
 
 
 def test_a_reader_that_goes_away_ends_the_run_quietly(tmp_path: Path) -> None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -159,3 +160,38 @@ def test_tshark_info_column_and_expert_info(tmp_path: Path) -> None:
     assert refused.split() == ["4"]
     bad = _tshark(path, tmp_path, "-Y", "uss.bcc.ok == 0", "-T", "fields", "-e", "frame.number")
     assert bad.split() == ["8"]
+
+
+def test_uss_wireshark_install_is_what_tshark_loads(tmp_path: Path) -> None:
+    """Installed into the default folder of a user (HOME), tshark loads the dissector by
+    itself, with no -X option."""
+    assert TSHARK is not None, "tshark must be installed in CI (make test installs it)"
+    path = tmp_path / "line.pcapng"
+    _capture(path)
+    home = tmp_path / "home"
+    home.mkdir()
+    env = {**os.environ, "HOME": str(home), "XDG_CONFIG_HOME": str(home / "config")}
+    result = subprocess.run(
+        [sys.executable, "-m", "pyuss.cli.main", "wireshark", "install"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=60,
+        check=True,
+    )
+    assert Path(result.stdout.strip()) == home / ".local/lib/wireshark/plugins/uss.lua"
+    folders = subprocess.run(
+        [TSHARK, "-G", "folders"], capture_output=True, text=True, env=env, timeout=120
+    ).stdout
+    assert f"{home}/.local/lib/wireshark/plugins" in folders
+    out = subprocess.run(
+        [TSHARK, "-r", str(path), "-T", "fields", "-e", "uss.pnu", "-e", "_ws.col.Info"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+        check=True,
+    ).stdout
+    assert out.splitlines()[0] == (
+        "52\tRequest adr 5: read parameter value (1), PNU 52, CW 047E, SP 0.00%"
+    )
