@@ -339,3 +339,33 @@ async def test_noise_alone_within_the_response_delay_is_the_damaged_answer() -> 
     assert exchanges[1].request.raw == request(5, Pkw(1, 53))
     assert exchanges[1].answer is not None and exchanges[1].answer.raw == b"\xff\xfe\xfd"
     assert monitor.summary.addresses[5].no_answer == 0
+
+
+async def test_answer_to_a_broadcast_on_two_wires() -> None:
+    broadcast = bytes.fromhex("02 0E 20 00 05 00 00 00 00 00 00 00 00 20 00 09")
+
+    def reply(tg: Telegram) -> bytes | None:
+        if tg.mode.is_broadcast:
+            return answer(5, Pkw(0), 0x0231)  # a fault: no slave answers a broadcast (A 3)
+        return echo_job(0x0231)(tg)
+
+    jobs = [REQ_52, broadcast, request(5, Pkw(1, 53)), broadcast, request(5, Pkw(1, 54))]
+    line = await _line(jobs, [Slave(5, reply, broadcasts=True)])
+    exchanges, monitor = decode(line, layouts=LayoutBook(Layout(3, 2), {0: Layout(4, 2)}))
+    assert [(ex.kind, ex.address) for ex in exchanges] == [
+        ("exchange", 5),
+        ("request", 0),
+        ("answer", 5),
+        ("exchange", 5),
+        ("request", 0),
+        ("answer", 5),
+        ("exchange", 5),
+    ]
+    unexpected = [("unexpected", "answer")]
+    assert _problems(exchanges) == [[], [], unexpected, [], [], unexpected, []]
+    assert "after a broadcast" in exchanges[2].issues[0].text
+    assert "taken as an answer" in exchanges[2].unsure
+    assert exchanges[3].request_data is not None
+    assert exchanges[3].request_data.pkw == Pkw(1, 53, values=(0,))
+    assert monitor.summary.line.unexpected == 2
+    assert monitor.summary.addresses[5].no_answer == 0

@@ -488,9 +488,16 @@ class Monitor:
     def _on_two_wire(self, frame: Frame) -> list[Exchange]:
         p = self._pending
         as_request = replace(frame, direction=Direction.REQUEST, guessed=True)
+        answer = replace(frame, direction=Direction.RESPONSE, guessed=True)
+        if p is None and self._answers_broadcast(frame):
+            self._last = answer
+            unsure = (
+                "came within the response delay limit after a broadcast, and its PZD1 was seen "
+                f"as a status word of address {frame.address} before; taken as an answer"
+            )
+            return [self._unexpected(answer, unsure)]
         if p is None or (frame.mode is not None and frame.mode.is_broadcast):
             return self._on_request(as_request)
-        answer = replace(frame, direction=Direction.RESPONSE, guessed=True)
         delay = frame.start - p.end
         if delay <= self.answer_window + _EPS:
             if frame.telegram is None:
@@ -543,6 +550,10 @@ class Monitor:
         if frame.telegram is None:
             return self._noise(frame)
         self._last = frame
+        return [self._unexpected(frame)]
+
+    def _unexpected(self, frame: Frame, unsure: str = "") -> Exchange:
+        """An answer with no request open: to a broadcast (A 3), or to nothing."""
         b = self._broadcast
         if b is not None and 0 <= frame.start - b.end <= self.late_limit:
             why = (
@@ -551,7 +562,20 @@ class Monitor:
             )
         else:
             why = "an answer without a request"
-        return [self._build(None, frame, [Issue(Problem.UNEXPECTED, "answer", why)])]
+        return self._build(None, frame, [Issue(Problem.UNEXPECTED, "answer", why)], unsure)
+
+    def _answers_broadcast(self, frame: Frame) -> bool:
+        """On a 2-wire line: whether ``frame``, right after a broadcast and within the response
+        delay limit, is a slave's answer to it by its PZD1 (seen as a status word of its
+        address, never as a control word)."""
+        b = self._broadcast
+        return (
+            b is not None
+            and self._last is b
+            and frame.mode is AddressMode.NORMAL
+            and frame.start - b.end <= self.answer_window + _EPS
+            and self._pzd1_seen(frame, self._seen_status, self._seen_control)
+        )
 
     def _suspect(self, frame: Frame) -> list[Exchange]:
         """Bytes without a telegram within the response delay limit of the open request:
