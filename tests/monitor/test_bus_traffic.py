@@ -20,6 +20,7 @@ from monitor.traffic import (
 from pyuss.bus import Fault, FaultKind, FaultPlan
 from pyuss.monitor import Direction, Exchange, LayoutBook, LayoutSource, Problem, exchange_line
 from pyuss.protocol import AddressMode, Layout, Pkw, Telegram, bcc
+from pyuss.protocol.layout import PKW_VARIABLE
 from pyuss.protocol.timing import char_time
 
 BAUD = 38400
@@ -369,3 +370,25 @@ async def test_answer_to_a_broadcast_on_two_wires() -> None:
     assert exchanges[3].request_data.pkw == Pkw(1, 53, values=(0,))
     assert monitor.summary.line.unexpected == 2
     assert monitor.summary.addresses[5].no_answer == 0
+
+
+async def test_net_data_that_do_not_fit_the_layout() -> None:
+    # Address 5 is given the variable layout with 2 PZD (PKE, IND, a PWE and 2 PZD at least,
+    # C 4.1.2); address 6 is inferred. A telegram of 4 words cannot be read with the first,
+    # one of 7 bytes with no layout at all (net data are words, A 4).
+    short = Telegram(5, AddressMode.NORMAL, bytes(8)).encode()
+    odd = Telegram(6, AddressMode.NORMAL, bytes(7)).encode()
+    line = await _line([REQ_52, short, odd], [Slave(5, lambda tg: None)])
+    layouts = LayoutBook(None, {5: Layout(PKW_VARIABLE, 2)})
+    exchanges, _ = decode(line, layouts=layouts)
+    assert [(ex.address, ex.problems) for ex in exchanges] == [
+        (5, (Problem.NO_ANSWER,)),
+        (5, (Problem.NO_ANSWER, Problem.LAYOUT)),
+        (6, (Problem.NO_ANSWER, Problem.LAYOUT)),
+    ]
+    assert "4 net data words do not fit layout v,2" in exchanges[1].issues[1].text
+    assert exchanges[2].issues[1].text == "7 net bytes are not whole words (A 4)"
+    # What cannot be decoded is shown as bytes, and the problem is highlighted.
+    text = exchange_line(exchanges[1])
+    assert "adr 5     v,2    data 00 00 00 00 00 00 00 00  !! no_answer" in text
+    assert "; layout: 4 net data words" in text

@@ -17,6 +17,7 @@ from pyuss.monitor.render import exchange_line
 from pyuss.protocol import Layout, Pkw, Receiver, Telegram
 from pyuss.protocol.layout import PKW_VARIABLE
 from pyuss.protocol.timing import char_time, start_pause
+from pyuss.transport.base import LineError
 
 VECTORS = load_vectors("uss")["telegrams"]
 BAUD = 19200
@@ -415,3 +416,28 @@ def test_per_minute_rates_fall_when_the_line_goes_quiet() -> None:
     assert monitor.now == pytest.approx(wire.t + 61)
     row = monitor.summary.rows(monitor.now)[0]
     assert row["counters"]["good_per_minute"] == 0 and row["counters"]["good"] == 10
+
+
+def test_line_errors_a_port_flags_are_receive_faults() -> None:
+    # A 5.2.2: characters the port flagged (overrun, parity, framing) make the telegram a
+    # fault of that kind; A 5.2.3 counts them and latches the status bits 1, 2 and 0.
+    monitor = Monitor(BAUD, layouts=LayoutBook(Layout(3, 2)))
+    t = 10.0
+    out: list[Exchange] = []
+    for error in (LineError.OVERRUN, LineError.PARITY, LineError.FRAMING):
+        t += 0.05 + len(REQ_52) * TC
+        out += monitor.feed(REQ_52, t, [(6, error)])
+    out += monitor.finish()
+    assert [ex.problems for ex in out] == [
+        (Problem.OVERRUN,),
+        (Problem.PARITY,),
+        (Problem.FRAMING,),
+    ]
+    for ex in out:  # damaged, and still shown as far as the bytes go
+        assert ex.kind == "request" and ex.request_data is not None
+        assert ex.request_data.pkw == Pkw(1, 52, values=(0,))
+    for stats in (monitor.summary.line, monitor.summary.addresses[5]):
+        counters = stats.diagnostics.snapshot(t)
+        assert (counters.overrun, counters.parity, counters.framing) == (1, 1, 1)
+        assert counters.error_status == 0x07
+        assert counters.discarded == 3 and counters.timeout == 0  # damaged: no answer due
