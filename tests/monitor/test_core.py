@@ -180,6 +180,30 @@ def test_real_port_gap_keeps_bursty_telegrams_whole() -> None:
     assert Problem.RESIDUAL_TIME in [p for ex in cut for p in ex.problems]
 
 
+def _feed_in_bursts(
+    monitor: Monitor, data: bytes, pauses: dict[int, float], t: float = 50.0
+) -> tuple[list[Exchange], float]:
+    """Feed ``data`` from ``t`` on, as bursts split where ``pauses`` (byte position: seconds
+    of idle line before it) say; the exchanges and the end of the last byte."""
+    out: list[Exchange] = []
+    for a, b in itertools.pairwise([0, *sorted(pauses), len(data)]):
+        t += pauses.get(a, 0.0) + (b - a) * TC
+        out += monitor.feed(data[a:b], t)
+    return out, t
+
+
+ANS_2 = answer(5, Pkw(1, 52, values=(2,)))
+
+
+def _cut_request_then_answer(
+    monitor: Monitor, pauses: dict[int, float], delay: float
+) -> list[Exchange]:
+    """REQ_52 in bursts (`_feed_in_bursts`), ANS_2 ``delay`` seconds later, the end."""
+    out, t = _feed_in_bursts(monitor, REQ_52, pauses)
+    out += monitor.feed(ANS_2, t + delay + len(ANS_2) * TC)
+    return out + monitor.finish()
+
+
 @pytest.mark.parametrize(
     ("cuts", "pause", "whole"),
     [
@@ -192,16 +216,8 @@ def test_telegrams_cut_by_port_timestamps_are_joined(
     cuts: list[int], pause: float, whole: bool
 ) -> None:
     monitor = Monitor(BAUD, gap=0.002, layouts=LayoutBook(Layout(3, 2)))
-    t = 50.0
-    out: list[Exchange] = []
-    bounds = [0, *cuts, len(REQ_52)]
-    for a, b in itertools.pairwise(bounds):
-        t += (pause if a else 0.0) + (b - a) * TC
-        out += monitor.feed(REQ_52[a:b], t)
-    ans = answer(5, Pkw(1, 52, values=(2,)))
-    t += 0.004 + len(ans) * TC
-    out += monitor.feed(ans, t)
-    out += monitor.finish()
+    pauses = dict.fromkeys(cuts, pause)
+    out = _cut_request_then_answer(monitor, pauses, 0.004)
     if whole:
         (ex,) = out
         assert ex.issues == () and ex.request is not None and ex.request.raw == REQ_52
@@ -213,13 +229,37 @@ def test_telegrams_cut_by_port_timestamps_are_joined(
         ]
     # Exact timestamps (the virtual bus) never join: the pause was on the line.
     exact = Monitor(BAUD, layouts=LayoutBook(Layout(3, 2)))
-    t = 50.0
-    cut = []
-    for a, b in itertools.pairwise(bounds):
-        t += (pause if a else 0.0) + (b - a) * TC
-        cut += exact.feed(REQ_52[a:b], t)
+    cut, _ = _feed_in_bursts(exact, REQ_52, pauses)
     cut += exact.finish()
     assert Problem.RESIDUAL_TIME in [p for ex in cut for p in ex.problems]
+
+
+@pytest.mark.parametrize(
+    ("pauses", "whole"),
+    [
+        ({13: 0.004}, True),  # the last byte late
+        ({7: 0.0045, 13: 0.0045}, False),  # longer than residual time + resolution (A 6.3)
+    ],
+)
+def test_a_telegram_the_port_stamped_late_runs_into_the_answer(
+    pauses: dict[int, float], whole: bool
+) -> None:
+    # A port that delivers bytes of a telegram late, each burst less than the gap after the
+    # last, and the answer right after: the receiver finds the residual time exceeded
+    # (A 5.2.1.2) and runs on into the answer. Within the timing resolution (gap less start
+    # pause) that is the port's doing; beyond it, a fault on the line.
+    monitor = Monitor(BAUD, gap=0.005, layouts=LayoutBook(Layout(3, 2)))
+    out = _cut_request_then_answer(monitor, pauses, 0.003)
+    ans = ANS_2
+    if whole:
+        (ex,) = out
+        assert ex.kind == "exchange" and ex.issues == ()
+        assert ex.request is not None and ex.request.raw == REQ_52
+        assert ex.answer is not None and ex.answer.raw == ans
+        assert ex.answer_data is not None and ex.answer_data.pkw == Pkw(1, 52, values=(2,))
+    else:
+        assert out[0].problems[0] is Problem.RESIDUAL_TIME
+        assert out[0].request is not None and out[0].request.raw == REQ_52 + ans
 
 
 def test_gap_shorter_than_the_start_pause_is_refused() -> None:

@@ -354,6 +354,10 @@ class Monitor:
         assert isinstance(event, ReceiveFault)
         if event.kind is FaultKind.NO_STX:
             return self._salvage(port, event)
+        if event.kind is FaultKind.RESIDUAL_TIME and self.resolution > 0:
+            late = self._late_by_the_port(port, event)
+            if late is not None:
+                return late
         return [
             Frame(
                 event.raw,
@@ -365,6 +369,34 @@ class Monitor:
                 port=port,
             )
         ]
+
+    def _late_by_the_port(self, port: int, event: ReceiveFault) -> list[Frame] | None:
+        """A telegram the receiver found over its residual time, with the bytes after it: when
+        it is whole with a valid BCC and certainly complete within its residual time plus the
+        resolution (its last byte came no later than the run's end less the bytes after it),
+        the lateness may be the port's timestamps; then it is a telegram and the rest is cut
+        like bytes without a start (None otherwise)."""
+        raw, ct = event.raw, self.timing.char_time
+        if len(raw) < MIN_TELEGRAM_BYTES or raw[0] != STX or not MIN_LGE <= raw[1] <= MAX_LGE:
+            return None
+        need = raw[1] + 2
+        piece = raw[:need]
+        telegram = telegram_in(piece)
+        if telegram is None or bcc(piece) != 0:
+            return None
+        rest = raw[need:]
+        end = event.end - len(rest) * ct
+        first = Frame(piece, event.start, end, telegram=telegram, port=port)
+        if end - event.start > self._join_limit(first) + _EPS:
+            return None
+        frames = [first]
+        if rest:
+            self._prev_end[port] = end
+            tail = ReceiveFault(
+                FaultKind.NO_STX, rest, end, event.end, "characters without a start pause"
+            )
+            frames += self._salvage(port, tail)
+        return frames
 
     def _salvage(self, port: int, event: ReceiveFault) -> list[Frame]:
         """Cut whole telegrams out of a run of bytes without a valid start."""
