@@ -252,9 +252,12 @@ async def test_live_on_a_pty_with_real_port_timing(tmp_path: Path) -> None:
     bus = VirtualBus(BAUD)
     (path,) = await bus.serve_pty(1)
     # The bus hands characters to the pty as its event loop gets round to it, so the pty's
-    # timestamps are as coarse as a real adapter's, or worse when the machine is busy: a
-    # generous --gap, as a user would give for such a port.
-    proc = await _start("--port", path, "--baud", str(BAUD), "--json", "--count", "3", "--gap", "5")
+    # timestamps are as coarse as a real adapter's, or worse when the machine is busy (stalls
+    # of several milliseconds inside a telegram): a generous --gap, as a user would give for
+    # such a port. Answers and requests then come in runs the monitor cuts apart again.
+    proc = await _start(
+        "--port", path, "--baud", str(BAUD), "--json", "--count", "3", "--gap", "15"
+    )  # fmt: skip
     await asyncio.sleep(0.2)  # the monitor's reader is running
     await drive(bus, bus, JOBS, SLAVES)
     items, _ = await _json_lines(proc)
