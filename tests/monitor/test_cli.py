@@ -9,6 +9,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -103,6 +104,32 @@ def test_read_prints_one_line_per_exchange(
     assert "!! no_answer: address 5 did not answer within 20.000 ms" in lines[2]
     assert err.splitlines()[0].startswith("adr   layout")
     assert err.splitlines()[1].startswith("5     3,2 given")
+
+
+def test_wall_clock_times_and_colours(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("TZ", "UTC")
+    time.tzset()
+    try:
+        path = tmp_path / "line.pcapng"
+        _capture(path)  # frames at 100 s after the epoch: 00:01:40 UTC
+        args = ["monitor", "--read", str(path), "--time", "abs", "--color", "always"]
+        assert main(args) == 0
+        lines = capsys.readouterr().out.splitlines()
+        assert [line.split()[0] for line in lines] == [
+            "00:01:40.010000",
+            "00:01:40.040042",
+            "00:01:40.070083",
+        ]
+        assert "\x1b[" not in lines[0]  # nothing to highlight
+        assert lines[1].endswith("\x1b[31m!! bcc: " + lines[1].split("!! bcc: ")[1])
+        assert lines[1].endswith("\x1b[0m") and "\x1b[31m!! no_answer" in lines[2]
+        assert main(["monitor", "--read", str(path), "--color", "never"]) == 0
+        assert "\x1b[" not in capsys.readouterr().out
+    finally:
+        monkeypatch.delenv("TZ")
+        time.tzset()
 
 
 def test_read_json_and_convert(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
