@@ -372,6 +372,30 @@ async def test_live_four_wire_on_two_ports() -> None:
     assert not first["request"]["guessed"]  # type: ignore[index]
 
 
+async def test_live_summary_view_refreshes(tmp_path: Path) -> None:
+    bus = VirtualBus(BAUD)
+    host, port = await bus.serve_tcp(framed=True)
+    try:
+        proc = await _start(
+            "--port", f"bus://{host}:{port}", "--baud", str(BAUD), "--layout", "3,2",
+            "--summary", "--interval", "0.2", "--duration", "2",
+        )  # fmt: skip
+        await drive(bus, bus, JOBS, SLAVES)
+        out, err = await asyncio.wait_for(proc.communicate(), TIMEOUT)
+    finally:
+        await bus.close()
+    assert proc.returncode == 0, err
+    tables = [t for t in out.decode().split("\n\n") if t.strip()]
+    assert len(tables) >= 3  # refreshed every 0.2 s, and the last one at the end
+    assert all(t.startswith("adr   layout") for t in tables)
+    last = tables[-1].splitlines()
+    row = last[1].split()
+    # address 5: 3 requests, 2 answers, 1 without; 4 good frames + 1 timeout (A 5.2.3 bit 7)
+    assert row[:2] == ["5", "3,2"] and row[3:6] == ["3", "2", "1"]
+    assert "0080h" in last[1] and last[-1].startswith("line")
+    assert not any(line.lstrip().startswith("0.0") for line in out.decode().splitlines())
+
+
 async def test_sigint_is_a_normal_stop(tmp_path: Path) -> None:
     bus = VirtualBus(BAUD)
     host, port = await bus.serve_tcp(framed=True)
