@@ -13,7 +13,7 @@ from conftest import load_vectors
 from monitor.traffic import REQ_52, Wire, answer, request
 from pyuss.errors import ConfigError
 from pyuss.monitor import Direction, Exchange, LayoutBook, LayoutSource, Monitor, Problem
-from pyuss.monitor.render import exchange_line
+from pyuss.monitor.render import exchange_line, summary_table
 from pyuss.protocol import Layout, Pkw, Receiver, Telegram
 from pyuss.protocol.layout import PKW_VARIABLE
 from pyuss.protocol.timing import char_time, start_pause
@@ -481,3 +481,29 @@ def test_line_errors_a_port_flags_are_receive_faults() -> None:
         assert (counters.overrun, counters.parity, counters.framing) == (1, 1, 1)
         assert counters.error_status == 0x07
         assert counters.discarded == 3 and counters.timeout == 0  # damaged: no answer due
+
+
+def test_response_time_statistics_and_error_rate() -> None:
+    monitor = Monitor(BAUD, layouts=LayoutBook(Layout(3, 2)))
+    wire = Wire(monitor)
+    for ms in range(2, 21):  # response delays 2..20 ms (A 5.2.1.1)
+        wire.send(request(5, Pkw(1, ms)), 0.03)
+        wire.send(answer(5, Pkw(1, ms, values=(ms,))), ms / 1000)
+    wire.send(request(5, Pkw(1, 99)), 0.03)
+    bad = bytearray(answer(5, Pkw(1, 99, values=(1,))))
+    bad[-1] ^= 0x01
+    wire.send(bytes(bad), 0.005)
+    out = wire.finish()
+    assert len(out) == 20 and out[-1].problems == (Problem.BCC,)
+    stats = monitor.summary.addresses[5]
+    times = stats.delays.as_dict()
+    assert times == {
+        "count": 20,
+        "min_ms": 2.0,
+        "mean_ms": pytest.approx((sum(range(2, 21)) + 5) / 20, abs=1e-3),
+        "p95_ms": 19.0,  # nearest rank: the 19th of the 20 sorted (5 ms twice)
+        "max_ms": 20.0,
+    }
+    assert stats.error_rate == pytest.approx(1 / 40)  # one discarded frame of 40
+    row = summary_table(monitor.summary, wire.t).splitlines()[1]
+    assert row.split()[8] == "2.5" and row.endswith("2.00/10.70/19.00/20.00")
