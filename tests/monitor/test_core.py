@@ -507,3 +507,19 @@ def test_response_time_statistics_and_error_rate() -> None:
     assert stats.error_rate == pytest.approx(1 / 40)  # one discarded frame of 40
     row = summary_table(monitor.summary, wire.t).splitlines()[1]
     assert row.split()[8] == "2.5" and row.endswith("2.00/10.70/19.00/20.00")
+
+
+def test_noise_then_the_master_repeating_its_request() -> None:
+    # A garbled answer, and the master repeats the request at once: the noise was the answer.
+    wire = Wire(Monitor(BAUD, layouts=LayoutBook(Layout(3, 2))))
+    wire.send(REQ_52, 0.01)
+    wire.send(b"\xff\xfe\xfd", 0.002)
+    wire.send(REQ_52, 0.005)
+    wire.send(answer(5, Pkw(1, 52, values=(1,))), 0.002)
+    out = wire.finish()
+    assert [(ex.kind, ex.problems) for ex in out] == [
+        ("exchange", (Problem.NO_STX,)),
+        ("exchange", ()),
+    ]
+    assert out[0].answer is not None and out[0].answer.raw == b"\xff\xfe\xfd"
+    assert out[1].answer_data is not None and out[1].answer_data.pkw == Pkw(1, 52, values=(1,))

@@ -651,6 +651,10 @@ class Monitor:
             return True
         if frame.address != request.address or frame.telegram.mode.is_broadcast:
             return False
+        if frame.raw == request.raw and frame.mode is not AddressMode.MIRROR:
+            return False  # the master repeating its request
+        if self._pzd1_seen(frame, self._seen_control, self._seen_status):
+            return False  # a control word: the master's next request
         if frame.start - request.end <= self.answer_window + _EPS:
             return True
         return request.ok and self._looks_like_answer(request, frame)
