@@ -20,6 +20,7 @@ from monitor.traffic import (
 from pyuss.bus import Fault, FaultKind, FaultPlan
 from pyuss.monitor import Direction, Exchange, LayoutBook, LayoutSource, Problem, exchange_line
 from pyuss.protocol import AddressMode, Layout, Pkw, Telegram, bcc
+from pyuss.protocol.layout import PKW_VARIABLE
 from pyuss.protocol.timing import char_time
 
 BAUD = 38400
@@ -288,3 +289,106 @@ async def test_four_wire_late_wrong_and_unexpected_answers() -> None:
     assert all(ex.unsure == "" for ex in exchanges)
     assert "after a broadcast" in exchanges[3].issues[0].text
     assert monitor.summary.line.unexpected == 1
+
+
+@pytest.mark.parametrize("pause", [0, 3], ids=["glued", "pause"])
+async def test_a_stray_character_before_the_answer_does_not_shift_the_pairing(
+    pause: int,
+) -> None:
+    # A slave's driver switching on can put a character on an RS-485 line before the answer;
+    # glued to the answer (no start pause) or apart from it (a stretched gap).
+    def glitch(tg: Telegram) -> bytes | None:
+        data = echo_job()(tg)
+        return None if data is None else b"\xff" + data
+
+    jobs = [REQ_52, request(5, Pkw(1, 53)), request(5, Pkw(1, 54), 0x047F)]
+    plan = FaultPlan(
+        [Fault(FaultKind.STRETCH, station="slave", gap=pause, nth=2 + 15 * n) for n in range(3)]
+        if pause
+        else []
+    )
+    line = await _line(jobs, [Slave(5, glitch)], faults=plan)
+    exchanges, monitor = decode(line)
+    assert [ex.kind for ex in exchanges] == ["exchange", "noise"] * 3
+    for ex, pnu in zip(exchanges[::2], (52, 53, 54), strict=True):
+        assert ex.request_data is not None and ex.answer_data is not None
+        assert ex.request_data.pkw == Pkw(1, pnu, values=(0,))
+        assert ex.answer_data.pkw == Pkw(1, pnu, values=(1234,))
+        assert ex.answer_data.pzd == (0x0231, 0x1000)
+        assert ex.unsure == "" and ex.notes == ()
+        # Glued, the master's receiver sees no start pause before STX (A 5.1.2).
+        assert _problems([ex]) == [[] if pause else [("no_stx", "answer")]]
+    for noise in exchanges[1::2]:
+        assert noise.request is not None and noise.request.raw == b"\xff"
+        assert noise.problems == (Problem.NO_STX,)
+    # Control and status words are followed through (a damaged answer's status is not).
+    assert exchanges[4].control_before == 0x047E
+    assert exchanges[4].status_before == (0x0231 if pause else None)
+    assert monitor.summary.addresses[5].no_answer == 0
+    assert [ex.layout for ex in exchanges[::2]] == [Layout(3, 2)] * 3
+
+
+async def test_noise_alone_within_the_response_delay_is_the_damaged_answer() -> None:
+    def garbled(tg: Telegram) -> bytes | None:
+        return b"\xff\xfe\xfd"
+
+    line = await _line([REQ_52, request(5, Pkw(1, 53))], [Slave(5, garbled)])
+    exchanges, monitor = decode(line, layouts=GIVEN)
+    assert [ex.kind for ex in exchanges] == ["exchange", "exchange"]
+    assert _problems(exchanges) == [[("no_stx", "answer")]] * 2
+    assert exchanges[1].request is not None
+    assert exchanges[1].request.raw == request(5, Pkw(1, 53))
+    assert exchanges[1].answer is not None and exchanges[1].answer.raw == b"\xff\xfe\xfd"
+    assert monitor.summary.addresses[5].no_answer == 0
+
+
+async def test_answer_to_a_broadcast_on_two_wires() -> None:
+    broadcast = bytes.fromhex("02 0E 20 00 05 00 00 00 00 00 00 00 00 20 00 09")
+
+    def reply(tg: Telegram) -> bytes | None:
+        if tg.mode.is_broadcast:
+            return answer(5, Pkw(0), 0x0231)  # a fault: no slave answers a broadcast (A 3)
+        return echo_job(0x0231)(tg)
+
+    jobs = [REQ_52, broadcast, request(5, Pkw(1, 53)), broadcast, request(5, Pkw(1, 54))]
+    line = await _line(jobs, [Slave(5, reply, broadcasts=True)])
+    exchanges, monitor = decode(line, layouts=LayoutBook(Layout(3, 2), {0: Layout(4, 2)}))
+    assert [(ex.kind, ex.address) for ex in exchanges] == [
+        ("exchange", 5),
+        ("request", 0),
+        ("answer", 5),
+        ("exchange", 5),
+        ("request", 0),
+        ("answer", 5),
+        ("exchange", 5),
+    ]
+    unexpected = [("unexpected", "answer")]
+    assert _problems(exchanges) == [[], [], unexpected, [], [], unexpected, []]
+    assert "after a broadcast" in exchanges[2].issues[0].text
+    assert "taken as an answer" in exchanges[2].unsure
+    assert exchanges[3].request_data is not None
+    assert exchanges[3].request_data.pkw == Pkw(1, 53, values=(0,))
+    assert monitor.summary.line.unexpected == 2
+    assert monitor.summary.addresses[5].no_answer == 0
+
+
+async def test_net_data_that_do_not_fit_the_layout() -> None:
+    # Address 5 is given the variable layout with 2 PZD (PKE, IND, a PWE and 2 PZD at least,
+    # C 4.1.2); address 6 is inferred. A telegram of 4 words cannot be read with the first,
+    # one of 7 bytes with no layout at all (net data are words, A 4).
+    short = Telegram(5, AddressMode.NORMAL, bytes(8)).encode()
+    odd = Telegram(6, AddressMode.NORMAL, bytes(7)).encode()
+    line = await _line([REQ_52, short, odd], [Slave(5, lambda tg: None)])
+    layouts = LayoutBook(None, {5: Layout(PKW_VARIABLE, 2)})
+    exchanges, _ = decode(line, layouts=layouts)
+    assert [(ex.address, ex.problems) for ex in exchanges] == [
+        (5, (Problem.NO_ANSWER,)),
+        (5, (Problem.NO_ANSWER, Problem.LAYOUT)),
+        (6, (Problem.NO_ANSWER, Problem.LAYOUT)),
+    ]
+    assert "4 net data words do not fit layout v,2" in exchanges[1].issues[1].text
+    assert exchanges[2].issues[1].text == "7 net bytes are not whole words (A 4)"
+    # What cannot be decoded is shown as bytes, and the problem is highlighted.
+    text = exchange_line(exchanges[1])
+    assert "adr 5     v,2    data 00 00 00 00 00 00 00 00  !! no_answer" in text
+    assert "; layout: 4 net data words" in text

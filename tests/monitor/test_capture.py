@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import json
 import struct
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -24,6 +25,7 @@ from pyuss.monitor import (
     LayoutChoice,
     LayoutSource,
     Monitor,
+    Problem,
     open_writer,
     read_capture,
     replay,
@@ -55,6 +57,9 @@ def _traffic(four_wire: bool = False) -> tuple[list[Exchange], Monitor]:
     wire.send(answer(6, Pkw(1, 1, values=(9,))), 0.030, port)  # late
     wire.send(request(6, Pkw(1, 2)), 0.01)
     wire.send(answer(6, Pkw(1, 2, values=(1,))), 0.004, port)
+    wire.send(request(6, Pkw(1, 3)), 0.01)
+    wire.send(b"\x00", 0.002, port)  # a stray character: noise, reported after the exchange
+    wire.send(answer(6, Pkw(1, 3, values=(1,))), 0.002, port)
     return wire.finish(), monitor
 
 
@@ -87,7 +92,9 @@ def test_round_trip_and_replay(tmp_path: Path, suffix: str, four_wire: bool) -> 
     capture = read_capture(path)
     assert capture.baud == BAUD and capture.four_wire == four_wire
     assert capture.gap == pytest.approx(monitor.gap)
-    frames = [f for ex in exchanges for f in ex.frames]
+    # One packet per frame, in time order (the noise was reported after its exchange).
+    assert [ex.kind for ex in exchanges[-2:]] == ["exchange", "noise"]
+    frames = sorted((f for ex in exchanges for f in ex.frames), key=lambda f: f.start)
     assert len(capture.records) == len(frames)
     for record, frame in zip(capture.records, frames, strict=True):
         got = record.frame
@@ -103,6 +110,35 @@ def test_round_trip_and_replay(tmp_path: Path, suffix: str, four_wire: bool) -> 
         assert got.detail == frame.detail
     replayed = list(replay(capture, Monitor(capture.baud, gap=capture.gap)))
     assert _shape(replayed) == _shape(exchanges)
+    # Frames out of order in a file (pcapng allows it; merged captures have it) replay the same.
+    shuffled = replace(capture, records=capture.records[::-1])
+    assert _shape(list(replay(shuffled, Monitor(capture.baud, gap=capture.gap)))) == _shape(
+        exchanges
+    )
+
+
+def test_replay_judges_a_given_fixed_length_like_the_live_monitor(tmp_path: Path) -> None:
+    # A capture made without layouts, replayed with a layout the telegrams do not have: the
+    # wrong LGE is a receive fault (A 5.2), as a live monitor with that layout reports it.
+    exchanges, monitor = _traffic()
+    path = tmp_path / "line.jsonl"
+    writer = open_writer(path, baud=BAUD, gap=monitor.gap)
+    for ex in exchanges:
+        writer.write(ex)
+    writer.close()
+    given = LayoutBook(None, {6: Layout(4, 2)})
+    replayed = list(replay(read_capture(path), Monitor(BAUD, layouts=given)))
+    bad = [ex for ex in replayed if ex.address == 6 and ex.kind == "exchange"]
+    assert bad and all(ex.problems[:2] == (Problem.BAD_LGE, Problem.BAD_LGE) for ex in bad), [
+        ex.problems for ex in bad
+    ]
+    assert "address 6 uses the fixed length LGE 14" in bad[0].issues[0].text
+    live = Monitor(BAUD, layouts=LayoutBook(None, {5: Layout(3, 2), 6: Layout(4, 2)}))
+    wire = Wire(live)
+    wire.send(request(6, Pkw(1, 2)), 0.01)
+    (ex,) = wire.finish()
+    assert ex.issues[0].text == bad[0].issues[0].text
+    assert monitor.summary.line.diagnostics.bad_lge == 0
 
 
 def test_pcapng_blocks(tmp_path: Path) -> None:
@@ -180,10 +216,18 @@ def test_bad_files_give_one_clear_error(tmp_path: Path) -> None:
     epb = idb + struct.unpack_from("<I", data, idb + 4)[0]
     wrong_version = bytearray(data)
     wrong_version[epb + 28] = 7
+    header = (
+        json.dumps({"format": "pyuss-monitor-capture", "version": 1, "baud": BAUD}).encode() + b"\n"
+    )
     cases = {
         "empty.pcapng": (b"", "not a capture"),
         "noise.pcapng": (b"\x00\x01\x02\x03" * 8, "not a capture"),
-        "cut.pcapng": (data[:-6], "bad pcapng"),
+        "cut.pcapng": (data[:-6], "truncated: a block of"),
+        "header.pcapng": (data[: epb + 6], "truncated: the file ends inside a block header"),
+        "classic.pcap": (
+            struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 65535, LINKTYPE_USER0),
+            "a classic pcap file, not pcapng",
+        ),
         "version.pcapng": (bytes(wrong_version), "packet 1"),
         "text.jsonl": (b'{"format": "other"}\n', "not a capture"),
         "line.jsonl": (
@@ -191,6 +235,10 @@ def test_bad_files_give_one_clear_error(tmp_path: Path) -> None:
             + b'\n{"hex": "zz"}\n',
             ":2: bad frame",
         ),
+        "nan.jsonl": (header + b'{"hex": "02", "start": NaN, "end": 1}\n', "finite"),
+        "inf.jsonl": (header + b'{"hex": "02", "start": 1, "end": Infinity}\n', "finite"),
+        "order.jsonl": (header + b'{"hex": "02", "start": 2, "end": 1}\n', "end 1.0 is before"),
+        "gap.jsonl": (header.replace(b"}", b', "gap_ms": -1}'), "gap_ms -1"),
         "baud.jsonl": (
             json.dumps({"format": "pyuss-monitor-capture", "version": 1, "baud": 1234}).encode(),
             "not a USS baud rate",

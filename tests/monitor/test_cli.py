@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -15,8 +17,16 @@ import pytest
 from monitor.traffic import REQ_52, Slave, Wire, answer, drive, request
 from pyuss.bus import VirtualBus
 from pyuss.cli.main import main
-from pyuss.monitor import LayoutBook, Monitor, dissector_source, open_writer, read_capture
+from pyuss.monitor import (
+    LayoutBook,
+    Listener,
+    Monitor,
+    dissector_source,
+    open_writer,
+    read_capture,
+)
 from pyuss.protocol import Layout, Pkw
+from pyuss.transport.serialport import SerialTransport
 
 BAUD = 38400
 TIMEOUT = 30
@@ -96,6 +106,32 @@ def test_read_prints_one_line_per_exchange(
     assert err.splitlines()[1].startswith("5     3,2 given")
 
 
+def test_wall_clock_times_and_colours(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("TZ", "UTC")
+    time.tzset()
+    try:
+        path = tmp_path / "line.pcapng"
+        _capture(path)  # frames at 100 s after the epoch: 00:01:40 UTC
+        args = ["monitor", "--read", str(path), "--time", "abs", "--color", "always"]
+        assert main(args) == 0
+        lines = capsys.readouterr().out.splitlines()
+        assert [line.split()[0] for line in lines] == [
+            "00:01:40.010000",
+            "00:01:40.040042",
+            "00:01:40.070083",
+        ]
+        assert "\x1b[" not in lines[0]  # nothing to highlight
+        assert lines[1].endswith("\x1b[31m!! bcc: " + lines[1].split("!! bcc: ")[1])
+        assert lines[1].endswith("\x1b[0m") and "\x1b[31m!! no_answer" in lines[2]
+        assert main(["monitor", "--read", str(path), "--color", "never"]) == 0
+        assert "\x1b[" not in capsys.readouterr().out
+    finally:
+        monkeypatch.delenv("TZ")
+        time.tzset()
+
+
 def test_read_json_and_convert(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     path = tmp_path / "line.pcapng"
     _capture(path)
@@ -154,6 +190,30 @@ def test_bad_input_is_one_line_and_exit_2(
     assert words in err
     assert len(err.splitlines()) == 1
     assert list(tmp_path.iterdir()) == []
+
+
+def test_bad_capture_files_are_one_line_and_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    good = tmp_path / "good.pcapng"
+    _capture(good)
+    data = good.read_bytes()
+    files = {
+        "cut.pcapng": (data[: len(data) // 2], "truncated"),
+        "garbage.bin": (bytes(range(7, 250, 3)), "not a capture"),
+        "wrong.jsonl": (b'{"format": "pyuss-bus-recording"}\n', ""),
+        "text.txt": (b"hello\n", "not a capture"),
+    }
+    for name, (content, words) in files.items():
+        path = tmp_path / name
+        path.write_bytes(content)
+        out = tmp_path / "out.pcapng"
+        assert main(["monitor", "--read", str(path), "-w", str(out)]) == 2, name
+        err = capsys.readouterr().err.strip()
+        assert err.startswith(f"uss monitor: {path}") or name in err, err
+        assert words in err and len(err.splitlines()) == 1, err
+        assert not out.exists()
+        assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]
 
 
 def test_unreachable_port_fails_with_1(capsys: pytest.CaptureFixture[str]) -> None:
@@ -219,9 +279,12 @@ async def test_live_on_a_pty_with_real_port_timing(tmp_path: Path) -> None:
     bus = VirtualBus(BAUD)
     (path,) = await bus.serve_pty(1)
     # The bus hands characters to the pty as its event loop gets round to it, so the pty's
-    # timestamps are as coarse as a real adapter's, or worse when the machine is busy: a
-    # generous --gap, as a user would give for such a port.
-    proc = await _start("--port", path, "--baud", str(BAUD), "--json", "--count", "3", "--gap", "5")
+    # timestamps are as coarse as a real adapter's, or worse when the machine is busy (stalls
+    # of several milliseconds inside a telegram): a generous --gap, as a user would give for
+    # such a port. Answers and requests then come in runs the monitor cuts apart again.
+    proc = await _start(
+        "--port", path, "--baud", str(BAUD), "--json", "--count", "3", "--gap", "15"
+    )  # fmt: skip
     await asyncio.sleep(0.2)  # the monitor's reader is running
     await drive(bus, bus, JOBS, SLAVES)
     items, _ = await _json_lines(proc)
@@ -229,6 +292,66 @@ async def test_live_on_a_pty_with_real_port_timing(tmp_path: Path) -> None:
     _check_exchanges(items)
     # Layouts are inferred: the first exchange alone is a guess.
     assert items[0]["layout"] == "3,2"
+
+
+async def test_the_monitor_never_writes_to_its_port() -> None:
+    # A pty pair of our own: whatever the monitor wrote to its end would come out of ours.
+    ours, theirs = os.openpty()
+    os.set_blocking(ours, False)
+    try:
+        proc = await _start("--port", os.ttyname(theirs), "--baud", str(BAUD), "--json")
+        await asyncio.sleep(0.2)  # the port is open (raw mode: no echo by the tty)
+        for data in (REQ_52, answer(5, Pkw(1, 52, values=(1234,)))) * 2:
+            os.write(ours, data)
+            await asyncio.sleep(0.01)
+        assert proc.stdout is not None
+        first = json.loads(await asyncio.wait_for(proc.stdout.readline(), TIMEOUT))
+        assert "read P52 -> P52 = 1234" in first["summary"]
+        await asyncio.sleep(0.3)
+        with pytest.raises(BlockingIOError):
+            os.read(ours, 100)  # nothing
+        proc.send_signal(signal.SIGINT)
+        _, err = await asyncio.wait_for(proc.communicate(), TIMEOUT)
+        assert proc.returncode == 0, err
+        with pytest.raises(BlockingIOError):
+            os.read(ours, 100)
+    finally:
+        os.close(ours)
+        os.close(theirs)
+
+
+async def test_a_bus_station_is_listen_only_whatever_the_url_says() -> None:
+    bus = VirtualBus(BAUD)
+    host, port = await bus.serve_tcp(framed=True)
+    url = f"bus://{host}:{port}?name=mon&listen_only=0"
+    try:
+        proc = await _start("--port", url, "--baud", str(BAUD), "--duration", "0.5")
+        for _ in range(100):
+            if "mon" in bus.stations:
+                break
+            await asyncio.sleep(0.01)
+        assert bus.stations["mon"].listen_only
+        _, err = await asyncio.wait_for(proc.communicate(), TIMEOUT)
+        assert proc.returncode == 0, err
+    finally:
+        await bus.close()
+
+
+def test_listener_cannot_send_and_opens_serial_ports_with_rts_off() -> None:
+    transport = SerialTransport("loop://", baud=BAUD)
+    assert transport.port.rts  # pyserial's default: RTS on when the port opens
+    listener = Listener(transport)
+    assert not hasattr(listener, "write") and not hasattr(listener, "_write")
+    assert transport.port.rts is False
+
+    async def run() -> None:
+        await listener.open()
+        try:
+            assert transport.port.rts is False
+        finally:
+            await listener.close()
+
+    asyncio.run(run())
 
 
 async def test_live_four_wire_on_two_ports() -> None:
@@ -247,6 +370,30 @@ async def test_live_four_wire_on_two_ports() -> None:
     first = items[0]
     assert first["request"]["port"] == 0 and first["answer"]["port"] == 1  # type: ignore[index]
     assert not first["request"]["guessed"]  # type: ignore[index]
+
+
+async def test_live_summary_view_refreshes(tmp_path: Path) -> None:
+    bus = VirtualBus(BAUD)
+    host, port = await bus.serve_tcp(framed=True)
+    try:
+        proc = await _start(
+            "--port", f"bus://{host}:{port}", "--baud", str(BAUD), "--layout", "3,2",
+            "--summary", "--interval", "0.2", "--duration", "2",
+        )  # fmt: skip
+        await drive(bus, bus, JOBS, SLAVES)
+        out, err = await asyncio.wait_for(proc.communicate(), TIMEOUT)
+    finally:
+        await bus.close()
+    assert proc.returncode == 0, err
+    tables = [t for t in out.decode().split("\n\n") if t.strip()]
+    assert len(tables) >= 3  # refreshed every 0.2 s, and the last one at the end
+    assert all(t.startswith("adr   layout") for t in tables)
+    last = tables[-1].splitlines()
+    row = last[1].split()
+    # address 5: 3 requests, 2 answers, 1 without; 4 good frames + 1 timeout (A 5.2.3 bit 7)
+    assert row[:2] == ["5", "3,2"] and row[3:6] == ["3", "2", "1"]
+    assert "0080h" in last[1] and last[-1].startswith("line")
+    assert not any(line.lstrip().startswith("0.0") for line in out.decode().splitlines())
 
 
 async def test_sigint_is_a_normal_stop(tmp_path: Path) -> None:
@@ -281,6 +428,32 @@ def test_wireshark_path_and_install(tmp_path: Path, capsys: pytest.CaptureFixtur
     blocker.write_text("")
     assert main(["wireshark", "install", "--dir", str(blocker / "sub")]) == 1
     assert "cannot install" in capsys.readouterr().err
+    assert main(["wireshark", "install", "--dir", str(blocker)]) == 2
+    assert "not a folder" in capsys.readouterr().err
+
+
+def test_wireshark_install_replaces_only_its_own_dissector(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    shipped = dissector_source().read_bytes()
+    installed = tmp_path / "uss.lua"
+    # An earlier version of pyuss's dissector is updated.
+    installed.write_bytes(shipped.splitlines(keepends=True)[0] + b"-- older\n")
+    assert main(["wireshark", "install", "--dir", str(tmp_path)]) == 0
+    assert "updated" in capsys.readouterr().err
+    assert installed.read_bytes() == shipped
+    # Someone else's uss.lua is left alone, unless --force.
+    theirs = b'local p = Proto("siemens_uss", "their USS dissector")\n'
+    installed.write_bytes(theirs)
+    assert main(["wireshark", "install", "--dir", str(tmp_path)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "is not the pyuss dissector" in err and "--force" in err
+    assert len(err.splitlines()) == 1
+    assert installed.read_bytes() == theirs
+    assert main(["wireshark", "install", "--dir", str(tmp_path), "--force"]) == 0
+    assert "updated" in capsys.readouterr().err
+    assert installed.read_bytes() == shipped
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["uss.lua"]
 
 
 def test_a_reader_that_goes_away_ends_the_run_quietly(tmp_path: Path) -> None:

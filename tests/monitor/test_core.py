@@ -13,10 +13,11 @@ from conftest import load_vectors
 from monitor.traffic import REQ_52, Wire, answer, request
 from pyuss.errors import ConfigError
 from pyuss.monitor import Direction, Exchange, LayoutBook, LayoutSource, Monitor, Problem
-from pyuss.monitor.render import exchange_line
+from pyuss.monitor.render import exchange_line, summary_table
 from pyuss.protocol import Layout, Pkw, Receiver, Telegram
 from pyuss.protocol.layout import PKW_VARIABLE
 from pyuss.protocol.timing import char_time, start_pause
+from pyuss.transport.base import LineError
 
 VECTORS = load_vectors("uss")["telegrams"]
 BAUD = 19200
@@ -179,6 +180,30 @@ def test_real_port_gap_keeps_bursty_telegrams_whole() -> None:
     assert Problem.RESIDUAL_TIME in [p for ex in cut for p in ex.problems]
 
 
+def _feed_in_bursts(
+    monitor: Monitor, data: bytes, pauses: dict[int, float], t: float = 50.0
+) -> tuple[list[Exchange], float]:
+    """Feed ``data`` from ``t`` on, as bursts split where ``pauses`` (byte position: seconds
+    of idle line before it) say; the exchanges and the end of the last byte."""
+    out: list[Exchange] = []
+    for a, b in itertools.pairwise([0, *sorted(pauses), len(data)]):
+        t += pauses.get(a, 0.0) + (b - a) * TC
+        out += monitor.feed(data[a:b], t)
+    return out, t
+
+
+ANS_2 = answer(5, Pkw(1, 52, values=(2,)))
+
+
+def _cut_request_then_answer(
+    monitor: Monitor, pauses: dict[int, float], delay: float
+) -> list[Exchange]:
+    """REQ_52 in bursts (`_feed_in_bursts`), ANS_2 ``delay`` seconds later, the end."""
+    out, t = _feed_in_bursts(monitor, REQ_52, pauses)
+    out += monitor.feed(ANS_2, t + delay + len(ANS_2) * TC)
+    return out + monitor.finish()
+
+
 @pytest.mark.parametrize(
     ("cuts", "pause", "whole"),
     [
@@ -191,16 +216,8 @@ def test_telegrams_cut_by_port_timestamps_are_joined(
     cuts: list[int], pause: float, whole: bool
 ) -> None:
     monitor = Monitor(BAUD, gap=0.002, layouts=LayoutBook(Layout(3, 2)))
-    t = 50.0
-    out: list[Exchange] = []
-    bounds = [0, *cuts, len(REQ_52)]
-    for a, b in itertools.pairwise(bounds):
-        t += (pause if a else 0.0) + (b - a) * TC
-        out += monitor.feed(REQ_52[a:b], t)
-    ans = answer(5, Pkw(1, 52, values=(2,)))
-    t += 0.004 + len(ans) * TC
-    out += monitor.feed(ans, t)
-    out += monitor.finish()
+    pauses = dict.fromkeys(cuts, pause)
+    out = _cut_request_then_answer(monitor, pauses, 0.004)
     if whole:
         (ex,) = out
         assert ex.issues == () and ex.request is not None and ex.request.raw == REQ_52
@@ -212,13 +229,37 @@ def test_telegrams_cut_by_port_timestamps_are_joined(
         ]
     # Exact timestamps (the virtual bus) never join: the pause was on the line.
     exact = Monitor(BAUD, layouts=LayoutBook(Layout(3, 2)))
-    t = 50.0
-    cut = []
-    for a, b in itertools.pairwise(bounds):
-        t += (pause if a else 0.0) + (b - a) * TC
-        cut += exact.feed(REQ_52[a:b], t)
+    cut, _ = _feed_in_bursts(exact, REQ_52, pauses)
     cut += exact.finish()
     assert Problem.RESIDUAL_TIME in [p for ex in cut for p in ex.problems]
+
+
+@pytest.mark.parametrize(
+    ("pauses", "whole"),
+    [
+        ({13: 0.004}, True),  # the last byte late
+        ({7: 0.0045, 13: 0.0045}, False),  # longer than residual time + resolution (A 6.3)
+    ],
+)
+def test_a_telegram_the_port_stamped_late_runs_into_the_answer(
+    pauses: dict[int, float], whole: bool
+) -> None:
+    # A port that delivers bytes of a telegram late, each burst less than the gap after the
+    # last, and the answer right after: the receiver finds the residual time exceeded
+    # (A 5.2.1.2) and runs on into the answer. Within the timing resolution (gap less start
+    # pause) that is the port's doing; beyond it, a fault on the line.
+    monitor = Monitor(BAUD, gap=0.005, layouts=LayoutBook(Layout(3, 2)))
+    out = _cut_request_then_answer(monitor, pauses, 0.003)
+    ans = ANS_2
+    if whole:
+        (ex,) = out
+        assert ex.kind == "exchange" and ex.issues == ()
+        assert ex.request is not None and ex.request.raw == REQ_52
+        assert ex.answer is not None and ex.answer.raw == ans
+        assert ex.answer_data is not None and ex.answer_data.pkw == Pkw(1, 52, values=(2,))
+    else:
+        assert out[0].problems[0] is Problem.RESIDUAL_TIME
+        assert out[0].request is not None and out[0].request.raw == REQ_52 + ans
 
 
 def test_gap_shorter_than_the_start_pause_is_refused() -> None:
@@ -336,8 +377,8 @@ def test_an_address_with_little_evidence_borrows_the_bus_layout() -> None:
         st.tuples(
             st.integers(0, 31),
             st.integers(0, 2047),
-            st.sampled_from(["answer", "none", "late"]),
-            st.floats(2.2, 19.0),
+            st.sampled_from(["answer", "none", "late", "glitch"]),
+            st.floats(2.2, 15.0),
         ),
         min_size=1,
         max_size=12,
@@ -346,24 +387,139 @@ def test_an_address_with_little_evidence_borrows_the_bus_layout() -> None:
 def test_two_wire_pairing_property(
     script: list[tuple[int, int, str, float]],
 ) -> None:
-    """Requests and answers with chosen gaps: each in-time answer pairs with its request,
-    each silent slave is reported as not answering, each late one as late."""
+    """Requests and answers with chosen gaps: each in-time answer pairs with its request, also
+    after a stray character on the line (a driver switching on), each silent slave is
+    reported as not answering, each late one as late."""
     wire = Wire(Monitor(BAUD, layouts=LayoutBook(Layout(3, 2))))
+    expected: list[tuple[int | None, str, float]] = []
     for address, pnu, what, delay_tc in script:
         wire.send(request(address, Pkw(1, pnu), 0x047E + (address & 1)), 0.08)
+        reply = answer(address, Pkw(1, pnu, values=(pnu ^ 0x5555,)))
+        expected.append((address, what, delay_tc))
         if what == "answer":
-            wire.send(answer(address, Pkw(1, pnu, values=(pnu ^ 0x5555,))), delay_tc * TC)
+            wire.send(reply, delay_tc * TC)
         elif what == "late":
-            wire.send(answer(address, Pkw(1, pnu, values=(pnu ^ 0x5555,))), 0.035)
+            wire.send(reply, 0.035)
+        elif what == "glitch":
+            wire.send(b"\xff", delay_tc * TC)
+            wire.send(reply, 3 * TC)
+            expected.append((None, "noise", 0.0))
     out = wire.finish()
-    assert len(out) == len(script)
-    for ex, (address, _, what, delay_tc) in zip(out, script, strict=True):
-        assert ex.address == address
+    assert [(ex.address, ex.kind) for ex in out] == [
+        (address, {"none": "request", "noise": "noise"}.get(what, "exchange"))
+        for address, what, _ in expected
+    ]
+    for ex, (_, what, delay_tc) in zip(out, expected, strict=True):
         if what == "answer":
-            assert ex.kind == "exchange" and ex.issues == ()
+            assert ex.issues == ()
             assert ex.delay == pytest.approx(delay_tc * TC)
         elif what == "none":
-            assert ex.kind == "request" and ex.problems == (Problem.NO_ANSWER,)
-        else:
-            assert ex.kind == "exchange" and ex.problems == (Problem.LATE_ANSWER,)
+            assert ex.problems == (Problem.NO_ANSWER,)
+        elif what == "late":
+            assert ex.problems == (Problem.LATE_ANSWER,)
             assert ex.unsure
+        elif what == "glitch":
+            assert ex.issues == () and ex.unsure == ""
+            assert ex.delay == pytest.approx((delay_tc + 4) * TC)  # FF, 3 idle characters
+        else:
+            assert ex.problems == (Problem.NO_STX,)
+
+
+def test_stray_character_before_an_answer_on_four_wires() -> None:
+    wire = Wire(Monitor(BAUD, four_wire=True, layouts=LayoutBook(Layout(3, 2))))
+    wire.send(REQ_52, 0.01, port=0)
+    wire.send(b"\x00", 0.002, port=1)
+    wire.send(answer(5, Pkw(1, 52, values=(7,))), 3 * TC, port=1)
+    wire.send(request(5, Pkw(1, 53)), 0.01, port=0)
+    wire.send(b"\x00", 0.002, port=1)  # this time nothing follows: the answer, damaged
+    out = wire.finish()
+    assert [(ex.kind, ex.problems) for ex in out] == [
+        ("exchange", ()),
+        ("noise", (Problem.NO_STX,)),
+        ("exchange", (Problem.NO_STX,)),
+    ]
+    assert out[0].answer_data is not None and out[0].answer_data.pkw == Pkw(1, 52, values=(7,))
+    assert out[1].request is not None and out[1].request.port == 1
+
+
+def test_per_minute_rates_fall_when_the_line_goes_quiet() -> None:
+    monitor = Monitor(BAUD, layouts=LayoutBook(Layout(3, 2)))
+    assert monitor.now is None
+    wire = Wire(monitor)
+    for pnu in range(5):
+        wire.send(request(5, Pkw(1, pnu)), 0.01)
+        wire.send(answer(5, Pkw(1, pnu, values=(1,))), 0.003)
+    assert monitor.now == pytest.approx(wire.t)
+    row = monitor.summary.rows(monitor.now)[0]
+    assert row["counters"]["good_per_minute"] == 10  # A 5.2.3 parameter 5
+    monitor.advance(wire.t + 61)  # a minute of silence: the live runner says time passed
+    assert monitor.now == pytest.approx(wire.t + 61)
+    row = monitor.summary.rows(monitor.now)[0]
+    assert row["counters"]["good_per_minute"] == 0 and row["counters"]["good"] == 10
+
+
+def test_line_errors_a_port_flags_are_receive_faults() -> None:
+    # A 5.2.2: characters the port flagged (overrun, parity, framing) make the telegram a
+    # fault of that kind; A 5.2.3 counts them and latches the status bits 1, 2 and 0.
+    monitor = Monitor(BAUD, layouts=LayoutBook(Layout(3, 2)))
+    t = 10.0
+    out: list[Exchange] = []
+    for error in (LineError.OVERRUN, LineError.PARITY, LineError.FRAMING):
+        t += 0.05 + len(REQ_52) * TC
+        out += monitor.feed(REQ_52, t, [(6, error)])
+    out += monitor.finish()
+    assert [ex.problems for ex in out] == [
+        (Problem.OVERRUN,),
+        (Problem.PARITY,),
+        (Problem.FRAMING,),
+    ]
+    for ex in out:  # damaged, and still shown as far as the bytes go
+        assert ex.kind == "request" and ex.request_data is not None
+        assert ex.request_data.pkw == Pkw(1, 52, values=(0,))
+    for stats in (monitor.summary.line, monitor.summary.addresses[5]):
+        counters = stats.diagnostics.snapshot(t)
+        assert (counters.overrun, counters.parity, counters.framing) == (1, 1, 1)
+        assert counters.error_status == 0x07
+        assert counters.discarded == 3 and counters.timeout == 0  # damaged: no answer due
+
+
+def test_response_time_statistics_and_error_rate() -> None:
+    monitor = Monitor(BAUD, layouts=LayoutBook(Layout(3, 2)))
+    wire = Wire(monitor)
+    for ms in range(2, 21):  # response delays 2..20 ms (A 5.2.1.1)
+        wire.send(request(5, Pkw(1, ms)), 0.03)
+        wire.send(answer(5, Pkw(1, ms, values=(ms,))), ms / 1000)
+    wire.send(request(5, Pkw(1, 99)), 0.03)
+    bad = bytearray(answer(5, Pkw(1, 99, values=(1,))))
+    bad[-1] ^= 0x01
+    wire.send(bytes(bad), 0.005)
+    out = wire.finish()
+    assert len(out) == 20 and out[-1].problems == (Problem.BCC,)
+    stats = monitor.summary.addresses[5]
+    times = stats.delays.as_dict()
+    assert times == {
+        "count": 20,
+        "min_ms": 2.0,
+        "mean_ms": pytest.approx((sum(range(2, 21)) + 5) / 20, abs=1e-3),
+        "p95_ms": 19.0,  # nearest rank: the 19th of the 20 sorted (5 ms twice)
+        "max_ms": 20.0,
+    }
+    assert stats.error_rate == pytest.approx(1 / 40)  # one discarded frame of 40
+    row = summary_table(monitor.summary, wire.t).splitlines()[1]
+    assert row.split()[8] == "2.5" and row.endswith("2.00/10.70/19.00/20.00")
+
+
+def test_noise_then_the_master_repeating_its_request() -> None:
+    # A garbled answer, and the master repeats the request at once: the noise was the answer.
+    wire = Wire(Monitor(BAUD, layouts=LayoutBook(Layout(3, 2))))
+    wire.send(REQ_52, 0.01)
+    wire.send(b"\xff\xfe\xfd", 0.002)
+    wire.send(REQ_52, 0.005)
+    wire.send(answer(5, Pkw(1, 52, values=(1,))), 0.002)
+    out = wire.finish()
+    assert [(ex.kind, ex.problems) for ex in out] == [
+        ("exchange", (Problem.NO_STX,)),
+        ("exchange", ()),
+    ]
+    assert out[0].answer is not None and out[0].answer.raw == b"\xff\xfe\xfd"
+    assert out[1].answer_data is not None and out[1].answer_data.pkw == Pkw(1, 52, values=(1,))

@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -13,7 +14,7 @@ import pytest
 from conftest import load_vectors
 from monitor.traffic import REQ_52, Wire
 from pyuss.monitor import LayoutBook, Monitor, dissector_source, open_writer
-from pyuss.protocol import Layout
+from pyuss.protocol import Layout, Pkw, Telegram
 from pyuss.protocol.layout import PKW_VARIABLE
 
 TSHARK = shutil.which("tshark")
@@ -131,14 +132,17 @@ def _tshark(path: Path, home: Path, *args: str) -> str:
     return result.stdout
 
 
+def _rows(path: Path, home: Path, fields: list[str]) -> list[str]:
+    """One row per packet: ``fields`` joined by ``|``, occurrences by commas ("" = absent)."""
+    columns = [arg for field in fields for arg in ("-e", field)]
+    options = ["-T", "fields", "-E", "separator=|", "-E", "occurrence=a"]
+    return _tshark(path, home, *options, *columns).splitlines()
+
+
 def test_tshark_prints_the_fields(tmp_path: Path) -> None:
     path = tmp_path / "line.pcapng"
     _capture(path)
-    columns = [arg for field in FIELDS for arg in ("-e", field)]
-    out = _tshark(
-        path, tmp_path, "-T", "fields", "-E", "separator=|", "-E", "occurrence=a", *columns
-    )
-    assert out.splitlines() == EXPECTED
+    assert _rows(path, tmp_path, FIELDS) == EXPECTED
 
 
 def test_tshark_info_column_and_expert_info(tmp_path: Path) -> None:
@@ -159,3 +163,121 @@ def test_tshark_info_column_and_expert_info(tmp_path: Path) -> None:
     assert refused.split() == ["4"]
     bad = _tshark(path, tmp_path, "-Y", "uss.bcc.ok == 0", "-T", "fields", "-e", "frame.number")
     assert bad.split() == ["8"]
+
+
+def test_uss_wireshark_install_is_what_tshark_loads(tmp_path: Path) -> None:
+    """Installed into the default folder of a user (HOME), tshark loads the dissector by
+    itself, with no -X option."""
+    assert TSHARK is not None, "tshark must be installed in CI (make test installs it)"
+    path = tmp_path / "line.pcapng"
+    _capture(path)
+    home = tmp_path / "home"
+    home.mkdir()
+    env = {**os.environ, "HOME": str(home), "XDG_CONFIG_HOME": str(home / "config")}
+    result = subprocess.run(
+        [sys.executable, "-m", "pyuss.cli.main", "wireshark", "install"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=60,
+        check=True,
+    )
+    assert Path(result.stdout.strip()) == home / ".local/lib/wireshark/plugins/uss.lua"
+    folders = subprocess.run(
+        [TSHARK, "-G", "folders"], capture_output=True, text=True, env=env, timeout=120
+    ).stdout
+    assert f"{home}/.local/lib/wireshark/plugins" in folders
+    out = subprocess.run(
+        [TSHARK, "-r", str(path), "-T", "fields", "-e", "uss.pnu", "-e", "_ws.col.Info"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+        check=True,
+    ).stdout
+    assert out.splitlines()[0] == (
+        "52\tRequest adr 5: read parameter value (1), PNU 52, CW 047E, SP 0.00%"
+    )
+
+
+BIT_FIELDS = [f"uss.{word}.bit{n}" for word in ("cw", "sw") for n in range(11)]
+FOUR_WIRE_FIELDS = [
+    "uss.direction",
+    "uss.flags.port_1",
+    "uss.flags.layout_given",
+    "uss.flags.late_answer",
+    "uss.flags.wrong_address",
+    "uss.stx",
+    "uss.lge",
+    "uss.adr",
+    "uss.address",
+    "uss.bcc",
+    "uss.pke",
+    "uss.pke.toggle",
+    "uss.pnu",
+    "uss.ind",
+    "uss.ind.subindex",
+    "uss.ind.text",
+    "uss.pwe",
+    "uss.pzd",
+    "uss.cw",
+    "uss.sw",
+    "uss.setpoint",
+    "uss.actual",
+    *BIT_FIELDS,
+]
+
+
+def _four_wire_capture(path: Path) -> None:
+    """A 4-wire line, layout 3,4 given: an array write, a spontaneous answer, a late answer
+    and one from the wrong address; port 1 carries the answers."""
+    layout = Layout(3, 4)
+    monitor = Monitor(BAUD, four_wire=True, layouts=LayoutBook(layout))
+    wire = Wire(monitor)
+
+    def send(address: int, pkw: Pkw, pzd: tuple[int, ...], gap: float, port: int) -> None:
+        wire.send(Telegram(address, 0, layout.pack(pkw, pzd)).encode(), gap, port)
+
+    send(3, Pkw(7, 10, index=2, values=(0x1234,)), (0x047F, 0x2000, 0x1111, 0x2222), 0.01, 0)
+    send(3, Pkw(5, 10, index=2, values=(0x1234,)), (0x0237, 0x1FFF, 0x3333, 0x4444), 0.004, 1)
+    send(3, Pkw(0), (0x047E, 0x2000, 0, 0), 0.01, 0)
+    send(3, Pkw(9, 300, spm_toggle=True, values=(7,)), (0x0231, 0, 0, 0), 0.030, 1)  # late
+    send(3, Pkw(1, 11), (0x047E, 0, 0, 0), 0.01, 0)
+    send(4, Pkw(1, 11, values=(5,)), (0x0237, 0, 0, 0), 0.003, 1)  # wrong address
+    writer = open_writer(path, baud=BAUD, four_wire=True, epoch=1.7e9, gap=monitor.gap)
+    for exchange in wire.finish():
+        writer.write(exchange)
+    writer.close()
+
+
+def _bits(control: int | None, status: int | None) -> str:
+    """The 22 bit columns: control word bits 0..10, then status word bits 0..10."""
+    cells = [
+        "" if word is None else str(word >> n & 1) for word in (control, status) for n in range(11)
+    ]
+    return "|".join(cells)
+
+
+# Requests on port 0 (direction 1), answers on port 1 (direction 2, flag port_1).
+FOUR_WIRE_EXPECTED = [
+    "1|0|1|0|0|0x02|16|0x03|3|0x14|0x700a|0|10|0x0002|2|0x0000|0x1234|0x1111,0x2222|0x047f||8192|"
+    + f"|{_bits(0x047F, None)}",
+    "2|1|1|0|0|0x02|16|0x03|3|0xba|0x500a|0|10|0x0002|2|0x0000|0x1234|0x3333,0x4444||0x0237||"
+    + f"8191|{_bits(None, 0x0237)}",
+    "1|0|1|0|0|0x02|16|0x03|3|0x4b|0x0000|0|0|0x0000|0|0x0000|0x0000|0x0000,0x0000|0x047e||8192|"
+    + f"|{_bits(0x047E, None)}",
+    "2|1|1|1|0|0x02|16|0x03|3|0x90|0x992c|1|300|0x0000|0|0x0000|0x0007|0x0000,0x0000||0x0231||0|"
+    + f"{_bits(None, 0x0231)}",
+    "1|0|1|0|0|0x02|16|0x03|3|0x70|0x100b|0|11|0x0000|0|0x0000|0x0000|0x0000,0x0000|0x047e||0|"
+    + f"|{_bits(0x047E, None)}",
+    "2|1|1|0|1|0x02|16|0x04|4|0x3d|0x100b|0|11|0x0000|0|0x0000|0x0005|0x0000,0x0000||0x0237||0|"
+    + f"{_bits(None, 0x0237)}",
+]
+
+
+def test_tshark_four_wire_pzd_and_every_control_and_status_bit(tmp_path: Path) -> None:
+    path = tmp_path / "four.pcapng"
+    _four_wire_capture(path)
+    assert _rows(path, tmp_path, FOUR_WIRE_FIELDS) == FOUR_WIRE_EXPECTED
+    info = _tshark(path, tmp_path, "-T", "fields", "-e", "_ws.col.Info").splitlines()
+    assert "[late_answer]" in info[3] and "[wrong_address]" in info[5]

@@ -45,14 +45,13 @@ from pyuss.errors import ConfigError, TelegramError, TransportError
 from pyuss.monitor.capture import CaptureWriter, open_writer, read_capture
 from pyuss.monitor.core import Monitor, default_gap
 from pyuss.monitor.infer import LayoutBook
-from pyuss.monitor.live import replay, watch
+from pyuss.monitor.live import Listener, replay, watch
 from pyuss.monitor.model import Direction, Exchange, Frame
 from pyuss.monitor.pcapng import check_linktype
 from pyuss.monitor.render import exchange_line, summary_table
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import AddressMode
 from pyuss.protocol.timing import BAUD_RATES, check_baud
-from pyuss.transport.base import Transport
 from pyuss.transport.url import open_transport
 
 __all__ = ["exchange_json", "frame_json", "register", "run"]
@@ -215,15 +214,18 @@ def _ms(value: float | None, option: str) -> float | None:
 
 
 def _listen_only(url: str) -> str:
-    """A ``bus://`` URL as a listen-only station (the monitor never sends)."""
+    """A ``bus://`` URL as a listen-only station (the monitor never sends), whatever the
+    URL's own ``listen_only`` says."""
     parts = urllib.parse.urlsplit(url)
     if parts.scheme.lower() != "bus":
         return url
-    query = urllib.parse.parse_qs(parts.query, keep_blank_values=True)
-    if "listen_only" in query:
-        return url
-    extra = "listen_only=1"
-    return urllib.parse.urlunsplit(parts._replace(query=f"{parts.query}&{extra}".lstrip("&")))
+    query = [
+        (key, value)
+        for key, value in urllib.parse.parse_qsl(parts.query, keep_blank_values=True)
+        if key != "listen_only"
+    ]
+    query.append(("listen_only", "1"))
+    return urllib.parse.urlunsplit(parts._replace(query=urllib.parse.urlencode(query)))
 
 
 class _Output:
@@ -287,8 +289,8 @@ class _Output:
         return exchange_line(ex, origin=self.origin, color=self.color)
 
     def table(self) -> str:
-        now = self.monitor.summary.last if self.monitor.summary.last is not None else 0.0
-        return summary_table(self.monitor.summary, now)
+        now = self.monitor.now
+        return summary_table(self.monitor.summary, 0.0 if now is None else now)
 
 
 def _open_writers(
@@ -395,7 +397,7 @@ def run(args: argparse.Namespace) -> int:
             exact = all(urllib.parse.urlsplit(u).scheme.lower() == "bus" for u in urls)
             gap = _ms(args.gap, "--gap")
             monitor = _monitor(args, args.baud, len(urls) == 2, layouts, gap, exact=exact)
-            transports: list[Transport] = [open_transport(u, baud=args.baud) for u in urls]
+            transports = [Listener(open_transport(u, baud=args.baud)) for u in urls]
             epoch = time.time() - time.monotonic()
             writers = _open_writers(
                 args.write, args.baud, len(urls) == 2, epoch, args.linktype, monitor.gap
@@ -468,7 +470,7 @@ def _replay(
 async def _live(
     args: argparse.Namespace,
     monitor: Monitor,
-    transports: list[Transport],
+    transports: list[Listener],
     urls: list[str],
     output: _Output,
 ) -> int:
@@ -477,7 +479,7 @@ async def _live(
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
-    opened: list[Transport] = []
+    opened: list[Listener] = []
     refresher = None
     try:
         try:

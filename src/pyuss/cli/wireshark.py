@@ -4,6 +4,9 @@
     uss wireshark install              # copy it into Wireshark's personal Lua plugins folder
     uss wireshark install --dir DIR    # ... or into DIR
 
+An earlier copy of the dissector is replaced; a uss.lua that is not pyuss's is left alone
+(exit code 1) unless --force. A --dir that is a file is a usage error (exit code 2).
+
 After installing, Wireshark and tshark decode captures written by
 ``uss monitor --write FILE.pcapng``. Without installing:
 ``wireshark -X lua_script:$(uss wireshark path) FILE.pcapng``.
@@ -23,6 +26,7 @@ __all__ = ["register", "run"]
 
 EXIT_OK = 0
 EXIT_FAILED = 1
+EXIT_USAGE = 2
 
 
 def register(subparsers: Any) -> None:
@@ -42,6 +46,11 @@ def register(subparsers: Any) -> None:
         metavar="DIR",
         help=f"plugins folder (default: {plugin_dir()})",
     )
+    setup.add_argument(
+        "--force",
+        action="store_true",
+        help="replace a uss.lua there that is not pyuss's dissector",
+    )
     parser.set_defaults(func=run)
 
 
@@ -50,11 +59,16 @@ def run(args: argparse.Namespace) -> int:
         if args.action == "path":
             print(dissector_source())
             return EXIT_OK
-        target, written = install(args.dir)
+        if args.dir is not None and args.dir.exists() and not args.dir.is_dir():
+            print(f"uss wireshark: --dir {args.dir}: not a folder", file=sys.stderr)
+            return EXIT_USAGE
+        target, status = install(args.dir, force=args.force)
     except ConfigError as exc:
         print(f"uss wireshark: {exc}", file=sys.stderr)
         return EXIT_FAILED
     print(target)
-    note = "installed" if written else "already up to date"
-    print(f"uss wireshark: {note}; restart Wireshark to load it", file=sys.stderr)
+    if status == "up to date":
+        print("uss wireshark: already up to date", file=sys.stderr)
+    else:
+        print(f"uss wireshark: {status}; restart Wireshark to load it", file=sys.stderr)
     return EXIT_OK

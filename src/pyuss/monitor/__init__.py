@@ -5,7 +5,8 @@
 - `Summary` (`pyuss.monitor.stats`): A 5.2.3 counters, error rates, response times.
 - `exchange_line`, `summary_table` (`pyuss.monitor.render`): text output (JSON: the command).
 - `open_writer`, `read_capture` (`pyuss.monitor.capture`): pcapng and JSON-lines captures.
-- `watch`, `replay` (`pyuss.monitor.live`): run a monitor on transports or a capture.
+- `watch`, `replay` (`pyuss.monitor.live`): run a monitor on transports or a capture;
+  `Listener`: a transport with no way to send.
 - `dissector_source`, `install` (`pyuss.monitor.dissector`): the Wireshark Lua dissector.
 """
 
@@ -20,7 +21,7 @@ from pyuss.monitor.capture import (
 from pyuss.monitor.core import REAL_PORT_GAP, Monitor, default_gap
 from pyuss.monitor.dissector import dissector_source, install, plugin_dir
 from pyuss.monitor.infer import LayoutBook, LayoutChoice
-from pyuss.monitor.live import replay, watch
+from pyuss.monitor.live import Listener, replay, watch
 from pyuss.monitor.model import Direction, Exchange, Frame, Issue, LayoutSource, Problem
 from pyuss.monitor.render import exchange_line, summary_table
 from pyuss.monitor.stats import AddressStats, Summary
@@ -39,6 +40,7 @@ __all__ = [
     "LayoutBook",
     "LayoutChoice",
     "LayoutSource",
+    "Listener",
     "Monitor",
     "Problem",
     "Summary",

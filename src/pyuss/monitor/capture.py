@@ -22,6 +22,9 @@ ever holds a complete capture.
 from __future__ import annotations
 
 import enum
+import heapq
+import itertools
+import math
 import os
 import struct
 from collections.abc import Iterable
@@ -284,11 +287,20 @@ class RecordWriter:
         self._file = AtomicWriter(path, "a capture")
         self.path = self._file.path
         self.packets = 0
+        self._held: list[tuple[float, int, CaptureRecord]] = []
+        self._seq = itertools.count()
 
     def write(self, exchange: Exchange) -> None:
-        """Write the frames of ``exchange``."""
+        """Write the frames of ``exchange``. Frames go into the file in time order: those of
+        an exchange are held until no later exchange can bring an earlier frame (noise after
+        a request is reported after the request's exchange, but came before its answer)."""
         for record in records_of(exchange):
-            self.write_record(record)
+            heapq.heappush(self._held, (record.frame.start, next(self._seq), record))
+        self._flush(exchange.time)
+
+    def _flush(self, upto: float) -> None:
+        while self._held and self._held[0][0] <= upto:
+            self.write_record(heapq.heappop(self._held)[2])
             self.packets += 1
 
     def write_record(self, record: CaptureRecord) -> None:
@@ -296,13 +308,18 @@ class RecordWriter:
 
     def close(self) -> None:
         """Finish the file and rename it into place."""
+        self._flush(math.inf)
         self._file.close()
 
     def discard(self) -> None:
         """Drop what was written."""
+        self._held.clear()
         self._file.discard()
 
 
+_PCAP_MAGICS = {
+    struct.pack(order + "I", magic) for order in "<>" for magic in (0xA1B2C3D4, 0xA1B23C4D)
+}
 PCAPNG_SUFFIXES = (".pcapng", ".pcap", ".ntar")
 JSONL_SUFFIXES = (".jsonl", ".json", ".ndjson")
 
@@ -356,6 +373,11 @@ def read_capture(path: str | os.PathLike[str]) -> Capture:
         return pcapng.read_pcapng(path)
     if head[:1] == b"{":
         return jsonl.read_jsonl(path)
+    if head in _PCAP_MAGICS:
+        raise ConfigError(
+            f"{name}: a classic pcap file, not pcapng: the monitor reads the pcapng captures it "
+            "writes (they carry the baud rate)"
+        )
     raise ConfigError(
         f"{name}: not a capture (neither pcapng nor JSON lines of the monitor or the bus)"
     )

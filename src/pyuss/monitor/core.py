@@ -35,7 +35,10 @@ Pairing (A 5.1, A 5.2.1.1)
     of that address before, or its PKW answers the request's job, C Table 4.3) rather than the
     master repeating itself. A request whose late limit passes without an answer is reported
     as not answered. Broadcasts expect no answer (A 3); an answer to one, or to nothing, is
-    ``unexpected``. A damaged request expects none either (A 5.2.2).
+    ``unexpected``. A damaged request expects none either (A 5.2.2). Bytes without a telegram
+    within the response delay limit are the damaged answer unless a telegram that answers
+    the request follows (a driver switching on can put a stray character before the answer):
+    then they are noise after the exchange.
 
 Counters (A 5.2.3)
     `Monitor.summary` keeps the 16 diagnostic counters for the line and for each address,
@@ -172,6 +175,7 @@ class Monitor:
         self._count = itertools.count(1)
         self._pending: Frame | None = None
         self._tail: list[Frame] = []
+        self._suspects: list[Frame] = []
         self._last: Frame | None = None
         self._broadcast: Frame | None = None
         self._control: dict[int, int] = {}
@@ -181,6 +185,17 @@ class Monitor:
         self.summary = Summary()
 
     # -- timing ----------------------------------------------------------------------------
+
+    @property
+    def now(self) -> float | None:
+        """The latest time the monitor knows of: the end of the last byte or frame, or a later
+        time `advance` was told (None before anything came). The summary's per-minute rates
+        are taken up to it, so they fall when the line goes quiet."""
+        times = [*self._advanced, *(rx.last_byte_end for rx in self._rx)]
+        if self.summary.last is not None:
+            times.append(self.summary.last)
+        known = [t for t in times if math.isfinite(t)]
+        return max(known) if known else None
 
     @property
     def answer_window(self) -> float:
@@ -235,9 +250,24 @@ class Monitor:
             self.layouts.per_address[address] = layout.layout
         if frame.guessed:
             frame = replace(frame, direction=Direction.UNKNOWN, guessed=False)
+        frame = self._check_fixed_length(frame)
         out = self._on_frame(frame)
         out += self._expire(frame.end)
         return out
+
+    def _check_fixed_length(self, frame: Frame) -> Frame:
+        """A telegram read back from a capture, judged like the receiver judges live bytes: a
+        normal or mirror telegram whose LGE is not the fixed length given for its address is
+        `FaultKind.BAD_LGE` (A 4.2.2, A 5.2)."""
+        tg = frame.telegram
+        if frame.fault is not None or tg is None or tg.mode not in _FIXED_LENGTH_MODES:
+            return frame
+        layout = self.layouts.given(tg.address)
+        fixed = None if layout is None else layout.lge
+        if fixed is None or fixed == frame.raw[1]:
+            return frame
+        detail = f"LGE {frame.raw[1]}, but address {tg.address} uses the fixed length LGE {fixed}"
+        return replace(frame, fault=FaultKind.BAD_LGE, detail=detail)
 
     def finish(self) -> list[Exchange]:
         """The end of the input: report whatever is still open."""
@@ -248,8 +278,7 @@ class Monitor:
             if partial is not None:
                 self._queue(p, partial)
         out = self._release()
-        if self._pending is not None:
-            out += self._unanswered(self._pending)
+        out += self._expire(math.inf)
         return out
 
     def _check_port(self, port: int) -> None:
@@ -325,6 +354,10 @@ class Monitor:
         assert isinstance(event, ReceiveFault)
         if event.kind is FaultKind.NO_STX:
             return self._salvage(port, event)
+        if event.kind is FaultKind.RESIDUAL_TIME and self.resolution > 0:
+            late = self._late_by_the_port(port, event)
+            if late is not None:
+                return late
         return [
             Frame(
                 event.raw,
@@ -336,6 +369,34 @@ class Monitor:
                 port=port,
             )
         ]
+
+    def _late_by_the_port(self, port: int, event: ReceiveFault) -> list[Frame] | None:
+        """A telegram the receiver found over its residual time, with the bytes after it: when
+        it is whole with a valid BCC and certainly complete within its residual time plus the
+        resolution (its last byte came no later than the run's end less the bytes after it),
+        the lateness may be the port's timestamps; then it is a telegram and the rest is cut
+        like bytes without a start (None otherwise)."""
+        raw, ct = event.raw, self.timing.char_time
+        if len(raw) < MIN_TELEGRAM_BYTES or raw[0] != STX or not MIN_LGE <= raw[1] <= MAX_LGE:
+            return None
+        need = raw[1] + 2
+        piece = raw[:need]
+        telegram = telegram_in(piece)
+        if telegram is None or bcc(piece) != 0:
+            return None
+        rest = raw[need:]
+        end = event.end - len(rest) * ct
+        first = Frame(piece, event.start, end, telegram=telegram, port=port)
+        if end - event.start > self._join_limit(first) + _EPS:
+            return None
+        frames = [first]
+        if rest:
+            self._prev_end[port] = end
+            tail = ReceiveFault(
+                FaultKind.NO_STX, rest, end, event.end, "characters without a start pause"
+            )
+            frames += self._salvage(port, tail)
+        return frames
 
     def _salvage(self, port: int, event: ReceiveFault) -> list[Frame]:
         """Cut whole telegrams out of a run of bytes without a valid start."""
@@ -416,6 +477,8 @@ class Monitor:
         p = self._pending
         if p is None:
             return []
+        if self._suspects and now - p.end > self.answer_window + _EPS:
+            return self._pair_suspect(p)
         window = self.late_limit if p.ok else self.answer_window
         if now - p.end > window + _EPS:
             return self._unanswered(p)
@@ -435,6 +498,11 @@ class Monitor:
         ):
             # Bytes that follow a frame without a start pause: the same sender's tail.
             return out + self._noise(replace(frame, direction=last.direction, guessed=last.guessed))
+        if self._suspects:
+            held = self._settle(frame)
+            if held is None:
+                return out
+            out += held
         if frame.direction is Direction.RESPONSE:
             return out + self._on_answer(frame)
         if frame.direction is Direction.REQUEST:
@@ -452,19 +520,25 @@ class Monitor:
     def _on_two_wire(self, frame: Frame) -> list[Exchange]:
         p = self._pending
         as_request = replace(frame, direction=Direction.REQUEST, guessed=True)
+        answer = replace(frame, direction=Direction.RESPONSE, guessed=True)
+        if p is None and self._answers_broadcast(frame):
+            self._last = answer
+            unsure = (
+                "came within the response delay limit after a broadcast, and its PZD1 was seen "
+                f"as a status word of address {frame.address} before; taken as an answer"
+            )
+            return [self._unexpected(answer, unsure)]
         if p is None or (frame.mode is not None and frame.mode.is_broadcast):
             return self._on_request(as_request)
-        answer = replace(frame, direction=Direction.RESPONSE, guessed=True)
         delay = frame.start - p.end
         if delay <= self.answer_window + _EPS:
+            if frame.telegram is None:
+                return self._suspect(answer)
             unsure = ""
             if not p.ok:
                 if frame.address is not None and frame.address != p.address:
                     return self._on_request(as_request)
-                unsure = (
-                    "the request was damaged on the line; this came within the response delay "
-                    "limit, so it is taken as the answer"
-                )
+                unsure = _DAMAGED_REQUEST
             elif frame.address is not None and frame.address != p.address:
                 if self._pzd1_seen(frame, self._seen_control, self._seen_status):
                     return self._on_request(as_request)  # the master did not wait
@@ -502,10 +576,16 @@ class Monitor:
     def _on_answer(self, frame: Frame) -> list[Exchange]:
         p = self._pending
         if p is not None:
+            if frame.telegram is None and frame.start - p.end <= self.answer_window + _EPS:
+                return self._suspect(frame)
             return self._pair(p, frame, "")
         if frame.telegram is None:
             return self._noise(frame)
         self._last = frame
+        return [self._unexpected(frame)]
+
+    def _unexpected(self, frame: Frame, unsure: str = "") -> Exchange:
+        """An answer with no request open: to a broadcast (A 3), or to nothing."""
         b = self._broadcast
         if b is not None and 0 <= frame.start - b.end <= self.late_limit:
             why = (
@@ -514,12 +594,75 @@ class Monitor:
             )
         else:
             why = "an answer without a request"
-        return [self._build(None, frame, [Issue(Problem.UNEXPECTED, "answer", why)])]
+        return self._build(None, frame, [Issue(Problem.UNEXPECTED, "answer", why)], unsure)
+
+    def _answers_broadcast(self, frame: Frame) -> bool:
+        """On a 2-wire line: whether ``frame``, right after a broadcast and within the response
+        delay limit, is a slave's answer to it by its PZD1 (seen as a status word of its
+        address, never as a control word)."""
+        b = self._broadcast
+        return (
+            b is not None
+            and self._last is b
+            and frame.mode is AddressMode.NORMAL
+            and frame.start - b.end <= self.answer_window + _EPS
+            and self._pzd1_seen(frame, self._seen_status, self._seen_control)
+        )
+
+    def _suspect(self, frame: Frame) -> list[Exchange]:
+        """Bytes without a telegram within the response delay limit of the open request:
+        the answer, damaged, unless a telegram that answers the request follows in time
+        (a driver switching on can put a stray character on the line before the answer)."""
+        self._suspects.append(frame)
+        self._last = frame
+        return []
+
+    def _settle(self, frame: Frame) -> list[Exchange] | None:
+        """A frame after bytes held by `_suspect`: None when it is more such bytes (held as
+        well); else the held bytes become the noise before the answer ``frame`` (nothing to
+        report yet) or, when ``frame`` is no answer, the damaged answer of the open request."""
+        p = self._pending
+        assert p is not None
+        if frame.telegram is None and frame.start - p.end <= self.answer_window + _EPS:
+            side = self._suspects[0]
+            self._suspects.append(replace(frame, direction=side.direction, guessed=side.guessed))
+            self._last = frame
+            return None
+        if self._answers(p, frame):
+            self._tail += self._suspects
+            self._suspects = []
+            return []
+        return self._pair_suspect(p)
+
+    def _pair_suspect(self, request: Frame) -> list[Exchange]:
+        """The first bytes held by `_suspect` are the answer to ``request``."""
+        first, *rest = self._suspects
+        self._suspects = []
+        self._tail += rest
+        return self._pair(request, first, "" if request.ok else _DAMAGED_REQUEST)
+
+    def _answers(self, request: Frame, frame: Frame) -> bool:
+        """Whether the telegram ``frame`` is the answer to the open ``request`` (after bytes
+        held by `_suspect`): an answer by its port, or one from the request's address within
+        the response delay limit (or later, looking like an answer)."""
+        if frame.telegram is None or frame.direction is Direction.REQUEST:
+            return False
+        if frame.direction is Direction.RESPONSE:
+            return True
+        if frame.address != request.address or frame.telegram.mode.is_broadcast:
+            return False
+        if frame.raw == request.raw and frame.mode is not AddressMode.MIRROR:
+            return False  # the master repeating its request
+        if self._pzd1_seen(frame, self._seen_control, self._seen_status):
+            return False  # a control word: the master's next request
+        if frame.start - request.end <= self.answer_window + _EPS:
+            return True
+        return request.ok and self._looks_like_answer(request, frame)
 
     def _close(self, exchange: Exchange) -> list[Exchange]:
         """The open request is done: its exchange, then the bytes that followed it."""
         self._pending = None
-        tail, self._tail = self._tail, []
+        tail, self._tail = sorted(self._tail, key=lambda f: f.start), []
         return [exchange, *(self._build(frame, None) for frame in tail)]
 
     def _pair(self, request: Frame, answer: Frame, unsure: str) -> list[Exchange]:
@@ -728,6 +871,11 @@ class Monitor:
             values.add(word)
 
 
+_FIXED_LENGTH_MODES = (AddressMode.NORMAL, AddressMode.MIRROR)
+_DAMAGED_REQUEST = (
+    "the request was damaged on the line; this came within the response delay limit, so it "
+    "is taken as the answer"
+)
 _JOINABLE = (FaultKind.NO_STX, FaultKind.RESIDUAL_TIME, FaultKind.BAD_LGE, FaultKind.BCC)
 
 

@@ -3,13 +3,14 @@
 The Lua file is package data (``pyuss/monitor/wireshark/uss.lua``). Wireshark loads Lua
 plugins from its personal plugins folder: ``~/.local/lib/wireshark/plugins`` on Linux and
 macOS, ``%APPDATA%\\Wireshark\\plugins`` on Windows (Wireshark 2.5 and later; Help > About
-Wireshark > Folders shows it). `install` copies the file there (atomically) unless an
-identical copy is there already.
+Wireshark > Folders shows it; ``tshark -G folders``: "Personal Lua Plugins"). `install` copies
+the file there (atomically: the name only ever holds a whole file). It replaces an earlier copy
+of pyuss's dissector, recognised by its first line, but not a ``uss.lua`` of someone else's
+unless told to (``force``).
 """
 
 from __future__ import annotations
 
-import contextlib
 import os
 import sys
 from importlib import resources
@@ -18,9 +19,16 @@ from pathlib import Path
 from pyuss.atomicfile import write_atomically
 from pyuss.errors import ConfigError
 
-__all__ = ["DISSECTOR_NAME", "dissector_source", "install", "plugin_dir"]
+__all__ = ["DISSECTOR_NAME", "InstallConflict", "dissector_source", "install", "plugin_dir"]
 
 DISSECTOR_NAME = "uss.lua"
+_FIRST_LINE = (
+    b'-- USS (Siemens "Universal Serial Interface") dissector for Wireshark, shipped with pyuss.'
+)
+
+
+class InstallConflict(ConfigError):
+    """The plugins folder holds a ``uss.lua`` that is not pyuss's dissector."""
 
 
 def dissector_source() -> Path:
@@ -40,15 +48,31 @@ def plugin_dir(home: Path | None = None) -> Path:
     return (home or Path.home()) / ".local" / "lib" / "wireshark" / "plugins"
 
 
-def install(directory: Path | None = None) -> tuple[Path, bool]:
-    """Copy the dissector into ``directory`` (default: `plugin_dir`); returns the installed
-    path and whether anything was written (False: an identical copy was there)."""
+def install(directory: Path | None = None, *, force: bool = False) -> tuple[Path, str]:
+    """Copy the dissector into ``directory`` (default: `plugin_dir`). Returns the installed path
+    and what happened: ``installed``, ``updated`` (an earlier copy of pyuss's dissector was
+    replaced) or ``up to date`` (an identical copy was there, nothing written).
+
+    A ``uss.lua`` there that is not pyuss's raises `InstallConflict` unless ``force``; a
+    ``directory`` that is a file, or cannot be written, raises `ConfigError`."""
     source = dissector_source().read_bytes()
     target_dir = plugin_dir() if directory is None else Path(directory)
     target = target_dir / DISSECTOR_NAME
-    with contextlib.suppress(OSError):
-        if target.read_bytes() == source:
-            return target, False
+    if target_dir.exists() and not target_dir.is_dir():
+        raise ConfigError(f"cannot install the dissector into {target_dir}: not a folder")
+    try:
+        old = target.read_bytes() if target.is_file() else None
+    except OSError:
+        old = None
+    if target.exists() and old is None and not force:
+        raise InstallConflict(f"{target} exists and is not a file; move it away first")
+    if old == source:
+        return target, "up to date"
+    if old is not None and not old.startswith(_FIRST_LINE) and not force:
+        raise InstallConflict(
+            f"{target} exists and is not the pyuss dissector: move it away, or use --force "
+            "to replace it"
+        )
     try:
         target_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -56,4 +80,4 @@ def install(directory: Path | None = None) -> tuple[Path, bool]:
             f"cannot install the dissector into {target_dir}: {exc.strerror}"
         ) from None
     write_atomically(target, source, "the dissector")
-    return target, True
+    return target, "installed" if old is None else "updated"

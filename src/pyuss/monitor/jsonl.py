@@ -23,6 +23,7 @@ header's ``gap_ms`` is the idle time the monitor framed telegrams with.
 from __future__ import annotations
 
 import json
+import math
 import os
 from pathlib import Path
 from typing import Any
@@ -68,6 +69,10 @@ def record_from_json(item: Any) -> CaptureRecord:
         raise ValueError("not a JSON object")
     raw = bytes.fromhex(str(item["hex"]))
     start, end = float(item["start"]), float(item["end"])
+    if not (math.isfinite(start) and math.isfinite(end)):
+        raise ValueError(f"start {start} and end {end} must be finite numbers of seconds")
+    if end < start:
+        raise ValueError(f"end {end} is before start {start}")
     direction = Direction[str(item.get("direction", "unknown")).upper()]
     fault = item.get("fault")
     kind = None if fault is None else FaultKind[str(fault).upper()]
@@ -81,6 +86,8 @@ def record_from_json(item: Any) -> CaptureRecord:
         source = LayoutSource(item.get("layout_source") or "guessed")
         layout = LayoutChoice(Layout.parse(str(item["layout"])), source)
     delay = item.get("delay_ms")
+    if delay is not None and not math.isfinite(float(delay)):
+        raise ValueError(f"delay_ms {delay} is not a finite number")
     return CaptureRecord.make(
         raw,
         start,
@@ -153,10 +160,14 @@ def read_jsonl(path: str | os.PathLike[str]) -> Capture:
         except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
             raise ConfigError(f"{name}:{number}: bad frame: {exc}") from None
     gap = header.get("gap_ms")
+    if gap is not None and (
+        isinstance(gap, bool) or not isinstance(gap, int | float) or not 0 < gap < math.inf
+    ):
+        raise ConfigError(f"{name}:1: gap_ms {gap!r} is not a positive number of milliseconds")
     return Capture(
         baud,
         tuple(records),
         four_wire=bool(header.get("four_wire")),
         kind="JSON lines",
-        gap=float(gap) / 1000 if isinstance(gap, int | float) and gap > 0 else None,
+        gap=None if gap is None else float(gap) / 1000,
     )

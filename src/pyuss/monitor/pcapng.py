@@ -182,7 +182,7 @@ class _Reader:
         offset, data = 0, self.data
         while offset < len(data):
             if len(data) - offset < 12:
-                raise self.fail(offset, "truncated block")
+                raise self.fail(offset, "truncated: the file ends inside a block header")
             if data[offset : offset + 4] == SHB_TYPE_BYTES:
                 bom = data[offset + 8 : offset + 12]
                 if bom == struct.pack("<I", BOM):
@@ -195,8 +195,14 @@ class _Reader:
             elif offset == 0:
                 raise self.fail(0, "no section header block")
             kind, length = struct.unpack_from(self.order + "II", data, offset)
-            if length < 12 or length % 4 or offset + length > len(data):
-                raise self.fail(offset, f"block length {length}")
+            if length < 12 or length % 4:
+                raise self.fail(offset, f"block length {length} (a multiple of 4, at least 12)")
+            if offset + length > len(data):
+                raise self.fail(
+                    offset,
+                    f"truncated: a block of {length} bytes, the file ends after "
+                    f"{len(data) - offset}",
+                )
             body = data[offset + 8 : offset + length - 4]
             self.block(kind, body, offset)
             offset += length

@@ -180,14 +180,10 @@ def _net_text(ex: Exchange) -> list[str]:
     """Job -> answer and the PZD texts."""
     mode = ex.mode
     if mode in (AddressMode.MIRROR, AddressMode.SPECIAL, AddressMode.SPECIAL_BROADCAST):
-        frames = ex.frames
-        first = next((f for f in frames if f.telegram is not None), None)
-        if first is None or first.telegram is None:
-            return []
-        text = f"data {first.telegram.data.hex(' ').upper() or '-'}"
-        if mode is AddressMode.MIRROR and ex.answer is not None and ex.request is not None:
+        text = _data_text(ex)
+        if text and mode is AddressMode.MIRROR and ex.answer is not None and ex.request is not None:
             text += " mirrored" if ex.answer.raw == ex.request.raw else " NOT mirrored"
-        return [text]
+        return [text] if text else []
     parts: list[str] = []
     rq, an = ex.request_data, ex.answer_data
     job = rq.pkw if rq is not None else None
@@ -202,7 +198,19 @@ def _net_text(ex: Exchange) -> list[str]:
         parts.append(text)
     if an is not None and (text := _pzd_text(an, ex.status_before, False)):
         parts.append(text)
+    if not parts and (text := _data_text(ex)):
+        parts.append(text)  # net data that fit no layout: the bytes
     return parts
+
+
+def _data_text(ex: Exchange) -> str:
+    """The net data of the first telegram of ``ex`` in hex ("" when there is none)."""
+    first = next((f.telegram for f in ex.frames if f.telegram is not None), None)
+    if first is None:
+        return ""
+    data = first.data
+    shown = data[:_NOISE_BYTES].hex(" ").upper() + (" .." if len(data) > _NOISE_BYTES else "")
+    return f"data {shown or '-'}"
 
 
 def _time(seconds: float, origin: float, absolute: bool) -> str:
