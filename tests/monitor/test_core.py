@@ -523,3 +523,20 @@ def test_noise_then_the_master_repeating_its_request() -> None:
     ]
     assert out[0].answer is not None and out[0].answer.raw == b"\xff\xfe\xfd"
     assert out[1].answer_data is not None and out[1].answer_data.pkw == Pkw(1, 52, values=(1,))
+
+
+def test_a_late_telegram_in_a_run_of_telegrams_keeps_the_run() -> None:
+    # A port with coarse timestamps (gap 15 ms) on a busy machine: the request stalls after 9
+    # bytes for longer than its residual time, and answer, next request and its answer all
+    # follow within the gap, so the receiver sees one run. The request was whole within its
+    # residual time plus the resolution: each telegram is cut out and paired, none is lost.
+    monitor = Monitor(BAUD, gap=0.015, layouts=LayoutBook(Layout(3, 2)))
+    out, t = _feed_in_bursts(monitor, REQ_52, {9: 0.008})
+    second = request(5, Pkw(1, 53))
+    for data, pause in ((ANS_2, 0.004), (second, 0.010), (answer(5, Pkw(1, 53)), 0.004)):
+        t += pause + len(data) * TC
+        out += monitor.feed(data, t)
+    out += monitor.finish()
+    assert [ex.kind for ex in out] == ["exchange", "exchange"]
+    assert [ex.request.raw for ex in out if ex.request] == [REQ_52, second]
+    assert out[0].answer is not None and out[0].answer.raw == ANS_2

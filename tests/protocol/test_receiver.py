@@ -424,3 +424,28 @@ def test_events_do_not_depend_on_how_the_bytes_are_chunked(
         return [(kinds([e])[0], e.raw) for e in got]
 
     assert events(cut=True) == events(cut=False)
+
+
+def test_a_telegram_over_its_residual_time_says_when_its_last_byte_came() -> None:
+    # A port with coarse timestamps (a start pause of 50 ms): GOOD stalls after 9 bytes beyond
+    # its residual time (1.5 x 13 characters after STX, A 6.3), then the next telegram follows
+    # in the same run. The fault names the moment GOOD was whole, so a reader can judge.
+    rx = Receiver(BAUD, start_pause=0.05)
+    t = 10.0
+    assert rx.feed(GOOD[:9], t) == []
+    late = t + 0.030
+    assert rx.feed(GOOD[9:], late) == []
+    assert rx.feed(GOOD, late + 0.005) == []
+    (fault,) = rx.poll(late + 1.0)
+    assert isinstance(fault, ReceiveFault) and fault.kind is FaultKind.RESIDUAL_TIME
+    assert fault.raw == GOOD + GOOD
+    assert fault.whole_at == pytest.approx(late)
+    # One that never becomes whole, and other faults, have no such time.
+    rx = Receiver(BAUD, start_pause=0.05)
+    rx.feed(GOOD[:9], t)
+    rx.feed(GOOD[9:12], t + 0.030)
+    (fault,) = rx.poll(t + 1.0)
+    assert fault.kind is FaultKind.RESIDUAL_TIME and fault.whole_at is None
+    rx = Receiver(BAUD)
+    (fault,) = rx.feed(frame(b"\x01\x02")[:-1] + b"\xff", t)
+    assert fault.kind is FaultKind.BCC and fault.whole_at is None

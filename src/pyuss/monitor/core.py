@@ -372,10 +372,11 @@ class Monitor:
 
     def _late_by_the_port(self, port: int, event: ReceiveFault) -> list[Frame] | None:
         """A telegram the receiver found over its residual time, with the bytes after it: when
-        it is whole with a valid BCC and certainly complete within its residual time plus the
-        resolution (its last byte came no later than the run's end less the bytes after it),
-        the lateness may be the port's timestamps; then it is a telegram and the rest is cut
-        like bytes without a start (None otherwise)."""
+        it is whole with a valid BCC and complete within its residual time plus the resolution
+        (its last byte came when the receiver saw it, `ReceiveFault.whole_at`; read back from a
+        capture: no later than the run's end less the bytes after it), the lateness may be the
+        port's timestamps; then it is a telegram and the rest is cut like bytes without a
+        start (None otherwise)."""
         raw, ct = event.raw, self.timing.char_time
         if len(raw) < MIN_TELEGRAM_BYTES or raw[0] != STX or not MIN_LGE <= raw[1] <= MAX_LGE:
             return None
@@ -385,7 +386,9 @@ class Monitor:
         if telegram is None or bcc(piece) != 0:
             return None
         rest = raw[need:]
-        end = event.end - len(rest) * ct
+        # When its last byte came, as the receiver saw it; from a capture (no such time) at
+        # the latest: the bytes after it back to back up to the run's end.
+        end = event.whole_at if event.whole_at is not None else event.end - len(rest) * ct
         first = Frame(piece, event.start, end, telegram=telegram, port=port)
         if end - event.start > self._join_limit(first) + _EPS:
             return None

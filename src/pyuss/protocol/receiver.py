@@ -92,13 +92,20 @@ class Received:
 
 @dataclass(frozen=True, slots=True)
 class ReceiveFault:
-    """Bytes discarded for ``kind``; ``detail`` says what was wrong in words."""
+    """Bytes discarded for ``kind``; ``detail`` says what was wrong in words.
+
+    ``whole_at``: for `FaultKind.RESIDUAL_TIME`, when the last of the telegram's LGE + 2 bytes
+    was complete, if they all came before the run ended (``raw`` then runs on past them);
+    otherwise None. A reader whose timestamps are coarser than the line (a monitor on a USB
+    adapter) tells from it how late the telegram really was.
+    """
 
     kind: FaultKind
     raw: bytes
     start: float
     end: float
     detail: str
+    whole_at: float | None = None
 
 
 Event = Received | ReceiveFault
@@ -165,6 +172,8 @@ class Receiver:
         self._line_pos = 0
         self._junk_kind = FaultKind.NO_STX
         self._junk_detail = ""
+        self._late_need = 0
+        self._whole_at: float | None = None
 
     # -- public ----------------------------------------------------------------------------
 
@@ -222,6 +231,9 @@ class Receiver:
                 pos = self._telegram(data, pos, first_end, flags, events)
             elif self._state == _JUNK:
                 take = min(n - pos, MAX_TELEGRAM_BYTES - len(self._buf))
+                had = len(self._buf)
+                if had < self._late_need <= had + take:  # a late telegram's last byte
+                    self._whole_at = first_end + (pos + self._late_need - had - 1) * ct
                 self._buf += data[pos : pos + take]
                 pos += take
                 self._last_end = first_end + (pos - 1) * ct
@@ -262,6 +274,7 @@ class Receiver:
             self._line = None
             return
         self._state = _JUNK
+        self._late_need = 0
         if line is not None:
             self._junk_kind = line
             self._junk_detail = f"{line.name.lower()} error on the first character"
@@ -353,6 +366,9 @@ class Receiver:
             kind = self._line
             detail = f"{self._line_detail()}; {detail}"
         self._state = _JUNK
+        # a telegram over its residual time: note when its last byte comes, if it does
+        self._late_need = self._need if kind is FaultKind.RESIDUAL_TIME else 0
+        self._whole_at = None
         self._junk_kind = kind
         self._junk_detail = detail
 
@@ -390,12 +406,21 @@ class Receiver:
                 detail = f"{self._line_detail()}; {detail}"
         else:
             kind, detail = self._junk_kind, self._junk_detail
+        whole_at = self._whole_at if self._state == _JUNK and self._late_need else None
         self._state = _IDLE
         self._buf = bytearray()
-        self._emit_fault(events, kind, raw, detail)
+        self._late_need = 0
+        self._emit_fault(events, kind, raw, detail, whole_at)
 
-    def _emit_fault(self, events: list[Event], kind: FaultKind, raw: bytes, detail: str) -> None:
+    def _emit_fault(
+        self,
+        events: list[Event],
+        kind: FaultKind,
+        raw: bytes,
+        detail: str,
+        whole_at: float | None = None,
+    ) -> None:
         end = self._last_end
-        events.append(ReceiveFault(kind, raw, self._start, end, detail))
+        events.append(ReceiveFault(kind, raw, self._start, end, detail, whole_at))
         if self.diagnostics is not None:
             self.diagnostics.record_fault(kind, end)
