@@ -11,22 +11,6 @@ the device, what the owner writes waits in the kernel's buffer (pyserial empties
 opens the port); once that buffer is full, `write` waits up to ``write_timeout`` seconds and
 then raises `TransportError`. Chunks are stamped with ``time.monotonic()`` when the event loop
 reads them. POSIX only.
-
-Settings a program leaves on the device (Linux). A pty keeps no parity: the kernel clears
-PARENB in every setting made on it, and glibc's ``tcsetattr`` (as Debian builds it) fails with
-EINVAL when the settings did not change but the parity was refused. So a program asking for the
-settings the previous one left, with even parity (pyserial at 9600 8E1 twice in a row), could
-not open the device. The port therefore puts the device "at rest" after every change: 50 or 75
-baud, alternately (a reset that lands inside a program's ``tcsetattr`` must still count as a
-change), and no CLOCAL. A pty ignores both, and pyserial always sets CLOCAL, so what the next
-program asks for is a change. The kernel tells the port of changes: the master runs in packet
-mode (TIOCPKT), where a read is a zero byte and data, or one control byte alone, telling of a
-flush or, with EXTPROC set on the device, of new settings. The port drops that byte and rests
-the device; it also does so before it writes. EXTPROC is left off while a program asks for
-input processing (PARMRK marking, canonical mode, echo), which EXTPROC would skip. The reset
-runs when the event loop reads the notice: a program that sets up the device, closes it and
-opens it again before that (microseconds on an idle loop) can still be refused. Elsewhere, or
-where the kernel sends no such notice, the port works without packet mode.
 """
 
 from __future__ import annotations
@@ -34,29 +18,12 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import os
-import platform
-import struct
-import sys
 import time
 
 from pyuss.errors import ConfigError, TransportError
 from pyuss.transport.queued import QueuedTransport
 
 _READ_SIZE = 65536
-#: Control byte of a packet-mode read: the settings of the device side changed (EXTPROC).
-_TIOCPKT_IOCTL = 0x40
-
-
-def _extproc_flag() -> int:
-    """The EXTPROC bit of ``c_lflag`` (Python's termios may lack it); 0 off Linux."""
-    if not sys.platform.startswith("linux"):
-        return 0
-    import termios
-
-    flag = getattr(termios, "EXTPROC", None)
-    if flag is not None:
-        return int(flag)
-    return 0x10000000 if platform.machine().startswith(("ppc", "powerpc", "alpha")) else 0o200000
 
 
 class PtyPort(QueuedTransport):
@@ -72,8 +39,6 @@ class PtyPort(QueuedTransport):
         self._path: str | None = None
         self._write_waiter: asyncio.Future[None] | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._extproc = 0  # the EXTPROC bit while the port watches the device's settings
-        self._rests = 0  # resets so far: the rest speed alternates
 
     @property
     def device_path(self) -> str:
@@ -89,7 +54,6 @@ class PtyPort(QueuedTransport):
         if self.is_open:
             return
         try:
-            import termios
             import tty
 
             master, slave = os.openpty()
@@ -99,85 +63,14 @@ class PtyPort(QueuedTransport):
             tty.setraw(slave)
             os.set_blocking(master, False)
             self._path = os.ttyname(slave)
-        except (OSError, termios.error) as exc:
+        except OSError as exc:
             os.close(master)
             os.close(slave)
             raise TransportError(f"cannot set up the pseudo-terminal: {exc}") from None
         self._master, self._slave = master, slave
-        self._watch_settings()
         self._loop = asyncio.get_running_loop()
         self._mark_open()
         self._loop.add_reader(master, self._on_readable)
-
-    def _watch_settings(self) -> None:
-        """Packet mode on the master, EXTPROC and rest settings on the device (see the module
-        docstring); where the kernel sends no notice for that, the pty is left as it was."""
-        self._extproc = self._rests = 0
-        extproc = _extproc_flag()
-        if not extproc:
-            return
-        import fcntl
-        import termios
-
-        try:
-            before = termios.tcgetattr(self._slave)
-            fcntl.ioctl(self._master, termios.TIOCPKT, struct.pack("i", 1))
-        except (OSError, termios.error):
-            return
-        self._extproc = extproc
-        self._rest()
-        try:
-            notice = os.read(self._master, _READ_SIZE)
-        except OSError:
-            notice = b""
-        if len(notice) == 1 and notice[0] & _TIOCPKT_IOCTL:
-            return
-        self._extproc = 0
-        with contextlib.suppress(OSError, termios.error):
-            fcntl.ioctl(self._master, termios.TIOCPKT, struct.pack("i", 0))
-            termios.tcsetattr(self._slave, termios.TCSANOW, before)
-
-    def _rest(self) -> None:
-        """Put the device's settings at rest, unless they are (as after our own reset). A program
-        that asks for input processing gets its settings without EXTPROC: a change it makes
-        later is not told (unless it flushes its input, as pyserial does on opening), but the
-        settings it leaves are at rest."""
-        import termios
-
-        speeds = (termios.B50, termios.B75)
-        processed_i = termios.IGNCR | termios.ICRNL | termios.INLCR | termios.IXON | termios.PARMRK
-        processed_l = termios.ICANON | termios.ISIG | termios.ECHO
-        try:
-            iflag, oflag, cflag, lflag, _ispeed, ospeed, cc = termios.tcgetattr(self._slave)
-            if iflag & processed_i or lflag & processed_l:
-                rest_lflag = lflag & ~self._extproc
-            else:
-                rest_lflag = lflag | self._extproc
-            if ospeed in speeds and not cflag & termios.CLOCAL and lflag == rest_lflag:
-                return
-            speed = speeds[self._rests % 2]
-            self._rests += 1
-            attrs = [iflag, oflag, cflag & ~termios.CLOCAL, rest_lflag, speed, speed, cc]
-            termios.tcsetattr(self._slave, termios.TCSANOW, attrs)
-        except termios.error:  # our own handle on the device: nothing to tell anyone
-            pass
-
-    def _settle_before_writing(self) -> None:
-        """The kernel processes what the owner writes with the device's settings of the moment:
-        a program that has just asked for processing (PARMRK) gets it before the kernel's
-        notice is read."""
-        if self._extproc:
-            self._rest()
-
-    def _unpack(self, data: bytes) -> bytes:
-        """The data of one read from the master. In packet mode a read is a zero byte and
-        data, or one control byte alone (the kernel's notice of a change of settings, a flush,
-        a stop): a control byte is dropped, and the device's settings are put at rest."""
-        if not self._extproc:
-            return data
-        if data[0]:
-            self._rest()
-        return data[1:]
 
     def _on_readable(self) -> None:
         try:
@@ -192,9 +85,7 @@ class PtyPort(QueuedTransport):
             self._stop_reading()
             self._lose(TransportError(f"{self.describe()} lost: end of file"))
             return
-        data = self._unpack(data)
-        if data:
-            self._deliver(data, time.monotonic())
+        self._deliver(data, time.monotonic())
 
     def _stop_reading(self) -> None:
         if self._loop is not None and self._master >= 0:
@@ -202,7 +93,6 @@ class PtyPort(QueuedTransport):
 
     async def write(self, data: bytes) -> None:
         self._check_writable()
-        self._settle_before_writing()
         view = memoryview(bytes(data))
         self._arm_echo(bytes(view))
         deadline = time.monotonic() + self._write_timeout
@@ -236,7 +126,6 @@ class PtyPort(QueuedTransport):
         in ``stats.dropped_out``. Returns the number of bytes written."""
         if not self.is_open:
             raise TransportError(f"{self.describe()} is not open")
-        self._settle_before_writing()
         try:
             n = os.write(self._master, data)
         except BlockingIOError:
@@ -274,12 +163,10 @@ class PtyPort(QueuedTransport):
         if self._master >= 0:
             while True:
                 try:
-                    data = os.read(self._master, _READ_SIZE)
+                    if not os.read(self._master, _READ_SIZE):
+                        break
                 except OSError:  # nothing left (EAGAIN) or gone: either way nothing to drop
                     break
-                if not data:
-                    break
-                self._unpack(data)
 
     async def close(self) -> None:
         if not self.is_open:
