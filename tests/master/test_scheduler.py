@@ -287,3 +287,16 @@ async def test_a_pause_without_a_poll_list_is_not_counted_as_a_cycle() -> None:
         await eventually(lambda: len(seen) >= before + 3)
     # the time without a poll list was not taken for one long cycle (A 5.1.1)
     assert all(done == measured + 1 for done, measured in seen[before:])
+
+
+async def test_a_task_cancelled_as_its_update_arrives_is_cancelled() -> None:
+    # A task following the drive (next_update in a loop, as `uss run` does) is cancelled in
+    # the very step in which its update arrives: the cancellation must win, or the task goes
+    # on calling into the master after its owner stopped it.
+    async with scripted_bus() as setup:
+        drive = setup.master.drive(5)
+        follower = asyncio.create_task(drive.next_update(timeout=5))
+        await asyncio.sleep(0)  # the follower waits for its update
+        drive.on_update(lambda status: follower.cancel())  # runs as the update is delivered
+        with pytest.raises(asyncio.CancelledError):
+            await follower

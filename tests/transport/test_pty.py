@@ -51,3 +51,17 @@ async def test_closing_while_a_write_waits_for_room_ends_the_write_with_a_transp
     with pytest.raises(TransportError, match="closed while writing"):
         await writing
     assert pty.stats.dropped_out > 0
+
+
+async def test_a_reader_cancelled_as_its_data_arrive_is_cancelled() -> None:
+    # The data and the cancellation of the task reading them come in the same step: the
+    # cancellation must win (the chunk stays for the next reader), or the task reads on.
+    async with PtyPort() as pty:
+        reader = asyncio.create_task(pty.read(timeout=5))
+        await asyncio.sleep(0)  # the reader waits
+        pty._deliver(b"\x02", 1.0)  # as the event loop hands the port its bytes
+        reader.cancel()
+        with pytest.raises(asyncio.CancelledError):
+            await reader
+        chunk = await pty.read(timeout=1)
+        assert chunk is not None and chunk.data == b"\x02"

@@ -572,7 +572,11 @@ class Master:
     ) -> DriveStatus:
         wait = self.job_timeout if timeout is None else timeout
         try:
-            return await asyncio.wait_for(future, wait)
+            # Not asyncio.wait_for: on Python 3.11 it returns a result that arrives together
+            # with a cancellation of the waiting task and drops the cancellation, so a task
+            # cancelled while following the drive went on calling into the master.
+            async with asyncio.timeout(wait):
+                return await future
         except TimeoutError:
             if link.not_sending:
                 raise NotSending(link.address, f"no answer within {wait:g} s") from None

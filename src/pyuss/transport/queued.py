@@ -137,7 +137,10 @@ class QueuedTransport(Transport):
             if left <= 0:
                 return None
             try:
-                await asyncio.wait_for(self._ready.wait(), left)
+                # asyncio.timeout, not wait_for: wait_for (Python 3.11) can drop a cancellation
+                # that comes as the data do, and the cancelled reader would read on
+                async with asyncio.timeout(left):
+                    await self._ready.wait()
             except TimeoutError:
                 return None
 
