@@ -50,3 +50,15 @@ def test_no_layer_reaches_up(package: str) -> None:
 def test_protocol_layer_does_no_io_and_reads_no_clock() -> None:
     roots = {name.split(".")[0] for name in _imports("protocol")}
     assert not roots & IMPURE, f"pyuss.protocol imports {sorted(roots & IMPURE)}"
+
+
+def test_waits_with_a_time_limit_use_asyncio_timeout() -> None:
+    # asyncio.wait_for (Python 3.11) returns a result that arrives together with a
+    # cancellation of the waiting task and drops the cancellation: the task runs on.
+    users = [
+        str(path.relative_to(SRC))
+        for path in SRC.rglob("*.py")
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+        if isinstance(node, ast.Attribute) and node.attr == "wait_for"
+    ]
+    assert not users, f"asyncio.wait_for in {sorted(set(users))}: use asyncio.timeout"

@@ -54,7 +54,8 @@ class BusClientTransport(TcpTransport):
         hello = {"name": self.name, "echo": self._bus_echo, "listen_only": self.listen_only}
         try:
             writer.write(json.dumps(hello).encode() + b"\n")
-            line = await asyncio.wait_for(reader.readline(), _ANSWER_TIMEOUT)
+            async with asyncio.timeout(_ANSWER_TIMEOUT):
+                line = await reader.readline()
             answer = json.loads(line)
         except (OSError, TimeoutError, ValueError) as exc:
             raise TransportError(

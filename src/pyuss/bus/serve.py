@@ -201,7 +201,8 @@ async def _framed_station(
         writer.write(json.dumps(item).encode() + b"\n")
 
     try:
-        line = await asyncio.wait_for(reader.readline(), _HELLO_TIMEOUT)
+        async with asyncio.timeout(_HELLO_TIMEOUT):
+            line = await reader.readline()
         hello = json.loads(line)
         if not isinstance(hello, dict):
             raise ValueError("hello is not a JSON object")

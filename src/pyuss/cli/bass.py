@@ -221,7 +221,8 @@ async def _serve_ring(ring: BassRing, transport: Transport, duration: float | No
                 print(f"tcp://{transport.host}:{transport.port}")
             sys.stdout.flush()
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(stop.wait(), duration)
+                async with asyncio.timeout(duration):
+                    await stop.wait()
     finally:
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.remove_signal_handler(sig)

@@ -165,7 +165,8 @@ async def _serve(
             print(line)
         sys.stdout.flush()
         with contextlib.suppress(TimeoutError):
-            await asyncio.wait_for(stop.wait(), args.duration)
+            async with asyncio.timeout(args.duration):
+                await stop.wait()
     finally:
         await bus.close()
         for sig in (signal.SIGINT, signal.SIGTERM):

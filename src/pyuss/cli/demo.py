@@ -96,7 +96,8 @@ async def _spontaneous(generic: Drive, engine: SlaveEngine) -> None:
     got: asyncio.Queue[SpontaneousMessage] = asyncio.Queue()
     remove = generic.on_spontaneous(got.put_nowait)
     engine.drive.update(52, 0x1234)
-    message = await asyncio.wait_for(got.get(), 5)
+    async with asyncio.timeout(5):
+        message = await got.get()
     remove()
     say(f"   drive {message.address}: P{message.pnu} is now {message.value:04X}h (acknowledged)")
     say()

@@ -521,7 +521,8 @@ async def _live(
 async def _refresh(output: _Output, interval: float, stop: asyncio.Event) -> None:
     while not stop.is_set():
         with contextlib.suppress(TimeoutError):
-            await asyncio.wait_for(stop.wait(), interval)
+            async with asyncio.timeout(interval):
+                await stop.wait()
         if stop.is_set():
             return
         output.show((_CLEAR if output.stream.isatty() else "") + output.table() + "\n\n")

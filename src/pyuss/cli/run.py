@@ -103,7 +103,8 @@ class Live:
         while not done.is_set():
             self.show()
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(done.wait(), self.interval)
+                async with asyncio.timeout(self.interval):
+                    await done.wait()
 
 
 def main(args: argparse.Namespace) -> int:

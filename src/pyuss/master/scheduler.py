@@ -372,7 +372,8 @@ class Master:
         if self._task is not None:
             task = self._task
             try:
-                await asyncio.wait_for(asyncio.shield(task), self._stop_time())
+                async with asyncio.timeout(self._stop_time()):
+                    await asyncio.shield(task)
             except TimeoutError:
                 task.cancel()
                 with contextlib.suppress(asyncio.CancelledError):
@@ -572,9 +573,6 @@ class Master:
     ) -> DriveStatus:
         wait = self.job_timeout if timeout is None else timeout
         try:
-            # Not asyncio.wait_for: on Python 3.11 it returns a result that arrives together
-            # with a cancellation of the waiting task and drops the cancellation, so a task
-            # cancelled while following the drive went on calling into the master.
             async with asyncio.timeout(wait):
                 return await future
         except TimeoutError:
@@ -742,7 +740,8 @@ class Master:
             return
         if timeout > 0:
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._wake.wait(), timeout)
+                async with asyncio.timeout(timeout):
+                    await self._wake.wait()
 
     async def _cycle(self) -> None:
         entries = tuple(self._poll)

@@ -150,7 +150,8 @@ class PtyPort(QueuedTransport):
         loop.add_writer(fd, wake)
         self._write_waiter = ready
         try:
-            await asyncio.wait_for(ready, max(0.0, deadline - time.monotonic()))
+            async with asyncio.timeout(max(0.0, deadline - time.monotonic())):
+                await ready
         except TimeoutError:
             pass
         finally:

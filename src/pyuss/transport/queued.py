@@ -137,8 +137,6 @@ class QueuedTransport(Transport):
             if left <= 0:
                 return None
             try:
-                # asyncio.timeout, not wait_for: wait_for (Python 3.11) can drop a cancellation
-                # that comes as the data do, and the cancelled reader would read on
                 async with asyncio.timeout(left):
                     await self._ready.wait()
             except TimeoutError:

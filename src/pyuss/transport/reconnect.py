@@ -148,7 +148,8 @@ class ReconnectingTransport(QueuedTransport):
             if self._giving_up.is_set():
                 return TransportError(f"{self.describe()}: gave up reconnecting; last: {last}")
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._giving_up.wait(), delay)
+                async with asyncio.timeout(delay):
+                    await self._giving_up.wait()
                 continue
             inner = self._factory()
             try:

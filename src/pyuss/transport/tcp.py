@@ -93,9 +93,8 @@ class TcpTransport(QueuedTransport):
         if self.is_open:
             return
         try:
-            reader, writer = await asyncio.wait_for(
-                asyncio.open_connection(self.host, self.port), self._connect_timeout
-            )
+            async with asyncio.timeout(self._connect_timeout):
+                reader, writer = await asyncio.open_connection(self.host, self.port)
         except TimeoutError:
             raise TransportError(
                 f"cannot connect to {self.describe()}: no answer in {self._connect_timeout} s"
@@ -195,7 +194,8 @@ class TcpServerTransport(QueuedTransport):
         if self._peer_event is None:
             raise TransportError(f"{self.describe()} is not open")
         try:
-            await asyncio.wait_for(self._peer_event.wait(), timeout)
+            async with asyncio.timeout(timeout):
+                await self._peer_event.wait()
         except TimeoutError:
             return False
         return True
