@@ -69,7 +69,7 @@ from pyuss.monitor.stats import Summary
 from pyuss.protocol.diagnostics import FaultKind
 from pyuss.protocol.layout import Layout, NetData
 from pyuss.protocol.pkw import ResponseId
-from pyuss.protocol.receiver import Event, Received, ReceiveFault, Receiver
+from pyuss.protocol.receiver import Event, Received, ReceiveFault, Receiver, fixed_length_fault
 from pyuss.protocol.telegram import (
     MAX_LGE,
     MIN_LGE,
@@ -260,13 +260,13 @@ class Monitor:
         normal or mirror telegram whose LGE is not the fixed length given for its address is
         `FaultKind.BAD_LGE` (A 4.2.2, A 5.2)."""
         tg = frame.telegram
-        if frame.fault is not None or tg is None or tg.mode not in _FIXED_LENGTH_MODES:
+        if frame.fault is not None or tg is None:
             return frame
         layout = self.layouts.given(tg.address)
         fixed = None if layout is None else layout.lge
-        if fixed is None or fixed == frame.raw[1]:
+        detail = fixed_length_fault(frame.raw[2], frame.raw[1], fixed)
+        if detail is None:
             return frame
-        detail = f"LGE {frame.raw[1]}, but address {tg.address} uses the fixed length LGE {fixed}"
         return replace(frame, fault=FaultKind.BAD_LGE, detail=detail)
 
     def finish(self) -> list[Exchange]:
@@ -874,7 +874,6 @@ class Monitor:
             values.add(word)
 
 
-_FIXED_LENGTH_MODES = (AddressMode.NORMAL, AddressMode.MIRROR)
 _DAMAGED_REQUEST = (
     "the request was damaged on the line; this came within the response delay limit, so it "
     "is taken as the answer"

@@ -543,7 +543,7 @@ class Pkw:
         """
         if self.id != ResponseId.REFUSED or not self.values:
             return None
-        return self.values[1] if len(self.values) == 2 else self.values[0]
+        return self.word() if len(self.values) <= 2 else self.values[0]
 
     # -- matching -------------------------------------------------------------------------
 

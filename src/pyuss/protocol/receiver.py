@@ -73,7 +73,7 @@ from pyuss.protocol.telegram import (
 )
 from pyuss.protocol.timing import LineTiming
 
-__all__ = ["Event", "FaultKind", "ReceiveFault", "Received", "Receiver"]
+__all__ = ["Event", "FaultKind", "ReceiveFault", "Received", "Receiver", "fixed_length_fault"]
 
 _IDLE, _TELEGRAM, _JUNK = 0, 1, 2
 _FIXED_MODES = (AddressMode.NORMAL.value, AddressMode.MIRROR.value)
@@ -109,6 +109,15 @@ class ReceiveFault:
 
 
 Event = Received | ReceiveFault
+
+
+def fixed_length_fault(adr: int, lge: int, fixed: int | None) -> str | None:
+    """Fixed-length operation (A 4.2.2, A 5.2): a normal or mirror telegram with ADR byte
+    ``adr`` to an address whose fixed length is ``fixed`` (None: not fixed) must carry that
+    LGE. The `FaultKind.BAD_LGE` detail when ``lge`` is another, else None."""
+    if fixed is None or adr & 0xE0 not in _FIXED_MODES or lge == fixed:
+        return None
+    return f"LGE {lge}, but address {adr & 0x1F} uses the fixed length LGE {fixed}"
 
 
 def _line_kind(flags: LineError) -> FaultKind:
@@ -326,12 +335,9 @@ class Receiver:
         if not self._adr_checked and len(buf) >= 3:
             self._adr_checked = True
             adr = buf[2]
-            fixed = self.fixed_lengths.get(adr & 0x1F)
-            if fixed is not None and adr & 0xE0 in _FIXED_MODES and fixed != buf[1]:
-                self._to_junk(
-                    FaultKind.BAD_LGE,
-                    f"LGE {buf[1]}, but address {adr & 0x1F} uses the fixed length LGE {fixed}",
-                )
+            detail = fixed_length_fault(adr, buf[1], self.fixed_lengths.get(adr & 0x1F))
+            if detail is not None:
+                self._to_junk(FaultKind.BAD_LGE, detail)
                 return pos
         if len(buf) == self._need:
             self._complete(events)
