@@ -26,10 +26,9 @@ several addresses FILE must contain ``{address}``); a damaged store file is refu
 
 Profiles of other protocols plug in through `OTHER_PROTOCOLS`: ``--profile ksvario`` runs the
 KS VARIO PROFIBUS-DP simulator (`pyuss.ksvario.simulate`, where installed) as the one DP station
-``--address`` (0..125) at a PROFIBUS-DP ``--baud``, and refuses the options of USS drives,
-``--profile bass``
-a closed RS-232 ring of Baumueller drives speaking BASS (`pyuss.bass.ring`, 9600 baud 8N1, one
-drive per ``--address``).
+``--address`` (0..125) at a PROFIBUS-DP ``--baud``; ``--profile bass`` a closed RS-232 ring of
+Baumueller drives speaking BASS (`pyuss.bass.ring`, 9600 baud 8N1, one drive per
+``--address``). Both refuse the options of USS drives (``--params``, ``--layout``, ...).
 """
 
 from __future__ import annotations
