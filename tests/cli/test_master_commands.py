@@ -129,7 +129,14 @@ def test_failures_with_json_are_json(sim: str, capsys: pytest.CaptureFixture[str
     code, out, _ = uss(capsys, "write", "9", "18", "1", *common(sim), "--json", "--timeout", "0.3")
     assert code == 1 and json.loads(out)["error"]["type"] == "JobTimeout"
     code, out, err = uss(capsys, "write", "5", "18", "x", *common(sim), "--json")
-    assert code == 2 and not out and len(err.splitlines()) == 1  # bad input stays one line
+    assert code == 2 and not err  # bad input is the same JSON error object, exit code 2
+    assert json.loads(out) == {
+        "error": {
+            "type": "ConfigError",
+            "message": "VALUE 'x' is not an integer or a number",
+            "exit_code": 2,
+        }
+    }
 
 
 def test_mirror_and_a_silent_address(sim: str, capsys: pytest.CaptureFixture[str]) -> None:

@@ -19,8 +19,8 @@ import sys
 from collections.abc import Awaitable, Callable, Coroutine
 from typing import Any, TypeVar
 
-from pyuss.errors import ConfigError, DriveRefusal, UssError
-from pyuss.master.errors import NoWriteAuthority
+from pyuss.cli._output import error_object, print_error
+from pyuss.errors import ConfigError, UssError
 from pyuss.master.scheduler import Master, Mode
 from pyuss.profiles import profile_names
 from pyuss.protocol.layout import Layout
@@ -186,13 +186,8 @@ def open_master(args: argparse.Namespace, *, mode: Mode = Mode.ACYCLIC, **extra:
 
 
 def error_dict(exc: BaseException) -> dict[str, Any]:
-    """An error as JSON: its type, message and, for refusals, number and meaning."""
-    item: dict[str, Any] = {"type": type(exc).__name__, "message": str(exc)}
-    if isinstance(exc, DriveRefusal):
-        item.update(number=exc.number, meaning=exc.meaning)
-    elif isinstance(exc, NoWriteAuthority):
-        item.update(response_id=8)
-    return item
+    """A failure as the JSON error object of every command (`pyuss.cli._output`)."""
+    return error_object(exc, EXIT_FAILED)
 
 
 async def outcome(
@@ -222,13 +217,22 @@ def emit(args: argparse.Namespace, data: Any, text: str) -> None:
 
 
 def run(name: str, args: argparse.Namespace, body: Callable[[], Coroutine[Any, Any, int]]) -> int:
-    """Run a command's coroutine; bad input gives one line on stderr and exit code 2. Other
-    `UssError`s are left to ``uss`` (one line, exit code 1)."""
+    """Run a command's coroutine; bad input gives one line on stderr (with ``--json`` the
+    JSON error object on stdout) and exit code 2. Other `UssError`s are left to ``uss`` (the
+    same, with exit code 1)."""
     try:
         return asyncio.run(body())
     except ConfigError as exc:
-        print(f"uss {name}: {exc}", file=sys.stderr)
+        report(name, args, exc, EXIT_USAGE)
         return EXIT_USAGE
+
+
+def report(name: str, args: argparse.Namespace, exc: BaseException, code: int) -> None:
+    """A command's failure: one line on stderr, or with ``--json`` the JSON error object."""
+    if getattr(args, "json", False):
+        print_error(exc, code)
+    else:
+        print(f"uss {name}: {exc}", file=sys.stderr)
 
 
 def fail(name: str, exc: UssError) -> None:

@@ -13,6 +13,7 @@ import logging
 import os
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 from pyuss import __version__
 from pyuss.errors import UssError
@@ -44,8 +45,24 @@ EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, except that with ``--json`` on the command line a refused argument
+    is the JSON error object on stdout (``UsageError``, exit code 2), as every other failure
+    of a command that takes ``--json``. Sub-command parsers are of the same class."""
+
+    json_errors = False
+
+    def error(self, message: str) -> NoReturn:
+        if _Parser.json_errors:
+            from pyuss.cli._output import print_json, usage_error
+
+            print_json({"error": usage_error(f"{self.prog}: {message}")})
+            self.exit(EXIT_USAGE)
+        super().error(message)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="uss", description="USS protocol toolkit: master, simulator, bus, monitor, tools."
     )
     parser.add_argument("--version", action="version", version=f"pyuss {__version__}")
@@ -66,7 +83,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    words = sys.argv[1:] if argv is None else list(argv)
+    _Parser.json_errors = "--json" in words
+    try:
+        args = parser.parse_args(words)
+    finally:
+        _Parser.json_errors = False
     quiet = logging.ERROR if args.command in ONE_SHOT else logging.WARNING
     level = quiet if args.verbose == 0 else (logging.INFO if args.verbose == 1 else logging.DEBUG)
     logging.basicConfig(level=level, format="%(asctime)s %(name)s %(levelname)s %(message)s")
@@ -75,7 +97,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         return EXIT_INTERRUPTED
     except UssError as exc:
-        print(f"uss {args.command}: {exc}", file=sys.stderr)
+        if getattr(args, "json", False):
+            from pyuss.cli._output import print_error
+
+            print_error(exc, EXIT_FAILED)
+        else:
+            print(f"uss {args.command}: {exc}", file=sys.stderr)
         return EXIT_FAILED
     except BrokenPipeError:
         # The reader went away (``uss ... | head``): stop quietly, like any filter does.

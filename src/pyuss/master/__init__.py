@@ -13,6 +13,7 @@ See docs/master.md.
 from pyuss.master.description import Description, DescriptionElement
 from pyuss.master.drive import Drive
 from pyuss.master.errors import (
+    JobOutcome,
     JobTimeout,
     MasterClosed,
     MirrorMismatch,
@@ -35,6 +36,7 @@ __all__ = [
     "DescriptionElement",
     "Drive",
     "DriveStatus",
+    "JobOutcome",
     "JobStats",
     "JobTimeout",
     "Master",

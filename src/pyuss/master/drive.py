@@ -47,10 +47,12 @@ from pyuss.master.description import (
     decode_element,
     element_size,
 )
+from pyuss.master.errors import JobTimeout
 from pyuss.master.jobs import SpontaneousMessage
 from pyuss.master.process import OPERATE, DriveStatus
 from pyuss.master.profile import Profile, description_style, index_base
 from pyuss.master.stats import SlaveDiagnostics
+from pyuss.master.verify import read_back
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import (
     INDEX_ALL,
@@ -195,10 +197,14 @@ class Drive:
         dword: bool | None = None,
         eeprom: bool = False,
         timeout: float | None = None,
+        verify: bool = False,
     ) -> int | float:
         """Write ``value`` to ``pnu`` (element ``index``); ``eeprom=True`` stores it in the
         drive's non-volatile memory as well (requests 11..14). Returns the value the drive
-        answered with (a float for a float written)."""
+        answered with (a float for a float written). ``verify=True``: when the answer never
+        comes, read the value back (`pyuss.master.verify`) and return it if the drive holds
+        it; otherwise the `JobTimeout` says `JobOutcome.NOT_APPLIED` (or stays ``UNKNOWN``
+        when the read fails too)."""
         index = _index(index)
         is_float = isinstance(value, float)
         if isinstance(value, bool) or not isinstance(value, int | float):
@@ -233,12 +239,22 @@ class Drive:
                 else (RequestId.WRITE_ARRAY_WORD_EEPROM if eeprom else RequestId.WRITE_ARRAY_WORD)
             )
             bits, ind = self._ind(pnu, index)
-        answer = await self.job(
-            Pkw(rid, bits, ind, values=words), pnu=pnu, index=index, timeout=timeout
-        )
+        request = Pkw(rid, bits, ind, values=words)
+        answer = await self._write_job(request, pnu, index, timeout, verify)
         if is_float:
             return answer.float32()
         return _value(answer, signed=isinstance(value, int) and value < 0)
+
+    async def _write_job(
+        self, request: Pkw, pnu: int, index: int | None, timeout: float | None, verify: bool
+    ) -> Pkw:
+        """A change job; with ``verify`` a lost answer is settled by reading the value back."""
+        try:
+            return await self.job(request, pnu=pnu, index=index, timeout=timeout)
+        except JobTimeout as error:
+            if not verify:
+                raise
+            return await read_back(self, error, timeout=timeout)
 
     async def array_length(self, pnu: int, *, timeout: float | None = None) -> int:
         """How many elements array parameter ``pnu`` has (request 9)."""

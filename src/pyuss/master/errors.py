@@ -6,6 +6,9 @@
   with an invented number; it derives from `PermissionError` as well, which is what it is.
   Catch ``(DriveRefusal, NoWriteAuthority)`` for "the drive said no".
 - `JobTimeout`: a parameter job got no answer belonging to it within its time (C 4.2.1.1).
+  Its `JobOutcome` says what is known of a change job: never sent (the drive did not get
+  it), or sent without an answer of its own (it may have been carried out: read it back, or
+  write with ``verify=True``).
 - `NotSending`: the slave did not answer within its response delay ("Teilnehmer x sendet
   nicht", A 5.2.1.1): raised by operations that need one exchange (mirror, process data).
 - `MirrorMismatch`: a mirror telegram came back changed (A 5.3).
@@ -14,9 +17,22 @@
 
 from __future__ import annotations
 
+import enum
+from typing import TYPE_CHECKING
+
 from pyuss.errors import ProtocolError, TransportError, UssError, UssTimeout
 
-__all__ = ["JobTimeout", "MasterClosed", "MirrorMismatch", "NoWriteAuthority", "NotSending"]
+if TYPE_CHECKING:
+    from pyuss.protocol.pkw import Pkw
+
+__all__ = [
+    "JobOutcome",
+    "JobTimeout",
+    "MasterClosed",
+    "MirrorMismatch",
+    "NoWriteAuthority",
+    "NotSending",
+]
 
 
 class NoWriteAuthority(UssError, PermissionError):
@@ -36,14 +52,84 @@ class NoWriteAuthority(UssError, PermissionError):
         )
 
 
-class JobTimeout(UssTimeout):
-    """A parameter job got no answer belonging to it in time (C 4.2.1.1)."""
+class JobOutcome(enum.Enum):
+    """What is known of a parameter job that got no answer of its own (`JobTimeout.outcome`).
 
-    def __init__(self, message: str, *, address: int, pnu: int | None, sent: int) -> None:
+    A drive carries out a job when a telegram carrying it arrives and then answers it
+    (C 4.2.1.1); a lost answer says nothing about the job itself.
+    """
+
+    NOT_SENT = "not_sent"
+    """The job never went out (held back until the drive's old answer cleared, or the drive
+    got no turn): the drive did not get it and changed nothing."""
+    UNKNOWN = "unknown"
+    """The job was sent but no answer of its own came back: the drive may have carried it
+    out (a lost answer) or not (a lost request). Read the value back to know."""
+    APPLIED = "applied"
+    """Read back after the timeout: the drive holds the value written (`Drive.write` with
+    ``verify=True`` then returns normally)."""
+    NOT_APPLIED = "not_applied"
+    """Read back after the timeout: the drive does not hold the value written; it did not
+    carry out the job, which may be repeated."""
+
+
+class JobTimeout(UssTimeout):
+    """A parameter job got no answer belonging to it in time (C 4.2.1.1).
+
+    ``outcome`` (a `JobOutcome`): `NOT_SENT` or `UNKNOWN` as the master saw it, `NOT_APPLIED`
+    after a read-back (``verify=True``) found the old value. ``may_have_applied`` is true for
+    a change job whose outcome is unknown. ``elapsed``: seconds from the moment the job was
+    due to the moment it was given up, on the transport's clock (the virtual bus's timeline
+    on the virtual bus); ``timeout``: the time it had; ``sent``: telegrams that carried it;
+    ``request``: the PKW area of the job (None when not known).
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        address: int,
+        pnu: int | None,
+        sent: int,
+        index: int | None = None,
+        outcome: JobOutcome | None = None,
+        elapsed: float | None = None,
+        timeout: float | None = None,
+        request: Pkw | None = None,
+    ) -> None:
         self.address = address
         self.pnu = pnu
+        self.index = index
         self.sent = sent
+        self.outcome = outcome or (JobOutcome.NOT_SENT if sent == 0 else JobOutcome.UNKNOWN)
+        self.elapsed = elapsed
+        self.timeout = timeout
+        self.request = request
         super().__init__(message)
+
+    @property
+    def changes(self) -> bool:
+        """Whether the job changes a value (a write, an EEPROM write, a text write)."""
+        return self.request is not None and job_changes(self.request)
+
+    @property
+    def may_have_applied(self) -> bool:
+        """A change job whose outcome is unknown: the drive may hold the new value."""
+        return self.changes and self.outcome is JobOutcome.UNKNOWN
+
+
+def job_changes(request: Pkw) -> bool:
+    """Whether ``request`` changes something in the drive (request 15 only with IND bit 8,
+    "write text", C Table 4.5)."""
+    from pyuss.protocol.pkw import RequestId, TextIndex
+
+    try:
+        rid = RequestId(request.id)
+    except ValueError:  # pragma: no cover - Pkw ids are 0..15, all named
+        return False
+    if rid is RequestId.TEXT:
+        return bool(request.index & TextIndex.WRITE)
+    return rid.is_change
 
 
 class NotSending(UssTimeout):

@@ -19,8 +19,14 @@ Rules (C 4.2.1.1):
   new job - or nothing is known about it (first contact, after a job timed out) - the master
   sends "no job" until the slave answers "no response" (which answers no job but "no job"),
   and only then the new job. Two jobs in a row whose answers cannot be confused follow each
-  other directly. A job's time starts when it is first due, so a slave that never answers
-  "no response" times the job out.
+  other directly.
+- A job's time starts when it is due: when it is submitted to an idle channel, or when the
+  job before it ends. The time held back by the guard counts, so a slave that never answers
+  "no response" times the job out, and a job never lasts longer than its timeout plus the
+  one exchange that is on the line at its deadline. No telegram carries a job after its
+  deadline. A `JobTimeout` says whether the job was ever sent (`JobOutcome.NOT_SENT`: the
+  drive did not get it) or not answered (`JobOutcome.UNKNOWN`: a change may have been
+  carried out) and how long it took (``elapsed``, on the clock passed in).
 - Spontaneous messages (IDs 9..12, C 4.2.1.2) interrupt the job: a message is new when its
   toggle bit (PKE bit 11) differs from the master's, which then takes the slave's value - the
   master changes its own bit 11, acknowledging it - and hands the message on once. Repeats
@@ -36,7 +42,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 from pyuss.errors import DriveRefusal, UssError
-from pyuss.master.errors import JobTimeout, NoWriteAuthority
+from pyuss.master.errors import JobOutcome, JobTimeout, NoWriteAuthority, job_changes
 from pyuss.master.profile import Profile, answers
 from pyuss.master.stats import JobStats, Samples
 from pyuss.protocol.pkw import Pkw, RequestId, ResponseId
@@ -85,7 +91,8 @@ def describe_job(request: Pkw, pnu: int, index: int | None) -> str:
 class Job:
     """One parameter job: the PKW area to send and who waits for the answer.
 
-    ``done`` is called once, when ``answer`` or ``error`` is set.
+    ``done`` is called once, when ``answer`` or ``error`` is set. ``due``: when its time
+    started; ``started``: when it was first sent; ``sent``: telegrams that carried it.
     """
 
     request: Pkw
@@ -103,6 +110,11 @@ class Job:
     @property
     def text(self) -> str:
         return describe_job(self.request, self.pnu, self.index)
+
+    @property
+    def deadline(self) -> float | None:
+        """When its time is up (None while it is not due yet)."""
+        return None if self.due is None else self.due + self.timeout
 
 
 class ParameterChannel:
@@ -134,8 +146,22 @@ class ParameterChannel:
         """True while a job is open or queued."""
         return self.current is not None or bool(self.queue)
 
-    def submit(self, job: Job) -> None:
+    def submit(self, job: Job, now: float | None = None) -> None:
+        """Queue ``job``; with ``now`` its time starts at once when nothing is before it
+        (else when the job before it ends, or, without ``now``, at the next request)."""
+        if now is not None and self.current is None and not self.queue:
+            job.due = now
         self.queue.append(job)
+
+    @property
+    def deadline(self) -> float | None:
+        """The earliest time a job of this channel runs out (None: none is due)."""
+        job = self.current if self.current is not None else (self.queue[0] if self.queue else None)
+        return None if job is None else job.deadline
+
+    def _next_due(self, now: float) -> None:
+        if self.current is None and self.queue and self.queue[0].due is None:
+            self.queue[0].due = now
 
     def cancel(self, job: Job) -> None:
         """Forget ``job`` (its waiter gave up). An open job leaves the slave's answer unknown."""
@@ -178,24 +204,29 @@ class ParameterChannel:
         """End the open job, or a queued one still waiting for the slave to clear its old
         answer, once its time is up."""
         job = self.current
-        if job is not None and job.started is not None and now - job.started > job.timeout:
-            self.current = None
-            self.last_answer = None
-            self._timed_out += 1
-            state = "; the slave does not send" if self.not_sending else ""
-            self._finish(
-                job,
-                error=JobTimeout(
-                    f"slave {self.address}: no answer to {job.text} within {job.timeout:g} s "
-                    f"({job.sent} telegrams sent{state}; C 4.2.1.1)",
-                    address=self.address,
-                    pnu=job.pnu,
-                    sent=job.sent,
-                ),
-            )
+        if job is not None:
+            if job.due is None:  # pragma: no cover - a job is due before it is sent
+                job.due = job.started
+            deadline = job.deadline
+            if deadline is not None and now > deadline:
+                self.current = None
+                self.last_answer = None
+                self._timed_out += 1
+                state = "; the slave does not send" if self.not_sending else ""
+                self._finish(
+                    job,
+                    error=self._timeout(
+                        job,
+                        now,
+                        f"no answer to {job.text} within {job.timeout:g} s ({job.sent} "
+                        f"telegrams sent{state}; C 4.2.1.1)",
+                    ),
+                )
+                self._next_due(now)
         if self.current is None and self.queue:
             head = self.queue[0]
-            if head.due is not None and now - head.due > head.timeout:
+            deadline = head.deadline
+            if deadline is not None and now > deadline:
                 self.queue.popleft()
                 self._timed_out += 1
                 if self.not_sending:
@@ -207,14 +238,33 @@ class ParameterChannel:
                     )
                 self._finish(
                     head,
-                    error=JobTimeout(
-                        f"slave {self.address}: {head.text} not sent within {head.timeout:g} s: "
-                        f"{why} (C 4.2.1.1)",
-                        address=self.address,
-                        pnu=head.pnu,
-                        sent=0,
+                    error=self._timeout(
+                        head,
+                        now,
+                        f"{head.text} not sent within {head.timeout:g} s: {why} (C 4.2.1.1)",
                     ),
                 )
+                self._next_due(now)
+
+    def _timeout(self, job: Job, now: float, what: str) -> JobTimeout:
+        outcome = JobOutcome.NOT_SENT if job.sent == 0 else JobOutcome.UNKNOWN
+        message = f"slave {self.address}: {what}"
+        if job_changes(job.request):
+            if outcome is JobOutcome.NOT_SENT:
+                message += "; the drive did not get it"
+            else:
+                message += "; the drive may have carried it out: read the value back to know"
+        return JobTimeout(
+            message,
+            address=self.address,
+            pnu=job.pnu,
+            index=job.index,
+            sent=job.sent,
+            outcome=outcome,
+            elapsed=None if job.due is None else now - job.due,
+            timeout=job.timeout,
+            request=job.request,
+        )
 
     # -- answers ---------------------------------------------------------------------------
     def answer(self, pkw: Pkw, now: float) -> SpontaneousMessage | None:
@@ -243,6 +293,7 @@ class ParameterChannel:
         if job is None or not answers(self.profile, pkw, job.request):
             return None
         self.current = None
+        self._next_due(now)
         if job.started is not None:
             self._latency.add(now - job.started)
         self._telegrams.add(job.sent)

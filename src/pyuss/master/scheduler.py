@@ -102,6 +102,9 @@ DEFAULT_TOLERANCE = 0.020
 DEFAULT_LATENCY = 0.020
 """How long past a deadline the master still waits for bytes that were on the line in time."""
 DEFAULT_JOB_TIMEOUT = 2.0
+_JOB_CHECK = 0.05
+"""Longest wait for the line during an exchange before the jobs of other slaves are looked at
+(only a long response delay limit waits longer than this at once)."""
 
 
 class Mode(enum.Enum):
@@ -338,6 +341,7 @@ class Master:
         self._failure: TransportError | None = None
         self._closing = False
         self._rotation = 0
+        self._submitted = 0
 
     # -- life cycle ------------------------------------------------------------------------
     async def __aenter__(self) -> Master:
@@ -527,7 +531,8 @@ class Master:
                 future.set_result(job.answer)
 
         job = Job(request, pnu, index, self.job_timeout if timeout is None else timeout, done)
-        link.channel.submit(job)
+        link.channel.submit(job, self._clock())
+        self._submitted += 1
         self._poke()
         try:
             return await future
@@ -768,11 +773,16 @@ class Master:
             self._overruns += 1
             return
         while not self._closing:
-            left = end - self._clock()
+            now = self._clock()
+            left = end - now
             if left <= 0:
                 return
             if not await self._do_specials():
+                deadline = self._next_deadline()
+                if deadline is not None:  # a job running out meanwhile ends on time
+                    left = min(left, max(deadline - now, 0.0) + self.timing.char_time)
                 await self._sleep(left)
+                self._expire_jobs()
 
     def _next_demand(self) -> _Link | None:
         addresses = sorted(self._links)
@@ -801,6 +811,7 @@ class Master:
             else:
                 if not special.future.done():
                     special.future.set_result(result)
+            self._expire_jobs()
         return True
 
     async def _run_special(self, special: _Special) -> object:
@@ -868,7 +879,29 @@ class Master:
         link.exchanges += 1
         if result.outcome is _Outcome.ANSWER and result.received is not None:
             self._answer(link, result, sent[0], sent[1])
-        link.channel.expire(self._clock())
+        self._expire_jobs()
+
+    def _expire_jobs(self, exclude: _Link | None = None) -> None:
+        """End the jobs whose time is up, of every slave but ``exclude`` (whose telegram is
+        on the line). Called after every exchange and at the deadlines during one, so a job
+        ends at its deadline - or, when a telegram carrying it is on the line then, once that
+        exchange is over - never a cycle later."""
+        now = self._clock()
+        for link in self._links.values():
+            if link is exclude:
+                continue
+            deadline = link.channel.deadline
+            if deadline is not None and now > deadline:
+                link.channel.expire(now)
+
+    def _next_deadline(self, exclude: _Link | None = None) -> float | None:
+        """The earliest deadline of a job of any slave but ``exclude``."""
+        deadlines = [
+            d
+            for d in (link.channel.deadline for link in self._links.values() if link is not exclude)
+            if d is not None
+        ]
+        return min(deadlines, default=None)
 
     def _answer(self, link: _Link, result: _Result, version: int, control: int) -> None:
         received = result.received
@@ -1045,8 +1078,18 @@ class Master:
         faulty = False
         receiver = self._receiver
         events: list[Received | ReceiveFault] = []
+        # Other slaves' jobs end at their deadlines during this exchange, also jobs queued
+        # while it runs (`_JOB_CHECK`: how long a read may block before they are looked at).
+        submitted = self._submitted
+        jobs_due = self._next_deadline(exclude=link)
         while True:
             now = self._clock()
+            if submitted != self._submitted:
+                submitted = self._submitted
+                jobs_due = self._next_deadline(exclude=link)
+            if jobs_due is not None and now > jobs_due:
+                self._expire_jobs(exclude=link)
+                jobs_due = self._next_deadline(exclude=link)
             events += receiver.poll(now - self.latency)
             found: tuple[_Outcome, Received] | None = None
             for event in events:
@@ -1068,7 +1111,9 @@ class Master:
                 if wait <= 0:
                     outcome = _Outcome.FAULT if faulty else _Outcome.SILENT
                     return self._finish(outcome, None, start, end, link)
-            chunk = await self.transport.read(wait)
+            if jobs_due is not None:
+                wait = min(wait, max(jobs_due - now, 0.0) + 1e-4)
+            chunk = await self.transport.read(min(wait, _JOB_CHECK))
             if chunk is not None:
                 events = self._feed(chunk)
 

@@ -327,9 +327,12 @@ class Drive:
         dword: bool | None = None,
         eeprom: bool = False,
         timeout: float | None = None,
+        verify: bool = False,
     ) -> int | float:
         return self._bus._call(
-            self._drive.write(pnu, value, index, dword=dword, eeprom=eeprom, timeout=timeout)
+            self._drive.write(
+                pnu, value, index, dword=dword, eeprom=eeprom, timeout=timeout, verify=verify
+            )
         )
 
     def array_length(self, pnu: int, *, timeout: float | None = None) -> int:

@@ -1,0 +1,109 @@
+"""``uss write`` when the answer to the write never comes: it says the outcome is unknown, and
+``--verify`` reads the value back to tell whether the drive took it.
+
+The simulated drive sits on a virtual bus served on a pty (another thread); the line goes bad
+the moment the master's write telegram is on it: either the master hears nothing for a while
+(the drive takes the write, its answers are lost) or the drive does (it never gets it)."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+
+import pytest
+
+from master.conftest import SimulatorThread
+from pyuss.bus.core import WireChar
+from pyuss.cli.main import main
+from pyuss.protocol.layout import Layout
+
+GAP = 1.5  # character times: a longer idle gap starts a new telegram
+
+
+def _on_write_telegram(sim: SimulatorThread, act: Callable[[], None]) -> None:
+    """Call ``act`` (on the bus's loop) once, when the PKE of the master's first "write word"
+    telegram to address 5 goes over the line (its fourth character)."""
+    state = {"position": 0, "end": 0.0, "address": -1, "done": False}
+
+    def watch(char: WireChar) -> None:
+        if state["done"] or char.sender.startswith("drive"):
+            return
+        assert sim.bus is not None
+        if char.start - float(state["end"]) > GAP * sim.bus.char_time:
+            state["position"] = 0
+        state["end"] = char.end
+        position = int(state["position"])
+        state["position"] = position + 1
+        if position == 2:
+            state["address"] = char.byte
+        elif position == 3 and state["address"] == 5 and char.byte >> 4 == 2:
+            state["done"] = True
+            act()
+
+    sim.call(lambda s: s.bus.on_char.append(watch))
+
+
+def _uss(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _port(sim: SimulatorThread) -> list[str]:
+    return ["--port", sim.paths[0], "--baud", str(sim.baud), "--layout", "3,2"]
+
+
+def test_a_lost_answer_is_an_unknown_outcome_and_verify_finds_it_applied(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
+        _on_write_telegram(sim, lambda: sim.bus.make_deaf("pty1", 0.5))  # type: ignore[union-attr]
+        code, out, err = _uss(capsys, "write", "5", "18", "0x7000", "--timeout", "0.3", *_port(sim))
+        assert code == 1 and not out
+        assert "may have carried it out" in err and "--verify" in err
+        assert len(err.splitlines()) == 1
+        assert sim.call(lambda s: s.engines[5].drive.value(18)) == 0x7000  # it did
+
+    with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
+        _on_write_telegram(sim, lambda: sim.bus.make_deaf("pty1", 0.5))  # type: ignore[union-attr]
+        argv = ["write", "5", "18", "0x7000", "--verify", "--timeout", "0.4", *_port(sim)]
+        code, out, err = _uss(capsys, *argv)
+        assert code == 0, err
+        assert (
+            out.strip()
+            == "P18 = 28672 (7000h) (its answer was lost; read back: the drive holds it)"
+        )
+
+
+def test_verify_tells_a_write_the_drive_never_got(capsys: pytest.CaptureFixture[str]) -> None:
+    with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
+        _on_write_telegram(sim, lambda: sim.bus.make_deaf("drive5", 0.5))  # type: ignore[union-attr]
+        argv = ["write", "5", "18", "0x7000", "--verify", "--timeout", "0.4", *_port(sim), "--json"]
+        code, out, err = _uss(capsys, *argv)
+        assert code == 1 and not err
+        data = json.loads(out)
+        assert (data["address"], data["pnu"]) == (5, 18)
+        error = data["error"]
+        assert error["type"] == "JobTimeout" and error["exit_code"] == 1
+        assert error["outcome"] == "not_applied" and error["may_have_applied"] is False
+        assert "did not carry it out" in error["message"]
+        assert sim.call(lambda s: s.engines[5].drive.value(18)) == 0
+
+
+def test_json_says_how_the_value_is_known(capsys: pytest.CaptureFixture[str]) -> None:
+    with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
+        code, out, _ = _uss(capsys, "write", "5", "18", "5", *_port(sim), "--json")
+        assert code == 0
+        assert json.loads(out) == {
+            "address": 5,
+            "pnu": 18,
+            "index": None,
+            "value": 5,
+            "outcome": "answered",
+        }
+        _on_write_telegram(sim, lambda: sim.bus.make_deaf("pty1", 0.5))  # type: ignore[union-attr]
+        argv = ["write", "5", "18", "7", "--timeout", "0.3", *_port(sim), "--json"]
+        code, out, _ = _uss(capsys, *argv)
+        error = json.loads(out)["error"]
+        assert code == 1 and error["outcome"] == "unknown" and error["may_have_applied"] is True
+        assert error["sent"] >= 1 and error["timeout"] == 0.3
