@@ -7,7 +7,13 @@ updates itself in a terminal, one line per ``--interval`` otherwise, JSON lines 
 (047Eh), then the master keeps the telegrams going until the drive reports that operation is
 no longer enabled (at most ``--stop-timeout`` seconds); a second Ctrl+C stops at once with
 OFF2 (coast). Exit code 0 after ``--duration``, 130 after Ctrl+C or SIGTERM, 1 when the drive
-reports a fault, gives no answer for ``--timeout`` seconds, or the port fails.
+reports a fault, gives no answer for ``--timeout`` seconds, does not reach the stopped state
+within ``--stop-timeout``, or the port fails.
+
+With ``--json`` every line is one object with the same keys: ``time`` (ISO 8601 wall clock of
+the answer shown), ``address``, ``setpoint``, ``state``, ``status``, ``status_hex``, ``actual``,
+``actual_percent``, ``control`` (null before the first answer) and ``error`` (null, or the
+error object of a failure, on one more line when it happens).
 """
 
 from __future__ import annotations
@@ -25,13 +31,16 @@ from pyuss.cli._master import (
     EXIT_FAILED,
     EXIT_INTERRUPTED,
     EXIT_OK,
+    EXIT_USAGE,
     command,
     finish,
     open_master,
     run,
 )
+from pyuss.cli._output import error_object, print_json, wall_clock
 from pyuss.errors import ConfigError, UssError
 from pyuss.master.drive import Drive
+from pyuss.master.errors import DriveFault
 from pyuss.master.process import DriveStatus
 from pyuss.master.scheduler import CYCLIC
 from pyuss.protocol.pzd import percent_to_raw16
@@ -71,6 +80,24 @@ def line(status: DriveStatus | None, setpoint: float) -> str:
     )
 
 
+def record(
+    args: argparse.Namespace, status: DriveStatus | None, error: dict[str, Any] | None = None
+) -> dict[str, Any]:
+    """A JSON line: the same keys whatever is known (module docstring)."""
+    return {
+        "time": wall_clock(None if status is None else status.time),
+        "address": args.address,
+        "setpoint": args.setpoint,
+        "state": None if status is None else status.state,
+        "status": None if status is None else status.word,
+        "status_hex": None if status is None else f"{status.word:04X}",
+        "actual": None if status is None else list(status.actual),
+        "actual_percent": None if status is None else status.actual_percent,
+        "control": None if status is None else status.control,
+        "error": error,
+    }
+
+
 class Live:
     """Shows the drive's latest status now and then."""
 
@@ -88,11 +115,22 @@ class Live:
             os.dup2(devnull, sys.stdout.fileno())
             os.close(devnull)
 
+    def record(self, error: dict[str, Any] | None = None) -> dict[str, Any]:
+        return record(self.args, self.drive.status, error)
+
+    def fail(self, exc: UssError) -> None:
+        """Report a failure: a line on stderr, or with ``--json`` one more line with its
+        error object."""
+        if self.args.json:
+            with contextlib.suppress(BrokenPipeError):
+                print(json.dumps(self.record(error_object(exc, EXIT_FAILED))), flush=True)
+        else:
+            print(f"\nuss run: {exc}", file=sys.stderr)
+
     def _show(self, final: bool) -> None:
         status = self.drive.status
         if self.args.json:
-            data = {"setpoint": self.args.setpoint, **(status.to_dict() if status else {})}
-            print(json.dumps(data), flush=True)
+            print(json.dumps(self.record()), flush=True)
         elif self.tty:
             end = "\n" if final else ""
             print("\r" + line(status, self.args.setpoint), end=end, flush=True)
@@ -132,7 +170,19 @@ def main(args: argparse.Namespace) -> int:
             for sig in (signal.SIGINT, signal.SIGTERM):
                 loop.remove_signal_handler(sig)
 
-    return run("run", args, body)
+    async def stream() -> int:
+        """With ``--json`` a failure before the first status (bad input, a port that cannot
+        be opened) is a line of the stream too."""
+        try:
+            return await body()
+        except UssError as exc:
+            if not args.json:
+                raise
+            code = EXIT_USAGE if isinstance(exc, ConfigError) else EXIT_FAILED
+            print_json(record(args, None, error_object(exc, code)))
+            return code
+
+    return run("run", args, stream)
 
 
 async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[int]) -> int:
@@ -158,14 +208,14 @@ async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[
             for task in pending:
                 task.cancel()
             if watcher in done:
-                watcher.result()  # raises when the drive stopped answering or the port failed
+                # raises when the drive stopped answering or the port failed
+                live.fail(DriveFault(watcher.result()))
                 code = EXIT_FAILED
-                print(f"\nuss run: drive {args.address} reports a fault", file=sys.stderr)
             await switch_off(args, drive, stop, signals)
         except ConfigError:
             raise
         except UssError as exc:
-            print(f"\nuss run: {exc}", file=sys.stderr)
+            live.fail(exc)
             code = EXIT_FAILED
             with contextlib.suppress(UssError):
                 await drive.off1(timeout=1.0)
@@ -178,11 +228,12 @@ async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[
     return code
 
 
-async def watch(drive: Drive, timeout: float) -> None:
-    """Return when the drive reports a fault; raise `NotSending` when it gave no answer for
-    ``timeout`` seconds, the transport's error when the port failed."""
-    while not (await drive.next_update(timeout=timeout)).fault:
+async def watch(drive: Drive, timeout: float) -> DriveStatus:
+    """Return the first status that reports a fault; raise `NotSending` when the drive gave no
+    answer for ``timeout`` seconds, the transport's error when the port failed."""
+    while not (status := await drive.next_update(timeout=timeout)).fault:
         pass
+    return status
 
 
 async def switch_off(
@@ -199,7 +250,12 @@ async def switch_off(
     stop.clear()
 
     async def stopped() -> None:
-        await drive.wait_until(lambda s: not s.running, timeout=args.stop_timeout)
+        await drive.wait_until(
+            lambda s: not s.running,
+            timeout=args.stop_timeout,
+            what="the stopped state after OFF1 (status bit 2 'operation enabled' clear, "
+            "C Table 5.5)",
+        )
 
     task = asyncio.create_task(stopped())
     again = asyncio.create_task(stop.wait())

@@ -13,12 +13,14 @@ See docs/master.md.
 from pyuss.master.description import Description, DescriptionElement
 from pyuss.master.drive import Drive
 from pyuss.master.errors import (
+    DriveFault,
     JobOutcome,
     JobTimeout,
     MasterClosed,
     MirrorMismatch,
     NotSending,
     NoWriteAuthority,
+    StatusTimeout,
 )
 from pyuss.master.jobs import SpontaneousMessage
 from pyuss.master.process import OPERATE, DriveStatus
@@ -35,6 +37,7 @@ __all__ = [
     "Description",
     "DescriptionElement",
     "Drive",
+    "DriveFault",
     "DriveStatus",
     "JobOutcome",
     "JobStats",
@@ -50,5 +53,6 @@ __all__ = [
     "SampleSummary",
     "SlaveDiagnostics",
     "SpontaneousMessage",
+    "StatusTimeout",
     "resolve_profile",
 ]

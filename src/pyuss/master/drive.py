@@ -37,7 +37,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from pyuss.drive.database import TEXT_LENGTH, DescriptionStyle
-from pyuss.errors import ConfigError, DriveRefusal, TelegramError
+from pyuss.errors import ConfigError, DriveRefusal, TelegramError, UssTimeout
 from pyuss.master.description import (
     BAUMUELLER_ELEMENTS,
     PROFIBUS_ELEMENTS,
@@ -47,7 +47,7 @@ from pyuss.master.description import (
     decode_element,
     element_size,
 )
-from pyuss.master.errors import JobTimeout
+from pyuss.master.errors import JobTimeout, NotSending, StatusTimeout
 from pyuss.master.jobs import SpontaneousMessage
 from pyuss.master.process import OPERATE, DriveStatus
 from pyuss.master.profile import Profile, description_style, index_base
@@ -550,26 +550,30 @@ class Drive:
         return await self._master._next_update(self._link, timeout)
 
     async def wait_until(
-        self, condition: Callable[[DriveStatus], bool], *, timeout: float = 10.0
+        self,
+        condition: Callable[[DriveStatus], bool],
+        *,
+        timeout: float = 10.0,
+        what: str = "the state waited for",
     ) -> DriveStatus:
-        """Wait for an answer whose status meets ``condition`` (e.g. ``lambda s: s.running``)."""
-        loop_time = self._master.transport.clock
-        end = loop_time() + timeout
+        """Wait for an answer whose status meets ``condition`` (e.g. ``lambda s: s.running``).
+
+        Raises `StatusTimeout` (with the last status; ``what`` names the condition in its
+        message) when the drive answers but its status does not meet the condition within
+        ``timeout`` seconds, `NotSending` when it stopped answering."""
+        clock = self._master.transport.clock
+        end = clock() + timeout
         status = self.status
         while status is None or not condition(status):
-            left = end - loop_time()
+            left = end - clock()
             if left <= 0:
-                from pyuss.errors import UssTimeout
-
-                state = (
-                    "no answer yet"
-                    if status is None
-                    else f"status {status.word:04X}h ({status.state})"
-                )
-                raise UssTimeout(
-                    f"slave {self.address}: condition not met within {timeout:g} s: {state}"
-                )
-            status = await self.next_update(timeout=left)
+                raise StatusTimeout(self.address, timeout, self.status, what)
+            try:
+                status = await self.next_update(timeout=left)
+            except NotSending:
+                raise
+            except UssTimeout:  # the time ran out between two answers: not a silent drive
+                raise StatusTimeout(self.address, timeout, self.status, what) from None
         return status
 
     def on_update(self, callback: Callable[[DriveStatus], object]) -> Callable[[], None]:

@@ -11,6 +11,9 @@
   write with ``verify=True``).
 - `NotSending`: the slave did not answer within its response delay ("Teilnehmer x sendet
   nicht", A 5.2.1.1): raised by operations that need one exchange (mirror, process data).
+- `DriveFault`: the drive reports a fault (status bit 3, C Table 5.5).
+- `StatusTimeout`: the drive answered, but its status did not show what was waited for
+  (`Drive.wait_until`) in time; it carries the last status.
 - `MirrorMismatch`: a mirror telegram came back changed (A 5.3).
 - `MasterClosed`: the master was closed while the operation waited.
 """
@@ -23,15 +26,18 @@ from typing import TYPE_CHECKING
 from pyuss.errors import ProtocolError, TransportError, UssError, UssTimeout
 
 if TYPE_CHECKING:
+    from pyuss.master.process import DriveStatus
     from pyuss.protocol.pkw import Pkw
 
 __all__ = [
+    "DriveFault",
     "JobOutcome",
     "JobTimeout",
     "MasterClosed",
     "MirrorMismatch",
     "NoWriteAuthority",
     "NotSending",
+    "StatusTimeout",
 ]
 
 
@@ -139,6 +145,42 @@ class NotSending(UssTimeout):
         self.address = address
         extra = f": {detail}" if detail else ""
         super().__init__(f"slave {address} does not send{extra}")
+
+
+class DriveFault(UssError):
+    """The drive reports a fault: status bit 3 (C Table 5.5). ``status`` is that answer."""
+
+    def __init__(self, status: DriveStatus) -> None:
+        self.address = status.address
+        self.status = status
+        super().__init__(
+            f"slave {status.address} reports a fault: status word {status.word:04X}h "
+            "(bit 3, C Table 5.5)"
+        )
+
+
+class StatusTimeout(UssTimeout):
+    """The drive's status did not meet a condition within ``timeout`` seconds while the drive
+    kept answering (`Drive.wait_until`). ``status`` is its last status (None: no answer came
+    at all, which is reported as `NotSending` when the slave does not send)."""
+
+    def __init__(
+        self,
+        address: int,
+        timeout: float,
+        status: DriveStatus | None,
+        what: str = "the state waited for",
+    ) -> None:
+        self.address = address
+        self.timeout = timeout
+        self.status = status
+        if status is None:
+            shown = "no answer yet"
+        else:
+            actual = status.actual_percent
+            value = "" if actual is None else f", actual value {actual:.2f} %"
+            shown = f"it reports status word {status.word:04X}h ({status.state}{value})"
+        super().__init__(f"slave {address}: did not reach {what} within {timeout:g} s: {shown}")
 
 
 class MirrorMismatch(ProtocolError):

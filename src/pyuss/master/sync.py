@@ -416,9 +416,13 @@ class Drive:
         return self._bus._call(self._drive.next_update(timeout=timeout))
 
     def wait_until(
-        self, condition: Callable[[DriveStatus], bool], *, timeout: float = 10.0
+        self,
+        condition: Callable[[DriveStatus], bool],
+        *,
+        timeout: float = 10.0,
+        what: str = "the state waited for",
     ) -> DriveStatus:
-        return self._bus._call(self._drive.wait_until(condition, timeout=timeout))
+        return self._bus._call(self._drive.wait_until(condition, timeout=timeout, what=what))
 
     def on_update(self, callback: Callable[[DriveStatus], object]) -> Callable[[], None]:
         return self._bus._run(lambda: self._drive.on_update(callback))
