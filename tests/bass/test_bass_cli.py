@@ -81,14 +81,20 @@ def test_refusals_exit_1_with_number_and_meaning(
 ) -> None:
     port = ("--port", tcp_ring.where, "--timeout", "5")
     code, out, err = uss(capsys, "write", "2", "2", "5", *port, "--json")
-    assert code == 1
+    assert (code, err) == (1, "")
     assert json.loads(out) == {
         "ok": False,
         "address": 2,
         "id": 2,
-        "error": 5,
-        "meaning": "parameter is write-protected",
+        "error": {
+            "type": "BassRefusal",
+            "message": "drive 2 refused ID 2: error 5: parameter is write-protected",
+            "exit_code": 1,
+            "number": 5,
+            "meaning": "parameter is write-protected",
+        },
     }
+    code, out, err = uss(capsys, "write", "2", "2", "5", *port)
     assert err == "uss bass write: drive 2 refused ID 2: error 5: parameter is write-protected\n"
     code, out, err = uss(capsys, "write", "1", "171", "19200", *port)
     assert (code, out) == (1, "")
@@ -106,6 +112,17 @@ def test_no_answer_exits_1(tcp_ring: Ring, capsys: pytest.CaptureFixture[str]) -
     assert (code, out) == (1, "")
     assert err.startswith("uss bass read: cannot open serial port /dev/nonexistent-bass")
     assert err.count("\n") == 1
+    code, out, err = uss(capsys, "read", "1", "170", "--port", "/dev/nonexistent-bass", "--json")
+    data = json.loads(out)
+    assert (code, err) == (1, "") and (data["ok"], data["address"], data["id"]) == (False, 1, 170)
+    assert data["error"]["message"].startswith("cannot open serial port /dev/nonexistent-bass")
+    code, out, err = uss(capsys, "read", "1", "70000", "--port", "/dev/null", "--json")
+    assert (code, err) == (2, "")
+    assert json.loads(out)["error"] == {
+        "type": "ConfigError",
+        "message": "ID 70000 is outside 0..65535",
+        "exit_code": 2,
+    }
 
 
 def test_ring_on_a_pty_read_with_a_serial_port(capsys: pytest.CaptureFixture[str]) -> None:

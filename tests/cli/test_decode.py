@@ -188,7 +188,7 @@ def test_bad_input_gives_one_line_and_exit_2(
     captured = capsys.readouterr()
     error = json.loads(captured.out)
     assert set(error) == {"error"}
-    assert text in error["error"]
+    assert text in error["error"]["message"] and error["error"]["exit_code"] == 2
 
 
 def test_parse_hex_needs_bytes() -> None:
@@ -228,7 +228,7 @@ def test_missing_layout_and_bad_direction_are_bad_input(
     assert main(["decode", *argv, "--json"]) == 2
     error = json.loads(capsys.readouterr().out)
     assert set(error) == {"error"}
-    assert text in error["error"]
+    assert text in error["error"]["message"] and error["error"]["type"] == "ConfigError"
 
 
 def test_refused_answer_with_padding_is_decoded(capsys: pytest.CaptureFixture[str]) -> None:

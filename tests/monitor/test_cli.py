@@ -34,6 +34,8 @@ JOBS = [REQ_52, request(5, Pkw(2, 18, values=(0x7000,))), request(5, Pkw(1, 99))
 EXCHANGE_KEYS = {
     "index",
     "time",
+    "t",
+    "error",
     "kind",
     "address",
     "mode",

@@ -19,7 +19,7 @@ import sys
 from collections.abc import Awaitable, Callable, Coroutine
 from typing import Any, TypeVar
 
-from pyuss.cli._output import error_object, print_error
+from pyuss.cli._output import error_object, failure, print_json
 from pyuss.errors import ConfigError, UssError
 from pyuss.master.scheduler import Master, Mode
 from pyuss.profiles import profile_names
@@ -230,7 +230,7 @@ def run(name: str, args: argparse.Namespace, body: Callable[[], Coroutine[Any, A
 def report(name: str, args: argparse.Namespace, exc: BaseException, code: int) -> None:
     """A command's failure: one line on stderr, or with ``--json`` the JSON error object."""
     if getattr(args, "json", False):
-        print_error(exc, code)
+        print_json(failure(name, error_object(exc, code)))
     else:
         print(f"uss {name}: {exc}", file=sys.stderr)
 

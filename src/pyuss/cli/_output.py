@@ -34,15 +34,27 @@ from typing import Any
 
 from pyuss.errors import DriveRefusal
 
-__all__ = ["error_object", "print_error", "print_json", "usage_error", "wall_clock"]
+__all__ = [
+    "error_object",
+    "failure",
+    "iso_time",
+    "print_error",
+    "print_json",
+    "usage_error",
+    "wall_clock",
+]
 
 
 def wall_clock(monotonic: float | None = None) -> str:
     """The ISO 8601 wall-clock time (local, with UTC offset, microseconds) of the
     ``time.monotonic()`` stamp ``monotonic`` (now when None)."""
     now = time.time()
-    stamp = now if monotonic is None else now - (time.monotonic() - monotonic)
-    moment = datetime.datetime.fromtimestamp(stamp, tz=datetime.UTC).astimezone()
+    return iso_time(now if monotonic is None else now - (time.monotonic() - monotonic))
+
+
+def iso_time(unix: float) -> str:
+    """Unix time ``unix`` (seconds) as an ISO 8601 wall-clock time, as `wall_clock`."""
+    moment = datetime.datetime.fromtimestamp(unix, tz=datetime.UTC).astimezone()
     return moment.isoformat(timespec="microseconds")
 
 
@@ -77,6 +89,23 @@ def print_json(data: Any) -> None:
 def print_error(exc: BaseException, exit_code: int = 1, **result: Any) -> None:
     """Print ``{**result, "error": error_object(exc)}``."""
     print_json({**result, "error": error_object(exc, exit_code)})
+
+
+def failure(command: str | None, error: dict[str, Any]) -> dict[str, Any]:
+    """The document a failure of ``command`` prints: a line of its stream for the commands
+    that print one (their module's ``json_error_line``), else ``{"error": error}``."""
+    if command:
+        import importlib
+
+        try:
+            module = importlib.import_module(f"pyuss.cli.{command}")
+        except ImportError:  # pragma: no cover - every command has its module
+            module = None
+        line = getattr(module, "json_error_line", None)
+        if line is not None:
+            document: dict[str, Any] = line(error)
+            return document
+    return {"error": error}
 
 
 def usage_error(message: str) -> dict[str, Any]:

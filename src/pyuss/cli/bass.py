@@ -26,9 +26,10 @@ from collections.abc import Callable
 from typing import Any
 
 from pyuss.bass.codec import BAUD, BassRequest
-from pyuss.bass.errors import BassRefusal, BassTelegramError
+from pyuss.bass.errors import BassTelegramError
 from pyuss.bass.master import DEFAULT_RETRIES, DEFAULT_TIMEOUT, BassExchange, BassMaster
 from pyuss.bass.ring import MAX_STATIONS, BassRing, DictOperatingData, demo_elements
+from pyuss.cli._output import print_error
 from pyuss.errors import ConfigError, UssError
 from pyuss.protocol.timing import BAUD_RATES
 from pyuss.transport import PtyPort, TcpServerTransport, Transport, open_transport
@@ -131,11 +132,19 @@ def _run(args: argparse.Namespace, job: Callable[[argparse.Namespace], int]) -> 
     try:
         return job(args)
     except ConfigError as exc:
+        return _failed(args, exc, EXIT_USAGE)
+    except UssError as exc:  # a refusal, no answer, a line that failed
+        return _failed(args, exc, EXIT_FAILED)
+
+
+def _failed(args: argparse.Namespace, exc: UssError, code: int) -> int:
+    """One line on stderr; with ``--json`` the JSON error object of every command on stdout,
+    beside ``"ok": false``."""
+    if getattr(args, "json", False):
+        print_error(exc, code, ok=False)
+    else:
         print(f"uss bass {args.bass_command}: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    except UssError as exc:  # no answer, a line that failed: named like a refusal
-        print(f"uss bass {args.bass_command}: {exc}", file=sys.stderr)
-        return EXIT_FAILED
+    return code
 
 
 async def _exchange(args: argparse.Namespace, request: BassRequest) -> BassExchange:
@@ -148,20 +157,12 @@ async def _exchange(args: argparse.Namespace, request: BassRequest) -> BassExcha
 def _report(args: argparse.Namespace, request: BassRequest, value: int | None) -> int:
     try:
         exchange = asyncio.run(_exchange(args, request))
-    except BassRefusal as refusal:
-        if args.json:
-            print(
-                json.dumps(
-                    {
-                        "ok": False,
-                        "address": request.address,
-                        "id": request.ident,
-                        "error": refusal.number,
-                        "meaning": refusal.meaning,
-                    }
-                )
-            )
-        print(f"uss bass {args.bass_command}: {refusal}", file=sys.stderr)
+    except ConfigError:
+        raise
+    except UssError as exc:  # refused, no answer, the line failed: the request is known
+        if not args.json:
+            raise
+        print_error(exc, EXIT_FAILED, ok=False, address=request.address, id=request.ident)
         return EXIT_FAILED
     answer = exchange.answer
     if value is None:

@@ -11,7 +11,8 @@ or a response, which decides the names of IDs and of the bits of PZD1.
 A telegram with a wrong BCC is still decoded (``bcc_ok`` false) and exits with 0. Bad hex, a
 missing or bad layout, a bad direction, bytes that are no telegram (no STX, LGE not matching
 the length, undefined ADR) or net data that do not fit the layout give one line on stderr and
-exit code 2; with ``--json`` that line is a JSON object ``{"error": "..."}`` on stdout.
+exit code 2; with ``--json`` that line is the JSON error object of every command on stdout,
+``{"error": {"type": ..., "message": ..., "exit_code": 2}}``.
 
 The JSON object is a stable interface; its keys are documented in docs/protocol.md:
 ``hex``, ``address``, ``mode``, ``adr``, ``lge``, ``bcc``, ``bcc_expected``, ``bcc_ok``,
@@ -28,6 +29,7 @@ import re
 import sys
 from typing import Any
 
+from pyuss.cli._output import print_error
 from pyuss.errors import ConfigError, TelegramError
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.layout import Layout
@@ -234,7 +236,7 @@ def run(args: argparse.Namespace) -> int:
         info = describe(raw, layout, args.direction)
     except (ConfigError, TelegramError) as exc:
         if args.json:
-            print(json.dumps({"error": str(exc)}))
+            print_error(exc, EXIT_USAGE)
         else:
             print(f"uss decode: {exc}", file=sys.stderr)
         return EXIT_USAGE

@@ -51,12 +51,16 @@ class _Parser(argparse.ArgumentParser):
     of a command that takes ``--json``. Sub-command parsers are of the same class."""
 
     json_errors = False
+    command: str | None = None
 
     def error(self, message: str) -> NoReturn:
         if _Parser.json_errors:
-            from pyuss.cli._output import print_json, usage_error
+            from pyuss.cli._output import failure, print_json, usage_error
 
-            print_json({"error": usage_error(f"{self.prog}: {message}")})
+            prog = self.prog
+            if prog == "uss" and _Parser.command:  # left over for the top parser to report
+                prog = f"uss {_Parser.command}"
+            print_json(failure(_Parser.command, usage_error(f"{prog}: {message}")))
             self.exit(EXIT_USAGE)
         super().error(message)
 
@@ -85,6 +89,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     words = sys.argv[1:] if argv is None else list(argv)
     _Parser.json_errors = "--json" in words
+    _Parser.command = next((word for word in words if word in COMMANDS), None)
     try:
         args = parser.parse_args(words)
     finally:
@@ -98,9 +103,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERRUPTED
     except UssError as exc:
         if getattr(args, "json", False):
-            from pyuss.cli._output import print_error
+            from pyuss.cli._output import error_object, failure, print_json
 
-            print_error(exc, EXIT_FAILED)
+            print_json(failure(args.command, error_object(exc, EXIT_FAILED)))
         else:
             print(f"uss {args.command}: {exc}", file=sys.stderr)
         return EXIT_FAILED

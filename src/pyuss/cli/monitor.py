@@ -40,6 +40,7 @@ import urllib.parse
 from collections.abc import Callable, Iterable
 from typing import Any, TextIO
 
+from pyuss.cli._output import error_object, iso_time, wall_clock
 from pyuss.cli.decode import describe
 from pyuss.errors import ConfigError, TelegramError, TransportError
 from pyuss.monitor.capture import CaptureWriter, open_writer, read_capture
@@ -181,13 +182,18 @@ def frame_json(frame: Frame, layout: Layout | None, origin: float = 0.0) -> dict
     }
 
 
-def exchange_json(ex: Exchange, *, origin: float = 0.0) -> dict[str, Any]:
-    """An exchange as a JSON-ready dict (the keys are listed in docs/monitor.md)."""
+def exchange_json(
+    ex: Exchange, *, origin: float = 0.0, epoch: float | None = None
+) -> dict[str, Any]:
+    """An exchange as a JSON-ready dict (the keys are listed in docs/monitor.md): ``time`` is
+    the ISO 8601 wall-clock time of ``epoch + ex.time`` (null when ``epoch`` is None: the
+    wall clock is not known), ``t`` and the frames' times are seconds after ``origin``."""
     decodable = ex.mode in (AddressMode.NORMAL, AddressMode.BROADCAST)
     layout = ex.layout if decodable else None
     return {
         "index": ex.index,
-        "time": round(ex.time - origin, 9),
+        "time": None if epoch is None else iso_time(epoch + ex.time),
+        "t": round(ex.time - origin, 9),
         "kind": ex.kind,
         "address": ex.address,
         "mode": None if ex.mode is None else ex.mode.label,
@@ -202,7 +208,30 @@ def exchange_json(ex: Exchange, *, origin: float = 0.0) -> dict[str, Any]:
         "unsure": ex.unsure or None,
         "notes": list(ex.notes),
         "summary": exchange_line(ex, origin=origin),
+        "error": None,
     }
+
+
+def json_error_line(error: dict[str, Any]) -> dict[str, Any]:
+    """A failure in the stream of ``--json`` lines: the keys of an exchange (null), the time
+    now and ``error`` (the JSON error object of every command)."""
+    keys = (
+        "index", "t", "kind", "address", "mode", "layout", "layout_source", "request",
+        "answer", "delay_ms", "problems", "unsure", "notes", "summary",
+    )  # fmt: skip
+    line: dict[str, Any] = dict.fromkeys(keys)
+    line.update(time=wall_clock(), error=error)
+    return line
+
+
+def _fail(args: argparse.Namespace, exc: BaseException, code: int) -> int:
+    """A failure: one line on stderr, or with ``--json`` a line of the stream."""
+    if args.json:
+        with contextlib.suppress(BrokenPipeError):
+            print(json.dumps(json_error_line(error_object(exc, code))), flush=True)
+    else:
+        print(f"uss monitor: {exc}", file=sys.stderr)
+    return code
 
 
 def _ms(value: float | None, option: str) -> float | None:
@@ -238,12 +267,15 @@ class _Output:
         writers: list[CaptureWriter],
         stream: TextIO,
         epoch: float,
+        wall: float | None = None,
     ) -> None:
         self.args = args
         self.monitor = monitor
         self.writers = writers
         self.stream = stream
         self.epoch = epoch
+        self.wall = wall
+        """What turns the monitor's times into Unix time (None: not known)."""
         self.origin: float | None = None
         self.count = 0
         self.closed = False
@@ -283,7 +315,7 @@ class _Output:
     def render(self, ex: Exchange) -> str:
         assert self.origin is not None
         if self.args.json:
-            return json.dumps(exchange_json(ex, origin=self.origin))
+            return json.dumps(exchange_json(ex, origin=self.origin, epoch=self.wall))
         if self.args.time == "abs":
             return exchange_line(ex, origin=self.epoch, absolute=True, color=self.color)
         return exchange_line(ex, origin=self.origin, color=self.color)
@@ -403,13 +435,14 @@ def run(args: argparse.Namespace) -> int:
                 args.write, args.baud, len(urls) == 2, epoch, args.linktype, monitor.gap
             )
     except ConfigError as exc:
-        print(f"uss monitor: {exc}", file=sys.stderr)
-        return EXIT_USAGE
+        return _fail(args, exc, EXIT_USAGE)
     stream = sys.stdout
     if args.read is not None:
-        output = _Output(args, monitor, writers, stream, 0.0)
+        # Captures hold Unix times; a bus recording counts from the bus's start.
+        wall = None if capture.kind == "bus recording" else 0.0
+        output = _Output(args, monitor, writers, stream, 0.0, wall)
         return _replay(args, capture, monitor, output, writers)
-    output = _Output(args, monitor, writers, stream, epoch)
+    output = _Output(args, monitor, writers, stream, epoch, epoch)
     try:
         code = asyncio.run(_live(args, monitor, transports, urls, output))
     except BaseException:
@@ -419,8 +452,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         _finish(writers)
     except ConfigError as exc:
-        print(f"uss monitor: {exc}", file=sys.stderr)
-        return EXIT_FAILED
+        return _fail(args, exc, EXIT_FAILED)
     if code == EXIT_OK or output.count:
         _final_summary(args, output)
     return code
@@ -457,8 +489,7 @@ def _replay(
     except ConfigError as exc:
         for writer in writers:
             writer.discard()
-        print(f"uss monitor: {exc}", file=sys.stderr)
-        return EXIT_USAGE
+        return _fail(args, exc, EXIT_USAGE)
     except BaseException:
         for writer in writers:
             writer.discard()
@@ -487,8 +518,7 @@ async def _live(
                 await transport.open()
                 opened.append(transport)
         except TransportError as exc:
-            print(f"uss monitor: {exc}", file=sys.stderr)
-            return EXIT_FAILED
+            return _fail(args, exc, EXIT_FAILED)
         wiring = "4-wire" if len(urls) == 2 else "2-wire"
         print(
             f"uss monitor: listening on {' and '.join(urls)} ({wiring}, {monitor.baud} baud, "
@@ -503,8 +533,7 @@ async def _live(
         try:
             await watch(monitor, opened, output, stop)
         except TransportError as exc:
-            print(f"uss monitor: {exc}", file=sys.stderr)
-            return EXIT_FAILED
+            return _fail(args, exc, EXIT_FAILED)
         return EXIT_OK
     finally:
         if refresher is not None:

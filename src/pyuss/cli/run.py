@@ -31,13 +31,12 @@ from pyuss.cli._master import (
     EXIT_FAILED,
     EXIT_INTERRUPTED,
     EXIT_OK,
-    EXIT_USAGE,
     command,
     finish,
     open_master,
     run,
 )
-from pyuss.cli._output import error_object, print_json, wall_clock
+from pyuss.cli._output import error_object, wall_clock
 from pyuss.errors import ConfigError, UssError
 from pyuss.master.drive import Drive
 from pyuss.master.errors import DriveFault
@@ -80,6 +79,12 @@ def line(status: DriveStatus | None, setpoint: float) -> str:
     )
 
 
+_KEYS = (
+    "time", "address", "setpoint", "state", "status", "status_hex", "actual",
+    "actual_percent", "control", "error",
+)  # fmt: skip
+
+
 def record(
     args: argparse.Namespace, status: DriveStatus | None, error: dict[str, Any] | None = None
 ) -> dict[str, Any]:
@@ -96,6 +101,13 @@ def record(
         "control": None if status is None else status.control,
         "error": error,
     }
+
+
+def json_error_line(error: dict[str, Any]) -> dict[str, Any]:
+    """A failure before anything is known of the drive, as a line of the stream."""
+    line = dict.fromkeys(_KEYS)
+    line.update(time=wall_clock(), error=error)
+    return line
 
 
 class Live:
@@ -170,19 +182,7 @@ def main(args: argparse.Namespace) -> int:
             for sig in (signal.SIGINT, signal.SIGTERM):
                 loop.remove_signal_handler(sig)
 
-    async def stream() -> int:
-        """With ``--json`` a failure before the first status (bad input, a port that cannot
-        be opened) is a line of the stream too."""
-        try:
-            return await body()
-        except UssError as exc:
-            if not args.json:
-                raise
-            code = EXIT_USAGE if isinstance(exc, ConfigError) else EXIT_FAILED
-            print_json(record(args, None, error_object(exc, code)))
-            return code
-
-    return run("run", args, stream)
+    return run("run", args, body)
 
 
 async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[int]) -> int:
