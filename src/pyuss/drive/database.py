@@ -355,9 +355,10 @@ class Commissioning:
     end: int | None = None
     reset: int | None = None
     keep_on_reset: tuple[int, ...] = ()
-    rated_frequency: int | None = None
-    rated_speed: int | None = None
-    pole_pairs: int | None = None
+    rated_frequency: ParamRef | None = None
+    rated_speed: ParamRef | None = None
+    pole_pairs: ParamRef | None = None
+    """The motor data (PNU or [PNU, index]: a drive with data sets calculates the first)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -678,6 +679,12 @@ def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
         if ref is not None:
             _check_ref(ref, parameters, profile, _Where(sources, "[profile]"), name)
     _check_roles(db, sources)
+    if db.commissioning is not None:
+        where = _Where(sources, "[commissioning]")
+        for key in ("rated_frequency", "rated_speed", "pole_pairs"):
+            ref = getattr(db.commissioning, key)
+            if ref is not None:
+                _check_ref(ref, parameters, profile, where, key)
     return db
 
 
@@ -1000,8 +1007,18 @@ def _commissioning(
     for key in table:
         if key not in COMMISSIONING_KEYS:
             raise where.error(key, f"unknown; known are {', '.join(COMMISSIONING_KEYS)}")
+    motor: dict[str, ParamRef | None] = {}
+    for key in ("rated_frequency", "rated_speed", "pole_pairs"):
+        value = table.get(key)
+        if value is None:
+            motor[key] = None
+            continue
+        ref = _ref(value, where, key)
+        if ref.pnu not in parameters:
+            raise where.error(key, f"refers to P{ref.pnu}, which is not defined")
+        motor[key] = ref
     pnus: dict[str, int | None] = {}
-    for key in ("parameter", "end", "reset", "rated_frequency", "rated_speed", "pole_pairs"):
+    for key in ("parameter", "end", "reset"):
         value = table.get(key)
         if value is None:
             pnus[key] = None
@@ -1031,9 +1048,9 @@ def _commissioning(
         end=pnus["end"],
         reset=pnus["reset"],
         keep_on_reset=keep,
-        rated_frequency=pnus["rated_frequency"],
-        rated_speed=pnus["rated_speed"],
-        pole_pairs=pnus["pole_pairs"],
+        rated_frequency=motor["rated_frequency"],
+        rated_speed=motor["rated_speed"],
+        pole_pairs=motor["pole_pairs"],
     )
 
 

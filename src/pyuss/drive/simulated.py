@@ -206,16 +206,17 @@ class SimulatedDrive(ParameterMemory):
         rule = self.db.commissioning
         assert rule is not None
         if rule.pole_pairs is not None and rule.rated_frequency and rule.rated_speed:
-            frequency = self.value(rule.rated_frequency)
-            speed = self.value(rule.rated_speed)
+            frequency = self.ref_value(rule.rated_frequency)
+            speed = self.ref_value(rule.rated_speed)
             assert isinstance(frequency, int | float) and isinstance(speed, int | float)
             if speed > 0:
                 pairs = max(1, round(60.0 * frequency / speed))
-                param = self.db.parameter(rule.pole_pairs)
+                ref = rule.pole_pairs
+                param = self.db.parameter(ref.pnu)
                 low, high = param.dtype.type_range
                 value: float = min(max(pairs, low), high)
                 is_float = param.dtype is DataType.FLOAT
-                self.set_own(rule.pole_pairs, value if is_float else int(value))
+                self.set_own(ref.pnu, value if is_float else int(value), ref.index)
         assert rule.end is not None
         self.set_own(rule.end, 0)
         self.set_own(rule.parameter, 0)
