@@ -5,14 +5,19 @@ rules (commissioning, control and status word bits) and its identification."""
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
+import select
+import signal
+import subprocess
+import sys
 from collections.abc import AsyncIterator
+from pathlib import Path
 
 import pytest
 
 from pyuss.bus import VirtualBus
-from pyuss.drive.database import Access, Parameter
+from pyuss.drive import SimulatedDrive
+from pyuss.drive.database import TIME_UNITS, Access, Parameter
 from pyuss.drive.datatypes import DataType
 from pyuss.errors import DriveRefusal
 from pyuss.master import Master
@@ -23,6 +28,7 @@ from pyuss.master.testing import simulated_drives
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw, RequestId
+from pyuss.protocol.telegram import AddressMode, Telegram
 from pyuss.slave import SlaveEngine
 
 FAMILIES = [
@@ -255,3 +261,71 @@ def test_family_facts() -> None:
     for name in FAMILIES:
         db = get_profile(name).database()
         assert all(p.level is None or 0 <= p.level <= 4 for p in db)
+
+
+def _simulate(*args: str) -> tuple[subprocess.Popen[str], str]:
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pyuss.cli.main", "simulate", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None
+    ready, _, _ = select.select([proc.stdout], [], [], 20)
+    assert ready, "uss simulate printed nothing"
+    return proc, proc.stdout.readline().strip()
+
+
+@pytest.mark.parametrize("name", FAMILIES)
+async def test_uss_simulate_serves_the_family_on_a_pty(name: str) -> None:
+    profile = get_profile(name)
+    db = profile.database()
+    proc, device = _simulate("--profile", name, "--address", "4", "--baud", "19200", "--pty")
+    try:
+        async with Master(device, baud=19200, profile=name, mode=ACYCLIC) as master:
+            drive = master.drive(4)
+            # the interface parameters show the line the simulator serves
+            address = db.interface["address"]
+            assert await drive.read(address.pnu, address.index) == 4
+            ramp = db.roles["ramp_up_time"]
+            param = db.parameter(ramp.pnu)
+            if param.dtype is DataType.FLOAT:
+                assert await drive.write(ramp.pnu, 2.5, ramp.index) == 2.5
+            else:
+                assert await drive.write(ramp.pnu, 250, ramp.index) == 250  # 2.50 s in 0.01 s
+            status = await drive.control_word(0x047E)
+            assert status.word & 0x0001  # ready to switch on
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=20)
+    assert proc.returncode == 0, err
+
+
+@pytest.mark.parametrize("name", FAMILIES)
+def test_interface_parameters_set_the_simulated_interface(name: str, tmp_path: Path) -> None:
+    """The family's USS parameters, stored in the EEPROM, make the interface of the next
+    power-up: telegram length (P2012/P2013) and the telegram off time with its fault."""
+    profile = get_profile(name)
+    db = profile.database()
+    store = tmp_path / "drive.store"
+    drive = SimulatedDrive(db, store=store)
+    failure = db.interface["failure_time"]
+    param = db.parameter(failure.pnu)
+    raw = round(0.5 / ((param.scaling or 1.0) * TIME_UNITS[param.unit]))  # 0.5 s
+    drive.write(failure.pnu, raw, failure.index, interface="uss", eeprom=True)
+    layout = Layout(4, 2) if "pkw" in db.interface else None
+    if layout is not None:
+        pkw, pzd = db.interface["pkw"], db.interface["pzd"]
+        drive.write(pkw.pnu, 4, pkw.index, interface="uss", eeprom=True)
+        drive.write(pzd.pnu, 2, pzd.index, interface="uss", eeprom=True)
+    again = SimulatedDrive(db, store=store)  # power-up
+    engine = SlaveEngine(ADDRESS, again, profile)
+    assert engine.layout == (layout or profile.default_layout)
+    assert engine.failure_time == pytest.approx(0.5)
+    request = Telegram(ADDRESS, AddressMode.NORMAL, engine.layout.pack(Pkw(0), [0x047E, 0]))
+    assert engine.handle(request, 0.0) is not None
+    engine.tick(0.6)  # no telegram for longer than the off time: the family's fault
+    code = db.faults["telegram_failure"]
+    assert again.status_word() & 0x0008
+    assert again.ref_value(db.roles["fault"]) == code  # r0947[0] = 72, NORD P700 = 10.0 (E010)
+    assert profile.fault_text(code)
