@@ -1,6 +1,6 @@
 """``nord-sk500e``: NORD SK 500E series frequency inverters.
 
-The USS side is the ``nord`` profile's (seed 001: start pause 2 characters, answer within
+The USS side is the ``nord`` profile's (NORD BU 0050 1.3.5: start pause 2 characters, answer within
 20 ms, residual time 1.5 x (n + 4) characters from the start of STX; NORD's USS manual BU 0050
 1.5: error numbers 9, 201, 202), with what the SK 500E manual BU 0500 adds:
 
@@ -80,7 +80,7 @@ PROFILE = replace(
     nord.PROFILE,
     name="nord-sk500e",
     title="NORD SK 500E series",
-    seed="001 1.3.5, 1.3.6; NORD BU 0050 and BU 0500",
+    seed="NORD BU 0050 1.3.5, 1.3.6, 1.5; NORD BU 0500",
     default_layout=Layout(4, 2),
     pkw_choices=(0, 4),
     max_pzd=6,
