@@ -329,3 +329,50 @@ def test_interface_parameters_set_the_simulated_interface(name: str, tmp_path: P
     assert again.status_word() & 0x0008
     assert again.ref_value(db.roles["fault"]) == code  # r0947[0] = 72, NORD P700 = 10.0 (E010)
     assert profile.fault_text(code)
+
+
+@pytest.mark.parametrize(
+    ("name", "parameter", "expected"),
+    [
+        ("sinamics-v20", "2023", "P2023 = 1 (0001h)"),
+        ("nord-sk500e", "102.1", "P102.1 = 200 (00C8h)"),
+    ],
+)
+def test_profile_auto_reads_with_the_family_the_drive_shows(
+    name: str, parameter: str, expected: str
+) -> None:
+    proc, url = _simulate("--profile", name, "--address", "2", "--tcp", "127.0.0.1:0")
+    try:
+        done = subprocess.run(
+            [sys.executable, "-m", "pyuss.cli.main", "read", "2", parameter, "--port", url]
+            + ["--profile", "auto", "--timeout", "0.5"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=20)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == expected
+
+
+def test_profile_auto_names_an_unknown_drive_in_one_line() -> None:
+    proc, url = _simulate("--profile", "generic", "--address", "2", "--tcp", "127.0.0.1:0")
+    try:
+        done = subprocess.run(
+            [sys.executable, "-m", "pyuss.cli.main", "read", "2", "52", "--port", url]
+            + ["--profile", "auto", "--timeout", "0.5"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=20)
+    assert done.returncode == 1
+    assert done.stderr.strip().splitlines() == [
+        "uss read: address 2: the drive's family could not be identified; give --profile NAME"
+    ]

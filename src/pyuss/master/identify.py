@@ -10,18 +10,24 @@ identification with `pyuss.errors.UssTimeout`, as any job does.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import contextlib
+from collections.abc import AsyncIterator, Callable, Sequence
+from typing import Any
 
-from pyuss.errors import DriveRefusal, UssError
+from pyuss.errors import DriveRefusal, ProtocolError, UssError, UssTimeout
 from pyuss.master.drive import Drive
 from pyuss.master.scan import Found
 from pyuss.master.scheduler import ACYCLIC, Master
 from pyuss.profiles import get_profile
 from pyuss.profiles.identify import Identity, identify
-from pyuss.protocol.layout import Layout
+from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.transport.base import Transport
 
-__all__ = ["identify_drive", "identify_found", "identify_on"]
+__all__ = ["AUTO_LAYOUTS", "auto_master", "identify_drive", "identify_found", "identify_on"]
+
+AUTO_LAYOUTS = (Layout(PKW_VARIABLE, 2), Layout(4, 2))
+"""Layouts `auto_master` tries when none is given: the Siemens families' variable PKW area and
+the NORD SK 500E's PPO 1."""
 
 IDENTIFY_PROFILE = "micromaster4"
 """The numbering the identification reads with."""
@@ -71,3 +77,41 @@ async def identify_found(
                 if identity is not None and identity.profile is not None:
                     result[f.address] = (identity.text, identity.profile)
     return result
+
+
+@contextlib.asynccontextmanager
+async def auto_master(
+    transport: Callable[[], Transport],
+    address: int,
+    *,
+    layout: Layout | None = None,
+    job_timeout: float = 2.0,
+    **options: Any,
+) -> AsyncIterator[Master]:
+    """A started `Master` whose profile is the family of the drive at ``address``
+    (``--profile auto``): a first master identifies it, with ``layout`` or each of
+    `AUTO_LAYOUTS` in turn; then the master is opened with the family's profile (and the layout
+    the drive answered). A drive that cannot be identified is an error naming the address."""
+    found = None
+    for candidate in (layout,) if layout is not None else AUTO_LAYOUTS:
+        async with Master(
+            transport(), profile=IDENTIFY_PROFILE, mode=ACYCLIC, job_timeout=job_timeout
+        ) as probe:
+            try:
+                identity = await identify_on(probe, address, candidate, timeout=job_timeout)
+            except UssTimeout:
+                continue
+        if identity is not None:
+            found = (identity, candidate)
+            break
+    if found is None:
+        raise UssTimeout(f"address {address}: no answer to identify the drive's family")
+    identity, answered = found
+    if identity.profile is None:
+        raise ProtocolError(
+            f"address {address}: the drive's family could not be identified; give --profile NAME"
+        )
+    async with Master(
+        transport(), profile=identity.profile, layout=answered, job_timeout=job_timeout, **options
+    ) as master:
+        yield master
