@@ -42,6 +42,7 @@ FAMILIES = [
 SIEMENS = FAMILIES[:5]
 ADDRESS = 3
 BAUD = 187500
+USS = (sys.executable, "-m", "pyuss.cli.main")
 
 
 @contextlib.asynccontextmanager
@@ -344,8 +345,7 @@ def test_profile_auto_reads_with_the_family_the_drive_shows(
     proc, url = _simulate("--profile", name, "--address", "2", "--tcp", "127.0.0.1:0")
     try:
         done = subprocess.run(
-            [sys.executable, "-m", "pyuss.cli.main", "read", "2", parameter, "--port", url]
-            + ["--profile", "auto", "--timeout", "0.5"],
+            [*USS, "read", "2", parameter, "--port", url, "--profile", "auto", "--timeout", "0.5"],
             capture_output=True,
             text=True,
             timeout=60,
@@ -362,8 +362,7 @@ def test_profile_auto_names_an_unknown_drive_in_one_line() -> None:
     proc, url = _simulate("--profile", "generic", "--address", "2", "--tcp", "127.0.0.1:0")
     try:
         done = subprocess.run(
-            [sys.executable, "-m", "pyuss.cli.main", "read", "2", "52", "--port", url]
-            + ["--profile", "auto", "--timeout", "0.5"],
+            [*USS, "read", "2", "52", "--port", url, "--profile", "auto", "--timeout", "0.5"],
             capture_output=True,
             text=True,
             timeout=60,
