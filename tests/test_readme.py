@@ -329,9 +329,7 @@ def _run_session(example: Example, shell: Shell) -> None:
         elif any(_ERROR_SHOWN.match(_SHOWN_COMMENT.sub("", s)) for s in shown):
             assert code != 0, f"{example.name}: `{command}` was shown failing but succeeded"
         else:
-            assert code == 0, f"{example.name}: `{command}` ended with {code}:\n" + "\n".join(
-                lines
-            )
+            assert code == 0, f"{example.name}: `{command}` ended with {code}:\n" + "\n".join(lines)
 
 
 def _run_python(example: Example, shell: Shell) -> None:
