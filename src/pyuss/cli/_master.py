@@ -1,4 +1,5 @@
-"""What the master commands (scan, read, write, describe, mirror, run) share.
+"""What the master commands (scan, read, write, describe, mirror, run) share: options, exit
+codes, and how a failure is reported.
 
 Options of every master command: ``--port URL`` (a serial port such as ``/dev/ttyUSB0``, a
 pty, ``tcp://HOST:PORT``, ``bus://HOST:PORT``; any URL `pyuss.transport.open_transport`
@@ -20,6 +21,7 @@ import sys
 from collections.abc import Awaitable, Callable, Coroutine
 from typing import Any, TypeVar
 
+from pyuss.cli._help import plain
 from pyuss.cli._output import error_object, failure, print_json
 from pyuss.errors import ConfigError, UssError
 from pyuss.master.scheduler import Master, Mode
@@ -52,54 +54,72 @@ def add_options(parser: argparse.ArgumentParser, *, lists: bool = False) -> None
         "--port",
         required=True,
         metavar="URL",
-        help="serial port or URL: /dev/ttyUSB0, COM3, /dev/pts/7, tcp://HOST:PORT, bus://HOST:PORT",
+        help="the line to the drives: a serial port (/dev/ttyUSB0, COM3), a pty (/dev/pts/7), "
+        "tcp://HOST:PORT (serial-to-Ethernet converter) or bus://HOST:PORT (uss bus); "
+        "adapter options in the query, e.g. /dev/ttyUSB0?rs485=rts&echo=1 (docs/transport.md)",
     )
+    rates = ", ".join(map(str, BAUD_RATES))
     if lists:
         parser.add_argument(
-            "--baud", default="9600", metavar="LIST", help="baud rates, e.g. 9600,19200 or all"
+            "--baud",
+            default="9600",
+            metavar="LIST",
+            help=f"baud rates to try, e.g. 9600,19200, or all: {rates} (USS specification "
+            "B 2.4; default 9600)",
         )
     else:
         parser.add_argument(
             "--baud",
             type=integer,
             default=9600,
-            help=f"baud rate ({', '.join(map(str, BAUD_RATES))}; default 9600)",
+            help=f"baud rate of the line: {rates} (USS specification B 2.4; default 9600)",
         )
     parser.add_argument(
         "--profile",
         default="generic",
         metavar="NAME",
-        help=f"device profile ({', '.join(profile_names())}, or auto: the family the drive "
-        "shows in its parameters; default generic)",
+        help="the drive family, which sets parameter numbering, response delay, error texts "
+        f"and default layout: {', '.join(profile_names())}; auto: ask the drive which family "
+        "it is (docs/drives.md; default generic, the drive profile of the USS specification)",
     )
     parser.add_argument(
         "--layout",
         action="append" if lists else "store",
         metavar="PKW,PZD",
-        help="probe only with this layout (repeatable)"
+        help="probe only with this telegram layout, e.g. 3,2 (repeatable; default: the usual "
+        "fixed layouts, then the variable length)"
         if lists
-        else "telegram layout: PKW 0, 3, 4 or v and PZD 0..16 (default: the profile's)",
+        else "telegram layout as set in the drive: number of PKW words (0, 3, 4, or v for "
+        "variable length) and of PZD words (0..16), e.g. 3,2 (USS specification C 7; default: "
+        "the profile's)",
     )
     parser.add_argument(
         "--timeout",
         type=float,
         default=2.0,
         metavar="S",
-        help="seconds a parameter job may take (default 2)",
+        help="give a parameter job up after S seconds without its answer (USS specification "
+        "C 4.2.1.1; default 2)",
     )
     parser.add_argument(
         "--response-delay",
         type=float,
         metavar="MS",
-        help="response delay limit in ms (default: the profile's, 20 ms)",
+        help="how long a drive may take to begin its answer, in ms, before it counts as not "
+        "sending (USS specification A 5.2.1.1; default: the profile's, 20 ms)",
     )
     parser.add_argument(
         "--tolerance",
         type=float,
         metavar="MS",
-        help="receive tolerance for ports that deliver bytes in bursts (default 20 ms; 0 on bus://)",
+        help="extra time in ms for ports that deliver bytes in bursts: USB adapters, ptys, TCP "
+        "(default 20; 0 on bus://)",
     )
-    parser.add_argument("--json", action="store_true", help="print JSON for scripts")
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help='print JSON for scripts; failures as {"error": {...}} (docs/master.md, JSON output)',
+    )
 
 
 def command(subparsers: Any, name: str, summary: str, doc: str | None) -> argparse.ArgumentParser:
@@ -108,11 +128,16 @@ def command(subparsers: Any, name: str, summary: str, doc: str | None) -> argpar
     parser: argparse.ArgumentParser = subparsers.add_parser(
         name,
         help=summary,
-        description=doc,
+        description=plain(doc),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     if name != "scan":
-        parser.add_argument("address", type=address, metavar="ADDRESS", help="slave address 0..31")
+        parser.add_argument(
+            "address",
+            type=address,
+            metavar="ADDRESS",
+            help="the drive's bus address, 0..31 (USS specification A 4.3)",
+        )
     return parser
 
 
@@ -120,7 +145,7 @@ EPILOG = """\
 exit codes:
   0    done
   1    the operation failed: no answer, refused by the drive, changed mirror
-       telegram, no drive found, drive fault, port failed
+       telegram, no drive found, drive fault or not stopped in time, port failed
   2    bad input (arguments, values, a request the layout cannot carry)
   130  interrupted (uss run: after switching the drive off)"""
 

@@ -1,4 +1,6 @@
-"""`uss bass`: Baumueller's BASS service protocol over RS-232 (seed 004 part 1).
+"""Read and write operating data of Baumueller drives over their BASS service interface
+(RS-232), or simulate drives on a BASS ring (Baumueller communication software manual,
+chapter 1).
 
     uss bass read  ADDRESS ID        --port URL [--baud 9600] [--timeout S] [--retries N]
                                      [--signed] [--json]
@@ -7,11 +9,11 @@
                    [--drives 1,2,3] [--locked ADDRESS]... [--duration S]
 
 ADDRESS is the drive's DIP address 0..255, ID the parameter ID 0..65535, VALUE a number
-(decimal, 0x hex, negative allowed); all accept 0x hex. The port is opened 8N1 (seed 004 1).
-``ring`` runs simulated drives on a closed RS-232 loop (seed 004 1.4.2): it prints where a PC
+(decimal, 0x hex, negative allowed); all accept 0x hex. The port is opened 8N1 (manual 1).
+``ring`` runs simulated drives on a closed RS-232 loop (manual 1.4.2): it prints where a PC
 can reach it (a pty device path, or tcp://HOST:PORT for ``--port``) and serves until SIGINT or
 SIGTERM, which are the normal end (exit 0). Each drive has IDs 170, 171, 126 and the IDs 2 and
-51 of the seed's examples.
+51 of the manual's examples.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from pyuss.bass.codec import BAUD, BassRequest
 from pyuss.bass.errors import BassTelegramError
 from pyuss.bass.master import DEFAULT_RETRIES, DEFAULT_TIMEOUT, BassExchange, BassMaster
 from pyuss.bass.ring import MAX_STATIONS, BassRing, DictOperatingData, demo_elements
+from pyuss.cli._help import plain
 from pyuss.cli._output import print_error
 from pyuss.errors import ConfigError, UssError
 from pyuss.protocol.timing import BAUD_RATES
@@ -67,64 +70,106 @@ def _drives(text: str) -> list[int]:
 
 
 def _port_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--port", required=True, metavar="URL", help="serial port or URL")
+    parser.add_argument(
+        "--port",
+        required=True,
+        metavar="URL",
+        help="the RS-232 line to the drives: a serial port (/dev/ttyUSB0, COM3), a pty or "
+        "tcp://HOST:PORT",
+    )
     parser.add_argument(
         "--baud",
         type=int,
         default=BAUD,
-        help=f"baud rate ({', '.join(map(str, BAUD_RATES))}; BASS drives: 9600, the default)",
+        help=f"baud rate: {', '.join(map(str, BAUD_RATES))} (BASS drives run at 9600, the "
+        "default; manual 1)",
     )
     parser.add_argument(
-        "--timeout", type=float, default=DEFAULT_TIMEOUT, help="seconds per attempt (default 1)"
+        "--timeout",
+        type=float,
+        default=DEFAULT_TIMEOUT,
+        help="seconds to wait for the echo and the answer of each attempt (default 1)",
     )
     parser.add_argument(
-        "--retries", type=int, default=DEFAULT_RETRIES, help="extra attempts (default 2)"
+        "--retries",
+        type=int,
+        default=DEFAULT_RETRIES,
+        help="send the request again this many times when no answer comes (default 2)",
     )
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help='print one JSON object for scripts; failures as {"ok": false, "error": '
+        "{...}} (docs/master.md, JSON output)",
+    )
 
 
 def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "bass",
         help="Baumueller BASS service protocol (RS-232): read, write, simulated ring",
-        description=__doc__,
+        description=plain(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     sub = parser.add_subparsers(dest="bass_command", metavar="ACTION")
     sub.required = True
 
-    read = sub.add_parser("read", help="read one element of operating data (command 003C)")
-    read.add_argument("address", metavar="ADDRESS")
-    read.add_argument("ident", metavar="ID")
-    read.add_argument("--signed", action="store_true", help="two's complement value")
+    read = sub.add_parser(
+        "read", help="read one element of a drive's operating data (command 003C, manual 1.2)"
+    )
+    read.add_argument("address", metavar="ADDRESS", help="the drive's DIP address, 0..255")
+    read.add_argument("ident", metavar="ID", help="the parameter ID, 0..65535, e.g. 170")
+    read.add_argument("--signed", action="store_true", help="show the value as a signed number")
     _port_options(read)
     read.set_defaults(func=_cmd_read)
 
-    write = sub.add_parser("write", help="write one element of operating data (command 003E)")
-    write.add_argument("address", metavar="ADDRESS")
-    write.add_argument("ident", metavar="ID")
-    write.add_argument("value", metavar="VALUE")
-    write.add_argument("--digits", type=int, choices=(4, 8), help="element width in hex digits")
+    write = sub.add_parser(
+        "write", help="write one element of a drive's operating data (command 003E, manual 1.2)"
+    )
+    write.add_argument("address", metavar="ADDRESS", help="the drive's DIP address, 0..255")
+    write.add_argument("ident", metavar="ID", help="the parameter ID, 0..65535, e.g. 2")
+    write.add_argument("value", metavar="VALUE", help="the value, e.g. 7500, -5 or 0x1D4C")
+    write.add_argument(
+        "--digits",
+        type=int,
+        choices=(4, 8),
+        help="send the value as 4 hex digits (one word) or 8 (a double word); default: as "
+        "few as it needs",
+    )
     _port_options(write)
     write.set_defaults(func=_cmd_write)
 
-    ring = sub.add_parser("ring", help="simulate drives on a closed RS-232 loop (1.4.2)")
+    ring = sub.add_parser(
+        "ring", help="simulate drives on a closed RS-232 loop, until stopped (manual 1.4.2)"
+    )
     ring.add_argument(
-        "--drives", default="1", metavar="LIST", help="DIP addresses in wiring order (1,2,3)"
+        "--drives",
+        default="1",
+        metavar="LIST",
+        help="the drives' DIP addresses in wiring order, e.g. 1,2,3 (default 1)",
     )
     where = ring.add_mutually_exclusive_group()
     where.add_argument(
-        "--listen", metavar="URL", help="serve on tcp-listen://127.0.0.1:PORT (default port 0)"
+        "--listen",
+        metavar="URL",
+        help="serve as a TCP server, tcp-listen://127.0.0.1:PORT (PORT 0: any free one); "
+        "tcp://HOST:PORT is printed",
     )
-    where.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal")
+    where.add_argument(
+        "--pty",
+        action="store_true",
+        help="serve on a new pseudo-terminal; its path is printed",
+    )
     ring.add_argument(
         "--locked",
         action="append",
         default=[],
         metavar="ADDRESS",
-        help="drive whose ID 126 bit 0 is 0 (BASS writes refused); repeatable",
+        help="a drive that refuses BASS writes (ID 126 bit 0 clear, error 5); repeatable",
     )
-    ring.add_argument("--duration", type=float, metavar="SECONDS", help="stop after SECONDS")
+    ring.add_argument(
+        "--duration", type=float, metavar="SECONDS", help="stop by itself after SECONDS"
+    )
     ring.set_defaults(func=_cmd_ring)
 
 

@@ -1,4 +1,4 @@
-"""``uss bus``: run a virtual RS-485 segment for other programs until stopped.
+"""Run a virtual RS-485 line that other programs use like a real one, until stopped.
 
 Prints one line per way in: the device path of each pty (open it as a serial port), then
 ``tcp://HOST:PORT`` (raw serial-over-TCP stations, one per connection) and
@@ -21,6 +21,7 @@ from typing import Any
 
 from pyuss.bus import FaultKind, FaultPlan, Recorder, VirtualBus
 from pyuss.bus.core import MAX_SENDERS
+from pyuss.cli._help import plain
 from pyuss.errors import ConfigError
 from pyuss.transport.queued import BAUD_RATES
 
@@ -32,23 +33,34 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "bus",
         help="run a virtual RS-485 bus (ptys, TCP) with true character timing",
-        description=__doc__,
+        description=plain(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(
         "--baud",
         type=int,
         default=9600,
-        help=f"baud rate (B 2.4: {', '.join(map(str, BAUD_RATES))}; default 9600)",
+        help=f"baud rate of the line: {', '.join(map(str, BAUD_RATES))}; characters take their "
+        "true time at it (USS specification B 2.4; default 9600)",
     )
     parser.add_argument(
-        "--pty", type=int, default=0, metavar="N", help="open N pty stations, pty1..ptyN (<= 32)"
+        "--pty",
+        type=int,
+        default=0,
+        metavar="N",
+        help="open N pseudo-terminals as stations, pty1..ptyN (at most 32), each used as a "
+        "serial port; their paths are printed first",
     )
     parser.add_argument(
-        "--tcp", metavar="HOST:PORT", help="accept raw serial-over-TCP stations (PORT 0: any)"
+        "--tcp",
+        metavar="HOST:PORT",
+        help="accept stations over raw TCP, as from a serial-to-Ethernet converter (PORT 0: "
+        "any free one)",
     )
     parser.add_argument(
-        "--bus-tcp", metavar="HOST:PORT", help="accept bus:// stations (exact timing, errors)"
+        "--bus-tcp",
+        metavar="HOST:PORT",
+        help="accept pyuss stations (bus://), which keep exact timestamps and line errors",
     )
     parser.add_argument(
         "--echo",
@@ -58,7 +70,11 @@ def register(subparsers: Any) -> None:
         help="stations that hear their own characters, as 2-wire adapters do: every pty and "
         "tcp station, or only those named (--echo pty1,tcp2); bus:// stations choose their own",
     )
-    parser.add_argument("--record", metavar="FILE", help="record every character as JSON lines")
+    parser.add_argument(
+        "--record",
+        metavar="FILE",
+        help="record every character on the line to FILE (JSON lines, for uss monitor --read)",
+    )
     parser.add_argument(
         "--fault",
         action="append",
@@ -68,7 +84,12 @@ def register(subparsers: Any) -> None:
         f"{', '.join(k.value for k in FaultKind)}, e.g. flip:p=0.01 or "
         "deaf:station=pty2,at=5,for=2 (repeatable; docs/bus.md lists the keys)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the fault plan (default 0)")
+    parser.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="start value of the random choices of --fault, so a run can be repeated (default 0)",
+    )
     parser.add_argument(
         "--duration", type=float, metavar="SECONDS", help="stop by itself after SECONDS"
     )

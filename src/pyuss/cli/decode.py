@@ -1,4 +1,4 @@
-"""``uss decode``: take a telegram apart for a person, or as JSON for a script.
+"""Take a USS telegram apart: frame, BCC, parameter job and process data, in words or as JSON.
 
     uss decode 02 0C 05 10 34 00 00 00 00 04 7E 00 00 55 --layout 3,2
     uss decode 020C0510340000000 ... --layout v,0 --direction response --json
@@ -29,6 +29,7 @@ import re
 import sys
 from typing import Any
 
+from pyuss.cli._help import plain
 from pyuss.cli._output import print_error
 from pyuss.errors import ConfigError, TelegramError
 from pyuss.protocol.broadcast import BroadcastEnableArray
@@ -55,25 +56,35 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "decode",
         help="decode a telegram given in hex",
-        description="Decode a USS telegram given in hex: frame, BCC verdict, PKW and PZD.",
+        description=plain(__doc__),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(
-        "hex", nargs="+", help="telegram bytes in hex, e.g. 02 0C 05 10 34 ... (blanks optional)"
+        "hex",
+        nargs="+",
+        help="the telegram's bytes in hex, from STX to BCC, e.g. 02 0C 05 10 34 ... (blanks, "
+        "colons and 0x optional)",
     )
     parser.add_argument(
         "-l",
         "--layout",
         metavar="PKW,PZD",
-        help="net data layout (required): PKW 0, 3, 4 or v (variable), PZD 0..16, e.g. 3,2",
+        help="how the net data are split (required): number of PKW words (0, 3, 4, or v for "
+        "variable length) and of PZD words (0..16), e.g. 3,2 (USS specification C 7)",
     )
     parser.add_argument(
         "-d",
         "--direction",
         default="request",
         metavar="{request,response}",
-        help="request: master to slave (default); response: slave to master",
+        help="request: master to drive (default); response: drive to master - names the IDs "
+        "and the bits of PZD1 (USS specification C Tables 4.1, 4.2, 5.4, 5.5)",
     )
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help="print one JSON object for scripts (keys in docs/protocol.md)",
+    )
     parser.set_defaults(func=run)
 
 

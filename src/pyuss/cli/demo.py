@@ -1,14 +1,14 @@
-"""``uss demo``: the master at work on a simulated bus, in one process, in a few seconds.
+"""See the master at work: three simulated drives on a virtual bus, in a few seconds.
 
 A virtual RS-485 line at 38400 baud carries three simulated drives of different profiles,
-each a station of its own as real devices are: address 1 the specification's own drive
-profile (``generic``, variable length), address 4 a Baumueller drive (fixed length PKW 3 +
+each a station of its own as real devices are: address 1 the drive profile of the USS
+specification (``generic``, variable length), address 4 a Baumueller drive (fixed length PKW 3 +
 PZD 2, pipelined answers, a 3-character start pause) and address 7 a MICROMASTER 4
 (parameters from 2000 on through IND page bits). The master then
 
 1. scans addresses 0..9 for drives and their telegram layout,
 2. goes round the poll list cyclically and reads and writes parameters of all three, reads a
-   parameter description and a text (C 8 examples 2, 4 and 7),
+   parameter description and a text (USS specification C 8, examples 2, 4 and 7),
 3. receives a spontaneous message when a value changes on the drive's own panel (C 4.2.1.2),
 4. checks every drive with a mirror telegram (A 5.3),
 5. runs drive 1 up to 50 % and down again, following its status live,
@@ -25,6 +25,7 @@ import logging
 from typing import Any
 
 from pyuss.bus import Recorder, VirtualBus
+from pyuss.cli._help import plain
 from pyuss.cli.decode import describe, render
 from pyuss.master import Drive, Master, SpontaneousMessage
 from pyuss.master.scan import scan
@@ -49,7 +50,7 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "demo",
         help="run the master against three simulated drives on a virtual bus",
-        description=__doc__,
+        description=plain(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.set_defaults(func=run)

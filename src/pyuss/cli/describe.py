@@ -1,8 +1,9 @@
-"""``uss describe ADDRESS PNU``: read the parameter description (PBE, C 6) of a parameter.
+"""Read what a drive says about a parameter: its name, data type, limits, scaling, array size
+(the parameter description, USS specification C 6). uss describe ADDRESS PNU
 
 With the variable layout the whole description comes in one telegram (IND 255); with a fixed
-layout element by element, leaving out the elements the drive refuses for being too long for
-its PKW area (C 7). ``--element N`` reads one element only.
+layout element by element, leaving out the elements the drive refuses as too long for its PKW
+area (USS specification C 7). ``--element N`` reads one element only.
 """
 
 from __future__ import annotations
@@ -26,8 +27,14 @@ from pyuss.master.description import Description
 
 def register(subparsers: Any) -> None:
     parser = command(subparsers, "describe", "read the description of a parameter", __doc__)
-    parser.add_argument("pnu", type=integer, metavar="PNU", help="parameter number")
-    parser.add_argument("--element", type=integer, metavar="N", help="one element only (1..255)")
+    parser.add_argument("pnu", type=integer, metavar="PNU", help="parameter number, e.g. 52")
+    parser.add_argument(
+        "--element",
+        type=integer,
+        metavar="N",
+        help="read element N only, 1..254, or 255 for the whole description in one telegram "
+        "(USS specification C 6)",
+    )
     finish(parser, main)
 
 

@@ -1,4 +1,5 @@
-"""`uss ksvario`: the PMA KS VARIO over PROFIBUS-DP.
+"""Talk to a PMA KS VARIO controller over PROFIBUS-DP through its parameter channel, or
+simulate one (KS VARIO PROFIBUS-DP interface description).
 
     uss ksvario simulate [--pty | --port URL] [--station N]   serve a simulated coupler
     uss ksvario read ADDRESS [COUNT] --port DEV [--station N]  parameter channel read
@@ -6,8 +7,8 @@
     uss ksvario gsd [--output FILE]                             the device's GSD file
     uss ksvario address ADDRESS                                 decode an address word
 
-``read``/``write`` bring the station into data exchange with a small DP master of their own
-(`pyuss.ksvario.dp.master`), then run the job through module A.1; ``--sim`` runs them against
+``read``/``write`` bring the station into data exchange with a small DP master of their own,
+then run the job through module A.1 (the parameter channel); ``--sim`` runs them against
 an in-process simulated coupler instead of a line.
 """
 
@@ -18,6 +19,7 @@ import asyncio
 import sys
 
 from pyuss.atomicfile import write_atomically
+from pyuss.cli._help import plain
 from pyuss.errors import ConfigError
 from pyuss.ksvario.address import Address, View, parse_address
 from pyuss.ksvario.channel import ByteOrder, DataFormat, Value, encode_value
@@ -46,54 +48,110 @@ _FORMATS = {
     "compact": DataFormat.COMPACT_CHAR,
 }
 
-_BAUD_HELP = f"PROFIBUS-DP baud rate ({', '.join(map(str, LINE_BAUD_RATES))}; default 19200)"
+_BAUD_HELP = (
+    f"PROFIBUS-DP baud rate of the line: {', '.join(map(str, LINE_BAUD_RATES))} (default 19200; "
+    "a pty has none)"
+)
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    p = subparsers.add_parser("ksvario", help="PMA KS VARIO over PROFIBUS-DP")
+    p = subparsers.add_parser(
+        "ksvario",
+        help="PMA KS VARIO over PROFIBUS-DP: read, write, simulate, GSD file",
+        description=plain(__doc__),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     sub = p.add_subparsers(dest="ksvario_command", metavar="ACTION")
     sub.required = True
 
-    sim = sub.add_parser("simulate", help="serve a simulated KS VARIO as DP slave")
-    sim.add_argument("--pty", action="store_true", help="open a new pty (the default)")
-    sim.add_argument("--port", help="serial port or pyserial URL instead of a pty")
-    sim.add_argument("--station", type=int, default=5, help="DP station address (default 5)")
+    sim = sub.add_parser(
+        "simulate", help="simulate a KS VARIO bus coupler as a DP slave, until stopped"
+    )
+    sim.add_argument(
+        "--pty",
+        action="store_true",
+        help="serve on a new pseudo-terminal, whose path is printed first (the default)",
+    )
+    sim.add_argument("--port", help="serve on this serial port (or pyserial URL) instead of a pty")
+    sim.add_argument(
+        "--station", type=int, default=5, help="its PROFIBUS-DP station address, 0..125 (default 5)"
+    )
     sim.add_argument("--baud", type=int, default=19200, help=_BAUD_HELP)
-    sim.add_argument("--channels", type=int, default=30, help="controller channels 1..30")
+    sim.add_argument(
+        "--channels",
+        type=int,
+        default=30,
+        help="how many controller channels it has, 1..30 (default 30)",
+    )
     sim.set_defaults(func=_simulate)
 
     for name, helptext in (
-        ("read", "read data through the parameter channel"),
-        ("write", "write data through the parameter channel"),
+        ("read", "read values of a KS VARIO through its parameter channel"),
+        ("write", "write values of a KS VARIO through its parameter channel"),
     ):
         q = sub.add_parser(name, help=helptext)
-        q.add_argument("address", help="0x4496, 4496h, 17558 or VIEW:AREA:DATUM (fix1:ch1:0x96)")
+        q.add_argument(
+            "address",
+            help="the address of the value: 0x4496, 4496h, 17558 or VIEW:AREA:DATUM, e.g. "
+            "fix1:ch1:0x96 (uss ksvario address explains one)",
+        )
         if name == "read":
-            q.add_argument("count", nargs="?", type=int, default=1, help="values to read")
+            q.add_argument(
+                "count", nargs="?", type=int, default=1, help="how many values (default 1)"
+            )
         else:
-            q.add_argument("values", nargs="+", help="values to write")
+            q.add_argument("values", nargs="+", help="the values to write, in address order")
         q.add_argument(
             "--format",
             choices=sorted(_FORMATS),
-            help="int, real (ID1 1), real3 (ID1 3), char, compact; default: real for float "
-            "addresses, int otherwise",
+            help="how the values travel: int, real, real3, char, compact (ID1 0, 1, 3, 2, 4); "
+            "default: real for float addresses, int otherwise",
         )
         where = q.add_mutually_exclusive_group(required=True)
-        where.add_argument("--port", help="serial port, pty or transport URL of the DP line")
-        where.add_argument("--sim", action="store_true", help="an in-process simulated coupler")
-        q.add_argument("--station", type=int, default=5, help="DP station address (default 5)")
+        where.add_argument(
+            "--port", help="the PROFIBUS-DP line: a serial port, a pty or a transport URL"
+        )
+        where.add_argument(
+            "--sim",
+            action="store_true",
+            help="talk to a simulated coupler in this process instead (to try it out)",
+        )
+        q.add_argument(
+            "--station",
+            type=int,
+            default=5,
+            help="the coupler's PROFIBUS-DP station address, 0..125 (default 5)",
+        )
         q.add_argument("--baud", type=int, default=19200, help=_BAUD_HELP)
-        q.add_argument("--modules", default="A.1", help="module list for Chk_Cfg (default A.1)")
-        q.add_argument("--intel", action="store_true", help="Intel byte order (user parameter)")
-        q.add_argument("--timeout", type=float, default=5.0, help="job timeout in seconds")
+        q.add_argument(
+            "--modules",
+            default="A.1",
+            help="the module list the coupler is configured with; it must hold the parameter "
+            "channel A.1 (default A.1)",
+        )
+        q.add_argument(
+            "--intel",
+            action="store_true",
+            help="Intel byte order (low byte first), set in the user parameters",
+        )
+        q.add_argument(
+            "--timeout",
+            type=float,
+            default=5.0,
+            help="give the job up after this many seconds (default 5)",
+        )
         q.set_defaults(func=_read if name == "read" else _write)
 
-    g = sub.add_parser("gsd", help="print or write the device's GSD file")
-    g.add_argument("--output", "-o", help="file to write (atomically) instead of stdout")
+    g = sub.add_parser(
+        "gsd", help="print the device's GSD file for the PROFIBUS configuration tool"
+    )
+    g.add_argument("--output", "-o", help="write it to this file instead of printing it")
     g.set_defaults(func=_gsd)
 
-    a = sub.add_parser("address", help="decode an address into view, area and datum")
-    a.add_argument("address")
+    a = sub.add_parser(
+        "address", help="say what an address means: view, area and datum, in every view"
+    )
+    a.add_argument("address", help="the address, e.g. 0xFD09 or fix1:ch1:0x96")
     a.set_defaults(func=_address)
 
 

@@ -67,7 +67,13 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
-        prog="uss", description="USS protocol toolkit: master, simulator, bus, monitor, tools."
+        prog="uss",
+        description="Talk to drives over the USS protocol (Siemens MICROMASTER and SINAMICS, "
+        "NORD, Baumueller, KS VARIO): find them on a line, read and write their parameters, "
+        "run them; simulate drives and RS-485 lines, listen to a line, decode telegrams. "
+        "'uss COMMAND --help' says more about each command.",
+        epilog="exit codes: 0 done, 1 the operation failed, 2 bad input, 130 interrupted. "
+        "Documentation: README.md and docs/ of the project.",
     )
     parser.add_argument("--version", action="version", version=f"pyuss {__version__}")
     parser.add_argument(
@@ -75,7 +81,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--verbose",
         action="count",
         default=0,
-        help="-v: warnings and progress, -vv: also raw frames (pyuss.wire logger)",
+        help="show warnings and progress on stderr; -vv also every telegram sent and received "
+        "(logger pyuss.wire)",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True

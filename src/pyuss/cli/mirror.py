@@ -1,8 +1,10 @@
-"""``uss mirror ADDRESS``: check the line with mirror telegrams (A 5.3).
+"""Check the line to a drive: send mirror telegrams, which the drive returns unchanged.
+uss mirror ADDRESS
 
-The master sends a telegram with ADR bit 6 set; the slave must return it unchanged. Each try
-prints the response time (end of the request to the start of the answer) and the round trip.
-Exit code 1 when a try got no answer or a changed one.
+Each try prints the response time (end of the request to the start of the answer) and the
+round trip. Exit code 1 when a try got no answer or a changed one.
+
+A mirror telegram has bit 6 of ADR set (USS specification A 5.3).
 """
 
 from __future__ import annotations
@@ -29,9 +31,13 @@ def register(subparsers: Any) -> None:
     parser = command(
         subparsers, "mirror", "send mirror telegrams and check they come back unchanged", __doc__
     )
-    parser.add_argument("--count", type=integer, default=1, metavar="N", help="tries (default 1)")
     parser.add_argument(
-        "--data", metavar="HEX", help="net data to send (default: a pattern of the layout's length)"
+        "--count", type=integer, default=1, metavar="N", help="send N telegrams (default 1)"
+    )
+    parser.add_argument(
+        "--data",
+        metavar="HEX",
+        help="net data to send, in hex (default: a test pattern of the drive's telegram length)",
     )
     finish(parser, main)
 

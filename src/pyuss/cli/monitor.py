@@ -1,4 +1,4 @@
-"""``uss monitor``: listen to a USS line without ever sending, and decode it.
+"""Listen to a USS line without ever sending, and show what goes over it in words.
 
     uss monitor --port /dev/ttyUSB0 --baud 19200                      # 2-wire, layouts inferred
     uss monitor --port /dev/ttyUSB0 --baud 19200 --layout 3,2 --layout 7=v,0
@@ -11,14 +11,14 @@ and its answer in words, control and status words with the bits that changed, se
 actual value, response delay, and every error after ``!!``; ``(unsure: ...)`` when the
 pairing on a 2-wire line is a guess and a ``?`` after the layout when the layout is. With
 ``--json`` one JSON object per exchange instead; with ``--summary`` a table per address
-(A 5.2.3 counters, error rates, response times), refreshed every ``--interval`` seconds.
-At the end the summary table goes to stderr (stdout with ``--summary``).
+(the counters of USS specification A 5.2.3, error rates, response times), refreshed every
+``--interval`` seconds. At the end the summary table goes to stderr (stdout with ``--summary``).
 
 ``--port`` is master to slave (on a 2-wire line: everything), ``--port-rx`` (or a second
 ``--port``) slave to master on a 4-wire line. A ``bus://`` station joins the virtual bus
 listen-only. ``--gap MS`` is the idle time that starts a telegram: the start pause of 2
-character times (A 5.1.2) on ``bus://`` (exact timestamps), at least 2 ms on real ports
-(their timestamps come in bursts). ``--write FILE`` saves a capture: ``*.pcapng`` for
+character times (USS specification A 5.1.2) on ``bus://`` (exact timestamps), at least 2 ms
+on real ports (their timestamps come in bursts). ``--write FILE`` saves a capture: ``*.pcapng`` for
 Wireshark (``uss wireshark install``) or ``*.jsonl``; ``--read FILE`` replays one (or a
 ``uss bus --record`` recording) through the same decoder.
 
@@ -40,6 +40,7 @@ import urllib.parse
 from collections.abc import Callable, Iterable
 from typing import Any, TextIO
 
+from pyuss.cli._help import plain
 from pyuss.cli._output import error_object, iso_time, wall_clock
 from pyuss.cli.decode import describe
 from pyuss.errors import ConfigError, TelegramError, TransportError
@@ -67,7 +68,7 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "monitor",
         help="listen to a USS line, decode and pair telegrams, write captures",
-        description=__doc__,
+        description=plain(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     source = parser.add_argument_group("what to listen to")
@@ -76,13 +77,26 @@ def register(subparsers: Any) -> None:
         action="append",
         default=[],
         metavar="URL",
-        help="port or URL (serial device, tcp://, bus://); a second --port = --port-rx",
+        help="the port to listen on: a serial port (/dev/ttyUSB0), tcp://HOST:PORT or "
+        "bus://HOST:PORT; on a 4-wire line the master-to-drive pair (a second --port is "
+        "--port-rx)",
     )
     source.add_argument(
-        "--port-rx", metavar="URL", help="4-wire line: the port carrying slave to master"
+        "--port-rx",
+        metavar="URL",
+        help="the port on the drive-to-master pair of a 4-wire line",
     )
-    source.add_argument("--read", metavar="FILE", help="replay a capture or a bus recording")
-    source.add_argument("--baud", type=int, help=f"baud rate ({', '.join(map(str, BAUD_RATES))})")
+    source.add_argument(
+        "--read",
+        metavar="FILE",
+        help="decode a capture (*.pcapng, *.jsonl) or a uss bus --record file instead",
+    )
+    source.add_argument(
+        "--baud",
+        type=int,
+        help=f"baud rate of the line: {', '.join(map(str, BAUD_RATES))} (USS specification "
+        "B 2.4; needed with --port)",
+    )
     decode = parser.add_argument_group("decoding")
     decode.add_argument(
         "-l",
@@ -90,20 +104,22 @@ def register(subparsers: Any) -> None:
         action="append",
         default=[],
         metavar="[ADR=]PKW,PZD",
-        help="net data layout for every address (3,2) or one (5=4,2; 1+2=v,0); others are inferred",
+        help="telegram layout of every drive (3,2) or of some (5=4,2; 1+2=v,0): number of PKW "
+        "and PZD words; the others are worked out from the traffic (USS specification C 7)",
     )
     decode.add_argument(
         "--gap",
         type=float,
         metavar="MS",
-        help="idle time that starts a telegram (default: start pause on bus://, "
-        "at least 2 ms on real ports)",
+        help="idle time on the line that starts a new telegram (default: the start pause of 2 "
+        "characters on bus://, at least 2 ms on real ports; USS specification A 5.1.2)",
     )
     decode.add_argument(
         "--response-limit",
         type=float,
         metavar="MS",
-        help="response delay limit (default 20 ms, at least the start pause; A 5.2.1.1)",
+        help="report an answer as missing when it has not begun MS after its request "
+        "(default 20, at least the start pause; USS specification A 5.2.1.1)",
     )
     decode.add_argument(
         "--late-limit",
@@ -119,17 +135,26 @@ def register(subparsers: Any) -> None:
         action="append",
         default=[],
         metavar="FILE",
-        help="write a capture: *.pcapng (Wireshark) or *.jsonl (repeatable)",
+        help="save what was seen to FILE: *.pcapng opens in Wireshark, *.jsonl is JSON lines "
+        "(repeatable)",
     )
     output.add_argument(
         "--linktype",
         type=int,
         metavar="N",
-        help="pcapng user link type 147..162 (default 147, LINKTYPE_USER0)",
+        help="link type written into pcapng captures, 147..162 (default 147, LINKTYPE_USER0; "
+        "the dissector of uss wireshark install decodes it)",
     )
-    output.add_argument("--json", action="store_true", help="one JSON object per exchange")
     output.add_argument(
-        "--summary", action="store_true", help="show the per-address summary table instead"
+        "--json",
+        action="store_true",
+        help="print one JSON object per exchange for scripts (keys in docs/monitor.md)",
+    )
+    output.add_argument(
+        "--summary",
+        action="store_true",
+        help="show a table per address instead: counters, error rates, response times (USS "
+        "specification A 5.2.3)",
     )
     output.add_argument(
         "--interval",
@@ -142,7 +167,8 @@ def register(subparsers: Any) -> None:
         "--time",
         choices=("rel", "abs"),
         default="rel",
-        help="times relative to the first telegram (default) or wall clock",
+        help="show times as seconds since the first telegram (rel, the default) or as the time "
+        "of day (abs)",
     )
     output.add_argument(
         "--color",

@@ -1,9 +1,11 @@
-"""``uss read ADDRESS PNU[.INDEX] ...``: read parameter values from a drive.
+"""Read parameter values from a drive: uss read ADDRESS PNU[.INDEX] ...
 
-Each parameter is read with one job (C 4.2.1.1): request 1, or request 6 for an array element
-``PNU.INDEX``. Values print as the drive sent them - ``P52 = 16384 (4000h)`` - or as a signed
-number (``--signed``) or a 32-bit float (``--float``). A parameter the drive refuses prints its
-error number and meaning and the others are still read; the exit code is then 1.
+Values print as the drive sends them, ``P52 = 16384 (4000h)``, or as signed numbers
+(``--signed``) or 32-bit floating point numbers (``--float``). A parameter the drive refuses
+prints its error number and meaning, the others are still read, and the exit code is 1.
+
+Each value is one parameter job (USS specification C 4.2.1.1): request 1, or request 6 for the
+element INDEX of an array parameter.
 """
 
 from __future__ import annotations
@@ -29,10 +31,21 @@ from pyuss.errors import ConfigError, UssError
 
 def register(subparsers: Any) -> None:
     parser = command(subparsers, "read", "read parameter values from a drive", __doc__)
-    parser.add_argument("parameters", nargs="+", metavar="PNU[.INDEX]", help="e.g. 52 or 2010.1")
+    parser.add_argument(
+        "parameters",
+        nargs="+",
+        metavar="PNU[.INDEX]",
+        help="parameter number, with .INDEX for an element of an array parameter, e.g. 52 or 683.1",
+    )
     kind = parser.add_mutually_exclusive_group()
-    kind.add_argument("--signed", action="store_true", help="show values as signed numbers")
-    kind.add_argument("--float", action="store_true", help="read 32-bit floating point values")
+    kind.add_argument(
+        "--signed", action="store_true", help="show values as signed numbers (two's complement)"
+    )
+    kind.add_argument(
+        "--float",
+        action="store_true",
+        help="read 32-bit floating point values (IEEE 754; USS specification C 6)",
+    )
     finish(parser, main)
 
 

@@ -1,14 +1,16 @@
-"""``uss run ADDRESS --setpoint PCT``: run a drive and follow it live.
+"""Run a drive and watch it: uss run ADDRESS --setpoint PCT
 
-Sets the main setpoint (PZD2, 4000h = 100 %), switches the drive on (control word 047Eh, then
-047Fh) and shows its state, status word and actual value while it ramps - on one line that
-updates itself in a terminal, one line per ``--interval`` otherwise, JSON lines with
-``--json``. Ctrl+C or SIGTERM (or the end of ``--duration``) switches it off cleanly: OFF1
-(047Eh), then the master keeps the telegrams going until the drive reports that operation is
-no longer enabled (at most ``--stop-timeout`` seconds); a second Ctrl+C stops at once with
-OFF2 (coast). Exit code 0 after ``--duration``, 130 after Ctrl+C or SIGTERM, 1 when the drive
-reports a fault, gives no answer for ``--timeout`` seconds, does not reach the stopped state
-within ``--stop-timeout``, or the port fails.
+Sets the main setpoint, switches the drive on and shows its state, status word and actual
+value while it ramps - on one line that updates itself in a terminal, one line per
+``--interval`` otherwise. Ctrl+C or SIGTERM (or the end of ``--duration``) switches it off
+cleanly: OFF1, then the telegrams go on until the drive reports that operation is no longer
+enabled (at most ``--stop-timeout`` seconds); a second Ctrl+C stops it at once with OFF2
+(coast). Exit code 0 after ``--duration``, 130 after Ctrl+C or SIGTERM, 1 when the drive
+reports a fault, gives no answer for ``--timeout`` seconds, does not stop within
+``--stop-timeout``, or the port fails.
+
+The setpoint goes into PZD2 (4000h = 100 %); on is control word 047Eh, then 047Fh, OFF1 047Eh,
+OFF2 047Ch (USS specification C 5.2.1, C Tables 5.4 and 5.5).
 
 With ``--json`` every line is one object with the same keys: ``time`` (ISO 8601 wall clock of
 the answer shown), ``address``, ``setpoint``, ``state``, ``status``, ``status_hex``, ``actual``,
@@ -53,18 +55,32 @@ def register(subparsers: Any) -> None:
         __doc__,
     )
     parser.add_argument(
-        "--setpoint", type=float, required=True, metavar="PCT", help="main setpoint in percent"
+        "--setpoint",
+        type=float,
+        required=True,
+        metavar="PCT",
+        help="main setpoint in percent of the reference value, -200..199.99 (PZD2, 4000h = 100 %%; "
+        "USS specification C 5.2.2)",
     )
-    parser.add_argument("--duration", type=float, metavar="S", help="switch off after S seconds")
+    parser.add_argument(
+        "--duration",
+        type=float,
+        metavar="S",
+        help="switch the drive off after S seconds (default: run until Ctrl+C)",
+    )
     parser.add_argument(
         "--stop-timeout",
         type=float,
         default=30.0,
         metavar="S",
-        help="longest wait for the drive to stop after OFF1 (default 30)",
+        help="after OFF1, wait at most S seconds for the drive to report that it stopped "
+        "(status bit 2 clear, USS specification C Table 5.5; default 30)",
     )
     parser.add_argument(
-        "--interval", type=float, metavar="S", help="seconds between lines (default 0.1 / 1)"
+        "--interval",
+        type=float,
+        metavar="S",
+        help="seconds between status lines (default 0.1 in a terminal, 1 otherwise)",
     )
     finish(parser, main)
 

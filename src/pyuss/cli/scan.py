@@ -1,13 +1,14 @@
-"""``uss scan``: find the drives on a line, their baud rate and telegram layout.
+"""Find the drives on a line: their addresses, baud rate, telegram layout and family.
 
 Every address of ``--address`` (default 0-31) is probed at every rate of ``--baud`` (a list,
-default 9600; ``all`` for the 13 rates of B 2.4) with "no job" telegrams whose control word is
-0000h: bit 10 clear means "process data not valid" (C Table 5.4), so the drives take nothing
-from them. A drive with a fixed telegram length answers only a telegram of its own length, so
-the common fixed layouts are tried in turn (``--layout`` gives the list instead, repeatable);
-a variable-length drive is recognised by the length of its answers. A progress bar goes to
-stderr when it is a terminal. A rate the port cannot be opened at (a ``bus://`` line runs at
-one rate only) is not probed, with a note on stderr. Exit code 0 when at least one drive
+default 9600; ``all`` for the 13 rates of USS specification B 2.4) with "no job" telegrams
+whose control word is 0000h: bit 10 clear means "process data not valid" (USS specification
+C Table 5.4), so the drives take nothing from them. A drive with a fixed telegram length
+answers only a telegram of its own length, so the common fixed layouts are tried in turn
+(``--layout`` gives the list instead, repeatable); a variable-length drive is recognised by the
+length of its answers. A progress bar goes to stderr when it is a terminal. A rate the port
+cannot be opened at (a ``bus://`` line runs at one rate only) is not probed, with a note on
+stderr. Exit code 0 when at least one drive
 answered, 1 when none did.
 
 Each drive found with a parameter area is then asked who it is: the family column names it
@@ -46,7 +47,10 @@ def register(subparsers: Any) -> None:
         subparsers, "scan", "find drives, their baud rate and telegram layout", __doc__
     )
     parser.add_argument(
-        "--address", default="0-31", metavar="RANGE", help="addresses, e.g. 0-31 or 1,5,7-9"
+        "--address",
+        default="0-31",
+        metavar="RANGE",
+        help="bus addresses to probe, e.g. 0-31 or 1,5,7-9 (default 0-31)",
     )
     finish(parser, main)
 

@@ -1,4 +1,4 @@
-"""``uss simulate``: simulated drives on a line, until stopped.
+"""Simulate drives: answer a master on a line as real drives would, until stopped.
 
 One process serves one or more bus addresses, each a simulated drive of the chosen profile with
 its own parameters, on one of:
@@ -11,9 +11,10 @@ its own parameters, on one of:
 - ``--bus HOST:PORT``: a station of a virtual bus run by ``uss bus --bus-tcp``; the first line
   is ``bus://HOST:PORT``.
 
-``--profile baumueller`` drives also have Baumueller's BASS service interface (seed 004 part 1):
+``--profile baumueller`` drives also have Baumueller's BASS service interface (Baumueller
+communication software manual, chapter 1):
 ``--bass-pty``, ``--bass-tcp HOST:PORT`` or ``--bass-serial DEVICE`` serves it (RS-232, 9600
-baud 8N1, `pyuss.bass.drive`). Each drive is then ONE drive on two interfaces: a BASS write is
+baud 8N1). Each drive is then ONE drive on two interfaces: a BASS write is
 seen over USS, and a BASS write of an active parameter makes the USS side send a spontaneous
 message (on by default with a BASS side; ``--no-spontaneous`` turns it off). All drives of the
 process form one closed BASS ring, wired in address order, each with its bus address as DIP
@@ -24,10 +25,9 @@ It stops cleanly on SIGINT or SIGTERM (or after ``--duration`` seconds): exit co
 summary on stderr. Values written with the EEPROM request IDs go to ``--store FILE`` (with
 several addresses FILE must contain ``{address}``); a damaged store file is refused (exit 2).
 
-Profiles of other protocols plug in through `OTHER_PROTOCOLS`: ``--profile ksvario`` runs the
-KS VARIO PROFIBUS-DP simulator (`pyuss.ksvario.simulate`, where installed) as the one DP station
+Other protocols: ``--profile ksvario`` runs the KS VARIO PROFIBUS-DP simulator as the one DP station
 ``--address`` (0..125) at a PROFIBUS-DP ``--baud``; ``--profile bass`` a closed RS-232 ring of
-Baumueller drives speaking BASS (`pyuss.bass.ring`, 9600 baud 8N1, one drive per
+Baumueller drives speaking BASS (9600 baud 8N1, one drive per
 ``--address``). Both refuse the options of USS drives (``--params``, ``--layout``, ...).
 """
 
@@ -48,6 +48,7 @@ from typing import Any
 from pyuss.bass.codec import BAUD as BASS_BAUD
 from pyuss.bass.drive import DriveOperatingData, drive_ring
 from pyuss.bass.ring import MAX_STATIONS, BassRing, DictOperatingData, demo_elements
+from pyuss.cli._help import plain
 from pyuss.drive.database import ParameterDatabase, load_database
 from pyuss.drive.simulated import SimulatedDrive
 from pyuss.errors import ConfigError, UssError
@@ -65,7 +66,7 @@ EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_USAGE = 2
 BASS_PROFILE = "baumueller"
-"""The profile whose drives also have the BASS service interface (seed 004)."""
+"""The profile whose drives also have the BASS service interface (Baumueller manual, ch. 1)."""
 
 
 @dataclasses.dataclass(frozen=True, slots=True)
@@ -102,12 +103,16 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "simulate",
         help="simulate drives (USS slaves) on a pty, TCP, serial port or virtual bus",
-        description=__doc__,
+        description=plain(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     names = ", ".join((*profile_names(), *OTHER_PROTOCOLS))
     parser.add_argument(
-        "--profile", default="generic", metavar="NAME", help=f"device profile ({names})"
+        "--profile",
+        default="generic",
+        metavar="NAME",
+        help=f"the drive family to simulate: {names} (docs/profiles.md; default generic, the "
+        "drive profile of the USS specification)",
     )
     parser.add_argument(
         "--address",
@@ -115,61 +120,111 @@ def register(subparsers: Any) -> None:
         type=_int,
         default=[],
         metavar="A",
-        help="bus address 0..31 (repeat for several drives; default 0); ksvario: DP station 0..125",
+        help="bus address of a drive, 0..31 (repeat for several drives; default 0); ksvario: "
+        "DP station 0..125",
     )
     parser.add_argument(
-        "--params", metavar="FILE", help="parameter file (TOML) instead of the profile's"
+        "--params",
+        metavar="FILE",
+        help="the drives' parameters from this file (TOML) instead of the profile's "
+        "(format: docs/drive.md)",
     )
     parser.add_argument(
-        "--layout", metavar="PKW,PZD", help="PKW 0, 3, 4 or v and PZD 0..16, e.g. 3,2"
+        "--layout",
+        metavar="PKW,PZD",
+        help="telegram layout the drives use: number of PKW words (0, 3, 4, or v for variable "
+        "length) and of PZD words (0..16), e.g. 3,2 (USS specification C 7; default: the "
+        "profile's)",
     )
     parser.add_argument(
-        "--baud", type=_int, default=9600, help=f"baud rate ({', '.join(map(str, BAUD_RATES))})"
+        "--baud",
+        type=_int,
+        default=9600,
+        help=f"baud rate of the line: {', '.join(map(str, BAUD_RATES))} (USS specification "
+        "B 2.4; default 9600; a pty has none)",
     )
     where = parser.add_mutually_exclusive_group(required=True)
-    where.add_argument("--pty", action="store_true", help="serve on a new pseudo-terminal")
-    where.add_argument("--tcp", metavar="HOST:PORT", help="serve the line as a TCP server")
-    where.add_argument("--serial", metavar="DEVICE", help="serve on a serial port")
-    where.add_argument("--bus", metavar="HOST:PORT", help="be a station of a 'uss bus --bus-tcp'")
+    where.add_argument(
+        "--pty",
+        action="store_true",
+        help="answer on a new pseudo-terminal; its device path is the first line printed",
+    )
+    where.add_argument(
+        "--tcp",
+        metavar="HOST:PORT",
+        help="answer as a TCP server, as a serial-to-Ethernet converter does (:0 picks a port)",
+    )
+    where.add_argument(
+        "--serial", metavar="DEVICE", help="answer on a serial port, e.g. /dev/ttyUSB0"
+    )
+    where.add_argument(
+        "--bus",
+        metavar="HOST:PORT",
+        help="answer as a station of a virtual bus started with uss bus --bus-tcp",
+    )
     bass = parser.add_mutually_exclusive_group()
     bass.add_argument(
-        "--bass-pty", action="store_true", help="baumueller: BASS service interface on a new pty"
+        "--bass-pty",
+        action="store_true",
+        help="baumueller: serve the BASS service interface (RS-232) on a new pty too",
     )
-    bass.add_argument("--bass-tcp", metavar="HOST:PORT", help="baumueller: BASS as a TCP server")
-    bass.add_argument("--bass-serial", metavar="DEVICE", help="baumueller: BASS on a serial port")
-    parser.add_argument("--store", metavar="FILE", help="EEPROM store file ({address} for several)")
+    bass.add_argument(
+        "--bass-tcp", metavar="HOST:PORT", help="baumueller: serve BASS as a TCP server too"
+    )
+    bass.add_argument(
+        "--bass-serial", metavar="DEVICE", help="baumueller: serve BASS on a serial port too"
+    )
+    parser.add_argument(
+        "--store",
+        metavar="FILE",
+        help="keep values written to EEPROM in FILE across restarts ({address} in the name "
+        "for several drives)",
+    )
     parser.add_argument(
         "--failure-time",
         type=float,
         metavar="SECONDS",
-        help="telegram failure time (0: off; default: the parameter file's)",
+        help="fault the drive when no telegram came for SECONDS (0: not watched; default: the "
+        "parameter file's; USS specification C 3.1)",
     )
     parser.add_argument(
         "--latency",
         type=_int,
         default=0,
         metavar="N",
-        help="parameter jobs answer N telegrams late",
+        help="answer a new parameter job only after N telegrams carried it, as busy drives do "
+        "(USS specification C 4.2.1.1)",
     )
     parser.add_argument(
-        "--latency-time", type=float, default=0.0, metavar="MS", help="... and MS milliseconds late"
+        "--latency-time",
+        type=float,
+        default=0.0,
+        metavar="MS",
+        help="... and only MS milliseconds after it first came",
     )
     parser.add_argument(
         "--response-delay",
         type=float,
         metavar="MS",
-        help="answer this many ms after a request (inside the profile's window; default: earliest)",
+        help="answer MS milliseconds after a request, inside the profile's window (USS "
+        "specification A 5.2.1.1; default: as early as allowed)",
     )
     parser.add_argument(
-        "--read-only", action="store_true", help="no parameter write authority (response ID 8)"
+        "--read-only",
+        action="store_true",
+        help="refuse every parameter change as a drive without write authority does (response "
+        "ID 8, USS specification C Table 4.2)",
     )
     parser.add_argument(
         "--spontaneous",
         action=argparse.BooleanOptionalAction,
         default=None,
-        help="send spontaneous messages (default: as the profile does)",
+        help="report parameter changes made on the drive itself to the master (USS "
+        "specification C 4.2.1.2; default: as the profile does)",
     )
-    parser.add_argument("--duration", type=float, metavar="SECONDS", help="stop after SECONDS")
+    parser.add_argument(
+        "--duration", type=float, metavar="SECONDS", help="stop by itself after SECONDS"
+    )
     parser.set_defaults(func=run)
 
 
@@ -508,8 +563,9 @@ async def _serve_ksvario(opts: Options, stop: asyncio.Event, announce: Announce)
 
 
 async def _serve_bass(opts: Options, stop: asyncio.Event, announce: Announce) -> None:
-    """A closed RS-232 ring of BASS drives (seed 004 part 1), one per ``--address`` (its DIP
-    address), with the demonstration operating data of `pyuss.bass.ring`; 9600 baud, 8N1."""
+    """A closed RS-232 ring of BASS drives (Baumueller manual, chapter 1), one per
+    ``--address`` (its DIP address), with the demonstration operating data of
+    `pyuss.bass.ring`; 9600 baud, 8N1."""
     if opts.line == "bus":
         raise ConfigError("profile bass: a BASS ring is RS-232, not a station of a USS bus")
     _refuse_drive_options(opts)

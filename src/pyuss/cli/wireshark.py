@@ -1,4 +1,4 @@
-"""``uss wireshark``: the Wireshark dissector for the monitor's pcapng captures.
+"""Let Wireshark decode the captures of uss monitor: install or locate the USS dissector.
 
     uss wireshark path                 # where the shipped uss.lua is
     uss wireshark install              # copy it into Wireshark's personal Lua plugins folder
@@ -19,6 +19,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from pyuss.cli._help import plain
 from pyuss.errors import ConfigError
 from pyuss.monitor.dissector import dissector_source, install, plugin_dir
 
@@ -33,23 +34,25 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "wireshark",
         help="install or locate the Wireshark dissector for monitor captures",
-        description=__doc__,
+        description=plain(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     actions = parser.add_subparsers(dest="action", metavar="ACTION")
     actions.required = True
-    actions.add_parser("path", help="print the path of the shipped uss.lua")
-    setup = actions.add_parser("install", help="copy uss.lua into the Lua plugins folder")
+    actions.add_parser("path", help="print where the dissector (uss.lua) shipped with pyuss is")
+    setup = actions.add_parser(
+        "install", help="copy the dissector into Wireshark's personal Lua plugins folder"
+    )
     setup.add_argument(
         "--dir",
         type=Path,
         metavar="DIR",
-        help=f"plugins folder (default: {plugin_dir()})",
+        help=f"copy it into DIR instead (default: {plugin_dir()})",
     )
     setup.add_argument(
         "--force",
         action="store_true",
-        help="replace a uss.lua there that is not pyuss's dissector",
+        help="replace a uss.lua there even if it is not pyuss's dissector",
     )
     parser.set_defaults(func=run)
 

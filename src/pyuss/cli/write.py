@@ -1,10 +1,12 @@
-"""``uss write ADDRESS PNU[.INDEX] VALUE``: write a parameter value of a drive.
+"""Write a parameter value of a drive: uss write ADDRESS PNU[.INDEX] VALUE
 
-VALUE is an integer (``28672``, ``0x7000``, ``-5``) or a floating point number (``50.0``, sent
-as a 32-bit IEEE value). A word is written with request 2 (array element: 7), a double word
-with 3 (8) - a float, an integer outside -32768..65535, or ``--dword``; ``--eeprom`` stores the
-value in the drive's non-volatile memory as well (requests 14, 13, 12, 11). Prints the value
-the drive answered with.
+VALUE is an integer (28672, 0x7000, -5) or a floating point number (50.0, sent as a 32-bit
+IEEE 754 value). ``--eeprom`` stores the value in the drive's non-volatile memory as well.
+Prints the value the drive answered with.
+
+A word is written with request 2 (array element: 7), a double word - a float, an integer
+outside -32768..65535, or ``--dword`` - with 3 (8), and with ``--eeprom`` requests 14, 13, 12,
+11 (USS specification C 4.2.1.1).
 
 When no answer to the write comes in time (``--timeout``) the drive may still have carried it
 out: only its answer may have been lost on the line. ``uss write`` then says so and exits 1;
@@ -42,12 +44,26 @@ from pyuss.protocol.pkw import ResponseId
 
 def register(subparsers: Any) -> None:
     parser = command(subparsers, "write", "write a parameter value of a drive", __doc__)
-    parser.add_argument("parameter", metavar="PNU[.INDEX]", help="e.g. 18 or 4.2")
-    parser.add_argument("value", metavar="VALUE", help="integer (0x.. hex) or float")
-    parser.add_argument("--eeprom", action="store_true", help="store in the drive's EEPROM too")
+    parser.add_argument(
+        "parameter",
+        metavar="PNU[.INDEX]",
+        help="parameter number, with .INDEX for an element of an array parameter, e.g. 18 or 4.2",
+    )
+    parser.add_argument(
+        "value", metavar="VALUE", help="the value: an integer (0x for hex) or a float"
+    )
+    parser.add_argument(
+        "--eeprom",
+        action="store_true",
+        help="store the value in the drive's non-volatile memory (EEPROM) too",
+    )
     size = parser.add_mutually_exclusive_group()
-    size.add_argument("--dword", action="store_true", help="write a double word (32 bits)")
-    size.add_argument("--word", action="store_true", help="write a word (16 bits)")
+    size.add_argument(
+        "--dword",
+        action="store_true",
+        help="send the value as a double word, 32 bits: for 32-bit parameters with small values",
+    )
+    size.add_argument("--word", action="store_true", help="send the value as a word, 16 bits")
     parser.add_argument(
         "--verify",
         action="store_true",
