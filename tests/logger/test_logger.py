@@ -98,8 +98,24 @@ def test_uss_log_writes_no_answer_once_the_simulator_is_gone(tmp_path: Path) -> 
         url = sim.stdout.readline().strip()
         path = tmp_path / "drive5.csv"
         log = subprocess.Popen(
-            [*UV, "log", "5", "status", "state", "P52", "--rate", "10", "-o", str(path)]
-            + ["--port", f"{url}?reconnect=1", "--baud", "19200", "--timeout", "0.3"],
+            [
+                *UV,
+                "log",
+                "5",
+                "status",
+                "state",
+                "P52",
+                "--rate",
+                "10",
+                "-o",
+                str(path),
+                "--port",
+                f"{url}?reconnect=1",
+                "--baud",
+                "19200",
+                "--timeout",
+                "0.3",
+            ],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,

@@ -153,7 +153,6 @@ class Backend:
         self._epoch = 0.0
         self.exchanges: deque[tuple[int, Exchange]] = deque(maxlen=EXCHANGE_BUFFER)
         self._exchange_seq = 0
-        self._exchange_listeners: list[Callable[[list[dict[str, Any]]], None]] = []
         self.scan_progress: tuple[int, int] | None = None
         self._lock = asyncio.Lock()
 
@@ -759,26 +758,14 @@ class Backend:
         return open_transport(self._url, baud=baud)
 
     # -- monitor ------------------------------------------------------------------------------
-    def on_exchanges(self, listener: Callable[[list[dict[str, Any]]], None]) -> Callable[[], None]:
-        """Call ``listener`` with every batch of decoded telegrams (as `exchange_dict`)."""
-        self._exchange_listeners.append(listener)
-
-        def remove() -> None:
-            if listener in self._exchange_listeners:
-                self._exchange_listeners.remove(listener)
-
-        return remove
-
     def _publish(self, exchanges: list[Exchange]) -> None:
-        batch = []
         for exchange in exchanges:
             self._exchange_seq += 1
             self.exchanges.append((self._exchange_seq, exchange))
-            batch.append(self.exchange_dict(self._exchange_seq, exchange))
-        for listener in list(self._exchange_listeners):
-            listener(batch)
 
     def exchange_dict(self, seq: int, exchange: Exchange) -> dict[str, Any]:
+        """One decoded telegram for the page: when, address, kind, problems, the line of
+        `uss monitor`."""
         return {
             "seq": seq,
             "time": exchange.time + self._epoch,
@@ -788,9 +775,17 @@ class Backend:
             "line": exchange_line(exchange, origin=self._epoch, absolute=True),
         }
 
-    def recent_exchanges(self, limit: int = 500) -> list[dict[str, Any]]:
-        items = list(self.exchanges)[-limit:]
-        return [self.exchange_dict(seq, ex) for seq, ex in items]
+    @property
+    def last_exchange(self) -> int:
+        """The number of the newest decoded telegram (they are numbered from 1)."""
+        return self._exchange_seq
+
+    def exchanges_since(self, seq: int, limit: int) -> tuple[list[dict[str, Any]], int]:
+        """Decoded telegrams numbered above ``seq``, the newest ``limit`` of them, and how
+        many newer than ``seq`` were left out."""
+        newer = [(n, ex) for n, ex in self.exchanges if n > seq]
+        left_out = max(self._exchange_seq - seq - len(newer), 0) + max(len(newer) - limit, 0)
+        return [self.exchange_dict(n, ex) for n, ex in newer[-limit:]], left_out
 
     def _feed(self, port: int, chunk: Chunk) -> None:
         if self._monitor is None:

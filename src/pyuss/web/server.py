@@ -65,6 +65,8 @@ BUS_EVERY = 10
 """Ticks between two bus messages (state and health, twice a second)."""
 MAX_TELEGRAMS = 200
 """Telegrams sent in one tick at most; the rest are counted as left out."""
+RECENT_TELEGRAMS = 500
+"""Telegrams a page gets when it opens the monitor view."""
 MAX_CLIENTS = 32
 """WebSocket clients at once; more are refused with 503."""
 MAX_BODY = 4 * 1024 * 1024
@@ -128,9 +130,7 @@ class WebServer:
         self.hub = Hub(queue_size=queue_size, send_timeout=send_timeout)
         self._runner: web.AppRunner | None = None
         self._ticker: asyncio.Task[None] | None = None
-        self._telegrams: list[dict[str, Any]] = []
-        self._left_out = 0
-        self._remove_listener: Callable[[], None] | None = None
+        self._sent_exchange = 0
 
     # -- life cycle ---------------------------------------------------------------------------
     @property
@@ -175,13 +175,10 @@ class WebServer:
         self._runner = runner
         if self.port == 0 and runner.addresses:
             self.port = int(runner.addresses[0][1])
-        self._remove_listener = self.backend.on_exchanges(self._on_telegrams)
         self._ticker = asyncio.create_task(self._tick())
         return self.url
 
     async def close(self) -> None:
-        if self._remove_listener is not None:
-            self._remove_listener()
         if self._ticker is not None:
             self._ticker.cancel()
             with contextlib.suppress(asyncio.CancelledError):
@@ -354,16 +351,13 @@ class WebServer:
                 if isinstance(data, dict) and "monitor" in data:
                     client.monitor = bool(data["monitor"])
                     if client.monitor:
-                        recent = self.backend.recent_exchanges()
+                        recent, _ = self.backend.exchanges_since(
+                            self.backend.last_exchange - RECENT_TELEGRAMS, RECENT_TELEGRAMS
+                        )
                         self.hub.send_to(client, json.dumps({"type": "telegrams", "items": recent}))
         finally:
             await self.hub.remove(client)
         return ws
-
-    def _on_telegrams(self, items: list[dict[str, Any]]) -> None:
-        room = MAX_TELEGRAMS - len(self._telegrams)
-        self._telegrams.extend(items[: max(room, 0)])
-        self._left_out += max(len(items) - max(room, 0), 0)
 
     async def _tick(self) -> None:
         count = 0
@@ -379,12 +373,12 @@ class WebServer:
         backend = self.backend
         samples = backend.take_samples()
         drives = {}
-        for address, items in samples.items():
-            last = items[-1]
+        for address, taken in samples.items():
+            last = taken[-1]
             drives[str(address)] = {
                 "samples": [
                     [round(s.time, 4), s.status, backend.actual_values(address, s.actual)]
-                    for s in items
+                    for s in taken
                 ],
                 "status": last.status,
                 "state": state_of(last.status),
@@ -394,11 +388,14 @@ class WebServer:
             self.hub.send(json.dumps({"type": "tick", "drives": drives}))
             if count % BUS_EVERY == 0:
                 self.hub.send(json.dumps({"type": "bus", "bus": backend.bus()}))
-        if self._telegrams or self._left_out:
-            message = {"type": "telegrams", "items": self._telegrams, "left_out": self._left_out}
-            self._telegrams = []
-            self._left_out = 0
-            self.hub.send(json.dumps(message), monitor_only=True)
+        newest = backend.last_exchange
+        if newest > self._sent_exchange:
+            if any(c.monitor for c in self.hub.clients):
+                # decoded into lines only while a page shows the monitor
+                items, left_out = backend.exchanges_since(self._sent_exchange, MAX_TELEGRAMS)
+                message = {"type": "telegrams", "items": items, "left_out": left_out}
+                self.hub.send(json.dumps(message), monitor_only=True)
+            self._sent_exchange = newest
 
 
 def _addresses(text: str) -> list[int]:
