@@ -180,3 +180,66 @@ def test_the_page_fits_a_tablet(browser: Any, demo: Running) -> None:
         page.screenshot(path=IMAGES / "web-tablet.png", full_page=False)
     finally:
         page.context.close()
+
+
+def test_the_trend_zooms_pauses_and_exports_what_it_shows(
+    page: Any, demo: Running, tmp_path: Any
+) -> None:
+    page.goto(demo.url + "#drive/7")
+    page.wait_for_function("document.querySelector('#drive-title').textContent.includes('drive 7')")
+    page.wait_for_function("window.pyuss.views.drive.data[0].length > 60")
+    box = page.locator("#trend .u-over").bounding_box()
+    assert box is not None
+    # drag across the middle of the plot: a zoom into that time span
+    y = box["y"] + box["height"] / 2
+    page.mouse.move(box["x"] + box["width"] * 0.80, y)
+    page.mouse.down()
+    page.mouse.move(box["x"] + box["width"] * 0.90, y, steps=5)
+    page.mouse.move(box["x"] + box["width"] * 0.97, y, steps=5)
+    page.mouse.up()
+    page.locator("#trend-follow").wait_for()
+    low, high = page.evaluate(
+        "[pyuss.views.drive.plot.scales.x.min, pyuss.views.drive.plot.scales.x.max]"
+    )
+    page.click("#trend-pause")
+    assert page.locator("#trend-pause").inner_text() == "Resume"
+    with page.expect_download() as info:
+        page.click("#trend-csv")
+    path = tmp_path / "trend.csv"
+    info.value.save_as(path)
+    lines = path.read_text(encoding="utf-8").splitlines()
+    assert lines[0] == '"time","Main actual value [Hz]","Setpoint [Hz]"'
+    import datetime as dt
+
+    times = [dt.datetime.fromisoformat(line.split(",")[0]).timestamp() for line in lines[1:]]
+    assert times and times == sorted(times)
+    assert all(low - 1e-3 <= t <= high + 1e-3 for t in times)  # what is shown, nothing else
+    shown = page.evaluate(
+        "pyuss.views.drive.data[0].filter(t => t >= pyuss.views.drive.plot.scales.x.min"
+        " && t <= pyuss.views.drive.plot.scales.x.max).length"
+    )
+    assert len(times) == shown
+    page.click("#trend-pause")
+    page.click("#trend-follow")
+    assert page.locator("#trend-follow").is_hidden()
+
+
+def test_read_only_hides_every_control(browser: Any, demo: Running) -> None:
+    from pyuss.web.server import WebServer
+
+    server = WebServer(demo.backend, port=0, read_only=True)
+    url = demo.call(server.start())
+    try:
+        page = open_page(browser, url + "#drive/1")
+        page.wait_for_function("document.querySelector('#drive-state').textContent !== '-'")
+        assert page.locator("#ro-badge").is_visible()
+        for selector in ("[data-cmd=on]", "[data-cmd=off1]", "#setpoint-form", "#scan-form"):
+            assert page.locator(selector).is_hidden(), selector
+        page.goto(url + "#params/1")
+        page.wait_for_function(
+            "document.querySelector('#param-message').textContent.includes('values read')"
+        )
+        assert page.locator("#param-table tr.writable").count() == 0
+        page.context.close()
+    finally:
+        demo.call(server.close())

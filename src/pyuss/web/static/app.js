@@ -103,6 +103,7 @@ async function main() {
   window.addEventListener("hashchange", route);
   route();
   connect();
+  state.views = views;
   window.pyuss = state;  // for scripts and tests: the page's state
 }
 
