@@ -225,3 +225,33 @@ async def test_a_client_sending_oversized_messages_is_closed(backend: Backend) -
                 await asyncio.sleep(0.05)
     finally:
         await server.close()
+
+
+async def test_a_scan_from_the_page_reports_progress_live(backend: Backend) -> None:
+    server = await serve(backend)
+    try:
+        async with aiohttp.ClientSession() as http, http.ws_connect(base(server) + "/ws") as ws:
+            progress: list[dict[str, Any]] = []
+
+            async def listen() -> None:
+                async for message in ws:
+                    data = json.loads(message.data)
+                    if data["type"] == "scan":
+                        progress.append(data)
+
+            listener = asyncio.create_task(listen())
+            async with http.post(
+                base(server) + "/api/scan", json={"addresses": "0-7"}, headers=WRITE
+            ) as reply:
+                assert reply.status == 200
+                found = (await reply.json())["found"]
+            async with asyncio.timeout(10):
+                while not progress or "found" not in progress[-1]:
+                    await asyncio.sleep(0.05)
+            listener.cancel()
+        assert [f["address"] for f in found] == [1, 4, 7]
+        steps = [p["done"] for p in progress[:-1]]
+        assert len(steps) > 8 and steps == sorted(steps)
+        assert progress[-1]["found"] == found
+    finally:
+        await server.close()

@@ -692,6 +692,10 @@ class Backend:
             await self._read_reference(state)
         return result
 
+    backup_available = False
+    """Backup, compare and restore from the page: they use the backup files of `uss backup`
+    (`pyuss.params`), which the page does not have yet; the page hides them meanwhile."""
+
     # -- scan ---------------------------------------------------------------------------------
     async def scan(
         self,

@@ -262,6 +262,7 @@ class WebServer:
                 "moves": sorted(Backend.MOVES),
                 "commands": list(Backend.COMMANDS),
                 "tick": TICK,
+                "backup": self.backend.backup_available,
             }
         )
 
