@@ -73,21 +73,20 @@ def run(args: argparse.Namespace) -> int:
 async def _log(args: argparse.Namespace) -> int:
     from pyuss.datalog import CsvLog, DataLogger, parse_size, parse_values
     from pyuss.master import CYCLIC
-    from pyuss.profiles import get_profile
 
     if args.count is not None and args.count < 1:
         raise ConfigError(f"--count {args.count}: must be at least 1")
     if args.duration is not None and not args.duration > 0:
         raise ConfigError(f"--duration {args.duration}: must be > 0 seconds")
     rotate = parse_size(args.rotate) if args.rotate else None
-    database = get_profile(args.profile).database()
-    quantities = parse_values(args.values, database)
-    master = _master.open_master(args, mode=CYCLIC)
-    drive = master.drive(args.address)
-    logger = DataLogger(
-        drive, quantities, rate=args.rate, database=database, job_timeout=args.timeout
-    )
-    async with master:
+    parse_values(args.values, None)  # bad VALUES are bad input before the port is opened
+    async with _master.open_master(args, mode=CYCLIC) as master:
+        drive = master.drive(args.address)
+        database = drive.profile.database()  # the family identified with --profile auto
+        quantities = parse_values(args.values, database)
+        logger = DataLogger(
+            drive, quantities, rate=args.rate, database=database, job_timeout=args.timeout
+        )
         await logger.prepare()
         log = CsvLog(args.output, logger.header(), append=args.append, rotate=rotate)
         if log.repaired:
