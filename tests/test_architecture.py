@@ -20,6 +20,8 @@ ALLOWED: dict[str, set[str]] = {
     "profiles": {"protocol", "drive"},
     "slave": {"protocol", "transport", "bus", "drive", "profiles"},
     "monitor": {"protocol", "transport", "bus"},
+    # parameter knowledge sits below the master, which converts values through it
+    "params": {"protocol", "drive", "profiles"},
 }
 # Pure means no I/O and no clock: none of these in the protocol layer.
 IMPURE = {"asyncio", "socket", "serial", "time", "os", "threading", "subprocess", "select"}

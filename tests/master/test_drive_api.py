@@ -30,10 +30,10 @@ async def test_eeprom_writes_use_the_eeprom_requests() -> None:
     async with simulated_bus([(5, "generic", VARIABLE)], record=True) as env:
         drive = env.master.drive(5, layout=VARIABLE)
         assert await drive.write(18, 0x1234, eeprom=True) == 0x1234
-        assert await drive.write(4, -5, 3, dword=True, eeprom=True) == -5
+        assert await drive.write(4, -5, 3, eeprom=True) == -5  # int32: a double word
         assert await drive.write(107, 60.0, eeprom=True) == 60.0
         assert await drive.write(683, 9, 2, eeprom=True) == 9
-        assert await drive.read(4, 3, signed=True) == -5
+        assert await drive.read(4, 3) == -5
         assert await drive.read(683, 2) == 9
     assert env.recorder is not None
     sent = [VARIABLE.unpack(r.telegram.data).pkw for r in line_telegrams(env.recorder, 38400)]
