@@ -165,3 +165,15 @@ def test_the_sync_facade_runs_the_same_core_in_one_thread() -> None:
             reply = master.request(Telegram(5, AddressMode.MIRROR, bytes(10)))
             assert reply is not None and reply.telegram.mode is AddressMode.MIRROR
         assert not master.running and not loop_threads()
+
+
+def test_the_sync_drive_offers_every_call_of_the_async_one_with_the_same_arguments() -> None:
+    import inspect
+
+    for name in (n for n in dir(Drive) if not n.startswith("_")):
+        call = getattr(Drive, name)
+        assert hasattr(sync_master.Drive, name), name
+        if inspect.isfunction(call):
+            mine = list(inspect.signature(getattr(sync_master.Drive, name)).parameters)
+            assert mine == list(inspect.signature(call).parameters), name
+    assert isinstance(sync_master.Drive.params, property)  # the async drive's book, shared
