@@ -22,6 +22,8 @@ ALLOWED: dict[str, set[str]] = {
     "monitor": {"protocol", "transport", "bus"},
     # parameter knowledge sits below the master, which converts values through it
     "params": {"protocol", "drive", "profiles"},
+    # commissioning (backup, compare, restore, status) builds on the master
+    "commission": {"protocol", "drive", "profiles", "params", "master"},
 }
 # Pure means no I/O and no clock: none of these in the protocol layer.
 IMPURE = {"asyncio", "socket", "serial", "time", "os", "threading", "subprocess", "select"}

@@ -14,7 +14,6 @@ when every parameter was read, 1 when some were not (the file says which).
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Any
 
 from pyuss.cli import _params
@@ -66,7 +65,7 @@ def main(args: argparse.Namespace) -> int:
         failed = taken.failed
         if not args.json:
             for entry in failed:
-                print(f"{entry.label}: {entry.error and entry.error['message']}", file=sys.stderr)
+                print(f"{entry.label}: not read: {entry.error and entry.error['message']}")
         summary = {
             "address": args.address,
             "file": args.output,

@@ -28,7 +28,7 @@ from pyuss.cli._master import (
 from pyuss.errors import ConfigError, UssError
 from pyuss.params.book import ParamBook
 from pyuss.params.model import ParamInfo
-from pyuss.params.values import format_value
+from pyuss.params.values import format_value, physical
 from pyuss.profiles import get_profile, profile_names
 
 
@@ -86,22 +86,16 @@ def pnu_range(text: str) -> range:
 
 
 def limits(info: ParamInfo) -> str:
+    """``0.00..650.00``: the limits a write must keep (empty when only the type's apply)."""
     if not info.is_numeric or info.is_bit_field:
         return ""
-    low = (
-        info.minimum if info.minimum is not None else (min(info.allowed) if info.allowed else None)
-    )
-    high = (
-        info.maximum if info.maximum is not None else (max(info.allowed) if info.allowed else None)
-    )
+    if info.minimum is None and info.maximum is None and not info.allowed:
+        return ""
+    low, high = info.low, info.high
     if low is None or high is None:
         return ""
-    from pyuss.params.values import physical
-
-    return (
-        f"{format_value(info, physical(info, low), unit=False)}.."
-        f"{format_value(info, physical(info, high), unit=False)}"
-    )
+    show = [format_value(info, physical(info, v), unit=False, texts=False) for v in (low, high)]
+    return f"{show[0]}..{show[1]}"
 
 
 def row(info: ParamInfo, value: str | None = None) -> str:
@@ -160,9 +154,8 @@ def main(args: argparse.Namespace) -> int:
             if args.values:
                 for info in found:
                     try:
-                        values[info.pnu] = (
-                            (await drive.read_param(info.pnu)).text().partition(" = ")[2]
-                        )
+                        reading = await drive.read_param(info.pnu)
+                        values[info.pnu] = format_value(reading.info, reading.value)
                     except ConfigError:
                         raise
                     except UssError as exc:

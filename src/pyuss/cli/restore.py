@@ -119,7 +119,7 @@ def main(args: argparse.Namespace) -> int:
         failed = [o for o in outcomes if not o.ok]
         if not args.json:
             for outcome in failed:
-                print(outcome.text(), file=sys.stderr)
+                print(f"{outcome.write.label}: refused: {outcome.error_text()}")
             stored = " and stored in EEPROM" if args.eeprom else ""
             print(
                 f"drive {args.address}: {len(outcomes) - len(failed)} of {len(outcomes)} "

@@ -150,19 +150,14 @@ class Entry:
         if error is not None:
             if not isinstance(error, dict) or not isinstance(error.get("message", ""), str):
                 raise ConfigError(f"{where}: field 'error' must be a table with a message")
-            value, raw = None, ()
+            value, raw = None, tuple[int, ...]()
         else:
             if "value" not in data:
                 raise ConfigError(f"{where}: field 'value' missing (and no 'error')")
             value = data["value"]
             if not _plain_value(value):
                 raise ConfigError(f"{where}: field 'value' must be a number, text or list")
-            words = data.get("raw", [])
-            if not isinstance(words, list) or any(
-                isinstance(w, bool) or not isinstance(w, int) or not 0 <= w <= 0xFFFF for w in words
-            ):
-                raise ConfigError(f"{where}: field 'raw' must be a list of words 0..65535")
-            raw = tuple(words)
+            raw = raw_words(data.get("raw", ""), where)
         return cls(
             pnu,
             index,

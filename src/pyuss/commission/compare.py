@@ -259,10 +259,18 @@ class Outcome:
     def ok(self) -> bool:
         return self.error is None
 
+    def error_text(self) -> str:
+        """``error 12: keyword missing`` for a refusal, else the error's message."""
+        if self.error is None:
+            return ""
+        if "number" in self.error:
+            return f"error {self.error['number']}: {self.error['meaning']}"
+        return str(self.error.get("message", "failed"))
+
     def text(self) -> str:
         if self.error is None:
             return f"{self.write.label} = {self.answer}"
-        return f"{self.write.label}: {self.error['message']}"
+        return f"{self.write.label}: {self.error_text()}"
 
     def to_dict(self) -> dict[str, Any]:
         data: dict[str, Any] = {

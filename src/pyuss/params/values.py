@@ -193,7 +193,9 @@ def check_raw(info: ParamInfo, raw: Value, index: int | None = None) -> None:
     if info.reset_only and raw != 0:
         raise ValueRefused(f"{where} may only be reset to 0")
     if info.allowed is not None and raw not in info.allowed:
-        choices = ", ".join(format_value(info, physical(info, a), unit=False) for a in info.allowed)
+        choices = ", ".join(
+            format_value(info, physical(info, a), unit=False, texts=False) for a in info.allowed
+        )
         raise ValueRefused(
             f"{where}: {format_value(info, physical(info, raw))} is not one of {choices}"
         )
@@ -201,8 +203,8 @@ def check_raw(info: ParamInfo, raw: Value, index: int | None = None) -> None:
     if low is not None and high is not None and not low <= raw <= high:
         raise ValueRefused(
             f"{where}: {format_value(info, physical(info, raw))} is outside "
-            f"{format_value(info, physical(info, low), unit=False)}.."
-            f"{format_value(info, physical(info, high))}"
+            f"{format_value(info, physical(info, low), unit=False, texts=False)}.."
+            f"{format_value(info, physical(info, high), texts=False)}"
         )
 
 
@@ -322,13 +324,17 @@ def _decimals(info: ParamInfo) -> int | None:
 
 
 def format_value(
-    info: ParamInfo | None, value: Value | Sequence[Value], *, unit: bool = True
+    info: ParamInfo | None,
+    value: Value | Sequence[Value],
+    *,
+    unit: bool = True,
+    texts: bool = True,
 ) -> str:
     """The text of a value: ``10.00 s``, ``2.00 s`` (scaled), ``1 [READY]``, ``4000h`` (bit
     field), ``"text"``; a list for a whole array. Without ``info`` an integer shows in
     decimal and hex (``16384 (4000h)``)."""
     if isinstance(value, list | tuple):
-        inner = ", ".join(format_value(info, v, unit=False) for v in value)
+        inner = ", ".join(format_value(info, v, unit=False, texts=texts) for v in value)
         suffix = f" {info.unit}" if unit and info is not None and info.unit else ""
         return f"[{inner}]{suffix}"
     assert isinstance(value, int | float | str | bytes)
@@ -343,7 +349,7 @@ def format_value(
     text = _number_text(info, value) if isinstance(value, int | float) else _plain(value)
     if unit and info.unit:
         text = f"{text} {info.unit}"
-    if info.texts and isinstance(value, int | float):
+    if texts and info.texts and isinstance(value, int | float):
         name = info.texts.get(int(value)) if value == int(value) else None
         if name is not None:
             text = f"{text} [{name.strip()}]"
