@@ -36,6 +36,8 @@ COMMANDS: tuple[str, ...] = (
     "monitor",
     "wireshark",
     "decode",
+    "web",
+    "log",
     "bass",
     "ksvario",
 )
