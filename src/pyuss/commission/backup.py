@@ -281,15 +281,20 @@ class Backup:
 # -- reading a drive --------------------------------------------------------------------------
 
 
-def identity_parameters(drive: Drive) -> list[int]:
-    """The parameters that say which drive it is: the profile's own list (``identity``) if it
-    has one, else the known parameters whose name speaks of firmware, version, serial number or
-    type."""
-    named = getattr(drive.profile, "identity", None)
-    if named:
-        return [int(getattr(p, "pnu", p)) for p in named]
+def identity_parameters(drive: Drive) -> list[tuple[int, int | None]]:
+    """The parameters that say which drive it is: those the profile's identity rules read
+    (`pyuss.profiles.base.IdentityRule`) if it has any, else the known parameters whose name
+    speaks of firmware, version, serial number or type."""
+    rules = getattr(drive.profile, "identity", None)
+    if rules:
+        found: list[tuple[int, int | None]] = []
+        for rule in rules:
+            key = (int(rule.pnu), getattr(rule, "index", None))
+            if rule.pnu in drive.params and key not in found and getattr(rule, "present", True):
+                found.append(key)
+        return found
     return [
-        info.pnu
+        (info.pnu, None)
         for info in drive.params
         if any(word in info.name.casefold() for word in IDENTITY_WORDS)
     ]
@@ -380,8 +385,7 @@ async def take(
 ) -> Backup:
     """A backup of ``drive``: every parameter its book knows (or ``pnus``), arrays whole."""
     numbers = sorted(set(drive.params.pnus() if pnus is None else pnus))
-    ident = [p for p in identity_parameters(drive) if p in drive.params]
-    identity = await read_parameters(drive, [(p, None) for p in ident])
+    identity = await read_parameters(drive, identity_parameters(drive))
     entries = await read_parameters(drive, [(p, None) for p in numbers], progress=progress)
     date = datetime.fromtimestamp(now(), UTC).isoformat(timespec="seconds")
     return Backup(drive.address, drive.profile.name, entries, date, identity, port)

@@ -7,7 +7,10 @@ the file could not read, and one nothing is known of without raw words are liste
 an array element by element, each value checked against the parameter's type and limits first
 so that a hand-broken file is refused before anything is written. The order: the profile's
 own list (``restore_order``) if it has one, then the access level parameter, the parameter
-that enables writing, parameters changeable only in commissioning, then the rest by number.
+that enables writing, parameters changeable only in quick commissioning (``changeable`` C;
+wrapped in the drive's commissioning rule: P0010 = 1 before them, 0 after), then the rest by
+number. The commissioning parameters themselves (P0010, P3900, P0970) are commands, not
+settings, and are not restored.
 `restore` makes the writes, reports each refusal with its meaning and goes on.
 """
 
@@ -162,6 +165,12 @@ def _typed(info: ParamInfo, value: Any) -> Any:
     return value
 
 
+def commissioning_only(info: ParamInfo | None) -> bool:
+    """Changeable only in quick commissioning (the file's ``changeable`` letters: C alone)."""
+    letters = (info.changeable or "") if info is not None else ""
+    return "C" in letters and "T" not in letters and "U" not in letters
+
+
 def _order(profile: Profile, book: ParamBook) -> Callable[[Write], tuple[int, int, int]]:
     first = [int(getattr(p, "pnu", p)) for p in getattr(profile, "restore_order", ()) or ()]
     db = profile.database().profile
@@ -172,13 +181,29 @@ def _order(profile: Profile, book: ParamBook) -> Callable[[Write], tuple[int, in
             rank = first.index(write.pnu)
         elif write.pnu in early:
             rank = len(first) + early.index(write.pnu)
-        elif write.info is not None and (write.info.changeable or "").startswith("commission"):
+        elif commissioning_only(write.info):
             rank = len(first) + len(early)
         else:
             rank = len(first) + len(early) + 1
         return (rank, write.pnu, -1 if write.index is None else write.index)
 
     return key
+
+
+def _with_commissioning(writes: list[Write], profile: Profile, book: ParamBook) -> list[Write]:
+    """Wrap the writes of parameters changeable only in commissioning in the drive's own rule:
+    its commissioning parameter (P0010) to quick commissioning first, back to 0 after them."""
+    rule = getattr(profile.database(), "commissioning", None)
+    if rule is None or not any(commissioning_only(w.info) for w in writes):
+        return writes
+    info = book.get(rule.parameter)
+    if info is None:
+        return writes
+    start = next(i for i, w in enumerate(writes) if commissioning_only(w.info))
+    end = max(i for i, w in enumerate(writes) if commissioning_only(w.info)) + 1
+    enter = Write(rule.parameter, None, info, rule.quick, (), "(commissioning)")
+    leave = Write(rule.parameter, None, info, 0, (), "(commissioning)")
+    return [*writes[:start], enter, *writes[start:end], leave, *writes[end:]]
 
 
 def plan(
@@ -189,12 +214,17 @@ def plan(
     cannot take is a `ConfigError` naming the file and the parameter (nothing written yet)."""
     writes: list[Write] = []
     skips: list[Skip] = []
+    rule = getattr(profile.database(), "commissioning", None)
+    commands = set() if rule is None else {rule.parameter, rule.end, rule.reset} - {None}
     for diff in compare(current, wanted):
         entry = diff.right
         if entry is None:
             continue  # the drive has it, the file does not: left alone
         if not entry.ok:
             skips.append(Skip(entry, "the backup could not read it"))
+            continue
+        if entry.pnu in commands:
+            skips.append(Skip(entry, "a commissioning command, not a setting"))
             continue
         info = book.get(entry.pnu)
         now = diff.left
@@ -211,7 +241,7 @@ def plan(
         if info is None and not entry.raw:
             skips.append(Skip(entry, "nothing is known of it and the file has no raw words"))
     writes.sort(key=_order(profile, book))
-    return writes, skips
+    return _with_commissioning(writes, profile, book), skips
 
 
 def _writes(

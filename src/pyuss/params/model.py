@@ -80,7 +80,9 @@ class ParamInfo:
     level: int | None = None
     """The access level a user needs to see or change the parameter (None: not known)."""
     changeable: str | None = None
-    """When the parameter can be changed (for example ``"stopped"``; None: not known)."""
+    """When the parameter can be changed, in the letters of the parameter files (Siemens
+    manuals): C in quick commissioning, U while running, T when ready to run (a
+    ``stopped_only`` parameter is ``"CT"``); None: not known."""
     active: bool = False
     """A change from elsewhere is reported spontaneously (C 4.2.1.2)."""
     reset_only: bool = False
@@ -234,14 +236,14 @@ def from_parameter(param: Parameter, source: Source = Source.PROFILE) -> ParamIn
 
     Keys the file format may carry beyond the simulator's own (``level``: access level,
     ``changeable``: when it can be changed) are taken where the database has them; a
-    ``stopped_only`` parameter is changeable ``"stopped"``.
+    ``stopped_only`` parameter without ``changeable`` is changeable ``"CT"`` (not running).
     """
     level = getattr(param, "level", None)
     changeable = getattr(param, "changeable", None)
     if changeable is not None and not isinstance(changeable, str):
         changeable = getattr(changeable, "value", str(changeable))
     if changeable is None and param.stopped_only:
-        changeable = "stopped"
+        changeable = "CT"
     return ParamInfo(
         pnu=param.pnu,
         name=param.name,
