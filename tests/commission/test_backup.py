@@ -207,3 +207,36 @@ def test_any_backup_cut_short_is_refused(items: list[Entry]) -> None:
     cut = text[: text.rindex("[[parameter]]")]
     with pytest.raises(ConfigError, match=r"cut short|not a TOML"):
         loads(cut)
+
+
+def test_two_files_compare_without_a_drive(mm4: Simulator, tmp_path: Path) -> None:
+    before, after = str(tmp_path / "before.toml"), str(tmp_path / "after.json")
+    assert uss(["backup", "3", "-o", before, *opts(mm4)])[0] == 0
+    assert uss(["write", "3", "1120", "500 ms", *opts(mm4)])[0] == 0
+    assert uss(["backup", "3", "-o", after, *opts(mm4)])[0] == 0
+    code, out = uss(["diff", before, after])
+    assert code == 1
+    assert out.splitlines() == [
+        "P1120 (Ramp-up time): 10.00 s -> 0.50 s",
+        f"1 parameter differs between {before} and {after}",
+    ]
+    code, out = uss(["diff", before, str(tmp_path / "missing.toml")])
+    assert code == 2 and "cannot read" in out
+
+
+def test_descriptions_kept_in_a_cache_file_for_the_next_run(tmp_path: Path) -> None:
+    from params.conftest import TYPES_TOML
+
+    params = tmp_path / "typed.toml"
+    params.write_text(TYPES_TOML, encoding="utf-8")
+    cache = str(tmp_path / "cache.json")
+    sim = start(params, "--layout", "v,2")
+    try:
+        port = ["--port", sim.path, "--baud", "38400", "--layout", "v,2"]
+        typed = "P805 = 1500.50 (Speed limit)\n"  # the type and name from the drive (no unit)
+        assert uss(["read", "5", "805", *port, "--params-cache", cache]) == (0, typed)
+        never = ["--describe", "never"]
+        assert uss(["read", "5", "805", *port, *never]) == (0, "P805 = 1153142784 (44BB9000h)\n")
+        assert uss(["read", "5", "805", *port, *never, "--params-cache", cache]) == (0, typed)
+    finally:
+        stop(sim)
