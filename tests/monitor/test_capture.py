@@ -219,6 +219,8 @@ def test_bad_files_give_one_clear_error(tmp_path: Path) -> None:
     header = (
         json.dumps({"format": "pyuss-monitor-capture", "version": 1, "baud": BAUD}).encode() + b"\n"
     )
+    far_off = bytearray(data)
+    far_off[epb + 12 : epb + 16] = b"\xff\xff\xff\xff"  # 2^64 microseconds: no time of day
     cases = {
         "empty.pcapng": (b"", "not a capture"),
         "noise.pcapng": (b"\x00\x01\x02\x03" * 8, "not a capture"),
@@ -238,6 +240,8 @@ def test_bad_files_give_one_clear_error(tmp_path: Path) -> None:
         "nan.jsonl": (header + b'{"hex": "02", "start": NaN, "end": 1}\n', "finite"),
         "inf.jsonl": (header + b'{"hex": "02", "start": 1, "end": Infinity}\n', "finite"),
         "order.jsonl": (header + b'{"hex": "02", "start": 2, "end": 1}\n', "end 1.0 is before"),
+        "far.jsonl": (header + b'{"hex": "02", "start": 1, "end": 1e300}\n', "out of range"),
+        "far.pcapng": (bytes(far_off), "packet 1: timestamp 1.8"),
         "gap.jsonl": (header.replace(b"}", b', "gap_ms": -1}'), "gap_ms -1"),
         "baud.jsonl": (
             json.dumps({"format": "pyuss-monitor-capture", "version": 1, "baud": 1234}).encode(),

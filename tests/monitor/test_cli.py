@@ -216,6 +216,35 @@ def test_bad_capture_files_are_one_line_and_exit_2(
         assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]
 
 
+@pytest.mark.parametrize(
+    ("t", "start", "words"),
+    [
+        ("-Infinity", "0.0011", "t -inf is not a finite number"),
+        ("Infinity", "0.0011", "t inf is not a finite number"),
+        ("NaN", "0.0011", "t nan is not a finite number"),
+        ("0.0009", "0.0003", "out of time order"),
+    ],
+)
+def test_a_recording_with_bad_times_is_one_line_and_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], t: str, start: str, words: str
+) -> None:
+    # -Infinity ended in an OverflowError traceback; Infinity and NaN lost the byte, exit 0.
+    path = tmp_path / "wire.jsonl"
+    path.write_text(
+        '{"format": "pyuss-bus-recording", "version": 1, "baud": 19200, "seed": 0}\n'
+        '{"t": 0.001, "start": 0.0004, "from": "m", "byte": "02", "flags": []}\n'
+        f'{{"t": {t}, "start": {start}, "from": "m", "byte": "0c", "flags": []}}\n'
+    )
+    for extra in ([], ["--json"]):
+        assert main(["monitor", "--read", str(path), *extra]) == 2
+        out, err = capsys.readouterr()
+        assert err.strip() == f"uss monitor: {path}:3: bad record: {words}" or (
+            err.startswith(f"uss monitor: {path}:3: ") and words in err
+        ), err
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+        assert out == ""
+
+
 def test_unreachable_port_fails_with_1(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["monitor", "--port", "/nonexistent/ttyUSB9", "--baud", "9600"]) == 1
     err = capsys.readouterr().err.strip()

@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from pyuss.bus.recorder import FORMAT as BUS_FORMAT
-from pyuss.bus.recorder import load_recording
+from pyuss.bus.recorder import check_seconds, load_recording
 from pyuss.errors import ConfigError
 from pyuss.monitor.capture import Capture, CaptureFlag, CaptureRecord, RecordWriter
 from pyuss.monitor.infer import LayoutChoice
@@ -68,9 +68,7 @@ def record_from_json(item: Any) -> CaptureRecord:
     if not isinstance(item, dict):
         raise ValueError("not a JSON object")
     raw = bytes.fromhex(str(item["hex"]))
-    start, end = float(item["start"]), float(item["end"])
-    if not (math.isfinite(start) and math.isfinite(end)):
-        raise ValueError(f"start {start} and end {end} must be finite numbers of seconds")
+    start, end = check_seconds(item["start"], "start"), check_seconds(item["end"], "end")
     if end < start:
         raise ValueError(f"end {end} is before start {start}")
     direction = Direction[str(item.get("direction", "unknown")).upper()]

@@ -30,6 +30,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from pyuss import __version__
+from pyuss.bus.recorder import MAX_TIME
 from pyuss.errors import ConfigError
 from pyuss.monitor.capture import Capture, CaptureRecord, RecordWriter
 from pyuss.monitor.model import Direction
@@ -251,6 +252,10 @@ class _Reader:
             options = _parse_options(body, 20 + captured + (-captured % 4), order)
             start = ((high << 32) | low) * resolution
             where = f"{self.name}: packet {self.packet}"
+            if not start <= MAX_TIME:
+                raise ConfigError(
+                    f"{where}: timestamp {start:.6g} s is out of range (at most {MAX_TIME:.0f} s)"
+                )
             record = CaptureRecord.from_packet(packet, start, where)
             comments = options.get(OPT_COMMENT)
             if comments and record.frame.fault is not None:
