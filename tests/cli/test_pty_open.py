@@ -140,6 +140,21 @@ def test_the_sync_api_opens_the_pty_whatever_other_programs_did(sim: str) -> Non
             assert bus.drive(5, layout="3,2").read(52) == 0x4000
 
 
+@pytest.mark.parametrize(
+    "command", [["read", "5", "52"], ["mirror", "5"], ["scan"], ["monitor", "--duration", "1"]]
+)
+def test_with_json_a_port_that_cannot_be_opened_is_one_error_and_exit_1(
+    sim: str, command: list[str]
+) -> None:
+    done = uss(*command, "--port", f"{sim}?rs485=kernel", "--baud", BAUD, "--json")
+    assert done.returncode == 1
+    assert "Traceback" not in done.stderr
+    lines = (done.stdout + done.stderr).strip().splitlines()
+    assert len(lines) == 1 and "kernel RS-485 mode" in lines[0], lines
+    if done.stdout.strip():  # the JSON error object of the commands
+        assert "kernel RS-485 mode" in json.dumps(json.loads(done.stdout)["error"])
+
+
 @pytest.mark.parametrize("command", [["read", "5", "52"], ["mirror", "5"], ["scan"]])
 def test_a_port_that_cannot_be_opened_is_one_line_and_exit_1(sim: str, command: list[str]) -> None:
     cannot_open(sim, *command)
