@@ -15,7 +15,8 @@ runs it by the rules of README.md, "Examples in the documentation":
 - ```text: output, a file format, a synopsis: not run.
 
 Commands that serve until stopped (``uss simulate``, ``uss bus``, ``uss bass ring``,
-``uss ksvario simulate``, ``uss monitor`` on a port, ``uss run`` without ``--duration``) get
+``uss ksvario simulate``, ``uss web``, ``uss monitor`` on a port, ``uss run`` and ``uss log``
+without ``--duration`` or ``--count``) get
 Ctrl+C (SIGINT) once they have printed something, and must then end with 0 or 130; background
 commands get it when the block is done. Everything runs in an empty temporary directory, with
 ``HOME`` there too (``uss wireshark install`` writes below it).
@@ -25,7 +26,9 @@ An HTML comment on the line(s) before a block changes how it runs:
 - ``<!-- run with /dev/ttyUSB0 = COMMAND -->``: COMMAND starts in the background before the
   block and the first line it prints (a simulator's pty) replaces ``/dev/ttyUSB0`` in the
   block - for examples written for the user's own adapter.
-- ``<!-- run by tests/PATH.py -->``: another test runs the block (and names the page).
+- ``<!-- run by tests/PATH.py -->``: another test runs the block (and names the page); on a
+  line of its own anywhere on the page, ``<!-- page run by tests/PATH.py -->`` leaves every
+  block of the page to that test (a session that runs through several blocks).
 - ``<!-- not run: REASON -->``: the block cannot run in a test (real hardware); kept rare.
 """
 
@@ -57,6 +60,7 @@ SETTLE = 1.0
 _FENCE = re.compile(r"^```([^\n`]*)\n(.*?)^```[ \t]*$", re.S | re.M)
 _COMMENT = re.compile(r"^<!--\s*(.*?)\s*-->\s*$")
 _RUN_WITH = re.compile(r"run with (\S+) = (.+)")
+_PAGE_RUN_BY = re.compile(r"^<!--\s*page run by (tests/\S+)\s*-->\s*$", re.M)
 _SHOWN_COMMENT = re.compile(r"\s{2,}#.*$")
 _ERROR_SHOWN = re.compile(r"^uss [a-z]+( [a-z]+)?: ")
 
@@ -83,6 +87,7 @@ def pages() -> list[Path]:
 
 def examples(path: Path) -> list[Example]:
     text = path.read_text(encoding="utf-8")
+    page = _PAGE_RUN_BY.search(text)
     found = []
     for match in _FENCE.finditer(text):
         line = text.count("\n", 0, match.start()) + 1
@@ -91,6 +96,8 @@ def examples(path: Path) -> list[Example]:
         while before and (comment := _COMMENT.match(before[-1].strip())):
             directives.insert(0, comment.group(1))
             before.pop()
+        if page is not None:
+            directives.append(f"run by {page.group(1)}")
         found.append(Example(path, line, match.group(1).strip(), match.group(2), directives))
     return found
 
@@ -127,6 +134,11 @@ def test_the_rules_find_a_page_added_later(tmp_path: Path) -> None:
     page.write_text("# New\n\n<!-- not run: needs hardware -->\n```sh\nuss read 5 52\n```\n")
     (found,) = examples(page)
     assert (found.kind, found.line, found.directives) == ("sh", 4, ["not run: needs hardware"])
+    page.write_text(
+        "# New\n\n<!-- page run by tests/new.py -->\n\n```console\n$ uss read 5 52\n```\n"
+    )
+    (found,) = examples(page)
+    assert found.directives == ["run by tests/new.py"]
 
 
 # -- running ------------------------------------------------------------------------------------
@@ -139,8 +151,10 @@ def _serves(words: list[str]) -> bool:
     command = words[1:3]
     if command[:1] in (["simulate"], ["bus"]) or command in (["bass", "ring"],):
         return "--duration" not in words
-    if command == ["ksvario", "simulate"]:
+    if command == ["ksvario", "simulate"] or command[:1] == ["web"]:
         return True
+    if command[:1] == ["log"]:
+        return "--duration" not in words and "--count" not in words
     if command[:1] == ["monitor"]:
         return "--read" not in words and "--duration" not in words and "--count" not in words
     if command[:1] == ["run"]:

@@ -41,6 +41,7 @@ def _options(parser: argparse.ArgumentParser) -> list[argparse.Action]:
         for action in parser._actions
         if not isinstance(action, argparse._HelpAction | argparse._VersionAction)
         and not isinstance(action, argparse._SubParsersAction)
+        and action.help != argparse.SUPPRESS  # hidden on purpose
     ]
 
 

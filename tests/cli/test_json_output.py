@@ -60,16 +60,9 @@ def _error(out: str) -> dict[str, object]:
 
 def test_the_commands_with_json_are_the_ones_this_file_covers() -> None:
     assert set(COMMANDS) == {
-        "scan",
-        "read",
-        "write",
-        "describe",
-        "mirror",
-        "run",
-        "monitor",
-        "decode",
-        "bass read",
-        "bass write",
+        *("scan", "read", "write", "describe", "mirror", "run", "monitor", "decode"),
+        *("params", "backup", "diff", "restore", "status", "ack", "log"),
+        *("bass read", "bass write"),
     }
 
 
@@ -88,15 +81,41 @@ def test_arguments_the_parser_refuses_are_a_json_error_too(
     assert code == 2 and err.startswith("usage: ")  # without --json: argparse's usage lines
 
 
-@pytest.mark.parametrize("command", ["scan", "read 5 52", "write 5 18 1", "describe 5 52"])
-def test_a_port_that_cannot_be_opened(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize(
+    "command",
+    [
+        *("scan --address 5", "read 5 52", "write 5 18 1", "describe 5 52", "mirror 5"),
+        *("params 5", "backup 5 -o b.toml", "status 5", "ack 5", "log 5 status -o l.csv"),
+    ],
+)
+def test_a_port_that_cannot_be_opened(
+    command: str,
+    capsys: pytest.CaptureFixture[str],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.chdir(tmp_path)
     argv = [*command.split(), "--port", "/dev/nonexistent-uss-port"]
-    if command == "scan":
-        argv += ["--address", "5"]
     code, out, err = _uss(capsys, *argv, "--json")
     assert code == 1 and not err
     error = _error(out)
-    assert error["exit_code"] == 1 and "cannot open" in str(error["message"])
+    assert error["type"] == "TransportError" and error["exit_code"] == 1
+    assert "cannot open" in str(error["message"])
+
+
+@pytest.mark.parametrize("command", ["diff 5 none.toml", "restore 5 none.toml --yes"])
+def test_a_file_that_cannot_be_read(
+    command: str,
+    capsys: pytest.CaptureFixture[str],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    argv = [*command.split(), "--port", "/dev/nonexistent-uss-port", "--json"]
+    code, out, err = _uss(capsys, *argv)
+    assert code == 2 and not err
+    error = _error(out)
+    assert error["type"] == "ConfigError" and "none.toml" in str(error["message"])
 
 
 @pytest.fixture(scope="module")
@@ -112,7 +131,12 @@ def test_read_puts_the_error_object_into_the_parameter_it_concerns(
     assert code == 1 and not err
     data = json.loads(out)
     good, bad = data["parameters"]
-    assert good == {"pnu": 52, "index": None, "value": 0x4000}
+    assert (good["pnu"], good["index"], good["value"], good.get("error")) == (
+        52,
+        None,
+        0x4000,
+        None,
+    )
     assert bad["error"] == {
         "type": "DriveRefusal",
         "message": "drive refused the job (PNU 999): error 0: illegal parameter number",
@@ -121,7 +145,7 @@ def test_read_puts_the_error_object_into_the_parameter_it_concerns(
         "meaning": "illegal parameter number",
     }
     code, out, _ = _uss(capsys, "read", "5", "5x", *sim, "--json")
-    assert code == 2 and _error(out)["type"] == "ConfigError"
+    assert code == 2 and _error(out)["type"] == "ConfigError" and "5x" in _error(out)["message"]
 
 
 def test_describe_mirror_and_scan_failures(

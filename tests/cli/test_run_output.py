@@ -21,7 +21,9 @@ KEYS = {
     "status",
     "status_hex",
     "actual",
+    "unit",
     "actual_percent",
+    "actual_raw",
     "control",
     "error",
 }

@@ -1,21 +1,26 @@
-"""Run a drive and watch it: uss run ADDRESS --setpoint PCT
+"""Run a drive and watch it: uss run ADDRESS --setpoint VALUE, or --jog 1|2
 
-Sets the main setpoint, switches the drive on and shows its state, status word and actual
-value while it ramps - on one line that updates itself in a terminal, one line per
-``--interval`` otherwise. Ctrl+C or SIGTERM (or the end of ``--duration``) switches it off
-cleanly: OFF1, then the telegrams go on until the drive reports that operation is no longer
+Sets the main setpoint - 50 or 50 % in percent, 25 Hz or 1500 rpm where the profile names the
+reference parameter that is 100 % (P2000 of a MICROMASTER 4, read from the drive) - and
+switches the drive on; or, with ``--jog 1`` or ``--jog 2``, switches it on at setpoint 0 and
+jogs it at the drive's own jog setpoint. It shows its state, status word and actual value (in
+the reference's unit too) while it ramps - on one line that updates itself in a terminal, one
+line per ``--interval`` otherwise. Ctrl+C or SIGTERM (or the end of ``--duration``) switches it
+off cleanly: OFF1, then the telegrams go on until the drive reports that operation is no longer
 enabled (at most ``--stop-timeout`` seconds); a second Ctrl+C stops it at once with OFF2
 (coast). Exit code 0 after ``--duration``, 130 after Ctrl+C or SIGTERM, 1 when the drive
 reports a fault, gives no answer for ``--timeout`` seconds, does not stop within
 ``--stop-timeout``, or the port fails.
 
 The setpoint goes into PZD2 (4000h = 100 %); on is control word 047Eh, then 047Fh, OFF1 047Eh,
-OFF2 047Ch (USS specification C 5.2.1, C Tables 5.4 and 5.5).
+OFF2 047Ch, jog control bit 8 or 9 while operation is enabled (USS specification C 5.2.1,
+C Tables 5.4 and 5.5).
 
 With ``--json`` every line is one object with the same keys: ``time`` (ISO 8601 wall clock of
-the answer shown), ``address``, ``setpoint``, ``state``, ``status``, ``status_hex``, ``actual``,
-``actual_percent``, ``control`` (null before the first answer) and ``error`` (null, or the
-error object of a failure, on one more line when it happens).
+the answer shown), ``address``, ``setpoint`` (percent, or ``jog N``), ``state``, ``status``,
+``status_hex``, ``actual`` (in ``unit``: the reference's, else %), ``unit``, ``actual_percent``,
+``actual_raw`` (the PZD words), ``control`` (null before the first answer) and ``error`` (null,
+or the error object of a failure, on one more line when it happens).
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ import asyncio
 import contextlib
 import json
 import os
+import re
 import signal
 import sys
 from typing import Any
@@ -39,6 +45,7 @@ from pyuss.cli._master import (
     run,
 )
 from pyuss.cli._output import error_object, wall_clock
+from pyuss.commission.status import reference_value
 from pyuss.errors import ConfigError, UssError
 from pyuss.master.drive import Drive
 from pyuss.master.errors import DriveFault
@@ -54,13 +61,20 @@ def register(subparsers: Any) -> None:
         "switch a drive on, follow its ramp live, switch it off on Ctrl+C",
         __doc__,
     )
-    parser.add_argument(
+    what = parser.add_mutually_exclusive_group(required=True)
+    what.add_argument(
         "--setpoint",
-        type=float,
-        required=True,
-        metavar="PCT",
-        help="main setpoint in percent of the reference value, -200..199.99 (PZD2, 4000h = 100 %%; "
-        "USS specification C 5.2.2)",
+        metavar="VALUE",
+        help="main setpoint: percent, -200..199.99 (50, 50 %%), or Hz/rpm where the profile "
+        "names the reference parameter (25 Hz) (PZD2, 4000h = 100 %%; USS specification "
+        "C 5.2.2)",
+    )
+    what.add_argument(
+        "--jog",
+        type=int,
+        choices=(1, 2),
+        help="jog 1 or 2 at the drive's own jog setpoint instead (control bit 8 or 9, USS "
+        "specification C Table 5.4)",
     )
     parser.add_argument(
         "--duration",
@@ -85,43 +99,87 @@ def register(subparsers: Any) -> None:
     finish(parser, main)
 
 
-def line(status: DriveStatus | None, setpoint: float) -> str:
+Reference = tuple[float, str] | None
+"""The reference parameter's value and unit (100 % = 4000h), where the profile names one."""
+
+
+def setpoint_percent(text: str, reference: Reference, profile: str) -> float:
+    """A ``--setpoint`` in percent: ``50`` / ``50 %`` as they are, ``25 Hz`` through the
+    reference parameter."""
+    match = re.fullmatch(r"\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(\S*)\s*", text)
+    if match is None:
+        raise ConfigError(f"--setpoint {text!r}: give a number, with % or the reference's unit")
+    value, unit = float(match.group(1)), match.group(2)
+    if unit in ("", "%"):
+        percent = value
+    elif reference is not None and unit.casefold() == reference[1].casefold():
+        if not reference[0]:
+            raise ConfigError(f"--setpoint {text!r}: the drive's reference is 0 {reference[1]}")
+        percent = value / reference[0] * 100.0
+    else:
+        where = (
+            f"the reference parameter is in {reference[1]}"
+            if reference is not None
+            else f"profile {profile} names no reference parameter with a unit"
+        )
+        raise ConfigError(f"--setpoint {text!r}: {where}; give percent or that unit")
+    percent_to_raw16(percent)  # out of range: bad input
+    return percent
+
+
+def line(status: DriveStatus | None, setpoint: float | str, reference: Reference = None) -> str:
+    """``operation enabled  status 0237h  setpoint  50.00 % (25.00 Hz)  actual ...``."""
     if status is None:
         return "waiting for the drive..."
+
+    def shown(percent: float) -> str:
+        text = f"{percent:7.2f} %"
+        if reference is not None:
+            text += f" ({percent / 100 * reference[0]:.2f} {reference[1]})"
+        return text
+
     actual = status.actual_percent
-    shown = "-" if actual is None else f"{actual:7.2f} %"
-    return (
-        f"{status.state:<24} status {status.word:04X}h  setpoint {setpoint:7.2f} %  actual {shown}"
-    )
+    target = setpoint if isinstance(setpoint, str) else shown(setpoint)
+    now = "-" if actual is None else shown(actual)
+    return f"{status.state:<24} status {status.word:04X}h  setpoint {target}  actual {now}"
 
 
 _KEYS = (
-    "time", "address", "setpoint", "state", "status", "status_hex", "actual",
-    "actual_percent", "control", "error",
+    "time", "address", "setpoint", "state", "status", "status_hex", "actual", "unit",
+    "actual_percent", "actual_raw", "control", "error",
 )  # fmt: skip
 
 
 def record(
-    args: argparse.Namespace, status: DriveStatus | None, error: dict[str, Any] | None = None
+    address: int,
+    setpoint: float | str,
+    status: DriveStatus | None,
+    reference: Reference = None,
+    error: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """A JSON line: the same keys whatever is known (module docstring)."""
-    return {
-        "time": wall_clock(None if status is None else status.time),
-        "address": args.address,
-        "setpoint": args.setpoint,
-        "state": None if status is None else status.state,
-        "status": None if status is None else status.word,
-        "status_hex": None if status is None else f"{status.word:04X}",
-        "actual": None if status is None else list(status.actual),
-        "actual_percent": None if status is None else status.actual_percent,
-        "control": None if status is None else status.control,
-        "error": error,
-    }
+    line = json_error_line(error)
+    line.update(address=address, setpoint=setpoint)
+    if status is None:
+        return line
+    percent = status.actual_percent
+    line.update(
+        time=wall_clock(status.time),
+        state=status.state,
+        status=status.word,
+        status_hex=f"{status.word:04X}",
+        actual=percent if reference is None or percent is None else percent / 100 * reference[0],
+        unit="%" if reference is None else reference[1],
+        actual_percent=percent,
+        actual_raw=list(status.actual),
+        control=status.control,
+    )
+    return line
 
 
-def json_error_line(error: dict[str, Any]) -> dict[str, Any]:
-    """A failure before anything is known of the drive, as a line of the stream."""
-    line = dict.fromkeys(_KEYS)
+def json_error_line(error: dict[str, Any] | None) -> dict[str, Any]:
+    """A line of the stream with nothing known of the drive (a failure before the first)."""
+    line: dict[str, Any] = dict.fromkeys(_KEYS)
     line.update(time=wall_clock(), error=error)
     return line
 
@@ -132,6 +190,8 @@ class Live:
     def __init__(self, args: argparse.Namespace, drive: Drive) -> None:
         self.args = args
         self.drive = drive
+        self.setpoint: float | str = f"jog {args.jog}" if args.jog else 0.0
+        self.reference: Reference = None
         self.tty = sys.stdout.isatty() and not args.json
         self.interval = args.interval or (0.1 if self.tty else 1.0)
 
@@ -144,7 +204,7 @@ class Live:
             os.close(devnull)
 
     def record(self, error: dict[str, Any] | None = None) -> dict[str, Any]:
-        return record(self.args, self.drive.status, error)
+        return record(self.drive.address, self.setpoint, self.drive.status, self.reference, error)
 
     def fail(self, exc: UssError) -> None:
         """Report a failure: a line on stderr, or with ``--json`` one more line with its
@@ -161,9 +221,9 @@ class Live:
             print(json.dumps(self.record()), flush=True)
         elif self.tty:
             end = "\n" if final else ""
-            print("\r" + line(status, self.args.setpoint), end=end, flush=True)
+            print("\r" + line(status, self.setpoint, self.reference), end=end, flush=True)
         else:
-            print(line(status, self.args.setpoint), flush=True)
+            print(line(status, self.setpoint, self.reference), flush=True)
 
     async def follow(self, done: asyncio.Event) -> None:
         while not done.is_set():
@@ -181,7 +241,8 @@ def main(args: argparse.Namespace) -> int:
             raise ConfigError(f"--stop-timeout {args.stop_timeout}: must be > 0 seconds")
         if args.interval is not None and not args.interval > 0:
             raise ConfigError(f"--interval {args.interval}: must be > 0 seconds")
-        percent_to_raw16(args.setpoint)  # a setpoint out of range is bad input
+        if args.setpoint is not None and not re.search(r"[A-Za-z]", args.setpoint):
+            setpoint_percent(args.setpoint, None, args.profile)  # bad input before the port opens
         loop = asyncio.get_running_loop()
         stop = asyncio.Event()
         signals: list[int] = []
@@ -211,11 +272,22 @@ async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[
                 "(main setpoint), give --layout with 2 or more PZD words (C 5)"
             )
         live = Live(args, drive)
+        live.reference = await reference_value(drive)
+        if args.setpoint is not None:
+            live.setpoint = setpoint_percent(args.setpoint, live.reference, drive.profile.name)
         shown = asyncio.Event()
         follower = asyncio.create_task(live.follow(shown))
         try:
-            await drive.setpoint(args.setpoint)
-            await drive.on()
+            if args.jog:
+                # C Table 5.4: jog bits act while operation is enabled and the drive stands
+                # with setpoint 0: switch on at 0 %, then jog.
+                await drive.setpoint(0.0)
+                await drive.on()
+                await drive.jog(args.jog)
+            else:
+                assert isinstance(live.setpoint, float)
+                await drive.setpoint(live.setpoint)
+                await drive.on()
             watcher = asyncio.create_task(watch(drive, args.timeout))
             stopper = asyncio.create_task(stop.wait())
             done, pending = await asyncio.wait(
