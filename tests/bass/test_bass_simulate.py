@@ -146,7 +146,10 @@ def test_write_authority_set_over_uss_holds_for_bass(capsys: pytest.CaptureFixtu
             },
         )
         code, result = bass_json(capsys, "write", "1", "126", "1", *on_bass)
-        assert (code, result["error"]["number"]) == (1, 5)  # BASS cannot give itself the authority back
+        assert (code, result["error"]["number"]) == (
+            1,
+            5,
+        )  # BASS cannot give itself the authority back
         code, result = bass_json(capsys, "read", "1", "170", *on_bass)
         assert result["value"] == 0x0010  # STOP, address 1
         code, out, _ = uss(capsys, "read", "1", "170", *on_uss, "--json")
