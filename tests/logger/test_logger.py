@@ -16,7 +16,6 @@ from pyuss.bus import VirtualBus
 from pyuss.datalog import NO_ANSWER, CsvLog, DataLogger, parse_values
 from pyuss.master import Master
 from pyuss.master.testing import simulated_drives
-from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 
 UV = [sys.executable, "-m", "pyuss.cli.main"]
@@ -29,7 +28,6 @@ def rows(path: Path) -> list[dict[str, str]]:
 
 async def test_a_drive_that_stops_answering_is_logged_as_silent(tmp_path: Path) -> None:
     bus = VirtualBus(38400)
-    db = get_profile("generic").database()
     path = tmp_path / "run.csv"
     try:
         async with (
@@ -41,9 +39,8 @@ async def test_a_drive_that_stops_answering_is_logged_as_silent(tmp_path: Path) 
             await drive.on()
             logger = DataLogger(
                 drive,
-                parse_values(["status", "actual", "operation_enabled", "P352"], db),
+                parse_values(["status", "actual", "operation_enabled", "P352"]),
                 rate=20,
-                database=db,
                 job_timeout=0.3,
             )
             await logger.prepare()
