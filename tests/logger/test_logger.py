@@ -154,3 +154,41 @@ def test_bad_values_are_bad_input(tmp_path: Path) -> None:
     assert done.returncode == 2
     assert done.stderr.count("\n") == 1 and "speed" in done.stderr
     assert not (tmp_path / "x.csv").exists()
+
+
+async def test_values_are_typed_by_the_parameter_model(tmp_path: Path) -> None:
+    """A float in its unit with two decimals, a value of an array element as the number it is,
+    a whole array, the main actual value in Hz through the reference parameter P2000."""
+    bus = VirtualBus(38400)
+    path = tmp_path / "mm4.csv"
+    try:
+        async with (
+            simulated_drives(bus, [(3, "micromaster4", None)]),
+            Master(bus.attach("master"), profile="micromaster4") as master,
+        ):
+            drive = master.drive(3)
+            await drive.write(1120, 2.5)
+            logger = DataLogger(
+                drive, parse_values(["actual", "P1120", "P2010.1", "P947"]), rate=20
+            )
+            await logger.prepare()
+            log = CsvLog(path, logger.header())
+            await logger.run(log, asyncio.Event(), count=3)
+            log.close()
+    finally:
+        await bus.close()
+    table = rows(path)
+    assert list(table[0]) == [
+        "time",
+        "actual PZD2 [Hz]",
+        "P1120 Ramp-up time [s]",
+        "P2010.1 USS baudrate",
+        "P947 Last fault code",
+        "comm",
+    ]
+    assert len(table) == 3
+    for row in table:
+        assert row["P1120 Ramp-up time [s]"] == "2.50"
+        assert row["P2010.1 USS baudrate"] == "6"
+        assert row["P947 Last fault code"] == "0 0 0 0 0 0 0 0"
+        assert row["comm"] == "ok"
