@@ -12,6 +12,7 @@ import pytest
 
 from pyuss.drive.states import DriveState
 from pyuss.monitor.capture import read_capture
+from pyuss.profiles import profile_names
 from web.conftest import Running, open_page, screenshot
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
@@ -37,7 +38,12 @@ def test_the_bus_view_lists_the_drives_with_their_health(page: Any) -> None:
     )
     assert [rows.nth(i).get_attribute("data-address") for i in range(3)] == ["1", "4", "7"]
     assert "switch-on inhibited" in rows.nth(0).inner_text()
+    assert "0.00 Hz" in rows.nth(0).inner_text()  # the main actual value in its unit
+    assert "0.00 %" in rows.nth(1).inner_text()  # no reference parameter: percent
     assert page.locator("#bus-baud").inner_text() == "38400 baud"
+    # a scan may look for any profile pyuss knows
+    options = page.locator("#scan-profile option").all_inner_texts()
+    assert options == list(profile_names())
     screenshot(page, "web-bus", full_page=True)
 
 

@@ -392,6 +392,7 @@ class Backend:
             "fault": bool(status and status.fault),
             "warning": bool(status and status.warning),
             "actual": [] if status is None else self.actual_values(address, status.actual),
+            "actual_unit": state.reference.unit if state.reference else "%",
             "health": {
                 "exchanges": diagnostics.exchanges,
                 "answers": diagnostics.answers,

@@ -55,6 +55,7 @@ except ImportError:  # pragma: no cover - the extra is installed for the tests
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
 from pyuss.master.errors import NoWriteAuthority
 from pyuss.master.process import state_of
+from pyuss.profiles import profile_names
 from pyuss.web.backend import Backend
 from pyuss.web.hub import QUEUE_SIZE, SEND_TIMEOUT, Hub
 
@@ -270,6 +271,7 @@ class WebServer:
                 "moves": sorted(Backend.MOVES),
                 "commands": list(Backend.COMMANDS),
                 "tick": TICK,
+                "profiles": list(profile_names()),
             }
         )
 
