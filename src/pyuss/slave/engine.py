@@ -72,6 +72,7 @@ from pyuss.profiles.base import Profile
 from pyuss.protocol.diagnostics import Diagnostics, FaultKind
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.pkw import Pkw, ResponseId
+from pyuss.protocol.pzd import ControlWord
 from pyuss.protocol.telegram import MAX_ADDRESS, AddressMode, Telegram
 from pyuss.slave.channel import ParameterChannel
 from pyuss.slave.diagnostic import DiagnosticParameters, software_version
@@ -343,7 +344,10 @@ class SlaveEngine:
             return None
         self._good(telegram, now)
         pipelined = self.profile.delay_mode is not None and not self.delay_mode
-        self._last_pzd = net.pzd
+        if not net.pzd or net.pzd[0] & ControlWord.CONTROL_BY_PLC:
+            # the process data in force; with control bit 10 = 0 the telegram's are ignored
+            # and the old ones stay (C Table 5.4), also as the base of the next broadcast
+            self._last_pzd = net.pzd
         pzd = self.process.exchange(self.drive, net.pzd, now)
         pkw = None if net.pkw is None else self._parameter(net.pkw, now)
         answer = Telegram(self.address, AddressMode.NORMAL, layout.pack(pkw, pzd))
