@@ -211,6 +211,15 @@ def test_a_damaged_store_is_refused(tmp_path: Path, capsys: pytest.CaptureFixtur
         (["--pty", "--latency-time", "nan"], "--latency-time must be numbers >= 0"),
         (["--pty", "--latency", "-2"], "--latency-time must be numbers >= 0"),
         (
+            ["--pty", "--profile", "baumueller", "--baud", "38400"],
+            "a baumueller drive does not run at 38400 baud (P182:",
+        ),
+        (["--pty", "--baud", "115200"], "a generic drive does not run at 115200 baud (P684.1:"),
+        (["--pty", "--failure-time", "7"], "takes 0..6.5 s (P687.1)"),
+        (["--pty", "--profile", "nord", "--failure-time", "0.25"], "steps of 0.1 s (P513)"),
+        (["--pty", "--name", "x"], "--name: a station name is for --bus only"),
+        (["--bus", "127.0.0.1:1", "--name", "a+b"], "--name 'a+b': give a non-empty name"),
+        (
             ["--pty", "--profile", "bass", "--params", "x.toml", "--read-only"],
             "profile bass does not take --params, --read-only (USS drive options)",
         ),
@@ -273,3 +282,47 @@ def test_bass_ring_plugs_in_by_profile() -> None:
         assert port.read_until(b"\n") == request  # the drive echoes the request first
         answer = port.read_until(b"\n")
     assert answer.startswith(b"#00") and answer.endswith(b"\r\n")
+
+
+def _ask(port: serial.Serial, net: str) -> bytes:
+    """Send a PKW 3, PZD 2 request to drive 5 and return the answer's PWE word."""
+    port.write(frame(5, net))
+    return _read_telegram(port)[7:9]
+
+
+def test_interface_parameters_show_what_is_in_force() -> None:
+    """C 3.1, C 3.2: P684.1 shows the rate the line runs at (7 = 19200 baud), P687.1 the
+    telegram failure time in force (300 ms)."""
+    args = ("--pty", "--address", "5", "--layout", "3,2", "--baud", "19200")
+    with (
+        simulate(*args, "--failure-time", "0.3") as (path, err),
+        serial.Serial(path, 19200, parity="E", timeout=TIMEOUT) as port,
+    ):
+        baud = _ask(port, "62AC 0001 0000 047E 0000")  # ID 6: P684 index 1
+        failure = _ask(port, "62AF 0001 0000 047E 0000")  # ID 6: P687 index 1
+    assert baud == bytes.fromhex("0007")
+    assert failure == bytes.fromhex("012C")
+    assert "19200 baud" in err[0]
+
+
+def test_a_stored_baud_rate_is_the_rate_of_the_next_start(tmp_path: Path) -> None:
+    """The baud rate is taken at power-up: a RAM write is refused (error 1), an EEPROM write
+    is stored, and the next start without --baud runs at it and shows it."""
+    store = str(tmp_path / "drive5.store")
+    args = ("--pty", "--address", "5", "--layout", "3,2", "--store", store)
+    with (
+        simulate(*args) as (path, err),
+        serial.Serial(path, 9600, parity="E", timeout=TIMEOUT) as port,
+    ):
+        port.write(frame(5, "72AC 0001 0007 047E 0000"))  # ID 7: P684.1 = 7, RAM
+        assert _read_telegram(port)[3:9] == bytes.fromhex("72AC 0001 0001")  # refused, error 1
+        port.write(frame(5, "C2AC 0001 0007 047E 0000"))  # ID 12: P684.1 = 7, EEPROM
+        assert _read_telegram(port)[3:9] == bytes.fromhex("42AC 0001 0007")
+    assert "9600 baud" in err[0]
+    with (
+        simulate(*args) as (path, err),
+        serial.Serial(path, 19200, parity="E", timeout=TIMEOUT) as port,
+    ):
+        baud = _ask(port, "62AC 0001 0000 047E 0000")
+    assert baud == bytes.fromhex("0007")
+    assert "19200 baud" in err[0]

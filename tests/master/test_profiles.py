@@ -23,8 +23,8 @@ async def test_micromaster4_reaches_parameters_from_2000_on_through_the_page_bit
     async with simulated_bus([(3, "micromaster4", layout)], profile="micromaster4") as env:
         drive = env.master.drive(3, layout=layout)
         assert await drive.read(2011, 1) == 3  # the interface shows its address
-        assert await drive.read(2010, 1) == 6
-        assert await drive.write(2010, 8, 1) == 8
+        assert await drive.read(2010, 1) == 8  # the COM link shows the bus's 38400 baud
+        assert await drive.write(2010, 8, 0) == 8
         assert await drive.read_float(2000) == 50.0
         assert await drive.read_array(2012) == [2, 2]  # arrays count from 0 here
         # text element y = value + 1 (C 8 example 7)
@@ -55,7 +55,9 @@ async def test_6se21_answers_with_ind_0_are_still_recognised() -> None:
 
 async def test_baumueller_pipelined_answers_and_three_character_start_pause() -> None:
     layout = Layout(3, 2)
-    async with simulated_bus([(4, "baumueller", layout)], profile="baumueller", record=True) as env:
+    async with simulated_bus(
+        [(4, "baumueller", layout)], profile="baumueller", record=True, baud=19200
+    ) as env:
         drive = env.master.drive(4)
         assert await drive.read(60) == 2000
         assert await drive.write(60, 1500) == 1500
@@ -92,7 +94,7 @@ def test_response_limit_follows_the_profile_and_never_drops_below_the_start_paus
 async def test_baumueller_masked_control_broadcast_with_address_coding() -> None:
     layout = Layout(3, 3)
     drives = [(1, "baumueller", layout), (2, "baumueller", layout), (3, "baumueller", layout)]
-    async with simulated_bus(drives, profile="baumueller", mode=ACYCLIC) as env:
+    async with simulated_bus(drives, profile="baumueller", mode=ACYCLIC, baud=19200) as env:
         handles = [env.master.drive(a, layout=layout) for a in (1, 2, 3)]
         for drive in handles:
             await drive.control_word(0x0406)

@@ -132,6 +132,7 @@ class SlaveServer:
         self.transport = transport
         self.baud = transport.baud
         for engine in engines:
+            engine.set_line_baud(self.baud)  # the drives show the rate they run at (C 3)
             low, high = engine.response_window(self.baud)
             if response_delay is not None and not low <= response_delay <= high:
                 raise ConfigError(
