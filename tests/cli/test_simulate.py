@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 import select
 import signal
 import socket
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -139,6 +141,34 @@ def test_station_of_a_virtual_bus() -> None:
     finally:
         bus.send_signal(signal.SIGTERM)
         bus.communicate(timeout=TIMEOUT)
+
+
+def test_several_simulators_join_one_bus_each_under_its_own_name(tmp_path: Path) -> None:
+    """Station names default to simulate-ADDRESSES, so a second simulator process is not
+    refused; --name chooses one. The recording shows who answered."""
+    record = tmp_path / "wire.jsonl"
+    bus = _start(
+        "bus", "--baud", "19200", "--pty", "1", "--bus-tcp", "127.0.0.1:0", "--record", str(record)
+    )
+    try:
+        assert bus.stdout is not None
+        pty_path = bus.stdout.readline().strip()
+        endpoint = bus.stdout.readline().strip().removeprefix("bus://")
+        common = ("--bus", endpoint, "--baud", "19200", "--layout", "3,2")
+        with (
+            simulate(*common, "--address", "5"),
+            simulate(*common, "--address", "6", "--name", "conveyor"),
+            serial.Serial(pty_path, 19200, parity="E", timeout=TIMEOUT) as port,
+        ):
+            for address in (5, 6):
+                time.sleep(0.01)  # a master keeps the start pause after the last answer (A 5.1.2)
+                port.write(frame(address, "1034 0000 0000 047E 0000"))
+                assert _read_telegram(port)[2] == address
+    finally:
+        bus.send_signal(signal.SIGTERM)
+        bus.communicate(timeout=TIMEOUT)
+    senders = {json.loads(line).get("from") for line in record.read_text().splitlines()[1:]}
+    assert {"simulate-5", "conveyor"} <= senders
 
 
 def test_parameter_file_and_read_only(tmp_path: Path) -> None:
@@ -326,3 +356,34 @@ def test_a_stored_baud_rate_is_the_rate_of_the_next_start(tmp_path: Path) -> Non
         baud = _ask(port, "62AC 0001 0000 047E 0000")
     assert baud == bytes.fromhex("0007")
     assert "19200 baud" in err[0]
+
+
+@pytest.mark.parametrize(
+    ("argv", "lines"),
+    [
+        (["simulate", "--tcp", ":0"], 1),
+        (["simulate", "--profile", "ksvario", "--tcp", "127.0.0.1:0"], 1),
+        (["simulate", "--profile", "bass", "--tcp", ":0"], 1),
+        (["simulate", "--profile", "baumueller", "--pty", "--bass-tcp", ":0"], 2),
+        (["ksvario", "simulate", "--port", "tcp-listen://127.0.0.1:0"], 1),
+        (["bass", "ring", "--listen", "tcp-listen://127.0.0.1:0"], 1),
+        (["bus", "--tcp", "127.0.0.1:0", "--bus-tcp", "127.0.0.1:0"], 2),
+    ],
+    ids=lambda v: " ".join(v) if isinstance(v, list) else str(v),
+)
+def test_a_server_on_port_0_prints_the_port_it_listens_on(argv: list[str], lines: int) -> None:
+    proc = _start(*argv)
+    try:
+        printed = [_first_line(proc)]
+        assert proc.stdout is not None
+        printed += [proc.stdout.readline().strip() for _ in range(lines - 1)]  # printed at once
+        tcp = [line for line in printed if "://" in line]
+        assert tcp, printed
+        for url in tcp:
+            host, port = url.split("://", 1)[1].rsplit(":", 1)
+            assert int(port) > 0, url
+            socket.create_connection((host, int(port)), timeout=TIMEOUT).close()
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0, err
