@@ -13,6 +13,7 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 import serial
@@ -384,6 +385,63 @@ def test_a_server_on_port_0_prints_the_port_it_listens_on(argv: list[str], lines
             assert int(port) > 0, url
             socket.create_connection((host, int(port)), timeout=TIMEOUT).close()
     finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0, err
+
+
+def _recv(sock: socket.socket, n: int) -> bytes:
+    data = b""
+    while len(data) < n:
+        chunk = sock.recv(256)
+        assert chunk, f"connection closed after {data!r}"
+        data += chunk
+    return data
+
+
+def _uss_master(host: str, port: int) -> None:
+    with socket.create_connection((host, port), timeout=TIMEOUT) as sock:
+        sock.sendall(READ_P52)
+        assert _recv(sock, 14).hex(" ").upper() == ANSWER_P52
+
+
+def _bass_master(host: str, port: int) -> None:
+    request = b"#00003C0033FD\r\n"  # Baumueller 1.1 example 2: read ID 51 of drive 0
+    with socket.create_connection((host, port), timeout=TIMEOUT) as sock:
+        sock.sendall(request)
+        data = _recv(sock, len(request) + 1)
+        while data.count(b"\n") < 2:
+            data += _recv(sock, 1)
+    assert data.startswith(request) and data.endswith(b"\r\n")
+
+
+def _ksvario_master(host: str, port: int) -> None:
+    assert main(["ksvario", "read", "0x4496", "--port", f"tcp://{host}:{port}"]) == 0
+
+
+@pytest.mark.parametrize(
+    ("argv", "master"),
+    [
+        (["simulate", "--tcp", ":0", "--address", "5", "--layout", "3,2"], _uss_master),
+        (["bass", "ring", "--listen", "tcp-listen://127.0.0.1:0", "--drives", "0"], _bass_master),
+        (["ksvario", "simulate", "--port", "tcp-listen://127.0.0.1:0"], _ksvario_master),
+    ],
+    ids=["uss simulate --tcp", "uss bass ring", "uss ksvario simulate"],
+)
+def test_idle_tcp_clients_never_lock_a_master_out(argv: list[str], master: Any) -> None:
+    """One idle client, and then as many as the server has places (8): a master that
+    connects after them is still served (several peers; the one silent longest gives way)."""
+    proc = _start(*argv)
+    idle: list[socket.socket] = []
+    try:
+        host, port = _first_line(proc).split("://", 1)[1].rsplit(":", 1)
+        idle.append(socket.create_connection((host, int(port)), timeout=TIMEOUT))
+        master(host, int(port))
+        idle += [socket.create_connection((host, int(port)), timeout=TIMEOUT) for _ in range(8)]
+        master(host, int(port))
+    finally:
+        for sock in idle:
+            sock.close()
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=TIMEOUT)
     assert proc.returncode == 0, err

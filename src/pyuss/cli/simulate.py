@@ -5,13 +5,22 @@ its own parameters, on one of:
 
 - ``--pty``: a pseudo-terminal; the FIRST line printed is its device path (open it as a serial
   port, e.g. ``/dev/pts/7``);
-- ``--tcp HOST:PORT``: a TCP server carrying the line (one master at a time; HOST is 127.0.0.1
-  when only ``:PORT`` is given; PORT 0 picks a free one); the first line is ``tcp://HOST:PORT``;
+- ``--tcp HOST:PORT``: a TCP server carrying the line to several clients at once (an idle
+  client gives way to a new one when all 8 places are taken); HOST is 127.0.0.1 when only
+  ``:PORT`` is given; PORT 0 picks a free one; the first line is ``tcp://HOST:PORT`` with the
+  port listened on;
 - ``--serial DEVICE``: a real serial port (any pyserial URL); the first line is DEVICE;
 - ``--bus HOST:PORT``: a station of a virtual bus run by ``uss bus --bus-tcp``; the first line
-  is ``bus://HOST:PORT``.
+  is ``bus://HOST:PORT``. The station is named ``simulate-`` and the addresses (``--name``
+  chooses another), so simulators of other drives join the same bus.
 
-``--profile baumueller`` drives also have Baumueller's BASS service interface (seed 004 part 1):
+Without ``--baud`` the line runs at the rate the drives' baud rate parameter is set to (C 3:
+generic P684.1, from ``--store`` or the file), else 9600. The interface parameters show what is
+in force (P684.1 the line's rate, P687.1 the failure time); a baud rate change is stored for
+the next start (docs/slave.md).
+
+``--profile baumueller`` drives also have Baumueller's BASS service interface (Baumueller
+communication software manual, part 1):
 ``--bass-pty``, ``--bass-tcp HOST:PORT`` or ``--bass-serial DEVICE`` serves it (RS-232, 9600
 baud 8N1, `pyuss.bass.drive`). Each drive is then ONE drive on two interfaces: a BASS write is
 seen over USS, and a BASS write of an active parameter makes the USS side send a spontaneous
@@ -70,7 +79,7 @@ EXIT_USAGE = 2
 DEFAULT_BAUD = 9600
 """The line's rate when neither ``--baud`` nor a drive's baud rate parameter gives one."""
 BASS_PROFILE = "baumueller"
-"""The profile whose drives also have the BASS service interface (seed 004)."""
+"""The profile whose drives also have the BASS service interface (Baumueller manual, part 1)."""
 
 
 @dataclasses.dataclass(frozen=True, slots=True)
@@ -565,8 +574,9 @@ async def _serve_ksvario(opts: Options, stop: asyncio.Event, announce: Announce)
 
 
 async def _serve_bass(opts: Options, stop: asyncio.Event, announce: Announce) -> None:
-    """A closed RS-232 ring of BASS drives (seed 004 part 1), one per ``--address`` (its DIP
-    address), with the demonstration operating data of `pyuss.bass.ring`; 9600 baud, 8N1."""
+    """A closed RS-232 ring of BASS drives (Baumueller communication software manual, part 1),
+    one per ``--address`` (its DIP address), with the demonstration operating data of
+    `pyuss.bass.ring`; 9600 baud, 8N1."""
     if opts.line == "bus":
         raise ConfigError("profile bass: a BASS ring is RS-232, not a station of a USS bus")
     _refuse_drive_options(opts)
