@@ -30,6 +30,8 @@ COMMANDS: tuple[str, ...] = (
     "monitor",
     "wireshark",
     "decode",
+    "web",
+    "log",
     "bass",
     "ksvario",
 )
