@@ -171,7 +171,7 @@ class Station(QueuedTransport):
         self._mark_open()
 
     async def close(self) -> None:
-        self.bus.detach(self.name)
+        self.bus.detach(self.name, self)
         self._mark_closed()
 
     async def write(self, data: bytes) -> None:
