@@ -249,7 +249,7 @@ async def test_uss_master_sees_a_bass_write_as_a_spontaneous_message() -> None:
         latency=JobLatency(cycles=25),
     )
     ring = drive_ring([(5, drive)])
-    bus = VirtualBus(19200)  # Baumueller drives run at 19200 baud at most (182)
+    bus = VirtualBus(38400)
     stop = asyncio.Event()
     serving = asyncio.create_task(SlaveServer(bus.attach("drive5"), engine).run(stop))
     events: list[object] = []

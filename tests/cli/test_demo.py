@@ -16,7 +16,7 @@ def test_demo_runs_and_shows_each_step(capsys: pytest.CaptureFixture[str]) -> No
     assert "P52 = 4000h" in out
     assert "P52 lower limit = 5FFFh" in out
     assert "P7 text 3 = '300 BAUD'" in out
-    assert "P2010.1 baud code = 7" in out  # the bus runs at 19200 baud (code 7)
+    assert "P2010.1 baud code = 8" in out  # the bus runs at 38400 baud (code 8)
     assert "P52 is now 1234h (acknowledged)" in out
     assert out.count("back unchanged") == 3
     assert "50.00 %" in out and "ready to switch on" in out

@@ -55,9 +55,7 @@ async def test_6se21_answers_with_ind_0_are_still_recognised() -> None:
 
 async def test_baumueller_pipelined_answers_and_three_character_start_pause() -> None:
     layout = Layout(3, 2)
-    async with simulated_bus(
-        [(4, "baumueller", layout)], profile="baumueller", record=True, baud=19200
-    ) as env:
+    async with simulated_bus([(4, "baumueller", layout)], profile="baumueller", record=True) as env:
         drive = env.master.drive(4)
         assert await drive.read(60) == 2000
         assert await drive.write(60, 1500) == 1500
@@ -94,7 +92,7 @@ def test_response_limit_follows_the_profile_and_never_drops_below_the_start_paus
 async def test_baumueller_masked_control_broadcast_with_address_coding() -> None:
     layout = Layout(3, 3)
     drives = [(1, "baumueller", layout), (2, "baumueller", layout), (3, "baumueller", layout)]
-    async with simulated_bus(drives, profile="baumueller", mode=ACYCLIC, baud=19200) as env:
+    async with simulated_bus(drives, profile="baumueller", mode=ACYCLIC) as env:
         handles = [env.master.drive(a, layout=layout) for a in (1, 2, 3)]
         for drive in handles:
             await drive.control_word(0x0406)

@@ -35,11 +35,13 @@ def test_p684_shows_the_baud_rate_the_line_runs_at(baud: int, code: int) -> None
     assert (shown.id, shown.values) == (4, (code,))
 
 
-def test_baumueller_182_shows_the_rate_itself() -> None:
-    with PtySim(engine(5, "baumueller", "3,2"), baud=19200) as sim, sim.master() as master:
+@pytest.mark.parametrize("baud", [19200, 38400])
+def test_baumueller_182_shows_the_rate_itself(baud: int) -> None:
+    """Also a rate beyond what a master may write (150..19200): the drive's own display."""
+    with PtySim(engine(5, "baumueller", "3,2"), baud=baud) as sim, sim.master() as master:
         master.ask(5, L32, Pkw(2, 181, values=(4,)), OFF1)  # response-delay mode: direct answers
         shown = master.ask(5, L32, Pkw(1, 182), OFF1).pkw
-    assert shown.values == (19200,)
+    assert shown.values == (baud,)
 
 
 def test_p687_shows_the_failure_time_in_force() -> None:
@@ -119,11 +121,12 @@ def test_a_baud_rate_change_that_would_never_take_effect_is_refused(tmp_path: Pa
     assert restarted.value(684, 1) == 7
 
 
-async def test_a_drive_refuses_a_line_it_does_not_run_at() -> None:
-    profile = get_profile("baumueller")
+async def test_a_drive_refuses_a_line_it_has_no_code_for() -> None:
+    """C 3.1 has no code for 115200 baud: a generic drive does not run at it."""
+    profile = get_profile("generic")
     drive = SimulatedDrive(profile.database())
-    pty = PtyPort(baud=38400)
-    with pytest.raises(ConfigError, match="does not run at 38400 baud"):
+    pty = PtyPort(baud=115200)
+    with pytest.raises(ConfigError, match=r"does not run at 115200 baud \(P684\.1: 300, 600"):
         SlaveServer(pty, SlaveEngine(5, drive, profile, layout=L32))
 
 

@@ -36,7 +36,7 @@ from pyuss.slave import SlaveEngine
 
 __all__ = ["DRIVES", "register", "run"]
 
-BAUD = 19200  # the Baumueller drive runs at 19200 baud at most (parameter 182)
+BAUD = 38400
 DRIVES: tuple[tuple[int, str, Layout], ...] = (
     (1, "generic", Layout(PKW_VARIABLE, 2)),
     (4, "baumueller", Layout(3, 2)),

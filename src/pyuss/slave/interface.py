@@ -93,12 +93,9 @@ class InterfaceParameters:
 
     @staticmethod
     def _rates(param: Parameter) -> list[int]:
-        """The rates a parameter holding the rate itself takes."""
-        if param.allowed is not None:
-            return list(param.allowed)
+        """The rates a parameter holding the rate itself can show: any its type holds (the
+        drive's own display is not bound by the limits of writes, `pyuss.drive.database`)."""
         low, high = param.dtype.type_range
-        low = int(low if param.minimum is None else max(low, param.minimum))
-        high = int(high if param.maximum is None else min(high, param.maximum))
         return [rate for rate in BAUD_RATES if low <= rate <= high]
 
     def show_baud(self, baud: int) -> None:
