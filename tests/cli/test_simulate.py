@@ -337,12 +337,13 @@ def test_interface_parameters_show_what_is_in_force() -> None:
 
 
 def test_a_stored_baud_rate_is_the_rate_of_the_next_start(tmp_path: Path) -> None:
-    """The baud rate is taken at power-up: a RAM write is refused (error 1), an EEPROM write
-    is stored, and the next start without --baud runs at it and shows it."""
-    store = str(tmp_path / "drive5.store")
+    """Two drives share the pty, so its rate stays while it runs: a RAM write is refused
+    (error 1), an EEPROM write is stored, and the next start without --baud runs at it and
+    shows it."""
+    store = str(tmp_path / "drive{address}.store")
     args = ("--pty", "--address", "5", "--layout", "3,2", "--store", store)
     with (
-        simulate(*args) as (path, err),
+        simulate(*args, "--address", "6") as (path, err),
         serial.Serial(path, 9600, parity="E", timeout=TIMEOUT) as port,
     ):
         port.write(frame(5, "72AC 0001 0007 047E 0000"))  # ID 7: P684.1 = 7, RAM

@@ -5,6 +5,7 @@ communication software manual 2.5), through a pty, for every profile through its
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -93,11 +94,46 @@ def test_a_failure_time_written_through_any_interface_is_in_force() -> None:
     assert engine_.failure_time == 1.5  # closed: no longer followed
 
 
-def test_a_baud_rate_change_that_would_never_take_effect_is_refused(tmp_path: Path) -> None:
-    """The rate is taken at power-up: a RAM write (request 7) and an EEPROM write into a drive
+def test_a_pty_line_with_one_drive_follows_its_baud_rate_parameter() -> None:
+    """A pty has no rate of its own: P684.1 = 7 written (RAM) is answered at 9600 baud, then
+    the simulated line runs at 19200 baud (pacing, start pause, response window)."""
+    with PtySim(engine(5, "generic", "v,2"), baud=9600) as sim, sim.master() as master:
+        written = master.ask(5, LV, Pkw(7, 684, 1, values=(7,)), OFF1).pkw
+        shown = master.ask(5, LV, Pkw(6, 684, 1), OFF1).pkw
+        line = sim.call(lambda: (sim.server.baud, sim.engines[0].baud))
+        unknown = master.ask(5, LV, Pkw(7, 684, 1, values=(11,)), OFF1).pkw  # no such code
+    assert (written.id, written.values) == (4, (7,))
+    assert shown.values == (7,)
+    assert line == (19200, 19200)
+    assert _refused(unknown) == 2
+
+
+def _two_drives(store: str | None = None) -> Callable[[float], list[SlaveEngine]]:
+    """Drives 5 and 6 on one pty: they share its rate, which therefore stays."""
+
+    def make(now: float) -> list[SlaveEngine]:
+        profile = get_profile("generic")
+        return [
+            SlaveEngine(
+                address,
+                SimulatedDrive(profile.database(), store=store and store.format(address=address)),
+                profile,
+                layout=LV,
+                now=now,
+            )
+            for address in (5, 6)
+        ]
+
+    return make
+
+
+def test_where_the_line_keeps_its_rate_a_change_is_stored_for_the_next_start(
+    tmp_path: Path,
+) -> None:
+    """Two drives on one line: a RAM write (request 7) and an EEPROM write into a drive
     without a store would change nothing and are refused (error 1); an EEPROM write into a
     drive with a store is stored and is the rate of the next start."""
-    with PtySim(engine(5, "generic", "v,2"), baud=9600) as sim, sim.master() as master:
+    with PtySim(_two_drives(), baud=9600) as sim, sim.master() as master:
         ram = master.ask(5, LV, Pkw(7, 684, 1, values=(7,)), OFF1).pkw
         eeprom = master.ask(5, LV, Pkw(12, 684, 1, values=(7,)), OFF1).pkw
         same = master.ask(5, LV, Pkw(7, 684, 1, values=(6,)), OFF1).pkw  # the rate in force
@@ -108,16 +144,13 @@ def test_a_baud_rate_change_that_would_never_take_effect_is_refused(tmp_path: Pa
     assert (same.id, other.id) == (4, 4)
     assert shown.values == (6,)
 
-    store = tmp_path / "drive5.store"
-    with (
-        PtySim(engine(5, "generic", "v,2", store=str(store)), baud=9600) as sim,
-        sim.master() as master,
-    ):
+    store = str(tmp_path / "drive{address}.store")
+    with PtySim(_two_drives(store), baud=9600) as sim, sim.master() as master:
         stored = master.ask(5, LV, Pkw(12, 684, 1, values=(7,)), OFF1).pkw
         running = sim.call(lambda: sim.server.baud)
     assert (stored.id, stored.values) == (4, (7,))
     assert running == 9600  # until the next start
-    restarted = SimulatedDrive.from_profile("generic", store=store)
+    restarted = SimulatedDrive.from_profile("generic", store=tmp_path / "drive5.store")
     assert restarted.value(684, 1) == 7
 
 

@@ -16,8 +16,9 @@ its own parameters, on one of:
 
 Without ``--baud`` the line runs at the rate the drives' baud rate parameter is set to (C 3:
 generic P684.1, from ``--store`` or the file), else 9600. The interface parameters show what is
-in force (P684.1 the line's rate, P687.1 the failure time); a baud rate change is stored for
-the next start (docs/slave.md).
+in force (P684.1 the line's rate, P687.1 the failure time). A baud rate written to a drive
+alone on a pty or TCP line is in force at once; elsewhere it is stored for the next start
+(docs/slave.md).
 
 ``--profile baumueller`` drives also have Baumueller's BASS service interface (Baumueller
 communication software manual, part 1):

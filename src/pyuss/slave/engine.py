@@ -163,6 +163,9 @@ class SlaveEngine:
             self.failure_time = failure_time
         self.baud: int | None = None
         """The baud rate of the line, once a server told it (`set_line_baud`)."""
+        self.pending_baud: int | None = None
+        """A rate written to the baud rate parameter that the line is to switch to."""
+        self._follows = False
         self._undo: list[Callable[[], None]] = [
             self.interface_parameters.watch_failure_time(self._failure_time_changed)
         ]
@@ -238,24 +241,32 @@ class SlaveEngine:
             log.info("address %d: telegram failure time %g s from now on", self.address, seconds)
         self._failure_time = seconds
 
-    def set_line_baud(self, baud: int) -> None:
-        """The line runs at ``baud``: the drive shows it in its baud rate parameter, and
-        refuses changes of it that would never take effect (`pyuss.slave.interface`).
-        `ConfigError` when the drive does not run at that rate."""
+    def set_line_baud(self, baud: int, *, follows: bool = False) -> None:
+        """The line runs at ``baud``: the drive shows it in its baud rate parameter.
+        ``follows``: the line switches to a rate written to that parameter (`pending_baud`,
+        for the server to carry out after the answer); else the rate is fixed while the line
+        runs and a change must be stored for the next start (`pyuss.slave.interface`).
+        `ConfigError` when the drive does not run at ``baud``."""
         self.interface_parameters.show_baud(baud)
         ref = self.drive.db.interface.get("baud")
         if self.baud is None and ref is not None:
-            self._undo.append(self.interface_parameters.hold_baud_until_restart())
+            self._undo.append(self.interface_parameters.guard_baud(lambda: self._follows))
             self._undo.append(self.drive.watch(ref.pnu, self._baud_changed))
         self.baud = baud
+        self._follows = follows
+        self.pending_baud = None
 
     def _baud_changed(self, _pnu: int) -> None:
-        stored = self.interface_parameters.baud()
-        if stored is not None and stored != self.baud:
+        wanted = self.interface_parameters.baud()
+        if wanted is None or wanted == self.baud:
+            self.pending_baud = None
+        elif self._follows:
+            self.pending_baud = wanted
+        else:
             log.info(
                 "address %d: baud rate %d stored; the line runs at %s baud until the next start",
                 self.address,
-                stored,
+                wanted,
                 self.baud,
             )
 

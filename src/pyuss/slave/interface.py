@@ -8,10 +8,12 @@ that reads and writes them, so a new profile only needs its table:
 
 - ``baud``: the baud rate. A value table (C 3.1: 1 = 300 ... 6 = 9600, 7 = 19200 ...) comes
   from the parameter's value texts ("19200 BAUD"); a parameter with the unit Baud holds the rate
-  itself (`pyuss.drive.database.baud_codes`). The drive shows the rate its line runs at. The
-  rate is taken at power-up: a change through an interface must be stored (an EEPROM request
-  into a drive with a store file) and takes effect at the next start; a change that would only
-  live in RAM would never take effect and is refused (error 1).
+  itself (`pyuss.drive.database.baud_codes`). The drive shows the rate its line runs at. A
+  change takes effect at once where the line can follow (`guard_baud`: a pty or TCP line with
+  this one drive on it switches to the new rate after the answer); elsewhere (a serial port,
+  the virtual bus, several drives sharing a line) the rate is fixed while the simulator runs:
+  the change must be stored (an EEPROM request into a drive with a store file) and takes
+  effect at the next start, and a change that would never take effect is refused (error 1).
 - ``failure_time``: the telegram failure time, in the parameter's time unit and scaling (C 3.1:
   seconds where it has no unit; C 3.2 P687 in ms; 0 = off). The drive shows the time in force,
   and a change through any interface is in force from then on.
@@ -105,9 +107,20 @@ class InterfaceParameters:
             return
         self.drive.update(found[0].pnu, self.baud_value(baud), found[0].index)
 
-    def hold_baud_until_restart(self) -> Callable[[], None]:
-        """Refuse changes of the baud parameter that would never take effect (see the module
-        docstring). Returns a function that lifts the rule."""
+    def rate_of(self, value: Value) -> int | None:
+        """The baud rate a value of the baud parameter stands for (None: no rate)."""
+        if not isinstance(value, int):
+            return None
+        if self._codes is None:
+            return value if value in BAUD_RATES else None
+        rate = self._codes.get(value)
+        return rate if rate in BAUD_RATES else None
+
+    def guard_baud(self, line_follows: Callable[[], bool]) -> Callable[[], None]:
+        """Let through only the changes of the baud parameter that take effect (see the module
+        docstring): at once where ``line_follows()`` (the line switches to the new rate after
+        the answer), else stored for the next start (an EEPROM write into a drive with a store
+        file). Returns a function that lifts the rule."""
         found = self._param("baud")
         if found is None:
             return lambda: None
@@ -117,14 +130,18 @@ class InterfaceParameters:
         def rule(value: Value, eeprom: bool) -> None:
             if drive.ref_value(ref) == value and not eeprom:
                 return  # the value in force: nothing to change
+            if self.rate_of(value) is None:
+                raise ParameterFault(
+                    ErrorNumber.LIMIT_EXCEEDED, f"{value!r} names no baud rate this line runs at"
+                )
+            if line_follows():
+                return  # in force after the answer
             if not eeprom or drive.store_path is None:
                 raise ParameterFault(
                     ErrorNumber.NOT_CHANGEABLE,
-                    "the baud rate is taken at power-up: store it (an EEPROM request into a "
-                    "drive with a store file) to run at it from the next start",
+                    "this line keeps its baud rate while the simulator runs: store the rate "
+                    "(an EEPROM request into a drive with a store file) for the next start",
                 )
-            if self._codes is not None and value not in self._codes:
-                raise ParameterFault(ErrorNumber.LIMIT_EXCEEDED, f"{value!r} names no baud rate")
 
         return drive.add_write_rule(ref, rule)
 
