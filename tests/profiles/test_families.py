@@ -147,10 +147,13 @@ async def test_refusals_carry_the_family_error_numbers(name: str) -> None:
     profile = get_profile(name)
     db = profile.database()
     ro = next(p for p in db if p.access is Access.RO and p.array is None)
-    limited = next(
+    limited = next(  # a writable scalar with an upper limit, changeable while ready (T)
         p
         for p in db
-        if p.access is Access.RW and p.array is None and p.maximum is not None and p.changeable
+        if p.access is Access.RW
+        and p.array is None
+        and p.maximum is not None
+        and (p.changeable is None or "T" in p.changeable)
     )
     async with family(name) as (drive, _):
         with pytest.raises(DriveRefusal) as refused:
