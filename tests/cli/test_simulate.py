@@ -243,7 +243,7 @@ def test_a_damaged_store_is_refused(tmp_path: Path, capsys: pytest.CaptureFixtur
         (["--pty", "--latency", "-2"], "--latency-time must be numbers >= 0"),
         (
             ["--pty", "--profile", "micromaster420", "--baud", "115200"],
-            "a micromaster420 drive does not run at 115200 baud (P2010.1:",
+            "a micromaster420 drive does not run at 115200 baud (P2010.",
         ),
         (["--pty", "--baud", "115200"], "a generic drive does not run at 115200 baud (P684.1:"),
         (["--pty", "--failure-time", "7"], "takes 0..6.5 s (P687.1)"),
