@@ -150,6 +150,15 @@ class Station(QueuedTransport):
         self.stats.bytes_out += len(data)
         self.bus.send(self.name, bytes(data))
 
+    async def write_at(self, data: bytes, start: float) -> None:
+        """Like `write`, but the first character starts at ``start`` (monotonic seconds) if
+        that is later: the station keeps a pause to the microsecond without waiting for it."""
+        self._check_writable()
+        if self.listen_only:
+            raise TransportError(f"{self.describe()} is listen-only: it cannot send")
+        self.stats.bytes_out += len(data)
+        self.bus.send(self.name, bytes(data), at=start)
+
     def receive(
         self, data: bytes, timestamp: float, errors: tuple[tuple[int, LineError], ...]
     ) -> None:
@@ -246,8 +255,9 @@ class VirtualBus:
         return self._engine.dead(name, now - self.epoch)
 
     # -- sending ----------------------------------------------------------------------------
-    def send(self, sender: str, data: bytes) -> None:
-        """Put ``data`` from station ``sender`` on the line (see the module docstring)."""
+    def send(self, sender: str, data: bytes, at: float | None = None) -> None:
+        """Put ``data`` from station ``sender`` on the line (see the module docstring); with
+        ``at`` (monotonic seconds) not before then, as a UART with a timed transmit does."""
         station = self.stations.get(sender)
         if station is None:
             raise TransportError(f"no station {sender!r} on the bus")
@@ -257,8 +267,9 @@ class VirtualBus:
             return
         tc = self.char_time
         t = station.tx_free
-        if t <= now:
-            t = now + self._engine.answer_delay(sender, now - self.epoch)
+        begin = now if at is None or at <= now else at
+        if t <= begin:
+            t = begin + self._engine.answer_delay(sender, now - self.epoch)
         for byte in data:
             plan = self._engine.character(sender, byte, t - self.epoch)
             t += plan.gap_before * tc

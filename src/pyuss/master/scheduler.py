@@ -71,8 +71,11 @@ from dataclasses import dataclass
 from types import TracebackType
 from typing import TYPE_CHECKING
 
+from pyuss.bus.timed import timed_writer
 from pyuss.errors import ConfigError, TelegramError, TransportError, UssError, UssTimeout
 from pyuss.log import log_frame
+from pyuss.loop import COARSE_MARGIN
+from pyuss.loop import margin as loop_margin
 from pyuss.master.broadcast import enable_array_data, masked_control_data
 from pyuss.master.errors import MasterClosed, MirrorMismatch, NotSending
 from pyuss.master.jobs import Job, ParameterChannel, SpontaneousMessage
@@ -338,6 +341,8 @@ class Master:
         self._failure: TransportError | None = None
         self._closing = False
         self._rotation = 0
+        self._margin = COARSE_MARGIN
+        self._write_at = timed_writer(transport)
 
     # -- life cycle ------------------------------------------------------------------------
     async def __aenter__(self) -> Master:
@@ -362,6 +367,7 @@ class Master:
             raise ConfigError("the master was started already")
         await self.transport.open()
         self._wake = asyncio.Event()
+        self._margin = loop_margin()
         self._task = asyncio.create_task(self._run(), name=f"uss master {self.baud} baud")
 
     async def close(self) -> None:
@@ -959,15 +965,22 @@ class Master:
         telegram's start and end time."""
         pause = max(2.0, pause_chars) * self.timing.char_time
         await asyncio.sleep(0)  # let tasks woken by the last answer queue their jobs first
+        # On a virtual bus the telegram is handed over a moment early with its start time
+        # (`timed_writer`); elsewhere the last moments of the pause pass yielding to the loop.
+        ahead = max(self._margin, self.timing.char_time) if self._write_at is not None else 0.0
         while True:
             await self._drain()
-            quiet = max(self._line_free, self._receiver.last_byte_end)
-            left = quiet + pause - self._clock()
-            if left <= 0:
+            due = max(self._line_free, self._receiver.last_byte_end) + pause + 1e-9
+            left = due - self._clock()
+            if left <= ahead:
                 break
-            chunk = await self.transport.read(left)
-            if chunk is not None:
-                self._stray_events(self._feed(chunk))
+            sleep = left - max(ahead, self._margin)
+            if sleep > 0:  # sleep while the loop's timers are precise enough
+                chunk = await self.transport.read(sleep)
+                if chunk is not None:
+                    self._stray_events(self._feed(chunk))
+            else:
+                await asyncio.sleep(0)
         self._stray_events(self._receiver.poll(self._clock()))
         self._receiver.reset()
         self._rx_end = -math.inf
@@ -976,7 +989,11 @@ class Master:
             frame = frame()
         start = self._clock()
         try:
-            await self.transport.write(frame)
+            if self._write_at is not None and due > start:
+                await self._write_at(frame, due)
+                start = due
+            else:
+                await self.transport.write(frame)
         except LinkDown as exc:
             log.warning("master: telegram not sent: %s", exc)
             await asyncio.sleep(min(0.1, self.latency + 0.01))
