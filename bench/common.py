@@ -19,24 +19,29 @@ USS = [sys.executable, "-m", "pyuss.cli.main"]
 
 @dataclass(frozen=True)
 class Figure:
-    """One measured figure and its goal. ``at_least``: the goal is a floor (else a ceiling)."""
+    """One measured figure and its goal (None: shown for comparison only). ``at_least``: the
+    goal is a floor (else a ceiling)."""
 
     name: str
     value: float
-    goal: float
+    goal: float | None = None
     at_least: bool = True
     unit: str = ""
     digits: int = 2
 
     @property
-    def ratio(self) -> float:
+    def ratio(self) -> float | None:
         """Figure over goal for a floor, goal over figure for a ceiling: >= 1 means met."""
+        if self.goal is None:
+            return None
         if self.at_least:
             return self.value / self.goal if self.goal else float("inf")
         return self.goal / self.value if self.value > 0 else float("inf")
 
     @property
-    def met(self) -> bool:
+    def met(self) -> bool | None:
+        if self.goal is None:
+            return None
         return self.value >= self.goal if self.at_least else self.value <= self.goal
 
     def show(self, value: float) -> str:
@@ -47,10 +52,12 @@ def table(figures: Sequence[Figure]) -> str:
     """The figures in one table: figure, value, goal, ratio, met."""
     rows = [("figure", "value", "goal", "ratio", "")]
     for f in figures:
+        if f.goal is None:
+            rows.append((f.name, f.show(f.value), "-", "-", "(no goal)"))
+            continue
         goal = (">= " if f.at_least else "<= ") + f.show(f.goal)
-        rows.append(
-            (f.name, f.show(f.value), goal, f"{f.ratio:.2f}", "met" if f.met else "NOT MET")
-        )
+        verdict = "met" if f.met else "NOT MET"
+        rows.append((f.name, f.show(f.value), goal, f"{f.ratio:.2f}", verdict))
     widths = [max(len(r[i]) for r in rows) for i in range(5)]
     lines = []
     for n, row in enumerate(rows):
@@ -60,8 +67,8 @@ def table(figures: Sequence[Figure]) -> str:
         )
         if n == 0:
             lines.append("-" * len(lines[0]))
-    met = sum(f.met for f in figures)
-    lines.append(f"{met} of {len(figures)} goals met")
+    goals = [f for f in figures if f.goal is not None]
+    lines.append(f"{sum(bool(f.met) for f in goals)} of {len(goals)} goals met")
     return "\n".join(lines)
 
 
