@@ -130,13 +130,16 @@ def processes(*commands: tuple[Sequence[str], int]) -> Iterator[list[Process]]:
 
 
 @contextlib.contextmanager
-def bus_and_drives(baud: int, drives: int, *, layout: str = "3,2") -> Iterator[str]:
-    """``uss bus`` and ``uss simulate`` with ``drives`` drives (addresses 1..N, telegram failure
-    watch off) in two processes; yields the ``bus://`` URL a master connects to."""
+def bus_and_drives(
+    baud: int, drives: int, *, layout: str = "3,2", addresses: Sequence[int] = ()
+) -> Iterator[str]:
+    """``uss bus`` and ``uss simulate`` with ``drives`` drives (addresses 1..N, or those given;
+    telegram failure watch off) in two processes; yields the ``bus://`` URL of the bus."""
     with processes((["bus", "--baud", str(baud), "--bus-tcp", "127.0.0.1:0"], 1)) as (bus,):
         url = bus.lines[0]
         where = url.removeprefix("bus://")
-        addresses = [w for a in range(1, drives + 1) for w in ("--address", str(a))]
+        chosen = addresses or range(1, drives + 1)
+        addresses = [w for a in chosen for w in ("--address", str(a))]
         simulate = [
             "simulate",
             "--bus",

@@ -43,7 +43,16 @@ Time bases
     answer may begin up to the tolerance after the response delay limit. The master's own
     sending keeps at least the specification's start pause always. ``latency`` (default 20 ms)
     is how long after a deadline the master still waits for bytes that were on the line in
-    time but not yet delivered; it only costs time when a slave is silent.
+    time but not yet delivered: before it takes a telegram for broken off, and, as
+    ``silence`` unless that is given, after the response window (and the end of a first
+    character that began at its end) before it takes a slave for silent; that only costs
+    time when a slave is silent. `pyuss.master.scan` waits `EXACT_LATENCY` there on the
+    virtual bus, which hands characters over within microseconds.
+
+    On the virtual bus the master hands each telegram over a moment before its start pause
+    ends, with the time it is to start (`pyuss.bus.timed`), so the pause is kept to the
+    microsecond; elsewhere it sleeps until shortly before and yields to the event loop for
+    the rest (`pyuss.loop`), which is as exact as the machine allows on any event loop.
 
     The end of a request is taken as the time the write began plus its characters' time on the
     line (or the time the write returned, if later). A simulator behind a bare pty answers
@@ -104,6 +113,10 @@ DEFAULT_TOLERANCE = 0.020
 """Receive tolerance for transports that stamp bytes when read (USB adapters: 1..16 ms)."""
 DEFAULT_LATENCY = 0.020
 """How long past a deadline the master still waits for bytes that were on the line in time."""
+EXACT_LATENCY = 0.004
+"""How long the master waits for the first character of an answer beyond the response window
+on a virtual bus, which hands each character over within microseconds of its end
+(milliseconds on a loaded machine): what a silent address costs beyond its window."""
 DEFAULT_JOB_TIMEOUT = 2.0
 
 
@@ -254,7 +267,8 @@ class Master:
     allows. ``mode``: `CYCLIC` or `ACYCLIC`. ``response_delay``: the default response delay limit in
     seconds (else the profile's, 20 ms). ``job_timeout``: seconds a parameter job may take
     from its first telegram. ``rx_tolerance`` and ``latency``: see "Time bases" in the module
-    docstring (None picks by transport). ``close_transport``: close the transport on exit.
+    docstring (None picks by transport); ``silence``: the wait for a silent slave beyond its
+    response window (default ``latency``). ``close_transport``: close the transport on exit.
 
     Nothing is opened and no event loop is touched until `start` (or ``async with``).
     """
@@ -272,6 +286,7 @@ class Master:
         job_timeout: float = DEFAULT_JOB_TIMEOUT,
         rx_tolerance: float | None = None,
         latency: float | None = None,
+        silence: float | None = None,
         close_transport: bool = True,
     ) -> None:
         if isinstance(transport, str):
@@ -295,7 +310,11 @@ class Master:
         for name, value in (("job_timeout", job_timeout), ("response_delay", response_delay)):
             if value is not None and (isinstance(value, bool) or not value > 0):
                 raise ConfigError(f"{name} must be a positive number of seconds, not {value!r}")
-        for name, value in (("rx_tolerance", rx_tolerance), ("latency", latency)):
+        for name, value in (
+            ("rx_tolerance", rx_tolerance),
+            ("latency", latency),
+            ("silence", silence),
+        ):
             if value is not None and (isinstance(value, bool) or not value >= 0):
                 raise ConfigError(f"{name} must be >= 0 seconds, not {value!r}")
         self.transport = transport
@@ -314,6 +333,7 @@ class Master:
             (0.0 if exact else DEFAULT_TOLERANCE) if rx_tolerance is None else rx_tolerance
         )
         self.latency = DEFAULT_LATENCY if latency is None else latency
+        self.silence = self.latency if silence is None else silence
         self.close_transport = close_transport
         self._links: dict[int, _Link] = {}
         self._poll: list[int] = []
@@ -1064,6 +1084,10 @@ class Master:
         events: list[Received | ReceiveFault] = []
         while True:
             now = self._clock()
+            # every chunk that is in is fed before time is judged (a read may time out just
+            # as a chunk arrives)
+            while (chunk := await self.transport.read(0)) is not None:
+                events += self._feed(chunk)
             events += receiver.poll(now - self.latency)
             found: tuple[_Outcome, Received] | None = None
             for event in events:
@@ -1081,8 +1105,15 @@ class Master:
                 wait = (nxt if nxt is not None else now) + self.latency - now
                 wait = max(wait, self.timing.char_time)
             else:
-                wait = deadline + self.latency - now
+                # the first character of an answer that began at the deadline ends one
+                # character time later and is handed over a little after that
+                wait = deadline + self.timing.char_time + self.silence - now
                 if wait <= 0:
+                    await asyncio.sleep(0)  # what is due is handed over first
+                    chunk = await self.transport.read(0)
+                    if chunk is not None:
+                        events = self._feed(chunk)
+                        continue
                     outcome = _Outcome.FAULT if faulty else _Outcome.SILENT
                     return self._finish(outcome, None, start, end, link)
             chunk = await self.transport.read(wait)
