@@ -80,15 +80,18 @@ def _least_timer_slack() -> None:
         libc.prctl(29, 1, 0, 0, 0)  # PR_SET_TIMERSLACK, 1 ns
 
 
-def new_event_loop() -> asyncio.AbstractEventLoop:
-    """A new event loop with microsecond timers (see the module docstring)."""
+def new_event_loop(*, least_slack: bool = True) -> asyncio.AbstractEventLoop:
+    """A new event loop with microsecond timers (see the module docstring). ``least_slack``:
+    also ask Linux for the least timer slack (a program that keeps a line's timing for long;
+    a quick command spares itself loading ctypes)."""
     if hasattr(selectors, "EpollSelector"):
         selector = _FineEpollSelector()
         if selector.fileno() >= _FD_SETSIZE:  # select() cannot wait on it: keep plain epoll
             selector.close()
             return asyncio.new_event_loop()
         loop: asyncio.AbstractEventLoop = asyncio.SelectorEventLoop(selector)
-        _least_timer_slack()
+        if least_slack:
+            _least_timer_slack()
     elif hasattr(selectors, "KqueueSelector"):
         loop = asyncio.SelectorEventLoop(selectors.KqueueSelector())
     else:
@@ -109,14 +112,18 @@ def run(main: Coroutine[Any, Any, T], *, debug: bool | None = None) -> T:
 
 
 class _Policy(asyncio.DefaultEventLoopPolicy):
+    def __init__(self, least_slack: bool) -> None:
+        super().__init__()
+        self.least_slack = least_slack
+
     def new_event_loop(self) -> asyncio.AbstractEventLoop:
-        return new_event_loop()
+        return new_event_loop(least_slack=self.least_slack)
 
 
-def install() -> None:
+def install(*, least_slack: bool = True) -> None:
     """Make `asyncio.run` (and every loop made through the policy) use `new_event_loop`: for
     programs, such as the ``uss`` command, whose every loop keeps a line's timing."""
-    asyncio.set_event_loop_policy(_Policy())
+    asyncio.set_event_loop_policy(_Policy(least_slack))
 
 
 def margin(loop: asyncio.AbstractEventLoop | None = None) -> float:

@@ -113,7 +113,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if "asyncio" in sys.modules:  # the command runs an event loop: keep sub-ms timing
         from pyuss.loop import install
 
-        install()
+        install(least_slack=args.command not in ONE_SHOT)
     try:
         code: int = args.func(args)
     except KeyboardInterrupt:

@@ -27,10 +27,8 @@ from __future__ import annotations
 
 import enum
 import math
-import tomllib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from importlib import resources
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -375,6 +373,8 @@ BUILTIN_PACKAGE = "pyuss.profiles"
 
 def builtin_profiles() -> tuple[str, ...]:
     """Names of the profile data files shipped with pyuss."""
+    from importlib import resources  # here: a command that reads no file starts sooner
+
     folder = resources.files(BUILTIN_PACKAGE).joinpath("data")
     return tuple(
         sorted(p.name.removesuffix(".toml") for p in folder.iterdir() if p.name.endswith(".toml"))
@@ -400,6 +400,8 @@ def parse_database(text: str, source: str = "<text>") -> ParameterDatabase:
 
 
 def _parse_toml(text: str, source: str) -> dict[str, Any]:
+    import tomllib  # here: a command that reads no file starts sooner
+
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -412,6 +414,8 @@ def _read_source(ref: str) -> tuple[str, str]:
         name = ref.removeprefix("builtin:")
         if name not in builtin_profiles():
             raise ConfigError(f"unknown profile {name!r} (known: {', '.join(builtin_profiles())})")
+        from importlib import resources
+
         res = resources.files(BUILTIN_PACKAGE).joinpath("data", f"{name}.toml")
         return f"profile {name} ({name}.toml)", res.read_text(encoding="utf-8")
     try:

@@ -80,12 +80,10 @@ from dataclasses import dataclass
 from types import TracebackType
 from typing import TYPE_CHECKING
 
-from pyuss.bus.timed import timed_writer
 from pyuss.errors import ConfigError, TelegramError, TransportError, UssError, UssTimeout
 from pyuss.log import log_frame
 from pyuss.loop import COARSE_MARGIN
 from pyuss.loop import margin as loop_margin
-from pyuss.master.broadcast import enable_array_data, masked_control_data
 from pyuss.master.errors import MasterClosed, MirrorMismatch, NotSending
 from pyuss.master.jobs import Job, ParameterChannel, SpontaneousMessage
 from pyuss.master.process import DriveStatus
@@ -103,6 +101,7 @@ from pyuss.transport.queued import check_baud
 from pyuss.transport.reconnect import LinkDown
 
 if TYPE_CHECKING:
+    from pyuss.bus.timed import TimedWrite
     from pyuss.master.drive import Drive
 
 __all__ = ["ACYCLIC", "CYCLIC", "Master", "MirrorResult", "Mode", "Reply"]
@@ -131,6 +130,13 @@ class Mode(enum.Enum):
 
 CYCLIC = Mode.CYCLIC
 ACYCLIC = Mode.ACYCLIC
+
+
+def _timed_writer(transport: Transport) -> TimedWrite | None:
+    """`pyuss.bus.timed.timed_writer` (imported only here: the bus is loaded for its stations)."""
+    from pyuss.bus.timed import timed_writer
+
+    return timed_writer(transport)
 
 
 def _exact_timestamps(transport: Transport) -> bool:
@@ -362,7 +368,7 @@ class Master:
         self._closing = False
         self._rotation = 0
         self._margin = COARSE_MARGIN
-        self._write_at = timed_writer(transport)
+        self._write_at = _timed_writer(transport)
 
     # -- life cycle ------------------------------------------------------------------------
     async def __aenter__(self) -> Master:
@@ -673,6 +679,8 @@ class Master:
         if enable is not None:
             if pkw is not None:
                 raise ConfigError("give a Broadcast Enable Array or PKW words, not both")
+            from pyuss.master.broadcast import enable_array_data
+
             return await self._broadcast(enable_array_data(pzd, enable, layout))
         if layout is None:
             layout = Layout(4 if pkw is not None else 0, len(pzd))
@@ -690,6 +698,8 @@ class Master:
         """Baumueller's broadcast (seed 004 2.2, NOTES 9): ``control`` merged into the control
         word of every drive (or of ``addresses`` with broadcast coding) through ``mask``; see
         `pyuss.master.broadcast.masked_control_data`. Returns as `broadcast`."""
+        from pyuss.master.broadcast import masked_control_data
+
         return await self._broadcast(
             masked_control_data(control, mask, layout=layout, addresses=addresses)
         )
