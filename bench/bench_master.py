@@ -33,7 +33,6 @@ import statistics
 import time
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
-from typing import Any
 
 from common import Figure, bus_and_drives, percentile, pty_drives
 
@@ -201,11 +200,7 @@ def main() -> list[Figure]:
     return figures
 
 
-def _figures_main(**_: Any) -> None:
+if __name__ == "__main__":
     from common import table
 
     print(table(main()))
-
-
-if __name__ == "__main__":
-    _figures_main()

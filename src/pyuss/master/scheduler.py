@@ -141,10 +141,9 @@ def _timed_writer(transport: Transport) -> TimedWrite | None:
 
 def _exact_timestamps(transport: Transport) -> bool:
     """Transports whose chunk timestamps are the true end times on the line."""
-    from pyuss.bus.client import BusClientTransport
-    from pyuss.bus.core import Station
+    from pyuss.bus.timed import is_station
 
-    return isinstance(transport, Station | BusClientTransport)
+    return is_station(transport)
 
 
 @dataclass(frozen=True, slots=True)

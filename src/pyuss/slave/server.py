@@ -42,7 +42,7 @@ import logging
 import math
 from dataclasses import dataclass
 
-from pyuss.bus.timed import timed_writer
+from pyuss.bus.timed import is_station, timed_writer
 from pyuss.errors import ConfigError, TelegramError, TransportError
 from pyuss.log import log_frame
 from pyuss.loop import sleep_until
@@ -304,9 +304,7 @@ class SlaveServer:
 
 def _timed(transport: Transport) -> bool:
     """Whether the transport's timestamps follow the line (see the module docstring)."""
-    from pyuss.bus.client import BusClientTransport
-
-    if isinstance(transport, BusClientTransport):
+    if is_station(transport):
         return True
     return not isinstance(transport, PtyPort | TcpTransport | TcpServerTransport)
 
