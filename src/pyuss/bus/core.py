@@ -100,6 +100,11 @@ def sample(frames: list[tuple[float, int]], start: float, bit: float) -> tuple[i
                 level = 0
                 break
         levels |= level << k
+    return _read_levels(levels)
+
+
+def _read_levels(levels: int) -> tuple[int, LineError]:
+    """The byte and error flags of the 11 line levels a UART sampled."""
     byte = (levels >> 1) & 0xFF
     flags = LineError.NONE
     if (byte.bit_count() + ((levels >> 9) & 1)) & 1:
@@ -338,6 +343,10 @@ class VirtualBus:
         # (their tail): the receivers sample them too.
         self._on_line = [p for p in self._on_line if p.start + tc > first.start + _EPS]
         tails = self._on_line
+        if not tails and len(group) == 1:  # alone on the line: its own levels, as sampled
+            byte, flags = _read_levels(first.frame & 0x7FF)
+            self._on_line = group
+            return WireChar(first.start, end, byte, flags, first.sender, first.notes)
         frames = [(p.start, p.frame) for p in (*tails, *group)]
         byte, flags = sample(frames, first.start, self.bit_time)
         notes = tuple(n for p in group for n in p.notes)
