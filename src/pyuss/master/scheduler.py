@@ -55,8 +55,9 @@ Time bases
     the rest (`pyuss.loop`), which is as exact as the machine allows on any event loop.
 
     The end of a request is taken as the time the write began plus its characters' time on the
-    line (or the time the write returned, if later). A simulator behind a bare pty answers
-    sooner than a real line allows, so its response times read 0.
+    line (or the time the write returned, if later). Over a bare pty or TCP link the answer's
+    start is estimated from when its last byte was read: a peer that writes faster than a real
+    line reads as answering sooner (down to 0; `uss simulate` paces its answers).
 
 Process data (C 5.1)
     Every telegram to a slave carries its latest control word and setpoints, as the user set
