@@ -33,7 +33,12 @@ def main() -> list[Figure]:
             seen: list[Progress] = []
             began = time.monotonic()
             found = run(
-                scan(lambda b: open_transport(url, baud=b), [baud], range(32), progress=seen.append)
+                scan(
+                    lambda b: open_transport(url, baud=b),
+                    [baud],
+                    range(32),
+                    on_progress=seen.append,
+                )
             )
             took = time.monotonic() - began
         wire = seen[-1].wire

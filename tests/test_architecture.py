@@ -20,6 +20,9 @@ ALLOWED: dict[str, set[str]] = {
     "profiles": {"protocol", "drive"},
     "slave": {"protocol", "transport", "bus", "drive", "profiles"},
     "monitor": {"protocol", "transport", "bus"},
+    # faces above the master: the data logger and the web page know nothing of each other
+    "datalog": {"protocol", "transport", "bus", "drive", "profiles", "master"},
+    "web": {"protocol", "transport", "bus", "drive", "profiles", "master", "monitor"},
 }
 # Pure means no I/O and no clock: none of these in the protocol layer.
 IMPURE = {"asyncio", "socket", "serial", "time", "os", "threading", "subprocess", "select"}

@@ -42,11 +42,13 @@ async def test_scan_finds_addresses_layouts_and_the_baud_rate() -> None:
         other = VirtualBus(9600)
         stations = {19200: env.bus, 9600: other}
         seen: list[Progress] = []
+        counts: list[tuple[int, int]] = []
         found = await scan(
             lambda baud: stations[baud].attach(f"scan{baud}"),
             [9600, 19200],
             [1, 2, 7, 9, 12, 20],
-            progress=seen.append,
+            progress=lambda done, total: counts.append((done, total)),
+            on_progress=seen.append,
             latency=0.005,
         )
         await other.close()
@@ -60,6 +62,7 @@ async def test_scan_finds_addresses_layouts_and_the_baud_rate() -> None:
     assert by_address[20].layout == Layout(4, 0)
     assert by_address[1].status is not None
     assert seen[-1].done == seen[-1].total  # the progress ends complete
+    assert counts[-1] == (seen[-1].done, seen[-1].total)
     assert seen[-1].left == 0 and seen[-1].wire > 0
     assert isinstance(found[0], Found) and found[0].to_dict()["baud"] == 19200
 
@@ -118,7 +121,7 @@ async def test_drives_are_reported_as_found_and_identify_asks_them_on_the_open_l
             lambda baud: env.bus.attach("scanner"),
             [38400],
             range(16),
-            progress=progress,
+            on_progress=progress,
             on_found=lambda f: events.append(("found", f.address)),
             identify=identify,
         )
@@ -139,7 +142,7 @@ async def test_first_stops_at_the_first_drive() -> None:
             lambda baud: env.bus.attach("scanner"),
             [38400, 9600],
             range(32),
-            progress=seen.append,
+            on_progress=seen.append,
             first=True,
         )
     assert [(f.address, f.baud) for f in found] == [(4, 38400)]
@@ -151,7 +154,9 @@ async def test_progress_estimates_the_time_left_from_the_wire_time() -> None:
     async with simulated_bus([(1, "generic", Layout(3, 2))], baud=187500) as env:
         await env.master.close()
         seen: list[Progress] = []
-        await scan(lambda baud: env.bus.attach("scanner"), [187500], range(4), progress=seen.append)
+        await scan(
+            lambda baud: env.bus.attach("scanner"), [187500], range(4), on_progress=seen.append
+        )
     first, last = seen[0], seen[-1]
     assert first.left is not None and first.left > 0
     assert last.left == 0 and last.done == last.total

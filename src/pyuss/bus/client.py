@@ -17,6 +17,7 @@ from __future__ import annotations
 import asyncio
 import json
 import time
+from typing import cast
 
 from pyuss.bus.wire import FrameDecoder, encode_send
 from pyuss.errors import ConfigError, ProtocolError, TransportError
@@ -46,8 +47,7 @@ class _Protocol(asyncio.Protocol):
         """Deliveries that came before the station was open (right after the answer)."""
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
-        assert isinstance(transport, asyncio.Transport)
-        self.transport = transport
+        self.transport = cast(asyncio.Transport, transport)  # a stream transport (any loop's)
 
     def data_received(self, data: bytes) -> None:
         if self._decoder is None:

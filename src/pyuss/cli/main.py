@@ -35,6 +35,8 @@ COMMANDS: tuple[str, ...] = (
     "monitor",
     "wireshark",
     "decode",
+    "web",
+    "log",
     "bass",
     "ksvario",
 )
@@ -52,6 +54,8 @@ SUMMARIES: dict[str, str] = {
     "monitor": "listen to a USS line, decode and pair telegrams, write captures",
     "wireshark": "install or locate the Wireshark dissector for monitor captures",
     "decode": "decode a telegram given in hex",
+    "web": "a commissioning page in the browser: bus, drives, parameters, trend, monitor",
+    "log": "log drive values to a CSV file (status, actual values, parameters)",
     "bass": "Baumueller BASS service protocol (RS-232): read, write, simulated ring",
     "ksvario": "PMA KS VARIO over PROFIBUS-DP",
 }

@@ -18,6 +18,12 @@ A rate the port cannot be opened at (a ``bus://`` line runs at one rate only) is
 with a note on stderr. A pseudo-terminal (``uss simulate --pty``) carries no baud rate at all:
 a drive behind one answers at every rate, so the rate cannot be told there (a note on stderr
 says so). Exit code 0 when at least one drive answered, 1 when none did.
+
+Each drive found with a parameter area is asked who it is as soon as it is found, on the line
+still open at its rate: the family column names it where the drive shows its identity in a
+parameter (r0964 product type on MICROMASTER 420/440, P2023 on SINAMICS V20, P743/P707 on NORD
+SK 500E; docs/drives.md), and the profile column the profile to give to the other commands.
+``--profile auto`` probes as ``generic`` does.
 """
 
 from __future__ import annotations
@@ -38,9 +44,11 @@ from pyuss.cli._master import (
     master_options,
     run,
 )
-from pyuss.errors import ConfigError
+from pyuss.errors import ConfigError, UssError
+from pyuss.master.identify import identify_on
 from pyuss.master.profile import resolve_profile
 from pyuss.master.scan import Found, Progress, probe_layouts, scan
+from pyuss.master.scheduler import Master
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import MAX_ADDRESS
 from pyuss.transport.queued import BAUD_RATES, check_baud
@@ -131,31 +139,48 @@ def _duration(seconds: float) -> str:
     return f"{whole // 60} min {whole % 60:02d} s" if whole >= 60 else f"{whole} s"
 
 
-HEADER = "address  baud    layout  status  response"
+HEADER = "address  baud    layout  status  response  family"
+
+IDENTIFY_TIMEOUT = 1.0
+"""Seconds each identification read may take."""
 
 
-def row(f: Found) -> str:
+def row(f: Found, family: str = "-") -> str:
     """The line of one drive in the table."""
     status = "-" if f.status is None else f"{f.status:04X}h"
     return (
         f"{f.address:>7}  {f.baud:<6}  {f.layout!s:<6}  {status:<6}  "
-        f"{f.response_time * 1000:.2f} ms"
+        f"{f.response_time * 1000:.2f} ms  {family}"
     )
 
 
-def render(found: list[Found]) -> str:
+def render(found: list[Found], families: dict[int, tuple[str, str]] | None = None) -> str:
     if not found:
         return "no drive answered"
-    return "\n".join([HEADER, *(row(f) for f in found)])
+    families = families or {}
+    rows = [row(f, families.get(f.address, ("-", ""))[0]) for f in found]
+    return "\n".join([HEADER, *rows])
 
 
 class Report:
-    """Prints each drive as it is found (text), or keeps them for one JSON list at the end."""
+    """Asks each drive who it is as it is found, then prints it (text) or keeps it for one
+    JSON list at the end."""
 
     def __init__(self, args: argparse.Namespace, bar: Bar) -> None:
         self.args = args
         self.bar = bar
         self.found: list[Found] = []
+        self.families: dict[int, tuple[str, str]] = {}
+
+    async def identify(self, bus: Master, found: Found) -> Found:
+        """The `pyuss.master.scan.Identify` hook: the family, on the scanning master."""
+        try:
+            identity = await identify_on(bus, found.address, found.layout, timeout=IDENTIFY_TIMEOUT)
+        except UssError:
+            return found  # it stopped answering: no family
+        if identity is not None and identity.profile is not None:
+            self.families[found.address] = (identity.text, identity.profile)
+        return found
 
     def __call__(self, found: Found) -> None:
         self.found.append(found)
@@ -164,11 +189,18 @@ class Report:
         self.bar.clear()
         if len(self.found) == 1:
             print(HEADER)
-        print(row(found), flush=True)
+        print(row(found, self.families.get(found.address, ("-", ""))[0]), flush=True)
+
+    def items(self) -> list[dict[str, Any]]:
+        out = []
+        for f in self.found:
+            family, use = self.families.get(f.address, ("", ""))
+            out.append({**f.to_dict(), "family": family or None, "profile": use or None})
+        return out
 
     def finish(self) -> None:
         if self.args.json:
-            emit(self.args, [f.to_dict() for f in self.found], "")
+            emit(self.args, self.items(), "")
         elif not self.found:
             print("no drive answered", flush=True)
 
@@ -210,7 +242,8 @@ def main(args: argparse.Namespace) -> int:
         bauds = rates(args.baud)
         layouts = [Layout.parse(text) for text in args.layout or ()]
         options = master_options(args)
-        profile = resolve_profile(options.pop("profile"))
+        name = options.pop("profile")
+        profile = resolve_profile("generic" if name == "auto" else name)
         probe_layouts(profile, layouts)  # checks the layouts against the profile early
         port = args.port
         open_transport(port, baud=bauds[0])  # a bad URL is bad input (exit 2) before probing
@@ -225,9 +258,10 @@ def main(args: argparse.Namespace) -> int:
                 addresses,
                 profile=profile,
                 layouts=layouts,
-                progress=bar,
+                on_progress=bar,
                 skipped=lambda baud, exc: notes.append(f"uss scan: {baud} baud not probed: {exc}"),
                 on_found=report,
+                identify=report.identify,
                 first=args.first,
                 **options,
             )
@@ -249,5 +283,5 @@ def main(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         if args.json:
-            emit(args, [f.to_dict() for f in report.found], "")
+            emit(args, report.items(), "")
         return EXIT_INTERRUPTED

@@ -20,10 +20,12 @@ from pyuss._lazy import lazy_exports
 if TYPE_CHECKING:
     from pyuss.drive.database import (
         Access,
+        Commissioning,
         DescriptionStyle,
         Parameter,
         ParameterDatabase,
         ParamRef,
+        WordBits,
         builtin_profiles,
         load_database,
         load_profile,
@@ -41,6 +43,7 @@ __all__ = [
     "LOCAL",
     "WHOLE_ARRAY",
     "Access",
+    "Commissioning",
     "DataType",
     "DescriptionElement",
     "DescriptionStyle",
@@ -59,6 +62,7 @@ __all__ = [
     "SimulatedDrive",
     "StoreError",
     "Value",
+    "WordBits",
     "builtin_profiles",
     "load_database",
     "load_profile",
@@ -70,10 +74,12 @@ __getattr__, __dir__ = lazy_exports(
     {
         "pyuss.drive.database": (
             "Access",
+            "Commissioning",
             "DescriptionStyle",
             "Parameter",
             "ParameterDatabase",
             "ParamRef",
+            "WordBits",
             "builtin_profiles",
             "load_database",
             "load_profile",

@@ -52,6 +52,8 @@ from pyuss.protocol.pkw import INDEX_ALL, ErrorNumber
 LOCAL = "local"
 """The interface name of the drive itself (its own updates, an operator panel)."""
 
+_PHASES = {"C": "commissioning", "U": "operation", "T": "ready to run"}
+
 WHOLE_ARRAY = INDEX_ALL
 """The IND low byte (255) that addresses a whole array or the whole description."""
 
@@ -290,6 +292,7 @@ class ParameterMemory:
         self._may_write(param, index, eeprom)
         checked = self._checked(param, value, index)
         self._commit(param, [(position, index, checked)], interface, eeprom, whole=False)
+        self._written(pnu)
         return checked
 
     def write_words(
@@ -310,6 +313,7 @@ class ParameterMemory:
         value = self._decoded(param, words, index)
         checked = self._checked(param, value, index)
         self._commit(param, [(position, index, checked)], interface, eeprom, whole=False)
+        self._written(pnu)
         return param.to_words(checked)
 
     def write_array_words(
@@ -341,7 +345,9 @@ class ParameterMemory:
             value = self._checked(param, self._decoded(param, chunk, index), index)
             updates.append((position, index, value))
         self._commit(param, updates, interface, eeprom, whole=True)
-        return self.read_array_words(pnu)
+        words_held = self.read_array_words(pnu)
+        self._written(pnu)
+        return words_held
 
     def write_text(
         self,
@@ -461,6 +467,61 @@ class ParameterMemory:
                 pnu=pnu,
                 index=index,
             )
+        if param.changeable is not None:
+            phase = self.phase()
+            if phase not in param.changeable:
+                raise ParameterFault(
+                    DriveErrorNumber.WRONG_STATE,
+                    f"changeable in {'/'.join(_PHASES[c] for c in param.changeable)} only, "
+                    f"not {_PHASES[phase]}",
+                    pnu=pnu,
+                    index=index,
+                )
+
+    def commissioning_active(self) -> bool:
+        """Whether the drive is in commissioning: the ``[commissioning]`` parameter is not 0."""
+        rule = self.db.commissioning
+        return rule is not None and self._values[rule.parameter][0] != 0
+
+    def phase(self) -> str:
+        """The letter of `pyuss.drive.database.CHANGEABLE_LETTERS` the drive is in now: C in
+        commissioning, U while it runs, T while it is ready and does not run."""
+        if self.commissioning_active():
+            return "C"
+        return "U" if self._running() else "T"
+
+    def set_own(self, pnu: int, value: object, index: int | None = None) -> None:
+        """The drive's own change of a setting (the end of commissioning, a factory reset):
+        like `update`, and a value held in the EEPROM store is changed there too, so the
+        drive powers up with it."""
+        param = self.db.parameter(pnu)
+        self.update(pnu, value, index)
+        key = (pnu, index)
+        if key in self._stored and self._store is not None:
+            stored = dict(self._stored)
+            stored[key] = param.to_words(self.value(pnu, index))
+            self._store.save(stored)
+            self._stored = stored
+
+    def restore_factory(self, keep: Iterable[int] = ()) -> None:
+        """Every parameter but read-only ones and those in ``keep`` back to its factory value,
+        and out of the EEPROM store."""
+        kept = set(keep)
+        base = self.db.profile.index_base
+        for param in self.db:
+            if not param.writable or param.pnu in kept:
+                continue
+            for position, value in enumerate(param.default):
+                index = None if param.array is None else base + position
+                self.update(param.pnu, value, index)
+        stored = {k: v for k, v in self._stored.items() if k[0] in kept or not self._writable(k[0])}
+        if stored != self._stored:
+            if self._store is not None:
+                self._store.save(stored)
+            self._stored = stored
+
+    def _writable(self, pnu: int) -> bool:
+        return pnu in self.db and self.db.parameter(pnu).writable
 
     def _unlocked(self) -> bool:
         ref = self.db.profile.access_level
@@ -526,6 +587,10 @@ class ParameterMemory:
 
     def _changed(self, pnu: int) -> None:
         """Called after a value of ``pnu`` changed (for subclasses that cache settings)."""
+
+    def _written(self, pnu: int) -> None:
+        """Called after an interface wrote ``pnu`` (for subclasses with rules that act on a
+        write, such as the end of commissioning); the answer carries the value written."""
 
     def _stock_text_or_slot(self, param: ParameterSpec, y: int, second: bool) -> None:
         """A text may be changed where a text element exists or could exist (an index of the

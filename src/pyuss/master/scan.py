@@ -181,6 +181,21 @@ class _Line:
         return reply
 
 
+def _reporter(
+    progress: Callable[[int, int], None] | None, on_progress: Callable[[Progress], None] | None
+) -> Callable[[Progress], None] | None:
+    if progress is None:
+        return on_progress
+    if on_progress is None:
+        return lambda p: progress(p.done, p.total)
+
+    def both(p: Progress) -> None:
+        progress(p.done, p.total)
+        on_progress(p)
+
+    return both
+
+
 def _probe_seconds(
     baud: int, layout: Layout, profile: Profile, response_delay: float | None
 ) -> float:
@@ -230,7 +245,8 @@ async def scan(
     *,
     profile: Profile | str | None = None,
     layouts: Sequence[Layout] = (),
-    progress: Callable[[Progress], None] | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    on_progress: Callable[[Progress], None] | None = None,
     skipped: Callable[[int, TransportError], None] | None = None,
     on_found: Callable[[Found], None] | None = None,
     identify: Identify | None = None,
@@ -241,7 +257,8 @@ async def scan(
     baud rate (for example ``lambda b: open_transport(url, baud=b)``). Other options go to
     `Master`.
 
-    ``progress`` is called with a `Progress` after each probe; ``on_found`` with each drive as
+    ``progress(done, total)`` and ``on_progress`` (with a `Progress`: the time left too) are
+    called after each probe; ``on_found`` with each drive as
     soon as it is found (after ``identify``, if given, has asked it who it is); ``first``:
     stop at the first drive found. A rate the transport cannot be opened at (a ``bus://``
     line runs at one rate only) is left out and the scan goes on; once it is over,
@@ -262,7 +279,7 @@ async def scan(
     clock = _Clock(
         total=len(bauds) * len(addresses) * len(candidates),
         model_total=sum(per_address[baud] * len(addresses) for baud in bauds),
-        report=progress,
+        report=_reporter(progress, on_progress),
     )
     found: list[Found] = []
     failed: list[tuple[int, TransportError]] = []
