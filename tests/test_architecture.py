@@ -20,6 +20,10 @@ ALLOWED: dict[str, set[str]] = {
     "profiles": {"protocol", "drive"},
     "slave": {"protocol", "transport", "bus", "drive", "profiles"},
     "monitor": {"protocol", "transport", "bus"},
+    # parameter knowledge sits below the master, which converts values through it
+    "params": {"protocol", "drive", "profiles"},
+    # commissioning (backup, compare, restore, status) builds on the master
+    "commission": {"protocol", "drive", "profiles", "params", "master"},
     # faces above the master: the data logger and the web page know nothing of each other
     "datalog": {"protocol", "transport", "bus", "drive", "profiles", "master"},
     "web": {"protocol", "transport", "bus", "drive", "profiles", "master", "monitor"},

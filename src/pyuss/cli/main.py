@@ -27,6 +27,12 @@ COMMANDS: tuple[str, ...] = (
     "scan",
     "read",
     "write",
+    "params",
+    "backup",
+    "diff",
+    "restore",
+    "status",
+    "ack",
     "describe",
     "mirror",
     "run",
@@ -46,6 +52,12 @@ SUMMARIES: dict[str, str] = {
     "scan": "find drives, their baud rate and telegram layout",
     "read": "read parameter values from a drive",
     "write": "write a parameter value of a drive",
+    "params": "list the known parameters of a profile or drive, searchable",
+    "backup": "read a drive's parameter set into a file",
+    "diff": "compare a drive with a backup, or two backups",
+    "restore": "write a backup file back to a drive",
+    "status": "show a drive's state, status word and values",
+    "ack": "acknowledge a drive's fault",
     "describe": "read the description of a parameter",
     "mirror": "send mirror telegrams and check they come back unchanged",
     "run": "switch a drive on, follow its ramp live, switch it off on Ctrl+C",
@@ -62,7 +74,10 @@ SUMMARIES: dict[str, str] = {
 """The line of each command in `uss --help`, as its module registers it (a test keeps them
 equal); a command missing here is imported to build the list."""
 
-ONE_SHOT = frozenset({"scan", "read", "write", "describe", "mirror"})
+ONE_SHOT = frozenset(
+    {"scan", "read", "write", "describe", "mirror", "params", "backup", "diff", "restore"}
+    | {"status", "ack"}
+)
 """Commands whose outcome is their one line of output: their log warnings (a slave that does
 not send, ...) stay quiet unless -v asks for them, so a failure reads as one line."""
 

@@ -92,6 +92,12 @@ def register(subparsers: Any) -> None:
         help="net data layout for every address (3,2) or one (5=4,2; 1+2=v,0); others are inferred",
     )
     decode.add_argument(
+        "--profile",
+        metavar="NAME",
+        help="device profile, for parameter numbers from 2000 on in the IND page bits "
+        "(micromaster4: P2010 rather than PNU 10)",
+    )
+    decode.add_argument(
         "--gap",
         type=float,
         metavar="MS",
@@ -155,7 +161,9 @@ def register(subparsers: Any) -> None:
     parser.set_defaults(func=run)
 
 
-def frame_json(frame: Frame, layout: Layout | None, origin: float = 0.0) -> dict[str, Any]:
+def frame_json(
+    frame: Frame, layout: Layout | None, origin: float = 0.0, page_size: int | None = None
+) -> dict[str, Any]:
     """A frame as a JSON-ready dict, times less ``origin``; ``telegram`` is what
     ``uss decode --json`` gives for its bytes with ``layout`` (None when they hold no whole
     telegram, there is no layout for them or they do not fit it)."""
@@ -163,7 +171,7 @@ def frame_json(frame: Frame, layout: Layout | None, origin: float = 0.0) -> dict
     if frame.telegram is not None and layout is not None:
         direction = "response" if frame.direction is Direction.RESPONSE else "request"
         try:
-            telegram = describe(frame.raw, layout, direction)
+            telegram = describe(frame.raw, layout, direction, page_size=page_size)
         except TelegramError:
             telegram = None
     return {
@@ -181,7 +189,9 @@ def frame_json(frame: Frame, layout: Layout | None, origin: float = 0.0) -> dict
     }
 
 
-def exchange_json(ex: Exchange, *, origin: float = 0.0) -> dict[str, Any]:
+def exchange_json(
+    ex: Exchange, *, origin: float = 0.0, page_size: int | None = None
+) -> dict[str, Any]:
     """An exchange as a JSON-ready dict (the keys are listed in docs/monitor.md)."""
     decodable = ex.mode in (AddressMode.NORMAL, AddressMode.BROADCAST)
     layout = ex.layout if decodable else None
@@ -193,15 +203,17 @@ def exchange_json(ex: Exchange, *, origin: float = 0.0) -> dict[str, Any]:
         "mode": None if ex.mode is None else ex.mode.label,
         "layout": None if ex.layout is None else str(ex.layout),
         "layout_source": None if ex.layout_source is None else ex.layout_source.value,
-        "request": None if ex.request is None else frame_json(ex.request, layout, origin),
-        "answer": None if ex.answer is None else frame_json(ex.answer, layout, origin),
+        "request": None
+        if ex.request is None
+        else frame_json(ex.request, layout, origin, page_size),
+        "answer": None if ex.answer is None else frame_json(ex.answer, layout, origin, page_size),
         "delay_ms": None if ex.delay is None else round(ex.delay * 1000, 6),
         "problems": [
             {"problem": i.problem.value, "where": i.where, "text": i.text} for i in ex.issues
         ],
         "unsure": ex.unsure or None,
         "notes": list(ex.notes),
-        "summary": exchange_line(ex, origin=origin),
+        "summary": exchange_line(ex, origin=origin, page_size=page_size),
     }
 
 
@@ -250,6 +262,7 @@ class _Output:
         self.done: Callable[[], None] = lambda: None
         color = args.color == "always" or (args.color == "auto" and stream.isatty())
         self.color = color and not args.json
+        self.page_size = page_size(args)
 
     def __call__(self, exchanges: Iterable[Exchange]) -> None:
         for ex in exchanges:
@@ -282,11 +295,14 @@ class _Output:
 
     def render(self, ex: Exchange) -> str:
         assert self.origin is not None
+        pages = self.page_size
         if self.args.json:
-            return json.dumps(exchange_json(ex, origin=self.origin))
+            return json.dumps(exchange_json(ex, origin=self.origin, page_size=pages))
         if self.args.time == "abs":
-            return exchange_line(ex, origin=self.epoch, absolute=True, color=self.color)
-        return exchange_line(ex, origin=self.origin, color=self.color)
+            return exchange_line(
+                ex, origin=self.epoch, absolute=True, color=self.color, page_size=pages
+            )
+        return exchange_line(ex, origin=self.origin, color=self.color, page_size=pages)
 
     def table(self) -> str:
         now = self.monitor.now
@@ -332,7 +348,17 @@ def _finish(writers: list[CaptureWriter]) -> None:
         raise ConfigError("; ".join(errors))
 
 
+def page_size(args: argparse.Namespace) -> int | None:
+    """Parameter numbers per IND page of ``--profile``'s devices (None: no paging)."""
+    if getattr(args, "profile", None) is None:
+        return None
+    from pyuss.profiles import get_profile
+
+    return get_profile(args.profile).pnu_page_size
+
+
 def _check(args: argparse.Namespace) -> tuple[list[str], LayoutBook]:
+    page_size(args)  # an unknown profile is bad input
     ports = list(args.port)
     if args.port_rx is not None:
         ports.append(args.port_rx)

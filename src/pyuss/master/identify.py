@@ -38,9 +38,11 @@ async def identify_drive(drive: Drive, *, timeout: float | None = None) -> Ident
 
     async def read(pnu: int, index: int | None) -> float | None:
         try:
-            return await drive.read(pnu, index, timeout=timeout)
+            words = await drive.read_raw(pnu, index, timeout=timeout)
         except DriveRefusal:
             return None
+        # the number as sent (an unsigned word or double word): the rules compare raw values
+        return words[0] if len(words) == 1 else (words[0] << 16) | words[1]
 
     return await identify(read)
 

@@ -31,13 +31,17 @@ from functools import cache
 from pyuss.drive.database import ParameterDatabase, load_profile
 from pyuss.errors import ConfigError
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
-from pyuss.protocol.pkw import MAX_PNU, error_meaning
+from pyuss.protocol.pkw import (
+    MAX_PNU,
+    PAGE_BITS,
+    error_meaning,
+    page_of,
+    parameter_number,
+)
 from pyuss.protocol.timing import MAX_RESPONSE_DELAY, char_time
 
 __all__ = ["BitRef", "BroadcastForm", "IdentityRule", "Profile"]
 
-_PAGE_BITS = (15, 12, 13, 14)
-"""IND bits carrying the page number, lowest weight first (bit 15 has weight 1)."""
 _PAGE_MASK = 0xF000
 
 
@@ -241,22 +245,18 @@ class Profile:
             return pnu, 0
         page, number = divmod(pnu, self.pnu_page_size)
         bits = 0
-        for weight, bit in enumerate(_PAGE_BITS):
+        for weight, bit in enumerate(PAGE_BITS):
             if page >> weight & 1:
                 bits |= 1 << bit
         return number, bits
 
     def decode_pnu(self, pnu_bits: int, index: int) -> int:
         """The parameter number a request addresses with PKE bits 0..10 and the IND word."""
-        if self.pnu_page_size is None:
-            return pnu_bits
-        return pnu_bits + self.pnu_page_size * self.page(index)
+        return parameter_number(pnu_bits, index, self.pnu_page_size)
 
     def page(self, index: int) -> int:
         """The page number in IND bits 12..15 (0 without paging)."""
-        if self.pnu_page_size is None:
-            return 0
-        return sum(1 << weight for weight, bit in enumerate(_PAGE_BITS) if index >> bit & 1)
+        return 0 if self.pnu_page_size is None else page_of(index)
 
     def strip_page(self, index: int) -> int:
         """The IND word without the page bits: subindex and text bits."""

@@ -43,9 +43,15 @@ CONTROL_BITS: dict[int, str] = {
     5: "enable ramp",
     6: "enable setpoint",
     7: "acknowledge fault (rising edge)",
+    8: "bus bit 8 (function set in P480)",
+    9: "bus bit 9 (function set in P480)",
     10: "control data valid",
+    11: "rotation right",
+    12: "rotation left",
+    14: "parameter set bit 0",
+    15: "parameter set bit 1",
 }
-"""Control word bits as the SK 500E takes them (C Table 5.4 meaning)."""
+"""Control word bits as the SK 500E takes them (NORD BU 0050 1.5.3.3)."""
 
 STATUS_BITS: dict[int, str] = {
     0: "ready to switch on",
@@ -57,10 +63,14 @@ STATUS_BITS: dict[int, str] = {
     6: "switch-on inhibit",
     7: "warning",
     8: "setpoint = actual value",
-    9: "bus control",
-    10: "setpoint reached",
+    9: "bus control requested",
+    10: "bus bit 10 (function set in P481)",
+    11: "rotation right",
+    12: "rotation left",
+    14: "parameter set bit 0",
+    15: "parameter set bit 1",
 }
-"""Status word bits of the SK 500E (C Table 5.5 meaning)."""
+"""Status word bits of the SK 500E (NORD BU 0050 1.5.3.4)."""
 
 FAULTS: dict[int, str] = {
     10: "E001 inverter overtemperature",
@@ -71,7 +81,6 @@ FAULTS: dict[int, str] = {
     60: "E006 DC link undervoltage / charging",
     70: "E007 mains phase missing",
     80: "E008 parameter loss (EEPROM)",
-    90: "E009 control unit fault",
     100: "E010 bus time-out (P513)",
 }
 """Fault numbers as P700 shows them in 0.1 units: 100 = E010.0."""

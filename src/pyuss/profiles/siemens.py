@@ -7,8 +7,9 @@ What they share (their manuals, named in each parameter file's ``manual``):
   bit 12 = 2, bit 13 = 4, bit 14 = 8; ``micromaster4``); arrays count from index 0.
 - The USS interface is set by P2010 (baud rate code, `BAUD_CODES`), P2011 (address), P2012 (PZD
   length), P2013 (PKW length 0, 3, 4 or 127 = variable) and P2014 (telegram off time in ms, 0 =
-  off): arrays over the drive's two USS interfaces. The simulator serves the RS-485 one (index 1
-  "COM link" on MICROMASTER 4, index 0 on G110, G120 CU240S and V20).
+  off): arrays over the drive's two USS interfaces. The simulator serves the RS-485 one, index 0
+  on every family (the "COM link" of the MICROMASTER 4, whose index 1 is the BOP link; the RS-485
+  terminals of the G110, G120 CU240S and V20).
 - Control word 1 (r0054) and status word 1 (r0052) extend C Tables 5.4/5.5: reverse in control
   bit 11, the motor potentiometer in bits 13/14; low-active warnings in status bits 11, 13, 15,
   the holding brake in bit 12 and the direction in bit 14 (`CONTROL_BITS`, `STATUS_BITS`).

@@ -39,7 +39,7 @@ from pyuss.monitor.model import Exchange
 from pyuss.monitor.render import exchange_line
 from pyuss.profiles import get_profile, profile_names
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
-from pyuss.protocol.pkw import Pkw, RequestId
+from pyuss.protocol.pkw import Pkw, RequestId, pwe_dword, pwe_float, pwe_word
 from pyuss.protocol.pzd import STATUS_BITS, raw16_to_percent
 from pyuss.protocol.telegram import MAX_ADDRESS
 from pyuss.transport.base import Chunk, Transport
@@ -673,19 +673,18 @@ class Backend:
             raise ConfigError(f"P{pnu} is read-only")
         value = self.parse(param, text)
         if param.dtype is DataType.FLOAT:
-            await state.drive.write(
-                pnu, float(value), index, eeprom=eeprom, timeout=self.job_timeout
-            )
+            words: tuple[int, ...] = pwe_float(float(value))
         else:
             raw = int(value) & (0xFFFF_FFFF if param.word_count == 2 else 0xFFFF)
-            await state.drive.write(
-                pnu,
-                raw,
-                index,
-                dword=param.word_count == 2,
-                eeprom=eeprom,
-                timeout=self.job_timeout,
-            )
+            words = pwe_dword(raw) if param.word_count == 2 else pwe_word(raw)
+        await state.drive.write_raw(
+            pnu,
+            words,
+            index,
+            eeprom=eeprom,
+            dword=param.word_count == 2,
+            timeout=self.job_timeout,
+        )
         (result,) = await self.read(address, [(pnu, index)])
         ref = state.database.roles.get("reference")
         if ref is not None and ref.pnu == pnu:
