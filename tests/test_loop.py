@@ -17,7 +17,7 @@ def test_a_fine_loop_waits_on_epoll_with_select_and_is_known_as_fine() -> None:
         return fine.fine_timers()
 
     assert fine.run(inside()) is True
-    with asyncio.Runner() as runner:
+    with asyncio.Runner(loop_factory=asyncio.SelectorEventLoop) as runner:
         assert runner.run(inside()) is False  # asyncio's own loop sleeps in milliseconds
     loop = fine.new_event_loop(least_slack=False)
     try:
@@ -56,18 +56,16 @@ def test_sleep_until_never_returns_early_on_any_loop(kind: str) -> None:
         await fine.sleep_until(time.monotonic() - 1, time.monotonic)  # past: at once
         return late
 
-    factory = fine.new_event_loop if kind == "fine" else asyncio.new_event_loop
+    factory = fine.new_event_loop if kind == "fine" else asyncio.SelectorEventLoop
     with asyncio.Runner(loop_factory=factory) as runner:
         assert all(late >= 0 for late in runner.run(main()))
 
 
-def test_install_makes_asyncio_run_use_fine_loops() -> None:
+def test_installed_makes_asyncio_run_use_fine_loops_for_a_while() -> None:
     async def inside() -> bool:
         return fine.fine_timers()
 
     policy = asyncio.get_event_loop_policy()
-    try:
-        fine.install(least_slack=False)
+    with fine.installed(least_slack=False):
         assert asyncio.run(inside()) is True
-    finally:
-        asyncio.set_event_loop_policy(policy)
+    assert asyncio.get_event_loop_policy() is policy

@@ -30,7 +30,7 @@ import select
 import selectors
 import sys
 import weakref
-from collections.abc import Callable, Coroutine
+from collections.abc import Callable, Coroutine, Iterator
 from typing import Any, TypeVar
 
 __all__ = [
@@ -38,6 +38,7 @@ __all__ = [
     "FINE_MARGIN",
     "fine_timers",
     "install",
+    "installed",
     "margin",
     "new_event_loop",
     "run",
@@ -124,6 +125,17 @@ def install(*, least_slack: bool = True) -> None:
     """Make `asyncio.run` (and every loop made through the policy) use `new_event_loop`: for
     programs, such as the ``uss`` command, whose every loop keeps a line's timing."""
     asyncio.set_event_loop_policy(_Policy(least_slack))
+
+
+@contextlib.contextmanager
+def installed(*, least_slack: bool = True) -> Iterator[None]:
+    """`install` for the time of a ``with`` block; the policy before it is put back after."""
+    before = asyncio.get_event_loop_policy()
+    install(least_slack=least_slack)
+    try:
+        yield
+    finally:
+        asyncio.set_event_loop_policy(before)
 
 
 def margin(loop: asyncio.AbstractEventLoop | None = None) -> float:

@@ -154,17 +154,17 @@ async def test_progress_estimates_the_time_left_from_the_wire_time() -> None:
     async with simulated_bus([(1, "generic", Layout(3, 2))], baud=187500) as env:
         await env.master.close()
         seen: list[Progress] = []
-        await scan(
+        found = await scan(
             lambda baud: env.bus.attach("scanner"), [187500], range(4), on_progress=seen.append
         )
     first, last = seen[0], seen[-1]
     assert first.left is not None and first.left > 0
     assert last.left == 0 and last.done == last.total
     # a silent probe: its request, the start pause (2 characters) and the 20 ms window;
-    # address 1 answers the first (14 + 14 characters and its turnaround, at least the start
-    # pause) and stays silent to the variable-length check (PKW 4: 16 characters)
+    # address 1 answers the first (14 + 14 characters, the start pause and its turnaround)
+    # and stays silent to the variable-length check (PKW 4: 16 characters)
     ct = 11 / 187500
     lengths = [layout.lge + 2 for layout in probe_layouts(get_profile("generic"))]
     silent_address = sum((n + 2) * ct + 0.020 for n in lengths)
-    address_1 = (14 + 2 + 14) * ct + (16 + 2) * ct + 0.020
+    address_1 = (14 + 2 + 14) * ct + found[0].response_time + (16 + 2) * ct + 0.020
     assert last.wire == pytest.approx(3 * silent_address + address_1, rel=0.01)

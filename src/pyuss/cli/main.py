@@ -130,9 +130,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     level = quiet if args.verbose == 0 else (logging.INFO if args.verbose == 1 else logging.DEBUG)
     logging.basicConfig(level=level, format="%(asctime)s %(name)s %(levelname)s %(message)s")
     if "asyncio" in sys.modules:  # the command runs an event loop: keep sub-ms timing
-        from pyuss.loop import install
+        from pyuss.loop import installed
 
-        install(least_slack=args.command not in ONE_SHOT)
+        with installed(least_slack=args.command not in ONE_SHOT):
+            return _run(args)
+    return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     try:
         code: int = args.func(args)
     except KeyboardInterrupt:
