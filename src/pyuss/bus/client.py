@@ -123,6 +123,10 @@ class BusClientTransport(QueuedTransport):
         self.timed = False
         """Whether the bus takes send frames (`write_at` is then exact)."""
 
+    @property
+    def exact_timestamps(self) -> bool:
+        return True  # the bus's own end times of the characters
+
     def describe(self) -> str:
         return f"bus://{self.host}:{self.port} station {self.name or '(unnamed)'}"
 

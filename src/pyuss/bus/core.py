@@ -137,6 +137,10 @@ class Station(QueuedTransport):
     def describe(self) -> str:
         return f"bus station {self.name!r}"
 
+    @property
+    def exact_timestamps(self) -> bool:
+        return True  # the bus stamps every character with its end on the line
+
     async def open(self) -> None:
         if self.is_open:
             return

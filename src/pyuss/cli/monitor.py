@@ -16,9 +16,12 @@ At the end the summary table goes to stderr (stdout with ``--summary``).
 
 ``--port`` is master to slave (on a 2-wire line: everything), ``--port-rx`` (or a second
 ``--port``) slave to master on a 4-wire line. A ``bus://`` station joins the virtual bus
-listen-only. ``--gap MS`` is the idle time that starts a telegram: the start pause of 2
-character times (A 5.1.2) on ``bus://`` (exact timestamps), at least 2 ms on real ports
-(their timestamps come in bursts). ``--write FILE`` saves a capture: ``*.pcapng`` for
+listen-only. Serial ports, ptys and ``tcp://`` stamp bytes when they are read (USB adapters
+deliver every 1 to 16 ms), so timing is judged with a tolerance of 20 ms there (``--tolerance
+MS``; 0 on ``bus://``, whose timestamps are exact): a late burst does not cut a telegram, and
+an answer read together with its request still had its start pause. ``--gap MS`` is the idle
+time that starts a telegram (default: the start pause of 2 character times, A 5.1.2).
+``--write FILE`` saves a capture: ``*.pcapng`` for
 Wireshark (``uss wireshark install``) or ``*.jsonl``; ``--read FILE`` replays one (or a
 ``uss bus --record`` recording) through the same decoder.
 
@@ -52,6 +55,7 @@ from pyuss.monitor.render import exchange_line, summary_table
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import AddressMode
 from pyuss.protocol.timing import BAUD_RATES, check_baud
+from pyuss.transport.base import STAMP_TOLERANCE
 from pyuss.transport.url import open_transport
 
 __all__ = ["exchange_json", "frame_json", "register", "run"]
@@ -101,8 +105,14 @@ def register(subparsers: Any) -> None:
         "--gap",
         type=float,
         metavar="MS",
-        help="idle time that starts a telegram (default: start pause on bus://, "
-        "at least 2 ms on real ports)",
+        help="idle time that starts a telegram (default: the start pause, A 5.1.2)",
+    )
+    decode.add_argument(
+        "--tolerance",
+        type=float,
+        metavar="MS",
+        help="how late the port may stamp a byte: timing is judged beyond it (default 20 ms; "
+        "0 on bus://, exact timestamps)",
     )
     decode.add_argument(
         "--response-limit",
@@ -217,6 +227,15 @@ def exchange_json(
     }
 
 
+def _tolerance(args: argparse.Namespace, default: float) -> float:
+    if args.tolerance is None:
+        return default
+    value = float(args.tolerance)
+    if not 0 <= value < float("inf"):
+        raise ConfigError(f"--tolerance {args.tolerance}: must be >= 0 milliseconds")
+    return value / 1000
+
+
 def _ms(value: float | None, option: str) -> float | None:
     if value is None:
         return None
@@ -314,8 +333,8 @@ def _open_writers(
     baud: int,
     four_wire: bool,
     epoch: float,
-    linktype: int | None,
-    gap: float,
+    args: argparse.Namespace,
+    monitor: Monitor,
 ) -> list[CaptureWriter]:
     writers: list[CaptureWriter] = []
     try:
@@ -326,8 +345,9 @@ def _open_writers(
                     baud=baud,
                     four_wire=four_wire,
                     epoch=epoch,
-                    linktype=linktype,
-                    gap=gap,
+                    linktype=args.linktype,
+                    gap=monitor.gap,
+                    tolerance=monitor.tolerance,
                 )
             )
     except ConfigError:
@@ -391,16 +411,16 @@ def _monitor(
     four_wire: bool,
     layouts: LayoutBook,
     gap: float | None,
-    *,
-    exact: bool,
+    tolerance: float,
 ) -> Monitor:
     return Monitor(
         baud,
         four_wire=four_wire,
         layouts=layouts,
-        gap=default_gap(baud, exact=exact) if gap is None else gap,
+        gap=default_gap(baud) if gap is None else gap,
         response_limit=_ms(args.response_limit, "--response-limit"),
         late_limit=_ms(args.late_limit, "--late-limit"),
+        tolerance=tolerance,
     )
 
 
@@ -414,20 +434,18 @@ def run(args: argparse.Namespace) -> int:
                     f"--baud {args.baud}: the capture {args.read} is at {capture.baud} baud"
                 )
             gap = capture.gap if args.gap is None else _ms(args.gap, "--gap")
-            monitor = _monitor(args, capture.baud, False, layouts, gap, exact=True)
-            writers = _open_writers(
-                args.write, capture.baud, capture.four_wire, 0.0, args.linktype, monitor.gap
-            )
+            tolerance = _tolerance(args, capture.tolerance)
+            monitor = _monitor(args, capture.baud, False, layouts, gap, tolerance)
+            writers = _open_writers(args.write, capture.baud, capture.four_wire, 0.0, args, monitor)
         else:
             urls = [_listen_only(url) for url in ports]
-            exact = all(urllib.parse.urlsplit(u).scheme.lower() == "bus" for u in urls)
             gap = _ms(args.gap, "--gap")
-            monitor = _monitor(args, args.baud, len(urls) == 2, layouts, gap, exact=exact)
             transports = [Listener(open_transport(u, baud=args.baud)) for u in urls]
+            exact = all(t.exact_timestamps for t in transports)
+            tolerance = _tolerance(args, 0.0 if exact else STAMP_TOLERANCE)
+            monitor = _monitor(args, args.baud, len(urls) == 2, layouts, gap, tolerance)
             epoch = time.time() - time.monotonic()
-            writers = _open_writers(
-                args.write, args.baud, len(urls) == 2, epoch, args.linktype, monitor.gap
-            )
+            writers = _open_writers(args.write, args.baud, len(urls) == 2, epoch, args, monitor)
     except ConfigError as exc:
         print(f"uss monitor: {exc}", file=sys.stderr)
         return EXIT_USAGE
@@ -518,7 +536,7 @@ async def _live(
         wiring = "4-wire" if len(urls) == 2 else "2-wire"
         print(
             f"uss monitor: listening on {' and '.join(urls)} ({wiring}, {monitor.baud} baud, "
-            f"gap {monitor.gap * 1000:.3f} ms)",
+            f"gap {monitor.gap * 1000:.3f} ms, tolerance {monitor.tolerance * 1000:g} ms)",
             file=sys.stderr,
             flush=True,
         )

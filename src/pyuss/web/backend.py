@@ -42,7 +42,7 @@ from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.pkw import Pkw, RequestId, pwe_dword, pwe_float, pwe_word
 from pyuss.protocol.pzd import STATUS_BITS, raw16_to_percent
 from pyuss.protocol.telegram import MAX_ADDRESS
-from pyuss.transport.base import Chunk, Transport
+from pyuss.transport.base import Chunk, Transport, stamp_tolerance
 from pyuss.web.tap import TapTransport
 
 __all__ = [
@@ -201,7 +201,7 @@ class Backend:
             self._monitor = Monitor(
                 self.baud,
                 layouts=LayoutBook(per_address=layouts),
-                gap=default_gap(self.baud, exact=True),
+                gap=default_gap(self.baud),
             )
             listener = self._bus.attach("page-monitor", listen_only=True)
             await listener.open()
@@ -210,12 +210,13 @@ class Backend:
             options: dict[str, Any] = {}
         else:
             inner = self._new_transport(tap=False)
-            exact = _exact(inner)
+            exact = inner.exact_timestamps
             self._monitor = Monitor(
                 self.baud,
                 four_wire=True,
                 layouts=LayoutBook(per_address=layouts),
-                gap=default_gap(self.baud, exact=exact),
+                gap=default_gap(self.baud),
+                tolerance=stamp_tolerance(inner),
             )
             transport = TapTransport(inner, self._feed)
             options = {"rx_tolerance": 0.0} if exact else {}
@@ -834,14 +835,6 @@ class Backend:
             )
             write_all(writer, (ex for _, ex in list(self.exchanges)))
             return path.read_bytes()
-
-
-def _exact(transport: Transport) -> bool:
-    """Transports that stamp every character with its true end on the line."""
-    from pyuss.bus.client import BusClientTransport
-    from pyuss.bus.core import Station
-
-    return isinstance(transport, Station | BusClientTransport)
 
 
 def _words(exc: UssError) -> str:

@@ -58,3 +58,7 @@ class TapTransport(Transport):
     @property
     def baud(self) -> int:
         return self.inner.baud
+
+    @property
+    def exact_timestamps(self) -> bool:
+        return self.inner.exact_timestamps
