@@ -122,6 +122,11 @@ def sample(frames: list[tuple[float, int]], start: float, bit: float) -> tuple[i
                 level = 0
                 break
         levels |= level << k
+    return _read_levels(levels)
+
+
+def _read_levels(levels: int) -> tuple[int, LineError]:
+    """The byte and error flags of the 11 line levels a UART sampled."""
     byte = (levels >> 1) & 0xFF
     flags = LineError.NONE
     if (byte.bit_count() + ((levels >> 9) & 1)) & 1:
@@ -184,6 +189,15 @@ class Station(QueuedTransport):
             raise TransportError(f"{self.describe()} is listen-only: it cannot send")
         self.stats.bytes_out += len(data)
         self.bus.send(self.name, bytes(data))
+
+    async def write_at(self, data: bytes, start: float) -> None:
+        """Like `write`, but the first character starts at ``start`` (monotonic seconds) if
+        that is later: the station keeps a pause to the microsecond without waiting for it."""
+        self._check_writable()
+        if self.listen_only:
+            raise TransportError(f"{self.describe()} is listen-only: it cannot send")
+        self.stats.bytes_out += len(data)
+        self.bus.send(self.name, bytes(data), at=start)
 
     def receive(
         self, data: bytes, timestamp: float, errors: tuple[tuple[int, LineError], ...]
@@ -325,8 +339,9 @@ class VirtualBus:
         return self._engine.dead(name, now - self.epoch)
 
     # -- sending ----------------------------------------------------------------------------
-    def send(self, sender: str, data: bytes) -> None:
-        """Put ``data`` from station ``sender`` on the line (see the module docstring)."""
+    def send(self, sender: str, data: bytes, at: float | None = None) -> None:
+        """Put ``data`` from station ``sender`` on the line (see the module docstring); with
+        ``at`` (monotonic seconds) not before then, as a UART with a timed transmit does."""
         station = self.stations.get(sender)
         if station is None:
             raise TransportError(f"no station {sender!r} on the bus")
@@ -351,8 +366,9 @@ class VirtualBus:
             data = data[: max(room, 0)]
         tc = self.char_time
         t = station.tx_free
-        if t <= now:
-            t = now + self._engine.answer_delay(sender, now - self.epoch)
+        begin = now if at is None or at <= now else at
+        if t <= begin:
+            t = begin + self._engine.answer_delay(sender, now - self.epoch)
         for byte in data:
             plan = self._engine.character(sender, byte, t - self.epoch)
             t += plan.gap_before * tc
@@ -433,6 +449,10 @@ class VirtualBus:
         # (their tail): the receivers sample them too.
         self._on_line = [p for p in self._on_line if p.start + tc > first.start + _EPS]
         tails = self._on_line
+        if not tails and len(group) == 1:  # alone on the line: its own levels, as sampled
+            byte, flags = _read_levels(first.frame & 0x7FF)
+            self._on_line = group
+            return WireChar(first.start, end, byte, flags, first.sender, first.notes)
         frames = [(p.start, p.frame) for p in (*tails, *group)]
         byte, flags = sample(frames, first.start, self.bit_time)
         notes = tuple(n for p in group for n in p.notes)

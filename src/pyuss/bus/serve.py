@@ -26,12 +26,13 @@ import contextlib
 import itertools
 import json
 import logging
+import time
 from collections.abc import Collection
 from typing import Any
 
 from pyuss.bus.core import Station, VirtualBus
-from pyuss.bus.wire import MAX_DATA, encode_frame
-from pyuss.errors import ConfigError, TransportError
+from pyuss.bus.wire import MAX_AHEAD, MAX_DATA, SendDecoder, encode_frame
+from pyuss.errors import ConfigError, ProtocolError, TransportError
 from pyuss.transport.base import LineError
 from pyuss.transport.pty import PtyPort
 from pyuss.transport.tcp import check_endpoint, close_writer
@@ -187,16 +188,33 @@ async def _raw_station(
     await _pump_in(bus, station, reader)
 
 
-async def _pump_in(bus: VirtualBus, station: Station, reader: asyncio.StreamReader) -> None:
+async def _pump_in(
+    bus: VirtualBus,
+    station: Station,
+    reader: asyncio.StreamReader,
+    frames: SendDecoder | None = None,
+) -> None:
+    """Put what a station sends on the line: raw bytes, or send frames (`pyuss.bus.wire`)."""
     name = station.name
     try:
         while True:
             data = await reader.read(65536)
             if not data:
                 break
-            if bus.stations.get(name) is station and not station.listen_only:
+            if bus.stations.get(name) is not station or station.listen_only:
+                continue
+            if frames is None:
                 bus.send(name, data)
-    except OSError as exc:
+                continue
+            now = time.monotonic()
+            for start, part in frames.feed(data):
+                if start > now + MAX_AHEAD:
+                    raise ProtocolError(
+                        f"a send frame asks to start {start - now:.3f} s ahead "
+                        f"(at most {MAX_AHEAD:g} s)"
+                    )
+                bus.send(name, part, at=start)
+    except (OSError, ProtocolError) as exc:
         log.info("bus: station %s lost: %s", name, exc)
     finally:
         bus.detach(name, station)
@@ -218,6 +236,7 @@ async def _framed_station(
         name = hello.get("name") or _free_name(bus, "tcp")
         echo = bool(hello.get("echo", False))
         listen_only = bool(hello.get("listen_only", False))
+        timed = hello.get("timed") is True
     except (TimeoutError, ValueError, OSError) as exc:
         answer({"ok": False, "error": f"bad hello: {exc}"})
         return
@@ -233,6 +252,6 @@ async def _framed_station(
         answer({"ok": False, "error": str(exc)})
         return
     holder.append(station)
-    answer({"ok": True, "name": station.name, "baud": bus.baud})
+    answer({"ok": True, "name": station.name, "baud": bus.baud, "timed": timed})
     log.info("bus: station %s connected (bus://)", station.name)
-    await _pump_in(bus, station, reader)
+    await _pump_in(bus, station, reader, SendDecoder() if timed else None)

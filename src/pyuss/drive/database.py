@@ -28,10 +28,8 @@ from __future__ import annotations
 import enum
 import math
 import re
-import tomllib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from importlib import resources
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -495,6 +493,8 @@ def builtin_profiles() -> tuple[str, ...]:
 
 
 def _builtin_files() -> tuple[str, ...]:
+    from importlib import resources  # here: a command that reads no file starts sooner
+
     folder = resources.files(BUILTIN_PACKAGE).joinpath("data")
     return tuple(
         sorted(p.name.removesuffix(".toml") for p in folder.iterdir() if p.name.endswith(".toml"))
@@ -520,6 +520,8 @@ def parse_database(text: str, source: str = "<text>") -> ParameterDatabase:
 
 
 def _parse_toml(text: str, source: str) -> dict[str, Any]:
+    import tomllib  # here: a command that reads no file starts sooner
+
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -532,6 +534,8 @@ def _read_source(ref: str) -> tuple[str, str]:
         name = ref.removeprefix("builtin:")
         if name not in _builtin_files():
             raise ConfigError(f"unknown profile {name!r} (known: {', '.join(builtin_profiles())})")
+        from importlib import resources
+
         res = resources.files(BUILTIN_PACKAGE).joinpath("data", f"{name}.toml")
         return f"profile {name} ({name}.toml)", res.read_text(encoding="utf-8")
     try:

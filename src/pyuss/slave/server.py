@@ -43,12 +43,12 @@ from __future__ import annotations
 import asyncio
 import logging
 import math
-import time
-from collections.abc import Iterable
 from dataclasses import dataclass
 
+from pyuss.bus.timed import is_station, timed_writer
 from pyuss.errors import ConfigError, TelegramError, TransportError
 from pyuss.log import log_frame
+from pyuss.loop import sleep_until
 from pyuss.protocol.diagnostics import Diagnostics
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.receiver import Received, ReceiveFault, Receiver
@@ -66,10 +66,10 @@ log = logging.getLogger("pyuss.slave")
 
 _IDLE_READ = 0.1
 """Longest single wait for the line, so that a stop request is seen soon."""
-_SPIN = 0.0015
-"""Waits shorter than this are finished by polling the clock (timer resolution: 1 ms)."""
 _MAX_BACKLOG = 1.0
 """On an untimed line, reads are not placed more than this many seconds behind their arrival."""
+_GUARD = 1e-9
+"""Answers aim this much past their moment, so that rounding never puts them a hair early."""
 LATE_MARGIN = 0.001
 """An answer is counted late when it starts more than this after the profile's latest moment
 (the clock and the event loop have some jitter; a window may be a single moment)."""
@@ -156,6 +156,8 @@ class SlaveServer:
         self.latency = latency
         self._char_time = 11 / self.baud
         self._line_free = -math.inf
+        self._due: float | None = None
+        self._write_at = timed_writer(transport)
 
     def _receiver(self) -> Receiver:
         engines = self.engines.values()
@@ -202,8 +204,11 @@ class SlaveServer:
         transport = self.transport
         now = transport.clock()
         wait = _IDLE_READ
-        for deadline in self._deadlines():
-            wait = min(wait, max(0.0, deadline - now))
+        poll = self.receiver.next_poll()
+        if poll is not None:
+            wait = min(wait, max(0.0, poll + self.latency - now))
+        if self._due is not None:
+            wait = min(wait, max(0.0, self._due - now))
         try:
             chunk = await transport.read(wait)
         except EchoError as exc:
@@ -224,19 +229,27 @@ class SlaveServer:
                 await self._received(event)
             else:
                 self._fault(event)
-        now = transport.clock()
-        for engine in self.engines.values():
-            engine.tick(now)
-        self._follow_baud()
+        # The engines' deadlines (telegram failure times) move with the telegrams they get;
+        # between telegrams they are looked at again on every idle read.
+        if chunk is None or events:
+            self._due = self._next_due()
+        if self._due is not None:
+            now = transport.clock()
+            if now >= self._due:
+                for engine in self.engines.values():
+                    engine.tick(now)
+                self._due = self._next_due()
+        if events:  # a telegram may have set a drive's baud rate parameter
+            self._follow_baud()
 
-    def _deadlines(self) -> Iterable[float]:
-        poll = self.receiver.next_poll()
-        if poll is not None:
-            yield poll + self.latency
+    def _next_due(self) -> float | None:
+        """The first moment an engine's `SlaveEngine.tick` has something to do."""
+        due = None
         for engine in self.engines.values():
             deadline = engine.next_deadline()
-            if deadline is not None:
-                yield deadline
+            if deadline is not None and (due is None or deadline < due):
+                due = deadline
+        return due
 
     def _fault(self, event: ReceiveFault) -> None:
         self.stats.faults += 1
@@ -269,11 +282,23 @@ class SlaveServer:
             return
         low, high = engine.response_window(self.baud)
         delay = low if self.response_delay is None else min(max(self.response_delay, low), high)
-        await self._wait_until(event.end + delay)
+        target = event.end + delay + _GUARD
         data = answer.encode()
-        start = self.transport.clock()
         try:
-            await self.transport.write(data)
+            if self._write_at is not None:  # the bus starts it at ``target`` exactly
+                await self._write_at(data, target)
+                start = max(self.transport.clock(), target)
+            elif self.timed:
+                await self._wait_until(target)
+                start = self.transport.clock()
+                await self.transport.write(data)
+            else:
+                # No timing on the line: the answer goes out when its last character would
+                # have ended on a real line, so the master reads it as a real line brings it.
+                start = max(target, self._line_free)
+                self._line_free = start + len(data) * self._char_time
+                await self._wait_until(self._line_free)
+                await self.transport.write(data)
         except TransportError as exc:  # a line that is really lost ends `run` at the next read
             self.stats.unsent += 1
             log.warning("address %d: answer not sent: %s", engine.address, exc)
@@ -293,12 +318,7 @@ class SlaveServer:
             )
 
     async def _wait_until(self, target: float) -> None:
-        clock = self.transport.clock
-        remaining = target - clock()
-        if remaining > _SPIN:
-            await asyncio.sleep(remaining - _SPIN)
-        while clock() < target:
-            time.sleep(0)  # poll the clock for the last fraction of a millisecond
+        await sleep_until(target, self.transport.clock)
 
     # -- helpers ----------------------------------------------------------------------------
 
@@ -310,9 +330,7 @@ class SlaveServer:
 
 def _timed(transport: Transport) -> bool:
     """Whether the transport's timestamps follow the line (see the module docstring)."""
-    from pyuss.bus.client import BusClientTransport
-
-    if isinstance(transport, BusClientTransport):
+    if is_station(transport):
         return True
     return not isinstance(transport, PtyPort | TcpTransport | TcpServerTransport)
 
