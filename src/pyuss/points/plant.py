@@ -268,6 +268,25 @@ class DrivePoints:
         self._changed()
         return self._state
 
+    async def set_process(
+        self, *, control: int | None = None, words: Mapping[int, int] | None = None
+    ) -> DriveState:
+        """Set the control word and raw PZD words (``{number: word}``, 2..16) together;
+        returns once a telegram carrying all of them was answered."""
+        if control is not None and (
+            isinstance(control, bool) or not isinstance(control, int) or not 0 <= control <= 0xFFFF
+        ):
+            raise ConfigError(f"control word must be 0..65535 (0..FFFFh), not {control!r}")
+        for number, value in (words or {}).items():
+            if not 2 <= number <= self.model.layout.pzd:
+                raise UnknownPoint(
+                    f"{self.key}: PZD{number} is not in layout {self.model.layout}"
+                )
+            self.drive.set_pzd(number, value)
+        await self.drive.control_word(self.drive.control if control is None else control)
+        self._changed()
+        return self._state
+
     def setpoint_point(self, key: str = "main") -> tuple[int, bool]:
         for item in self.model.setpoints:
             if item.key == key:
