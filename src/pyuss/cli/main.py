@@ -25,6 +25,7 @@ COMMANDS: tuple[str, ...] = (
     "describe",
     "mirror",
     "run",
+    "gateway",
     "simulate",
     "bus",
     "monitor",
