@@ -44,7 +44,7 @@ async def face_client(
 async def test_a_client_switches_on_and_sets_the_setpoint_and_the_drive_sees_it(
     face: str, broker: Broker
 ) -> None:
-    async with face_client(face, broker) as (gateway, engines, client):
+    async with face_client(face, broker) as (_gateway, engines, client):
         await client.switch_on(5)
         await client.set_setpoint(5, 25.0)  # Hz: 50 % of the reference P352 = 50.00 Hz
         drive = engines[5].drive
@@ -57,7 +57,7 @@ async def test_a_client_switches_on_and_sets_the_setpoint_and_the_drive_sees_it(
 
 @pytest.mark.parametrize("face", FACES)
 async def test_a_float_parameter_reads_with_its_unit(face: str, broker: Broker) -> None:
-    async with face_client(face, broker) as (gateway, engines, client):
+    async with face_client(face, broker) as (_gateway, _engines, client):
         value, unit = await client.read_parameter(5, 107)
         assert close_to(value, 50.0)
         if face != "modbus":  # Modbus carries numbers only; the map documents the units
@@ -68,7 +68,7 @@ async def test_a_float_parameter_reads_with_its_unit(face: str, broker: Broker) 
 async def test_a_refused_write_comes_back_as_an_error_with_the_drive_number(
     face: str, broker: Broker
 ) -> None:
-    async with face_client(face, broker) as (gateway, engines, client):
+    async with face_client(face, broker) as (_gateway, engines, client):
         await client.switch_on(5)
         # P107 may be changed only while the drive does not run: error 17
         with pytest.raises(Refused) as refused:
@@ -83,7 +83,7 @@ async def test_a_refused_write_comes_back_as_an_error_with_the_drive_number(
 async def test_a_write_within_the_limits_is_answered_with_the_drive_value(
     face: str, broker: Broker
 ) -> None:
-    async with face_client(face, broker) as (gateway, engines, client):
+    async with face_client(face, broker) as (_gateway, engines, client):
         assert close_to(await client.write_parameter(5, 107, 60.0), 60.0)
         assert engines[5].drive.value(107) == 60.0
         with pytest.raises(Refused) as refused:  # above the maximum of 600 Hz
@@ -97,7 +97,7 @@ async def test_a_write_within_the_limits_is_answered_with_the_drive_value(
 async def test_a_read_only_face_refuses_writes_and_leaves_the_drive_alone(
     face: str, broker: Broker
 ) -> None:
-    async with face_client(face, broker, read_only=True) as (gateway, engines, client):
+    async with face_client(face, broker, read_only=True) as (_gateway, engines, client):
         value, _ = await client.read_parameter(5, 107)
         assert close_to(value, 50.0)
         with pytest.raises(Refused):
