@@ -9,6 +9,7 @@ import contextlib
 import itertools
 import json
 import math
+import os
 import shutil
 import socket
 import struct
@@ -55,7 +56,8 @@ class Broker:
             "allow_anonymous true\n"
             "persistence true\n"
             f"persistence_location {directory}/\n"
-            "autosave_interval 1\n",
+            "autosave_interval 1\n" + ("user root\n" if os.geteuid() == 0 else ""),
+            # as root, mosquitto would become user mosquitto, who cannot write the session file
             encoding="utf-8",
         )
         self.config = config
@@ -233,10 +235,12 @@ class MqttClient:
             self.replies[ident] = reply
             self.events.setdefault(ident, asyncio.Event()).set()
 
-    async def command(self, address: int, name: str, **fields: Any) -> dict[str, Any]:
+    async def command(
+        self, address: int, name: str, *, bus: str | None = None, **fields: Any
+    ) -> dict[str, Any]:
         ident = f"t{next(self.ids)}"
         event = self.events.setdefault(ident, asyncio.Event())
-        topic = f"uss/{self.bus}/drive{address}/cmd/{name}"
+        topic = f"uss/{bus or self.bus}/drive{address}/cmd/{name}"
         await self.client.publish(topic, json.dumps({"id": ident, **fields}), qos=1)
         async with asyncio.timeout(10):
             await event.wait()

@@ -230,6 +230,7 @@ class MqttBusFace:
 
     # -- receiving -----------------------------------------------------------------------------
     async def _message(self, topic: str, payload: bytes) -> None:
+        log.debug("%s: %s %r", self.bus.name, topic, payload[:200])
         options = self.options
         try:
             command = parse_command(topic, payload, options.prefix, self.bus.name)
@@ -297,8 +298,8 @@ class MqttBusFace:
 
     async def run(self) -> None:
         """Stay connected (reconnect after losses) until cancelled."""
-        client = self._make_client()
         while not self._stopping:
+            client = self._make_client()  # a fresh client per connection
             try:
                 async with client:
                     await self._connected(client)

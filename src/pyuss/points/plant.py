@@ -279,9 +279,7 @@ class DrivePoints:
             raise ConfigError(f"control word must be 0..65535 (0..FFFFh), not {control!r}")
         for number, value in (words or {}).items():
             if not 2 <= number <= self.model.layout.pzd:
-                raise UnknownPoint(
-                    f"{self.key}: PZD{number} is not in layout {self.model.layout}"
-                )
+                raise UnknownPoint(f"{self.key}: PZD{number} is not in layout {self.model.layout}")
             self.drive.set_pzd(number, value)
         await self.drive.control_word(self.drive.control if control is None else control)
         self._changed()
