@@ -39,7 +39,7 @@ async def watcher(broker: Broker, *topics: str) -> AsyncIterator[dict[str, bytes
 async def test_home_assistant_discovery_validates_against_the_documented_schema(
     broker: Broker,
 ) -> None:
-    async with simulated_gateway(mqtt=broker.url) as (gateway, _):
+    async with simulated_gateway(mqtt=broker.url) as (_gateway, _):
         async with watcher(broker, "homeassistant/#") as seen:
             await eventually(lambda: len(seen) >= 2 * 12)  # 12 entities per drive
             await asyncio.sleep(0.3)
@@ -177,7 +177,7 @@ async def test_two_gateways_share_one_broker_and_one_client_commands_every_drive
 ) -> None:
     async with (
         simulated_gateway(mqtt=broker.url, bus_name="line1") as (one, engines1),
-        simulated_gateway(mqtt=broker.url, bus_name="line2") as (two, engines2),
+        simulated_gateway(mqtt=broker.url, bus_name="line2") as (_two, engines2),
         watcher(broker, "uss/+/+/state") as seen,
     ):
         await eventually(lambda: len(seen) == 4)

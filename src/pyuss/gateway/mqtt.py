@@ -193,7 +193,7 @@ class MqttBusFace:
         self._pending: set[tuple[str, str]] = set()
         self._outbox: deque[tuple[str, bytes]] = deque(maxlen=OUTBOX)
         self._tasks: list[asyncio.Task[None]] = []
-        self._stopping = False
+        self._stop = asyncio.Event()
         self._runner: asyncio.Task[None] | None = None
         self.connections = 0
         """How many times the client connected (1 + reconnections)."""
@@ -296,19 +296,32 @@ class MqttBusFace:
             self._outbox.popleft()
         log.info("%s: connected to MQTT broker %s", self.bus.name, self.options.endpoint)
 
+    async def _consume(self, client: aiomqtt.Client) -> None:
+        async for message in client.messages:
+            payload = message.payload
+            data = payload if isinstance(payload, bytes) else str(payload).encode()
+            await self._message(message.topic.value, data)
+
     async def run(self) -> None:
-        """Stay connected (reconnect after losses) until cancelled."""
-        while not self._stopping:
+        """Stay connected (reconnect after losses) until `close`."""
+        while not self._stop.is_set():
             client = self._make_client()  # a fresh client per connection
+            consume: asyncio.Task[None] | None = None
             try:
                 async with client:
                     await self._connected(client)
-                    async for message in client.messages:
-                        payload = message.payload
-                        data = payload if isinstance(payload, bytes) else str(payload).encode()
-                        await self._message(message.topic.value, data)
+                    consume = asyncio.create_task(self._consume(client))
+                    consume.add_done_callback(_retrieve)
+                    stop = asyncio.create_task(self._stop.wait())
+                    try:
+                        await asyncio.wait({consume, stop}, return_when=asyncio.FIRST_COMPLETED)
+                    finally:
+                        stop.cancel()
+                    if consume.done():
+                        consume.result()  # the connection was lost: MqttError
+                    # stopping: leaving the block disconnects cleanly
             except aiomqtt.MqttError as exc:
-                if self._stopping:
+                if self._stop.is_set():
                     break
                 log.warning(
                     "%s: MQTT broker %s: %s; again in %g s",
@@ -320,8 +333,12 @@ class MqttBusFace:
             finally:
                 self.connected.clear()
                 self._client = None
-            if not self._stopping:
-                await asyncio.sleep(self.options.reconnect)
+                if consume is not None and not consume.done():
+                    consume.cancel()
+            if not self._stop.is_set():
+                with contextlib.suppress(TimeoutError):
+                    async with asyncio.timeout(self.options.reconnect):
+                        await self._stop.wait()
 
     async def start(self) -> None:
         for worker in self.workers.values():
@@ -330,7 +347,13 @@ class MqttBusFace:
         self._runner = asyncio.create_task(self.run(), name=f"mqtt {self.bus.name}")
 
     async def close(self) -> None:
-        """Publish ``offline``, disconnect, stop."""
+        """Stop publishing, publish ``offline``, disconnect."""
+        for task in self._tasks:
+            task.cancel()
+        for task in self._tasks:
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await task
+        self._tasks.clear()
         client = self._client
         if client is not None and self.connected.is_set():
             with contextlib.suppress(aiomqtt.MqttError, asyncio.TimeoutError):
@@ -340,15 +363,20 @@ class MqttBusFace:
                         await client.publish(
                             worker.topics.availability, "offline", qos=1, retain=True
                         )
-        self._stopping = True
-        tasks = [*self._tasks, *([self._runner] if self._runner is not None else [])]
-        for task in tasks:
-            task.cancel()
-        for task in tasks:
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await task
-        self._tasks.clear()
-        self._runner = None
+        self._stop.set()
+        runner, self._runner = self._runner, None
+        if runner is not None:
+            try:
+                async with asyncio.timeout(5):
+                    await runner
+            except (TimeoutError, aiomqtt.MqttError):
+                runner.cancel()
+
+
+def _retrieve(task: asyncio.Task[None]) -> None:
+    """Mark the outcome of a finished task as seen (a lost connection is handled by `run`)."""
+    if not task.cancelled():
+        task.exception()
 
 
 def _drive_of(topic: str, prefix: str, bus: str) -> str | None:
