@@ -39,11 +39,13 @@ async def watcher(broker: Broker, *topics: str) -> AsyncIterator[dict[str, bytes
 async def test_home_assistant_discovery_validates_against_the_documented_schema(
     broker: Broker,
 ) -> None:
-    async with simulated_gateway(mqtt=broker.url) as (_gateway, _):
-        async with watcher(broker, "homeassistant/#") as seen:
-            await eventually(lambda: len(seen) >= 2 * 12)  # 12 entities per drive
-            await asyncio.sleep(0.3)
-            configs = {topic: json.loads(payload) for topic, payload in seen.items() if payload}
+    async with (
+        simulated_gateway(mqtt=broker.url) as (_gateway, _),
+        watcher(broker, "homeassistant/#") as seen,
+    ):
+        await eventually(lambda: len(seen) >= 2 * 12)  # 12 entities per drive
+        await asyncio.sleep(0.3)
+        configs = {topic: json.loads(payload) for topic, payload in seen.items() if payload}
     components = {topic.split("/")[1] for topic in configs}
     assert components == {"sensor", "binary_sensor", "number", "switch", "button"}
     problems = [p for topic, config in configs.items() for p in ha_schema.check(topic, config)]
@@ -81,22 +83,26 @@ def test_the_schema_check_finds_what_home_assistant_refuses() -> None:
 
 
 async def test_home_assistant_commands_switch_and_set_the_drive(broker: Broker) -> None:
-    async with simulated_gateway(mqtt=broker.url) as (_, engines):
-        async with aiomqtt.Client("127.0.0.1", broker.port) as client:
-            await client.publish("uss/bus/drive5/cmd/run", "ON", qos=1)
-            await client.publish("uss/bus/drive5/cmd/setpoint", "12.5", qos=1)
-            drive = engines[5].drive
-            await eventually(lambda: drive.value(3) == 1250 and drive.status_word() & 4)
-            await client.publish("uss/bus/drive5/cmd/run", "OFF", qos=1)
-            await eventually(lambda: not drive.status_word() & 4)
+    async with (
+        simulated_gateway(mqtt=broker.url) as (_, engines),
+        aiomqtt.Client("127.0.0.1", broker.port) as client,
+    ):
+        await client.publish("uss/bus/drive5/cmd/run", "ON", qos=1)
+        await client.publish("uss/bus/drive5/cmd/setpoint", "12.5", qos=1)
+        drive = engines[5].drive
+        await eventually(lambda: drive.value(3) == 1250 and drive.status_word() & 4)
+        await client.publish("uss/bus/drive5/cmd/run", "OFF", qos=1)
+        await eventually(lambda: not drive.status_word() & 4)
 
 
 async def test_state_is_retained_json_with_units(broker: Broker) -> None:
-    async with simulated_gateway(mqtt=broker.url) as _:
-        async with watcher(broker, "uss/bus/drive5/state", "uss/bus/drive5/availability") as seen:
-            await eventually(lambda: "uss/bus/drive5/state" in seen)  # retained
-            state = json.loads(seen["uss/bus/drive5/state"])
-            await eventually(lambda: seen.get("uss/bus/drive5/availability") == b"online")
+    async with (
+        simulated_gateway(mqtt=broker.url) as _,
+        watcher(broker, "uss/bus/drive5/state", "uss/bus/drive5/availability") as seen,
+    ):
+        await eventually(lambda: "uss/bus/drive5/state" in seen)  # retained
+        state = json.loads(seen["uss/bus/drive5/state"])
+        await eventually(lambda: seen.get("uss/bus/drive5/availability") == b"online")
     assert state["address"] == 5
     assert state["actual"]["main"]["unit"] == "Hz"
     assert state["reference"] == {"value": 50.0, "unit": "Hz"}
@@ -104,18 +110,20 @@ async def test_state_is_retained_json_with_units(broker: Broker) -> None:
 
 
 async def test_a_command_repeated_with_its_id_is_carried_out_once(broker: Broker) -> None:
-    async with simulated_gateway(mqtt=broker.url) as (gateway, engines):
-        async with MqttClient(gateway) as client:
-            await client.command(5, "on")
-            topic = "uss/bus/drive5/cmd/setpoint"
-            await client.client.publish(topic, json.dumps({"id": "once", "value": 10.0}), qos=1)
-            await eventually(lambda: "once" in client.replies)
-            first = client.replies.pop("once")
-            client.events.pop("once")
-            # the same id again (a QoS 1 duplicate, a retry) with another value
-            await client.client.publish(topic, json.dumps({"id": "once", "value": 20.0}), qos=1)
-            await eventually(lambda: "once" in client.replies)
-            again = client.replies["once"]
+    async with (
+        simulated_gateway(mqtt=broker.url) as (gateway, engines),
+        MqttClient(gateway) as client,
+    ):
+        await client.command(5, "on")
+        topic = "uss/bus/drive5/cmd/setpoint"
+        await client.client.publish(topic, json.dumps({"id": "once", "value": 10.0}), qos=1)
+        await eventually(lambda: "once" in client.replies)
+        first = client.replies.pop("once")
+        client.events.pop("once")
+        # the same id again (a QoS 1 duplicate, a retry) with another value
+        await client.client.publish(topic, json.dumps({"id": "once", "value": 20.0}), qos=1)
+        await eventually(lambda: "once" in client.replies)
+        again = client.replies["once"]
     assert first["ok"] and again["ok"]
     assert again["duplicate"] is True
     assert again["result"] == first["result"]
@@ -123,14 +131,16 @@ async def test_a_command_repeated_with_its_id_is_carried_out_once(broker: Broker
 
 
 async def test_a_bad_command_gets_a_reply_naming_what_was_wrong(broker: Broker) -> None:
-    async with simulated_gateway(mqtt=broker.url) as (gateway, _):
-        async with MqttClient(gateway) as client:
-            await client.client.publish(
-                "uss/bus/drive5/cmd/setpoint", json.dumps({"id": "bad", "value": "fast"}), qos=1
-            )
-            await eventually(lambda: "bad" in client.replies)
-            await client.client.publish("uss/bus/drive5/cmd/jump", "", qos=1)
-            await eventually(lambda: "None" in client.replies)
+    async with (
+        simulated_gateway(mqtt=broker.url) as (gateway, _),
+        MqttClient(gateway) as client,
+    ):
+        await client.client.publish(
+            "uss/bus/drive5/cmd/setpoint", json.dumps({"id": "bad", "value": "fast"}), qos=1
+        )
+        await eventually(lambda: "bad" in client.replies)
+        await client.client.publish("uss/bus/drive5/cmd/jump", "", qos=1)
+        await eventually(lambda: "None" in client.replies)
     assert client.replies["bad"]["error"]["class"] == "bad_value"
     assert "not a number" in client.replies["bad"]["error"]["message"]
     assert "unknown command 'jump'" in client.replies["None"]["error"]["message"]
