@@ -134,6 +134,8 @@ async def simulated_gateway(
         async with gateway:
             for drive in gateway.plant.drives:
                 await drive.drive.next_update(timeout=5)
+            # the reference (P352) is read in the background; setpoints in Hz need it
+            await eventually(lambda: all(d.reference is not None for d in gateway.plant.drives))
             yield gateway, engines
 
 
