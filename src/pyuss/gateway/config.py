@@ -46,6 +46,7 @@ from pyuss.errors import ConfigError
 from pyuss.gateway.registers import WordOrder
 from pyuss.points.config import PlantConfig, Where, parse_plant
 from pyuss.points.endpoint import Endpoint, parse_endpoint
+from pyuss.points.model import resolve
 
 __all__ = [
     "GatewayConfig",
@@ -306,6 +307,8 @@ def load_config(path: str | Path) -> GatewayConfig:
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
     try:
-        return parse_config(data, path.parent)
+        config = parse_config(data, path.parent)
+        resolve(config.plant)  # what the points cannot show is bad configuration too
+        return config
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None

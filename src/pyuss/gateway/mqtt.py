@@ -350,9 +350,11 @@ class MqttBusFace:
         """Stop publishing, publish ``offline``, disconnect."""
         for task in self._tasks:
             task.cancel()
-        for task in self._tasks:
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await task
+        if self._tasks:
+            # bounded: a task inside the MQTT client may take its time to end
+            with contextlib.suppress(TimeoutError):
+                async with asyncio.timeout(3):
+                    await asyncio.gather(*self._tasks, return_exceptions=True)
         self._tasks.clear()
         client = self._client
         if client is not None and self.connected.is_set():
