@@ -53,6 +53,10 @@ from pyuss.points.state import DriveState
 __all__ = ["MqttBusFace", "MqttFace"]
 
 log = logging.getLogger("pyuss.gateway.mqtt")
+client_log = logging.getLogger("pyuss.gateway.mqtt.client")
+"""The MQTT client's own messages; its "pending publish calls" notes are normal when many
+drives change at once (each drive waits for its own publish), so only errors are shown."""
+client_log.setLevel(logging.ERROR)
 
 KEEP_IDS = 1000
 """Replies kept per bus for commands repeated with the same id."""
@@ -277,6 +281,7 @@ class MqttBusFace:
             will=aiomqtt.Will(self.availability, "offline", qos=1, retain=True),
             tls_context=_tls(options),
             timeout=10,
+            logger=client_log,
         )
 
     async def _connected(self, client: aiomqtt.Client) -> None:
