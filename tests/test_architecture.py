@@ -10,6 +10,9 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "pyuss"
 
+_BELOW_FACES = {"protocol", "transport", "bus", "drive", "profiles", "params", "master"}
+_BELOW_FACES |= {"commission"}
+
 # What each package may import from pyuss (besides itself and the shared root modules
 # errors, log and atomicfile).
 ALLOWED: dict[str, set[str]] = {
@@ -20,9 +23,17 @@ ALLOWED: dict[str, set[str]] = {
     "profiles": {"protocol", "drive"},
     "slave": {"protocol", "transport", "bus", "drive", "profiles"},
     "monitor": {"protocol", "transport", "bus"},
+    # parameter knowledge sits below the master, which converts values through it
+    "params": {"protocol", "drive", "profiles"},
+    # commissioning (backup, compare, restore, status) builds on the master
+    "commission": {"protocol", "drive", "profiles", "params", "master"},
+    # faces above the master: the data logger and the web page know nothing of each other
+    # (both type parameter values through params; the page's backups are commission's)
+    "datalog": _BELOW_FACES,
+    "web": _BELOW_FACES | {"monitor"},
     # the plant's data points and the faces above them sit on the master
-    "points": {"protocol", "transport", "bus", "drive", "profiles", "master"},
-    "gateway": {"protocol", "transport", "bus", "drive", "profiles", "master", "points"},
+    "points": {"protocol", "transport", "bus", "drive", "profiles", "params", "master"},
+    "gateway": {"protocol", "transport", "bus", "drive", "profiles", "params", "master", "points"},
 }
 # Each gateway face imports its own library only; the pure modules none of them.
 FACE_LIBRARIES = {"pymodbus", "aiomqtt", "paho", "asyncua"}

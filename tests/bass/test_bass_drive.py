@@ -267,7 +267,7 @@ async def test_uss_master_sees_a_bass_write_as_a_spontaneous_message() -> None:
             assert not job.done()
             await BassMaster(port, timeout=5).write(5, 2, 7500)
             assert await asyncio.wait_for(job, 30) == 2000
-            assert await uss.read(2, signed=True) == 7500  # one drive
+            assert await uss.read_raw(2) == (7500,)  # one drive
             stats = uss.diagnostics().jobs
     finally:
         stop.set()

@@ -93,7 +93,8 @@ def test_both_seed_vectors_byte_for_byte_and_the_uss_side_sees_them(
             capsys, "read", "0", "2", "--port", sim.uss, "--profile", "baumueller", "--json"
         )
         assert code == 0
-        assert json.loads(out)["parameters"] == [{"pnu": 2, "index": None, "value": 7500}]
+        [value] = json.loads(out)["parameters"]
+        assert (value["pnu"], value["raw"], value["value"], value["unit"]) == (2, [7500], 75.0, "%")
     assert "BASS requests answered: drive 0: 2" in sim.stderr
 
 
@@ -127,7 +128,7 @@ def test_write_authority_set_over_uss_holds_for_bass(capsys: pytest.CaptureFixtu
     with simulate("--pty", "--bass-pty", "--address", "1") as sim:
         on_uss = ("--port", sim.uss, "--profile", "baumueller", *PORT_OPTIONS)
         on_bass = ("--port", sim.bass)
-        assert uss(capsys, "write", "1", "126", "0", *on_uss)[0] == 0  # 126 bit 0 = 0
+        assert uss(capsys, "write", "1", "126", "0", "--raw", *on_uss)[0] == 0  # 126 bit 0 = 0
         code, result = bass_json(capsys, "write", "1", "2", "100", *on_bass)
         assert (code, result) == (
             1,
@@ -145,7 +146,7 @@ def test_write_authority_set_over_uss_holds_for_bass(capsys: pytest.CaptureFixtu
         assert result["value"] == 0x0010  # STOP, address 1
         code, out, _ = uss(capsys, "read", "1", "170", *on_uss, "--json")
         assert json.loads(out)["parameters"][0]["value"] == 0x0010  # the same word over USS
-        assert uss(capsys, "write", "1", "126", "1", *on_uss)[0] == 0
+        assert uss(capsys, "write", "1", "126", "1", "--raw", *on_uss)[0] == 0
         code, result = bass_json(capsys, "write", "1", "2", "100", *on_bass)
         assert (code, result["value"]) == (0, 100)
         code, result = bass_json(capsys, "read", "1", "170", *on_bass)

@@ -115,6 +115,34 @@ def test_bad_recording_files_name_file_and_line(tmp_path: Path, content: str, wo
         load_recording(path)
 
 
+_HEAD = '{"format": "pyuss-bus-recording", "version": 1, "baud": 19200}\n'
+_FIRST = '{"t": 0.001, "start": 0.0004, "from": "m", "byte": "02", "flags": []}\n'
+
+
+@pytest.mark.parametrize(
+    ("record", "words"),
+    [
+        ('{"t": -Infinity, "start": 0.0011, "from": "m", "byte": "0c"}', "t -inf is not a finite"),
+        ('{"t": Infinity, "start": 0.0011, "from": "m", "byte": "0c"}', "t inf is not a finite"),
+        ('{"t": NaN, "start": 0.0011, "from": "m", "byte": "0c"}', "t nan is not a finite"),
+        ('{"t": 0.0017, "start": NaN, "from": "m", "byte": "0c"}', "start nan is not a finite"),
+        ('{"t": 1e300, "start": 0.0011, "from": "m", "byte": "0c"}', r"t 1e\+300 is out of range"),
+        ('{"t": "0.0017", "start": 0.0011, "from": "m", "byte": "0c"}', "is not a number"),
+        ('{"t": 0.0005, "start": 0.0011, "from": "m", "byte": "0c"}', "start 0.0011 is after t"),
+        ('{"t": 0.0009, "start": 0.0003, "from": "m", "byte": "0c"}', "out of time order"),
+    ],
+)
+def test_times_that_are_not_finite_or_out_of_order_are_refused(
+    tmp_path: Path, record: str, words: str
+) -> None:
+    # A byte with such a time vanished from a replay, or ended in an OverflowError.
+    path = tmp_path / "wire.jsonl"
+    path.write_text(_HEAD + _FIRST + record + "\n")
+    with pytest.raises(ConfigError, match=words) as info:
+        load_recording(path)
+    assert str(info.value).startswith(f"{path}:3: ")
+
+
 def test_missing_recording_file() -> None:
     with pytest.raises(ConfigError, match="cannot read recording"):
         load_recording("/nonexistent/wire.jsonl")

@@ -41,6 +41,7 @@ PKW_KEYS = {
     "id_name",
     "id_text",
     "pnu",
+    "parameter",
     "index",
     "subindex",
     "spm_toggle",
@@ -87,6 +88,7 @@ def test_json_for_every_vector(capsys: pytest.CaptureFixture[str], vec: dict[str
         assert set(pkw) == PKW_KEYS
         assert pkw["id"] == words[0] >> 12
         assert pkw["pnu"] == words[0] & 0x7FF
+        assert pkw["parameter"] == pkw["pnu"]  # no --profile: no IND pages
         assert pkw["spm_toggle"] == bool(words[0] & 0x800)
         assert pkw["index"] == words[1]
         assert pkw["values"] == words[2 : len(words) - pzd_count]

@@ -13,10 +13,11 @@ def test_demo_runs_and_shows_each_step(capsys: pytest.CaptureFixture[str]) -> No
     out = capsys.readouterr().out
     for address, layout in (("1", "v,2"), ("4", "3,2"), ("7", "v,2")):
         assert f"address {address}: layout {layout}" in out  # the scan found it
-    assert "P52 = 4000h" in out
+    assert "P52 = 16384 (Load display)   (C 8 example 2: 4000h)" in out
     assert "P52 lower limit = 5FFFh" in out
     assert "P7 text 3 = '300 BAUD'" in out
-    assert "P2010.1 baud code = 6" in out
+    assert "P2010.1 = 8 [38400 BAUD] (USS baudrate)" in out  # the bus's rate (C 3)
+    assert "P1120 := 2.5 s -> P1120 = 2.50 s (Ramp-up time)" in out
     assert "P52 is now 1234h (acknowledged)" in out
     assert out.count("back unchanged") == 3
     assert "50.00 %" in out and "ready to switch on" in out

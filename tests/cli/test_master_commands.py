@@ -60,18 +60,25 @@ def common(path: str) -> list[str]:
 def test_read_values_and_a_refused_one(sim: str, capsys: pytest.CaptureFixture[str]) -> None:
     code, out, err = uss(capsys, "read", "5", "52", "999", *common(sim))
     assert code == 1
-    assert "P52 = 16384 (4000h)" in out
+    assert "P52 = 16384 (Load display)" in out  # int16, no unit
     assert "P999: drive refused the job (PNU 999): error 0: illegal parameter number" in err
     code, out, _ = uss(capsys, "read", "5", "52", "P683[1]", *common(sim), "--json")
     assert code == 0
     data = json.loads(out)
-    assert data["parameters"][0] == {"pnu": 52, "index": None, "value": 0x4000}
-    assert data["parameters"][1] == {"pnu": 683, "index": 1, "value": 5}  # its address
+    first, second = data["parameters"]
+    assert (first["pnu"], first["index"], first["value"], first["raw"]) == (
+        52,
+        None,
+        0x4000,
+        [0x4000],
+    )
+    assert (first["name"], first["type"], first["unit"]) == ("Load display", "int16", "")
+    assert (second["pnu"], second["index"], second["value"]) == (683, 1, 5)  # its address
 
 
 def test_write_then_read_back(sim: str, capsys: pytest.CaptureFixture[str]) -> None:
     code, out, _ = uss(capsys, "write", "5", "18", "0x7000", *common(sim))
-    assert (code, out.strip()) == (0, "P18 = 28672 (7000h)")
+    assert (code, out.strip()) == (0, "P18 = 28672 (Fixed setpoint)")
     code, out, _ = uss(capsys, "read", "5", "18", *common(sim), "--json")
     assert json.loads(out)["parameters"][0]["value"] == 0x7000
     code, out, _ = uss(capsys, "write", "5", "18", "5", "--eeprom", *common(sim), "--json")
@@ -79,14 +86,16 @@ def test_write_then_read_back(sim: str, capsys: pytest.CaptureFixture[str]) -> N
 
 
 def test_bad_input_exits_2_with_one_line(sim: str, capsys: pytest.CaptureFixture[str]) -> None:
-    code, _, err = uss(capsys, "write", "5", "18", "70000", *common(sim))  # double word, PKW 3
+    code, _, err = uss(capsys, "write", "5", "18", "70000", *common(sim))  # P18 is int16
+    assert code == 2 and "P18: 70000 does not fit int16" in err and len(err.splitlines()) == 1
+    code, _, err = uss(capsys, "write", "5", "18", "70000", "--raw", "--dword", *common(sim))
     assert code == 2 and "double words need PKW 4" in err and len(err.splitlines()) == 1
     code, _, err = uss(capsys, "read", "5", "abc", *common(sim))
     assert code == 2 and "PNU or PNU.INDEX" in err
     code, _, err = uss(capsys, "read", "5", "52", "--port", sim, "--layout", "9,9")
     assert code == 2 and "PKW count" in err
-    code, _, err = uss(capsys, "write", "5", "18", "nan", *common(sim))
-    assert code == 2 and "finite" in err
+    code, _, err = uss(capsys, "write", "5", "107", "nan", *common(sim))
+    assert code == 2 and "'nan' is not a number" in err
     with pytest.raises(SystemExit) as info:
         main(["read", "40", "52", "--port", sim])
     assert info.value.code == 2
@@ -154,8 +163,8 @@ def test_scan_finds_the_drive(sim: str, capsys: pytest.CaptureFixture[str]) -> N
 
 
 def test_run_for_a_while_then_off(sim: str, capsys: pytest.CaptureFixture[str]) -> None:
-    assert uss(capsys, "write", "5", "462", "1", *common(sim))[0] == 0  # ramp 0.1 s
-    assert uss(capsys, "write", "5", "464", "1", *common(sim))[0] == 0
+    assert uss(capsys, "write", "5", "462", "0.1", *common(sim))[0] == 0  # ramp 0.1 s
+    assert uss(capsys, "write", "5", "464", "0.1 s", *common(sim))[0] == 0
     code, out, _ = uss(
         capsys,
         "run",

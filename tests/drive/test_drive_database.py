@@ -22,7 +22,19 @@ HEAD = '[profile]\nname = "test"\n'
 
 
 def test_every_builtin_profile_loads() -> None:
-    assert set(builtin_profiles()) == {"generic", "6se21", "baumueller", "nord", "micromaster4"}
+    assert set(builtin_profiles()) == {
+        "generic",
+        "6se21",
+        "baumueller",
+        "nord",
+        "micromaster4",
+        "micromaster420",
+        "micromaster440",
+        "sinamics-g110",
+        "sinamics-g120",
+        "sinamics-v20",
+        "nord-sk500e",
+    }
     for name in builtin_profiles():
         db = load_profile(name)
         assert db.profile.name == name

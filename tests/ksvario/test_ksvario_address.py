@@ -15,7 +15,7 @@ from pyuss.ksvario.address import Address, Area, View, channel_area, parse_addre
 VECTORS = load_vectors("ksvario")
 
 
-@pytest.mark.parametrize("vec", VECTORS["addresses"], ids=lambda v: v["seed"][:5])
+@pytest.mark.parametrize("vec", VECTORS["addresses"], ids=lambda v: v["section"][:5])
 def test_vector_addresses_round_trip(vec: dict[str, str]) -> None:
     """Each vector decodes to the channel and view its name gives, and encodes back."""
     word = int(vec["address"], 16)

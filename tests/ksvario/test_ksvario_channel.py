@@ -81,7 +81,7 @@ def run(
     raise AssertionError("job did not finish")
 
 
-@pytest.mark.parametrize("vec", VECTORS["start_telegrams"], ids=lambda v: v["seed"])
+@pytest.mark.parametrize("vec", VECTORS["start_telegrams"], ids=lambda v: v["section"])
 def test_start_telegram_vectors(vec: dict[str, str]) -> None:
     master = _hex(vec["master"])
     start = StartRequest.decode(master)

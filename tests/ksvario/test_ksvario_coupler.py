@@ -247,12 +247,12 @@ EXAMPLES: dict[str, dict[str, Any]] = {
 }
 
 
-@pytest.mark.parametrize("vec", VECTORS["start_telegrams"], ids=lambda v: v["seed"])
+@pytest.mark.parametrize("vec", VECTORS["start_telegrams"], ids=lambda v: v["section"])
 async def test_worked_example_end_to_end(vec: dict[str, str]) -> None:
     """Seed 003 4.5.1 - 4.5.4 on the cyclic image of a simulated coupler (module A.1): the
     start telegram of the vector and its answer, data telegrams with Count 1..n mirrored for
     flow control, the end telegram with result 0, and the data where the example puts them."""
-    ex = EXAMPLES[vec["seed"]]
+    ex = EXAMPLES[vec["section"]]
     coupler = Coupler()
     conf = Configuration(["A.1"])
     coupler.configure(conf)

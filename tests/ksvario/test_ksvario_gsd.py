@@ -1,4 +1,5 @@
-"""GSD file (seed 003 9.4): emit, parse back, and parse the seed's own file."""
+"""GSD file (KS VARIO PROFIBUS-DP interface description, 9.4): emit, parse back, and parse the
+document's own file where ../shared holds it."""
 
 from __future__ import annotations
 
@@ -6,15 +7,16 @@ import re
 
 import pytest
 
-from conftest import SHARED, load_vectors
+from conftest import load_vectors, shared_folder
 from pyuss.errors import ConfigError
 from pyuss.ksvario.diag import IDENT_NUMBER, Diagnosis
 from pyuss.ksvario.gsd import emit_gsd, parse_gsd
 from pyuss.ksvario.modules import MODULES
 
 
-def _seed_gsd() -> str:
-    text = (SHARED / "seeds" / "003_3a92a27fc43b4069.txt").read_text(encoding="utf-8")
+def _document_gsd() -> str:
+    """The GSD file printed in the KS VARIO interface description (section 9.4), from ../shared."""
+    text = (shared_folder() / "seeds" / "003_3a92a27fc43b4069.txt").read_text(encoding="utf-8")
     start = text.index("#Profibus_DP")
     body = text[start:]
     return re.sub(r"^```\s*$", "", body, flags=re.M)
@@ -46,8 +48,8 @@ def test_emitted_gsd_parses_back() -> None:
     assert (area.first_bit, area.last_bit, area.values[21]) == (24, 31, "Firmware V2.1")
 
 
-def test_the_seed_gsd_parses() -> None:
-    gsd = parse_gsd(_seed_gsd())
+def test_the_documents_gsd_parses() -> None:
+    gsd = parse_gsd(_document_gsd())
     assert gsd.ident_number == 0x1030
     assert len(gsd.modules) == 17
     assert gsd.module_by_ident(0xF3) is not None

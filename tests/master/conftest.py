@@ -11,8 +11,9 @@ from typing import Any
 
 from master.scripted import ScriptedSlave
 from pyuss.bus import FaultPlan, Recorder, VirtualBus
-from pyuss.master import Master
+from pyuss.master import Drive, Master
 from pyuss.master.testing import simulated_drives
+from pyuss.params import Describe, ParamBook
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.receiver import Received, Receiver
 from pyuss.slave import JobLatency, SlaveEngine
@@ -29,6 +30,16 @@ class Setup:
 LAYOUT_32 = Layout(3, 2)
 
 
+class _UnknownParameters(Master):
+    """A master that knows nothing of its drives' parameters (scripted slaves)."""
+
+    def drive(self, address: int, **options: Any) -> Drive:
+        handle = super().drive(address, **options)
+        if handle.params.profile:
+            handle.params = ParamBook(describe=Describe.NEVER)
+        return handle
+
+
 @asynccontextmanager
 async def scripted_bus(
     addresses: Sequence[int] = (5,),
@@ -39,11 +50,13 @@ async def scripted_bus(
     record: bool = False,
     **master_options: Any,
 ) -> AsyncIterator[Setup]:
-    """A bus at ``baud`` with one scripted slave per address and a started master."""
+    """A bus at ``baud`` with one scripted slave per address and a started master. Nothing is
+    known of the scripted slaves' parameters (no parameter file, no descriptions): values read
+    as the words they send (`Drive.read` of a parameter nothing is known of)."""
     bus = VirtualBus(baud, faults=faults)
     recorder = Recorder().attach(bus) if record else None
     slaves = {a: await ScriptedSlave(bus, a, layout).start() for a in addresses}
-    master = Master(bus.attach("master"), layout=layout, **master_options)
+    master = _UnknownParameters(bus.attach("master"), layout=layout, **master_options)
     try:
         async with master:
             yield Setup(bus, master, slaves, recorder)

@@ -27,7 +27,7 @@ def test_script_examples_run(name: str, number: int, capsys: pytest.CaptureFixtu
     code = blocks(name)[number]
     with SimulatorThread([(5, "generic", Layout(3, 2))], baud=19200) as sim:
         with sync.Master(sim.paths[0], baud=19200, layout="3,2") as bus:
-            bus.drive(5).write(462, 1)  # a short ramp, so that the example finishes soon
+            bus.drive(5).write(462, 0.1)  # a short ramp (0.1 s), so that the example finishes soon
         source = code.replace('"/dev/ttyUSB0"', repr(sim.paths[0]))
         exec(compile(source, f"{name} example {number}", "exec"), {"__name__": "__main__"})
     assert "16384" in capsys.readouterr().out

@@ -30,10 +30,10 @@ async def test_eeprom_writes_use_the_eeprom_requests() -> None:
     async with simulated_bus([(5, "generic", VARIABLE)], record=True) as env:
         drive = env.master.drive(5, layout=VARIABLE)
         assert await drive.write(18, 0x1234, eeprom=True) == 0x1234
-        assert await drive.write(4, -5, 3, dword=True, eeprom=True) == -5
+        assert await drive.write(4, -5, 3, eeprom=True) == -5  # int32: a double word
         assert await drive.write(107, 60.0, eeprom=True) == 60.0
         assert await drive.write(683, 9, 2, eeprom=True) == 9
-        assert await drive.read(4, 3, signed=True) == -5
+        assert await drive.read(4, 3) == -5
         assert await drive.read(683, 2) == 9
     assert env.recorder is not None
     sent = [VARIABLE.unpack(r.telegram.data).pkw for r in line_telegrams(env.recorder, 38400)]
@@ -165,3 +165,15 @@ def test_the_sync_facade_runs_the_same_core_in_one_thread() -> None:
             reply = master.request(Telegram(5, AddressMode.MIRROR, bytes(10)))
             assert reply is not None and reply.telegram.mode is AddressMode.MIRROR
         assert not master.running and not loop_threads()
+
+
+def test_the_sync_drive_offers_every_call_of_the_async_one_with_the_same_arguments() -> None:
+    import inspect
+
+    for name in (n for n in dir(Drive) if not n.startswith("_")):
+        call = getattr(Drive, name)
+        assert hasattr(sync_master.Drive, name), name
+        if inspect.isfunction(call):
+            mine = list(inspect.signature(getattr(sync_master.Drive, name)).parameters)
+            assert mine == list(inspect.signature(call).parameters), name
+    assert isinstance(sync_master.Drive.params, property)  # the async drive's book, shared

@@ -15,7 +15,7 @@ from pyuss.master.jobs import Job, ParameterChannel
 from pyuss.master.process import OPERATE
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
-from pyuss.protocol.pkw import Pkw, RequestId, ResponseId
+from pyuss.protocol.pkw import Pkw, RequestId, ResponseId, pwe_float
 from pyuss.protocol.pzd import ControlWord
 
 GENERIC = get_profile("generic")
@@ -141,12 +141,12 @@ async def test_read_and_write_words_double_words_and_floats() -> None:
         assert await drive.write(60, 0x1234_5678) == 0x1234_5678
         assert await drive.read(60) == 0x1234_5678
         assert await drive.write(60, 50.0) == 50.0
-        assert await drive.read_float(60) == 50.0
-        assert await drive.write(60, 7, dword=True) == 7
+        assert await drive.read_raw(60) == pwe_float(50.0)
+        assert await drive.write_raw(60, (0, 7)) == (0, 7)  # a small value as a double word
         assert env.slaves[5].dwords[60] == 7
         assert await drive.write(18, -2) == -2
-        assert await drive.read(18, signed=True) == -2
-        assert await drive.read(18) == 0xFFFE
+        assert await drive.read(18) == 0xFFFE  # nothing known of P18: the word as sent
+        assert await drive.read_raw(18) == (0xFFFE,)
 
 
 async def test_array_elements_and_length_counting_from_the_profile_base() -> None:

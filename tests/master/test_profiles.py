@@ -23,9 +23,10 @@ async def test_micromaster4_reaches_parameters_from_2000_on_through_the_page_bit
     async with simulated_bus([(3, "micromaster4", layout)], profile="micromaster4") as env:
         drive = env.master.drive(3, layout=layout)
         assert await drive.read(2011, 1) == 3  # the interface shows its address
-        assert await drive.read(2010, 1) == 6
-        assert await drive.write(2010, 8, 1) == 8
-        assert await drive.read_float(2000) == 50.0
+        assert await drive.read(2010, 1) == 8  # the COM link shows the bus's 38400 baud
+        assert await drive.write(2010, 8, 0) == 8
+        assert await drive.read(2000) == 50.0  # a float parameter reads as a float
+        assert await drive.read_raw(2000) == (0x4248, 0x0000)
         assert await drive.read_array(2012) == [2, 2]  # arrays count from 0 here
         # text element y = value + 1 (C 8 example 7)
         assert await drive.read_text(2010, 9, value_texts=True) == "38400 BAUD"
@@ -75,8 +76,10 @@ async def test_baumueller_pipelined_answers_and_three_character_start_pause() ->
 async def test_nord_drive_is_read_and_written() -> None:
     async with simulated_bus([(2, "nord", Layout(3, 2))], profile="nord") as env:
         drive = env.master.drive(2, layout=Layout(3, 2))
-        assert await drive.read(102) == 200
-        assert await drive.write(102, 150) == 150
+        assert await drive.read(102) == 2.0  # 200 x 0.01 s
+        assert await drive.read_raw(102) == (200,)
+        assert await drive.write(102, 1.5) == 1.5
+        assert await drive.read_raw(102) == (150,)
 
 
 def test_response_limit_follows_the_profile_and_never_drops_below_the_start_pause() -> None:

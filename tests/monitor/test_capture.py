@@ -92,6 +92,7 @@ def test_round_trip_and_replay(tmp_path: Path, suffix: str, four_wire: bool) -> 
     capture = read_capture(path)
     assert capture.baud == BAUD and capture.four_wire == four_wire
     assert capture.gap == pytest.approx(monitor.gap)
+    assert capture.tolerance == 0.0  # exact timestamps: the file does not mention it
     # One packet per frame, in time order (the noise was reported after its exchange).
     assert [ex.kind for ex in exchanges[-2:]] == ["exchange", "noise"]
     frames = sorted((f for ex in exchanges for f in ex.frames), key=lambda f: f.start)
@@ -115,6 +116,30 @@ def test_round_trip_and_replay(tmp_path: Path, suffix: str, four_wire: bool) -> 
     assert _shape(list(replay(shuffled, Monitor(capture.baud, gap=capture.gap)))) == _shape(
         exchanges
     )
+
+
+@pytest.mark.parametrize("suffix", [".pcapng", ".jsonl"])
+def test_a_capture_keeps_the_tolerance_of_its_port_for_the_replay(
+    tmp_path: Path, suffix: str
+) -> None:
+    # A capture made on a port that stamps bytes when read judged timing with a tolerance;
+    # its replay judges it the same way (an answer 30 ms after its request is in time then).
+    exchanges, monitor = _traffic()
+    path = tmp_path / f"line{suffix}"
+    writer = open_writer(path, baud=BAUD, gap=monitor.gap, tolerance=0.02)
+    for ex in exchanges:
+        writer.write(ex)
+    writer.close()
+    capture = read_capture(path)
+    assert capture.tolerance == pytest.approx(0.02)
+    again = Monitor(capture.baud, gap=capture.gap, tolerance=capture.tolerance)
+    assert again.resolution == pytest.approx(monitor.resolution + 0.02)
+    replayed = list(replay(capture, again))
+    frames = [tuple(f.raw for f in ex.frames) for ex in exchanges]
+    assert [tuple(f.raw for f in ex.frames) for ex in replayed] == frames
+    late = [i for i, ex in enumerate(exchanges) if Problem.LATE_ANSWER in ex.problems]
+    assert late and [exchanges[i].delay for i in late] == [pytest.approx(0.03)]
+    assert all(Problem.LATE_ANSWER not in replayed[i].problems for i in late)
 
 
 def test_replay_judges_a_given_fixed_length_like_the_live_monitor(tmp_path: Path) -> None:
@@ -219,6 +244,8 @@ def test_bad_files_give_one_clear_error(tmp_path: Path) -> None:
     header = (
         json.dumps({"format": "pyuss-monitor-capture", "version": 1, "baud": BAUD}).encode() + b"\n"
     )
+    far_off = bytearray(data)
+    far_off[epb + 12 : epb + 16] = b"\xff\xff\xff\xff"  # 2^64 microseconds: no time of day
     cases = {
         "empty.pcapng": (b"", "not a capture"),
         "noise.pcapng": (b"\x00\x01\x02\x03" * 8, "not a capture"),
@@ -238,7 +265,10 @@ def test_bad_files_give_one_clear_error(tmp_path: Path) -> None:
         "nan.jsonl": (header + b'{"hex": "02", "start": NaN, "end": 1}\n', "finite"),
         "inf.jsonl": (header + b'{"hex": "02", "start": 1, "end": Infinity}\n', "finite"),
         "order.jsonl": (header + b'{"hex": "02", "start": 2, "end": 1}\n', "end 1.0 is before"),
+        "far.jsonl": (header + b'{"hex": "02", "start": 1, "end": 1e300}\n', "out of range"),
+        "far.pcapng": (bytes(far_off), "packet 1: timestamp 1.8"),
         "gap.jsonl": (header.replace(b"}", b', "gap_ms": -1}'), "gap_ms -1"),
+        "tolerance.jsonl": (header.replace(b"}", b', "tolerance_ms": NaN}'), "tolerance_ms"),
         "baud.jsonl": (
             json.dumps({"format": "pyuss-monitor-capture", "version": 1, "baud": 1234}).encode(),
             "not a USS baud rate",

@@ -175,6 +175,8 @@ def test_summary_view(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Non
         (["--port", "x", "--baud", "9600", "-w", "out.txt"], "*.pcapng"),
         (["--port", "x", "--baud", "9600", "--linktype", "1"], "user link type"),
         (["--port", "x", "--baud", "19200", "--gap", "0.1"], "shorter than the start pause"),
+        (["--port", "x", "--baud", "19200", "--tolerance", "-1"], "--tolerance -1.0: must be"),
+        (["--port", "x", "--baud", "19200", "--tolerance", "nan"], "--tolerance nan: must be"),
         (["--port", "a", "--port", "b", "--port-rx", "c", "--baud", "9600"], "at most two"),
         (["--port", "a", "--read", "b"], "either --read"),
         (["--read", "/nonexistent/capture.pcapng"], "cannot read capture"),
@@ -216,13 +218,45 @@ def test_bad_capture_files_are_one_line_and_exit_2(
         assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]
 
 
+@pytest.mark.parametrize(
+    ("t", "start", "words"),
+    [
+        ("-Infinity", "0.0011", "bad record: t -inf is not a finite number"),
+        ("Infinity", "0.0011", "bad record: t inf is not a finite number"),
+        ("NaN", "0.0011", "bad record: t nan is not a finite number"),
+        ("0.0009", "0.0003", "out of time order"),
+    ],
+)
+def test_a_recording_with_bad_times_is_one_line_and_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], t: str, start: str, words: str
+) -> None:
+    # -Infinity ended in an OverflowError traceback; Infinity and NaN lost the byte, exit 0.
+    path = tmp_path / "wire.jsonl"
+    path.write_text(
+        '{"format": "pyuss-bus-recording", "version": 1, "baud": 19200, "seed": 0}\n'
+        '{"t": 0.001, "start": 0.0004, "from": "m", "byte": "02", "flags": []}\n'
+        f'{{"t": {t}, "start": {start}, "from": "m", "byte": "0c", "flags": []}}\n'
+    )
+    assert main(["monitor", "--read", str(path)]) == 2
+    out, err = capsys.readouterr()
+    assert err.startswith(f"uss monitor: {path}:3: {words}"), err
+    assert len(err.strip().splitlines()) == 1 and out == ""
+    # With --json the same error, as one line: on stderr, or as a JSON error object.
+    assert main(["monitor", "--read", str(path), "--json"]) == 2
+    out, err = capsys.readouterr()
+    lines = (out + err).strip().splitlines()
+    assert len(lines) == 1 and f"{path}:3: {words}" in lines[0], lines
+    if out:
+        assert f"{path}:3: {words}" in json.dumps(json.loads(out)["error"])
+
+
 def test_unreachable_port_fails_with_1(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["monitor", "--port", "/nonexistent/ttyUSB9", "--baud", "9600"]) == 1
     err = capsys.readouterr().err.strip()
     assert "uss monitor:" in err and len(err.splitlines()) == 1
 
 
-async def _start(*args: str) -> asyncio.subprocess.Process:
+async def _start(*args: str, expect: bytes = b"") -> asyncio.subprocess.Process:
     proc = await asyncio.create_subprocess_exec(
         sys.executable,
         "-m",
@@ -234,7 +268,7 @@ async def _start(*args: str) -> asyncio.subprocess.Process:
     )
     assert proc.stderr is not None
     line = await asyncio.wait_for(proc.stderr.readline(), TIMEOUT)
-    assert b"listening on" in line, line
+    assert b"listening on" in line and expect in line, line
     return proc
 
 
@@ -262,7 +296,7 @@ async def test_live_on_a_bus_station_writes_a_capture(tmp_path: Path) -> None:
     capture = tmp_path / "live.pcapng"
     proc = await _start(
         "--port", f"bus://{host}:{port}", "--baud", str(BAUD), "--json", "--count", "3",
-        "--layout", "3,2", "-w", str(capture),
+        "--layout", "3,2", "-w", str(capture), expect=b"tolerance 0 ms",
     )  # fmt: skip
     await drive(bus, bus, JOBS, SLAVES)
     items, err = await _json_lines(proc)
@@ -280,10 +314,11 @@ async def test_live_on_a_pty_with_real_port_timing(tmp_path: Path) -> None:
     (path,) = await bus.serve_pty(1)
     # The bus hands characters to the pty as its event loop gets round to it, so the pty's
     # timestamps are as coarse as a real adapter's, or worse when the machine is busy (stalls
-    # of several milliseconds inside a telegram): a generous --gap, as a user would give for
-    # such a port. Answers and requests then come in runs the monitor cuts apart again.
+    # of several milliseconds inside a telegram): the monitor judges a port that stamps bytes
+    # when read with the tolerance of 20 ms, without being told.
     proc = await _start(
-        "--port", path, "--baud", str(BAUD), "--json", "--count", "3", "--gap", "15"
+        "--port", path, "--baud", str(BAUD), "--json", "--count", "3",
+        expect=b"tolerance 20 ms",
     )  # fmt: skip
     await asyncio.sleep(0.2)  # the monitor's reader is running
     await drive(bus, bus, JOBS, SLAVES)

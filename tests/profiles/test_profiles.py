@@ -18,7 +18,19 @@ MM4 = get_profile("micromaster4")
 
 
 def test_registry() -> None:
-    assert profile_names() == ("generic", "6se21", "baumueller", "nord", "micromaster4")
+    assert profile_names() == (
+        "generic",
+        "6se21",
+        "baumueller",
+        "nord",
+        "micromaster4",
+        "micromaster420",
+        "micromaster440",
+        "sinamics-g110",
+        "sinamics-g120",
+        "sinamics-v20",
+        "nord-sk500e",
+    )
     assert get_profile("nord") is PROFILES["nord"]
     with pytest.raises(ConfigError, match=r"unknown profile 'simovert'.*generic"):
         get_profile("simovert")

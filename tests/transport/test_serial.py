@@ -16,6 +16,7 @@ from pyuss.transport.pty import PtyPort
 from pyuss.transport.queued import BAUD_RATES, EchoError
 from pyuss.transport.serialport import MARKED, MarkDecoder, RS485Mode, SerialTransport
 from pyuss.transport.tcp import TcpServerTransport
+from pyuss.transport.url import open_transport
 from transport.helpers import WAIT, Rfc2217Server, joined, read_bytes
 
 
@@ -273,3 +274,68 @@ def test_mark_decoder_undoes_kernel_marking_across_any_split(data: st.DataObject
         last = cut
     assert bytes(out) == payload
     assert errors == [(i, MARKED) for i in sorted(bad)]
+
+
+def _uart_with_serial_info() -> str | None:
+    """A real serial port here whose driver offers TIOCGSERIAL (an 8250 UART), or None."""
+    import fcntl
+    import os
+    import termios
+
+    for path in ("/dev/ttyS0", "/dev/ttyS1"):
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+        except OSError:
+            continue
+        try:
+            fcntl.ioctl(fd, termios.TIOCGSERIAL, bytes(1024))
+        except OSError:
+            continue
+        finally:
+            os.close(fd)
+        return path
+    return None
+
+
+def _low_latency_flag(path: str) -> bool:
+    import fcntl
+    import os
+    import struct
+    import termios
+
+    from pyuss.transport.serialport import ASYNC_LOW_LATENCY
+
+    fd = os.open(path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    try:
+        info = fcntl.ioctl(fd, termios.TIOCGSERIAL, bytes(1024))
+    finally:
+        os.close(fd)
+    return bool(struct.unpack_from("i", info, 16)[0] & ASYNC_LOW_LATENCY)
+
+
+UART = _uart_with_serial_info()
+
+
+@pytest.mark.skipif(UART is None, reason="needs a serial port whose driver offers TIOCGSERIAL")
+async def test_a_driver_that_offers_low_latency_mode_gets_asked_for_it() -> None:
+    # As setserial does: ASYNC_LOW_LATENCY through TIOCSSERIAL while the port is open; the
+    # driver's setting as it was once the port closes. low_latency=0 keeps it off.
+    assert UART is not None
+    before = _low_latency_flag(UART)
+    async with open_transport(UART) as port:
+        assert isinstance(port, SerialTransport)
+        assert port.low_latency_mode is True
+        assert _low_latency_flag(UART)
+    assert _low_latency_flag(UART) == before
+    async with open_transport(f"{UART}?low_latency=0") as port:
+        assert isinstance(port, SerialTransport)
+        assert port.low_latency_mode is False
+        assert not _low_latency_flag(UART)
+    assert _low_latency_flag(UART) == before
+
+
+async def test_a_pty_offers_no_low_latency_mode_and_opens_all_the_same() -> None:
+    async with PtyPort() as pty, SerialTransport(pty.device_path) as port:
+        assert port.low_latency_mode is None
+        await pty.write(b"\x02\x02")
+        assert joined(await read_bytes(port, 2)) == b"\x02\x02"

@@ -41,6 +41,15 @@ def test_line_options_in_the_query() -> None:
     assert (device.url, device.rs485, device.echo) == ("/dev/ttyS9", RS485Mode.KERNEL, False)
     tcp = open_transport("tcp://127.0.0.1:4001?echo=1")
     assert isinstance(tcp, TcpTransport) and tcp.echo
+    # Low-latency mode is asked for unless the URL (or the caller) keeps it off.
+    assert isinstance(usb := open_transport("/dev/ttyUSB0"), SerialTransport) and usb.low_latency
+    slow = open_transport("/dev/ttyUSB0?low_latency=0&rs485=rts")
+    assert isinstance(slow, SerialTransport)
+    assert (slow.url, slow.low_latency, slow.rs485) == ("/dev/ttyUSB0", False, RS485Mode.RTS)
+    kept = open_transport("/dev/ttyUSB0", low_latency=False)
+    assert isinstance(kept, SerialTransport) and not kept.low_latency
+    asked = open_transport("/dev/ttyUSB0?low_latency=yes", low_latency=False)
+    assert isinstance(asked, SerialTransport) and asked.low_latency
     assert isinstance(open_transport("tcp://127.0.0.1:4001?reconnect=on"), ReconnectingTransport)
     assert isinstance(open_transport("bus://127.0.0.1:4001?reconnect=1"), ReconnectingTransport)
 
@@ -90,6 +99,8 @@ def test_a_command_given_a_bad_port_url_says_so_with_exit_2(
         ("loop://?rs485=both", {}, "RS-485 mode 'both'"),
         ("loop://?echo=maybe", {}, "echo='maybe'"),
         ("loop://?echo=1&echo=0", {}, "'echo' given more than once"),
+        ("/dev/ttyUSB0?low_latency=fast", {}, "low_latency='fast'"),
+        ("tcp://127.0.0.1:4001?low_latency=0", {}, "unknown option 'low_latency'"),
         ("socket://127.0.0.1", {}, "expected socket://HOST:PORT"),
         ("socket://127.0.0.1:x", {}, "expected socket://HOST:PORT"),
         ("rfc2217://:4001", {}, "expected rfc2217://HOST:PORT"),

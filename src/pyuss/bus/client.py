@@ -47,6 +47,10 @@ class BusClientTransport(TcpTransport):
         self._bus_echo = bus_echo or echo
         self.listen_only = listen_only
 
+    @property
+    def exact_timestamps(self) -> bool:
+        return True  # the bus's own end times of the characters
+
     def describe(self) -> str:
         return f"bus://{self.host}:{self.port} station {self.name or '(unnamed)'}"
 

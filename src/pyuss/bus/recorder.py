@@ -9,7 +9,10 @@ A recording file starts with a header line, then one line per character on the w
 
 ``t`` is the end of the character, ``start`` its start, both in seconds since the bus started;
 ``from`` the sender (colliding senders joined by ``+``); ``flags`` the line errors every
-receiver saw (`LineError` names); ``notes`` the faults applied and ``collision``.
+receiver saw (`LineError` names); ``notes`` the faults applied and ``collision``. Characters
+come in time order; `load_recording` refuses times that are not finite numbers of seconds
+(within `MAX_TIME`), a character that ends before it starts and one that comes before the
+character above it, with the file and line.
 
 `Recorder` is what the bus calls for each character. With a path it writes the lines to a
 temporary file next to it as they come and, on `close`, syncs it to disk and renames it to the
@@ -24,6 +27,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import json
+import math
 import os
 import time
 from dataclasses import dataclass
@@ -39,6 +43,23 @@ from pyuss.transport.queued import check_baud
 FORMAT = "pyuss-bus-recording"
 VERSION = 1
 _EPS = 1e-9
+
+
+MAX_TIME = 2.0**33
+"""Largest time a file may hold (seconds, about 272 years): a float still tells microseconds
+apart there, well below the shortest character time (58 us at 187500 baud)."""
+
+
+def check_seconds(value: Any, key: str) -> float:
+    """A time of a record: a finite number of seconds within `MAX_TIME` (`ValueError`)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"{key} {value!r} is not a number of seconds")
+    seconds = float(value)
+    if not math.isfinite(seconds):
+        raise ValueError(f"{key} {value!r} is not a finite number of seconds")
+    if abs(seconds) > MAX_TIME:
+        raise ValueError(f"{key} {value!r} is out of range (at most {MAX_TIME:.0f} s)")
+    return seconds
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,8 +97,10 @@ class Record:
         byte = int(item["byte"], 16)
         if not 0 <= byte <= 255:
             raise ValueError(f"byte {item['byte']!r} out of range")
-        t = float(item["t"])
-        start = float(item.get("start", t))
+        t = check_seconds(item["t"], "t")
+        start = check_seconds(item.get("start", t), "start")
+        if start > t:
+            raise ValueError(f"start {start!r} is after t {t!r}: a character ends after it starts")
         sender = item["from"]
         if not isinstance(sender, str) or not sender:
             raise ValueError("'from' must name the sender")
@@ -204,14 +227,22 @@ def load_recording(path: str | os.PathLike[str]) -> Recording:
         baud = check_baud(baud)
     except ConfigError as exc:
         raise ConfigError(f"{name}:1: {exc}") from None
-    records = []
+    records: list[Record] = []
     for number, line in enumerate(lines[1:], start=2):
         if not line.strip():
             continue
         try:
-            records.append(Record.from_json(json.loads(line)))
+            record = Record.from_json(json.loads(line))
         except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
             raise ConfigError(f"{name}:{number}: bad record: {exc}") from None
+        if records and (record.t < records[-1].t or record.start < records[-1].start):
+            before = records[-1]
+            raise ConfigError(
+                f"{name}:{number}: out of time order: this character (start {record.start!r}, "
+                f"t {record.t!r}) comes before the one on the line above (start "
+                f"{before.start!r}, t {before.t!r}); a recording holds the line in time order"
+            )
+        records.append(record)
     seed = header.get("seed", 0)
     return Recording(baud, tuple(records), seed if isinstance(seed, int) else 0)
 

@@ -10,6 +10,13 @@ Raw connections (any serial-over-TCP client: pyuss ``tcp://``, pyserial ``socket
 named ``tcp1``, ``tcp2``, ... and carry bytes only. Framed connections (``framed=True``, for
 pyuss ``bus://`` clients, see `pyuss.bus.wire`) keep the ideal timestamps and the line error
 flags of every delivery and let the client choose its name, echo and listen-only mode.
+
+Raw stations are anonymous: when all 32 sending places of the bus are taken, the raw station
+silent longest (at least `pyuss.bus.core.EVICT_IDLE` seconds) is disconnected to make room for
+a new station, so idle raw connections never lock ``bus://`` masters out. What a station sends
+beyond its queue (`pyuss.bus.core.MAX_QUEUE`) is dropped; what it had not sent when it leaves
+is dropped too. A socket that does not read what the bus sends it loses what comes next once
+`MAX_BACKLOG` bytes wait in it.
 """
 
 from __future__ import annotations
@@ -32,7 +39,7 @@ from pyuss.transport.tcp import check_endpoint, close_writer
 log = logging.getLogger(__name__)
 
 #: A station whose socket has this much unsent data loses what comes next (it does not read).
-_MAX_BACKLOG = 1 << 20
+MAX_BACKLOG = 1 << 20
 _HELLO_TIMEOUT = 5.0
 
 
@@ -145,7 +152,7 @@ def _socket_sink(writer: asyncio.StreamWriter, *, framed: bool, station: list[St
     def sink(data: bytes, timestamp: float, errors: tuple[tuple[int, LineError], ...]) -> None:
         if writer.is_closing():
             return
-        if writer.transport.get_write_buffer_size() > _MAX_BACKLOG:
+        if writer.transport.get_write_buffer_size() > MAX_BACKLOG:
             if station:
                 station[0].stats.dropped_out += len(data)
             return
@@ -175,22 +182,24 @@ async def _raw_station(
         log.warning("bus: turned away a TCP station: %s", exc)
         return
     holder.append(station)
+    station.evict = writer.close  # anonymous: gives its place when idle on a full bus
     log.info("bus: station %s connected from %s", name, writer.get_extra_info("peername"))
-    await _pump_in(bus, name, reader)
+    await _pump_in(bus, station, reader)
 
 
-async def _pump_in(bus: VirtualBus, name: str, reader: asyncio.StreamReader) -> None:
+async def _pump_in(bus: VirtualBus, station: Station, reader: asyncio.StreamReader) -> None:
+    name = station.name
     try:
         while True:
             data = await reader.read(65536)
             if not data:
                 break
-            if name in bus.stations and not bus.stations[name].listen_only:
+            if bus.stations.get(name) is station and not station.listen_only:
                 bus.send(name, data)
     except OSError as exc:
         log.info("bus: station %s lost: %s", name, exc)
     finally:
-        bus.detach(name)
+        bus.detach(name, station)
         log.info("bus: station %s left", name)
 
 
@@ -226,4 +235,4 @@ async def _framed_station(
     holder.append(station)
     answer({"ok": True, "name": station.name, "baud": bus.baud})
     log.info("bus: station %s connected (bus://)", station.name)
-    await _pump_in(bus, station.name, reader)
+    await _pump_in(bus, station, reader)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import json
 import sys
 from collections.abc import Awaitable, Callable, Coroutine
@@ -68,7 +69,8 @@ def add_options(parser: argparse.ArgumentParser, *, lists: bool = False) -> None
         "--profile",
         default="generic",
         metavar="NAME",
-        help=f"device profile ({', '.join(profile_names())}; default generic)",
+        help=f"device profile ({', '.join(profile_names())}, or auto: the family the drive "
+        "shows in its parameters; default generic)",
     )
     parser.add_argument(
         "--layout",
@@ -176,11 +178,23 @@ def master_options(args: argparse.Namespace) -> dict[str, Any]:
     return options
 
 
-def open_master(args: argparse.Namespace, *, mode: Mode = Mode.ACYCLIC, **extra: Any) -> Master:
-    """A master on ``--port`` at ``--baud`` (not started)."""
+def open_master(
+    args: argparse.Namespace, *, mode: Mode = Mode.ACYCLIC, **extra: Any
+) -> contextlib.AbstractAsyncContextManager[Master]:
+    """A master on ``--port`` at ``--baud``, to be entered with ``async with``; with
+    ``--profile auto`` its profile is the family of the drive at ``ADDRESS``
+    (`pyuss.master.identify.auto_master`)."""
     check_baud(args.baud)
     options = master_options(args)
     options.update(extra)
+    if options.get("profile") == "auto":
+        from pyuss.master.identify import auto_master
+
+        del options["profile"]
+        open_transport(args.port, baud=args.baud)  # a bad URL is bad input before probing
+        return auto_master(
+            lambda: open_transport(args.port, baud=args.baud), args.address, mode=mode, **options
+        )
     transport = open_transport(args.port, baud=args.baud)
     return Master(transport, mode=mode, **options)
 

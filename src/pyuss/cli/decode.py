@@ -6,7 +6,8 @@
 The hex may be given as one string or several arguments, with or without blanks, colons or
 ``0x`` prefixes. ``--layout PKW,PZD`` says how the net data are split (PKW 0, 3, 4 or ``v``;
 PZD 0..16); ``--direction`` whether the telegram is a request (master to slave, the default)
-or a response, which decides the names of IDs and of the bits of PZD1.
+or a response, which decides the names of IDs and of the bits of PZD1; ``--profile NAME`` says
+how the device numbers parameters from 2000 on (micromaster4: PNU 10 with IND bit 15 is P2010).
 
 A telegram with a wrong BCC is still decoded (``bcc_ok`` false) and exits with 0. Bad hex, a
 missing or bad layout, a bad direction, bytes that are no telegram (no STX, LGE not matching
@@ -15,7 +16,8 @@ exit code 2; with ``--json`` that line is a JSON object ``{"error": "..."}`` on 
 
 The JSON object is a stable interface; its keys are documented in docs/protocol.md:
 ``hex``, ``address``, ``mode``, ``adr``, ``lge``, ``bcc``, ``bcc_expected``, ``bcc_ok``,
-``layout``, ``direction``, ``pkw`` (``id``, ``id_name``, ``id_text``, ``pnu``, ``index``,
+``layout``, ``direction``, ``pkw`` (``id``, ``id_name``, ``id_text``, ``pnu``, ``parameter``
+(the parameter number with the IND page bits of ``--profile`` counted in), ``index``,
 ``subindex``, ``spm_toggle``, ``values``, ``error_number``, ``error_text``; or null),
 ``broadcast_enable`` (or null), ``pzd`` (list of integers) and ``pzd1`` (or null).
 """
@@ -31,7 +33,14 @@ from typing import Any
 from pyuss.errors import ConfigError, TelegramError
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.layout import Layout
-from pyuss.protocol.pkw import Pkw, RequestId, ResponseId, error_meaning
+from pyuss.protocol.pkw import (
+    Pkw,
+    RequestId,
+    ResponseId,
+    error_meaning,
+    page_of,
+    parameter_number,
+)
 from pyuss.protocol.pzd import (
     CONTROL_BITS,
     STATUS_BITS,
@@ -71,6 +80,12 @@ def register(subparsers: Any) -> None:
         metavar="{request,response}",
         help="request: master to slave (default); response: slave to master",
     )
+    parser.add_argument(
+        "--profile",
+        metavar="NAME",
+        help="device profile, for parameter numbers from 2000 on in the IND page bits "
+        "(micromaster4: P2010 is PNU 10 with IND bit 15)",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.set_defaults(func=run)
 
@@ -99,7 +114,7 @@ def _hex(data: bytes) -> str:
     return data.hex(" ").upper()
 
 
-def _pkw_dict(pkw: Pkw, direction: str) -> dict[str, Any]:
+def _pkw_dict(pkw: Pkw, direction: str, page_size: int | None = None) -> dict[str, Any]:
     ident: RequestId | ResponseId = (
         RequestId(pkw.id) if direction == "request" else ResponseId(pkw.id)
     )
@@ -109,6 +124,7 @@ def _pkw_dict(pkw: Pkw, direction: str) -> dict[str, Any]:
         "id_name": ident.name,
         "id_text": ident.text,
         "pnu": pkw.pnu,
+        "parameter": parameter_number(pkw.pnu, pkw.index, page_size),
         "index": pkw.index,
         "subindex": pkw.subindex,
         "spm_toggle": pkw.spm_toggle,
@@ -118,9 +134,13 @@ def _pkw_dict(pkw: Pkw, direction: str) -> dict[str, Any]:
     }
 
 
-def describe(raw: bytes, layout: Layout, direction: str = "request") -> dict[str, Any]:
+def describe(
+    raw: bytes, layout: Layout, direction: str = "request", *, page_size: int | None = None
+) -> dict[str, Any]:
     """Everything ``uss decode`` knows about ``raw`` as a JSON-ready dict. Raises
-    `TelegramError` when the bytes are no telegram or do not fit ``layout``."""
+    `TelegramError` when the bytes are no telegram or do not fit ``layout``. ``page_size``:
+    parameter numbers per IND page of the device (2000 for MICROMASTER 4), so that
+    ``parameter`` is the number the drive's manual gives (P2010, not PNU 10)."""
     if direction not in DIRECTIONS:
         raise ConfigError(f"bad direction {direction!r}: expected request or response")
     telegram = Telegram.decode(raw, check_bcc=False)
@@ -155,7 +175,7 @@ def describe(raw: bytes, layout: Layout, direction: str = "request") -> dict[str
         "bcc_ok": raw[-1] == expected,
         "layout": str(layout),
         "direction": direction,
-        "pkw": None if net.pkw is None else _pkw_dict(net.pkw, direction),
+        "pkw": None if net.pkw is None else _pkw_dict(net.pkw, direction, page_size),
         "broadcast_enable": broadcast,
         "pzd": list(net.pzd),
         "pzd1": pzd1,
@@ -179,6 +199,11 @@ def _render_pkw(info: dict[str, Any], lines: list[str]) -> None:
         f"PKE        {pke:04X}h: {kind} {pkw['id']} {pkw['id_name']} ({pkw['id_text']}), "
         f"PNU {pkw['pnu']}, toggle {int(pkw['spm_toggle'])}"
     )
+    if pkw.get("parameter", pkw["pnu"]) != pkw["pnu"]:
+        lines.append(
+            f"           parameter P{pkw['parameter']}: PNU {pkw['pnu']} on IND page "
+            f"{page_of(pkw['index'])} (bits 12..15)"
+        )
     index = pkw["index"]
     extra = ""
     if index >> 8:
@@ -231,7 +256,12 @@ def run(args: argparse.Namespace) -> int:
         if args.layout is None:
             raise ConfigError("no layout given: --layout PKW,PZD is required, e.g. --layout 3,2")
         layout = Layout.parse(args.layout)
-        info = describe(raw, layout, args.direction)
+        page_size = None
+        if args.profile is not None:
+            from pyuss.profiles import get_profile
+
+            page_size = get_profile(args.profile).pnu_page_size
+        info = describe(raw, layout, args.direction, page_size=page_size)
     except (ConfigError, TelegramError) as exc:
         if args.json:
             print(json.dumps({"error": str(exc)}))

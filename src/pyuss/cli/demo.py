@@ -29,6 +29,7 @@ from pyuss.cli.decode import describe, render
 from pyuss.master import Drive, Master, SpontaneousMessage
 from pyuss.master.scan import scan
 from pyuss.master.testing import simulated_drives
+from pyuss.params.values import words_text
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.receiver import Received, Receiver
@@ -70,24 +71,24 @@ async def _scan(bus: VirtualBus) -> None:
 
 async def _parameters(master: Master, generic: Drive, baumueller: Drive, mm4: Drive) -> None:
     say("2. Parameters, while the master goes round the poll list [1, 4, 1, 7]:")
-    value = await generic.read(52)
-    say(f"   drive 1 (generic)      P52 = {value:04X}h              (C 8 example 2)")
+    value = await generic.read_param(52)
+    say(f"   drive 1 (generic)      {value.text()}   (C 8 example 2: {words_text(value.words)})")
     low = (await generic.read_description(52, 7)).elements[7].words[0]
     say(f"   drive 1 (generic)      P52 lower limit = {low:04X}h    (C 8 example 4)")
     text = await generic.read_text(7, 3)
     say(f"   drive 1 (generic)      P7 text 3 = {text!r}     (C 8 example 7)")
     description = await generic.read_description(947)
     say(f"   drive 1 (generic)      P947 is {description.name!r}, {description.data_type}")
-    written = await generic.write(18, 0x7000)
-    say(f"   drive 1 (generic)      P18 := 7000h -> {written:04X}h")
-    ramp = await baumueller.read(60)
-    say(f"   drive 4 (baumueller)   P60 ramp-up time = {ramp}")
-    written = await baumueller.write(60, 1500)
-    say(f"   drive 4 (baumueller)   P60 := 1500 -> {written}")
-    baud = await mm4.read(2010, 1)
-    say(f"   drive 7 (micromaster4) P2010.1 baud code = {baud} (IND page bit 15)")
-    seconds = await mm4.write(1120, 2.5)
-    say(f"   drive 7 (micromaster4) P1120 ramp-up := 2.5 s -> {seconds} s")
+    written = await generic.write_raw(18, [0x7000])
+    say(f"   drive 1 (generic)      P18 := 7000h -> {words_text(written)}")
+    ramp = await baumueller.read_param(60)
+    say(f"   drive 4 (baumueller)   {ramp.text()}")
+    written_value = await baumueller.write_param(60, 1500)
+    say(f"   drive 4 (baumueller)   P60 := 1500 ms -> {written_value.text()}")
+    baud = await mm4.read_param(2010, 1)
+    say(f"   drive 7 (micromaster4) {baud.text()} (IND page bit 15)")
+    seconds = await mm4.write_param(1120, 2.5)
+    say(f"   drive 7 (micromaster4) P1120 := 2.5 s -> {seconds.text()}")
     say()
 
 
@@ -116,8 +117,8 @@ async def _mirror(master: Master) -> None:
 
 async def _run(generic: Drive) -> None:
     say("5. Drive 1 runs up to 50 % and down again (ramp 1 s), status live:")
-    await generic.write(462, 10)  # ramp-up time 1.0 s (P462, 0.1 s units)
-    await generic.write(464, 10)
+    await generic.write(462, 1.0)  # ramp-up time 1.0 s (P462 counts in 0.1 s)
+    await generic.write(464, 1.0)
     await generic.setpoint(50.0)
     await generic.on()
     # The ramp ends exactly on the setpoint (8192 = 2000h = 50 %); wait for that, not for the

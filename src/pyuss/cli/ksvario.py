@@ -15,10 +15,11 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import signal
 import sys
 
 from pyuss.atomicfile import write_atomically
-from pyuss.errors import ConfigError
+from pyuss.errors import ConfigError, UssError
 from pyuss.ksvario.address import Address, View, parse_address
 from pyuss.ksvario.channel import ByteOrder, DataFormat, Value, encode_value
 from pyuss.ksvario.coupler import CacheSelection, Coupler
@@ -56,7 +57,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
     sim = sub.add_parser("simulate", help="serve a simulated KS VARIO as DP slave")
     sim.add_argument("--pty", action="store_true", help="open a new pty (the default)")
-    sim.add_argument("--port", help="serial port or pyserial URL instead of a pty")
+    sim.add_argument(
+        "--port",
+        help="serial port, pyserial URL or tcp-listen://HOST:PORT (port 0: a free one; the "
+        "first line printed names the port) instead of a pty",
+    )
     sim.add_argument("--station", type=int, default=5, help="DP station address (default 5)")
     sim.add_argument("--baud", type=int, default=19200, help=_BAUD_HELP)
     sim.add_argument("--channels", type=int, default=30, help="controller channels 1..30")
@@ -134,25 +139,39 @@ def _simulate(args: argparse.Namespace) -> int:
         return _fail(f"channels {args.channels} is out of range 1..30")
     try:
         check_baud(args.baud)
+        return asyncio.run(_simulate_until_stopped(args))
     except ConfigError as exc:
         return _fail(str(exc))
+    except UssError as exc:  # the line cannot be opened, or is lost
+        print(f"uss ksvario: {exc}", file=sys.stderr)
+        return 1
+
+
+async def _simulate_until_stopped(args: argparse.Namespace) -> int:
+    """Serve until SIGINT or SIGTERM: exit code 0. The handlers are installed explicitly, as
+    a shell script that starts the simulator in the background leaves SIGINT ignored."""
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
 
     def ready(device: str) -> None:
         print(device, flush=True)
         print(f"KS VARIO station {args.station}, ident 1030h; Ctrl-C stops", file=sys.stderr)
 
     try:
-        asyncio.run(
-            serve(
-                station=args.station,
-                port=args.port,
-                baud=args.baud,
-                channels=args.channels,
-                on_ready=ready,
-            )
+        await serve(
+            station=args.station,
+            port=args.port,
+            baud=args.baud,
+            channels=args.channels,
+            on_ready=ready,
+            stop=stop,
         )
-    except KeyboardInterrupt:
-        return 130
+    finally:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.remove_signal_handler(sig)
+    print(f"uss ksvario: station {args.station} stopped", file=sys.stderr)
     return 0
 
 

@@ -22,6 +22,12 @@ COMMANDS: tuple[str, ...] = (
     "scan",
     "read",
     "write",
+    "params",
+    "backup",
+    "diff",
+    "restore",
+    "status",
+    "ack",
     "describe",
     "mirror",
     "run",
@@ -31,11 +37,16 @@ COMMANDS: tuple[str, ...] = (
     "monitor",
     "wireshark",
     "decode",
+    "web",
+    "log",
     "bass",
     "ksvario",
 )
 
-ONE_SHOT = frozenset({"scan", "read", "write", "describe", "mirror"})
+ONE_SHOT = frozenset(
+    {"scan", "read", "write", "describe", "mirror", "params", "backup", "diff", "restore"}
+    | {"status", "ack"}
+)
 """Commands whose outcome is their one line of output: their log warnings (a slave that does
 not send, ...) stay quiet unless -v asks for them, so a failure reads as one line."""
 

@@ -16,9 +16,12 @@ At the end the summary table goes to stderr (stdout with ``--summary``).
 
 ``--port`` is master to slave (on a 2-wire line: everything), ``--port-rx`` (or a second
 ``--port``) slave to master on a 4-wire line. A ``bus://`` station joins the virtual bus
-listen-only. ``--gap MS`` is the idle time that starts a telegram: the start pause of 2
-character times (A 5.1.2) on ``bus://`` (exact timestamps), at least 2 ms on real ports
-(their timestamps come in bursts). ``--write FILE`` saves a capture: ``*.pcapng`` for
+listen-only. Serial ports, ptys and ``tcp://`` stamp bytes when they are read (USB adapters
+deliver every 1 to 16 ms), so timing is judged with a tolerance of 20 ms there (``--tolerance
+MS``; 0 on ``bus://``, whose timestamps are exact): a late burst does not cut a telegram, and
+an answer read together with its request still had its start pause. ``--gap MS`` is the idle
+time that starts a telegram (default: the start pause of 2 character times, A 5.1.2).
+``--write FILE`` saves a capture: ``*.pcapng`` for
 Wireshark (``uss wireshark install``) or ``*.jsonl``; ``--read FILE`` replays one (or a
 ``uss bus --record`` recording) through the same decoder.
 
@@ -52,6 +55,7 @@ from pyuss.monitor.render import exchange_line, summary_table
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import AddressMode
 from pyuss.protocol.timing import BAUD_RATES, check_baud
+from pyuss.transport.base import STAMP_TOLERANCE
 from pyuss.transport.url import open_transport
 
 __all__ = ["exchange_json", "frame_json", "register", "run"]
@@ -92,11 +96,23 @@ def register(subparsers: Any) -> None:
         help="net data layout for every address (3,2) or one (5=4,2; 1+2=v,0); others are inferred",
     )
     decode.add_argument(
+        "--profile",
+        metavar="NAME",
+        help="device profile, for parameter numbers from 2000 on in the IND page bits "
+        "(micromaster4: P2010 rather than PNU 10)",
+    )
+    decode.add_argument(
         "--gap",
         type=float,
         metavar="MS",
-        help="idle time that starts a telegram (default: start pause on bus://, "
-        "at least 2 ms on real ports)",
+        help="idle time that starts a telegram (default: the start pause, A 5.1.2)",
+    )
+    decode.add_argument(
+        "--tolerance",
+        type=float,
+        metavar="MS",
+        help="how late the port may stamp a byte: timing is judged beyond it (default 20 ms; "
+        "0 on bus://, exact timestamps)",
     )
     decode.add_argument(
         "--response-limit",
@@ -155,7 +171,9 @@ def register(subparsers: Any) -> None:
     parser.set_defaults(func=run)
 
 
-def frame_json(frame: Frame, layout: Layout | None, origin: float = 0.0) -> dict[str, Any]:
+def frame_json(
+    frame: Frame, layout: Layout | None, origin: float = 0.0, page_size: int | None = None
+) -> dict[str, Any]:
     """A frame as a JSON-ready dict, times less ``origin``; ``telegram`` is what
     ``uss decode --json`` gives for its bytes with ``layout`` (None when they hold no whole
     telegram, there is no layout for them or they do not fit it)."""
@@ -163,7 +181,7 @@ def frame_json(frame: Frame, layout: Layout | None, origin: float = 0.0) -> dict
     if frame.telegram is not None and layout is not None:
         direction = "response" if frame.direction is Direction.RESPONSE else "request"
         try:
-            telegram = describe(frame.raw, layout, direction)
+            telegram = describe(frame.raw, layout, direction, page_size=page_size)
         except TelegramError:
             telegram = None
     return {
@@ -181,7 +199,9 @@ def frame_json(frame: Frame, layout: Layout | None, origin: float = 0.0) -> dict
     }
 
 
-def exchange_json(ex: Exchange, *, origin: float = 0.0) -> dict[str, Any]:
+def exchange_json(
+    ex: Exchange, *, origin: float = 0.0, page_size: int | None = None
+) -> dict[str, Any]:
     """An exchange as a JSON-ready dict (the keys are listed in docs/monitor.md)."""
     decodable = ex.mode in (AddressMode.NORMAL, AddressMode.BROADCAST)
     layout = ex.layout if decodable else None
@@ -193,16 +213,27 @@ def exchange_json(ex: Exchange, *, origin: float = 0.0) -> dict[str, Any]:
         "mode": None if ex.mode is None else ex.mode.label,
         "layout": None if ex.layout is None else str(ex.layout),
         "layout_source": None if ex.layout_source is None else ex.layout_source.value,
-        "request": None if ex.request is None else frame_json(ex.request, layout, origin),
-        "answer": None if ex.answer is None else frame_json(ex.answer, layout, origin),
+        "request": None
+        if ex.request is None
+        else frame_json(ex.request, layout, origin, page_size),
+        "answer": None if ex.answer is None else frame_json(ex.answer, layout, origin, page_size),
         "delay_ms": None if ex.delay is None else round(ex.delay * 1000, 6),
         "problems": [
             {"problem": i.problem.value, "where": i.where, "text": i.text} for i in ex.issues
         ],
         "unsure": ex.unsure or None,
         "notes": list(ex.notes),
-        "summary": exchange_line(ex, origin=origin),
+        "summary": exchange_line(ex, origin=origin, page_size=page_size),
     }
+
+
+def _tolerance(args: argparse.Namespace, default: float) -> float:
+    if args.tolerance is None:
+        return default
+    value = float(args.tolerance)
+    if not 0 <= value < float("inf"):
+        raise ConfigError(f"--tolerance {args.tolerance}: must be >= 0 milliseconds")
+    return value / 1000
 
 
 def _ms(value: float | None, option: str) -> float | None:
@@ -250,6 +281,7 @@ class _Output:
         self.done: Callable[[], None] = lambda: None
         color = args.color == "always" or (args.color == "auto" and stream.isatty())
         self.color = color and not args.json
+        self.page_size = page_size(args)
 
     def __call__(self, exchanges: Iterable[Exchange]) -> None:
         for ex in exchanges:
@@ -282,11 +314,14 @@ class _Output:
 
     def render(self, ex: Exchange) -> str:
         assert self.origin is not None
+        pages = self.page_size
         if self.args.json:
-            return json.dumps(exchange_json(ex, origin=self.origin))
+            return json.dumps(exchange_json(ex, origin=self.origin, page_size=pages))
         if self.args.time == "abs":
-            return exchange_line(ex, origin=self.epoch, absolute=True, color=self.color)
-        return exchange_line(ex, origin=self.origin, color=self.color)
+            return exchange_line(
+                ex, origin=self.epoch, absolute=True, color=self.color, page_size=pages
+            )
+        return exchange_line(ex, origin=self.origin, color=self.color, page_size=pages)
 
     def table(self) -> str:
         now = self.monitor.now
@@ -298,8 +333,8 @@ def _open_writers(
     baud: int,
     four_wire: bool,
     epoch: float,
-    linktype: int | None,
-    gap: float,
+    args: argparse.Namespace,
+    monitor: Monitor,
 ) -> list[CaptureWriter]:
     writers: list[CaptureWriter] = []
     try:
@@ -310,8 +345,9 @@ def _open_writers(
                     baud=baud,
                     four_wire=four_wire,
                     epoch=epoch,
-                    linktype=linktype,
-                    gap=gap,
+                    linktype=args.linktype,
+                    gap=monitor.gap,
+                    tolerance=monitor.tolerance,
                 )
             )
     except ConfigError:
@@ -332,7 +368,17 @@ def _finish(writers: list[CaptureWriter]) -> None:
         raise ConfigError("; ".join(errors))
 
 
+def page_size(args: argparse.Namespace) -> int | None:
+    """Parameter numbers per IND page of ``--profile``'s devices (None: no paging)."""
+    if getattr(args, "profile", None) is None:
+        return None
+    from pyuss.profiles import get_profile
+
+    return get_profile(args.profile).pnu_page_size
+
+
 def _check(args: argparse.Namespace) -> tuple[list[str], LayoutBook]:
+    page_size(args)  # an unknown profile is bad input
     ports = list(args.port)
     if args.port_rx is not None:
         ports.append(args.port_rx)
@@ -365,16 +411,16 @@ def _monitor(
     four_wire: bool,
     layouts: LayoutBook,
     gap: float | None,
-    *,
-    exact: bool,
+    tolerance: float,
 ) -> Monitor:
     return Monitor(
         baud,
         four_wire=four_wire,
         layouts=layouts,
-        gap=default_gap(baud, exact=exact) if gap is None else gap,
+        gap=default_gap(baud) if gap is None else gap,
         response_limit=_ms(args.response_limit, "--response-limit"),
         late_limit=_ms(args.late_limit, "--late-limit"),
+        tolerance=tolerance,
     )
 
 
@@ -388,20 +434,18 @@ def run(args: argparse.Namespace) -> int:
                     f"--baud {args.baud}: the capture {args.read} is at {capture.baud} baud"
                 )
             gap = capture.gap if args.gap is None else _ms(args.gap, "--gap")
-            monitor = _monitor(args, capture.baud, False, layouts, gap, exact=True)
-            writers = _open_writers(
-                args.write, capture.baud, capture.four_wire, 0.0, args.linktype, monitor.gap
-            )
+            tolerance = _tolerance(args, capture.tolerance)
+            monitor = _monitor(args, capture.baud, False, layouts, gap, tolerance)
+            writers = _open_writers(args.write, capture.baud, capture.four_wire, 0.0, args, monitor)
         else:
             urls = [_listen_only(url) for url in ports]
-            exact = all(urllib.parse.urlsplit(u).scheme.lower() == "bus" for u in urls)
             gap = _ms(args.gap, "--gap")
-            monitor = _monitor(args, args.baud, len(urls) == 2, layouts, gap, exact=exact)
             transports = [Listener(open_transport(u, baud=args.baud)) for u in urls]
+            exact = all(t.exact_timestamps for t in transports)
+            tolerance = _tolerance(args, 0.0 if exact else STAMP_TOLERANCE)
+            monitor = _monitor(args, args.baud, len(urls) == 2, layouts, gap, tolerance)
             epoch = time.time() - time.monotonic()
-            writers = _open_writers(
-                args.write, args.baud, len(urls) == 2, epoch, args.linktype, monitor.gap
-            )
+            writers = _open_writers(args.write, args.baud, len(urls) == 2, epoch, args, monitor)
     except ConfigError as exc:
         print(f"uss monitor: {exc}", file=sys.stderr)
         return EXIT_USAGE
@@ -492,7 +536,7 @@ async def _live(
         wiring = "4-wire" if len(urls) == 2 else "2-wire"
         print(
             f"uss monitor: listening on {' and '.join(urls)} ({wiring}, {monitor.baud} baud, "
-            f"gap {monitor.gap * 1000:.3f} ms)",
+            f"gap {monitor.gap * 1000:.3f} ms, tolerance {monitor.tolerance * 1000:g} ms)",
             file=sys.stderr,
             flush=True,
         )

@@ -1,9 +1,14 @@
 """``uss read ADDRESS PNU[.INDEX] ...``: read parameter values from a drive.
 
-Each parameter is read with one job (C 4.2.1.1): request 1, or request 6 for an array element
-``PNU.INDEX``. Values print as the drive sent them - ``P52 = 16384 (4000h)`` - or as a signed
-number (``--signed``) or a 32-bit float (``--float``). A parameter the drive refuses prints its
-error number and meaning and the others are still read; the exit code is then 1.
+Each value prints as the drive engineer reads it: ``P1120 = 10.00 s (Ramp-up time)``, typed
+and scaled by what is known of the parameter (``--params FILE``, the drive's own description,
+C 6, the profile's parameter file). An array parameter without index is read whole, in one
+telegram (IND 255) where the drive allows it, else element by element with a progress line
+(C 4.2.2); ``P947.3`` reads one element. Numbers from 2000 on are given as they are
+(``P2010.1``): the profile puts them into the IND page bits. ``--raw`` prints the words as they
+travelled; ``--json`` gives value, raw words, unit, name and type of each. A parameter the drive
+refuses prints its error number and meaning and the others are still read; the exit code is
+then 1.
 """
 
 from __future__ import annotations
@@ -12,6 +17,7 @@ import argparse
 import sys
 from typing import Any
 
+from pyuss.cli import _params
 from pyuss.cli._master import (
     EXIT_FAILED,
     EXIT_OK,
@@ -25,24 +31,19 @@ from pyuss.cli._master import (
     run,
 )
 from pyuss.errors import ConfigError, UssError
+from pyuss.params.values import words_text
 
 
 def register(subparsers: Any) -> None:
     parser = command(subparsers, "read", "read parameter values from a drive", __doc__)
-    parser.add_argument("parameters", nargs="+", metavar="PNU[.INDEX]", help="e.g. 52 or 2010.1")
-    kind = parser.add_mutually_exclusive_group()
-    kind.add_argument("--signed", action="store_true", help="show values as signed numbers")
-    kind.add_argument("--float", action="store_true", help="read 32-bit floating point values")
+    parser.add_argument(
+        "parameters", nargs="+", metavar="PNU[.INDEX]", help="e.g. 1120, 947 (whole array), 2010.1"
+    )
+    parser.add_argument(
+        "--raw", action="store_true", help="print the words as the drive sent them (PWE, C 4.2.3)"
+    )
+    _params.add_options(parser)
     finish(parser, main)
-
-
-def show(value: int | float) -> str:
-    if isinstance(value, float):
-        return f"{value:g}"
-    if value < 0:
-        return str(value)
-    width = 8 if value > 0xFFFF else 4
-    return f"{value} ({value:0{width}X}h)"
 
 
 def main(args: argparse.Namespace) -> int:
@@ -52,26 +53,42 @@ def main(args: argparse.Namespace) -> int:
         failed = False
         async with open_master(args) as bus:
             drive = bus.drive(args.address)
+            _params.setup(args, drive)
             for pnu, index in wanted:
-                item: dict[str, Any] = {"pnu": pnu, "index": index}
+                progress = _params.Progress(f"P{pnu}", enabled=None if not args.json else False)
                 try:
-                    value: int | float
-                    if args.float:
-                        value = await drive.read_float(pnu, index)
+                    if args.raw:
+                        info = drive.params.get(pnu)
+                        whole = index is None and info is not None and info.is_array
+                        words = await drive.read_raw(pnu, 255 if whole else index)
+                        reading = None
                     else:
-                        value = await drive.read(pnu, index, signed=args.signed)
+                        reading = await drive.read_param(pnu, index, progress=progress)
+                        words = reading.words
                 except ConfigError:
                     raise
                 except UssError as exc:
                     failed = True
-                    item["error"] = error_dict(exc)
+                    results.append(
+                        {"pnu": pnu, "index": index, "label": label(pnu, index)}
+                        | {"error": error_dict(exc)}
+                    )
                     if not args.json:
                         print(f"{label(pnu, index)}: {exc}", file=sys.stderr)
+                    continue
+                finally:
+                    progress.close()
+                if reading is None:
+                    results.append(
+                        {"pnu": pnu, "index": index, "label": label(pnu, index), "raw": list(words)}
+                    )
+                    text = f"{label(pnu, index)} = {words_text(words)}"
                 else:
-                    item["value"] = value
-                    if not args.json:
-                        print(f"{label(pnu, index)} = {show(value)}")
-                results.append(item)
+                    results.append(reading.to_dict())
+                    text = reading.text()
+                if not args.json:
+                    print(text)
+            _params.save(args, drive)
         if args.json:
             emit(args, {"address": args.address, "parameters": results}, "")
         return EXIT_FAILED if failed else EXIT_OK

@@ -9,6 +9,11 @@ a variable-length drive is recognised by the length of its answers. A progress b
 stderr when it is a terminal. A rate the port cannot be opened at (a ``bus://`` line runs at
 one rate only) is not probed, with a note on stderr. Exit code 0 when at least one drive
 answered, 1 when none did.
+
+Each drive found with a parameter area is then asked who it is: the family column names it
+where the drive shows its identity in a parameter (r0964 product type on MICROMASTER 420/440,
+P2023 on SINAMICS V20, P743/P707 on NORD SK 500E; docs/drives.md), and the profile column the
+profile to give to the other commands. ``--profile auto`` probes as ``generic`` does.
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ from pyuss.cli._master import (
     run,
 )
 from pyuss.errors import ConfigError
+from pyuss.master.identify import identify_found
 from pyuss.master.profile import resolve_profile
 from pyuss.master.scan import Found, probe_layouts, scan
 from pyuss.protocol.layout import Layout
@@ -101,15 +107,17 @@ class Bar:
             sys.stderr.flush()
 
 
-def render(found: list[Found]) -> str:
+def render(found: list[Found], families: dict[int, tuple[str, str]] | None = None) -> str:
     if not found:
         return "no drive answered"
-    lines = ["address  baud    layout  status  response"]
+    families = families or {}
+    lines = ["address  baud    layout  status  response  family"]
     for f in found:
         status = "-" if f.status is None else f"{f.status:04X}h"
+        family = families.get(f.address, ("-", ""))[0]
         lines.append(
             f"{f.address:>7}  {f.baud:<6}  {f.layout!s:<6}  {status:<6}  "
-            f"{f.response_time * 1000:.2f} ms"
+            f"{f.response_time * 1000:.2f} ms  {family}"
         )
     return "\n".join(lines)
 
@@ -120,7 +128,8 @@ def main(args: argparse.Namespace) -> int:
         bauds = rates(args.baud)
         layouts = [Layout.parse(text) for text in args.layout or ()]
         options = master_options(args)
-        profile = resolve_profile(options.pop("profile"))
+        name = options.pop("profile")
+        profile = resolve_profile("generic" if name == "auto" else name)
         probe_layouts(profile, layouts)  # checks the layouts against the profile early
         port = args.port
         open_transport(port, baud=bauds[0])  # a bad URL is bad input (exit 2) before probing
@@ -141,7 +150,12 @@ def main(args: argparse.Namespace) -> int:
             bar.close()
         for note in notes:
             print(note, file=sys.stderr)
-        emit(args, [f.to_dict() for f in found], render(found))
+        families = await identify_found(lambda baud: open_transport(port, baud=baud), found)
+        items = []
+        for f in found:
+            family, use = families.get(f.address, ("", ""))
+            items.append({**f.to_dict(), "family": family or None, "profile": use or None})
+        emit(args, items, render(found, families))
         return EXIT_OK if found else EXIT_FAILED
 
     return run("scan", args, body)

@@ -1,10 +1,15 @@
 """``uss write ADDRESS PNU[.INDEX] VALUE``: write a parameter value of a drive.
 
-VALUE is an integer (``28672``, ``0x7000``, ``-5``) or a floating point number (``50.0``, sent
-as a 32-bit IEEE value). A word is written with request 2 (array element: 7), a double word
-with 3 (8) - a float, an integer outside -32768..65535, or ``--dword``; ``--eeprom`` stores the
-value in the drive's non-volatile memory as well (requests 14, 13, 12, 11). Prints the value
-the drive answered with.
+VALUE is read by the parameter's type (from ``--params FILE``, the drive's own description,
+C 6, or the profile's parameter file): ``10``, ``10.0``, ``10 s`` or ``500 ms`` for a time in
+seconds, ``0x7000`` for an integer, the text of an enumerated value (``"19200 BAUD"``), text
+for a string. A value of the wrong kind, between two steps of a scaled parameter, outside the
+limits, or for a read-only parameter is refused before anything is sent (one line, exit 2).
+Bit fields (V2) and bit patterns go through ``--raw``: VALUE is then the word (or, for a
+32-bit parameter or with ``--dword``, the double word) sent as it is. A parameter nothing is
+known of takes an integer (a word if it fits -32768..65535, else a double word) or a float.
+Requests 2/3 (array element: 7/8, C 4.2.2); ``--eeprom`` stores the value in the drive's
+non-volatile memory as well (14/13, 12/11). Prints the value the drive answered with.
 """
 
 from __future__ import annotations
@@ -12,6 +17,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from pyuss.cli import _params
 from pyuss.cli._master import (
     EXIT_FAILED,
     EXIT_OK,
@@ -24,23 +30,66 @@ from pyuss.cli._master import (
     parameter,
     run,
 )
-from pyuss.cli.read import show
 from pyuss.errors import ConfigError
+from pyuss.master.drive import Drive
+from pyuss.params.model import Reading
+from pyuss.params.values import words_text
+from pyuss.protocol.pkw import pwe_dword, pwe_word
 
 
 def register(subparsers: Any) -> None:
     parser = command(subparsers, "write", "write a parameter value of a drive", __doc__)
-    parser.add_argument("parameter", metavar="PNU[.INDEX]", help="e.g. 18 or 4.2")
-    parser.add_argument("value", metavar="VALUE", help="integer (0x.. hex) or float")
+    parser.add_argument("parameter", metavar="PNU[.INDEX]", help="e.g. 1120 or 2010.1")
+    parser.add_argument(
+        "value", metavar="VALUE", help="value in the parameter's type: 10, 10.5 s, 0x7000, a text"
+    )
     parser.add_argument("--eeprom", action="store_true", help="store in the drive's EEPROM too")
-    size = parser.add_mutually_exclusive_group()
-    size.add_argument("--dword", action="store_true", help="write a double word (32 bits)")
-    size.add_argument("--word", action="store_true", help="write a word (16 bits)")
+    parser.add_argument(
+        "--raw",
+        action="store_true",
+        help="VALUE is the word (bit pattern) to send as it is, e.g. 0x047F; no checks",
+    )
+    parser.add_argument(
+        "--dword", action="store_true", help="with --raw: send VALUE as a double word (32 bits)"
+    )
+    _params.add_options(parser)
     finish(parser, main)
 
 
+def raw_words(text: str, size: int | None, dword: bool) -> tuple[int, ...]:
+    """The words of a raw VALUE: one word, or two for a 32-bit parameter or ``--dword``."""
+    try:
+        value = int(text.strip().replace("_", ""), 0)
+    except ValueError:
+        raise ConfigError(f"--raw VALUE {text!r} is not an integer (e.g. 0x047F)") from None
+    double = dword or size == 2 or (size is None and value > 0xFFFF)
+    if double:
+        if not -0x8000_0000 <= value <= 0xFFFF_FFFF:
+            raise ConfigError(f"--raw VALUE {text!r} does not fit a double word")
+        return pwe_dword(value)
+    if not -0x8000 <= value <= 0xFFFF:
+        raise ConfigError(f"--raw VALUE {text!r} does not fit a word (--dword for 32 bits)")
+    return pwe_word(value)
+
+
+async def write(args: argparse.Namespace, drive: Drive, pnu: int, index: int | None) -> Reading:
+    """Parse VALUE by the parameter's type and write it (or the raw words with ``--raw``)."""
+    from pyuss.params.values import parse
+
+    info = await drive.info(pnu)
+    if args.raw:
+        size = info.words if info is not None and not info.dtype.is_string else None
+        words = raw_words(args.value, size, args.dword)
+        answer = await drive.write_raw(pnu, words, index, eeprom=args.eeprom)
+        return Reading(pnu, index, None, answer, words_text(answer))
+    if args.dword:
+        raise ConfigError("--dword goes with --raw; a typed value has the parameter's own size")
+    value: object = parse(info, args.value, index) if info is not None else number(args.value)
+    return await drive.write_param(pnu, value, index, eeprom=args.eeprom)
+
+
 def number(text: str) -> int | float:
-    """An integer (any base prefix) or a float."""
+    """An integer (any base prefix) or a float, for a parameter nothing is known of."""
     try:
         return int(text, 0)
     except ValueError:
@@ -48,7 +97,10 @@ def number(text: str) -> int | float:
     try:
         value = float(text)
     except ValueError:
-        raise ConfigError(f"VALUE {text!r} is not an integer or a number") from None
+        raise ConfigError(
+            f"VALUE {text!r} is not an integer or a number (the parameter is not known: give "
+            "--params FILE or --profile for texts and units)"
+        ) from None
     if value != value or value in (float("inf"), float("-inf")):
         raise ConfigError(f"VALUE {text!r} is not a finite number")
     return value
@@ -57,19 +109,23 @@ def number(text: str) -> int | float:
 def main(args: argparse.Namespace) -> int:
     async def body() -> int:
         pnu, index = parameter(args.parameter)
-        value = number(args.value)
-        dword = True if args.dword else (False if args.word else None)
         data: dict[str, Any] = {"address": args.address, "pnu": pnu, "index": index}
         async with open_master(args) as bus:
             drive = bus.drive(args.address)
-            answer = await outcome(
-                args, data, drive.write(pnu, value, index, dword=dword, eeprom=args.eeprom)
-            )
+            _params.setup(args, drive)
+            answer = await outcome(args, data, write(args, drive, pnu, index))
+            _params.save(args, drive)
         if answer is None:
             return EXIT_FAILED
-        data["value"] = answer
         stored = " (stored in EEPROM)" if args.eeprom else ""
-        emit(args, data, f"{label(pnu, index)} = {show(answer)}{stored}")
+        if args.raw:
+            data.update(label=label(pnu, index), raw=list(answer.words))
+            text = f"{label(pnu, index)} = {words_text(answer.words)}{stored}"
+        else:
+            data.update(answer.to_dict())
+            text = answer.text() + stored
+        data["eeprom"] = args.eeprom
+        emit(args, data, text)
         return EXIT_OK
 
     return run("write", args, body)

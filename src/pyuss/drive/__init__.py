@@ -15,10 +15,12 @@ See docs/drive.md.
 
 from pyuss.drive.database import (
     Access,
+    Commissioning,
     DescriptionStyle,
     Parameter,
     ParameterDatabase,
     ParamRef,
+    WordBits,
     builtin_profiles,
     load_database,
     load_profile,
@@ -36,6 +38,7 @@ __all__ = [
     "LOCAL",
     "WHOLE_ARRAY",
     "Access",
+    "Commissioning",
     "DataType",
     "DescriptionElement",
     "DescriptionStyle",
@@ -54,6 +57,7 @@ __all__ = [
     "SimulatedDrive",
     "StoreError",
     "Value",
+    "WordBits",
     "builtin_profiles",
     "load_database",
     "load_profile",

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import enum
 import math
+import re
 import tomllib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -57,6 +58,11 @@ MAX_STRING = 240
 """Longest octet or visible string: it must fit the variable PKW area (C 4.1.2: m <= 124)."""
 
 TIME_UNITS: dict[str, float] = {"ms": 0.001, "s": 1.0, "min": 60.0}
+
+BAUD_UNITS = ("baud", "bd", "bit/s", "bps")
+"""Units (any case) of a baud rate parameter whose value is the rate itself (Baumueller 182)."""
+
+_BAUD_TEXT = re.compile(r"\s*(\d+(?:[.,]\d+)?)\s*(k?)\s*(?:baud|bd|bit/s|bps)\b", re.IGNORECASE)
 
 
 class Access(enum.Enum):
@@ -128,6 +134,31 @@ STATE_NAMES = (
 )
 """Keys of ``[state_codes]`` (the `DriveState` names in lower case)."""
 
+STATE_CODE_NAMES = (*STATE_NAMES, "commissioning")
+"""Keys ``[state_codes]`` accepts: the states, and ``commissioning`` (shown while the
+commissioning parameter of ``[commissioning]`` is not 0)."""
+
+CHANGEABLE_LETTERS = "CUT"
+"""When a parameter can be changed, as the Siemens parameter lists say it: C in
+commissioning (the commissioning parameter is not 0), U while the motor runs, T while the
+drive is ready but does not run."""
+
+COMMISSIONING_KEYS = (
+    "parameter",
+    "quick",
+    "factory",
+    "end",
+    "reset",
+    "keep_on_reset",
+    "rated_frequency",
+    "rated_speed",
+    "pole_pairs",
+)
+"""Keys of ``[commissioning]`` (see `Commissioning`)."""
+
+WORD_KEYS = ("reverse", "status_ones", "direction")
+"""Keys of ``[words]`` (see `WordBits`)."""
+
 
 @dataclass(frozen=True, slots=True)
 class ParamRef:
@@ -178,6 +209,12 @@ class Parameter:
     """Texts naming the elements of an array (C Table 4.5)."""
     bit_texts: Mapping[int, tuple[str, str]] = field(default_factory=dict)
     """V2: bit -> (text of 0, text of 1) (C Table 4.5)."""
+    level: int | None = None
+    """The access level the device lists the parameter under (Siemens P0003: 1 standard ..
+    4 service); None where the file does not say."""
+    changeable: str | None = None
+    """When it can be changed: letters of ``CUT`` (`CHANGEABLE_LETTERS`); None: always, as far
+    as access and ``stopped_only`` allow."""
     doc: str = ""
     seed: str = ""
 
@@ -283,6 +320,8 @@ class ProfileInfo:
     name: str
     title: str = ""
     seed: str = ""
+    manual: str = ""
+    """The manuals (title and edition) the file's facts come from."""
     source: str = ""
     """The file (or files, base first) the database was read from."""
     index_base: int = 1
@@ -299,6 +338,50 @@ class ProfileInfo:
     write_enable_bit: int = 0
 
 
+@dataclass(frozen=True, slots=True)
+class Commissioning:
+    """The ``[commissioning]`` table: the rule of a drive's commissioning parameter (Siemens
+    P0010) and of its end (P3900), the drive's own rule, carried out by `SimulatedDrive`:
+
+    - while ``parameter`` is not 0 the drive is in commissioning: it does not switch on, a
+      parameter whose ``changeable`` letters hold C can be changed, one without C cannot
+      (error 17); the ``commissioning`` state code is shown;
+    - writing a value other than 0 to ``end`` (only possible in commissioning, its
+      ``changeable`` is C) ends the quick commissioning: the motor data are calculated (pole
+      pairs = round(60 x ``rated_frequency`` / ``rated_speed``) into ``pole_pairs``), then
+      ``end`` and ``parameter`` go back to 0;
+    - writing 1 to ``reset`` while ``parameter`` is ``factory`` restores the factory value of
+      every parameter but those in ``keep_on_reset`` and clears the EEPROM store of them;
+      ``reset`` and ``parameter`` go back to 0.
+    """
+
+    parameter: int
+    quick: int = 1
+    factory: int | None = None
+    end: int | None = None
+    reset: int | None = None
+    keep_on_reset: tuple[int, ...] = ()
+    rated_frequency: ParamRef | None = None
+    rated_speed: ParamRef | None = None
+    pole_pairs: ParamRef | None = None
+    """The motor data (PNU or [PNU, index]: a drive with data sets calculates the first)."""
+
+
+@dataclass(frozen=True, slots=True)
+class WordBits:
+    """The ``[words]`` table: control and status word bits beyond the specification's (C Tables
+    5.4, 5.5), as the family uses them; `SimulatedDrive` applies them.
+
+    ``reverse``: control bit that inverts the setpoint (MICROMASTER 4 / SINAMICS bit 11).
+    ``status_ones``: status bits shown as 1 while their (low-active) warning is absent.
+    ``direction``: status bit that is 1 while the motor turns right (positive), 0 left.
+    """
+
+    reverse: int | None = None
+    status_ones: tuple[int, ...] = ()
+    direction: int | None = None
+
+
 class ParameterDatabase:
     """The validated parameters of one profile, with the roles the simulation reads."""
 
@@ -313,8 +396,12 @@ class ParameterDatabase:
         faults: Mapping[str, int] | None = None,
         process_setpoints: Sequence[int] = (),
         process_actuals: Sequence[int] = (),
+        commissioning: Commissioning | None = None,
+        words: WordBits | None = None,
     ) -> None:
         self.profile = profile
+        self.commissioning = commissioning
+        self.words = words or WordBits()
         self._parameters = dict(sorted(parameters.items()))
         self.roles: Mapping[str, ParamRef] = dict(roles or {})
         self.interface: Mapping[str, ParamRef] = dict(interface or {})
@@ -338,6 +425,13 @@ class ParameterDatabase:
             return self._parameters[pnu]
         except KeyError:
             raise ParameterFault(ErrorNumber.ILLEGAL_PNU, "no such parameter", pnu=pnu) from None
+
+    def baud_codes(self) -> Mapping[int, int] | None:
+        """How the ``baud`` interface parameter holds the rate: a table code -> baud (C 3.1:
+        1 = 300 ... 10 = 187500; MICROMASTER 4 P2010 has its own codes), or None where the value
+        is the rate itself (unit Baud, Baumueller 182). See `baud_codes`."""
+        ref = self.interface.get("baud")
+        return None if ref is None else baud_codes(self.parameter(ref.pnu))
 
     def position(self, param: Parameter, index: int | None) -> int:
         """The element an IND addresses: 0 for a scalar without index, else ``index - base``.
@@ -366,6 +460,27 @@ class ParameterDatabase:
         return index - base
 
 
+def baud_codes(param: Parameter) -> Mapping[int, int] | None:
+    """The baud rates a baud rate parameter's values stand for: None when its unit is a baud
+    unit (`BAUD_UNITS`: the value is the rate), else code -> rate from its value texts
+    ("9600 BAUD", "19.2 kBaud"); texts naming no rate are left out. `ConfigError` when neither
+    tells a rate."""
+    if param.unit.lower() in BAUD_UNITS:
+        return None
+    codes: dict[int, int] = {}
+    for code, text in param.texts.items():
+        match = _BAUD_TEXT.match(text)
+        if match is not None:
+            number = float(match.group(1).replace(",", "."))
+            codes[code] = round(number * (1000 if match.group(2) else 1))
+    if not codes:
+        raise ConfigError(
+            f"P{param.pnu} holds no baud rate: give it the unit Baud (its value is the rate) "
+            'or value texts naming the rates ({ 6 = "9600 BAUD", ... })'
+        )
+    return codes
+
+
 # --------------------------------------------------------------------------------------------
 # loading
 
@@ -374,7 +489,12 @@ BUILTIN_PACKAGE = "pyuss.profiles"
 
 
 def builtin_profiles() -> tuple[str, ...]:
-    """Names of the profile data files shipped with pyuss."""
+    """Names of the profile data files shipped with pyuss (files whose name begins with ``_``
+    are shared bases that other files extend, not profiles)."""
+    return tuple(name for name in _builtin_files() if not name.startswith("_"))
+
+
+def _builtin_files() -> tuple[str, ...]:
     folder = resources.files(BUILTIN_PACKAGE).joinpath("data")
     return tuple(
         sorted(p.name.removesuffix(".toml") for p in folder.iterdir() if p.name.endswith(".toml"))
@@ -410,7 +530,7 @@ def _read_source(ref: str) -> tuple[str, str]:
     """(name for messages, text) of a file or ``builtin:NAME``."""
     if ref.startswith("builtin:"):
         name = ref.removeprefix("builtin:")
-        if name not in builtin_profiles():
+        if name not in _builtin_files():
             raise ConfigError(f"unknown profile {name!r} (known: {', '.join(builtin_profiles())})")
         res = resources.files(BUILTIN_PACKAGE).joinpath("data", f"{name}.toml")
         return f"profile {name} ({name}.toml)", res.read_text(encoding="utf-8")
@@ -446,7 +566,7 @@ def _with_bases(
             what = "a built-in profile" if ref is not None else "parameter text"
             raise ConfigError(f"{name}: {what} can only extend built-in profiles")
         base_ref = str((Path(ref).parent / base).resolve())
-    elif base not in builtin_profiles():
+    elif base not in _builtin_files():
         known = ", ".join(builtin_profiles())
         raise ConfigError(
             f"{name}: [profile] field 'extends': unknown profile {base!r} (known: {known}; "
@@ -457,11 +577,22 @@ def _with_bases(
     return [*_read_layers(base_ref, (*seen, ref or name)), (name, data)]
 
 
-_TOP_KEYS = {"profile", "parameter", "drive", "interface", "state_codes", "faults", "process"}
+_TOP_KEYS = {
+    "profile",
+    "parameter",
+    "drive",
+    "interface",
+    "state_codes",
+    "faults",
+    "process",
+    "commissioning",
+    "words",
+}
 _PROFILE_KEYS = {
     "name",
     "title",
     "seed",
+    "manual",
     "extends",
     "index_base",
     "description",
@@ -496,6 +627,8 @@ _PARAM_KEYS = {
     "texts",
     "index_texts",
     "bit_texts",
+    "level",
+    "changeable",
     "doc",
     "seed",
 }
@@ -522,6 +655,8 @@ def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
         "state_codes": {},
         "faults": {},
         "process": {},
+        "commissioning": {},
+        "words": {},
     }
     for source, data in layers:
         unknown = set(data) - _TOP_KEYS
@@ -566,16 +701,24 @@ def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
         parameters,
         roles=_refs(tables["drive"], "drive", ROLES, sources),
         interface=_refs(tables["interface"], "interface", INTERFACE_ROLES, sources),
-        state_codes=_codes(tables["state_codes"], "state_codes", STATE_NAMES, sources),
+        state_codes=_codes(tables["state_codes"], "state_codes", STATE_CODE_NAMES, sources),
         faults=_codes(tables["faults"], "faults", None, sources),
         process_setpoints=_process(tables["process"], "setpoints", sources, parameters),
         process_actuals=_process(tables["process"], "actuals", sources, parameters),
+        commissioning=_commissioning(tables["commissioning"], sources, parameters),
+        words=_words(tables["words"], sources),
     )
     for name in ("access_level", "write_enable"):
         ref = getattr(profile, name)
         if ref is not None:
             _check_ref(ref, parameters, profile, _Where(sources, "[profile]"), name)
     _check_roles(db, sources)
+    if db.commissioning is not None:
+        where = _Where(sources, "[commissioning]")
+        for key in ("rated_frequency", "rated_speed", "pole_pairs"):
+            ref = getattr(db.commissioning, key)
+            if ref is not None:
+                _check_ref(ref, parameters, profile, where, key)
     return db
 
 
@@ -607,6 +750,7 @@ def _profile(data: dict[str, Any], source: str, sources: str) -> ProfileInfo:
         name=name,
         title=_text(data.get("title", ""), where, "title"),
         seed=_text(data.get("seed", ""), where, "seed"),
+        manual=_text(data.get("manual", ""), where, "manual"),
         source=sources,
         index_base=index_base,
         description=description,
@@ -758,7 +902,17 @@ def _check_roles(db: ParameterDatabase, source: str) -> None:
         ):
             raise where.error(name, f"P{ref.pnu} must be an integer parameter")
     for name, ref in db.interface.items():
-        _check_ref(ref, parameters, db.profile, _Where(source, "[interface]"), name)
+        where = _Where(source, "[interface]")
+        param = _check_ref(ref, parameters, db.profile, where, name)
+        if name == "baud":
+            try:
+                baud_codes(param)
+            except ConfigError as exc:
+                raise where.error(name, str(exc)) from None
+        if name == "failure_time" and param.unit and param.unit not in TIME_UNITS:
+            raise where.error(
+                name, f"P{ref.pnu} must have a time unit (s, ms, min; none: s), not {param.unit!r}"
+            )
 
 
 def _reference_unit(db: ParameterDatabase) -> str | None:
@@ -856,11 +1010,112 @@ def _parameter(entry: dict[str, Any], where: _Where, profile: ProfileInfo) -> Pa
         texts=texts,
         index_texts=index_texts,
         bit_texts=bit_texts,
+        level=_level(entry.get("level"), where),
+        changeable=_changeable(entry.get("changeable"), where, access),
         doc=_text(entry.get("doc", ""), where, "doc"),
         seed=_text(entry.get("seed", ""), where, "seed"),
     )
     defaults = _defaults(entry, param, where)
     return replace(param, default=defaults)
+
+
+def _level(value: object, where: _Where) -> int | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 4:
+        raise where.error("level", "must be an access level 0..4")
+    return value
+
+
+def _changeable(value: object, where: _Where, access: Access) -> str | None:
+    if value is None:
+        return None
+    if (
+        not isinstance(value, str)
+        or not value
+        or any(c not in CHANGEABLE_LETTERS for c in value)
+        or len(set(value)) != len(value)
+    ):
+        raise where.error("changeable", 'must be letters of C, U, T (for example "CT")')
+    if access is Access.RO:
+        raise where.error("changeable", "a read-only parameter is never changed")
+    return "".join(c for c in CHANGEABLE_LETTERS if c in value)
+
+
+def _commissioning(
+    table: dict[str, Any], source: str, parameters: Mapping[int, Parameter]
+) -> Commissioning | None:
+    if not table:
+        return None
+    where = _Where(source, "[commissioning]")
+    for key in table:
+        if key not in COMMISSIONING_KEYS:
+            raise where.error(key, f"unknown; known are {', '.join(COMMISSIONING_KEYS)}")
+    motor: dict[str, ParamRef | None] = {}
+    for key in ("rated_frequency", "rated_speed", "pole_pairs"):
+        value = table.get(key)
+        if value is None:
+            motor[key] = None
+            continue
+        ref = _ref(value, where, key)
+        if ref.pnu not in parameters:
+            raise where.error(key, f"refers to P{ref.pnu}, which is not defined")
+        motor[key] = ref
+    pnus: dict[str, int | None] = {}
+    for key in ("parameter", "end", "reset"):
+        value = table.get(key)
+        if value is None:
+            pnus[key] = None
+            continue
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise where.error(key, "must be a PNU")
+        param = parameters.get(value)
+        if param is None:
+            raise where.error(key, f"refers to P{value}, which is not defined")
+        if param.is_array or not (param.dtype.is_integer or param.dtype is DataType.FLOAT):
+            raise where.error(key, f"P{value} must be a numeric scalar")
+        pnus[key] = value
+    parameter = pnus["parameter"]
+    if parameter is None:
+        raise where.error("parameter", "required: the commissioning parameter's PNU")
+    values = {}
+    for key in ("quick", "factory"):
+        value = table.get(key)
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int)):
+            raise where.error(key, "must be an integer value of the commissioning parameter")
+        values[key] = value
+    keep = tuple(_int_list(table.get("keep_on_reset", []), where, "keep_on_reset"))
+    return Commissioning(
+        parameter=parameter,
+        quick=1 if values["quick"] is None else values["quick"],
+        factory=values["factory"],
+        end=pnus["end"],
+        reset=pnus["reset"],
+        keep_on_reset=keep,
+        rated_frequency=motor["rated_frequency"],
+        rated_speed=motor["rated_speed"],
+        pole_pairs=motor["pole_pairs"],
+    )
+
+
+def _words(table: dict[str, Any], source: str) -> WordBits:
+    where = _Where(source, "[words]")
+    for key in table:
+        if key not in WORD_KEYS:
+            raise where.error(key, f"unknown; known are {', '.join(WORD_KEYS)}")
+
+    def bit(key: str) -> int | None:
+        value = table.get(key)
+        if value is None:
+            return None
+        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 15:
+            raise where.error(key, "must be a bit number 0..15")
+        return value
+
+    ones = _int_list(table.get("status_ones", []), where, "status_ones")
+    if any(not 0 <= b <= 15 for b in ones):
+        raise where.error("status_ones", "bits are 0..15")
+    return WordBits(reverse=bit("reverse"), status_ones=tuple(ones), direction=bit("direction"))
 
 
 def _limit(entry: dict[str, Any], key: str, dtype: DataType, where: _Where) -> int | float | None:

@@ -12,7 +12,11 @@ rules of the parameter channel (C 4.2) that belong to the drive rather than to t
   this operating state (17);
 - writes with the EEPROM request IDs persist in the store file (`pyuss.drive.store`);
 - change notification: a change of an ACTIVE parameter calls every subscriber except the
-  interface that made it (C 4.2.1.2; the slave engine reports it as a spontaneous message).
+  interface that made it (C 4.2.1.2; the slave engine reports it as a spontaneous message);
+  `watch` calls back after any change of one parameter, whoever made it (the slave engine
+  follows its interface parameters that way);
+- `add_write_rule`: a further condition on the writes of one element (the slave engine refuses
+  a baud rate change that would never take effect).
 
 Interfaces are named by strings; `LOCAL` is the drive itself (operator panel, internal updates).
 Write authority is granted to every interface until `set_write_authority` takes it away; a
@@ -52,6 +56,8 @@ from pyuss.protocol.pkw import INDEX_ALL, ErrorNumber
 LOCAL = "local"
 """The interface name of the drive itself (its own updates, an operator panel)."""
 
+_PHASES = {"C": "commissioning", "U": "operation", "T": "ready to run"}
+
 WHOLE_ARRAY = INDEX_ALL
 """The IND low byte (255) that addresses a whole array or the whole description."""
 
@@ -77,6 +83,13 @@ class ParameterChange:
 
 Listener = Callable[[ParameterChange], None]
 
+WriteRule = Callable[[Value, bool], None]
+"""A further condition on writes of one parameter element through an interface: called with
+the checked value and whether it is an EEPROM write; raises `ParameterFault` to refuse."""
+
+Watcher = Callable[[int], None]
+"""Called with the PNU after any change of its value, whoever made it."""
+
 
 class ParameterMemory:
     """The values of one drive's parameters and the rules of changing them."""
@@ -92,6 +105,8 @@ class ParameterMemory:
         self._values: dict[int, list[Value]] = {p.pnu: list(p.default) for p in db}
         self._texts: dict[tuple[int, bool, int], str] = {}
         self._listeners: dict[str, list[Listener]] = {}
+        self._rules: dict[ParamRef, list[WriteRule]] = {}
+        self._watchers: dict[int, list[Watcher]] = {}
         self._denied: set[str] = set()
         self._running = running
         self._store = None if store is None else ParameterStore(store, db.profile.name)
@@ -148,6 +163,30 @@ class ParameterMemory:
                 listeners.remove(listener)
 
         return unsubscribe
+
+    def add_write_rule(self, ref: ParamRef, rule: WriteRule) -> Callable[[], None]:
+        """Apply ``rule`` to every write of the element ``ref`` through an interface (not to
+        the drive's own `update`). Returns a function that removes it."""
+        self._rules.setdefault(ref, []).append(rule)
+
+        def remove() -> None:
+            rules = self._rules.get(ref, [])
+            if rule in rules:
+                rules.remove(rule)
+
+        return remove
+
+    def watch(self, pnu: int, watcher: Watcher) -> Callable[[], None]:
+        """Call ``watcher(pnu)`` after every change of a value of ``pnu`` (any interface, the
+        drive itself, any parameter, active or not). Returns a function that ends it."""
+        self._watchers.setdefault(pnu, []).append(watcher)
+
+        def unwatch() -> None:
+            watchers = self._watchers.get(pnu, [])
+            if watcher in watchers:
+                watchers.remove(watcher)
+
+        return unwatch
 
     def set_write_authority(self, interface: str, allowed: bool) -> None:
         """Grant or withdraw the parameter write authority of an interface (C 4.2.1.1)."""
@@ -289,7 +328,9 @@ class ParameterMemory:
         position = self._position(param, index)
         self._may_write(param, index, eeprom)
         checked = self._checked(param, value, index)
+        self._apply_rules(param, index, checked, eeprom)
         self._commit(param, [(position, index, checked)], interface, eeprom, whole=False)
+        self._written(pnu)
         return checked
 
     def write_words(
@@ -309,7 +350,9 @@ class ParameterMemory:
         self._may_write(param, index, eeprom)
         value = self._decoded(param, words, index)
         checked = self._checked(param, value, index)
+        self._apply_rules(param, index, checked, eeprom)
         self._commit(param, [(position, index, checked)], interface, eeprom, whole=False)
+        self._written(pnu)
         return param.to_words(checked)
 
     def write_array_words(
@@ -340,8 +383,12 @@ class ParameterMemory:
             index = base + position
             value = self._checked(param, self._decoded(param, chunk, index), index)
             updates.append((position, index, value))
+        for _, index, value in updates:
+            self._apply_rules(param, index, value, eeprom)
         self._commit(param, updates, interface, eeprom, whole=True)
-        return self.read_array_words(pnu)
+        words_held = self.read_array_words(pnu)
+        self._written(pnu)
+        return words_held
 
     def write_text(
         self,
@@ -461,6 +508,70 @@ class ParameterMemory:
                 pnu=pnu,
                 index=index,
             )
+        if param.changeable is not None:
+            phase = self.phase()
+            if phase not in param.changeable:
+                raise ParameterFault(
+                    DriveErrorNumber.WRONG_STATE,
+                    f"changeable in {'/'.join(_PHASES[c] for c in param.changeable)} only, "
+                    f"not {_PHASES[phase]}",
+                    pnu=pnu,
+                    index=index,
+                )
+
+    def commissioning_active(self) -> bool:
+        """Whether the drive is in commissioning: the ``[commissioning]`` parameter is not 0."""
+        rule = self.db.commissioning
+        return rule is not None and self._values[rule.parameter][0] != 0
+
+    def phase(self) -> str:
+        """The letter of `pyuss.drive.database.CHANGEABLE_LETTERS` the drive is in now: C in
+        commissioning, U while it runs, T while it is ready and does not run."""
+        if self.commissioning_active():
+            return "C"
+        return "U" if self._running() else "T"
+
+    def set_own(self, pnu: int, value: object, index: int | None = None) -> None:
+        """The drive's own change of a setting (the end of commissioning, a factory reset):
+        like `update`, and a value held in the EEPROM store is changed there too, so the
+        drive powers up with it."""
+        param = self.db.parameter(pnu)
+        self.update(pnu, value, index)
+        key = (pnu, index)
+        if key in self._stored and self._store is not None:
+            stored = dict(self._stored)
+            stored[key] = param.to_words(self.value(pnu, index))
+            self._store.save(stored)
+            self._stored = stored
+
+    def restore_factory(self, keep: Iterable[int] = ()) -> None:
+        """Every parameter but read-only ones and those in ``keep`` back to its factory value,
+        and out of the EEPROM store."""
+        kept = set(keep)
+        base = self.db.profile.index_base
+        for param in self.db:
+            if not param.writable or param.pnu in kept:
+                continue
+            for position, value in enumerate(param.default):
+                index = None if param.array is None else base + position
+                self.update(param.pnu, value, index)
+        stored = {k: v for k, v in self._stored.items() if k[0] in kept or not self._writable(k[0])}
+        if stored != self._stored:
+            if self._store is not None:
+                self._store.save(stored)
+            self._stored = stored
+
+    def _writable(self, pnu: int) -> bool:
+        return pnu in self.db and self.db.parameter(pnu).writable
+
+    def _apply_rules(
+        self, param: ParameterSpec, index: int | None, value: Value, eeprom: bool
+    ) -> None:
+        for rule in self._rules.get(ParamRef(param.pnu, index), ()):
+            try:
+                rule(value, eeprom)
+            except ParameterFault as exc:
+                raise ParameterFault(exc.number, exc.detail, pnu=param.pnu, index=index) from None
 
     def _unlocked(self) -> bool:
         ref = self.db.profile.access_level
@@ -508,6 +619,8 @@ class ParameterMemory:
             values[position] = value
         if changed:
             self._changed(param.pnu)
+            for watcher in list(self._watchers.get(param.pnu, ())):
+                watcher(param.pnu)
         if not (param.active and changed):
             return
         if whole:
@@ -526,6 +639,10 @@ class ParameterMemory:
 
     def _changed(self, pnu: int) -> None:
         """Called after a value of ``pnu`` changed (for subclasses that cache settings)."""
+
+    def _written(self, pnu: int) -> None:
+        """Called after an interface wrote ``pnu`` (for subclasses with rules that act on a
+        write, such as the end of commissioning); the answer carries the value written."""
 
     def _stock_text_or_slot(self, param: ParameterSpec, y: int, second: bool) -> None:
         """A text may be changed where a text element exists or could exist (an index of the

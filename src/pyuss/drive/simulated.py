@@ -14,6 +14,16 @@ PZD2 main setpoint/actual, PZD3.. from ``[process]``). Time is always passed in.
 The displays named in ``[drive]`` (state code, fault and warning numbers, control and status
 word, ramp input and actual value) are updated by the drive at every step; an active display
 is reported to subscribers like any other change of an active parameter.
+
+Family rules read from the parameter file (docs/drive.md):
+
+- ``[commissioning]`` (`pyuss.drive.database.Commissioning`): while the commissioning
+  parameter (Siemens P0010) is not 0 the drive does not switch on (control bit 0 is taken as
+  0) and shows the ``commissioning`` state code; a write of the end parameter (P3900)
+  calculates the motor data and leaves commissioning; a write of the reset parameter (P0970)
+  in the factory-setting state restores the factory values.
+- ``[words]`` (`pyuss.drive.database.WordBits`): the control bit that inverts the setpoint,
+  the status bits shown as 1 while their low-active warning is absent, and the direction bit.
 """
 
 from __future__ import annotations
@@ -59,6 +69,7 @@ class SimulatedDrive(ParameterMemory):
             if name in (*TIME_ROLES, *LEVEL_ROLES, "reference")
         }
         self._motion_cache: Motion | None = None
+        self._setpoint: float | None = None
         super().__init__(db, store=store, running=lambda: self.machine.running)
         self.machine = DriveStateMachine(now, self._motion())
         self._publish()
@@ -94,14 +105,31 @@ class SimulatedDrive(ParameterMemory):
         Returns False when control bit 10 is 0: the process data are ignored (C Table 5.4).
         """
         self.machine.motion = self._motion()
+        if self.commissioning_active():
+            control_word &= ~1  # in commissioning the drive does not switch on
         fraction = None if setpoint is None else _fraction_of_raw(setpoint, bits)
+        reverse = self.db.words.reverse
+        if reverse is not None and control_word >> 10 & 1:
+            if fraction is not None:
+                self._setpoint = fraction
+            if self._setpoint is not None:
+                inverted = control_word >> reverse & 1
+                fraction = -self._setpoint if inverted else self._setpoint
         accepted = self.machine.apply(control_word, fraction, now)
         self._publish()
         return accepted
 
     def status_word(self) -> int:
-        """PZD1 of the answer (C Tables 5.5, 5.6)."""
-        return self.machine.status_word()
+        """PZD1 of the answer (C Tables 5.5, 5.6, and the family's bits of ``[words]``)."""
+        word = self.machine.status_word()
+        bits = self.db.words
+        for bit in bits.status_ones:
+            word |= 1 << bit
+        if bits.direction is not None:
+            machine = self.machine
+            right = machine.actual > 0 or (machine.actual == 0 and machine.ramp_input >= 0)
+            word = word | 1 << bits.direction if right else word & ~(1 << bits.direction)
+        return word
 
     def actual_value(self, *, bits: int = 16) -> int:
         """The main actual value as a raw PZD word (``bits=32``: double word), 4000h = 100 %."""
@@ -152,6 +180,46 @@ class SimulatedDrive(ParameterMemory):
     def clear_warning(self, code: int) -> None:
         self.machine.clear_warning(code)
         self._publish()
+
+    # ---------------------------------------------------------------- commissioning
+
+    def _written(self, pnu: int) -> None:
+        rule = self.db.commissioning
+        if rule is None:
+            return
+        if pnu == rule.end and self.value(pnu) != 0:
+            self._end_commissioning()
+        elif (
+            pnu == rule.reset
+            and self.value(pnu) == 1
+            and rule.factory is not None
+            and self.value(rule.parameter) == rule.factory
+        ):
+            self.restore_factory(rule.keep_on_reset)
+            self.set_own(pnu, 0)
+            self.set_own(rule.parameter, 0)
+        if pnu in (rule.parameter, rule.end, rule.reset):
+            self._publish()
+
+    def _end_commissioning(self) -> None:
+        """The end of quick commissioning: motor data calculated, back to ready."""
+        rule = self.db.commissioning
+        assert rule is not None
+        if rule.pole_pairs is not None and rule.rated_frequency and rule.rated_speed:
+            frequency = self.ref_value(rule.rated_frequency)
+            speed = self.ref_value(rule.rated_speed)
+            assert isinstance(frequency, int | float) and isinstance(speed, int | float)
+            if speed > 0:
+                pairs = max(1, round(60.0 * frequency / speed))
+                ref = rule.pole_pairs
+                param = self.db.parameter(ref.pnu)
+                low, high = param.dtype.type_range
+                value: float = min(max(pairs, low), high)
+                is_float = param.dtype is DataType.FLOAT
+                self.set_own(ref.pnu, value if is_float else int(value), ref.index)
+        assert rule.end is not None
+        self.set_own(rule.end, 0)
+        self.set_own(rule.parameter, 0)
 
     # ---------------------------------------------------------------- roles
 
@@ -229,12 +297,14 @@ class SimulatedDrive(ParameterMemory):
         machine = self.machine
         roles = self.db.roles
         code = self.db.state_codes.get(machine.state.value)
+        if self.commissioning_active() and "commissioning" in self.db.state_codes:
+            code = self.db.state_codes["commissioning"]
         plain = {
             "state": code,
             "fault": machine.fault_code,
             "warning": machine.warning_code,
             "control_word": machine.control,
-            "status_word": machine.status_word(),
+            "status_word": self.status_word(),
         }
         for name, value in plain.items():
             ref = roles.get(name)

@@ -8,12 +8,16 @@ is one or more jobs, queued behind the jobs of other tasks; errors are typed: `D
 - Values: `read` / `write` take the parameter number (``pnu``; numbers from 2000 on where the
   profile extends them through IND bits) and, for array parameters, the element ``index``
   (C 4.2.2: read with request 6, write with 7/8, or 11/12 with ``eeprom=True``). Without an
-  index: request 1, and 2/3 (14/13 with ``eeprom``). Values come back as the unsigned word or
-  double word the drive sent (``signed=True`` for two's complement, `read_float` for IEEE 754).
-  A `write` of a float or of an integer outside -32768..65535 is a double word; ``dword=True``
-  forces one (32-bit parameters with small values need it), ``dword=False`` a word.
-- `array_length` (request 9), `read_array` (IND 255 in one telegram with the variable layout,
-  element by element otherwise, counting from the profile's first index).
+  index: request 1, and 2/3 (14/13 with ``eeprom``). Values are typed through what is known of
+  the drive's parameters (`params`, a `pyuss.params.ParamBook`: the user's parameter file, the
+  drive's own descriptions, the profile's file): a float is a float, a signed type signed, a
+  scaled value comes out scaled, an array without index is read whole. A written value is
+  checked against the parameter's type and limits before anything is sent. `read_param` /
+  `write_param` return a `pyuss.params.Reading` (words, value and what is known); `read_raw` /
+  `write_raw` take and give the PWE words as they travel.
+- `info` (what is known of a parameter, reading its description where needed),
+  `array_length` (request 9), `read_array` (IND 255 in one telegram with the variable layout,
+  element by element otherwise, counting from the drive's first index).
 - `read_description`: one element (request 4, IND = element), or the whole description (IND
   255 with the variable layout; element by element with a fixed one, where elements too long
   for the PKW area are left out), decoded by `pyuss.master.description`.
@@ -33,10 +37,12 @@ the user set it.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING
 
-from pyuss.drive.database import TEXT_LENGTH, DescriptionStyle
+from pyuss.drive.database import TEXT_LENGTH, DescriptionStyle, ParameterDatabase
+from pyuss.drive.datatypes import Value
 from pyuss.errors import ConfigError, DriveRefusal, TelegramError
 from pyuss.master.description import (
     BAUMUELLER_ELEMENTS,
@@ -51,6 +57,9 @@ from pyuss.master.jobs import SpontaneousMessage
 from pyuss.master.process import OPERATE, DriveStatus
 from pyuss.master.profile import Profile, description_style, index_base
 from pyuss.master.stats import SlaveDiagnostics
+from pyuss.params.book import ParamBook
+from pyuss.params.model import ParamInfo, Reading
+from pyuss.params.values import ValueRefused, decode, encode
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import (
     INDEX_ALL,
@@ -72,6 +81,7 @@ if TYPE_CHECKING:
 __all__ = ["Drive"]
 
 _DOUBLE = (ResponseId.VALUE_DWORD, ResponseId.ARRAY_DWORD)
+_WORDS = (ResponseId.VALUE_WORD, ResponseId.ARRAY_WORD)
 
 
 def _index(index: int | None) -> int | None:
@@ -82,13 +92,47 @@ def _index(index: int | None) -> int | None:
     return index
 
 
-def _value(answer: Pkw, *, signed: bool = False) -> int:
-    try:
-        if answer.id in _DOUBLE:
-            return answer.dword(signed=signed)
-        return answer.word(signed=signed)
-    except TelegramError as exc:
-        raise TelegramError(f"P{answer.pnu}: answer {answer.id} carries no value: {exc}") from None
+def _untyped(words: Sequence[int], *, signed: bool = False) -> int:
+    """A value nothing is known of: the unsigned (or two's complement) word or double word."""
+    if len(words) == 1:
+        value = words[0]
+        return value - 0x1_0000 if signed and value & 0x8000 else value
+    if len(words) == 2:
+        value = (words[0] << 16) | words[1]
+        return value - 0x1_0000_0000 if signed and value & 0x8000_0000 else value
+    raise TelegramError(f"{len(words)} words are neither a word nor a double word")
+
+
+def _float(words: Sequence[int]) -> float:
+    if len(words) != 2:
+        raise TelegramError("the drive sent a word, not a floating point value")
+    return Pkw(ResponseId.VALUE_DWORD, values=tuple(words)).float32()
+
+
+def _neg(value: object) -> bool:
+    return isinstance(value, int) and value < 0
+
+
+def _untyped_words(pnu: int, value: object) -> tuple[int, ...]:
+    """The words of a value for a parameter nothing is known of."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ConfigError(
+            f"P{pnu} is not known (no parameter file or description has it): give an integer "
+            f"or a float, not {value!r}"
+        )
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise ConfigError(f"value must be a finite number, not {value!r}")
+        return pwe_float(value)
+    if -0x8000 <= value <= 0xFFFF:
+        return pwe_word(value)
+    return pwe_dword(value)
+
+
+def _split(words: Sequence[int], size: int, pnu: int) -> list[tuple[int, ...]]:
+    if size < 1 or len(words) % size:
+        raise TelegramError(f"P{pnu}: {len(words)} words are not whole elements of {size}")
+    return [tuple(words[i : i + size]) for i in range(0, len(words), size)]
 
 
 class Drive:
@@ -97,6 +141,8 @@ class Drive:
     def __init__(self, master: Master, link: _Link) -> None:
         self._master = master
         self._link = link
+        self.params = ParamBook.for_profile(link.profile)
+        """What is known of this drive's parameters (`pyuss.params.ParamBook`)."""
 
     def __repr__(self) -> str:
         return f"<Drive {self.address} layout {self.layout} profile {self.profile.name}>"
@@ -151,94 +197,270 @@ class Drive:
         name = self.profile.decode_pnu(request.pnu, request.index) if pnu is None else pnu
         return await self._master._job(self._link, request, name, index, timeout)
 
-    async def read(
-        self,
-        pnu: int,
-        index: int | None = None,
-        *,
-        signed: bool = False,
-        timeout: float | None = None,
-    ) -> int:
-        """The value of parameter ``pnu`` (element ``index`` of an array)."""
-        index = _index(index)
-        if index is None:
-            bits, ind = self._ind(pnu)
-            request = Pkw(RequestId.READ_VALUE, bits, ind)
+    # -- what the drive's parameters are ----------------------------------------------------
+    def use_params(self, source: str | Path | ParameterDatabase) -> None:
+        """Take a parameter file of the user's (the simulator's TOML format, docs/drive.md) as
+        the most trusted knowledge of this drive's parameters (`pyuss.params.ParamBook`)."""
+        if isinstance(source, ParameterDatabase):
+            self.params.use_database(source)
         else:
-            bits, ind = self._ind(pnu, index)
-            request = Pkw(RequestId.READ_ARRAY, bits, ind)
-        answer = await self.job(request, pnu=pnu, index=index, timeout=timeout)
-        return _value(answer, signed=signed)
+            self.params.use_file(source)
 
-    async def read_float(
+    async def info(self, pnu: int, *, timeout: float | None = None) -> ParamInfo | None:
+        """What is known of ``pnu`` (`pyuss.params.ParamInfo`), or None. Reads the drive's
+        description of it first where the book's policy says so (`ParamBook.describe`): by
+        default only for a parameter no file knows. A drive that refuses is not asked again."""
+        self.profile.encode_pnu(pnu)
+        book = self.params
+        if book.needs_description(pnu):
+            try:
+                description = await self.read_description(pnu, timeout=timeout)
+            except (DriveRefusal, TelegramError):
+                book.no_description(pnu)
+            else:
+                book.learn(description)
+        return book.get(pnu)
+
+    def _check_index(self, info: ParamInfo | None, pnu: int, index: int | None) -> None:
+        if info is None or index is None:
+            return
+        if info.array is None:
+            raise ConfigError(f"P{pnu} ({info.name}) is not an array: give no index")
+        span = self.params.indices(info)
+        if index not in span:
+            raise ConfigError(
+                f"P{pnu} ({info.name}) has {info.array} element(s): index "
+                f"{span.start}..{span.stop - 1}, not {index}"
+            )
+
+    # -- values ------------------------------------------------------------------------------
+    def _answer_words(self, answer: Pkw, pnu: int) -> tuple[int, ...]:
+        """The words of the value in an answer: a word travels in PWE2 of a fixed 4-word PKW
+        area (C 4.2.3); a double word is two words."""
+        values = answer.values
+        if answer.id in _DOUBLE:
+            if not values or len(values) % 2:
+                raise TelegramError(f"P{pnu}: {len(values)} words are not whole double words")
+            return values
+        if answer.id not in _WORDS:
+            raise TelegramError(f"P{pnu}: answer {answer.id} carries no value")
+        if not values:
+            raise TelegramError(f"P{pnu}: the answer carries no value")
+        if not self.layout.variable and len(values) > 1:
+            return values[-1:]
+        return values
+
+    async def read_raw(
         self, pnu: int, index: int | None = None, *, timeout: float | None = None
-    ) -> float:
-        """The value of a floating point parameter (IEEE 754, 32 bits, C 6)."""
-        index = _index(index)
-        if index is None:
+    ) -> tuple[int, ...]:
+        """The PWE words of ``pnu`` (element ``index`` of an array) as the drive sent them:
+        request 1, or 6 for an element (C 4.2.2); ``index=255`` the whole array in one
+        telegram (variable layout)."""
+        whole = index == INDEX_ALL
+        index = None if whole else _index(index)
+        if index is None and not whole:
             bits, ind = self._ind(pnu)
             request = Pkw(RequestId.READ_VALUE, bits, ind)
         else:
-            bits, ind = self._ind(pnu, index)
+            bits, ind = self._ind(pnu, INDEX_ALL if whole else index or 0)
             request = Pkw(RequestId.READ_ARRAY, bits, ind)
-        answer = await self.job(request, pnu=pnu, index=index, timeout=timeout)
-        if answer.id not in _DOUBLE:
-            raise TelegramError(f"P{pnu}: the drive sent a word, not a floating point value")
-        return answer.float32()
+        answer = await self.job(
+            request, pnu=pnu, index=INDEX_ALL if whole else index, timeout=timeout
+        )
+        return self._answer_words(answer, pnu)
 
-    async def write(
+    async def read_param(
         self,
         pnu: int,
-        value: int | float,
         index: int | None = None,
         *,
-        dword: bool | None = None,
-        eeprom: bool = False,
+        progress: Callable[[int, int], object] | None = None,
         timeout: float | None = None,
-    ) -> int | float:
-        """Write ``value`` to ``pnu`` (element ``index``); ``eeprom=True`` stores it in the
-        drive's non-volatile memory as well (requests 11..14). Returns the value the drive
-        answered with (a float for a float written)."""
+    ) -> Reading:
+        """``pnu`` read and converted by what is known of it (`info`): the words, the typed
+        value and the `ParamInfo`. An array parameter without ``index`` is read whole
+        (`read_array`; ``progress(done, total)`` is called per element read one by one)."""
+        info = await self.info(pnu, timeout=timeout)
+        self._check_index(info, pnu, index)
+        if info is not None and info.array is not None and index is None:
+            words, values = await self._array(pnu, info, progress, timeout)
+            return Reading(pnu, None, info, words, values)
+        words = await self.read_raw(pnu, index, timeout=timeout)
+        if info is None:
+            return Reading(pnu, index, None, words, _untyped(words))
+        return Reading(pnu, index, info, words, decode(info, words, index))
+
+    async def read(
+        self, pnu: int, index: int | None = None, *, timeout: float | None = None
+    ) -> Value | list[Value]:
+        """The value of ``pnu`` (element ``index`` of an array; a whole array as a list),
+        typed and scaled by what is known of it: a float is a float, a signed type signed, a
+        scaled integer its physical value (NORD P102: 2.0 for 200 x 0.01 s), a text a
+        `str`. A parameter nothing is known of reads as the unsigned word or double word the
+        drive sent. The words themselves: `read_raw`."""
+        return (await self.read_param(pnu, index, timeout=timeout)).value
+
+    async def _array(
+        self,
+        pnu: int,
+        info: ParamInfo | None,
+        progress: Callable[[int, int], object] | None,
+        timeout: float | None,
+    ) -> tuple[tuple[int, ...], list[Value]]:
+        if self.layout.variable:
+            bits, ind = self._ind(pnu, INDEX_ALL)
+            try:
+                answer = await self.job(
+                    Pkw(RequestId.READ_ARRAY, bits, ind), pnu=pnu, index=INDEX_ALL, timeout=timeout
+                )
+            except DriveRefusal:
+                pass  # the drive reads its elements one by one only
+            else:
+                words = self._answer_words(answer, pnu)
+                size = info.words if info is not None else (2 if answer.id in _DOUBLE else 1)
+                chunks = _split(words, size, pnu)
+                if info is None:
+                    return words, [_untyped(c) for c in chunks]
+                base = self.params.index_base
+                return words, [decode(info, c, base + i) for i, c in enumerate(chunks)]
+        count = info.array if info is not None and info.array else None
+        if count is None:
+            count = await self.array_length(pnu, timeout=timeout)
+        base = self.params.index_base if info is not None else index_base(self.profile)
+        all_words: list[int] = []
+        values: list[Value] = []
+        for number, element in enumerate(range(base, base + count)):
+            words = await self.read_raw(pnu, element, timeout=timeout)
+            all_words.extend(words)
+            values.append(_untyped(words) if info is None else decode(info, words, element))
+            if progress is not None:
+                progress(number + 1, count)
+        return tuple(all_words), values
+
+    async def read_array(
+        self,
+        pnu: int,
+        *,
+        progress: Callable[[int, int], object] | None = None,
+        timeout: float | None = None,
+    ) -> list[Value]:
+        """Every element of array parameter ``pnu``, typed as `read` does: one telegram (IND
+        255) with the variable layout where the drive allows it, else element by element
+        (``progress(done, total)`` after each), counting from the drive's first index."""
+        info = await self.info(pnu, timeout=timeout)
+        _words, values = await self._array(pnu, info, progress, timeout)
+        return values
+
+    async def write_raw(
+        self,
+        pnu: int,
+        words: Sequence[int],
+        index: int | None = None,
+        *,
+        eeprom: bool = False,
+        dword: bool | None = None,
+        timeout: float | None = None,
+    ) -> tuple[int, ...]:
+        """Write the PWE ``words`` to ``pnu`` (element ``index``) as they are: request 2/3 (14/13
+        with ``eeprom``), 7/8 (12/11) for an element (C 4.2.2). Two words are a double word
+        unless the parameter is known to be a string (``dword`` decides otherwise). Returns the
+        words the drive answered with. Nothing is checked against the parameter's type or
+        limits: the drive refuses what it does not take."""
         index = _index(index)
-        is_float = isinstance(value, float)
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise ConfigError(f"value must be an integer or a float, not {value!r}")
-        if is_float:
-            if not math.isfinite(value):
-                raise ConfigError(f"value must be a finite number, not {value!r}")
-            if dword is False:
-                raise ConfigError("a floating point value is a double word (C 6)")
-            words: tuple[int, ...] = pwe_float(float(value))
-            double = True
-        else:
-            assert isinstance(value, int)
-            double = dword if dword is not None else not -0x8000 <= value <= 0xFFFF
-            words = pwe_dword(value) if double else pwe_word(value)
-        if double and self.layout.pkw == 3:
+        words = tuple(words)
+        if not words or any(
+            isinstance(w, bool) or not isinstance(w, int) or not 0 <= w <= 0xFFFF for w in words
+        ):
+            raise ConfigError(f"words must be 1 or more values 0..FFFFh, got {list(words)!r}")
+        if dword is None:
+            info = self.params.get(pnu)
+            dword = len(words) == 2 and (info is None or not info.dtype.is_string)
+        if dword and len(words) != 2:
+            raise ConfigError(f"a double word is 2 words, not {len(words)}")
+        if dword and self.layout.pkw == 3:
             raise ConfigError(
                 f"a double word does not fit layout {self.layout}: PKW 3 holds one word, "
                 "double words need PKW 4 or the variable layout (C 7)"
             )
+        if not self.layout.variable and len(words) > self.layout.pkw - 2:
+            raise ConfigError(
+                f"{len(words)} words do not fit layout {self.layout} (C 7): use the variable "
+                "layout (PKW 127)"
+            )
         if index is None:
             rid = (
                 (RequestId.WRITE_DWORD_EEPROM if eeprom else RequestId.WRITE_DWORD)
-                if double
+                if dword
                 else (RequestId.WRITE_WORD_EEPROM if eeprom else RequestId.WRITE_WORD)
             )
             bits, ind = self._ind(pnu)
         else:
             rid = (
                 (RequestId.WRITE_ARRAY_DWORD_EEPROM if eeprom else RequestId.WRITE_ARRAY_DWORD)
-                if double
+                if dword
                 else (RequestId.WRITE_ARRAY_WORD_EEPROM if eeprom else RequestId.WRITE_ARRAY_WORD)
             )
             bits, ind = self._ind(pnu, index)
         answer = await self.job(
             Pkw(rid, bits, ind, values=words), pnu=pnu, index=index, timeout=timeout
         )
-        if is_float:
-            return answer.float32()
-        return _value(answer, signed=isinstance(value, int) and value < 0)
+        return self._answer_words(answer, pnu)
+
+    async def write_param(
+        self,
+        pnu: int,
+        value: object,
+        index: int | None = None,
+        *,
+        eeprom: bool = False,
+        timeout: float | None = None,
+    ) -> Reading:
+        """Write a typed ``value`` (see `write`); returns the `Reading` of the drive's answer."""
+        index = _index(index)
+        info = await self.info(pnu, timeout=timeout)
+        self._check_index(info, pnu, index)
+        if info is None:
+            words = _untyped_words(pnu, value)
+            answer = await self.write_raw(pnu, words, index, eeprom=eeprom, timeout=timeout)
+            typed: Value = (
+                _float(answer) if isinstance(value, float) else _untyped(answer, signed=_neg(value))
+            )
+            return Reading(pnu, index, None, answer, typed)
+        if info.array is not None and index is None:
+            raise ConfigError(
+                f"P{pnu} ({info.name}) is an array: give the element's index "
+                f"({self.params.index_base}..{self.params.index_base + info.array - 1})"
+            )
+        if info.read_only:
+            raise ValueRefused(f"P{pnu} ({info.name}) is read-only")
+        words = encode(info, value, index)
+        dword = len(words) == 2 and not info.dtype.is_string
+        answer = await self.write_raw(
+            pnu, words, index, eeprom=eeprom, dword=dword, timeout=timeout
+        )
+        return Reading(pnu, index, info, answer, decode(info, answer, index))
+
+    async def write(
+        self,
+        pnu: int,
+        value: object,
+        index: int | None = None,
+        *,
+        eeprom: bool = False,
+        timeout: float | None = None,
+    ) -> Value | list[Value]:
+        """Write ``value`` to ``pnu`` (element ``index``) as the parameter's type takes it: a
+        number for a float, a signed or unsigned integer, the physical value of a scaled one
+        (2.5 for 2.50 s at 0.01 s), `str` for text, `bytes` for an octet string. A value of the
+        wrong kind, between two steps of the scaling, outside the limits, or for a read-only
+        parameter is refused before anything is sent (`pyuss.params.ValueRefused`, a
+        `ConfigError`); bit fields (V2) go through `write_raw`. ``eeprom=True`` stores the
+        value in the drive's non-volatile memory as well (requests 11..14). Returns the value
+        the drive answered with.
+
+        For a parameter nothing is known of, an integer is a word if it fits -32768..65535 and
+        a double word otherwise; a float is an IEEE 754 double word (C 6)."""
+        return (await self.write_param(pnu, value, index, eeprom=eeprom, timeout=timeout)).value
 
     async def array_length(self, pnu: int, *, timeout: float | None = None) -> int:
         """How many elements array parameter ``pnu`` has (request 9)."""
@@ -247,32 +469,6 @@ class Drive:
             Pkw(RequestId.READ_ARRAY_COUNT, bits, ind), pnu=pnu, timeout=timeout
         )
         return answer.word()
-
-    async def read_array(
-        self, pnu: int, *, signed: bool = False, timeout: float | None = None
-    ) -> list[int]:
-        """Every element of array parameter ``pnu``: one telegram (IND 255) with the variable
-        layout, one per element otherwise."""
-        if self.layout.variable:
-            bits, ind = self._ind(pnu, INDEX_ALL)
-            answer = await self.job(
-                Pkw(RequestId.READ_ARRAY, bits, ind), pnu=pnu, index=INDEX_ALL, timeout=timeout
-            )
-            values = answer.values
-            if answer.id == ResponseId.ARRAY_DWORD:
-                if len(values) % 2:
-                    raise TelegramError(f"P{pnu}: {len(values)} words are not whole double words")
-                return [
-                    Pkw(answer.id, values=values[i : i + 2]).dword(signed=signed)
-                    for i in range(0, len(values), 2)
-                ]
-            return [Pkw(answer.id, values=(w,)).word(signed=signed) for w in values]
-        count = await self.array_length(pnu, timeout=timeout)
-        base = index_base(self.profile)
-        return [
-            await self.read(pnu, i, signed=signed, timeout=timeout)
-            for i in range(base, base + count)
-        ]
 
     def _elements(self) -> dict[int, str]:
         if description_style(self.profile) is DescriptionStyle.BAUMUELLER:

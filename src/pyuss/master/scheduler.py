@@ -35,12 +35,13 @@ Time bases
     All times are the transport's ``clock()``. Transports with exact timestamps (the virtual
     bus in-process and ``bus://``) are judged exactly by the rules above. Other transports
     (serial ports, ptys, TCP) stamp bytes when the program reads them, which USB adapters do in
-    bursts every 1..16 ms; for them ``rx_tolerance`` (default 20 ms) widens the receive side
-    only: a gap between two received bursts shorter than the tolerance is taken for jitter of
-    the stamps and closed (the bytes are fed to the receiver as following back to back, so the
-    residual-time check of A 5.2.1.2 is not fooled by a late stamp), the idle gap that
-    separates telegrams is at least the tolerance (`Receiver(start_pause=...)`), and the
-    answer may begin up to the tolerance after the response delay limit. The master's own
+    bursts every 1..16 ms; for them ``rx_tolerance`` (default 20 ms,
+    `pyuss.transport.base.stamp_tolerance`) widens the receive side only: the receiver takes
+    it as the tolerance of the stamps (`Receiver(tolerance=...)`, shared with the monitor: a
+    gap inside a telegram shorter than the tolerance is the stamps' and closed, so the
+    residual-time check of A 5.2.1.2 is not fooled by a late stamp, and the idle gap that ends
+    an incomplete telegram is at least the tolerance), and the answer may begin up to the
+    tolerance after the response delay limit. The master's own
     sending keeps at least the specification's start pause always. ``latency`` (default 20 ms)
     is how long after a deadline the master still waits for bytes that were on the line in
     time but not yet delivered; it only costs time when a slave is silent.
@@ -86,7 +87,7 @@ from pyuss.protocol.pkw import Pkw
 from pyuss.protocol.receiver import Received, ReceiveFault, Receiver
 from pyuss.protocol.telegram import MAX_ADDRESS, AddressMode, Telegram
 from pyuss.protocol.timing import LineTiming
-from pyuss.transport.base import Chunk, Transport
+from pyuss.transport.base import STAMP_TOLERANCE, Chunk, Transport, stamp_tolerance
 from pyuss.transport.queued import check_baud
 from pyuss.transport.reconnect import LinkDown
 
@@ -97,7 +98,7 @@ __all__ = ["ACYCLIC", "CYCLIC", "Master", "MirrorResult", "Mode", "Reply"]
 
 log = logging.getLogger("pyuss.master")
 
-DEFAULT_TOLERANCE = 0.020
+DEFAULT_TOLERANCE = STAMP_TOLERANCE
 """Receive tolerance for transports that stamp bytes when read (USB adapters: 1..16 ms)."""
 DEFAULT_LATENCY = 0.020
 """How long past a deadline the master still waits for bytes that were on the line in time."""
@@ -115,14 +116,6 @@ class Mode(enum.Enum):
 
 CYCLIC = Mode.CYCLIC
 ACYCLIC = Mode.ACYCLIC
-
-
-def _exact_timestamps(transport: Transport) -> bool:
-    """Transports whose chunk timestamps are the true end times on the line."""
-    from pyuss.bus.client import BusClientTransport
-    from pyuss.bus.core import Station
-
-    return isinstance(transport, Station | BusClientTransport)
 
 
 @dataclass(frozen=True, slots=True)
@@ -306,10 +299,7 @@ class Master:
         self.mode = mode
         self.response_delay = response_delay
         self.job_timeout = float(job_timeout)
-        exact = _exact_timestamps(transport)
-        self.rx_tolerance = (
-            (0.0 if exact else DEFAULT_TOLERANCE) if rx_tolerance is None else rx_tolerance
-        )
+        self.rx_tolerance = stamp_tolerance(transport) if rx_tolerance is None else rx_tolerance
         self.latency = DEFAULT_LATENCY if latency is None else latency
         self.close_transport = close_transport
         self._links: dict[int, _Link] = {}
@@ -319,12 +309,11 @@ class Master:
         self._line = Diagnostics()
         self._receiver = Receiver(
             self.baud,
-            start_pause=max(self.timing.start_pause, self.rx_tolerance),
+            tolerance=self.rx_tolerance,
             diagnostics=self._line,
             residual_extra_chars=self.profile.residual_extra_chars,
         )
         self._line_free = -math.inf
-        self._rx_end = -math.inf
         self._after_broadcast = False
         self._broadcasts = 0
         self._answered_broadcasts = 0
@@ -970,7 +959,6 @@ class Master:
                 self._stray_events(self._feed(chunk))
         self._stray_events(self._receiver.poll(self._clock()))
         self._receiver.reset()
-        self._rx_end = -math.inf
         self._after_broadcast = False
         if callable(frame):
             frame = frame()
@@ -986,15 +974,8 @@ class Master:
         return start, end
 
     def _feed(self, chunk: Chunk) -> list[Received | ReceiveFault]:
-        """Feed a chunk to the receiver. Chunks of transports with exact timestamps go as they
-        are; on others a gap shorter than ``rx_tolerance`` is taken for jitter of the stamps and
-        closed (the bytes follow the previous ones back to back), a longer one is kept."""
-        stamp = chunk.timestamp
-        if self.rx_tolerance > 0:
-            following = self._rx_end + len(chunk.data) * self.timing.char_time
-            stamp = following if stamp - self._rx_end <= self.rx_tolerance else stamp
-            self._rx_end = stamp
-        return self._receiver.feed(chunk.data, stamp, chunk.errors)
+        """Feed a chunk to the receiver (which allows for coarse stamps, ``rx_tolerance``)."""
+        return self._receiver.feed(chunk.data, chunk.timestamp, chunk.errors)
 
     async def _drain(self) -> None:
         while True:

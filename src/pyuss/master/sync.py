@@ -24,9 +24,12 @@ from __future__ import annotations
 import asyncio
 import threading
 from collections.abc import Callable, Coroutine, Iterable, Sequence
+from pathlib import Path
 from types import TracebackType
 from typing import Any, TypeVar
 
+from pyuss.drive.database import ParameterDatabase
+from pyuss.drive.datatypes import Value
 from pyuss.master import scheduler
 from pyuss.master.description import Description
 from pyuss.master.drive import Drive as AsyncDrive
@@ -35,6 +38,8 @@ from pyuss.master.jobs import SpontaneousMessage
 from pyuss.master.process import DriveStatus
 from pyuss.master.profile import Profile
 from pyuss.master.stats import BusDiagnostics, CycleStats, SlaveDiagnostics
+from pyuss.params.book import ParamBook
+from pyuss.params.model import ParamInfo, Reading
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
@@ -303,42 +308,88 @@ class Drive:
     ) -> Pkw:
         return self._bus._call(self._drive.job(request, pnu=pnu, index=index, timeout=timeout))
 
-    def read(
+    @property
+    def params(self) -> ParamBook:
+        """What is known of the drive's parameters (`pyuss.params.ParamBook`)."""
+        return self._drive.params
+
+    def use_params(self, source: str | Path | ParameterDatabase) -> None:
+        self._bus._run(lambda: self._drive.use_params(source))
+
+    def info(self, pnu: int, *, timeout: float | None = None) -> ParamInfo | None:
+        return self._bus._call(self._drive.info(pnu, timeout=timeout))
+
+    def read_raw(
+        self, pnu: int, index: int | None = None, *, timeout: float | None = None
+    ) -> tuple[int, ...]:
+        return self._bus._call(self._drive.read_raw(pnu, index, timeout=timeout))
+
+    def read_param(
         self,
         pnu: int,
         index: int | None = None,
         *,
-        signed: bool = False,
+        progress: Callable[[int, int], object] | None = None,
         timeout: float | None = None,
-    ) -> int:
-        return self._bus._call(self._drive.read(pnu, index, signed=signed, timeout=timeout))
+    ) -> Reading:
+        return self._bus._call(
+            self._drive.read_param(pnu, index, progress=progress, timeout=timeout)
+        )
 
-    def read_float(
+    def read(
         self, pnu: int, index: int | None = None, *, timeout: float | None = None
-    ) -> float:
-        return self._bus._call(self._drive.read_float(pnu, index, timeout=timeout))
+    ) -> Value | list[Value]:
+        return self._bus._call(self._drive.read(pnu, index, timeout=timeout))
+
+    def write_raw(
+        self,
+        pnu: int,
+        words: Sequence[int],
+        index: int | None = None,
+        *,
+        eeprom: bool = False,
+        dword: bool | None = None,
+        timeout: float | None = None,
+    ) -> tuple[int, ...]:
+        return self._bus._call(
+            self._drive.write_raw(pnu, words, index, eeprom=eeprom, dword=dword, timeout=timeout)
+        )
+
+    def write_param(
+        self,
+        pnu: int,
+        value: object,
+        index: int | None = None,
+        *,
+        eeprom: bool = False,
+        timeout: float | None = None,
+    ) -> Reading:
+        return self._bus._call(
+            self._drive.write_param(pnu, value, index, eeprom=eeprom, timeout=timeout)
+        )
 
     def write(
         self,
         pnu: int,
-        value: int | float,
+        value: object,
         index: int | None = None,
         *,
-        dword: bool | None = None,
         eeprom: bool = False,
         timeout: float | None = None,
-    ) -> int | float:
-        return self._bus._call(
-            self._drive.write(pnu, value, index, dword=dword, eeprom=eeprom, timeout=timeout)
-        )
+    ) -> Value | list[Value]:
+        return self._bus._call(self._drive.write(pnu, value, index, eeprom=eeprom, timeout=timeout))
 
     def array_length(self, pnu: int, *, timeout: float | None = None) -> int:
         return self._bus._call(self._drive.array_length(pnu, timeout=timeout))
 
     def read_array(
-        self, pnu: int, *, signed: bool = False, timeout: float | None = None
-    ) -> list[int]:
-        return self._bus._call(self._drive.read_array(pnu, signed=signed, timeout=timeout))
+        self,
+        pnu: int,
+        *,
+        progress: Callable[[int, int], object] | None = None,
+        timeout: float | None = None,
+    ) -> list[Value]:
+        return self._bus._call(self._drive.read_array(pnu, progress=progress, timeout=timeout))
 
     def read_description(
         self, pnu: int, element: int | None = None, *, timeout: float | None = None

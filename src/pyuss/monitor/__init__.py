@@ -18,7 +18,7 @@ from pyuss.monitor.capture import (
     open_writer,
     read_capture,
 )
-from pyuss.monitor.core import REAL_PORT_GAP, Monitor, default_gap
+from pyuss.monitor.core import Monitor, default_gap
 from pyuss.monitor.dissector import dissector_source, install, plugin_dir
 from pyuss.monitor.infer import LayoutBook, LayoutChoice
 from pyuss.monitor.live import Listener, replay, watch
@@ -27,7 +27,6 @@ from pyuss.monitor.render import exchange_line, summary_table
 from pyuss.monitor.stats import AddressStats, Summary
 
 __all__ = [
-    "REAL_PORT_GAP",
     "AddressStats",
     "Capture",
     "CaptureFlag",

@@ -252,6 +252,9 @@ class Capture:
     kind: str = "pcapng"
     gap: float | None = None
     """The gap the monitor that wrote the capture framed with (seconds), if known."""
+    tolerance: float = 0.0
+    """The tolerance of the timestamps the monitor judged timing with (seconds; 0 when the
+    capture does not say: a recording of the virtual bus, or a capture whose gap held it)."""
 
 
 class CaptureWriter(Protocol):
@@ -279,11 +282,13 @@ class RecordWriter:
         four_wire: bool = False,
         epoch: float = 0.0,
         gap: float | None = None,
+        tolerance: float = 0.0,
     ) -> None:
         self.baud = check_baud(baud)
         self.four_wire = four_wire
         self.epoch = epoch
         self.gap = gap
+        self.tolerance = tolerance
         self._file = AtomicWriter(path, "a capture")
         self.path = self._file.path
         self.packets = 0
@@ -332,11 +337,12 @@ def open_writer(
     epoch: float = 0.0,
     linktype: int | None = None,
     gap: float | None = None,
+    tolerance: float = 0.0,
 ) -> CaptureWriter:
     """A capture writer for ``path``: pcapng for ``.pcapng`` (also ``.pcap``, ``.ntar``),
     JSON lines for ``.jsonl`` (also ``.json``, ``.ndjson``). ``epoch`` is added to frame times
-    to make them Unix time; ``linktype`` is the pcapng user link type (147..162); ``gap`` the
-    monitor's gap (seconds), kept so that a replay judges timing the same way."""
+    to make them Unix time; ``linktype`` is the pcapng user link type (147..162); ``gap`` and
+    ``tolerance`` the monitor's (seconds), kept so that a replay judges timing the same way."""
     from pyuss.monitor import jsonl, pcapng
 
     suffix = Path(path).suffix.lower()
@@ -348,11 +354,14 @@ def open_writer(
             epoch=epoch,
             linktype=pcapng.DEFAULT_LINKTYPE if linktype is None else linktype,
             gap=gap,
+            tolerance=tolerance,
         )
     if suffix in JSONL_SUFFIXES:
         if linktype is not None:
             raise ConfigError("a link type only applies to pcapng captures")
-        return jsonl.JsonlWriter(path, baud=baud, four_wire=four_wire, epoch=epoch, gap=gap)
+        return jsonl.JsonlWriter(
+            path, baud=baud, four_wire=four_wire, epoch=epoch, gap=gap, tolerance=tolerance
+        )
     raise ConfigError(
         f"capture file {str(path)!r}: name it *.pcapng (Wireshark) or *.jsonl (JSON lines)"
     )

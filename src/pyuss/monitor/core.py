@@ -5,18 +5,21 @@ the transports stamped, and is told when time passes (`Monitor.advance`).
 
 Framing
     Each port has a `pyuss.protocol.Receiver` whose start pause is the monitor's ``gap``: the
-    idle time that starts a telegram. On the virtual bus timestamps are exact and the gap is
-    the spec's 2 character times (A 5.1.2). Real serial ports stamp bytes in bursts (USB
-    adapters deliver every millisecond or so), so a small gap would cut telegrams apart; the
-    command line uses a larger gap there (`default_gap`). The difference between the gap and
-    the start pause is the monitor's timing *resolution*: timing rules are only enforced
-    beyond it. A run of bytes without a start pause that still holds whole telegrams (an
-    answer that followed faster than the gap) is cut into those telegrams again; if the pause
-    before one was shorter than the start pause less the resolution, it stays a fault
-    (``no_stx``: a slave would discard it), but is still decoded. With a resolution (real
-    ports), an incomplete telegram and the bytes after the pause that cut it are joined again
-    when together they form a telegram with a valid BCC within its residual time (A 6.3) plus
-    the resolution: the pause was the port's, not the line's.
+    idle time that starts a telegram, by default the spec's 2 character times (A 5.1.2), and
+    whose ``tolerance`` is the monitor's: how late the port may stamp a byte. On the virtual
+    bus timestamps are exact (tolerance 0). Real serial ports, ptys and TCP stamp bytes when
+    they are read (USB adapters deliver every 1 to 16 ms): with the tolerance of such a port
+    (`pyuss.transport.base.stamp_tolerance`, 20 ms, as the master) the receiver neither cuts
+    a telegram at a late burst nor takes an answer read together with its request for bytes
+    without a start pause ("Coarse timestamps" in `pyuss.protocol.receiver`). The tolerance,
+    plus what the gap adds to the start pause, is the monitor's timing *resolution*: timing
+    rules are only enforced beyond it. A run of bytes without a start pause that still holds
+    whole telegrams (an answer that followed faster than the gap) is cut into those telegrams
+    again; if the pause before one was shorter than the start pause less the resolution, it
+    stays a fault (``no_stx``: a slave would discard it), but is still decoded. With a
+    resolution (real ports), an incomplete telegram and the bytes after the pause that cut it
+    are joined again when together they form a telegram with a valid BCC within its residual
+    time (A 6.3) plus the resolution: the pause was the port's, not the line's.
 
 Two ports (4-wire line)
     Port 0 carries master to slave, port 1 slave to master. Frames of both are merged by the
@@ -81,22 +84,16 @@ from pyuss.protocol.telegram import (
 from pyuss.protocol.timing import MAX_RESPONSE_DELAY, LineTiming, check_baud
 from pyuss.transport.base import LineError
 
-__all__ = ["REAL_PORT_GAP", "Monitor", "default_gap"]
-
-REAL_PORT_GAP = 0.002
-"""Smallest idle gap that starts a telegram on a real port (seconds): timestamps of USB serial
-adapters come in bursts about a millisecond apart."""
+__all__ = ["Monitor", "default_gap"]
 _LATE_FACTOR = 10
 _ROUNDING = 1e-8
 _HISTORY = 64
 _EPS = 1e-9
 
 
-def default_gap(baud: int, *, exact: bool) -> float:
-    """The idle gap that starts a telegram: the start pause (A 5.1.2) when timestamps are exact
-    (the virtual bus), else at least `REAL_PORT_GAP`."""
-    start_pause = LineTiming(check_baud(baud)).start_pause
-    return start_pause if exact else max(start_pause, REAL_PORT_GAP)
+def default_gap(baud: int) -> float:
+    """The idle gap that starts a telegram: the start pause (A 5.1.2)."""
+    return LineTiming(check_baud(baud)).start_pause
 
 
 def _ms(seconds: float) -> str:
@@ -124,7 +121,9 @@ class Monitor:
     time that starts a telegram (default: the start pause). ``response_limit``: the response
     delay limit (default 20 ms, never less than the start pause, A 5.2.1.1). ``late_limit``:
     how long after a request an answer is still taken as late rather than the request as not
-    answered (default 10 x the response limit).
+    answered (default 10 x the response limit). ``tolerance``: how much later than on the line
+    the ports may stamp a byte (0: exact timestamps, the virtual bus; ports that stamp bytes
+    when read: `pyuss.transport.base.stamp_tolerance`).
     """
 
     def __init__(
@@ -136,6 +135,7 @@ class Monitor:
         gap: float | None = None,
         response_limit: float | None = None,
         late_limit: float | None = None,
+        tolerance: float = 0.0,
     ) -> None:
         self.baud = check_baud(baud)
         self.timing = LineTiming(self.baud)
@@ -151,7 +151,10 @@ class Monitor:
                 f"gap {_ms(self.gap)} is shorter than the start pause {_ms(start_pause)} at "
                 f"{self.baud} baud (A 5.1.2): characters inside telegrams would start new ones"
             )
-        self.resolution = self.gap - start_pause
+        if isinstance(tolerance, bool) or not 0 <= tolerance < math.inf:
+            raise ConfigError(f"tolerance must be >= 0 seconds, got {tolerance!r}")
+        self.tolerance = float(tolerance)
+        self.resolution = self.gap - start_pause + self.tolerance
         limit = MAX_RESPONSE_DELAY if response_limit is None else float(response_limit)
         self.response_limit = max(limit, start_pause)
         if late_limit is not None and not late_limit >= self.response_limit:
@@ -164,7 +167,7 @@ class Monitor:
         self.ports = 2 if four_wire else 1
         fixed = self.layouts.fixed_lengths()
         self._rx = [
-            Receiver(self.baud, start_pause=self.gap, fixed_lengths=fixed)
+            Receiver(self.baud, start_pause=self.gap, fixed_lengths=fixed, tolerance=self.tolerance)
             for _ in range(self.ports)
         ]
         self._advanced = [-math.inf] * self.ports

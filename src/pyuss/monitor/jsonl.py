@@ -14,7 +14,8 @@
 ``flags``: `pyuss.monitor.capture.CaptureFlag` names in lower case; ``layout``: ``PKW,PZD``
 the monitor decoded the frame with (null if none) and ``layout_source`` where it came from
 (``given``, ``inferred``, ``guessed``); ``delay_ms``: the response delay of an answer. The
-header's ``gap_ms`` is the idle time the monitor framed telegrams with.
+header's ``gap_ms`` is the idle time the monitor framed telegrams with, ``tolerance_ms`` (left
+out when 0) how late its port could stamp a byte.
 
 `read_jsonl` also reads the character recordings of the virtual bus
 (``pyuss-bus-recording``, `pyuss.bus.recorder`): they come back as chunks for a receiver.
@@ -29,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from pyuss.bus.recorder import FORMAT as BUS_FORMAT
-from pyuss.bus.recorder import load_recording
+from pyuss.bus.recorder import check_seconds, load_recording
 from pyuss.errors import ConfigError
 from pyuss.monitor.capture import Capture, CaptureFlag, CaptureRecord, RecordWriter
 from pyuss.monitor.infer import LayoutChoice
@@ -42,6 +43,8 @@ __all__ = ["FORMAT", "VERSION", "JsonlWriter", "read_jsonl"]
 
 FORMAT = "pyuss-monitor-capture"
 VERSION = 1
+MAX_TOLERANCE_MS = 1000
+"""Largest timestamp tolerance a capture may give (ms)."""
 
 
 def record_json(record: CaptureRecord, epoch: float = 0.0) -> dict[str, Any]:
@@ -68,9 +71,7 @@ def record_from_json(item: Any) -> CaptureRecord:
     if not isinstance(item, dict):
         raise ValueError("not a JSON object")
     raw = bytes.fromhex(str(item["hex"]))
-    start, end = float(item["start"]), float(item["end"])
-    if not (math.isfinite(start) and math.isfinite(end)):
-        raise ValueError(f"start {start} and end {end} must be finite numbers of seconds")
+    start, end = check_seconds(item["start"], "start"), check_seconds(item["end"], "end")
     if end < start:
         raise ValueError(f"end {end} is before start {start}")
     direction = Direction[str(item.get("direction", "unknown")).upper()]
@@ -112,8 +113,11 @@ class JsonlWriter(RecordWriter):
         four_wire: bool = False,
         epoch: float = 0.0,
         gap: float | None = None,
+        tolerance: float = 0.0,
     ) -> None:
-        super().__init__(path, baud=baud, four_wire=four_wire, epoch=epoch, gap=gap)
+        super().__init__(
+            path, baud=baud, four_wire=four_wire, epoch=epoch, gap=gap, tolerance=tolerance
+        )
         header: dict[str, Any] = {
             "format": FORMAT,
             "version": VERSION,
@@ -122,6 +126,8 @@ class JsonlWriter(RecordWriter):
         }
         if gap is not None:
             header["gap_ms"] = round(gap * 1000, 6)
+        if tolerance:
+            header["tolerance_ms"] = round(tolerance * 1000, 6)
         self._file.write((json.dumps(header) + "\n").encode())
 
     def write_record(self, record: CaptureRecord) -> None:
@@ -164,10 +170,19 @@ def read_jsonl(path: str | os.PathLike[str]) -> Capture:
         isinstance(gap, bool) or not isinstance(gap, int | float) or not 0 < gap < math.inf
     ):
         raise ConfigError(f"{name}:1: gap_ms {gap!r} is not a positive number of milliseconds")
+    tolerance = header.get("tolerance_ms", 0)
+    if isinstance(tolerance, bool) or not isinstance(tolerance, int | float):
+        tolerance = math.nan
+    if not 0 <= tolerance <= MAX_TOLERANCE_MS:
+        raise ConfigError(
+            f"{name}:1: tolerance_ms {header.get('tolerance_ms')!r} is not a number of "
+            f"milliseconds 0..{MAX_TOLERANCE_MS}"
+        )
     return Capture(
         baud,
         tuple(records),
         four_wire=bool(header.get("four_wire")),
         kind="JSON lines",
         gap=None if gap is None else float(gap) / 1000,
+        tolerance=float(tolerance) / 1000,
     )

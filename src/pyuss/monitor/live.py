@@ -58,6 +58,12 @@ class Listener:
     def clock(self) -> float:
         return self._transport.clock()
 
+    @property
+    def exact_timestamps(self) -> bool:
+        """Whether the port stamps bytes with their time on the line (see
+        `pyuss.transport.base.Transport.exact_timestamps`)."""
+        return self._transport.exact_timestamps
+
 
 async def watch(
     monitor: Monitor,

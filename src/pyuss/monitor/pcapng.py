@@ -5,9 +5,9 @@ Written with `struct` after the pcapng format (draft-ietf-opsawg-pcapng), in lit
 - a Section Header Block (``shb_userappl`` = ``pyuss <version>``);
 - one Interface Description Block with a user link type, ``LINKTYPE_USER0`` (147) unless told
   otherwise (147..162 are reserved for private use), ``if_name`` ``uss``, ``if_description``
-  naming the wiring, the baud rate and the monitor's gap (``USS 2-wire line, 19200 baud, gap
-  2.000000 ms``), ``if_speed`` = the baud rate and ``if_tsresol`` = 9 (timestamps in
-  nanoseconds);
+  naming the wiring, the baud rate, the monitor's gap and, if not 0, its timestamp tolerance
+  (``USS 2-wire line, 19200 baud, gap 1.145833 ms, tolerance 20.000000 ms``), ``if_speed``
+  = the baud rate and ``if_tsresol`` = 9 (timestamps in nanoseconds);
 - one Enhanced Packet Block per frame, stamped with the start of its first character (Unix
   time), ``epb_flags`` giving the direction as seen from the master (request outbound, answer
   inbound, unknown 0) and an ``opt_comment`` with the receive fault's detail, if any.
@@ -23,6 +23,7 @@ pseudo-header.
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import struct
@@ -30,6 +31,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from pyuss import __version__
+from pyuss.bus.recorder import MAX_TIME
 from pyuss.errors import ConfigError
 from pyuss.monitor.capture import Capture, CaptureRecord, RecordWriter
 from pyuss.monitor.model import Direction
@@ -65,6 +67,9 @@ EPB_FLAGS = 2
 _INBOUND, _OUTBOUND = 1, 2
 _NS = 1_000_000_000
 _GAP = re.compile(rb"gap ([0-9.]+) ms")
+_TOLERANCE = re.compile(rb"tolerance ([0-9.]+) ms")
+#: Largest timestamp tolerance a capture may give (ms).
+_MAX_TOLERANCE_MS = 1000
 
 
 def check_linktype(linktype: int) -> int:
@@ -108,13 +113,18 @@ class PcapngWriter(RecordWriter):
         epoch: float = 0.0,
         linktype: int = DEFAULT_LINKTYPE,
         gap: float | None = None,
+        tolerance: float = 0.0,
     ) -> None:
         self.linktype = check_linktype(linktype)
-        super().__init__(path, baud=baud, four_wire=four_wire, epoch=epoch, gap=gap)
+        super().__init__(
+            path, baud=baud, four_wire=four_wire, epoch=epoch, gap=gap, tolerance=tolerance
+        )
         wiring = "4-wire" if four_wire else "2-wire"
         description = f"USS {wiring} line, {baud} baud"
         if gap is not None:
             description += f", gap {gap * 1000:.6f} ms"
+        if tolerance:
+            description += f", tolerance {tolerance * 1000:.6f} ms"
         shb = struct.pack("<IHHq", BOM, 1, 0, -1) + _options(
             [(SHB_USERAPPL, f"pyuss {__version__}".encode())]
         )
@@ -173,6 +183,7 @@ class _Reader:
         self.baud: int | None = None
         self.four_wire = False
         self.gap: float | None = None
+        self.tolerance = 0.0
         self.packet = 0
 
     def fail(self, offset: int, what: str) -> ConfigError:
@@ -209,7 +220,12 @@ class _Reader:
         if self.baud is None:
             raise ConfigError(f"{self.name}: no USS interface (user link type) in the capture")
         return Capture(
-            self.baud, tuple(self.records), four_wire=self.four_wire, kind="pcapng", gap=self.gap
+            self.baud,
+            tuple(self.records),
+            four_wire=self.four_wire,
+            kind="pcapng",
+            gap=self.gap,
+            tolerance=self.tolerance,
         )
 
     def block(self, kind: int, body: bytes, offset: int) -> None:
@@ -235,6 +251,15 @@ class _Reader:
                 found = _GAP.search(description)
                 if found:
                     self.gap = float(found.group(1)) / 1000
+                found = _TOLERANCE.search(description)
+                if found:
+                    try:
+                        tolerance = float(found.group(1))
+                    except ValueError:
+                        tolerance = math.nan
+                    if not 0 <= tolerance <= _MAX_TOLERANCE_MS:
+                        raise self.fail(offset, f"tolerance {found.group(1).decode()} ms")
+                    self.tolerance = tolerance / 1000
         elif kind == EPB_TYPE:
             self.packet += 1
             if len(body) < 20:
@@ -251,6 +276,10 @@ class _Reader:
             options = _parse_options(body, 20 + captured + (-captured % 4), order)
             start = ((high << 32) | low) * resolution
             where = f"{self.name}: packet {self.packet}"
+            if not start <= MAX_TIME:
+                raise ConfigError(
+                    f"{where}: timestamp {start:.6g} s is out of range (at most {MAX_TIME:.0f} s)"
+                )
             record = CaptureRecord.from_packet(packet, start, where)
             comments = options.get(OPT_COMMENT)
             if comments and record.frame.fault is not None:

@@ -26,7 +26,14 @@ from pyuss.errors import TelegramError
 from pyuss.monitor.model import Exchange, LayoutSource
 from pyuss.monitor.stats import Summary
 from pyuss.protocol.layout import NetData
-from pyuss.protocol.pkw import INDEX_ALL, Pkw, RequestId, ResponseId, error_meaning
+from pyuss.protocol.pkw import (
+    INDEX_ALL,
+    Pkw,
+    RequestId,
+    ResponseId,
+    error_meaning,
+    parameter_number,
+)
 from pyuss.protocol.pzd import ControlWord, StatusWord, raw16_to_percent
 from pyuss.protocol.telegram import AddressMode
 
@@ -72,10 +79,11 @@ _EEPROM_JOBS = {
 }
 
 
-def job_text(pkw: Pkw) -> str:
-    """A parameter job (request, C Table 4.1) in words."""
+def job_text(pkw: Pkw, page_size: int | None = None) -> str:
+    """A parameter job (request, C Table 4.1) in words; ``page_size``: parameter numbers per
+    IND page of the device (2000 for MICROMASTER 4: PNU 10 on page 1 shows as P2010)."""
     rid = RequestId(pkw.id)
-    p, sub = f"P{pkw.pnu}", _sub(pkw)
+    p, sub = f"P{parameter_number(pkw.pnu, pkw.index, page_size)}", _sub(pkw)
     if rid is RequestId.NO_JOB:
         return "no job"
     if rid is RequestId.READ_VALUE:
@@ -101,10 +109,10 @@ def job_text(pkw: Pkw) -> str:
     return f"{verb} {target} = {_value(pkw, rid in _DWORD_JOBS)}"
 
 
-def answer_text(pkw: Pkw) -> str:
-    """An answer (response, C Table 4.2) in words."""
+def answer_text(pkw: Pkw, page_size: int | None = None) -> str:
+    """An answer (response, C Table 4.2) in words (``page_size`` as for `job_text`)."""
     aid = ResponseId(pkw.id)
-    p, sub = f"P{pkw.pnu}", _sub(pkw)
+    p, sub = f"P{parameter_number(pkw.pnu, pkw.index, page_size)}", _sub(pkw)
     double = aid in (
         ResponseId.VALUE_DWORD,
         ResponseId.ARRAY_DWORD,
@@ -176,7 +184,7 @@ def _layout(ex: Exchange) -> str:
     return f"{ex.layout}{'?' if ex.layout_source is LayoutSource.GUESSED else ''}"
 
 
-def _net_text(ex: Exchange) -> list[str]:
+def _net_text(ex: Exchange, page_size: int | None = None) -> list[str]:
     """Job -> answer and the PZD texts."""
     mode = ex.mode
     if mode in (AddressMode.MIRROR, AddressMode.SPECIAL, AddressMode.SPECIAL_BROADCAST):
@@ -189,11 +197,12 @@ def _net_text(ex: Exchange) -> list[str]:
     job = rq.pkw if rq is not None else None
     reply = an.pkw if an is not None else None
     if job is not None or reply is not None:
-        left = job_text(job) if job is not None else "?"
+        left = job_text(job, page_size) if job is not None else "?"
         if ex.answer is None:
             parts.append(left)
         else:
-            parts.append(f"{left} -> {answer_text(reply) if reply is not None else '?'}")
+            right = answer_text(reply, page_size) if reply is not None else "?"
+            parts.append(f"{left} -> {right}")
     if rq is not None and (text := _pzd_text(rq, ex.control_before, True)):
         parts.append(text)
     if an is not None and (text := _pzd_text(an, ex.status_before, False)):
@@ -221,16 +230,22 @@ def _time(seconds: float, origin: float, absolute: bool) -> str:
 
 
 def exchange_line(
-    ex: Exchange, *, origin: float = 0.0, absolute: bool = False, color: bool = False
+    ex: Exchange,
+    *,
+    origin: float = 0.0,
+    absolute: bool = False,
+    color: bool = False,
+    page_size: int | None = None,
 ) -> str:
     """One line for ``ex`` (see the module text). ``origin`` is subtracted from times (or,
-    with ``absolute``, added to make them Unix time)."""
+    with ``absolute``, added to make them Unix time); ``page_size``: parameter numbers per IND
+    page of the devices (P2010 rather than PNU 10 for MICROMASTER 4)."""
     parts = [_time(ex.time, origin, absolute), f"{_where(ex):<8}", f"{_layout(ex):<5}"]
     if ex.kind == "noise" and ex.request is not None:
         raw = ex.request.raw
         shown = raw[:_NOISE_BYTES].hex(" ").upper() + (" .." if len(raw) > _NOISE_BYTES else "")
         parts.append(f"{len(raw)} bytes: {shown}")
-    parts += _net_text(ex)
+    parts += _net_text(ex, page_size)
     if ex.delay is not None:
         parts.append(f"{ex.delay * 1000:.3f} ms")
     parts += list(ex.notes)

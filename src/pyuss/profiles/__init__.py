@@ -9,7 +9,18 @@ name               device                                                 follow
 ``baumueller``     Baumueller drives (fixed length, masked broadcast)     seed 004 part 2
 ``nord``           NORD frequency inverters                               seed 001 1.3.5/1.3.6
 ``micromaster4``   MICROMASTER 4 / SINAMICS (P2000 and up via IND page)   public MM4 manuals
+``micromaster420`` MICROMASTER 420                                        its manuals
+``micromaster440`` MICROMASTER 440                                        its manuals
+``sinamics-g110``  SINAMICS G110                                          its manuals
+``sinamics-g120``  SINAMICS G120 with CU240S control unit                 its manuals
+``sinamics-v20``   SINAMICS V20                                           its manuals
+``nord-sk500e``    NORD SK 500E series                                    seed 001, BU 0050/0500
 =================  =====================================================  ===================
+
+The family profiles (`pyuss.profiles.siemens`, `pyuss.profiles.nord_sk500e`) add what the
+family's manuals say: baud rate codes, address range, control and status word bits, fault and
+warning numbers, the reference parameter, and how a drive shows its identity
+(`pyuss.profiles.identify`). ``micromaster4`` and ``nord`` stay as they were.
 
 `get_profile` returns one; `Profile` (in `pyuss.profiles.base`) documents what it holds.
 """
@@ -17,10 +28,26 @@ name               device                                                 follow
 from __future__ import annotations
 
 from pyuss.errors import ConfigError
-from pyuss.profiles import baumueller, generic, micromaster4, nord, six_se21
-from pyuss.profiles.base import BitRef, BroadcastForm, Profile
+from pyuss.profiles import (
+    baumueller,
+    generic,
+    micromaster4,
+    nord,
+    nord_sk500e,
+    siemens,
+    six_se21,
+)
+from pyuss.profiles.base import BitRef, BroadcastForm, IdentityRule, Profile
 
-__all__ = ["PROFILES", "BitRef", "BroadcastForm", "Profile", "get_profile", "profile_names"]
+__all__ = [
+    "PROFILES",
+    "BitRef",
+    "BroadcastForm",
+    "IdentityRule",
+    "Profile",
+    "get_profile",
+    "profile_names",
+]
 
 PROFILES: dict[str, Profile] = {
     p.name: p
@@ -30,6 +57,8 @@ PROFILES: dict[str, Profile] = {
         baumueller.PROFILE,
         nord.PROFILE,
         micromaster4.PROFILE,
+        *siemens.PROFILES,
+        nord_sk500e.PROFILE,
     )
 }
 """The built-in profiles by name."""

@@ -31,13 +31,17 @@ from functools import cache
 from pyuss.drive.database import ParameterDatabase, load_profile
 from pyuss.errors import ConfigError
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
-from pyuss.protocol.pkw import MAX_PNU, error_meaning
+from pyuss.protocol.pkw import (
+    MAX_PNU,
+    PAGE_BITS,
+    error_meaning,
+    page_of,
+    parameter_number,
+)
 from pyuss.protocol.timing import MAX_RESPONSE_DELAY, char_time
 
-__all__ = ["BitRef", "BroadcastForm", "Profile"]
+__all__ = ["BitRef", "BroadcastForm", "IdentityRule", "Profile"]
 
-_PAGE_BITS = (15, 12, 13, 14)
-"""IND bits carrying the page number, lowest weight first (bit 15 has weight 1)."""
 _PAGE_MASK = 0xF000
 
 
@@ -69,6 +73,34 @@ class BitRef:
     def __str__(self) -> str:
         where = f"P{self.pnu}" if self.index is None else f"P{self.pnu}.{self.index}"
         return f"{where} bit {self.bit}"
+
+
+@dataclass(frozen=True, slots=True)
+class IdentityRule:
+    """What one parameter of a drive shows when the drive is of a family: reading ``pnu``
+    (element ``index``) answers one of ``values`` (None: any value), or, with ``present``
+    False, is refused. `pyuss.profiles.identify` applies a profile's rules."""
+
+    pnu: int
+    index: int | None = None
+    values: frozenset[int] | None = None
+    present: bool = True
+
+    def matches(self, value: float | None) -> bool:
+        """Whether the answer ``value`` (None: refused) fits the rule."""
+        if value is None:
+            return not self.present
+        if not self.present:
+            return False
+        return self.values is None or (float(value).is_integer() and int(value) in self.values)
+
+    def __str__(self) -> str:
+        where = f"P{self.pnu}" if self.index is None else f"P{self.pnu}[{self.index}]"
+        if not self.present:
+            return f"{where} absent"
+        if self.values is None:
+            return f"{where} present"
+        return f"{where} in {{{', '.join(map(str, sorted(self.values)))}}}"
 
 
 @dataclass(frozen=True, slots=True)
@@ -120,6 +152,26 @@ class Profile:
     """The bit that switches broadcast address coding on (Baumueller P181 bit 1)."""
     data: str = ""
     """Name of the built-in parameter file (default: the profile's name)."""
+    baud_codes: Mapping[int, int] = field(default_factory=dict)
+    """Values of the device's baud rate parameter and the rates they select (Siemens P2010:
+    6 = 9600); empty where the rate is set in baud or not by a parameter."""
+    addresses: tuple[int, int] = (0, 31)
+    """Lowest and highest bus address the device can be given (A 2.1: 0..31)."""
+    control_bits: Mapping[int, str] = field(default_factory=dict)
+    """Control word bits (PZD1 of a request) and what they do on this family."""
+    status_bits: Mapping[int, str] = field(default_factory=dict)
+    """Status word bits (PZD1 of an answer) and what they show on this family; a text ending
+    in "(0 = active)" marks a low-active bit."""
+    faults: Mapping[int, str] = field(default_factory=dict)
+    """The family's fault numbers (as its fault display shows them) and short texts."""
+    warnings: Mapping[int, str] = field(default_factory=dict)
+    """The family's warning numbers and short texts."""
+    reference: int | None = None
+    """The parameter that scales setpoints and actual values: its value is 100 %, 4000h in a
+    16-bit PZD word (Siemens P2000, NORD P105)."""
+    identity: tuple[IdentityRule, ...] = ()
+    """How a drive of this family shows its identity in its parameters (empty: it cannot be
+    told from the others); see `pyuss.profiles.identify`."""
 
     def __post_init__(self) -> None:
         self.check_layout(self.default_layout)
@@ -193,22 +245,18 @@ class Profile:
             return pnu, 0
         page, number = divmod(pnu, self.pnu_page_size)
         bits = 0
-        for weight, bit in enumerate(_PAGE_BITS):
+        for weight, bit in enumerate(PAGE_BITS):
             if page >> weight & 1:
                 bits |= 1 << bit
         return number, bits
 
     def decode_pnu(self, pnu_bits: int, index: int) -> int:
         """The parameter number a request addresses with PKE bits 0..10 and the IND word."""
-        if self.pnu_page_size is None:
-            return pnu_bits
-        return pnu_bits + self.pnu_page_size * self.page(index)
+        return parameter_number(pnu_bits, index, self.pnu_page_size)
 
     def page(self, index: int) -> int:
         """The page number in IND bits 12..15 (0 without paging)."""
-        if self.pnu_page_size is None:
-            return 0
-        return sum(1 << weight for weight, bit in enumerate(_PAGE_BITS) if index >> bit & 1)
+        return 0 if self.pnu_page_size is None else page_of(index)
 
     def strip_page(self, index: int) -> int:
         """The IND word without the page bits: subindex and text bits."""
@@ -219,6 +267,25 @@ class Profile:
     def error_meaning(self, number: int) -> str:
         """The meaning of error ``number`` from a response 7, with this profile's numbers."""
         return error_meaning(number, self.error_meanings)
+
+    def fault_text(self, number: int) -> str:
+        """The short text of fault ``number`` of this family ("" if unknown)."""
+        return self.faults.get(number, "")
+
+    def warning_text(self, number: int) -> str:
+        """The short text of warning ``number`` of this family ("" if unknown)."""
+        return self.warnings.get(number, "")
+
+    def baud_of_code(self, code: int) -> int | None:
+        """The baud rate the device's baud parameter value ``code`` selects (None: unknown)."""
+        return self.baud_codes.get(code)
+
+    def code_of_baud(self, baud: int) -> int | None:
+        """The baud parameter value that selects ``baud`` (None: the device cannot)."""
+        for code, rate in self.baud_codes.items():
+            if rate == baud:
+                return code
+        return None
 
 
 @cache

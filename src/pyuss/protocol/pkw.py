@@ -41,6 +41,8 @@ __all__ = [
     "error_meaning",
     "expected_responses",
     "make_index",
+    "page_of",
+    "parameter_number",
     "positive_responses",
     "pwe_dword",
     "pwe_dwords",
@@ -58,6 +60,22 @@ INDEX_ALL = 255
 """IND low byte 255: the whole array or the whole parameter description (C 4.2.2)."""
 
 _TOGGLE = 0x0800
+
+PAGE_BITS = (15, 12, 13, 14)
+"""IND bits carrying a parameter page number, lowest weight first: MICROMASTER 4 and SINAMICS
+reach parameters from 2000 on as PNU + page x 2000, bit 15 weighing 1 (device-specific IND
+bits of C Table 4.7; the profile says whether a device pages and how many numbers a page has)."""
+
+
+def page_of(index: int) -> int:
+    """The page number carried in IND bits 12..15 (bit 15 weighs 1, 12 two, 13 four, 14 eight)."""
+    return sum(1 << weight for weight, bit in enumerate(PAGE_BITS) if index >> bit & 1)
+
+
+def parameter_number(pnu: int, index: int, page_size: int | None) -> int:
+    """The parameter number a job addresses with PKE bits 0..10 and the IND word, for a device
+    with ``page_size`` numbers per page (None: no paging, the PNU itself)."""
+    return pnu if page_size is None else pnu + page_size * page_of(index)
 
 
 class RequestId(enum.IntEnum):

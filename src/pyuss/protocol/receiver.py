@@ -36,6 +36,26 @@ Framing rules
       per run of bytes: `FaultKind.NO_STX` when the run began without a valid start,
       otherwise the fault that ended the telegram. A run longer than 256 bytes is split.
 
+Coarse timestamps (``tolerance``)
+    Only the virtual bus stamps bytes with their time on the line. A serial port, a pty or a TCP
+    link stamps them when the program reads them: USB adapters hand over bytes every 1 to 16 ms,
+    so a stamp may come up to ``tolerance`` seconds late, and the bytes a read holds may have
+    had pauses between them that the stamps cannot show. With ``tolerance`` > 0 the receiver
+    judges the line by what the stamps can tell:
+
+    - While a telegram or a run of bytes is open, a chunk that comes no more than ``tolerance``
+      after the byte before it is taken as following it back to back: the gap was the port's,
+      so it neither ends the telegram nor counts against its residual time (A 5.2.1.2). An
+      open telegram or run ends only after an idle gap of ``max(start_pause, tolerance)``
+      (`Receiver.gap`).
+    - After a complete telegram, the next byte counts as after a start pause unless the stamps
+      show an idle gap shorter than ``start_pause - tolerance``: an answer read together with
+      the end of its request, or a pause of the line hidden inside one read, is not taken for
+      bytes without a start pause.
+
+    ``tolerance`` 0 (the default) keeps the rules above exactly; the master and the monitor
+    pass `pyuss.transport.base.stamp_tolerance` of their transport.
+
 Every byte fed ends up in the ``raw`` of exactly one event, in order, so a monitor can show
 the whole line. Faults whose end is known (wrong BCC, undefined ADR, line errors in a complete
 telegram) are reported with their last byte; faults whose extent is unknown (bad LGE, residual
@@ -132,10 +152,12 @@ class Receiver:
     """Streaming USS receiver for one line (see the module text for the rules).
 
     ``baud`` sets the character time; ``start_pause`` (seconds) overrides the idle gap that
-    starts a telegram (default 2 character times; a profile may demand more, a transport with
-    coarse timestamps may need a different value); ``fixed_lengths`` maps slave addresses to
-    the LGE they use in fixed-length operation (the dict is copied to ``self.fixed_lengths``
-    and may be changed later); ``diagnostics`` is updated for every event.
+    starts a telegram (default 2 character times; a profile may demand more); ``tolerance``
+    (seconds) is how much later than on the line the transport may stamp a byte (see "Coarse
+    timestamps" in the module text; 0 for exact timestamps); ``fixed_lengths`` maps slave
+    addresses to the LGE they use in fixed-length operation (the dict is copied to
+    ``self.fixed_lengths`` and may be changed later); ``diagnostics`` is updated for every
+    event.
     """
 
     def __init__(
@@ -146,6 +168,7 @@ class Receiver:
         start_pause: float | None = None,
         diagnostics: Diagnostics | None = None,
         residual_extra_chars: float = 0.0,
+        tolerance: float = 0.0,
     ) -> None:
         self.timing = LineTiming(baud, residual_extra_chars=residual_extra_chars)
         self._ct = self.timing.char_time
@@ -156,6 +179,13 @@ class Receiver:
         elif not start_pause > 0:
             raise ConfigError(f"start pause must be positive, got {start_pause!r}")
         self.start_pause = float(start_pause)
+        if isinstance(tolerance, bool) or not isinstance(tolerance, int | float):
+            raise ConfigError(f"tolerance must be a number of seconds, got {tolerance!r}")
+        if not 0 <= tolerance < math.inf:
+            raise ConfigError(f"tolerance must be >= 0 seconds, got {tolerance!r}")
+        self.tolerance = float(tolerance)
+        self.gap = max(self.start_pause, self.tolerance)
+        """The idle time that ends an open telegram or run of bytes."""
         self.fixed_lengths: dict[int, int] = {}
         for address, lge in (fixed_lengths or {}).items():
             if not isinstance(address, int) or not 0 <= address <= MAX_ADDRESS:
@@ -168,6 +198,9 @@ class Receiver:
             self.fixed_lengths[address] = lge
         self.diagnostics = diagnostics
         self._eps = self._ct * 1e-3
+        # After a complete telegram: the shortest idle gap the stamps must show for the next
+        # byte to count as after a start pause (a start pause less what the stamps may hide).
+        self._fresh_after = self.start_pause - self.tolerance
         self._first_deadline = self.timing.residual_max(MAX_NET_BYTES)
         self._last_end = -math.inf
         self._state = _IDLE
@@ -197,14 +230,15 @@ class Receiver:
         return self._last_end
 
     def line_idle(self, now: float) -> bool:
-        """True when no byte was received for at least a start pause before ``now``."""
-        return now - self._last_end >= self.start_pause - self._eps
+        """True when no byte was received for at least `gap` (the start pause, or the
+        tolerance of coarse timestamps if longer) before ``now``."""
+        return now - self._last_end >= self.gap - self._eps
 
     def next_poll(self) -> float | None:
         """The time from which `poll` reports the open run if no byte arrives; None when idle."""
         if self._state == _IDLE:
             return None
-        return self._last_end + self.start_pause
+        return self._last_end + self.gap
 
     def reset(self) -> None:
         """Drop whatever is being received, without an event; the line counts as idle."""
@@ -227,8 +261,31 @@ class Receiver:
             return events
         ct = self._ct
         first_end = timestamp - (n - 1) * ct
-        fresh = (first_end - ct) - self._last_end >= self.start_pause - self._eps
-        if fresh and self._state != _IDLE:
+        idle = (first_end - ct) - self._last_end
+        if idle < 0:
+            # More bytes than the line carries in the time since the last one (a program that
+            # read late, a backend without timing): they follow back to back, never overlap.
+            first_end -= idle
+            idle = 0.0
+        # When byte 0 of this read ended, as the open telegram (if any) takes it.
+        base = first_end
+        if self._state == _TELEGRAM:
+            if self.tolerance and idle <= self.tolerance + self._eps:
+                # The port's stamps, not the line: the open telegram goes on back to back.
+                base = first_end - idle
+            elif idle >= self.gap - self._eps:
+                self._end_run(events)
+        elif self._state == _JUNK and (
+            idle >= self.gap - self._eps
+            or (
+                self.tolerance
+                and data[0] == STX
+                and idle >= self._fresh_after - self._eps
+                and not any(pos == 0 and flag for pos, flag in errors)
+            )
+        ):
+            # An idle line ends a run of bytes; on coarse stamps so does an STX that may
+            # have come after a start pause (the next telegram after a damaged one).
             self._end_run(events)
         flags: dict[int, FaultKind] = {}
         for pos, flag in errors:
@@ -237,22 +294,27 @@ class Receiver:
         pos = 0
         while pos < n:
             if self._state == _TELEGRAM:
-                pos = self._telegram(data, pos, first_end, flags, events)
+                pos = self._telegram(data, pos, base, flags, events)
             elif self._state == _JUNK:
                 take = min(n - pos, MAX_TELEGRAM_BYTES - len(self._buf))
                 had = len(self._buf)
                 if had < self._late_need <= had + take:  # a late telegram's last byte
-                    self._whole_at = first_end + (pos + self._late_need - had - 1) * ct
+                    self._whole_at = base + (pos + self._late_need - had - 1) * ct
                 self._buf += data[pos : pos + take]
                 pos += take
-                self._last_end = first_end + (pos - 1) * ct
+                self._last_end = base + (pos - 1) * ct
                 if len(self._buf) >= MAX_TELEGRAM_BYTES:
                     self._end_run(events)
             else:
-                self._begin(data[pos], first_end + pos * ct, flags.get(pos), fresh)
+                # A new telegram or run: from here on the read's own times. After a complete
+                # telegram a byte counts as after a start pause unless the stamps show less
+                # idle time than a start pause less the tolerance.
+                base = first_end
+                end = base + pos * ct
+                fresh = (end - ct) - self._last_end >= self._fresh_after - self._eps
+                self._begin(data[pos], end, flags.get(pos), fresh)
                 pos += 1
-            fresh = False
-        self._last_end = timestamp
+        self._last_end = base + (n - 1) * ct
         return events
 
     def poll(self, now: float) -> list[Event]:

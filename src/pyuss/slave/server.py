@@ -22,6 +22,9 @@ Start pauses are measured on that line, and the answer starts the response delay
 request would have ended, as it would on a real line of that baud rate. ``timed`` overrides the
 choice (default: timed unless the transport is a pty or a raw TCP one). Short waits are
 finished by polling the clock, as the event loop's timers are only as fine as a millisecond.
+A pty or TCP line with one drive on it follows that drive's baud rate parameter (C 3): a
+change written to it is answered at the old rate, then the line runs at the new one (pacing,
+start pause, response window). Other lines keep their rate while they run.
 Characters reach the program some time after they ended on the line; the receiver decides that
 the line has fallen idle (the end of an incomplete telegram) only ``latency`` later (20 ms by
 default), so that late bytes are not mistaken for a pause.
@@ -131,7 +134,12 @@ class SlaveServer:
             self.engines[engine.address] = engine
         self.transport = transport
         self.baud = transport.baud
+        self.timed = _timed(transport) if timed is None else timed
+        # A pty or TCP line has no rate of its own: with one drive on it, it follows that
+        # drive's baud rate parameter (C 3); other lines keep theirs while they run.
+        follows = not self.timed and len(engines) == 1
         for engine in engines:
+            engine.set_line_baud(self.baud, follows=follows)  # the drives show it (C 3)
             low, high = engine.response_window(self.baud)
             if response_delay is not None and not low <= response_delay <= high:
                 raise ConfigError(
@@ -143,19 +151,35 @@ class SlaveServer:
         self.diagnostics = diagnostics or Diagnostics(software_version=software_version())
         for engine in engines:
             engine.use_diagnostics(self.diagnostics)
+        self.receiver = self._receiver()
+        self.stats = ServerStats()
+        self.latency = latency
+        self._char_time = 11 / self.baud
+        self._line_free = -math.inf
+
+    def _receiver(self) -> Receiver:
+        engines = self.engines.values()
         fixed = {e.address: e.layout.lge for e in engines if e.layout.lge is not None}
-        self.receiver = Receiver(
+        return Receiver(
             self.baud,
             fixed_lengths=fixed,
             diagnostics=self.diagnostics,
             # one receiver per line: the most lenient device on it sets the deadline
             residual_extra_chars=max(e.profile.residual_extra_chars for e in engines),
         )
-        self.stats = ServerStats()
-        self.timed = _timed(transport) if timed is None else timed
-        self.latency = latency
-        self._char_time = 11 / self.baud
-        self._line_free = -math.inf
+
+    def _follow_baud(self) -> None:
+        """Switch the line to a rate a drive's baud rate parameter was set to (C 3), after the
+        answer to that change went out at the old rate."""
+        for engine in self.engines.values():
+            baud = engine.pending_baud
+            if baud is None:
+                continue
+            log.info("address %d: the line runs at %d baud from now on", engine.address, baud)
+            self.baud = baud
+            self._char_time = 11 / baud
+            self.receiver = self._receiver()
+            engine.set_line_baud(baud, follows=True)
 
     # -- serving ----------------------------------------------------------------------------
 
@@ -203,6 +227,7 @@ class SlaveServer:
         now = transport.clock()
         for engine in self.engines.values():
             engine.tick(now)
+        self._follow_baud()
 
     def _deadlines(self) -> Iterable[float]:
         poll = self.receiver.next_poll()
@@ -243,7 +268,7 @@ class SlaveServer:
                 log.debug("%s -> no answer", describe(telegram, layout))
             return
         low, high = engine.response_window(self.baud)
-        delay = low if self.response_delay is None else self.response_delay
+        delay = low if self.response_delay is None else min(max(self.response_delay, low), high)
         await self._wait_until(event.end + delay)
         data = answer.encode()
         start = self.transport.clock()

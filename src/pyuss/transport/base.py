@@ -3,6 +3,12 @@
 A transport moves bytes, nothing else: it knows no telegrams. What it reads comes as `Chunk`s,
 each stamped with the time its last byte arrived, so the sans-io receiver
 (`pyuss.protocol.receiver`) can measure start pauses and residual times (A 5.1.2, A 5.2.1.2).
+
+Only the virtual bus knows when a byte was on the line (`Transport.exact_timestamps`). Every
+other transport stamps a byte when the program reads it: USB serial adapters hand over bytes
+every 1 to 16 ms, ptys and TCP when the event loop or the reading thread gets to them. The
+master and the monitor read such a line with a tolerance of `STAMP_TOLERANCE` (20 ms,
+`stamp_tolerance`): see "Coarse timestamps" in `pyuss.protocol.receiver`.
 """
 
 from __future__ import annotations
@@ -14,7 +20,11 @@ from typing import Self
 
 from pyuss.protocol.line import LineError
 
-__all__ = ["Chunk", "LineError", "Transport"]
+__all__ = ["STAMP_TOLERANCE", "Chunk", "LineError", "Transport", "stamp_tolerance"]
+
+STAMP_TOLERANCE = 0.020
+"""How much later than on the line a transport without exact timestamps may stamp a byte
+(seconds): USB adapters deliver every 1 to 16 ms (an FTDI chip's latency timer: 16 ms)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -34,6 +44,12 @@ class Chunk:
 
 class Transport(abc.ABC):
     """An async byte pipe. Constructors never touch an event loop; `open()` does the work."""
+
+    @property
+    def exact_timestamps(self) -> bool:
+        """True when chunk timestamps are the times the bytes ended on the line (the virtual
+        bus), False when they are the times the program read them (serial ports, ptys, TCP)."""
+        return False
 
     @abc.abstractmethod
     async def open(self) -> None:
@@ -78,3 +94,9 @@ class Transport(abc.ABC):
         tb: TracebackType | None,
     ) -> None:
         await self.close()
+
+
+def stamp_tolerance(transport: Transport) -> float:
+    """How late ``transport`` may stamp a byte (seconds): 0 for exact timestamps, else
+    `STAMP_TOLERANCE`."""
+    return 0.0 if transport.exact_timestamps else STAMP_TOLERANCE

@@ -75,6 +75,10 @@ class ReconnectingTransport(QueuedTransport):
         self.reconnects = 0
 
     @property
+    def exact_timestamps(self) -> bool:
+        return self._inner.exact_timestamps
+
+    @property
     def inner(self) -> Transport:
         """The transport in use now."""
         return self._inner

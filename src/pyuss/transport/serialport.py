@@ -23,6 +23,23 @@ RS-485 direction control for 2-wire adapters (B 2: half duplex, one sender at a 
   (A 6.1) after the write began, because many USB adapters report the drain early; then
   ``rts_delay_after`` more (default none: the next telegram waits a start pause of 2 character
   times anyway, A 5.1.2).
+
+Pseudo-terminals (Linux): a pty keeps no parity. The kernel clears PARENB in every setting made
+on one, and glibc's ``tcsetattr`` reads the settings back and fails with EINVAL when the parity
+asked for was dropped and nothing else changed; pyserial's open then ends in that error. So a
+program that opened the device at 8E1 or 8N1 before (9600 baud both times) kept a second 8E1
+open from working. A pty's settings end the same whatever parity is asked for, so pyuss asks for
+none on a pty (`is_pty`): its frame is the one a pty keeps anyway, and the open is never refused,
+whatever another program left on the device. The line still carries 8 data bits; a pty has no
+parity errors to report.
+
+Latency of USB adapters: many drivers hold received bytes for a while before handing them on
+(FTDI chips: a latency timer of 16 ms by default), which is most of a 20 ms response window
+(A 5.2.1.1). Where the driver offers it, the port asks for low-latency mode on opening
+(``ASYNC_LOW_LATENCY`` through ``TIOCGSERIAL``/``TIOCSSERIAL``, as ``setserial ... low_latency``
+does; an FTDI driver then sets its timer to 1 ms) and puts the old setting back on closing.
+Drivers without it (ptys, most USB CDC adapters) are left as they are. ``low_latency=False``
+keeps it off.
 """
 
 from __future__ import annotations
@@ -31,7 +48,12 @@ import asyncio
 import concurrent.futures
 import contextlib
 import enum
+import errno
 import logging
+import os
+import stat
+import struct
+import sys
 import threading
 import time
 import urllib.parse
@@ -44,8 +66,10 @@ from pyuss.transport.base import LineError
 from pyuss.transport.queued import QueuedTransport, char_time
 
 try:  # POSIX only
+    import fcntl
     import termios
 except ImportError:  # pragma: no cover - Windows
+    fcntl = None  # type: ignore[assignment]
     termios = None  # type: ignore[assignment]
 
 log = logging.getLogger(__name__)
@@ -67,6 +91,75 @@ _PARITIES = {
     "S": serial.PARITY_SPACE,
 }
 _STOPBITS = {1: serial.STOPBITS_ONE, 1.5: serial.STOPBITS_ONE_POINT_FIVE, 2: serial.STOPBITS_TWO}
+
+#: Errors of opening and setting up a port (``termios.error`` is no OSError).
+_OPEN_ERRORS: tuple[type[BaseException], ...] = (
+    OSError,
+    ValueError,
+    NotImplementedError,
+    serial.SerialException,
+    *((termios.error,) if termios is not None else ()),
+)
+
+#: Major device numbers of Linux pty slaves when /proc/tty/drivers cannot be read: Unix98
+#: ptys (136..143) and the old BSD ones (3).
+_PTY_MAJORS = frozenset((3, *range(136, 144)))
+#: ``struct serial_struct`` (TIOCGSERIAL): ``flags`` is its fifth int; room for any layout.
+_SERIAL_FLAGS_AT = 16
+_SERIAL_STRUCT_ROOM = 1024
+#: ``ASYNC_LOW_LATENCY`` of ``flags`` (linux/tty_flags.h).
+ASYNC_LOW_LATENCY = 1 << 13
+
+
+def _pty_majors() -> frozenset[int]:
+    """The major numbers the kernel lists for pty slaves (``/proc/tty/drivers``)."""
+    try:
+        with open("/proc/tty/drivers", encoding="ascii", errors="replace") as f:
+            lines = f.read().splitlines()
+    except OSError:
+        return _PTY_MAJORS
+    majors = set()
+    for line in lines:
+        fields = line.split()
+        if len(fields) >= 5 and fields[-1] == "pty:slave" and fields[-3].isdigit():
+            majors.add(int(fields[-3]))
+    return frozenset(majors) or _PTY_MAJORS
+
+
+def is_pty(url: str) -> bool:
+    """True when ``url`` is the device side of a Linux pseudo-terminal (``/dev/pts/N``, or a
+    link to one such as socat makes): a port that keeps no parity (see the module docstring)."""
+    if not sys.platform.startswith("linux") or "://" in url:
+        return False
+    try:
+        st = os.stat(url)
+    except (OSError, ValueError):
+        return False
+    return stat.S_ISCHR(st.st_mode) and os.major(st.st_rdev) in _pty_majors()
+
+
+def low_latency(fd: int, on: bool) -> bool | None:
+    """Ask the driver of the open terminal ``fd`` for low-latency mode (``on``) or normal mode;
+    returns whether it was in low-latency mode before, or None when the driver does not offer
+    it (a pty, a USB CDC adapter, a driver that refuses)."""
+    if fcntl is None or termios is None or not sys.platform.startswith("linux"):
+        return None
+    get = getattr(termios, "TIOCGSERIAL", 0x541E)
+    put = getattr(termios, "TIOCSSERIAL", 0x541F)
+    try:
+        info = bytearray(fcntl.ioctl(fd, get, bytes(_SERIAL_STRUCT_ROOM)))
+        (flags,) = struct.unpack_from("i", info, _SERIAL_FLAGS_AT)
+        was = bool(flags & ASYNC_LOW_LATENCY)
+        if was != on:
+            flags = flags | ASYNC_LOW_LATENCY if on else flags & ~ASYNC_LOW_LATENCY
+            struct.pack_into("i", info, _SERIAL_FLAGS_AT, flags)
+            fcntl.ioctl(fd, put, bytes(info))
+    except OSError as exc:
+        known = (errno.ENOTTY, errno.EINVAL, errno.EPERM, errno.EACCES, errno.EIO)
+        if exc.errno not in (*known, errno.EOPNOTSUPP):
+            log.debug("fd %d: low-latency mode: %s", fd, exc)
+        return None
+    return was
 
 
 def _check_network_url(url: str) -> None:
@@ -157,6 +250,7 @@ class SerialTransport(QueuedTransport):
         line_errors: bool = True,
         rts_delay_before: float = 0.0,
         rts_delay_after: float = 0.0,
+        low_latency: bool = True,
     ) -> None:
         super().__init__(baud=baud, echo=echo, echo_timeout=echo_timeout)
         if not isinstance(url, str) or not url:
@@ -170,10 +264,16 @@ class SerialTransport(QueuedTransport):
         if rts_delay_before < 0 or rts_delay_after < 0:
             raise ConfigError("RTS delays must be >= 0 seconds")
         self.url = url
+        self._parity = _PARITIES[key]
         self.rs485 = RS485Mode.parse(rs485)
         self._line_errors = line_errors
         self._rts_before = rts_delay_before
         self._rts_after = rts_delay_after
+        self.low_latency = low_latency
+        #: Low-latency mode while open: True (asked for and given), False (kept off), None
+        #: (the driver does not offer it).
+        self.low_latency_mode: bool | None = None
+        self._latency_before: bool | None = None
         try:
             self._port = serial.serial_for_url(
                 url,
@@ -207,12 +307,15 @@ class SerialTransport(QueuedTransport):
             self._port.rs485_mode = serial.rs485.RS485Settings(
                 rts_level_for_tx=True, rts_level_for_rx=False
             )
+        # A pty keeps no parity, and asking for one may be refused (see the module docstring).
+        self._port.parity = self._parity if not is_pty(self.url) else serial.PARITY_NONE
         try:
             await asyncio.to_thread(self._port.open)
             marking = self._setup_marking()
             if self.rs485 is RS485Mode.RTS:
                 self._port.rts = False
-        except (OSError, ValueError, NotImplementedError, serial.SerialException) as exc:
+            self._setup_latency()
+        except _OPEN_ERRORS as exc:
             self._close_port()
             what = {
                 RS485Mode.KERNEL: "kernel RS-485 mode: ",
@@ -241,6 +344,19 @@ class SerialTransport(QueuedTransport):
         attrs[0] &= ~(termios.IGNPAR | termios.ISTRIP | termios.IGNBRK | termios.BRKINT)
         termios.tcsetattr(fd, termios.TCSANOW, attrs)
         return True
+
+    def _setup_latency(self) -> None:
+        """Low-latency mode on a driver that offers it (see the module docstring)."""
+        self._latency_before = self.low_latency_mode = None
+        fd = getattr(self._port, "fd", None)
+        if not isinstance(fd, int):
+            return
+        before = low_latency(fd, self.low_latency)
+        if before is not None:
+            self._latency_before = before
+            self.low_latency_mode = self.low_latency
+            mode = "on" if self.low_latency else "off"
+            log.debug("%s: low-latency mode %s", self.describe(), mode)
 
     def _read_worker(self, decoder: MarkDecoder | None) -> None:
         port = self._port
@@ -313,7 +429,7 @@ class SerialTransport(QueuedTransport):
         if self.is_open:
             try:
                 self._port.reset_input_buffer()
-            except (OSError, serial.SerialException) as exc:
+            except _OPEN_ERRORS as exc:
                 log.debug("%s: input flush failed: %s", self.describe(), exc)
 
     async def close(self) -> None:
@@ -334,6 +450,11 @@ class SerialTransport(QueuedTransport):
         self._close_port()
 
     def _close_port(self) -> None:
+        fd = getattr(self._port, "fd", None)
+        before = self._latency_before
+        if before is not None and before != self.low_latency and isinstance(fd, int):
+            low_latency(fd, before)  # as it was before
+        self._latency_before = self.low_latency_mode = None
         try:
             self._port.close()
         except Exception as exc:  # pragma: no cover - closing a vanished port

@@ -4,7 +4,8 @@
 URL                            transport
 =============================  ==============================================================
 ``tcp://HOST:PORT``            `TcpTransport`: a serial line over TCP (converter, simulator)
-``tcp-listen://HOST:PORT``     `TcpServerTransport`: serve the line to one TCP peer at a time
+``tcp-listen://HOST:PORT``     `TcpServerTransport`: serve the line to TCP peers, several at
+                               once (an idle one gives way to a new one)
 ``bus://HOST:PORT``            a station on a virtual bus served by ``uss bus --bus-tcp``
                                (exact character times and line errors); query options
                                ``name=``, ``echo=1``, ``listen_only=1``
@@ -16,7 +17,9 @@ anything else                  `SerialTransport`: what pyserial's ``serial_for_u
 Line options in the query, so that every command taking a port URL can use them:
 
 - serial ports: ``rs485=auto|kernel|rts`` (direction control), ``echo=1`` (the adapter returns
-  what it sends: checked and removed), ``reconnect=1``; e.g. ``/dev/ttyUSB0?rs485=rts&echo=1``.
+  what it sends: checked and removed), ``low_latency=0`` (leave the driver's low-latency mode
+  off, see `pyuss.transport.serialport`), ``reconnect=1``; e.g.
+  ``/dev/ttyUSB0?rs485=rts&echo=1``.
   Other query options (``socket://h:p?logging=debug``) go to pyserial.
 - ``tcp://``: ``echo=1`` (the converter echoes), ``reconnect=1``.
 - ``bus://``: ``name=``, ``echo=1`` (the bus returns the station's own characters, raw),
@@ -77,7 +80,7 @@ def flag(url: str, key: str, value: str) -> bool:
 
 
 #: Query options pyuss takes from a serial port URL (the others are pyserial's).
-SERIAL_OPTIONS = ("rs485", "echo", "reconnect")
+SERIAL_OPTIONS = ("rs485", "echo", "low_latency", "reconnect")
 
 
 def serial_options(url: str) -> tuple[str, dict[str, str]]:
@@ -107,13 +110,15 @@ def open_transport(
     parity: str = "E",
     stopbits: float = 1,
     reconnect: bool = False,
+    low_latency: bool = True,
     backoff_initial: float = 0.1,
     backoff_max: float = 5.0,
 ) -> Transport:
     """Build the transport ``url`` names (see the module docstring); nothing is opened yet:
     use ``async with open_transport(...) as t:`` or ``await t.open()``.
 
-    ``reconnect=True`` wraps it in a `ReconnectingTransport`. Bad URLs and settings raise
+    ``reconnect=True`` wraps it in a `ReconnectingTransport`. ``low_latency=False`` leaves a
+    serial driver's low-latency mode off. Bad URLs and settings raise
     `ConfigError` naming what was wrong.
     """
     if not isinstance(url, str) or not url.strip():
@@ -130,6 +135,8 @@ def open_transport(
     else:
         port_url, options = serial_options(url)
         rs485 = RS485Mode.parse(options.get("rs485", rs485))
+        if "low_latency" in options:
+            low_latency = flag(url, "low_latency", options["low_latency"])
     if "echo" in options and scheme != "bus":
         echo = flag(url, "echo", options["echo"])
     if "reconnect" in options:
@@ -156,7 +163,13 @@ def open_transport(
                 listen_only=flag(url, "listen_only", options.get("listen_only", "0")),
             )
         return SerialTransport(
-            port_url, baud=baud, parity=parity, stopbits=stopbits, rs485=rs485, echo=echo
+            port_url,
+            baud=baud,
+            parity=parity,
+            stopbits=stopbits,
+            rs485=rs485,
+            echo=echo,
+            low_latency=low_latency,
         )
 
     transport = build()

@@ -163,6 +163,7 @@ f.response_id = ProtoField.uint16("uss.pke.response", "Response ID", base.DEC, R
 f.id = ProtoField.uint16("uss.pke.id", "Request/response ID (direction unknown)", base.DEC, nil, 0xF000)
 f.toggle = ProtoField.uint16("uss.pke.toggle", "Spontaneous message toggle", base.DEC, nil, 0x0800)
 f.pnu = ProtoField.uint16("uss.pnu", "PNU", base.DEC, nil, 0x07FF)
+f.parameter = ProtoField.uint16("uss.parameter", "Parameter number (PNU + IND page)", base.DEC)
 f.ind = ProtoField.uint16("uss.ind", "IND", base.HEX)
 f.subindex = ProtoField.uint16("uss.ind.subindex", "Subindex", base.DEC, nil, 0x00FF)
 f.text_bits = ProtoField.uint16("uss.ind.text", "Text bits 8/9", base.HEX, nil, 0x0300)
@@ -201,6 +202,9 @@ uss.experts = { e_fault, e_bcc, e_problem, e_refused, e_layout }
 
 uss.prefs.linktype = Pref.uint("User link type", 147,
     "pcapng link type of USS captures: 147..162 (LINKTYPE_USER0..15); pyuss writes 147 unless told")
+uss.prefs.page_size = Pref.uint("Parameter numbers per IND page", 0,
+    "0: PNU as it is; 2000: MICROMASTER 4 / SINAMICS, where IND bits 15, 12, 13, 14 (weights " ..
+    "1, 2, 4, 8) carry the page, so PNU 10 with bit 15 is P2010")
 
 local function band(a, mask)
     -- a AND mask for a mask of the form 2^k - 1
@@ -254,6 +258,14 @@ local function dissect_pkw(tvb, tree, offset, words, direction, pkw_words, info)
     end
     local names = direction == 2 and RESPONSES or REQUESTS
     local label = (names[id] or "?") .. " (" .. id .. "), PNU " .. pnu
+    local page_size = uss.prefs.page_size
+    if page_size > 0 then
+        local page = (has(ind, 0x8000) and 1 or 0) + (has(ind, 0x1000) and 2 or 0)
+            + (has(ind, 0x2000) and 4 or 0) + (has(ind, 0x4000) and 8 or 0)
+        local number = pnu + page * page_size
+        item:add(f.parameter, tvb(offset, 4), number)
+        if page > 0 then label = label .. " (P" .. number .. ")" end
+    end
     local sub_index = band(ind, 0xFF)
     local indexed = (direction == 2 and INDEXED_RESPONSES[id]) or (direction ~= 2 and INDEXED_REQUESTS[id])
     if indexed then label = label .. "[" .. (sub_index == 255 and "all" or sub_index) .. "]" end

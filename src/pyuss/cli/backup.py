@@ -1,0 +1,85 @@
+"""``uss backup ADDRESS -o FILE``: read a drive's whole parameter set into a file.
+
+Every parameter pyuss knows of the drive (``--profile``'s parameter file, ``--params FILE``, the
+drive's descriptions) is read, arrays whole; ``--scan FROM-TO`` first finds the parameters no
+file knows by asking the drive for their descriptions over that range (C 6). The file (TOML for
+``.toml``, JSON for ``.json``, a CSV export for ``.csv``; ``--format`` to choose) starts with a
+header: address, profile, date, the drive's identity parameters where it has them. A parameter
+that cannot be read is recorded with its error and the backup goes on; a drive that stops
+answering ends it (nothing written). A progress bar with the time left shows on a terminal. The
+file is written atomically: a backup killed half way leaves no half-written file. Exit code 0
+when every parameter was read, 1 when some were not (the file says which).
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from pyuss.cli import _params
+from pyuss.cli._master import EXIT_FAILED, EXIT_OK, command, emit, finish, open_master, run
+from pyuss.cli.params import pnu_range
+from pyuss.commission import backup as backups
+
+
+def register(subparsers: Any) -> None:
+    parser = command(subparsers, "backup", "read a drive's parameter set into a file", __doc__)
+    parser.add_argument(
+        "-o", "--output", required=True, metavar="FILE", help="file to write (.toml, .json, .csv)"
+    )
+    parser.add_argument(
+        "--format", choices=backups.FORMATS, help="file format (default: from the file name)"
+    )
+    parser.add_argument(
+        "--scan",
+        metavar="FROM-TO",
+        help="also find the parameters no file knows, by asking for descriptions (C 6)",
+    )
+    _params.add_options(parser)
+    finish(parser, main)
+
+
+def main(args: argparse.Namespace) -> int:
+    async def body() -> int:
+        fmt = backups.file_format(args.output, args.format)
+        if fmt == "toml":
+            backups.dumps(backups.Backup(0, "check"), "toml")  # tomli-w there? say so now
+        from pyuss.atomicfile import check_target
+
+        check_target(args.output, "the backup")
+        span = pnu_range(args.scan) if args.scan else None
+        async with open_master(args) as bus:
+            drive = bus.drive(args.address)
+            _params.setup(args, drive)
+            progress = _params.Progress("backup", enabled=None if not args.json else False)
+            try:
+                if span is not None:
+                    await backups.scan(drive, span, progress=progress)
+                    progress.close()
+                    progress = _params.Progress("backup", enabled=None if not args.json else False)
+                taken = await backups.take(drive, port=args.port, progress=progress)
+            finally:
+                progress.close()
+            _params.save(args, drive)
+        backups.save(taken, args.output, fmt)
+        failed = taken.failed
+        if not args.json:
+            for entry in failed:
+                print(f"{entry.label}: not read: {entry.error and entry.error['message']}")
+        summary = {
+            "address": args.address,
+            "file": args.output,
+            "format": fmt,
+            "parameters": len(taken.entries),
+            "failed": [e.to_dict() for e in failed],
+            "identity": [e.to_dict() for e in taken.identity],
+        }
+        note = f" ({len(failed)} not read)" if failed else ""
+        emit(
+            args,
+            summary,
+            f"drive {args.address}: {len(taken.entries)} parameters{note} -> {args.output}",
+        )
+        return EXIT_FAILED if failed else EXIT_OK
+
+    return run("backup", args, body)

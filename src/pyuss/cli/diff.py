@@ -1,0 +1,102 @@
+"""``uss diff ADDRESS FILE`` / ``uss diff FILE FILE``: what differs between parameter sets.
+
+With an ADDRESS (and ``--port``) the drive's parameters named in FILE are read now and compared
+with the file; with two files nothing is sent. Each difference prints as one line with the
+parameter's name and unit: ``P1120 (Ramp-up time): 10.00 s -> 2.50 s`` (left -> right). Exit
+code 0 when the sets agree, 1 when they differ (as diff does), 2 for a file that is no backup.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from pyuss.cli import _params
+from pyuss.cli._master import (
+    EXIT_FAILED,
+    EXIT_OK,
+    add_options,
+    address,
+    emit,
+    open_master,
+    run,
+)
+from pyuss.commission import backup as backups
+from pyuss.commission.compare import compare
+from pyuss.errors import ConfigError
+from pyuss.params.book import ParamBook
+from pyuss.profiles import get_profile
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "diff",
+        help="compare a drive with a backup, or two backups",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("left", metavar="ADDRESS|FILE", help="drive address (with --port) or file")
+    parser.add_argument("right", metavar="FILE", help="backup file (TOML or JSON)")
+    add_options(parser)
+    parser.set_defaults(func=main)
+    for action in parser._actions:  # --port only when the left side is a drive
+        if action.dest == "port":
+            action.required = False
+    _params.add_options(parser)
+    parser.epilog = "exit codes:\n  0    no difference\n  1    differences\n  2    bad input"
+
+
+def book_for(profile: str) -> ParamBook | None:
+    try:
+        return ParamBook.for_profile(get_profile(profile))
+    except ConfigError:
+        return None
+
+
+def main(args: argparse.Namespace) -> int:
+    async def body() -> int:
+        right = backups.load(args.right)
+        book: ParamBook | None
+        if args.left.isdigit() or args.left.lower().startswith("0x"):
+            try:
+                where = address(args.left)
+            except argparse.ArgumentTypeError as exc:
+                raise ConfigError(str(exc)) from None
+            if not args.port:
+                raise ConfigError("comparing with a drive needs --port URL")
+            async with open_master(args) as bus:
+                drive = bus.drive(where)
+                _params.setup(args, drive)
+                wanted = [(e.pnu, e.index) for e in right.entries]
+                entries = await backups.read_parameters(drive, wanted)
+                book = drive.params
+            left = backups.Backup(where, drive.profile.name, entries, source=f"drive {where}")
+            left_name = f"drive {where}"
+        else:
+            left = backups.load(args.left)
+            left_name = args.left
+            book = book_for(right.profile)
+        differences = compare(left, right)
+        if args.json:
+            emit(
+                args,
+                {
+                    "left": left_name,
+                    "right": args.right,
+                    "differences": [d.to_dict() for d in differences],
+                },
+                "",
+            )
+        else:
+            for difference in differences:
+                print(difference.text(book))
+            count = len(differences)
+            print(
+                f"{count} parameter{'s' if count != 1 else ''} differ{'s' if count == 1 else ''}"
+                f" between {left_name} and {args.right}"
+                if count
+                else f"{left_name} and {args.right} agree"
+            )
+        return EXIT_FAILED if differences else EXIT_OK
+
+    return run("diff", args, body)

@@ -1,0 +1,119 @@
+"""``uss log``: drive values into a CSV file, one row per sample, for a spreadsheet.
+
+    uss log 5 status actual P52 --rate 10 -o run.csv --port /dev/ttyUSB0 --baud 19200
+
+VALUES: ``status`` (the status word), ``state`` (the drive state it spells), ``actual`` (the
+actual values, PZD2 and up), a status bit's name (``ready``, ``operation_enabled``, ``fault``,
+``warning``, ``in_tolerance``, ... or ``bit0``..``bit15``) or a parameter (``P52``, ``P4.2``:
+read with a parameter job for every row). Each row starts with the wall-clock time (ISO 8601
+with the UTC offset) and ends with a ``comm`` column: ``ok``, ``no answer`` (then every value
+of the row is empty: a drive that stops answering is never logged with its last values) or
+the drive's refusal of a parameter. Units stand in the header.
+
+An existing file is never overwritten: ``--append`` adds rows to it when it has the same
+columns; ``--rotate SIZE`` starts a new file when the current one would grow past SIZE (the
+full one is renamed NAME-YYYYMMDD-HHMMSS.csv). Ctrl+C or SIGTERM ends the log cleanly, as do
+``--count`` and ``--duration``. See docs/web.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import json
+import signal
+import sys
+from typing import Any
+
+from pyuss.cli import _master
+from pyuss.errors import ConfigError
+
+__all__ = ["register", "run"]
+
+
+def register(subparsers: Any) -> None:
+    parser = _master.command(
+        subparsers,
+        "log",
+        "log drive values to a CSV file (status, actual values, parameters)",
+        __doc__,
+    )
+    parser.add_argument(
+        "values",
+        nargs="+",
+        metavar="VALUE",
+        help="status, state, actual, a status bit's name (fault, ready, ...) or P52, P4.2",
+    )
+    parser.add_argument(
+        "-o", "--output", required=True, metavar="FILE.csv", help="the CSV file to write"
+    )
+    parser.add_argument(
+        "--rate", type=float, default=1.0, metavar="HZ", help="samples a second (default 1)"
+    )
+    parser.add_argument(
+        "--append",
+        action="store_true",
+        help="add rows to an existing log with the same columns (else an existing file is refused)",
+    )
+    parser.add_argument(
+        "--rotate",
+        metavar="SIZE",
+        help="start a new file before this one grows past SIZE (500k, 10M, 1G)",
+    )
+    parser.add_argument("--count", type=int, metavar="N", help="stop after N rows")
+    parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    _master.finish(parser, run)
+
+
+def run(args: argparse.Namespace) -> int:
+    return _master.run("log", args, lambda: _log(args))
+
+
+async def _log(args: argparse.Namespace) -> int:
+    from pyuss.datalog import CsvLog, DataLogger, parse_size, parse_values
+    from pyuss.master import CYCLIC
+
+    if args.count is not None and args.count < 1:
+        raise ConfigError(f"--count {args.count}: must be at least 1")
+    if args.duration is not None and not args.duration > 0:
+        raise ConfigError(f"--duration {args.duration}: must be > 0 seconds")
+    rotate = parse_size(args.rotate) if args.rotate else None
+    quantities = parse_values(args.values)  # bad VALUES: bad input before the port is opened
+    async with _master.open_master(args, mode=CYCLIC) as master:
+        drive = master.drive(args.address)
+        logger = DataLogger(drive, quantities, rate=args.rate, job_timeout=args.timeout)
+        await logger.prepare()
+        log = CsvLog(args.output, logger.header(), append=args.append, rotate=rotate)
+        if log.repaired:
+            print(
+                f"uss log: removed a last row cut short ({log.repaired} bytes) from {log.path}",
+                file=sys.stderr,
+            )
+        stop = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            with contextlib.suppress(NotImplementedError, RuntimeError):
+                loop.add_signal_handler(sig, stop.set)
+        if not args.json:
+            print(
+                f"logging drive {args.address} to {log.path} at {args.rate:g} Hz: "
+                f"{', '.join(logger.header()[1:-1])}; Ctrl+C stops",
+                file=sys.stderr,
+                flush=True,
+            )
+        try:
+            result = await logger.run(log, stop, count=args.count, duration=args.duration)
+        finally:
+            log.close()
+    summary = {
+        "file": str(log.path),
+        "rows": result.rows,
+        "no_answer": result.no_answer,
+        "rotated": [str(p) for p in log.rotated],
+    }
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(f"{result.rows} rows ({result.no_answer} without answer) in {log.path}")
+    return 0

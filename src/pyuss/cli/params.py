@@ -1,0 +1,185 @@
+"""``uss params [SEARCH...]``: the parameters pyuss knows of a drive, searchable.
+
+Without a port it lists the profile's parameter file (``--profile``) and ``--params FILE``; with
+``--port URL ADDRESS`` it asks the drive as well: ``--describe always`` reads every parameter's
+own description (C 6; the drive's name, type, scaling, access and limits win over the files),
+``--scan FROM-TO`` looks for parameters no file knows by asking the drive for their
+descriptions over that range, and ``--values`` reads the current value of each. SEARCH words
+pick parameters by number (``1120``, ``P112`` for every number starting with 112) or by words
+in the name, unit or documentation (all must match; case does not matter).
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from pyuss.cli import _params
+from pyuss.cli._master import (
+    EXIT_FAILED,
+    EXIT_OK,
+    address,
+    emit,
+    error_dict,
+    integer,
+    master_options,
+    run,
+)
+from pyuss.errors import ConfigError, UssError
+from pyuss.params.book import ParamBook
+from pyuss.params.model import ParamInfo
+from pyuss.params.values import format_value, physical
+from pyuss.profiles import get_profile, profile_names
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "params",
+        help="list the known parameters of a profile or drive, searchable",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "words",
+        nargs="*",
+        metavar="[ADDRESS] SEARCH",
+        help="with --port: the drive's address first; then numbers or words to look for",
+    )
+    parser.add_argument("--port", metavar="URL", help="ask the drive on this port as well")
+    parser.add_argument("--baud", type=integer, default=9600, help="baud rate (default 9600)")
+    parser.add_argument(
+        "--profile",
+        default="generic",
+        metavar="NAME",
+        help=f"device profile ({', '.join(profile_names())}; default generic)",
+    )
+    parser.add_argument("--layout", metavar="PKW,PZD", help="telegram layout (with --port)")
+    parser.add_argument(
+        "--timeout", type=float, default=2.0, metavar="S", help="seconds per job (default 2)"
+    )
+    parser.add_argument("--response-delay", type=float, metavar="MS", help=argparse.SUPPRESS)
+    parser.add_argument("--tolerance", type=float, metavar="MS", help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--scan",
+        metavar="FROM-TO",
+        help="with --port: find parameters no file knows by asking for descriptions (C 6)",
+    )
+    parser.add_argument(
+        "--values", action="store_true", help="with --port: read each parameter's value too"
+    )
+    parser.add_argument("--json", action="store_true", help="print JSON for scripts")
+    _params.add_options(parser)
+    parser.set_defaults(func=main)
+
+
+def pnu_range(text: str) -> range:
+    """``FROM-TO`` (both included) or one number."""
+    first, dash, last = text.partition("-")
+    try:
+        low = int(first, 0)
+        high = int(last, 0) if dash else low
+    except ValueError:
+        raise ConfigError(f"--scan {text!r}: give FROM-TO, for example 0-999") from None
+    if not 0 <= low <= high or high - low > 65535:
+        raise ConfigError(f"--scan {text!r}: FROM must be <= TO, both >= 0")
+    return range(low, high + 1)
+
+
+def limits(info: ParamInfo) -> str:
+    """``0.00..650.00``: the limits a write must keep (empty when only the type's apply)."""
+    if not info.is_numeric or info.is_bit_field:
+        return ""
+    if info.minimum is None and info.maximum is None and not info.allowed:
+        return ""
+    low, high = info.low, info.high
+    if low is None or high is None:
+        return ""
+    show = [format_value(info, physical(info, v), unit=False, texts=False) for v in (low, high)]
+    return f"{show[0]}..{show[1]}"
+
+
+def row(info: ParamInfo, value: str | None = None) -> str:
+    shape = info.type_name + (f"[{info.array}]" if info.array is not None else "")
+    text = f"P{info.pnu:<6} {info.name:<18} {shape:<12} {info.access.value:<9}"
+    span = limits(info)
+    text += f" {span + (' ' + info.unit if info.unit and span else ''):<20}"
+    if not span and info.unit:
+        text = text.rstrip() + f" {info.unit}"
+    if info.texts:
+        text += " " + ", ".join(f"{k}={v.strip()}" for k, v in list(info.texts.items())[:4])
+        if len(info.texts) > 4:
+            text += ", ..."
+    if value is not None:
+        text += f"  = {value}"
+    return text.rstrip()
+
+
+def main(args: argparse.Namespace) -> int:
+    async def body() -> int:
+        words = list(args.words)
+        get_profile(args.profile)
+        if args.port is None:
+            if args.scan or args.values:
+                raise ConfigError("--scan and --values ask a drive: give --port URL ADDRESS")
+            book = ParamBook.for_profile(get_profile(args.profile))
+            if args.params:
+                book.use_file(args.params)
+            return show(args, book, book.search(words), {})
+        if not words:
+            raise ConfigError("give the drive's ADDRESS after --port")
+        try:
+            where = address(words.pop(0))
+        except argparse.ArgumentTypeError as exc:
+            raise ConfigError(str(exc)) from None
+        from pyuss.cli._master import open_master
+        from pyuss.commission.backup import scan
+
+        master_options(args)
+        values: dict[int, str] = {}
+        failed = False
+        async with open_master(args) as bus:
+            drive = bus.drive(where)
+            _params.setup(args, drive)
+            book = drive.params
+            if args.scan:
+                progress = _params.Progress("scan", enabled=None if not args.json else False)
+                try:
+                    await scan(drive, pnu_range(args.scan), progress=progress)
+                finally:
+                    progress.close()
+            found = book.search(words)
+            for info in found:
+                await drive.info(info.pnu)  # --describe always: the drive's own description
+            found = book.search(words)
+            if args.values:
+                for info in found:
+                    try:
+                        reading = await drive.read_param(info.pnu)
+                        values[info.pnu] = format_value(reading.info, reading.value)
+                    except ConfigError:
+                        raise
+                    except UssError as exc:
+                        failed = True
+                        values[info.pnu] = f"(not read: {error_dict(exc)['message']})"
+            _params.save(args, drive)
+        show(args, book, found, values)
+        return EXIT_FAILED if failed else EXIT_OK
+
+    return run("params", args, body)
+
+
+def show(
+    args: argparse.Namespace, book: ParamBook, found: list[ParamInfo], values: dict[int, str]
+) -> int:
+    if args.json:
+        items = [
+            info.to_dict() | ({"value_text": values[info.pnu]} if info.pnu in values else {})
+            for info in found
+        ]
+        emit(args, {"profile": book.profile, "parameters": items}, "")
+        return EXIT_OK
+    for info in found:
+        print(row(info, values.get(info.pnu)))
+    if not found:
+        print("no parameter matches")
+    return EXIT_OK

@@ -1,0 +1,138 @@
+"""``uss restore ADDRESS FILE``: write a backup back to a drive.
+
+The file is checked first (a cut-short or hand-broken file, or a value a parameter cannot take,
+is refused before anything is written, exit 2), and so is whose it is: a file of another
+profile, or whose identity parameters (firmware, type) differ from the drive's, is refused
+unless ``--force``. Then the drive's parameters are read and the differences shown; after a
+``y`` (or ``--yes``) only the writable parameters that differ are written, in an order the
+profile gives (the access level and commissioning parameters first), with ``--eeprom``
+through the EEPROM requests (C Table 4.1). A refusal is reported with its error number and
+meaning and the restore goes on. ``--dry-run`` shows what would be written and writes nothing.
+Exit code 0 when every write was taken, 1 when any was refused.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from pyuss.cli import _params
+from pyuss.cli._master import (
+    EXIT_FAILED,
+    EXIT_OK,
+    EXIT_USAGE,
+    command,
+    emit,
+    finish,
+    open_master,
+    run,
+)
+from pyuss.commission import backup as backups
+from pyuss.commission.compare import another_drive, plan, restore
+from pyuss.errors import ConfigError
+
+
+def register(subparsers: Any) -> None:
+    parser = command(subparsers, "restore", "write a backup file back to a drive", __doc__)
+    parser.add_argument("file", metavar="FILE", help="backup file (TOML or JSON)")
+    parser.add_argument(
+        "--dry-run", action="store_true", help="show what would be written, write nothing"
+    )
+    parser.add_argument(
+        "--eeprom", action="store_true", help="store the values in the drive's EEPROM too"
+    )
+    parser.add_argument("--yes", action="store_true", help="write without asking")
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="restore a file of another profile or of a drive with other identity parameters",
+    )
+    _params.add_options(parser)
+    finish(parser, main)
+
+
+def ask(question: str) -> bool:
+    if not sys.stdin.isatty():
+        raise ConfigError("no terminal to ask on: give --yes to write (or --dry-run)")
+    print(question, end=" ", flush=True)
+    return sys.stdin.readline().strip().lower() in ("y", "yes")
+
+
+def main(args: argparse.Namespace) -> int:
+    async def body() -> int:
+        wanted = backups.load(args.file)
+        if wanted.profile != args.profile and not args.force:
+            raise ConfigError(
+                f"{args.file} is a backup of a {wanted.profile} drive, this is --profile "
+                f"{args.profile} (--force to restore anyway)"
+            )
+        if not args.dry_run and not args.yes and args.json:
+            raise ConfigError("--json needs --yes (or --dry-run): there is no one to ask")
+        async with open_master(args) as bus:
+            drive = bus.drive(args.address)
+            _params.setup(args, drive)
+            stranger = await another_drive(wanted, drive)
+            if stranger is not None and not args.force:
+                raise ConfigError(f"{stranger} (--force to restore anyway)")
+            progress = _params.Progress("reading", enabled=None if not args.json else False)
+            try:
+                now = await backups.read_parameters(
+                    drive, [(e.pnu, e.index) for e in wanted.entries], progress=progress
+                )
+            finally:
+                progress.close()
+            current = backups.Backup(args.address, drive.profile.name, now)
+            writes, skips = plan(wanted, current, drive.params, drive.profile)
+            if not args.json:
+                for write in writes:
+                    print(write.text())
+                for skip in skips:
+                    print(skip.text())
+                if not writes:
+                    print(f"drive {args.address} already holds {args.file}: nothing to write")
+            if args.dry_run or not writes:
+                if args.json:
+                    emit(args, report(args, writes, skips, None), "")
+                return EXIT_OK
+            question = f"write {len(writes)} parameter(s) to drive {args.address}? [y/N]"
+            if not args.yes and not ask(question):
+                print("nothing written")
+                return EXIT_USAGE
+            progress = _params.Progress("restore", enabled=None if not args.json else False)
+            try:
+                outcomes = await restore(drive, writes, eeprom=args.eeprom, progress=progress)
+            finally:
+                progress.close()
+            _params.save(args, drive)
+        failed = [o for o in outcomes if not o.ok]
+        if not args.json:
+            for outcome in failed:
+                print(f"{outcome.write.label}: refused: {outcome.error_text()}")
+            stored = " and stored in EEPROM" if args.eeprom else ""
+            print(
+                f"drive {args.address}: {len(outcomes) - len(failed)} of {len(outcomes)} "
+                f"written{stored}" + (f", {len(failed)} refused" if failed else "")
+            )
+        if args.json:
+            emit(args, report(args, writes, skips, outcomes), "")
+        return EXIT_FAILED if failed else EXIT_OK
+
+    return run("restore", args, body)
+
+
+def report(
+    args: argparse.Namespace, writes: list[Any], skips: list[Any], outcomes: Any
+) -> dict[str, Any]:
+    return {
+        "address": args.address,
+        "file": args.file,
+        "dry_run": args.dry_run,
+        "writes": [
+            {"label": w.label, "pnu": w.pnu, "index": w.index, "change": w.text()} for w in writes
+        ],
+        "skipped": [
+            {"label": s.entry.label, "pnu": s.entry.pnu, "reason": s.reason} for s in skips
+        ],
+        "results": None if outcomes is None else [o.to_dict() for o in outcomes],
+    }

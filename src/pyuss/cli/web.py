@@ -1,0 +1,184 @@
+"""``uss web``: a commissioning page in the browser for the drives on one line.
+
+    uss web --demo                                   # simulated drives, no hardware
+    uss web --port /dev/ttyUSB0 --baud 19200 --address 5 --address 7 --layout 3,2
+    uss web --port /dev/ttyUSB0 --listen 0.0.0.0:8420 --read-only
+
+The first line printed is the page's address; open it in a browser. The page shows the bus
+(drives, state, communication health with the counters of the USS specification, A 5.2.3;
+scan), each drive (status word decoded live, actual values, trend, control panel), its
+parameters (search, edit, backup, compare, restore) and the telegrams on the line (filter,
+pcapng download). Ctrl+C stops the page and the master.
+
+The page listens on 127.0.0.1 (this computer only) unless --listen names another address;
+then a token is needed for every request: it is part of the printed address. --read-only
+hides and refuses everything that changes a drive. See docs/web.md.
+
+Exit codes: 0 stopped by Ctrl+C or SIGTERM; 1 the port could not be opened or failed;
+2 bad input (arguments, a listen address in use).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import secrets
+import signal
+import sys
+from typing import Any
+
+from pyuss.cli._master import address, integer
+from pyuss.errors import ConfigError
+from pyuss.profiles import profile_names
+from pyuss.protocol.layout import Layout
+
+__all__ = ["parse_listen", "register", "run"]
+
+EXIT_OK = 0
+EXIT_USAGE = 2
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "web",
+        help="a commissioning page in the browser: bus, drives, parameters, trend, monitor",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    where = parser.add_mutually_exclusive_group(required=True)
+    where.add_argument(
+        "--port",
+        metavar="URL",
+        help="serial port or URL of the line: /dev/ttyUSB0, COM3, tcp://HOST:PORT, bus://HOST:PORT",
+    )
+    where.add_argument(
+        "--demo",
+        action="store_true",
+        help="three simulated drives on a virtual bus at 38400 baud, no hardware needed",
+    )
+    parser.add_argument(
+        "--baud", type=integer, default=9600, help="baud rate of the line (default 9600)"
+    )
+    parser.add_argument(
+        "--address",
+        type=address,
+        action="append",
+        default=[],
+        metavar="N",
+        help="a drive to show, 0..31 (repeatable; none: scan from the page)",
+    )
+    parser.add_argument(
+        "--profile",
+        default="generic",
+        metavar="NAME",
+        help=f"device profile of the drives ({', '.join(profile_names())}; default generic)",
+    )
+    parser.add_argument(
+        "--layout",
+        metavar="PKW,PZD",
+        help="telegram layout of the drives: PKW 0, 3, 4 or v, PZD 0..16 (default: the profile's)",
+    )
+    parser.add_argument(
+        "--timeout",
+        type=float,
+        default=2.0,
+        metavar="S",
+        help="seconds a parameter job or command may take (default 2)",
+    )
+    parser.add_argument(
+        "--listen",
+        default="127.0.0.1:8420",
+        metavar="HOST:PORT",
+        help="where the page listens (default 127.0.0.1:8420; port 0 picks a free one); "
+        "any address but this computer's own needs the token printed at start",
+    )
+    parser.add_argument(
+        "--token",
+        metavar="TEXT",
+        help="the token the page asks for (default: a random one when listening beyond this "
+        "computer, none on 127.0.0.1)",
+    )
+    parser.add_argument(
+        "--read-only",
+        action="store_true",
+        help="show everything, change nothing: no commands, no parameter writes, no scan",
+    )
+    parser.set_defaults(func=run)
+
+
+def parse_listen(text: str) -> tuple[str, int]:
+    """``HOST:PORT`` (``[::1]:8420``, ``:8420`` for 127.0.0.1) as host and port."""
+    raw = text.strip()
+    if raw.startswith("["):
+        host, bracket, rest = raw[1:].partition("]")
+        port_text = rest[1:] if bracket and rest.startswith(":") else ""
+    else:
+        host, colon, port_text = raw.rpartition(":")
+        if not colon:
+            raise ConfigError(f"--listen {text!r}: give HOST:PORT, for example 127.0.0.1:8420")
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise ConfigError(f"--listen {text!r}: the port must be a number 0..65535") from None
+    if not 0 <= port <= 65535:
+        raise ConfigError(f"--listen {text!r}: the port must be 0..65535")
+    return host or "127.0.0.1", port
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        return asyncio.run(_serve(args))
+    except ConfigError as exc:
+        print(f"uss web: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+async def _serve(args: argparse.Namespace) -> int:
+    from pyuss.web import require
+
+    require()
+    from pyuss.web.backend import Backend, DriveSpec
+    from pyuss.web.server import WebServer, is_loopback
+
+    host, port = parse_listen(args.listen)
+    if not args.timeout > 0:
+        raise ConfigError(f"--timeout {args.timeout}: must be > 0 seconds")
+    if args.profile not in profile_names():
+        raise ConfigError(f"--profile {args.profile!r}: one of {', '.join(profile_names())}")
+    layout = Layout.parse(args.layout) if args.layout else None
+    token = args.token
+    if token is not None and not token.strip():
+        raise ConfigError("--token must not be empty")
+    if token is None and not is_loopback(host):
+        token = secrets.token_urlsafe(18)
+    if args.demo:
+        if args.address:
+            raise ConfigError("--demo brings its own drives: leave out --address")
+        backend = Backend(demo=True, job_timeout=args.timeout)
+    else:
+        specs = [DriveSpec(a, args.profile, layout) for a in dict.fromkeys(args.address)]
+        backend = Backend(port=args.port, baud=args.baud, drives=specs, job_timeout=args.timeout)
+    server = WebServer(backend, host=host, port=port, token=token, read_only=args.read_only)
+    await backend.start()
+    try:
+        url = await server.start()
+        print(url, flush=True)
+        if token is not None:
+            print(f"token: {token} (needed for every request; part of the address above)")
+        mode = "read-only, " if args.read_only else ""
+        print(f"{mode}serving {backend.port}; Ctrl+C stops", flush=True)
+        await _wait_for_stop()
+    finally:
+        await server.close()
+        await backend.close()
+    return EXIT_OK
+
+
+async def _wait_for_stop() -> None:
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        with contextlib.suppress(NotImplementedError, RuntimeError):
+            loop.add_signal_handler(sig, stop.set)
+    await stop.wait()

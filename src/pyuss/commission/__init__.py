@@ -1,0 +1,45 @@
+"""Commissioning on top of the master: parameter sets backed up, compared and restored, and
+one look at a drive's state.
+
+- `pyuss.commission.backup`: `take` a `Backup` of a drive (every parameter its book knows,
+  ``scan`` for the others), `save` it (TOML, JSON, CSV export; atomically), `load` it back
+  (refusing cut-short or broken files).
+- `pyuss.commission.compare`: `compare` two sets; `another_drive` says whether a file is
+  another drive's; `plan` and `restore` write a set back.
+- `pyuss.commission.status`: `look` at a drive: state, status word, actual values with
+  units, fault and warning numbers with texts.
+
+The commands ``uss backup``, ``uss diff``, ``uss restore``, ``uss status`` are thin layers over
+these. See docs/commissioning.md.
+"""
+
+from pyuss.commission.backup import Backup, Entry, load, save, take
+from pyuss.commission.compare import (
+    Difference,
+    Outcome,
+    Skip,
+    Write,
+    another_drive,
+    compare,
+    plan,
+    restore,
+)
+from pyuss.commission.status import Look, look
+
+__all__ = [
+    "Backup",
+    "Difference",
+    "Entry",
+    "Look",
+    "Outcome",
+    "Skip",
+    "Write",
+    "another_drive",
+    "compare",
+    "load",
+    "look",
+    "plan",
+    "restore",
+    "save",
+    "take",
+]

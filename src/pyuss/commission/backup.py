@@ -1,0 +1,480 @@
+"""Parameter sets: read a drive's parameters into a `Backup`, keep it in a file, read it back.
+
+A `Backup` is a header - address, profile, date (ISO 8601, UTC), the drive's identity
+parameters where it has them, and how many parameters follow - and one `Entry` per parameter:
+number, name, unit, type, the value as the drive engineer reads it (typed and scaled, a list
+for an array), the raw words as they travelled, and, for a parameter that could not be read,
+the error instead of a value.
+
+Files (`save`, `load`): TOML (``.toml``, written with tomli-w, extra ``pyuss[toml]``), JSON
+(``.json``), and a CSV export (``.csv``, for a spreadsheet; not read back). They are written
+atomically (`pyuss.atomicfile`): a backup that is killed leaves the old file or none, never
+half of one. `load` refuses - before anything is written to a drive - a file that is not a
+backup, whose parameter count does not match the header (cut short), or whose entries are
+broken (a missing or wrongly typed field).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import time
+import tomllib
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field, replace
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from pyuss.atomicfile import check_target, write_atomically
+from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
+from pyuss.master.drive import Drive
+from pyuss.params.model import ParamInfo, Reading, param_label
+from pyuss.params.values import format_value, json_value
+
+__all__ = [
+    "FORMAT_VERSION",
+    "Backup",
+    "Entry",
+    "identity_parameters",
+    "load",
+    "read_parameters",
+    "save",
+    "take",
+]
+
+FORMAT_VERSION = 1
+"""The ``pyuss_backup`` number of the file format."""
+
+IDENTITY_WORDS = ("firmware", "version", "serial", "identif", "drive type", "device type")
+"""Words in a parameter's name that make it an identity parameter (when the profile names
+none itself)."""
+
+MAX_TIMEOUTS = 3
+"""A drive that answers this many jobs in a row with nothing is gone: the backup stops."""
+
+Progress = Callable[[int, int, str], object]
+
+
+@dataclass(frozen=True, slots=True)
+class Entry:
+    """One parameter of a backup (``index`` None: a simple parameter or a whole array)."""
+
+    pnu: int
+    index: int | None = None
+    name: str = ""
+    unit: str = ""
+    type: str | None = None
+    value: Any = None
+    """The value as read (typed; a list for a whole array; bytes as hex text), or None."""
+    raw: tuple[int, ...] = ()
+    """The words as they travelled (in the files as hex text, ``"4120 0000"``)."""
+    access: str = ""
+    """``rw``, ``ro`` or ``protected`` where known."""
+    error: dict[str, Any] | None = None
+    """Why it could not be read: ``message`` and, for a refusal, ``number`` and ``meaning``."""
+
+    @property
+    def label(self) -> str:
+        return param_label(self.pnu, self.index)
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+    def text(self, info: ParamInfo | None = None) -> str:
+        """The value as printed (``10.00 s``) or the error."""
+        if self.error is not None:
+            return f"(not read: {self.error.get('message', 'error')})"
+        if info is not None:
+            try:
+                return format_value(info, self.value)
+            except (TypeError, ValueError, AssertionError):
+                pass
+        unit = f" {self.unit}" if self.unit else ""
+        return f"{self.value}{unit}"
+
+    @classmethod
+    def of(cls, reading: Reading) -> Entry:
+        info = reading.info
+        return cls(
+            reading.pnu,
+            reading.index,
+            info.name if info else "",
+            info.unit if info else "",
+            info.type_name if info else None,
+            json_value(reading.value),
+            reading.words,
+            info.access.value if info else "",
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """The entry as the files hold it (no null values: TOML has none)."""
+        data: dict[str, Any] = {"pnu": self.pnu}
+        if self.index is not None:
+            data["index"] = self.index
+        data["label"] = self.label
+        data["name"] = self.name
+        if self.unit:
+            data["unit"] = self.unit
+        if self.type is not None:
+            data["type"] = self.type
+        if self.access:
+            data["access"] = self.access
+        if self.error is None:
+            data["value"] = self.value
+            data["raw"] = raw_text(self.raw)
+        else:
+            data["error"] = dict(self.error)
+        return data
+
+    @classmethod
+    def from_dict(cls, data: Any, where: str) -> Entry:
+        """An entry read from a file; `ConfigError` naming the entry and field if broken."""
+        if not isinstance(data, dict):
+            raise ConfigError(f"{where}: not a table of fields")
+        pnu = data.get("pnu")
+        if isinstance(pnu, bool) or not isinstance(pnu, int) or pnu < 0:
+            raise ConfigError(f"{where}: field 'pnu' must be a parameter number")
+        where = f"{where} (P{pnu})"
+        index = data.get("index")
+        if index is not None and (
+            isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= 254
+        ):
+            raise ConfigError(f"{where}: field 'index' must be 0..254")
+        for key in ("name", "unit", "type", "access", "label"):
+            if key in data and not isinstance(data[key], str):
+                raise ConfigError(f"{where}: field {key!r} must be text")
+        error = data.get("error")
+        if error is not None:
+            if not isinstance(error, dict) or not isinstance(error.get("message", ""), str):
+                raise ConfigError(f"{where}: field 'error' must be a table with a message")
+            value, raw = None, tuple[int, ...]()
+        else:
+            if "value" not in data:
+                raise ConfigError(f"{where}: field 'value' missing (and no 'error')")
+            value = data["value"]
+            if not _plain_value(value):
+                raise ConfigError(f"{where}: field 'value' must be a number, text or list")
+            raw = raw_words(data.get("raw", ""), where)
+        return cls(
+            pnu,
+            index,
+            data.get("name", ""),
+            data.get("unit", ""),
+            data.get("type"),
+            value,
+            raw,
+            data.get("access", ""),
+            error,
+        )
+
+
+def raw_text(words: Sequence[int]) -> str:
+    """The raw words as the files hold them: hex, blank between words (``4120 0000``)."""
+    return " ".join(f"{w:04X}" for w in words)
+
+
+def raw_words(text: Any, where: str) -> tuple[int, ...]:
+    """Words back from `raw_text` (`ConfigError` naming the entry when it is not that)."""
+    if not isinstance(text, str):
+        raise ConfigError(f"{where}: field 'raw' must be hex words such as \"4120 0000\"")
+    try:
+        words = tuple(int(part, 16) for part in text.split())
+    except ValueError:
+        raise ConfigError(f"{where}: field 'raw' must be hex words such as \"4120 0000\"") from None
+    if any(not 0 <= w <= 0xFFFF for w in words):
+        raise ConfigError(f"{where}: field 'raw' has a word beyond FFFF")
+    return words
+
+
+def _plain_value(value: Any) -> bool:
+    if isinstance(value, list):
+        return all(_plain_value(v) and not isinstance(v, list) for v in value)
+    return isinstance(value, int | float | str) and not isinstance(value, bool)
+
+
+@dataclass(slots=True)
+class Backup:
+    """A drive's parameter set with the header that says whose it is."""
+
+    address: int
+    profile: str
+    entries: list[Entry] = field(default_factory=list)
+    date: str = ""
+    """When it was taken, ISO 8601 in UTC."""
+    identity: list[Entry] = field(default_factory=list)
+    """The drive's identity parameters (firmware, type ...) where it has them."""
+    port: str = ""
+    source: str = ""
+    """The file it was read from ('' for one taken from a drive)."""
+
+    def find(self, pnu: int, index: int | None = None) -> Entry | None:
+        for entry in self.entries:
+            if entry.pnu == pnu and entry.index == index:
+                return entry
+        return None
+
+    @property
+    def failed(self) -> list[Entry]:
+        return [e for e in self.entries if not e.ok]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "pyuss_backup": FORMAT_VERSION,
+            "address": self.address,
+            "profile": self.profile,
+            "date": self.date,
+            "port": self.port,
+            "count": len(self.entries),
+            "identity": [e.to_dict() for e in self.identity],
+            "parameter": [e.to_dict() for e in self.entries],
+        }
+
+    @classmethod
+    def from_dict(cls, data: Any, where: str) -> Backup:
+        if not isinstance(data, dict) or data.get("pyuss_backup") is None:
+            raise ConfigError(f"{where}: not a pyuss backup (no 'pyuss_backup' field)")
+        if data["pyuss_backup"] != FORMAT_VERSION:
+            raise ConfigError(
+                f"{where}: backup format {data['pyuss_backup']!r}, this pyuss reads "
+                f"{FORMAT_VERSION}"
+            )
+        address = data.get("address")
+        if isinstance(address, bool) or not isinstance(address, int) or not 0 <= address <= 31:
+            raise ConfigError(f"{where}: field 'address' must be 0..31")
+        for key in ("profile", "date", "port"):
+            if not isinstance(data.get(key, ""), str):
+                raise ConfigError(f"{where}: field {key!r} must be text")
+        if not data.get("profile"):
+            raise ConfigError(f"{where}: field 'profile' missing")
+        params = data.get("parameter", [])
+        ident = data.get("identity", [])
+        if not isinstance(params, list) or not isinstance(ident, list):
+            raise ConfigError(f"{where}: 'parameter' and 'identity' must be lists of tables")
+        count = data.get("count")
+        if isinstance(count, bool) or not isinstance(count, int):
+            raise ConfigError(f"{where}: field 'count' missing")
+        if count != len(params):
+            raise ConfigError(
+                f"{where}: the header counts {count} parameters, the file holds {len(params)} "
+                "(cut short or edited by hand?)"
+            )
+        entries = [Entry.from_dict(p, f"{where}: parameter {n}") for n, p in enumerate(params, 1)]
+        seen: set[tuple[int, int | None]] = set()
+        for entry in entries:
+            if (entry.pnu, entry.index) in seen:
+                raise ConfigError(f"{where}: {entry.label} is in the file twice")
+            seen.add((entry.pnu, entry.index))
+        return cls(
+            address,
+            data["profile"],
+            entries,
+            data.get("date", ""),
+            [Entry.from_dict(p, f"{where}: identity {n}") for n, p in enumerate(ident, 1)],
+            data.get("port", ""),
+            where,
+        )
+
+
+# -- reading a drive --------------------------------------------------------------------------
+
+
+def identity_parameters(drive: Drive) -> list[tuple[int, int | None]]:
+    """The parameters that say which drive it is: those the profile's identity rules read
+    (`pyuss.profiles.base.IdentityRule`) if it has any, else the known parameters whose name
+    speaks of firmware, version, serial number or type."""
+    rules = getattr(drive.profile, "identity", None)
+    if rules:
+        found: list[tuple[int, int | None]] = []
+        for rule in rules:
+            key = (int(rule.pnu), getattr(rule, "index", None))
+            if rule.pnu in drive.params and key not in found and getattr(rule, "present", True):
+                found.append(key)
+        return found
+    return [
+        (info.pnu, None)
+        for info in drive.params
+        if any(word in info.name.casefold() for word in IDENTITY_WORDS)
+    ]
+
+
+def error_dict(exc: UssError) -> dict[str, Any]:
+    data: dict[str, Any] = {"type": type(exc).__name__, "message": str(exc)}
+    if isinstance(exc, DriveRefusal):
+        data.update(number=exc.number, meaning=exc.meaning)
+    return data
+
+
+async def read_parameters(
+    drive: Drive,
+    wanted: Sequence[tuple[int, int | None]],
+    *,
+    progress: Progress | None = None,
+) -> list[Entry]:
+    """Read each ``(pnu, index)`` (index None: simple or whole array) into an `Entry`; a
+    parameter that fails is recorded with its error and the others are still read. Stops with
+    the drive's `UssTimeout` when it answered `MAX_TIMEOUTS` jobs in a row with nothing."""
+    entries: list[Entry] = []
+    silent = 0
+    for done, (pnu, index) in enumerate(wanted):
+        if progress is not None:
+            progress(done, len(wanted), param_label(pnu, index))
+        try:
+            reading = await drive.read_param(pnu, index)
+        except ConfigError:
+            raise
+        except UssError as exc:
+            silent = silent + 1 if isinstance(exc, UssTimeout) else 0
+            if silent >= MAX_TIMEOUTS:
+                raise
+            info = drive.params.get(pnu)
+            entries.append(
+                Entry(
+                    pnu,
+                    index,
+                    info.name if info else "",
+                    info.unit if info else "",
+                    info.type_name if info else None,
+                    access=info.access.value if info else "",
+                    error=error_dict(exc),
+                )
+            )
+            continue
+        silent = 0
+        entries.append(Entry.of(reading))
+    if progress is not None:
+        progress(len(wanted), len(wanted), "")
+    return entries
+
+
+async def scan(drive: Drive, pnus: Iterable[int], *, progress: Progress | None = None) -> list[int]:
+    """The parameters of ``pnus`` the drive has, found by asking for their descriptions (C 6);
+    they are learnt into the drive's book. Known ones are not asked for."""
+    candidates = list(pnus)
+    found = []
+    for done, pnu in enumerate(candidates):
+        if progress is not None:
+            progress(done, len(candidates), f"P{pnu}?")
+        if pnu in drive.params:
+            found.append(pnu)
+            continue
+        try:
+            description = await drive.read_description(pnu)
+        except DriveRefusal:
+            continue
+        except ConfigError:
+            raise
+        except UssError:
+            continue
+        if drive.params.learn(description) is not None:
+            found.append(pnu)
+    if progress is not None:
+        progress(len(candidates), len(candidates), "")
+    return found
+
+
+async def take(
+    drive: Drive,
+    *,
+    pnus: Sequence[int] | None = None,
+    port: str = "",
+    progress: Progress | None = None,
+    now: Callable[[], float] = time.time,
+) -> Backup:
+    """A backup of ``drive``: every parameter its book knows (or ``pnus``), arrays whole."""
+    numbers = sorted(set(drive.params.pnus() if pnus is None else pnus))
+    identity = await read_parameters(drive, identity_parameters(drive))
+    entries = await read_parameters(drive, [(p, None) for p in numbers], progress=progress)
+    date = datetime.fromtimestamp(now(), UTC).isoformat(timespec="seconds")
+    return Backup(drive.address, drive.profile.name, entries, date, identity, port)
+
+
+# -- files --------------------------------------------------------------------------------------
+
+FORMATS = ("toml", "json", "csv")
+
+
+def file_format(path: str | Path, given: str | None = None) -> str:
+    """``toml``, ``json`` or ``csv``: ``given``, else from the file name's ending."""
+    fmt = given or Path(path).suffix.lstrip(".").lower()
+    if fmt not in FORMATS:
+        raise ConfigError(
+            f"{path}: give a file ending in .toml, .json or .csv (or --format), not {fmt!r}"
+        )
+    return fmt
+
+
+def dumps(backup: Backup, fmt: str) -> str:
+    """The text of a backup file."""
+    if fmt == "json":
+        return json.dumps(backup.to_dict(), indent=1) + "\n"
+    if fmt == "csv":
+        out = io.StringIO()
+        writer = csv.writer(out, lineterminator="\n")
+        writer.writerow(["pnu", "index", "label", "name", "value", "unit", "type", "raw", "error"])
+        for entry in backup.entries:
+            value = entry.value if entry.ok else ""
+            if isinstance(value, list):
+                value = " ".join(str(v) for v in value)
+            writer.writerow(
+                [
+                    entry.pnu,
+                    "" if entry.index is None else entry.index,
+                    entry.label,
+                    entry.name,
+                    value,
+                    entry.unit,
+                    entry.type or "",
+                    raw_text(entry.raw),
+                    "" if entry.error is None else entry.error.get("message", ""),
+                ]
+            )
+        return out.getvalue()
+    try:
+        import tomli_w
+    except ImportError:
+        raise ConfigError(
+            "writing TOML needs tomli-w: pip install 'pyuss[toml]' (or write a .json file)"
+        ) from None
+    head = f"# pyuss parameter backup of drive {backup.address} ({backup.profile}), {backup.date}\n"
+    return head + tomli_w.dumps(backup.to_dict())
+
+
+def save(backup: Backup, path: str | Path, fmt: str | None = None) -> None:
+    """Write ``backup`` to ``path`` atomically (format from the ending or ``fmt``)."""
+    fmt = file_format(path, fmt)
+    check_target(path, "the backup")
+    write_atomically(path, dumps(backup, fmt).encode("utf-8"), "the backup")
+
+
+def load(path: str | Path) -> Backup:
+    """Read and check a backup file (TOML or JSON); `ConfigError` naming what is wrong."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a text file") from None
+    return loads(text, str(path))
+
+
+def loads(text: str, where: str = "<backup>") -> Backup:
+    stripped = text.lstrip()
+    if stripped.startswith("{"):
+        try:
+            data = json.loads(text)
+        except ValueError as exc:
+            raise ConfigError(f"{where}: broken JSON: {exc}") from None
+    else:
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise ConfigError(f"{where}: not a TOML or JSON backup: {exc}") from None
+    return Backup.from_dict(data, where)
+
+
+def with_entries(backup: Backup, entries: list[Entry]) -> Backup:
+    return replace(backup, entries=entries)

@@ -1,0 +1,379 @@
+"""Comparing parameter sets and writing one back to a drive.
+
+`compare` lists what differs between two `Backup`s (a drive read now, or two files), with names
+and units. `plan` turns "what the drive holds now" and "what the file says" into the writes a
+restore makes: only parameters that differ, only writable ones (a read-only one, a parameter
+the file could not read, and one nothing is known of without raw words are listed as skipped),
+an array element by element, each value checked against the parameter's type and limits first
+so that a hand-broken file is refused before anything is written. The order: the profile's
+own list (``restore_order``) if it has one, then the access level parameter, the parameter
+that enables writing, parameters changeable only in quick commissioning (``changeable`` C;
+wrapped in the drive's commissioning rule: P0010 = 1 before them, 0 after), then the rest by
+number. The commissioning parameters themselves (P0010, P3900, P0970) are commands, not
+settings, and are not restored.
+`restore` makes the writes, reports each refusal with its meaning and goes on.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from pyuss.commission.backup import MAX_TIMEOUTS, Backup, Entry, error_dict, read_parameters
+from pyuss.drive.datatypes import DataType
+from pyuss.errors import ConfigError, UssError, UssTimeout
+from pyuss.master.drive import Drive
+from pyuss.params.book import ParamBook
+from pyuss.params.model import ParamInfo, param_label
+from pyuss.params.values import ValueRefused, encode, format_value
+from pyuss.profiles import Profile
+
+__all__ = [
+    "Difference",
+    "Outcome",
+    "Skip",
+    "Write",
+    "another_drive",
+    "compare",
+    "plan",
+    "restore",
+]
+
+
+def _same(a: Any, b: Any) -> bool:
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, float) or isinstance(b, float):
+        if isinstance(a, bool) or isinstance(b, bool):
+            return False
+        if isinstance(a, int | float) and isinstance(b, int | float):
+            return math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-12)
+        return False
+    if isinstance(a, str) and isinstance(b, str):
+        return a.rstrip() == b.rstrip()
+    return bool(a == b)
+
+
+def same_entry(a: Entry, b: Entry) -> bool:
+    """Whether two entries hold the same value (two failed reads count as the same)."""
+    if not a.ok or not b.ok:
+        return not a.ok and not b.ok
+    return _same(a.value, b.value)
+
+
+@dataclass(frozen=True, slots=True)
+class Difference:
+    """One parameter that differs: ``left`` / ``right`` None where only one side has it."""
+
+    pnu: int
+    index: int | None
+    left: Entry | None
+    right: Entry | None
+
+    @property
+    def label(self) -> str:
+        return param_label(self.pnu, self.index)
+
+    @property
+    def name(self) -> str:
+        for entry in (self.right, self.left):
+            if entry is not None and entry.name:
+                return entry.name
+        return ""
+
+    @property
+    def kind(self) -> str:
+        if self.left is None:
+            return "only right"
+        if self.right is None:
+            return "only left"
+        return "changed"
+
+    def text(self, book: ParamBook | None = None) -> str:
+        """``P1120 (Ramp-up time): 10.00 s -> 2.50 s``."""
+        info = book.get(self.pnu) if book is not None else None
+        left = "(not there)" if self.left is None else self.left.text(info)
+        right = "(not there)" if self.right is None else self.right.text(info)
+        name = f" ({self.name})" if self.name else ""
+        return f"{self.label}{name}: {left} -> {right}"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "pnu": self.pnu,
+            "index": self.index,
+            "label": self.label,
+            "name": self.name,
+            "kind": self.kind,
+            "left": None if self.left is None else self.left.to_dict(),
+            "right": None if self.right is None else self.right.to_dict(),
+        }
+
+
+def compare(left: Backup, right: Backup) -> list[Difference]:
+    """What differs between two parameter sets, in parameter order."""
+    lefts = {(e.pnu, e.index): e for e in left.entries}
+    rights = {(e.pnu, e.index): e for e in right.entries}
+    keys = sorted({*lefts, *rights}, key=lambda k: (k[0], -1 if k[1] is None else k[1]))
+    found = []
+    for key in keys:
+        a, b = lefts.get(key), rights.get(key)
+        if a is not None and b is not None and same_entry(a, b):
+            continue
+        found.append(Difference(key[0], key[1], a, b))
+    return found
+
+
+# -- restore ----------------------------------------------------------------------------------
+
+
+async def another_drive(wanted: Backup, drive: Drive) -> str | None:
+    """Why ``wanted`` is another drive's file: the first of its identity parameters (firmware,
+    device type) the drive holds otherwise, in words; None when they all agree. Reads them."""
+    found = await read_parameters(drive, [(e.pnu, e.index) for e in wanted.identity])
+    for old, new in zip(wanted.identity, found, strict=True):
+        if not same_entry(old, new):
+            return (
+                f"{wanted.source or 'the backup'} is from another drive: {old.label} "
+                f"({old.name}) is {old.text()} there, {new.text()} here"
+            )
+    return None
+
+
+@dataclass(frozen=True, slots=True)
+class Write:
+    """One write of a restore: a typed ``value`` through what is known of the parameter, or
+    the file's ``raw`` words for a parameter nothing is known of."""
+
+    pnu: int
+    index: int | None
+    info: ParamInfo | None
+    value: Any
+    raw: tuple[int, ...]
+    before: str
+    """The value the drive holds now, as printed."""
+
+    @property
+    def label(self) -> str:
+        return param_label(self.pnu, self.index)
+
+    def text(self) -> str:
+        name = f" ({self.info.name})" if self.info is not None else ""
+        if self.info is None:
+            after = " ".join(f"{w:04X}h" for w in self.raw)
+        else:
+            after = format_value(self.info, self.value)
+        return f"{self.label}{name}: {self.before} -> {after}"
+
+
+@dataclass(frozen=True, slots=True)
+class Skip:
+    """A difference a restore does not write, and why."""
+
+    entry: Entry
+    reason: str
+
+    def text(self) -> str:
+        return f"{self.entry.label} ({self.entry.name}): not written, {self.reason}"
+
+
+def _typed(info: ParamInfo, value: Any) -> Any:
+    if info.dtype is DataType.OCTET_STRING and isinstance(value, str):
+        try:
+            return bytes.fromhex(value)
+        except ValueError:
+            return value
+    return value
+
+
+def commissioning_only(info: ParamInfo | None) -> bool:
+    """Changeable only in quick commissioning (the file's ``changeable`` letters: C alone)."""
+    letters = (info.changeable or "") if info is not None else ""
+    return "C" in letters and "T" not in letters and "U" not in letters
+
+
+def _order(profile: Profile, book: ParamBook) -> Callable[[Write], tuple[int, int, int]]:
+    first = [int(getattr(p, "pnu", p)) for p in getattr(profile, "restore_order", ()) or ()]
+    db = profile.database().profile
+    early = [ref.pnu for ref in (db.access_level, db.write_enable) if ref is not None]
+
+    def key(write: Write) -> tuple[int, int, int]:
+        if write.pnu in first:
+            rank = first.index(write.pnu)
+        elif write.pnu in early:
+            rank = len(first) + early.index(write.pnu)
+        elif commissioning_only(write.info):
+            rank = len(first) + len(early)
+        else:
+            rank = len(first) + len(early) + 1
+        return (rank, write.pnu, -1 if write.index is None else write.index)
+
+    return key
+
+
+def _with_commissioning(writes: list[Write], profile: Profile, book: ParamBook) -> list[Write]:
+    """Wrap the writes of parameters changeable only in commissioning in the drive's own rule:
+    its commissioning parameter (P0010) to quick commissioning first, back to 0 after them."""
+    rule = getattr(profile.database(), "commissioning", None)
+    if rule is None or not any(commissioning_only(w.info) for w in writes):
+        return writes
+    info = book.get(rule.parameter)
+    if info is None:
+        return writes
+    start = next(i for i, w in enumerate(writes) if commissioning_only(w.info))
+    end = max(i for i, w in enumerate(writes) if commissioning_only(w.info)) + 1
+    enter = Write(rule.parameter, None, info, rule.quick, (), "(commissioning)")
+    leave = Write(rule.parameter, None, info, 0, (), "(commissioning)")
+    return [*writes[:start], enter, *writes[start:end], leave, *writes[end:]]
+
+
+def plan(
+    wanted: Backup, current: Backup, book: ParamBook, profile: Profile
+) -> tuple[list[Write], list[Skip]]:
+    """The writes that make the drive (``current``) hold ``wanted``, in the order they are
+    made, and the differences left out. Every value is checked first: a value the parameter
+    cannot take is a `ConfigError` naming the file and the parameter (nothing written yet)."""
+    writes: list[Write] = []
+    skips: list[Skip] = []
+    rule = getattr(profile.database(), "commissioning", None)
+    commands = set() if rule is None else {rule.parameter, rule.end, rule.reset} - {None}
+    for diff in compare(current, wanted):
+        entry = diff.right
+        if entry is None:
+            continue  # the drive has it, the file does not: left alone
+        if not entry.ok:
+            skips.append(Skip(entry, "the backup could not read it"))
+            continue
+        if entry.pnu in commands:
+            skips.append(Skip(entry, "a commissioning command, not a setting"))
+            continue
+        info = book.get(entry.pnu)
+        now = diff.left
+        if (info is not None and info.read_only) or (info is None and entry.access == "ro"):
+            skips.append(Skip(entry, "read-only"))
+            continue
+        if now is not None and not now.ok:
+            skips.append(Skip(entry, "the drive does not give its value now"))
+            continue
+        try:
+            writes.extend(_writes(entry, now, info, book))
+        except ValueRefused as exc:
+            raise ConfigError(f"{wanted.source or 'the backup'}: {exc}") from None
+        if info is None and not entry.raw:
+            skips.append(Skip(entry, "nothing is known of it and the file has no raw words"))
+    writes.sort(key=_order(profile, book))
+    return _with_commissioning(writes, profile, book), skips
+
+
+def _writes(
+    entry: Entry, now: Entry | None, info: ParamInfo | None, book: ParamBook
+) -> list[Write]:
+    if info is None:
+        if not entry.raw:
+            return []
+        before = "(unknown)" if now is None else " ".join(f"{w:04X}h" for w in now.raw)
+        return [Write(entry.pnu, entry.index, None, None, entry.raw, before)]
+    values = entry.value
+    if info.array is not None and entry.index is None:
+        if not isinstance(values, list) or len(values) != info.array:
+            raise ValueRefused(
+                f"{entry.label}: an array of {info.array} element(s), the file has "
+                f"{len(values) if isinstance(values, list) else 'one value'}"
+            )
+        olds = now.value if now is not None and isinstance(now.value, list) else []
+        out = []
+        for i, value in enumerate(values):
+            index = book.index_base + i
+            old = olds[i] if i < len(olds) else None
+            if old is not None and _same(old, value):
+                continue
+            typed = _typed(info, value)
+            encode(info, typed, index)
+            before = "(unknown)" if old is None else format_value(info, old)
+            out.append(Write(entry.pnu, index, info, typed, (), before))
+        return out
+    typed = _typed(info, values)
+    encode(info, typed, entry.index)
+    before = "(unknown)" if now is None else now.text(info)
+    return [Write(entry.pnu, entry.index, info, typed, (), before)]
+
+
+@dataclass(frozen=True, slots=True)
+class Outcome:
+    """What became of one write: ``error`` None when the drive took it."""
+
+    write: Write
+    error: dict[str, Any] | None = None
+    answer: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+    def error_text(self) -> str:
+        """``error 12: keyword missing`` for a refusal, else the error's message."""
+        if self.error is None:
+            return ""
+        if "number" in self.error:
+            return f"error {self.error['number']}: {self.error['meaning']}"
+        return str(self.error.get("message", "failed"))
+
+    def text(self) -> str:
+        if self.error is None:
+            return f"{self.write.label} = {self.answer}"
+        return f"{self.write.label}: {self.error_text()}"
+
+    def to_dict(self) -> dict[str, Any]:
+        data: dict[str, Any] = {
+            "pnu": self.write.pnu,
+            "index": self.write.index,
+            "label": self.write.label,
+            "name": self.write.info.name if self.write.info else "",
+            "ok": self.ok,
+        }
+        if self.error is None:
+            data["answer"] = self.answer
+        else:
+            data["error"] = self.error
+        return data
+
+
+async def restore(
+    drive: Drive,
+    writes: Sequence[Write],
+    *,
+    eeprom: bool = False,
+    progress: Callable[[int, int, str], object] | None = None,
+) -> list[Outcome]:
+    """Make ``writes`` in order; a refusal is recorded with its number and meaning and the
+    others are still written. Stops with `UssTimeout` when the drive answered `MAX_TIMEOUTS`
+    jobs in a row with nothing."""
+    outcomes = []
+    silent = 0
+    for done, write in enumerate(writes):
+        if progress is not None:
+            progress(done, len(writes), write.label)
+        try:
+            if write.info is None:
+                words = await drive.write_raw(write.pnu, write.raw, write.index, eeprom=eeprom)
+                answer = " ".join(f"{w:04X}h" for w in words)
+            else:
+                reading = await drive.write_param(
+                    write.pnu, write.value, write.index, eeprom=eeprom
+                )
+                answer = format_value(reading.info, reading.value)
+        except ConfigError as exc:
+            outcomes.append(Outcome(write, {"type": type(exc).__name__, "message": str(exc)}))
+            continue
+        except UssError as exc:
+            silent = silent + 1 if isinstance(exc, UssTimeout) else 0
+            if silent >= MAX_TIMEOUTS:
+                raise
+            outcomes.append(Outcome(write, error_dict(exc)))
+            continue
+        silent = 0
+        outcomes.append(Outcome(write, None, answer))
+    if progress is not None:
+        progress(len(writes), len(writes), "")
+    return outcomes

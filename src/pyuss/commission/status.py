@@ -1,0 +1,144 @@
+"""`uss status`: one look at a drive - state, status word, actual values with units, faults.
+
+`look` sends one telegram for the process data (the status word in PZD1 and the main actual
+value in PZD2, C 5; a layout without PZD reads the status word parameter the profile names
+instead) and reads the parameters the profile's file names for the purpose (``[drive]``:
+state, actual, setpoint, fault, warning, and the reference that is 100 % of setpoints and
+actual values, 4000h). The main actual value is shown in percent and, where the profile names
+the reference parameter, in its unit (Hz, rpm). Fault and warning numbers come with the text
+the profile gives them where it has one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from pyuss.commission.backup import Entry, read_parameters
+from pyuss.master.drive import Drive
+from pyuss.master.process import DriveStatus, state_of
+from pyuss.protocol.pzd import STATUS_BITS, describe_bits, raw16_to_percent
+
+__all__ = ["Look", "fault_texts", "look", "reference_value"]
+
+ROLES = ("state", "actual", "setpoint", "fault", "warning")
+
+
+def fault_texts(drive: Drive) -> dict[int, str]:
+    """Fault and warning numbers the profile knows, with their texts."""
+    texts: dict[int, str] = {}
+    db = drive.profile.database()
+    for name, code in db.faults.items():
+        texts.setdefault(code, name.replace("_", " "))
+    own = getattr(drive.profile, "fault_texts", None) or getattr(db, "fault_texts", None)
+    if own:
+        texts.update({int(k): str(v) for k, v in dict(own).items()})
+    return texts
+
+
+async def reference_value(drive: Drive) -> tuple[float, str] | None:
+    """The value and unit of the reference parameter (100 % = 4000h), where the profile names
+    one whose unit is not percent."""
+    ref = drive.profile.database().roles.get("reference")
+    if ref is None:
+        return None
+    reading = await drive.read_param(ref.pnu, ref.index)
+    info = reading.info
+    if info is None or not info.unit or info.unit == "%":
+        return None
+    if isinstance(reading.value, bool) or not isinstance(reading.value, int | float):
+        return None
+    return float(reading.value), info.unit
+
+
+@dataclass(slots=True)
+class Look:
+    """What `look` saw."""
+
+    address: int
+    word: int
+    actual_percent: float | None = None
+    actual: float | None = None
+    """The main actual value in the reference's unit (None without a reference)."""
+    unit: str = ""
+    parameters: list[Entry] = field(default_factory=list)
+    shown: dict[str, str] = field(default_factory=dict)
+    """Each parameter's value as printed (by label), with its unit and value text."""
+    texts: dict[int, str] = field(default_factory=dict)
+
+    @property
+    def state(self) -> str:
+        return state_of(self.word)
+
+    def bits(self) -> list[tuple[int, bool, str]]:
+        return describe_bits(self.word, STATUS_BITS)
+
+    def lines(self) -> list[str]:
+        out = [f"drive {self.address}: {self.state}", f"status word {self.word:04X}h"]
+        out += [f"  bit {bit:2}  {int(on)}  {text}" for bit, on, text in self.bits()]
+        if self.actual_percent is not None:
+            physical = f" = {self.actual:.2f} {self.unit}" if self.actual is not None else ""
+            out.append(f"actual value (PZD2) {self.actual_percent:.2f} %{physical}")
+        for entry in self.parameters:
+            text = self.shown.get(entry.label) or entry.text()
+            if entry.ok and isinstance(entry.value, int) and entry.value in self.texts:
+                text += f" ({self.texts[entry.value]})"
+            name = f" ({entry.name})" if entry.name else ""
+            out.append(f"{entry.label}{name} = {text}")
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "address": self.address,
+            "state": self.state,
+            "status": self.word,
+            "status_hex": f"{self.word:04X}",
+            "bits": [{"bit": b, "set": on, "meaning": t} for b, on, t in self.bits()],
+            "actual_percent": self.actual_percent,
+            "actual": self.actual,
+            "unit": self.unit,
+            "parameters": [
+                {
+                    **e.to_dict(),
+                    "text": self.shown.get(e.label, ""),
+                    "fault_text": self.texts.get(e.value) if isinstance(e.value, int) else None,
+                }
+                for e in self.parameters
+            ],
+        }
+
+
+async def look(drive: Drive, *, timeout: float | None = None) -> Look:
+    """One look at ``drive`` (see the module docstring)."""
+    db = drive.profile.database()
+    status: DriveStatus | None = None
+    if drive.layout.pzd >= 1:
+        status = await drive.next_update(timeout=timeout)
+        word = status.word
+    else:
+        ref = db.roles.get("status_word")
+        if ref is None:
+            from pyuss.errors import ConfigError
+
+            raise ConfigError(
+                f"layout {drive.layout} carries no status word (PZD 0) and profile "
+                f"{drive.profile.name} names no status word parameter: give --layout with PZD"
+            )
+        value = await drive.read(ref.pnu, ref.index, timeout=timeout)
+        assert isinstance(value, int)
+        word = value
+    result = Look(drive.address, word, texts=fault_texts(drive))
+    if status is not None and status.actual:
+        result.actual_percent = raw16_to_percent(status.actual[0])
+        reference = await reference_value(drive)
+        if reference is not None:
+            result.actual = result.actual_percent / 100 * reference[0]
+            result.unit = reference[1]
+    wanted = []
+    for role in ROLES:
+        ref = db.roles.get(role)
+        if ref is not None and (ref.pnu, ref.index) not in wanted:
+            wanted.append((ref.pnu, ref.index))
+    result.parameters = await read_parameters(drive, wanted)
+    result.shown = {e.label: e.text(drive.params.get(e.pnu)) for e in result.parameters}
+    return result

@@ -1,0 +1,277 @@
+"""Sampling a drive into a CSV log.
+
+`DataLogger` takes one row per sample from a drive on a cyclic `pyuss.master.Master`:
+
+- samples are due at fixed times, ``1 / rate`` seconds apart from the start (a slot that is
+  missed because the line is slower is skipped, the timetable does not drift);
+- the process-data values (status word, state, actual values, status bits) are those of the
+  first answer of the drive after the slot began, so every row holds fresh data; the row's
+  time is when that answer came (wall clock, ISO 8601 with the UTC offset, milliseconds);
+- parameters are read with a parameter job for every row, typed through the drive's parameter
+  book (`pyuss.params`, ``Drive.read_param``); actual values PZD3 and up are converted by the
+  parameters the profile maps them to, PZD2 in the unit of the reference parameter
+  (`pyuss.commission.status.reference_value`);
+- a drive that does not answer (no answer within ``max(1 / rate, 0.5 s)``, "slave does not
+  send" of A 5.2.1.1, or a parameter job that timed out) gives a row with every value empty
+  and ``no answer`` in the ``comm`` column: never the last values again. A parameter the
+  drive refuses is empty with the refusal in ``comm``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import datetime as _dt
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from pyuss.commission.status import reference_value
+from pyuss.datalog.csvfile import CsvLog
+from pyuss.datalog.values import Kind, Quantity
+from pyuss.drive.datatypes import Value
+from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
+from pyuss.master import Drive, DriveStatus
+from pyuss.master.errors import NoWriteAuthority
+from pyuss.params import ParamInfo, decode, format_value
+from pyuss.protocol.pzd import STATUS_BITS, raw16_to_percent
+
+__all__ = ["COMM_OK", "NO_ANSWER", "DataLogger", "LogResult", "iso_now"]
+
+NO_ANSWER = "no answer"
+COMM_OK = "ok"
+MIN_WAIT = 0.5
+"""Seconds a sample waits at least for an answer before it is written as "no answer"."""
+
+
+def iso_now() -> str:
+    """The wall-clock time as ISO 8601 with the local UTC offset and milliseconds."""
+    return _dt.datetime.now().astimezone().isoformat(timespec="milliseconds")
+
+
+@dataclass(frozen=True, slots=True)
+class LogResult:
+    rows: int
+    no_answer: int
+    """Rows written as "no answer"."""
+
+
+def cell(info: ParamInfo | None, value: Value | Sequence[Value]) -> str:
+    """A value as a CSV cell: a number as a spreadsheet reads it (scaled, the decimals of its
+    parameter, no unit or value text: the header has the unit), text without padding, bytes
+    in hex, the elements of an array separated by blanks."""
+    if isinstance(value, list | tuple):
+        return " ".join(cell(info, v) for v in value)
+    if isinstance(value, bytes):
+        return value.hex(" ").upper()
+    if isinstance(value, str):
+        return value.rstrip()
+    if info is None or info.is_bit_field:
+        return str(value)
+    return format_value(info, value, unit=False, texts=False)
+
+
+async def read_parameter(drive: Drive, pnu: int, index: int | None, timeout: float) -> str:
+    """One parameter's value as a CSV cell (`cell`), read and typed through the drive's
+    parameter book."""
+    reading = await drive.read_param(pnu, index, timeout=timeout)
+    return cell(reading.info, reading.value)
+
+
+class DataLogger:
+    """Rows of ``quantities`` from ``drive`` (see the module text)."""
+
+    def __init__(
+        self,
+        drive: Drive,
+        quantities: Sequence[Quantity],
+        *,
+        rate: float,
+        job_timeout: float = 1.0,
+    ) -> None:
+        if isinstance(rate, bool) or not (isinstance(rate, int | float) and 0 < rate <= 1000):
+            raise ConfigError(f"rate {rate!r}: give 0 < HZ <= 1000 samples a second")
+        if not math.isfinite(rate):
+            raise ConfigError(f"rate {rate!r} is not a number")
+        for quantity in quantities:
+            if quantity.process and drive.layout.pzd == 0:
+                raise ConfigError(
+                    f"{quantity.text}: drive {drive.address} has layout {drive.layout}, "
+                    "without process data"
+                )
+        self.drive = drive
+        self.quantities = list(quantities)
+        self.rate = float(rate)
+        self.job_timeout = job_timeout
+        self.reference: tuple[float, str] | None = None
+
+    async def prepare(self) -> None:
+        """Read the reference (for actual values in units) and every parameter once (which
+        also learns what the drive says of parameters no file knows, for the header): a
+        parameter the drive refuses ends the log before it starts (`DriveRefusal`)."""
+        if any(q.kind is Kind.ACTUAL for q in self.quantities):
+            try:
+                self.reference = await reference_value(self.drive)
+            except UssError:
+                self.reference = None
+        for quantity in self.quantities:
+            if quantity.kind is Kind.PARAMETER:
+                with contextlib.suppress(UssTimeout):  # no answer now: the rows say so
+                    await read_parameter(self.drive, quantity.pnu, quantity.index, self.job_timeout)
+
+    def _actual_columns(self) -> list[str]:
+        names = []
+        for number in range(2, self.drive.layout.pzd + 1):
+            if number == 2:
+                unit = self.reference[1] if self.reference else "%"
+                names.append(f"actual PZD2 [{unit}]")
+                continue
+            param = self._process_parameter(number)
+            if param is None:
+                names.append(f"actual PZD{number}")
+            else:
+                unit = f" [{param.unit}]" if param.unit else ""
+                names.append(f"actual PZD{number} {param.name}{unit}")
+        return names
+
+    def _process_parameter(self, number: int) -> ParamInfo | None:
+        """The parameter the profile maps to actual value PZD``number`` (3 and up)."""
+        pnus = self.drive.profile.database().process_actuals
+        pnu = pnus[number - 3] if 0 <= number - 3 < len(pnus) else 0
+        return self.drive.params.get(pnu) if pnu else None
+
+    def header(self) -> list[str]:
+        """The CSV header: time, one column per value (units in brackets), comm."""
+        names = ["time"]
+        for quantity in self.quantities:
+            if quantity.kind is Kind.STATUS:
+                names.append("status word")
+            elif quantity.kind is Kind.STATE:
+                names.append("state")
+            elif quantity.kind is Kind.ACTUAL:
+                names += self._actual_columns()
+            elif quantity.kind is Kind.BIT:
+                names.append(f"bit {quantity.bit} {STATUS_BITS[quantity.bit][0]}")
+            else:
+                label = f"P{quantity.pnu}" + (
+                    "" if quantity.index is None else f".{quantity.index}"
+                )
+                param = self.drive.params.get(quantity.pnu)
+                if param is not None:
+                    label += f" {param.name}" + (f" [{param.unit}]" if param.unit else "")
+                names.append(label)
+        names.append("comm")
+        return names
+
+    def _actual_cells(self, status: DriveStatus) -> list[str]:
+        cells = []
+        words = list(status.actual) + [None] * (self.drive.layout.pzd - 1 - len(status.actual))
+        for number, raw in enumerate(words, start=2):
+            if raw is None:
+                cells.append("")
+            elif number == 2:
+                percent = raw16_to_percent(raw)
+                value = percent * self.reference[0] / 100 if self.reference else percent
+                cells.append(f"{value:.3f}")
+            else:
+                param = self._process_parameter(number)
+                text = str(raw)  # the word as it came where nothing is known of it
+                if param is not None and param.words == 1:
+                    with contextlib.suppress(UssError):
+                        text = cell(param, decode(param, (raw,)))
+                cells.append(text)
+        return cells
+
+    def _process_cells(self, quantity: Quantity, status: DriveStatus) -> list[str]:
+        if quantity.kind is Kind.STATUS:
+            return [str(status.word)]
+        if quantity.kind is Kind.STATE:
+            return [status.state]
+        if quantity.kind is Kind.ACTUAL:
+            return self._actual_cells(status)
+        return [str(status.word >> quantity.bit & 1)]
+
+    def _width(self, quantity: Quantity) -> int:
+        return len(self._actual_columns()) if quantity.kind is Kind.ACTUAL else 1
+
+    async def sample(self) -> tuple[list[str], bool]:
+        """One row and whether the drive answered."""
+        status: DriveStatus | None = None
+        stamp = iso_now()
+        if any(q.process for q in self.quantities):
+            wait = max(1.0 / self.rate, MIN_WAIT)
+            try:
+                status = await self.drive.next_update(timeout=wait)
+                stamp = iso_now()
+            except ConfigError:
+                raise
+            except UssError:
+                status = None
+            if status is None or self.drive.not_sending:
+                return self._silent(stamp), False
+        cells: list[str] = [stamp]
+        problems: list[str] = []
+        for quantity in self.quantities:
+            if quantity.kind is not Kind.PARAMETER:
+                assert status is not None
+                cells += self._process_cells(quantity, status)
+                continue
+            try:
+                cells.append(
+                    await read_parameter(self.drive, quantity.pnu, quantity.index, self.job_timeout)
+                )
+            except UssTimeout:
+                return self._silent(stamp), False
+            except (DriveRefusal, NoWriteAuthority) as exc:
+                cells.append("")
+                problems.append(f"{quantity.text}: {exc}")
+            except ConfigError:
+                raise
+            except UssError as exc:
+                cells.append("")
+                problems.append(f"{quantity.text}: {exc}")
+        cells.append("; ".join(problems) if problems else COMM_OK)
+        return cells, True
+
+    def _silent(self, stamp: str) -> list[str]:
+        width = sum(self._width(q) for q in self.quantities)
+        return [stamp, *([""] * width), NO_ANSWER]
+
+    async def run(
+        self,
+        log: CsvLog,
+        stop: asyncio.Event,
+        *,
+        count: int | None = None,
+        duration: float | None = None,
+    ) -> LogResult:
+        """Write rows to ``log`` until ``stop`` is set, ``count`` rows are written or
+        ``duration`` seconds have passed."""
+        period = 1.0 / self.rate
+        start = time.monotonic()
+        end = math.inf if duration is None else start + duration
+        rows = silent = 0
+        slot = 0
+        while not stop.is_set() and (count is None or rows < count):
+            due = start + slot * period
+            now = time.monotonic()
+            if due > now:
+                if due >= end:
+                    break
+                stopper = asyncio.ensure_future(stop.wait())
+                try:
+                    await asyncio.wait([stopper], timeout=due - now)
+                finally:
+                    stopper.cancel()
+                if stop.is_set():
+                    break
+            elif now >= end:
+                break
+            cells, answered = await self.sample()
+            log.write(cells)
+            rows += 1
+            silent += not answered
+            # the next slot after now: skipped slots are not made up for
+            slot = max(slot + 1, math.floor((time.monotonic() - start) / period) + 1)
+        return LogResult(rows, silent)

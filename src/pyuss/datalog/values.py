@@ -1,0 +1,94 @@
+"""What a log records: the VALUES of ``uss log`` and their CSV columns.
+
+- ``status``: the status word (PZD1 of every answer, C 5.2.1), as a number;
+- ``state``: the drive state the status word spells (C Tables 5.5, 5.6), as text;
+- ``actual``: the actual values (PZD2 and up): PZD2 in percent of the reference (4000h = 100 %,
+  C 5.2.2), or in the reference's unit when the profile's parameter file names a reference
+  parameter; further words raw, or scaled by the parameter the file maps them to;
+- a status bit's name (``ready``, ``fault``, ``operation_enabled``, ``in_tolerance``, ...:
+  the names of `pyuss.protocol.pzd.StatusWord` in any case, or ``bit3``): 1 or 0;
+- a parameter: ``P52``, ``P4.2`` (element 2 of array P4), also ``r52`` or ``52``: its value,
+  typed and scaled by what the drive's parameter book knows of it (`pyuss.params`: the
+  profile's file, the drive's own description), in its unit; the unsigned word the drive sent
+  when nothing is known of it. Parameters are read with a parameter job for every sample.
+"""
+
+from __future__ import annotations
+
+import enum
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from pyuss.errors import ConfigError
+from pyuss.protocol.pzd import StatusWord
+
+__all__ = ["Kind", "Quantity", "parse_values"]
+
+
+class Kind(enum.Enum):
+    STATUS = "status"
+    STATE = "state"
+    ACTUAL = "actual"
+    BIT = "bit"
+    PARAMETER = "parameter"
+
+
+_BITS: dict[str, int] = {
+    flag.name.lower(): flag.value.bit_length() - 1
+    for flag in StatusWord
+    if flag.name is not None and not flag.name.startswith("DEVICE")
+}
+_PARAM = re.compile(r"^[PpRr]?(\d+)(?:[.\[](\d+)\]?)?$")
+
+
+@dataclass(frozen=True, slots=True)
+class Quantity:
+    """One VALUE: its kind and, for bits and parameters, which one."""
+
+    kind: Kind
+    text: str
+    bit: int = 0
+    pnu: int = 0
+    index: int | None = None
+
+    @property
+    def process(self) -> bool:
+        """Taken from the process data of the cyclic answers (not a parameter job)."""
+        return self.kind is not Kind.PARAMETER
+
+
+def _bit_names() -> str:
+    return ", ".join(sorted(_BITS))
+
+
+def parse_values(texts: Sequence[str]) -> list[Quantity]:
+    """The VALUES given on the command line; `ConfigError` naming a value not understood."""
+    if not texts:
+        raise ConfigError("name at least one value to log: status, actual, a bit name or P52")
+    out: list[Quantity] = []
+    for text in texts:
+        word = text.strip()
+        low = word.lower()
+        if low in ("status", "state", "actual"):
+            out.append(Quantity(Kind(low), word))
+            continue
+        if low in _BITS:
+            out.append(Quantity(Kind.BIT, word, bit=_BITS[low]))
+            continue
+        bit = re.fullmatch(r"bit(\d+)", low)
+        if bit and int(bit.group(1)) <= 15:
+            out.append(Quantity(Kind.BIT, word, bit=int(bit.group(1))))
+            continue
+        match = _PARAM.match(word)
+        if match is None:
+            raise ConfigError(
+                f"value {text!r}: use status, state, actual, a status bit ({_bit_names()}, "
+                "bit0..bit15) or a parameter such as P52 or P4.2"
+            )
+        pnu = int(match.group(1))
+        index = int(match.group(2)) if match.group(2) is not None else None
+        if index is not None and not 0 <= index <= 254:
+            raise ConfigError(f"value {text!r}: the index must be 0..254")
+        out.append(Quantity(Kind.PARAMETER, word, pnu=pnu, index=index))
+    return out

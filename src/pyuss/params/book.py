@@ -1,0 +1,243 @@
+"""`ParamBook`: what is known of one drive's parameters, from three sources in order of trust.
+
+1. A parameter file the user gives (``--params FILE``, `ParamBook.use_file`): the TOML format
+   the simulator reads (docs/drive.md), read by `pyuss.drive.database`. Its entries stand as
+   written.
+2. The drive's own parameter descriptions (C 6), read live by `pyuss.master.Drive` and handed
+   to `ParamBook.learn`. The drive's type, name, array size, scaling, access and limits win
+   over the profile's file; the unit, texts and default the description does not carry stay
+   from the file while the type agrees. Descriptions are kept per drive in memory (one book per
+   `Drive`) and, if the user wants, in a cache file (`save_cache` / `load_cache`, JSON written
+   atomically), so a later run needs not ask again.
+3. The parameter file shipped with the drive's profile (``pyuss/profiles/data/NAME.toml``).
+
+When the master reads a description is the book's `describe` policy: `Describe.MISSING`
+(default) asks the drive only for parameters no file knows, `Describe.ALWAYS` for every
+parameter before its first use, `Describe.NEVER` never. A drive that refuses a description is
+remembered as such and not asked again.
+"""
+
+from __future__ import annotations
+
+import enum
+import json
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from typing import Any
+
+from pyuss.atomicfile import write_atomically
+from pyuss.drive.database import ParameterDatabase, load_database
+from pyuss.errors import ConfigError
+from pyuss.params.model import DescriptionLike, ParamInfo, Source, from_description, from_parameter
+from pyuss.profiles import Profile
+
+__all__ = ["CACHE_VERSION", "Describe", "ParamBook"]
+
+CACHE_VERSION = 1
+
+
+class Describe(enum.Enum):
+    """When the master asks a drive for a parameter's description (C 6)."""
+
+    NEVER = "never"
+    MISSING = "missing"
+    """Only for parameters neither the user's file nor the profile's knows."""
+    ALWAYS = "always"
+    """Before the first use of every parameter: the drive's own data win."""
+
+
+class ParamBook:
+    """The parameters of one drive; see the module docstring."""
+
+    def __init__(
+        self,
+        shipped: Iterable[ParamInfo] = (),
+        *,
+        index_base: int = 1,
+        profile: str = "",
+        describe: Describe = Describe.MISSING,
+    ) -> None:
+        self.profile = profile
+        """Name of the profile whose file the book started from ('' for none)."""
+        self.index_base = index_base
+        """The first array index of the drive (C 3.2 counts from 1; MICROMASTER 4 from 0)."""
+        self.describe = describe
+        self._shipped: dict[int, ParamInfo] = {p.pnu: p for p in shipped}
+        self._live: dict[int, ParamInfo] = {}
+        self._user: dict[int, ParamInfo] = {}
+        self._refused: set[int] = set()
+        self.user_file: str | None = None
+
+    @classmethod
+    def for_profile(cls, profile: Profile, **options: Any) -> ParamBook:
+        """The book a drive of ``profile`` starts with: the profile's shipped parameter file."""
+        db = profile.database()
+        return cls(
+            (from_parameter(p) for p in db),
+            index_base=db.profile.index_base,
+            profile=profile.name,
+            **options,
+        )
+
+    @classmethod
+    def from_database(cls, db: ParameterDatabase, source: Source = Source.PROFILE) -> ParamBook:
+        """A book of one parameter file's entries."""
+        return cls(
+            (from_parameter(p, source) for p in db),
+            index_base=db.profile.index_base,
+            profile=db.profile.name,
+        )
+
+    # -- sources -----------------------------------------------------------------------------
+    def use_file(self, path: str | Path) -> None:
+        """Take the user's parameter file (highest trust); `ConfigError` if it is bad."""
+        self.use_database(load_database(path))
+        self.user_file = str(path)
+
+    def use_database(self, db: ParameterDatabase) -> None:
+        """Take the entries of a parameter database as the user's (highest trust)."""
+        self._user = {p.pnu: from_parameter(p, Source.USER) for p in db}
+
+    def learn(self, description: DescriptionLike) -> ParamInfo | None:
+        """Take a description the drive sent (C 6); returns the record it gives, or None when
+        the description does not say the data type."""
+        pnu = description.pnu
+        info = from_description(description, self._shipped.get(pnu))
+        if info is None:
+            self._refused.add(pnu)
+            return None
+        self._live[pnu] = info
+        self._refused.discard(pnu)
+        return info
+
+    def no_description(self, pnu: int) -> None:
+        """Note that the drive gives no description of ``pnu`` (not asked again)."""
+        self._refused.add(pnu)
+
+    def needs_description(self, pnu: int) -> bool:
+        """Whether the master should read ``pnu``'s description before using it."""
+        if self.describe is Describe.NEVER or pnu in self._live or pnu in self._refused:
+            return False
+        if pnu in self._user:
+            return False
+        if self.describe is Describe.ALWAYS:
+            return True
+        return pnu not in self._shipped
+
+    # -- looking up --------------------------------------------------------------------------
+    def get(self, pnu: int) -> ParamInfo | None:
+        """What is known of ``pnu`` from the most trusted source that knows it, or None."""
+        return self._user.get(pnu) or self._live.get(pnu) or self._shipped.get(pnu)
+
+    def __getitem__(self, pnu: int) -> ParamInfo:
+        info = self.get(pnu)
+        if info is None:
+            raise KeyError(pnu)
+        return info
+
+    def __contains__(self, pnu: object) -> bool:
+        return isinstance(pnu, int) and self.get(pnu) is not None
+
+    def pnus(self) -> list[int]:
+        """Every known parameter number, in order."""
+        return sorted({*self._user, *self._live, *self._shipped})
+
+    def __iter__(self) -> Iterator[ParamInfo]:
+        for pnu in self.pnus():
+            info = self.get(pnu)
+            assert info is not None
+            yield info
+
+    def __len__(self) -> int:
+        return len(self.pnus())
+
+    def search(self, words: str | Iterable[str] = "") -> list[ParamInfo]:
+        """Parameters whose number or name matches: ``"1120"`` or ``"P1120"`` finds that number
+        (``"11"`` every number starting with 11), other words must all appear in the name, the
+        unit or the documentation (case does not matter). No words: every parameter."""
+        terms = words.split() if isinstance(words, str) else [w for t in words for w in t.split()]
+        found = []
+        for info in self:
+            if all(_matches(info, term) for term in terms):
+                found.append(info)
+        return found
+
+    def indices(self, info: ParamInfo) -> range:
+        """The element indices of an array parameter (empty for a simple one)."""
+        if info.array is None:
+            return range(0)
+        return range(self.index_base, self.index_base + info.array)
+
+    # -- cache file --------------------------------------------------------------------------
+    def cache_data(self) -> dict[str, Any]:
+        """The descriptions learnt from the drive (and the refusals), as JSON-ready data."""
+        return {
+            "parameters": [info.to_dict() for _, info in sorted(self._live.items())],
+            "no_description": sorted(self._refused),
+        }
+
+    def load_cache_data(self, data: Any, where: str = "cache") -> None:
+        """Take descriptions a `cache_data` call returned (`ConfigError` if broken)."""
+        try:
+            live = {}
+            for item in data.get("parameters", []):
+                info = ParamInfo.from_dict({**item, "source": "drive"})
+                live[info.pnu] = info
+            refused = {int(p) for p in data.get("no_description", [])}
+        except (AttributeError, TypeError, ValueError) as exc:
+            raise ConfigError(f"{where}: not a description cache: {exc}") from None
+        self._live.update(live)
+        self._refused.update(refused - set(live))
+
+    def load_cache(self, path: str | Path, key: str) -> None:
+        """Take the descriptions kept for drive ``key`` in the cache file ``path`` (a missing
+        file is an empty cache)."""
+        path = Path(path)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            return
+        except OSError as exc:
+            raise ConfigError(f"{path}: cannot read the cache: {exc.strerror or exc}") from None
+        data = _cache_file(text, path)
+        entry = data["drives"].get(key)
+        if entry is not None:
+            self.load_cache_data(entry, f"{path}: drive {key}")
+
+    def save_cache(self, path: str | Path, key: str) -> None:
+        """Keep this book's descriptions for drive ``key`` in ``path`` (other drives' entries in
+        the file stay), written atomically."""
+        path = Path(path)
+        try:
+            data = _cache_file(path.read_text(encoding="utf-8"), path)
+        except FileNotFoundError:
+            data = {"version": CACHE_VERSION, "drives": {}}
+        except OSError as exc:
+            raise ConfigError(f"{path}: cannot read the cache: {exc.strerror or exc}") from None
+        data["drives"][key] = self.cache_data()
+        write_atomically(
+            path, (json.dumps(data, indent=1) + "\n").encode(), "the description cache"
+        )
+
+
+def _cache_file(text: str, path: Path) -> dict[str, Any]:
+    try:
+        data = json.loads(text)
+    except ValueError as exc:
+        raise ConfigError(f"{path}: not a description cache (JSON): {exc}") from None
+    if (
+        not isinstance(data, dict)
+        or data.get("version") != CACHE_VERSION
+        or not isinstance(data.get("drives"), dict)
+    ):
+        raise ConfigError(f"{path}: not a pyuss description cache (version {CACHE_VERSION})")
+    return data
+
+
+def _matches(info: ParamInfo, term: str) -> bool:
+    low = term.casefold()
+    digits = low[1:] if low[:1] in ("p", "r") and low[1:].isdigit() else low
+    if digits.isdigit():
+        return str(info.pnu).startswith(digits)
+    haystack = f"{info.name} {info.unit} {info.doc}".casefold()
+    return low in haystack

@@ -1,0 +1,32 @@
+"""The web commissioning page: ``uss web`` (see docs/web.md).
+
+- `pyuss.web.backend`: the one module that talks to the drives (the master, the monitor).
+- `pyuss.web.server`: the HTTP and WebSocket server (aiohttp) and its security rules.
+- `pyuss.web.hub`: live updates with a bounded queue per client.
+- `pyuss.web.tap`: the master's own traffic for the monitor view.
+- ``static/``: the page (plain JavaScript modules) and the uPlot plotting library.
+
+The server needs the ``web`` extra: ``pip install 'pyuss[web]'``.
+"""
+
+from __future__ import annotations
+
+from pyuss.errors import UssError
+
+__all__ = ["EXTRA_HINT", "MissingExtra", "require"]
+
+EXTRA_HINT = "pip install 'pyuss[web]'"
+
+
+class MissingExtra(UssError, ImportError):
+    """A package of the ``web`` extra is not installed."""
+
+
+def require() -> None:
+    """Raise `MissingExtra` naming the command to run when aiohttp is missing."""
+    try:
+        import aiohttp  # noqa: F401
+    except ImportError:
+        raise MissingExtra(
+            f"the web page needs aiohttp, which is not installed: {EXTRA_HINT}"
+        ) from None

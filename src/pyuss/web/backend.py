@@ -1,0 +1,914 @@
+"""The page's one door to the drives: everything `pyuss.web` reads from or sends to a drive
+goes through `Backend`, and nothing else in the package touches the master.
+
+A `Backend` owns one `pyuss.master.Master` in cyclic operation on the port given (or, for
+``uss web --demo``, on a virtual bus with simulated drives of `pyuss.master.testing`), the
+drive handles, a bounded buffer of process-data samples per drive for the live view and the
+trend, and a `pyuss.monitor.Monitor` that decodes the telegrams on the line: the master's own
+traffic seen through `pyuss.web.tap.TapTransport`, or, in the demo, a listen-only station of
+the virtual bus.
+
+Parameter knowledge (names, units, types, limits, value texts) is each drive's parameter book
+(`pyuss.params.ParamBook`, ``Drive.params``); values are read, parsed, checked, written and
+shown through `pyuss.params`. Backups, comparisons and restores are those of ``uss backup``,
+``uss diff`` and ``uss restore`` (`pyuss.commission`): one file format, one comparison.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import math
+import tempfile
+import time
+from collections import deque
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from pyuss.commission import backup as backups
+from pyuss.commission.compare import Write, another_drive, compare, plan, restore
+from pyuss.commission.status import reference_value
+from pyuss.drive.database import ParameterDatabase
+from pyuss.drive.datatypes import Value
+from pyuss.errors import ConfigError, UssError
+from pyuss.master import Drive, DriveStatus, Master
+from pyuss.master.scan import Found, scan
+from pyuss.monitor.core import Monitor, default_gap
+from pyuss.monitor.infer import LayoutBook
+from pyuss.monitor.model import Exchange
+from pyuss.monitor.render import exchange_line
+from pyuss.params import ParamInfo, ValueRefused, decode, format_value, parse
+from pyuss.params.model import Reading, param_label
+from pyuss.params.values import physical
+from pyuss.profiles import get_profile, profile_names
+from pyuss.protocol.layout import PKW_VARIABLE, Layout
+from pyuss.protocol.pzd import STATUS_BITS, raw16_to_percent
+from pyuss.protocol.telegram import MAX_ADDRESS
+from pyuss.transport.base import Chunk, Transport, stamp_tolerance
+from pyuss.web.tap import TapTransport
+
+__all__ = [
+    "DEMO_BAUD",
+    "DEMO_DRIVES",
+    "Backend",
+    "DriveSpec",
+    "Sample",
+]
+
+DEMO_BAUD = 38400
+SAMPLE_BUFFER = 2000
+"""Process-data samples kept per drive between two takes (older ones are dropped)."""
+EXCHANGE_BUFFER = 5000
+"""Decoded telegrams kept for the monitor view and its pcapng download."""
+
+Progress = Callable[[int, int, str], object]
+"""``progress(done, total, label)`` of a backup, compare or restore."""
+
+
+@dataclass(frozen=True, slots=True)
+class DriveSpec:
+    """A drive the page works with: its address, profile and telegram layout."""
+
+    address: int
+    profile: str = "generic"
+    layout: Layout | None = None
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.address <= MAX_ADDRESS:
+            raise ConfigError(f"address {self.address} is not 0..{MAX_ADDRESS}")
+        if self.profile not in profile_names():
+            raise ConfigError(
+                f"profile {self.profile!r} is not one of {', '.join(profile_names())}"
+            )
+
+
+DEMO_DRIVES: tuple[DriveSpec, ...] = (
+    DriveSpec(1, "generic", Layout(PKW_VARIABLE, 2)),
+    DriveSpec(4, "baumueller", Layout(3, 2)),
+    DriveSpec(7, "micromaster4", Layout(PKW_VARIABLE, 2)),
+)
+"""The simulated drives of ``uss web --demo`` (the same bus as ``uss demo``)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Sample:
+    """The process data of one answer: wall-clock time (Unix seconds), status, actual values."""
+
+    time: float
+    status: int
+    actual: tuple[int, ...]
+
+
+@dataclass(slots=True)
+class _Unit:
+    """How PZD2 (the main actual value, 4000h = 100 %) reads in physical units."""
+
+    reference: float
+    unit: str
+
+
+@dataclass(slots=True)
+class _DriveState:
+    spec: DriveSpec
+    drive: Drive
+    database: ParameterDatabase
+    samples: deque[Sample] = field(default_factory=lambda: deque(maxlen=SAMPLE_BUFFER))
+    reference: _Unit | None = None
+
+
+class Backend:
+    """The drives of one line for the page (see the module text).
+
+    ``port``: a URL for `pyuss.transport.open_transport`, or None with ``demo=True``.
+    ``drives``: the drives to work with (the demo's own when empty in the demo).
+    """
+
+    def __init__(
+        self,
+        *,
+        port: str | None = None,
+        baud: int = 9600,
+        drives: Sequence[DriveSpec] = (),
+        demo: bool = False,
+        job_timeout: float = 2.0,
+        transport: Transport | None = None,
+    ) -> None:
+        if demo == (port is not None or transport is not None):
+            raise ConfigError("give a port, or ask for the demo (simulated drives), not both")
+        self.port = "demo (virtual bus, simulated drives)" if demo else (port or "transport")
+        self.demo = demo
+        self.baud = DEMO_BAUD if demo else baud
+        self.job_timeout = job_timeout
+        self._specs: list[DriveSpec] = list(drives or (DEMO_DRIVES if demo else ()))
+        self._transport = transport
+        self._url = port
+        self._drives: dict[int, _DriveState] = {}
+        self._master: Master | None = None
+        self._stack = contextlib.AsyncExitStack()
+        self._bus: Any = None
+        self.engines: dict[int, Any] = {}
+        """The simulated drives' engines (demo only), by address."""
+        self._monitor: Monitor | None = None
+        self._monitor_task: asyncio.Task[None] | None = None
+        self._stop = asyncio.Event()
+        self._epoch = 0.0
+        self.exchanges: deque[tuple[int, Exchange]] = deque(maxlen=EXCHANGE_BUFFER)
+        self._exchange_seq = 0
+        self.scan_progress: tuple[int, int] | None = None
+        self._lock = asyncio.Lock()
+
+    # -- life cycle ---------------------------------------------------------------------------
+    async def start(self) -> None:
+        try:
+            await self._open()
+        except BaseException:
+            await self.close()
+            raise
+
+    async def _open(self) -> None:
+        if self.demo:
+            import logging
+
+            from pyuss.bus import VirtualBus
+            from pyuss.master.testing import simulated_drives
+
+            # The simulated drives share the event loop with the page; a busy moment makes
+            # them complain about their own answer times, which is not the point here.
+            logging.getLogger("pyuss.slave").setLevel(logging.ERROR)
+            self._bus = VirtualBus(DEMO_BAUD)
+            self._stack.push_async_callback(self._bus.close)
+            self.engines = await self._stack.enter_async_context(
+                simulated_drives(self._bus, [(s.address, s.profile, s.layout) for s in DEMO_DRIVES])
+            )
+        await self._start_master()
+
+    def _new_transport(self, tap: bool) -> Transport:
+        if self.demo:
+            station: Transport = self._bus.attach("master")
+            return station
+        if self._transport is not None:
+            inner = self._transport
+        else:
+            from pyuss.transport.url import open_transport
+
+            assert self._url is not None
+            inner = open_transport(self._url, baud=self.baud)
+        return TapTransport(inner, self._feed) if tap else inner
+
+    async def _start_master(self) -> None:
+        self._stop = asyncio.Event()
+        layouts = {s.address: s.layout for s in self._specs if s.layout is not None}
+        if self.demo:
+            self._monitor = Monitor(
+                self.baud,
+                layouts=LayoutBook(per_address=layouts),
+                gap=default_gap(self.baud),
+            )
+            listener = self._bus.attach("page-monitor", listen_only=True)
+            await listener.open()
+            self._monitor_task = asyncio.create_task(self._watch(listener))
+            transport = self._new_transport(tap=False)
+            options: dict[str, Any] = {}
+        else:
+            inner = self._new_transport(tap=False)
+            exact = inner.exact_timestamps
+            self._monitor = Monitor(
+                self.baud,
+                four_wire=True,
+                layouts=LayoutBook(per_address=layouts),
+                gap=default_gap(self.baud),
+                tolerance=stamp_tolerance(inner),
+            )
+            transport = TapTransport(inner, self._feed)
+            options = {"rx_tolerance": 0.0} if exact else {}
+            self._monitor_task = asyncio.create_task(self._tick_monitor(transport))
+        self._epoch = time.time() - transport.clock()
+        master = Master(
+            transport,
+            job_timeout=self.job_timeout,
+            close_transport=not (self._transport is not None and not self.demo),
+            **options,
+        )
+        self._drives = {}
+        for spec in self._specs:
+            drive = master.drive(spec.address, layout=spec.layout, profile=spec.profile)
+            state = _DriveState(spec, drive, drive.profile.database())
+            drive.on_update(self._sampler(state))
+            self._drives[spec.address] = state
+        await master.start()
+        self._master = master
+        for state in self._drives.values():
+            await self._read_reference(state)
+
+    async def _stop_master(self) -> None:
+        self._stop.set()
+        if self._master is not None:
+            await self._master.close()
+            self._master = None
+        if self._monitor_task is not None:
+            self._monitor_task.cancel()
+            with contextlib.suppress(asyncio.CancelledError, UssError):
+                await self._monitor_task
+            self._monitor_task = None
+        if self.demo and self._bus is not None:
+            for name in ("master", "page-monitor"):
+                with contextlib.suppress(KeyError, UssError):
+                    self._bus.detach(name)
+
+    async def close(self) -> None:
+        await self._stop_master()
+        await self._stack.aclose()
+
+    @property
+    def master(self) -> Master:
+        if self._master is None:
+            raise ConfigError("the line is busy (a scan is running)")
+        return self._master
+
+    # -- process data -------------------------------------------------------------------------
+    def _sampler(self, state: _DriveState) -> Callable[[DriveStatus], None]:
+        samples = state.samples
+
+        def take(status: DriveStatus) -> None:
+            samples.append(Sample(time.time(), status.word, status.actual))
+
+        return take
+
+    def take_samples(self) -> dict[int, list[Sample]]:
+        """The samples of every drive since the last call (at most `SAMPLE_BUFFER` each)."""
+        out = {}
+        for address, state in self._drives.items():
+            if state.samples:
+                out[address] = list(state.samples)
+                state.samples.clear()
+        return out
+
+    async def _read_reference(self, state: _DriveState) -> None:
+        """Read the drive's reference value (100 % of PZD2) once, for actual values in units."""
+        try:
+            found = await reference_value(state.drive)
+        except UssError:
+            return
+        if found is not None:
+            state.reference = _Unit(*found)
+
+    def _process_info(self, state: _DriveState, number: int) -> ParamInfo | None:
+        """The parameter the profile maps to actual value PZD``number`` (3 and up)."""
+        pnus = state.database.process_actuals
+        pnu = pnus[number - 3] if 0 <= number - 3 < len(pnus) else 0
+        return state.drive.params.get(pnu) if pnu else None
+
+    def _state(self, address: int) -> _DriveState:
+        try:
+            return self._drives[address]
+        except KeyError:
+            raise ConfigError(f"drive {address} is not on the page") from None
+
+    def addresses(self) -> list[int]:
+        return sorted(self._drives)
+
+    def drive_info(self, address: int) -> dict[str, Any]:
+        """What does not change: profile, layout, the status bits' meanings, the actual
+        values' names and units."""
+        state = self._state(address)
+        profile = get_profile(state.spec.profile)
+        drive = state.drive
+        actuals = []
+        for number in range(2, drive.layout.pzd + 1):
+            if number == 2:
+                unit = state.reference.unit if state.reference else "%"
+                actuals.append({"pzd": 2, "name": "Main actual value", "unit": unit})
+                continue
+            info = self._process_info(state, number)
+            if info is not None:
+                actuals.append({"pzd": number, "name": info.name, "unit": info.unit})
+            else:
+                actuals.append({"pzd": number, "name": f"PZD{number}", "unit": ""})
+        return {
+            "address": address,
+            "profile": profile.name,
+            "title": profile.title,
+            "layout": str(drive.layout),
+            "pzd": drive.layout.pzd,
+            "reference": (
+                {"value": state.reference.reference, "unit": state.reference.unit}
+                if state.reference
+                else None
+            ),
+            "actuals": actuals,
+            "status_bits": [
+                {"bit": bit, "set": texts[0], "clear": texts[1]}
+                for bit, texts in sorted(STATUS_BITS.items())
+            ],
+        }
+
+    def actual_values(self, address: int, actual: Sequence[int]) -> list[float]:
+        """The actual values in the units `drive_info` names (PZD2 in % or the reference's
+        unit, PZD3... scaled by their parameters)."""
+        state = self._state(address)
+        out: list[float] = []
+        for number, raw in enumerate(actual, start=2):
+            if number == 2:
+                percent = raw16_to_percent(raw)
+                out.append(
+                    percent * state.reference.reference / 100 if state.reference else percent
+                )
+                continue
+            info = self._process_info(state, number)
+            value: Value = raw
+            if info is not None and info.words == 1:
+                with contextlib.suppress(UssError):
+                    value = decode(info, (raw,))
+            out.append(float(value) if isinstance(value, int | float) else float(raw))
+        return out
+
+    def setpoint_value(self, address: int) -> float | None:
+        """The main setpoint sent (PZD2) in the unit of the main actual value."""
+        state = self._state(address)
+        setpoints = state.drive.setpoints
+        if not setpoints:
+            return None
+        percent = raw16_to_percent(setpoints[0])
+        return percent * state.reference.reference / 100 if state.reference else percent
+
+    def summary(self, address: int) -> dict[str, Any]:
+        """State, fault, communication health of one drive (A 5.2.3 counters included)."""
+        state = self._state(address)
+        drive = state.drive
+        status = drive.status
+        diagnostics = drive.diagnostics()
+        counters = diagnostics.counters
+        out: dict[str, Any] = {
+            "address": address,
+            "profile": state.spec.profile,
+            "layout": str(drive.layout),
+            "not_sending": drive.not_sending,
+            "control": drive.control,
+            "setpoints": list(drive.setpoints),
+            "status": None if status is None else status.word,
+            "state": "no answer yet" if status is None else status.state,
+            "fault": bool(status and status.fault),
+            "warning": bool(status and status.warning),
+            "actual": [] if status is None else self.actual_values(address, status.actual),
+            "actual_unit": state.reference.unit if state.reference else "%",
+            "health": {
+                "exchanges": diagnostics.exchanges,
+                "answers": diagnostics.answers,
+                "timeouts": diagnostics.timeouts,
+                "late": diagnostics.late,
+                "response_ms": round(diagnostics.response_time.median * 1000, 3),
+                "jobs": diagnostics.jobs.completed,
+                "refused": diagnostics.jobs.refused,
+                "counters": {
+                    "good": counters.good,
+                    "discarded": counters.discarded,
+                    "good_per_minute": counters.good_per_minute,
+                    "discarded_per_minute": counters.discarded_per_minute,
+                    "framing": counters.framing,
+                    "overrun": counters.overrun,
+                    "parity": counters.parity,
+                    "no_stx": counters.no_stx,
+                    "residual_time": counters.residual_time,
+                    "bcc": counters.bcc,
+                    "bad_lge": counters.bad_lge,
+                    "timeout": counters.timeout,
+                    "error_status": int(counters.error_status),
+                },
+            },
+        }
+        return out
+
+    def bus(self) -> dict[str, Any]:
+        """The line: port, baud rate, the drives and the line's own counters."""
+        line: dict[str, Any] = {}
+        cycle_ms = 0.0
+        if self._master is not None:
+            diag = self._master.diagnostics()
+            line = {
+                "good": diag.line.good,
+                "discarded": diag.line.discarded,
+                "stray": diag.stray,
+                "cycles": diag.cycles.cycles,
+            }
+            cycle_ms = round(diag.cycles.achieved.mean * 1000, 2)
+        return {
+            "port": self.port,
+            "baud": self.baud,
+            "demo": self.demo,
+            "cycle_ms": cycle_ms,
+            "line": line,
+            "scanning": self.scan_progress is not None,
+            "drives": [self.summary(a) for a in self.addresses()] if self._master else [],
+        }
+
+    # -- commands -----------------------------------------------------------------------------
+    COMMANDS = ("on", "off1", "off2", "off3", "acknowledge", "jog1", "jog2", "jog_off", "setpoint")
+    MOVES = frozenset({"on", "jog1", "jog2", "setpoint"})
+    """Commands that can set a motor turning: the page asks before it sends them."""
+
+    async def command(self, address: int, name: str, value: Any = None) -> dict[str, Any]:
+        """Send control command ``name`` (see `COMMANDS`); ``setpoint`` takes ``value`` in
+        percent or, as ``{"value": v, "unit": u}``, in the reference's unit."""
+        drive = self._state(address).drive
+        timeout = self.job_timeout
+        if name == "on":
+            status = await drive.on(timeout=timeout)
+        elif name == "off1":
+            status = await drive.off1(timeout=timeout)
+        elif name == "off2":
+            status = await drive.off2(timeout=timeout)
+        elif name == "off3":
+            status = await drive.off3(timeout=timeout)
+        elif name == "acknowledge":
+            status = await drive.acknowledge(timeout=timeout)
+        elif name in ("jog1", "jog2"):
+            status = await drive.jog(int(name[-1]), timeout=timeout)
+        elif name == "jog_off":
+            status = await drive.jog(None, timeout=timeout)
+        elif name == "setpoint":
+            percent = self.setpoint_percent(address, value)
+            status = await drive.setpoint(percent, timeout=timeout)
+        else:
+            raise ConfigError(f"unknown command {name!r}: one of {', '.join(self.COMMANDS)}")
+        return {"status": status.word, "state": status.state}
+
+    def setpoint_percent(self, address: int, value: Any) -> float:
+        """A setpoint the page sends, in percent of the reference (4000h = 100 %, C 5.2.2)."""
+        state = self._state(address)
+        unit = "%"
+        if isinstance(value, dict):
+            unit = str(value.get("unit", "%"))
+            value = value.get("value")
+        if isinstance(value, str):
+            try:
+                value = float(value.strip())
+            except ValueError:
+                raise ConfigError(f"setpoint {value!r} is not a number") from None
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not math.isfinite(value)
+        ):
+            raise ConfigError(f"setpoint {value!r} is not a number")
+        if unit != "%":
+            if state.reference is None or unit != state.reference.unit:
+                raise ConfigError(f"setpoint unit {unit!r}: this drive takes % only")
+            value = value / state.reference.reference * 100
+        if not -200.0 <= value < 200.0:
+            raise ConfigError(f"setpoint {value:g} % is outside -200..200 % (C 5.2.2)")
+        return float(value)
+
+    # -- parameters ---------------------------------------------------------------------------
+    def parameters(self, address: int) -> list[dict[str, Any]]:
+        """The expert list: every parameter (every element of an array) the drive's parameter
+        book knows (`pyuss.params.ParamBook`: the user's file, the drive's descriptions, the
+        profile's file), with its name, unit, type, limits and texts; values come from `read`."""
+        book = self._state(address).drive.params
+        rows = []
+        for info in book:
+            indexes: list[int | None] = [None] if info.array is None else list(book.indices(info))
+            for index in indexes:
+                rows.append(_row(info, index))
+        return rows
+
+    async def read(
+        self, address: int, refs: Sequence[tuple[int, int | None]]
+    ) -> list[dict[str, Any]]:
+        """Read parameters, typed by the drive's book; each result has ``value`` (the value as
+        printed: ``10.00 s``, ``1 [READY]``) and ``input`` (as a user types it), or
+        ``error``."""
+        drive = self._state(address).drive
+        out: list[dict[str, Any]] = []
+        for pnu, index in refs:
+            item: dict[str, Any] = {"id": _id(pnu, index)}
+            try:
+                reading = await drive.read_param(pnu, index, timeout=self.job_timeout)
+            except UssError as exc:
+                item["error"] = _words(exc)
+            else:
+                item.update(_shown(reading))
+            out.append(item)
+        return out
+
+    async def write(
+        self, address: int, pnu: int, index: int | None, text: str, *, eeprom: bool = False
+    ) -> dict[str, Any]:
+        """Write a value as the user typed it (``2.5``, ``2.5 s``, ``0x7000``, a value text):
+        parsed and checked against the parameter's type and limits before anything is sent
+        (`pyuss.params.parse`, refusals as `ValueRefused`); the drive's refusal raises
+        `DriveRefusal`. Returns the value the drive answered with, as `read` does."""
+        state = self._state(address)
+        drive = state.drive
+        info = await drive.info(pnu, timeout=self.job_timeout)
+        if info is None:
+            raise ConfigError(
+                f"{param_label(pnu, index)}: nothing is known of it (no parameter file has "
+                "it, the drive gives no description), so its value cannot be checked: write "
+                "its words with uss write --raw"
+            )
+        if info.read_only:
+            raise ValueRefused(f"{param_label(pnu, index)} ({info.name}) is read-only")
+        value = parse(info, text, index)
+        reading = await drive.write_param(
+            pnu, value, index, eeprom=eeprom, timeout=self.job_timeout
+        )
+        ref = state.database.roles.get("reference")
+        if ref is not None and ref.pnu == pnu:
+            await self._read_reference(state)
+        return {"id": _id(pnu, index), **_shown(reading)}
+
+    # -- backup, compare, restore -------------------------------------------------------------
+    async def backup(
+        self, address: int, fmt: str = "toml", progress: Progress | None = None
+    ) -> tuple[str, str]:
+        """A backup of the drive's parameter set (`pyuss.commission.take`) as the text of a
+        backup file (TOML, JSON or the CSV export, `pyuss.commission.backup.dumps`) and the
+        file's name: ``drive1-generic-20250314-092653.toml``."""
+        drive = self._state(address).drive
+        if fmt not in backups.FORMATS:
+            raise ConfigError(f"backup format {fmt!r}: one of {', '.join(backups.FORMATS)}")
+        taken = await backups.take(drive, port=self.port, progress=progress)
+        text = backups.dumps(taken, fmt)
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        return f"drive{address}-{drive.profile.name}-{stamp}.{fmt}", text
+
+    async def _wanted_and_now(
+        self, address: int, data: bytes, name: str, progress: Progress | None
+    ) -> tuple[Drive, backups.Backup, backups.Backup]:
+        drive = self._state(address).drive
+        try:
+            text = data.decode("utf-8")
+        except UnicodeDecodeError:
+            raise ConfigError(f"{name}: not a text file (a backup is TOML or JSON)") from None
+        wanted = backups.loads(text, name)
+        wanted_refs = [(e.pnu, e.index) for e in wanted.entries]
+        entries = await backups.read_parameters(drive, wanted_refs, progress=progress)
+        now = backups.Backup(address, drive.profile.name, entries, source=f"drive {address}")
+        return drive, wanted, now
+
+    async def _stranger(self, wanted: backups.Backup, drive: Drive) -> str | None:
+        if wanted.profile != drive.profile.name:
+            return (
+                f"{wanted.source} is a backup of a {wanted.profile} drive, drive "
+                f"{drive.address} is {drive.profile.name}"
+            )
+        return await another_drive(wanted, drive)
+
+    async def compare(
+        self, address: int, data: bytes, name: str, progress: Progress | None = None
+    ) -> dict[str, Any]:
+        """The drive compared with an uploaded backup file (`pyuss.commission.compare`): what
+        differs, with names and units, what a restore would write and leave out, and why the
+        file may be another drive's (``stranger``) or cannot be restored (``refused``)."""
+        drive, wanted, now = await self._wanted_and_now(address, data, name, progress)
+        book = drive.params
+        differences = []
+        for diff in compare(now, wanted):
+            info = book.get(diff.pnu)
+            differences.append(
+                {
+                    "id": _id(diff.pnu, diff.index),
+                    "label": diff.label,
+                    "name": diff.name,
+                    "drive": None if diff.left is None else diff.left.text(info),
+                    "file": None if diff.right is None else diff.right.text(info),
+                }
+            )
+        reply: dict[str, Any] = {
+            "file": name,
+            "address": wanted.address,
+            "profile": wanted.profile,
+            "date": wanted.date,
+            "differences": differences,
+            "writes": [],
+            "skipped": [],
+            "stranger": await self._stranger(wanted, drive),
+            "refused": None,
+        }
+        try:
+            writes, skips = plan(wanted, now, book, drive.profile)
+        except ConfigError as exc:
+            reply["refused"] = str(exc)
+        else:
+            reply["writes"] = [_write_dict(w) for w in writes]
+            reply["skipped"] = [
+                {"label": s.entry.label, "name": s.entry.name, "reason": s.reason} for s in skips
+            ]
+        return reply
+
+    async def restore(
+        self,
+        address: int,
+        data: bytes,
+        name: str,
+        *,
+        force: bool = False,
+        eeprom: bool = False,
+        progress: Progress | None = None,
+    ) -> dict[str, Any]:
+        """Write an uploaded backup file back (`pyuss.commission.plan` and ``restore``): only
+        the writable parameters that differ, in the profile's order, each value checked first
+        (a value the parameter cannot take refuses the whole file before anything is
+        written). A file of another profile or drive needs ``force``. Each refusal of the
+        drive comes back with its number and meaning; the others are still written."""
+        drive, wanted, now = await self._wanted_and_now(address, data, name, progress)
+        stranger = await self._stranger(wanted, drive)
+        if stranger is not None and not force:
+            raise ConfigError(stranger)
+        writes, skips = plan(wanted, now, drive.params, drive.profile)
+        outcomes = await restore(drive, writes, eeprom=eeprom, progress=progress)
+        state = self._state(address)
+        ref = state.database.roles.get("reference")
+        if ref is not None and any(o.ok and o.write.pnu == ref.pnu for o in outcomes):
+            await self._read_reference(state)
+        failed = [o for o in outcomes if not o.ok]
+        stored = " and stored in EEPROM" if eeprom else ""
+        message = (
+            f"drive {address}: {len(outcomes) - len(failed)} of {len(outcomes)} written"
+            f"{stored}" + (f", {len(failed)} refused" if failed else "")
+        )
+        if not writes:
+            message = f"drive {address} already holds {name}: nothing to write"
+        return {
+            "message": message,
+            "written": len(outcomes) - len(failed),
+            "refused": len(failed),
+            "results": [
+                {
+                    **_write_dict(o.write),
+                    "ok": o.ok,
+                    "answer": o.answer,
+                    "error": o.error_text() or None,
+                }
+                for o in outcomes
+            ],
+            "skipped": [
+                {"label": s.entry.label, "name": s.entry.name, "reason": s.reason} for s in skips
+            ],
+        }
+
+    # -- scan ---------------------------------------------------------------------------------
+    async def scan(
+        self,
+        addresses: Sequence[int],
+        bauds: Sequence[int] | None = None,
+        *,
+        profile: str = "generic",
+        progress: Callable[[int, int], None] | None = None,
+    ) -> list[dict[str, Any]]:
+        """Stop the cyclic traffic, probe ``addresses`` (`pyuss.master.scan`), and go on with
+        the drives found (or those of before when none answered)."""
+        for address in addresses:
+            if not 0 <= address <= MAX_ADDRESS:
+                raise ConfigError(f"address {address} is not 0..{MAX_ADDRESS}")
+        if self.demo or self._transport is not None:
+            bauds = [self.baud]
+        bauds = list(bauds or [self.baud])
+        if self._lock.locked():
+            raise ConfigError("a scan is running already")
+        async with self._lock:
+            self.scan_progress = (0, 1)
+
+            def tick(done: int, total: int) -> None:
+                self.scan_progress = (done, total)
+                if progress is not None:
+                    progress(done, total)
+
+            await self._stop_master()
+            found: list[Found] = []
+            try:
+                found = await scan(
+                    lambda baud: self._scan_transport(baud),
+                    bauds,
+                    addresses,
+                    profile=profile,
+                    progress=tick,
+                )
+            finally:
+                if found:
+                    self.baud = found[0].baud
+                    old = {s.address: s for s in self._specs}
+                    self._specs = [
+                        DriveSpec(
+                            f.address,
+                            old[f.address].profile if f.address in old else profile,
+                            f.layout,
+                        )
+                        for f in found
+                        if f.baud == self.baud
+                    ]
+                self.scan_progress = None
+                await self._start_master()
+        return [f.to_dict() for f in found]
+
+    def _scan_transport(self, baud: int) -> Transport:
+        if self.demo:
+            station: Transport = self._bus.attach("scanner")
+            return station
+        if self._transport is not None:
+            return self._transport
+        from pyuss.transport.url import open_transport
+
+        assert self._url is not None
+        return open_transport(self._url, baud=baud)
+
+    # -- monitor ------------------------------------------------------------------------------
+    def _publish(self, exchanges: list[Exchange]) -> None:
+        for exchange in exchanges:
+            self._exchange_seq += 1
+            self.exchanges.append((self._exchange_seq, exchange))
+
+    def exchange_dict(self, seq: int, exchange: Exchange) -> dict[str, Any]:
+        """One decoded telegram for the page: when, address, kind, problems, the line of
+        `uss monitor`."""
+        return {
+            "seq": seq,
+            "time": exchange.time + self._epoch,
+            "address": exchange.address,
+            "kind": exchange.kind,
+            "problems": [p.value for p in exchange.problems],
+            "line": exchange_line(exchange, origin=self._epoch, absolute=True),
+        }
+
+    @property
+    def last_exchange(self) -> int:
+        """The number of the newest decoded telegram (they are numbered from 1)."""
+        return self._exchange_seq
+
+    def exchanges_since(self, seq: int, limit: int) -> tuple[list[dict[str, Any]], int]:
+        """Decoded telegrams numbered above ``seq``, the newest ``limit`` of them, and how
+        many newer than ``seq`` were left out."""
+        newer = [(n, ex) for n, ex in self.exchanges if n > seq]
+        left_out = max(self._exchange_seq - seq - len(newer), 0) + max(len(newer) - limit, 0)
+        return [self.exchange_dict(n, ex) for n, ex in newer[-limit:]], left_out
+
+    def _feed(self, port: int, chunk: Chunk) -> None:
+        if self._monitor is None:
+            return
+        out = self._monitor.feed(chunk.data, chunk.timestamp, chunk.errors, port=port)
+        if out:
+            self._publish(out)
+
+    async def _tick_monitor(self, transport: Transport) -> None:
+        """Tell the monitor of the tapped line that time passes (for missing answers)."""
+        from pyuss.monitor.live import LAG, TICK
+
+        while not self._stop.is_set():
+            await asyncio.sleep(TICK)
+            if self._monitor is not None:
+                now = transport.clock() - LAG
+                out = self._monitor.advance(now, port=0) + self._monitor.advance(now, port=1)
+                if out:
+                    self._publish(out)
+
+    async def _watch(self, listener: Transport) -> None:
+        from pyuss.monitor.live import watch
+
+        assert self._monitor is not None
+        try:
+            await watch(self._monitor, [listener], self._publish, self._stop)
+        finally:
+            await listener.close()
+
+    def pcapng(self) -> bytes:
+        """The telegrams the monitor view holds, as a pcapng capture (Wireshark)."""
+        from pyuss.monitor.capture import open_writer, write_all
+
+        assert self._monitor is not None
+        with tempfile.TemporaryDirectory(prefix="pyuss-web-") as folder:
+            path = Path(folder) / "line.pcapng"
+            writer = open_writer(
+                path,
+                baud=self.baud,
+                four_wire=self._monitor.four_wire,
+                epoch=self._epoch,
+                gap=self._monitor.gap,
+            )
+            write_all(writer, (ex for _, ex in list(self.exchanges)))
+            return path.read_bytes()
+
+
+def _words(exc: UssError) -> str:
+    """An error in words for the page."""
+    return str(exc)
+
+
+def _id(pnu: int, index: int | None) -> str:
+    """How the page names a parameter: ``462``, ``947.3``."""
+    return f"{pnu}" if index is None else f"{pnu}.{index}"
+
+
+def _shown_raw(info: ParamInfo, raw: int | float) -> str:
+    return format_value(info, physical(info, raw), unit=False, texts=False)
+
+
+def _limits(info: ParamInfo) -> tuple[str | None, str | None]:
+    """The lowest and highest value a write may set, as shown, where the parameter file or the
+    drive's description gives limits (a side it leaves open is the bound of an integer type);
+    none for a parameter without (not the bare range of its data type)."""
+    if not info.is_numeric or info.is_bit_field:
+        return None, None
+    if info.minimum is None and info.maximum is None and not info.allowed:
+        return None, None
+    out: list[str | None] = []
+    for raw, given in ((info.low, info.minimum), (info.high, info.maximum)):
+        if raw is None or (given is None and not info.allowed and not info.dtype.is_integer):
+            out.append(None)
+        else:
+            out.append(_shown_raw(info, raw))
+    return out[0], out[1]
+
+
+def _row(info: ParamInfo, index: int | None) -> dict[str, Any]:
+    """One row of the expert list."""
+    low, high = _limits(info)
+    numeric = info.is_numeric and not info.is_bit_field
+    allowed = [_shown_raw(info, a) for a in info.allowed or ()] if numeric else []
+    return {
+        "id": _id(info.pnu, index),
+        "pnu": info.pnu,
+        "index": index,
+        "name": info.name,
+        "unit": info.unit,
+        "type": info.type_name,
+        "writable": info.writable and not info.is_bit_field,
+        "access": info.access.value,
+        "min": low,
+        "max": high,
+        "allowed": allowed or None,
+        "texts": {str(k): v.strip() for k, v in info.texts.items()},
+        "level": info.level,
+        "changeable": info.changeable,
+        "source": info.source.value,
+        "doc": info.doc,
+    }
+
+
+def _input(info: ParamInfo | None, value: Value | list[Value]) -> str | None:
+    """A value as a user types it to write it again (None: not editable on the page)."""
+    if info is None or info.is_bit_field or isinstance(value, list):
+        return None
+    if isinstance(value, bytes):
+        return value.hex(" ").upper()
+    if isinstance(value, str):
+        return value.rstrip()
+    return format_value(info, value, unit=False, texts=False)
+
+
+def _shown(reading: Reading) -> dict[str, Any]:
+    """``value`` as printed (``10.00 s``, ``1 [READY]``) and ``input`` (see `_input`)."""
+    return {
+        "value": format_value(reading.info, reading.value),
+        "input": _input(reading.info, reading.value),
+    }
+
+
+def _write_dict(write: Write) -> dict[str, Any]:
+    return {
+        "id": _id(write.pnu, write.index),
+        "label": write.label,
+        "name": write.info.name if write.info is not None else "",
+        "change": write.text(),
+    }

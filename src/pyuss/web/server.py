@@ -1,0 +1,482 @@
+"""The page's HTTP and WebSocket server (aiohttp).
+
+Routes (all under the token when there is one):
+
+- ``GET /``: the page; ``/static/...``: its scripts, styles and the plotting library.
+- ``GET /api/config``, ``/api/bus``, ``/api/drive/N``, ``/api/drive/N/params``: what the page
+  shows; ``POST /api/drive/N/params/read``: parameter values.
+- ``GET /api/drive/N/backup?format=toml|json|csv``: a backup file of the drive's parameters
+  (`pyuss.commission`, the files of ``uss backup``); ``POST /api/drive/N/compare?name=FILE``
+  with a backup file as the body: the differences, what a restore would write.
+- ``POST /api/drive/N/command``, ``/api/drive/N/params/write``, ``/api/scan``,
+  ``/api/drive/N/restore?name=FILE[&force=1][&eeprom=1]``: changes (refused with
+  ``--read-only``).
+- ``GET /api/monitor.pcapng``: the telegrams of the monitor view as a capture.
+- ``GET /ws``: live updates (`pyuss.web.hub`): ``tick`` messages with every drive's new
+  process-data samples 20 times a second, ``bus`` messages with state and communication
+  health twice a second, ``telegrams`` for clients showing the monitor, ``scan`` progress,
+  ``progress`` of a backup, compare or restore.
+
+Security (docs/web.md): bound to 127.0.0.1 unless told otherwise. Bound elsewhere, a token is
+required (`WebServer` refuses to start without one) and every request must carry it: in the
+``token`` query parameter of the first request (the page then keeps it in a cookie), the
+``X-Pyuss-Token`` header or that cookie. On a loopback address the ``Host`` header must name
+a loopback host (a web site cannot reach the page through a DNS name of its own). Requests
+that change something must carry the ``X-Pyuss`` header (a web site's form cannot add it) and
+no ``Origin`` of another site; a WebSocket from another origin is refused. ``read_only``
+refuses every change and the page hides its controls.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import hmac
+import ipaddress
+import json
+import logging
+import time
+from collections.abc import Awaitable, Callable
+from importlib import resources
+from pathlib import Path
+from typing import Any
+from urllib.parse import urlsplit
+
+from pyuss import __version__
+from pyuss.web import EXTRA_HINT, MissingExtra
+
+try:
+    from aiohttp import WSMsgType, web
+except ImportError:  # pragma: no cover - the extra is installed for the tests
+    raise MissingExtra(
+        f"the web page needs aiohttp, which is not installed: {EXTRA_HINT}"
+    ) from None
+
+from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
+from pyuss.master.errors import NoWriteAuthority
+from pyuss.master.process import state_of
+from pyuss.profiles import profile_names
+from pyuss.web.backend import Backend
+from pyuss.web.hub import QUEUE_SIZE, SEND_TIMEOUT, Hub
+
+__all__ = ["DEFAULT_HOST", "DEFAULT_PORT", "WebServer", "is_loopback"]
+
+log = logging.getLogger("pyuss.web")
+
+DEFAULT_HOST = "127.0.0.1"
+DEFAULT_PORT = 8420
+TICK = 0.05
+"""Seconds between two live updates (20 a second)."""
+BUS_EVERY = 10
+"""Ticks between two bus messages (state and health, twice a second)."""
+MAX_TELEGRAMS = 200
+"""Telegrams sent in one tick at most; the rest are counted as left out."""
+RECENT_TELEGRAMS = 500
+"""Telegrams a page gets when it opens the monitor view."""
+MAX_CLIENTS = 32
+"""WebSocket clients at once; more are refused with 503."""
+MAX_BODY = 4 * 1024 * 1024
+"""Largest request body (a backup file to compare or restore)."""
+COOKIE = "pyuss_token"
+STATIC = Path(str(resources.files("pyuss.web").joinpath("static")))
+
+Handler = Callable[[web.Request], Awaitable[web.StreamResponse]]
+
+
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` (an address or ``localhost``) is on this machine only."""
+    if host.lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+def _error(status: int, message: str, **extra: Any) -> web.Response:
+    return web.json_response({"error": message, **extra}, status=status)
+
+
+def _ref(text: str) -> tuple[int, int | None]:
+    """``52`` or ``4.2`` (also ``P4.2``) as PNU and index."""
+    body = str(text).strip().lstrip("Pp").replace("[", ".").rstrip("]")
+    pnu, dot, index = body.partition(".")
+    try:
+        return int(pnu), (int(index) if dot else None)
+    except ValueError:
+        raise ConfigError(f"{text!r} is not a parameter (52 or 4.2)") from None
+
+
+class WebServer:
+    """The page for ``backend`` on ``host``:``port`` (0: a free port)."""
+
+    def __init__(
+        self,
+        backend: Backend,
+        *,
+        host: str = DEFAULT_HOST,
+        port: int = DEFAULT_PORT,
+        token: str | None = None,
+        read_only: bool = False,
+        queue_size: int = QUEUE_SIZE,
+        send_timeout: float = SEND_TIMEOUT,
+    ) -> None:
+        if not is_loopback(host) and not token:
+            raise ConfigError(
+                f"listening on {host} makes the page reachable from the network: "
+                "a token is required (uss web prints one)"
+            )
+        if not 0 <= port <= 65535:
+            raise ConfigError(f"port {port} is not 0..65535")
+        self.backend = backend
+        self.host = host
+        self.port = port
+        self.token = token or None
+        self.read_only = read_only
+        self.hub = Hub(queue_size=queue_size, send_timeout=send_timeout)
+        self._runner: web.AppRunner | None = None
+        self._ticker: asyncio.Task[None] | None = None
+        self._sent_exchange = 0
+
+    # -- life cycle ---------------------------------------------------------------------------
+    @property
+    def url(self) -> str:
+        """The page's address (with the token when there is one)."""
+        host = self.host
+        if ":" in host:
+            host = f"[{host}]"
+        elif host in ("0.0.0.0", ""):
+            host = "127.0.0.1"
+        url = f"http://{host}:{self.port}/"
+        return url + (f"?token={self.token}" if self.token else "")
+
+    def app(self) -> web.Application:
+        app = web.Application(middlewares=[self._guard], client_max_size=MAX_BODY)
+        app.router.add_get("/", self._index)
+        app.router.add_static("/static/", STATIC, show_index=False)
+        app.router.add_get("/api/config", self._config)
+        app.router.add_get("/api/bus", self._bus)
+        app.router.add_get(r"/api/drive/{address:\d+}", self._drive)
+        app.router.add_post(r"/api/drive/{address:\d+}/command", self._command)
+        app.router.add_get(r"/api/drive/{address:\d+}/params", self._params)
+        app.router.add_post(r"/api/drive/{address:\d+}/params/read", self._params_read)
+        app.router.add_post(r"/api/drive/{address:\d+}/params/write", self._params_write)
+        app.router.add_get(r"/api/drive/{address:\d+}/backup", self._backup)
+        app.router.add_post(r"/api/drive/{address:\d+}/compare", self._compare)
+        app.router.add_post(r"/api/drive/{address:\d+}/restore", self._restore)
+        app.router.add_post("/api/scan", self._scan)
+        app.router.add_get("/api/monitor.pcapng", self._pcapng)
+        app.router.add_get("/ws", self._ws)
+        return app
+
+    async def start(self) -> str:
+        """Listen and start the live updates; returns the URL (the real port for port 0)."""
+        runner = web.AppRunner(self.app(), access_log=None, handle_signals=False)
+        await runner.setup()
+        site = web.TCPSite(runner, self.host, self.port, reuse_address=True)
+        try:
+            await site.start()
+        except OSError as exc:
+            await runner.cleanup()
+            raise ConfigError(
+                f"cannot listen on {self.host}:{self.port}: {exc.strerror or exc}"
+            ) from None
+        self._runner = runner
+        if self.port == 0 and runner.addresses:
+            self.port = int(runner.addresses[0][1])
+        self._ticker = asyncio.create_task(self._tick())
+        return self.url
+
+    async def close(self) -> None:
+        if self._ticker is not None:
+            self._ticker.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._ticker
+        await self.hub.close()
+        if self._runner is not None:
+            await self._runner.cleanup()
+            self._runner = None
+
+    # -- guard --------------------------------------------------------------------------------
+    def _token_ok(self, request: web.Request) -> bool:
+        if self.token is None:
+            return True
+        given = (
+            request.query.get("token")
+            or request.headers.get("X-Pyuss-Token")
+            or request.cookies.get(COOKIE)
+            or ""
+        )
+        return hmac.compare_digest(given.encode(), self.token.encode())
+
+    @web.middleware
+    async def _guard(self, request: web.Request, handler: Handler) -> web.StreamResponse:
+        host = urlsplit(f"//{request.host}").hostname or ""
+        if is_loopback(self.host) and not is_loopback(host):
+            return _error(403, f"host {request.host!r} is not this machine")
+        if not self._token_ok(request):
+            return _error(401, "the page needs its token: open the URL uss web printed")
+        origin = request.headers.get("Origin")
+        if origin is not None and urlsplit(origin).netloc != request.host:
+            return _error(403, f"requests from {origin} are not accepted")
+        changing = request.method not in ("GET", "HEAD", "OPTIONS")
+        if changing and request.headers.get("X-Pyuss") != "1":
+            return _error(403, "a change needs the X-Pyuss header (sent by the page)")
+        try:
+            response = await handler(request)
+        except ConfigError as exc:
+            return _error(400, str(exc))
+        except DriveRefusal as exc:
+            return _error(409, str(exc), number=exc.number, meaning=exc.meaning)
+        except NoWriteAuthority as exc:
+            return _error(409, str(exc), response_id=8)
+        except UssTimeout as exc:
+            return _error(504, str(exc))
+        except UssError as exc:
+            return _error(502, str(exc))
+        if self.token is not None and request.query.get("token"):
+            response.set_cookie(COOKIE, self.token, httponly=True, samesite="Strict")
+        return response
+
+    def _writable(self) -> None:
+        if self.read_only:
+            raise web.HTTPForbidden(
+                text=json.dumps({"error": "the page is read-only (uss web --read-only)"}),
+                content_type="application/json",
+            )
+
+    @staticmethod
+    def _address(request: web.Request) -> int:
+        return int(request.match_info["address"])
+
+    @staticmethod
+    async def _json(request: web.Request) -> dict[str, Any]:
+        try:
+            data = await request.json()
+        except (ValueError, UnicodeDecodeError):
+            raise ConfigError("the request body is not JSON") from None
+        if not isinstance(data, dict):
+            raise ConfigError("the request body must be a JSON object")
+        return data
+
+    # -- pages and data -----------------------------------------------------------------------
+    async def _index(self, request: web.Request) -> web.StreamResponse:
+        return web.FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-store"})
+
+    async def _config(self, request: web.Request) -> web.Response:
+        return web.json_response(
+            {
+                "version": __version__,
+                "read_only": self.read_only,
+                "moves": sorted(Backend.MOVES),
+                "commands": list(Backend.COMMANDS),
+                "tick": TICK,
+                "profiles": list(profile_names()),
+            }
+        )
+
+    async def _bus(self, request: web.Request) -> web.Response:
+        return web.json_response(self.backend.bus())
+
+    async def _drive(self, request: web.Request) -> web.Response:
+        return web.json_response(self.backend.drive_info(self._address(request)))
+
+    async def _command(self, request: web.Request) -> web.Response:
+        self._writable()
+        data = await self._json(request)
+        result = await self.backend.command(
+            self._address(request), str(data.get("name", "")), data.get("value")
+        )
+        return web.json_response(result)
+
+    async def _params(self, request: web.Request) -> web.Response:
+        return web.json_response(self.backend.parameters(self._address(request)))
+
+    async def _params_read(self, request: web.Request) -> web.Response:
+        data = await self._json(request)
+        ids = data.get("ids")
+        if not isinstance(ids, list) or len(ids) > 256:
+            raise ConfigError("ids must be a list of at most 256 parameters")
+        refs = [_ref(str(i)) for i in ids]
+        return web.json_response(await self.backend.read(self._address(request), refs))
+
+    async def _params_write(self, request: web.Request) -> web.Response:
+        self._writable()
+        data = await self._json(request)
+        pnu, index = _ref(str(data.get("id", "")))
+        result = await self.backend.write(
+            self._address(request),
+            pnu,
+            index,
+            str(data.get("value", "")),
+            eeprom=bool(data.get("eeprom", False)),
+        )
+        return web.json_response(result)
+
+    def _progress(self, address: int, job: str) -> Callable[[int, int, str], None]:
+        """Progress of a backup, compare or restore, sent live to every page."""
+
+        def progress(done: int, total: int, label: str) -> None:
+            message = {"type": "progress", "address": address, "job": job}
+            self.hub.send(json.dumps({**message, "done": done, "total": total, "label": label}))
+
+        return progress
+
+    async def _backup(self, request: web.Request) -> web.Response:
+        address = self._address(request)
+        fmt = request.query.get("format", "toml")
+        name, text = await self.backend.backup(
+            address, fmt, progress=self._progress(address, "backup")
+        )
+        types = {"toml": "application/toml", "json": "application/json", "csv": "text/csv"}
+        return web.Response(
+            text=text,
+            content_type=types[fmt],
+            headers={"Content-Disposition": f'attachment; filename="{name}"'},
+        )
+
+    @staticmethod
+    async def _upload(request: web.Request) -> tuple[bytes, str]:
+        """The backup file a page sends as the request body, and its name (``name=``)."""
+        name = request.query.get("name", "").strip() or "the file"
+        if len(name) > 200 or any(c in name for c in "\r\n\0"):
+            raise ConfigError("the file name is too long or not a name")
+        data = await request.read()
+        if not data:
+            raise ConfigError(f"{name} is empty: choose a backup file (TOML or JSON)")
+        return data, name
+
+    async def _compare(self, request: web.Request) -> web.Response:
+        address = self._address(request)
+        data, name = await self._upload(request)
+        reply = await self.backend.compare(
+            address, data, name, progress=self._progress(address, "compare")
+        )
+        return web.json_response(reply)
+
+    async def _restore(self, request: web.Request) -> web.Response:
+        self._writable()
+        address = self._address(request)
+        data, name = await self._upload(request)
+        reply = await self.backend.restore(
+            address,
+            data,
+            name,
+            force=request.query.get("force") == "1",
+            eeprom=request.query.get("eeprom") == "1",
+            progress=self._progress(address, "restore"),
+        )
+        return web.json_response(reply)
+
+    async def _scan(self, request: web.Request) -> web.Response:
+        self._writable()
+        data = await self._json(request)
+        addresses = _addresses(str(data.get("addresses", "0-31")))
+        profile = str(data.get("profile", "generic"))
+
+        def progress(done: int, total: int) -> None:
+            self.hub.send(json.dumps({"type": "scan", "done": done, "total": total}))
+
+        found = await self.backend.scan(addresses, profile=profile, progress=progress)
+        self.hub.send(json.dumps({"type": "scan", "done": 1, "total": 1, "found": found}))
+        return web.json_response({"found": found})
+
+    async def _pcapng(self, request: web.Request) -> web.Response:
+        data = await asyncio.to_thread(self.backend.pcapng)
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        return web.Response(
+            body=data,
+            content_type="application/octet-stream",
+            headers={"Content-Disposition": f'attachment; filename="uss-{stamp}.pcapng"'},
+        )
+
+    # -- live updates -------------------------------------------------------------------------
+    async def _ws(self, request: web.Request) -> web.StreamResponse:
+        if len(self.hub.clients) >= MAX_CLIENTS:
+            return _error(503, f"{MAX_CLIENTS} pages are connected already")
+        ws = web.WebSocketResponse(heartbeat=20.0, max_msg_size=4096)
+        await ws.prepare(request)
+        transport = request.transport
+
+        def abort() -> None:
+            if transport is not None:
+                transport.abort()
+
+        peer = request.remote or "?"
+        client = self.hub.add(ws.send_str, abort, name=peer)
+        self.hub.send_to(client, json.dumps({"type": "bus", "bus": self.backend.bus()}))
+        try:
+            async for message in ws:
+                if message.type != WSMsgType.TEXT:
+                    continue
+                try:
+                    data = json.loads(message.data)
+                except ValueError:
+                    continue
+                if isinstance(data, dict) and "monitor" in data:
+                    client.monitor = bool(data["monitor"])
+                    if client.monitor:
+                        recent, _ = self.backend.exchanges_since(
+                            self.backend.last_exchange - RECENT_TELEGRAMS, RECENT_TELEGRAMS
+                        )
+                        self.hub.send_to(client, json.dumps({"type": "telegrams", "items": recent}))
+        finally:
+            await self.hub.remove(client)
+        return ws
+
+    async def _tick(self) -> None:
+        count = 0
+        while True:
+            await asyncio.sleep(TICK)
+            count += 1
+            try:
+                self._send_tick(count)
+            except Exception:  # one bad tick must not end the live updates
+                log.exception("live update failed")
+
+    def _send_tick(self, count: int) -> None:
+        backend = self.backend
+        samples = backend.take_samples()
+        drives = {}
+        for address, taken in samples.items():
+            last = taken[-1]
+            drives[str(address)] = {
+                "samples": [
+                    [round(s.time, 4), s.status, backend.actual_values(address, s.actual)]
+                    for s in taken
+                ],
+                "status": last.status,
+                "state": state_of(last.status),
+                "setpoint": backend.setpoint_value(address),
+            }
+        if self.hub.clients:
+            self.hub.send(json.dumps({"type": "tick", "drives": drives}))
+            if count % BUS_EVERY == 0:
+                self.hub.send(json.dumps({"type": "bus", "bus": backend.bus()}))
+        newest = backend.last_exchange
+        if newest > self._sent_exchange:
+            if any(c.monitor for c in self.hub.clients):
+                # decoded into lines only while a page shows the monitor
+                items, left_out = backend.exchanges_since(self._sent_exchange, MAX_TELEGRAMS)
+                message = {"type": "telegrams", "items": items, "left_out": left_out}
+                self.hub.send(json.dumps(message), monitor_only=True)
+            self._sent_exchange = newest
+
+
+def _addresses(text: str) -> list[int]:
+    """``0-31``, ``1,4,7`` or ``1-5,9`` as a list of addresses."""
+    out: list[int] = []
+    for part in text.replace(" ", "").split(","):
+        if not part:
+            continue
+        low, dash, high = part.partition("-")
+        try:
+            first, last = int(low), int(high) if dash else int(low)
+        except ValueError:
+            raise ConfigError(f"addresses {text!r}: use 0-31, 1,4,7 or 1-5,9") from None
+        if not 0 <= first <= last <= 31:
+            raise ConfigError(f"addresses {text!r}: each must be 0..31, low to high")
+        out.extend(range(first, last + 1))
+    if not out:
+        raise ConfigError("no address to scan")
+    return sorted(set(out))

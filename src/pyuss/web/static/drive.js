@@ -1,0 +1,273 @@
+// Drive view: status word decoded live, actual values, trend, control panel.
+import { confirmMove, download, el, get, hex4, post } from "./api.js";
+
+const COLORS = ["#1565c0", "#ef6c00", "#2e7d32", "#6a1b9a", "#c62828", "#00838f", "#5d4037"];
+const MAX_POINTS = 60000;
+const STATE_WORDS = {
+  "operation enabled": "run", fault: "fault",
+};
+
+const CONFIRM = {
+  on: "Switch the drive ON? The motor runs up to the setpoint.",
+  jog1: "Jog 1? The motor turns at the jog 1 setpoint until you press Jog off.",
+  jog2: "Jog 2? The motor turns at the jog 2 setpoint until you press Jog off.",
+};
+
+export class DriveView {
+  constructor(state) {
+    this.state = state;
+    this.info = null;
+    this.series = [];     // [{name, unit, key}]
+    this.data = [[]];     // uPlot data: x, then one array per series
+    this.window = 30;
+    this.paused = false;
+    this.following = true;
+    this.pending = false;
+    this.plot = null;
+    this.updates = 0;     // samples received for the shown drive (tests read it)
+    this.message_ = document.getElementById("drive-message");
+    for (const button of document.querySelectorAll("[data-cmd]")) {
+      button.addEventListener("click", () => this.command(button.dataset.cmd));
+    }
+    document.getElementById("setpoint-form").addEventListener("submit", (e) => {
+      e.preventDefault();
+      this.setpoint();
+    });
+    document.getElementById("trend-window").addEventListener("change", (e) => {
+      this.window = Number(e.target.value);
+      this.following = true;
+      this.redraw();
+    });
+    document.getElementById("trend-pause").addEventListener("click", () => this.pause(!this.paused));
+    document.getElementById("trend-follow").addEventListener("click", () => this.follow());
+    document.getElementById("trend-csv").addEventListener("click", () => this.csv());
+    window.addEventListener("resize", () => this.resize());
+  }
+
+  shown(visible) {
+    this.visible = visible;
+    if (visible) { this.resize(); this.redraw(); }
+  }
+
+  async driveChanged(address) {
+    this.info = null;
+    if (address == null) return;
+    const info = await get(`/api/drive/${address}`);
+    if (this.state.address !== address) return;
+    this.info = info;
+    document.getElementById("drive-title").textContent =
+      `drive ${address} · ${info.title} · layout ${info.layout}`;
+    document.getElementById("drive-bits").replaceChildren(
+      ...info.status_bits.map((b) => el("li", { dataset: { bit: b.bit } }, `${b.bit}: ${b.clear}`)));
+    const rows = info.actuals.map((a) => el("tr", {},
+      el("td", {}, `${a.name} (PZD${a.pzd})`),
+      el("td", { dataset: { pzd: a.pzd } }, "-")));
+    document.querySelector("#drive-actuals tbody").replaceChildren(...rows);
+    const unit = document.getElementById("setpoint-unit");
+    const units = ["%"];
+    if (info.reference) units.push(info.reference.unit);
+    unit.replaceChildren(...units.map((u) => el("option", {}, u)));
+    this.series = [
+      ...info.actuals.map((a) => ({ name: a.name, unit: a.unit, key: `pzd${a.pzd}`, on: a.pzd === 2 })),
+      { name: "Setpoint", unit: info.actuals.length ? info.actuals[0].unit : "%", key: "setpoint", on: true },
+    ];
+    const choice = document.getElementById("trend-choice");
+    choice.replaceChildren(...this.series.map((s, i) => {
+      const box = el("input", { type: "checkbox", dataset: { series: i } });
+      box.checked = s.on;
+      box.addEventListener("change", () => {
+        s.on = box.checked;
+        this.plot?.setSeries(i + 1, { show: s.on });
+      });
+      return el("label", {}, box, ` ${s.name}${s.unit ? ` [${s.unit}]` : ""}`);
+    }));
+    this.data = [[], ...this.series.map(() => [])];
+    this.updates = 0;
+    this.build();
+  }
+
+  build() {
+    const target = document.getElementById("trend");
+    this.plot?.destroy();
+    target.replaceChildren();
+    const opts = {
+      width: Math.max(target.clientWidth, 280),
+      height: 300,
+      scales: { x: { time: true } },
+      series: [
+        { label: "time" },
+        ...this.series.map((s, i) => ({
+          label: `${s.name}${s.unit ? ` [${s.unit}]` : ""}`,
+          stroke: COLORS[i % COLORS.length],
+          width: 2,
+          show: s.on,
+          points: { show: false },
+        })),
+      ],
+      axes: [{}, { size: 60 }],
+      cursor: { drag: { x: true, y: false } },
+      hooks: {
+        setSelect: [(u) => {
+          if (u.select.width > 0) {
+            this.following = false;
+            document.getElementById("trend-follow").hidden = false;
+          }
+        }],
+      },
+    };
+    this.plot = new uPlot(opts, this.data, target);
+    this.plot.over.addEventListener("dblclick", () => this.follow());
+  }
+
+  resize() {
+    const target = document.getElementById("trend");
+    if (this.plot && target.clientWidth) {
+      this.plot.setSize({ width: target.clientWidth, height: 300 });
+    }
+  }
+
+  follow() {
+    this.following = true;
+    document.getElementById("trend-follow").hidden = true;
+    this.redraw();
+  }
+
+  pause(paused) {
+    this.paused = paused;
+    document.getElementById("trend-pause").textContent = paused ? "Resume" : "Pause";
+    if (!paused) this.redraw();
+  }
+
+  message(message) {
+    if (message.type === "tick") this.tick(message);
+    if (message.type === "bus") this.busState(message.bus);
+  }
+
+  busState(bus) {
+    const d = bus.drives.find((x) => x.address === this.state.address);
+    if (!d) return;
+    const stateEl = document.getElementById("drive-state");
+    if (d.not_sending) {
+      stateEl.textContent = "does not send";
+      stateEl.className = "state lost";
+    }
+  }
+
+  tick(message) {
+    const address = this.state.address;
+    const drive = message.drives[String(address)];
+    if (!drive || !this.info) return;
+    const samples = drive.samples;
+    const last = samples[samples.length - 1];
+    this.updates += samples.length;
+    this.showStatus(last[1], drive.state, last[2]);
+    for (const [t, , values] of samples) {
+      this.data[0].push(t);
+      this.series.forEach((s, i) => {
+        let v = null;
+        if (s.key === "setpoint") v = drive.setpoint ?? null;
+        else v = values[Number(s.key.slice(3)) - 2] ?? null;
+        this.data[i + 1].push(v);
+      });
+    }
+    const extra = this.data[0].length - MAX_POINTS;
+    if (extra > 0) for (const column of this.data) column.splice(0, extra);
+    this.redraw();
+  }
+
+  showStatus(word, state, values) {
+    document.getElementById("drive-status").textContent = hex4(word);
+    const stateEl = document.getElementById("drive-state");
+    stateEl.textContent = state;
+    stateEl.className = `state ${STATE_WORDS[state] || ""}`;
+    for (const li of document.querySelectorAll("#drive-bits li")) {
+      const bit = Number(li.dataset.bit);
+      const on = Boolean((word >> bit) & 1);
+      const info = this.info.status_bits[bit];
+      li.classList.toggle("on", on);
+      li.textContent = `${bit}: ${on ? info.set : info.clear}`;
+    }
+    for (const cell of document.querySelectorAll("#drive-actuals td[data-pzd]")) {
+      const pzd = Number(cell.dataset.pzd);
+      const a = this.info.actuals.find((x) => x.pzd === pzd);
+      const v = values[pzd - 2];
+      cell.textContent = v == null ? "-" : `${v.toFixed(2)} ${a.unit}`;
+    }
+  }
+
+  redraw() {
+    if (this.pending || this.paused || !this.plot || !this.visible) return;
+    this.pending = true;
+    requestAnimationFrame(() => {
+      this.pending = false;
+      if (this.paused || !this.plot) return;
+      const xs = this.data[0];
+      if (this.following) {
+        const now = xs.length ? xs[xs.length - 1] : Date.now() / 1000;
+        this.plot.setData(this.data, false);
+        this.plot.setScale("x", { min: now - this.window, max: now });
+      } else {
+        this.plot.setData(this.data, false);
+      }
+    });
+  }
+
+  // The samples between the plot's left and right edge, in the series shown.
+  shownRows() {
+    const { min, max } = this.plot.scales.x;
+    const shown = this.series.map((s, i) => [s, i + 1]).filter(([s]) => s.on);
+    const rows = [];
+    this.data[0].forEach((t, k) => {
+      if (t >= min && t <= max) rows.push([t, ...shown.map(([, i]) => this.data[i][k])]);
+    });
+    return { shown: shown.map(([s]) => s), rows };
+  }
+
+  csv() {
+    if (!this.plot) return;
+    const { shown, rows } = this.shownRows();
+    const quote = (text) => `"${String(text).replaceAll('"', '""')}"`;
+    const head = ["time", ...shown.map((s) => `${s.name}${s.unit ? ` [${s.unit}]` : ""}`)];
+    const lines = [head.map(quote).join(",")];
+    for (const [t, ...values] of rows) {
+      lines.push([new Date(t * 1000).toISOString(), ...values.map((v) => (v == null ? "" : v))].join(","));
+    }
+    download(`drive${this.state.address}-trend.csv`, lines.join("\r\n") + "\r\n");
+  }
+
+  say(text, bad = false) {
+    this.message_.textContent = text;
+    this.message_.className = bad ? "error" : "note";
+  }
+
+  async command(name) {
+    const address = this.state.address;
+    if (address == null) return;
+    if (CONFIRM[name] && !(await confirmMove(`Drive ${address}: ${CONFIRM[name]}`))) {
+      this.say("Not sent.");
+      return;
+    }
+    try {
+      const reply = await post(`/api/drive/${address}/command`, { name });
+      this.say(`${name}: sent, drive reports ${reply.state} (${hex4(reply.status)}).`);
+    } catch (error) {
+      this.say(`${name}: ${error.message}`, true);
+    }
+  }
+
+  async setpoint() {
+    const address = this.state.address;
+    const value = document.getElementById("setpoint-value").value;
+    const unit = document.getElementById("setpoint-unit").value;
+    if (!(await confirmMove(`Drive ${address}: set the setpoint to ${value} ${unit}? A running motor follows it.`))) {
+      this.say("Not sent.");
+      return;
+    }
+    try {
+      await post(`/api/drive/${address}/command`, { name: "setpoint", value: { value, unit } });
+      this.say(`Setpoint ${value} ${unit} sent.`);
+    } catch (error) {
+      this.say(`Setpoint: ${error.message}`, true);
+    }
+  }
+}

@@ -1,0 +1,242 @@
+"""Backups for real, against simulated drives behind ptys: files that keep their word (atomic,
+refused when cut short or broken), failures recorded, restores that go on past a refusal, the
+profile and identity checks, and the file codec's round trip (hypothesis)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from commission.test_docs import uss
+from params.conftest import Simulator, start, stop
+from pyuss.commission.backup import Backup, Entry, dumps, load, loads
+from pyuss.errors import ConfigError
+
+
+@pytest.fixture
+def mm4() -> Iterator[Simulator]:
+    params = Path(__file__).resolve().parents[2] / "src/pyuss/profiles/data/micromaster4.toml"
+    sim = start(params, "--profile", "micromaster4", "--address", "3")
+    try:
+        yield sim
+    finally:
+        stop(sim)
+
+
+def opts(sim: Simulator) -> list[str]:
+    return ["--port", sim.path, "--baud", "38400", "--profile", "micromaster4"]
+
+
+def test_a_backup_restored_diffs_back_to_empty(mm4: Simulator, tmp_path: Path) -> None:
+    file = str(tmp_path / "set.json")
+    assert uss(["backup", "3", "-o", file, *opts(mm4)])[0] == 0
+    assert uss(["write", "3", "1120", "3", *opts(mm4)])[0] == 0
+    assert uss(["write", "3", "947.0", "1", *opts(mm4)])[0] == 2  # read-only: refused first
+    code, out = uss(["diff", "3", file, *opts(mm4), "--json"])
+    assert code == 1 and [d["label"] for d in json.loads(out)["differences"]] == ["P1120"]
+    code, out = uss(["restore", "3", file, "--yes", "--json", *opts(mm4)])
+    result = json.loads(out)
+    assert code == 0 and [r["label"] for r in result["results"]] == ["P1120"]
+    assert uss(["diff", "3", file, *opts(mm4)]) == (0, f"drive 3 and {file} agree\n")
+    assert uss(["diff", file, file])[0] == 0
+
+
+def test_a_failing_parameter_is_recorded_and_the_backup_goes_on(
+    mm4: Simulator, tmp_path: Path
+) -> None:
+    mine = tmp_path / "mine.toml"
+    mine.write_text(
+        '[profile]\nextends = "micromaster4"\nname = "mine"\n'
+        '[[parameter]]\npnu = 999\nname = "Not there"\ntype = "uint16"\n',
+        encoding="utf-8",
+    )
+    file = tmp_path / "set.toml"
+    code, out = uss(["backup", "3", "-o", str(file), "--params", str(mine), *opts(mm4)])
+    assert code == 1
+    assert "P999: not read: drive refused the job (PNU 999): error 0" in out
+    taken = load(file)
+    assert len(taken.entries) == 20 and [e.label for e in taken.failed] == ["P999"]
+    assert taken.failed[0].error == {
+        "type": "DriveRefusal",
+        "message": "drive refused the job (PNU 999): error 0: illegal parameter number",
+        "number": 0,
+        "meaning": "illegal parameter number",
+    }
+    assert taken.find(1120) is not None and taken.find(1120).value == 10.0  # type: ignore[union-attr]
+
+
+def test_a_cut_short_or_broken_file_is_refused_before_anything_is_written(
+    mm4: Simulator, tmp_path: Path
+) -> None:
+    file = tmp_path / "set.toml"
+    assert uss(["backup", "3", "-o", str(file), *opts(mm4)])[0] == 0
+    assert uss(["write", "3", "1120", "3", *opts(mm4)])[0] == 0
+    assert uss(["write", "3", "1121", "4", *opts(mm4)])[0] == 0
+    text = file.read_text(encoding="utf-8")
+    cut = tmp_path / "cut.toml"
+    cut.write_text(text[: text.rindex("[[parameter]]")], encoding="utf-8")
+    broken = tmp_path / "broken.toml"
+    head, _, tail = text.partition("pnu = 1120\n")
+    broken.write_text(
+        head + "pnu = 1120\n" + tail.replace("value = 10.0", "value = 700.0", 1), encoding="utf-8"
+    )
+    garbage = tmp_path / "garbage.toml"
+    garbage.write_text(text[: len(text) // 2] + '\nvalue = "', encoding="utf-8")
+    for bad, message in (
+        (cut, "the header counts 19 parameters, the file holds 18"),
+        (broken, "P1120: 700.00 s is outside 0.00..650.00 s"),
+        (garbage, "not a TOML or JSON backup"),
+    ):
+        code, out = uss(["restore", "3", str(bad), "--yes", *opts(mm4)])
+        assert code == 2 and message in out and len(out.splitlines()) == 1, out
+    code, out = uss(["read", "3", "1120", "1121", *opts(mm4)])
+    assert "P1120 = 3.00 s" in out and "P1121 = 4.00 s" in out  # nothing was written
+
+
+def test_another_profile_or_drive_is_refused_unless_forced(mm4: Simulator, tmp_path: Path) -> None:
+    file = tmp_path / "set.json"
+    assert uss(["backup", "3", "-o", str(file), *opts(mm4)])[0] == 0
+    data = json.loads(file.read_text(encoding="utf-8"))
+    data["profile"] = "nord"
+    other = tmp_path / "nord.json"
+    other.write_text(json.dumps(data), encoding="utf-8")
+    code, out = uss(["restore", "3", str(other), "--yes", *opts(mm4)])
+    assert code == 2 and "a backup of a nord drive" in out and "--force" in out
+    data["profile"] = "micromaster4"
+    data["identity"] = [{"pnu": 2010, "name": "USS baudrate", "value": [6, 13], "raw": "0006 000D"}]
+    stranger = tmp_path / "stranger.json"
+    stranger.write_text(json.dumps(data), encoding="utf-8")
+    code, out = uss(["restore", "3", str(stranger), "--yes", *opts(mm4)])
+    assert code == 2 and "from another drive: P2010 (USS baudrate)" in out
+    assert uss(["restore", "3", str(stranger), "--yes", "--force", *opts(mm4)])[0] == 0
+    code, out = uss(["restore", "3", str(file), *opts(mm4)])  # stdin is no terminal here
+    assert code == 0 and "nothing to write" in out
+
+
+def test_a_backup_killed_half_way_leaves_the_old_file(tmp_path: Path) -> None:
+    params = Path(__file__).resolve().parents[2] / "src/pyuss/profiles/data/micromaster4.toml"
+    slow = start(params, "--profile", "micromaster4", "--address", "3", "--latency-time", "100")
+    try:
+        file = tmp_path / "set.toml"
+        file.write_text("the old backup\n", encoding="utf-8")
+        process = subprocess.Popen(
+            [sys.executable, "-m", "pyuss.cli.main", "backup", "3", "-o", str(file), *opts(slow)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+        )
+        time.sleep(1.0)  # a few parameters read, not all 19 at 100 ms or more each
+        assert process.poll() is None
+        process.send_signal(signal.SIGKILL)
+        process.wait(10)
+    finally:
+        stop(slow)
+    assert file.read_text(encoding="utf-8") == "the old backup\n"
+    assert os.listdir(tmp_path) == ["set.toml"]  # no half-written file beside it
+
+
+def test_scan_finds_the_parameters_no_file_knows(tmp_path: Path) -> None:
+    from params.conftest import TYPES_TOML
+
+    params = tmp_path / "typed.toml"
+    params.write_text(TYPES_TOML, encoding="utf-8")
+    sim = start(params, "--layout", "v,2")
+    try:
+        port = ["--port", sim.path, "--baud", "38400", "--layout", "v,2"]
+        code, out = uss(["params", "5", "--scan", "800-812", "--values", *port, "--json"])
+        found = {p["pnu"]: p for p in json.loads(out)["parameters"]}
+        assert code == 0 and {800, 805, 811} <= set(found)
+        assert found[805]["source"] == "drive" and found[805]["value_text"] == "1500.50"
+        file = tmp_path / "set.json"
+        code, out = uss(["backup", "5", "-o", str(file), "--scan", "800-812", *port])
+        assert code == 0
+        assert load(file).find(804).value == -123.456  # type: ignore[union-attr]
+    finally:
+        stop(sim)
+
+
+def test_status_and_acknowledge(mm4: Simulator) -> None:
+    code, out = uss(["status", "3", *opts(mm4), "--json"])
+    data = json.loads(out)
+    assert code == 0 and data["state"] == "switch-on inhibited" and data["unit"] == "Hz"
+    assert [p["label"] for p in data["parameters"]] == ["P2", "P21", "P947.0"]
+    code, out = uss(["ack", "3", *opts(mm4)])
+    assert code == 0 and out.startswith("drive 3: acknowledged: ready to switch on")
+
+
+values = st.one_of(
+    st.integers(-(2**31), 2**32 - 1),
+    st.floats(allow_nan=False, allow_infinity=False, width=32),
+    st.text(st.characters(min_codepoint=32, max_codepoint=126), max_size=16),
+)
+entries = st.builds(
+    Entry,
+    pnu=st.integers(0, 31999),
+    index=st.one_of(st.none(), st.integers(0, 254)),
+    name=st.text(st.characters(min_codepoint=32, max_codepoint=126), max_size=16),
+    unit=st.sampled_from(["", "s", "Hz", "%"]),
+    type=st.sampled_from(["float", "uint16", "int32", "string"]),
+    value=st.one_of(values, st.lists(st.integers(0, 65535), min_size=1, max_size=8)),
+    raw=st.lists(st.integers(0, 0xFFFF), max_size=4).map(tuple),
+    access=st.sampled_from(["rw", "ro", "protected"]),
+)
+
+
+@given(
+    st.lists(entries, max_size=12, unique_by=lambda e: (e.pnu, e.index)),
+    st.sampled_from(["toml", "json"]),
+)
+def test_every_backup_reads_back_as_written(items: list[Entry], fmt: str) -> None:
+    taken = Backup(3, "micromaster4", items, "2026-01-05T09:30:00+00:00", [], "/dev/ttyUSB0")
+    again = loads(dumps(taken, fmt))
+    assert again.entries == items and again.address == 3 and again.profile == "micromaster4"
+
+
+@given(st.lists(entries, min_size=2, max_size=6, unique_by=lambda e: (e.pnu, e.index)))
+def test_any_backup_cut_short_is_refused(items: list[Entry]) -> None:
+    text = dumps(Backup(3, "generic", items), "toml")
+    cut = text[: text.rindex("[[parameter]]")]
+    with pytest.raises(ConfigError, match=r"cut short|not a TOML"):
+        loads(cut)
+
+
+def test_two_files_compare_without_a_drive(mm4: Simulator, tmp_path: Path) -> None:
+    before, after = str(tmp_path / "before.toml"), str(tmp_path / "after.json")
+    assert uss(["backup", "3", "-o", before, *opts(mm4)])[0] == 0
+    assert uss(["write", "3", "1120", "500 ms", *opts(mm4)])[0] == 0
+    assert uss(["backup", "3", "-o", after, *opts(mm4)])[0] == 0
+    code, out = uss(["diff", before, after])
+    assert code == 1
+    assert out.splitlines() == [
+        "P1120 (Ramp-up time): 10.00 s -> 0.50 s",
+        f"1 parameter differs between {before} and {after}",
+    ]
+    code, out = uss(["diff", before, str(tmp_path / "missing.toml")])
+    assert code == 2 and "cannot read" in out
+
+
+def test_descriptions_kept_in_a_cache_file_for_the_next_run(tmp_path: Path) -> None:
+    from params.conftest import TYPES_TOML
+
+    params = tmp_path / "typed.toml"
+    params.write_text(TYPES_TOML, encoding="utf-8")
+    cache = str(tmp_path / "cache.json")
+    sim = start(params, "--layout", "v,2")
+    try:
+        port = ["--port", sim.path, "--baud", "38400", "--layout", "v,2"]
+        typed = "P805 = 1500.50 (Speed limit)\n"  # the type and name from the drive (no unit)
+        assert uss(["read", "5", "805", *port, "--params-cache", cache]) == (0, typed)
+        never = ["--describe", "never"]
+        assert uss(["read", "5", "805", *port, *never]) == (0, "P805 = 1153142784 (44BB9000h)\n")
+        assert uss(["read", "5", "805", *port, *never, "--params-cache", cache]) == (0, typed)
+    finally:
+        stop(sim)

@@ -1,0 +1,329 @@
+"""The page in a real headless Chromium against the demo's simulated drives: every view loads,
+the trend moves, commands switch the simulated drive (after asking), parameter edits reach it
+and its refusals are shown in words, the monitor shows the telegrams. Each test saves a
+screenshot of its view into build/screenshots/ (`make screenshots` puts them into docs/images/,
+which docs/web.md shows)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from pyuss.drive.states import DriveState
+from pyuss.monitor.capture import read_capture
+from pyuss.profiles import profile_names
+from web.conftest import Running, open_page, screenshot
+
+pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
+
+
+@pytest.fixture
+def page(browser: Any, demo: Running) -> Any:
+    page = open_page(browser, demo.url)
+    yield page
+    page.context.close()
+
+
+def drive_state(demo: Running, address: int) -> DriveState:
+    return demo.run(lambda: demo.backend.engines[address].drive.state)
+
+
+def test_the_bus_view_lists_the_drives_with_their_health(page: Any) -> None:
+    rows = page.locator("#bus-table tbody tr")
+    rows.first.wait_for()
+    page.wait_for_function(
+        "document.querySelectorAll('#bus-table tbody tr').length === 3 && "
+        "Number(document.querySelector('#bus-table tbody tr td:nth-child(7)').textContent) > 0"
+    )
+    assert [rows.nth(i).get_attribute("data-address") for i in range(3)] == ["1", "4", "7"]
+    assert "switch-on inhibited" in rows.nth(0).inner_text()
+    assert "0.00 Hz" in rows.nth(0).inner_text()  # the main actual value in its unit
+    assert "0.00 %" in rows.nth(1).inner_text()  # no reference parameter: percent
+    assert page.locator("#bus-baud").inner_text() == "38400 baud"
+    # a scan may look for any profile pyuss knows
+    options = page.locator("#scan-profile option").all_inner_texts()
+    assert options == list(profile_names())
+    screenshot(page, "web-bus", full_page=True)
+
+
+def test_the_trend_moves_and_on_off_switch_the_drive_after_asking(page: Any, demo: Running) -> None:
+    page.goto(demo.url + "#drive/1")
+    page.wait_for_function("document.querySelector('#drive-state').textContent !== '-'")
+    page.wait_for_function("document.querySelector('#drive-actuals td[data-pzd]')")
+    # The page asks before ON; "Cancel" sends nothing.
+    page.click("[data-cmd=on]")
+    page.locator("#confirm").wait_for()
+    assert "ON" in page.locator("#confirm-text").inner_text()
+    page.click("#confirm-no")
+    assert page.locator("#drive-message").inner_text() == "Not sent."
+    assert demo.run(lambda: demo.backend.master.drive(1).control) == 0
+    # Setpoint 40 % and ON: the simulated drive runs and the trend follows its ramp.
+    page.fill("#setpoint-value", "40")
+    page.click("#setpoint-form button[type=submit]")
+    page.click("#confirm-yes")
+    page.wait_for_function("document.querySelector('#drive-message').textContent.includes('sent')")
+    page.click("[data-cmd=on]")
+    page.click("#confirm-yes")
+    page.wait_for_function(
+        "document.querySelector('#drive-state').textContent === 'operation enabled'"
+    )
+    assert drive_state(demo, 1) is DriveState.OPERATION
+    assert page.locator("#drive-bits li.on", has_text="operation enabled").count() == 1
+    before = page.evaluate("window.pyuss && document.querySelector('#trend canvas') !== null")
+    assert before
+    page.wait_for_function(
+        "(() => { const c = document.querySelector('#drive-actuals td[data-pzd]').textContent;"
+        " return parseFloat(c) > 5; })()"
+    )
+    page.wait_for_timeout(1500)  # let the ramp draw a visible line for the picture
+    screenshot(page, "web-drive", full_page=True)
+    # OFF1: the drive ramps down and switches off (no question: it stops the motor).
+    page.click("[data-cmd=off1]")
+    page.wait_for_function(
+        "document.querySelector('#drive-state').textContent !== 'operation enabled'"
+    )
+    assert drive_state(demo, 1) is not DriveState.OPERATION
+
+
+def test_every_answer_reaches_the_trend(page: Any, demo: Running) -> None:
+    page.goto(demo.url + "#drive/4")
+    page.wait_for_function("document.querySelector('#drive-title').textContent.includes('drive 4')")
+    page.evaluate(
+        "window.samples = 0; window.pyuss.socket.addEventListener('message', e => {"
+        " const m = JSON.parse(e.data); if (m.type === 'tick' && m.drives['4'])"
+        " window.samples += m.drives['4'].samples.length; })"
+    )
+    start = demo.run(lambda: demo.backend.master.drive(4).diagnostics().answers)
+    page.wait_for_function("window.samples >= 30")
+    # every sample the master got is sent on (none dropped or thinned out)
+    end = demo.run(lambda: demo.backend.master.drive(4).diagnostics().answers)
+    got = page.evaluate("window.samples")
+    assert got <= end - start + 2
+    page.wait_for_timeout(300)
+    later = page.evaluate("window.samples")
+    assert later > got
+
+
+def test_a_parameter_edit_reaches_the_drive_and_a_refusal_is_shown(
+    page: Any, demo: Running
+) -> None:
+    page.goto(demo.url + "#params/1")
+    page.wait_for_function(
+        "document.querySelector('#param-message').textContent.includes('values read')"
+    )
+    page.fill("#param-search", "ramp-up")
+    row = page.locator("#param-table tbody tr[data-id='462']")
+    assert page.locator("#param-table tbody tr").count() == 1
+    assert "10.0 s" in row.inner_text()
+    row.locator("td.value").click()
+    page.fill("#edit-value", "2.5 s")
+    page.click("#edit-write")
+    page.wait_for_function("!document.querySelector('#edit').open")
+    assert "2.5 s" in row.inner_text()
+    assert demo.run(lambda: demo.backend.engines[1].drive.value(462)) == 25
+    # Checked before sending: not a number, outside the limits.
+    row.locator("td.value").click()
+    page.fill("#edit-value", "fast")
+    page.click("#edit-write")
+    page.wait_for_function(
+        "document.querySelector('#edit-error').textContent.includes('not a number')"
+    )
+    page.fill("#edit-value", "1000")
+    page.click("#edit-write")
+    page.wait_for_function("document.querySelector('#edit-error').textContent.includes('outside')")
+    page.click("#edit-cancel")
+    # Refused by the drive: P352 is protected (access level below 3, error 12).
+    page.fill("#param-search", "352")
+    page.locator("#param-table tbody tr[data-id='352'] td.value").click()
+    page.fill("#edit-value", "40")
+    page.click("#edit-write")
+    page.wait_for_function("document.querySelector('#edit-error').textContent.includes('error 12')")
+    assert "keyword" in page.locator("#edit-error").inner_text()
+    assert demo.run(lambda: demo.backend.engines[1].drive.value(352)) == 5000
+    page.click("#edit-cancel")
+    page.fill("#param-search", "")
+    screenshot(page, "web-params", full_page=False)
+
+
+def test_a_backup_downloads_and_restores_and_a_refusal_is_shown(
+    page: Any, demo: Running, tmp_path: Any
+) -> None:
+    from pyuss.commission import load
+
+    engine = demo.backend.engines[1].drive
+    backend = demo.backend
+    page.goto(demo.url + "#params/1")
+    page.wait_for_function(
+        "document.querySelector('#param-message').textContent.includes('values read')"
+    )
+    # The backup: a file of uss backup, downloaded by the browser.
+    with page.expect_download() as info:
+        page.click("#param-backup")
+    download = info.value
+    assert download.suggested_filename.startswith("drive1-generic-")
+    assert download.suggested_filename.endswith(".toml")
+    path = tmp_path / download.suggested_filename
+    download.save_as(path)
+    backup = load(path)
+    assert (backup.address, backup.profile) == (1, "generic")
+    ramp = backup.find(462)
+    assert ramp is not None and ramp.unit == "s"
+    saved = demo.run(lambda: engine.value(462))
+    page.wait_for_function(
+        "document.querySelector('#param-message').textContent.includes('saved as')"
+    )
+    try:
+        # Changes: the ramp-up time on the page; the reference frequency by an expert (access
+        # level 3 unlocks it), who goes back to level 2 afterwards.
+        page.fill("#param-search", "ramp-up")
+        page.locator("#param-table tbody tr[data-id='462'] td.value").click()
+        page.fill("#edit-value", "7.5" if saved != 75 else "8")
+        page.click("#edit-write")
+        page.wait_for_function("!document.querySelector('#edit').open")
+        assert demo.run(lambda: engine.value(462)) != saved
+        demo.call(backend.write(1, 51, None, "EXPERT"))
+        demo.call(backend.write(1, 352, None, "40"))
+        demo.call(backend.write(1, 51, None, "STANDARD"))
+        # Compare: the differences with names and units.
+        page.set_input_files("#param-file", str(path))
+        page.locator("#param-diff table.diff").wait_for()
+        diff = page.locator("#param-diff")
+        assert "Ramp-up time" in diff.locator("tr[data-id='462']").inner_text()
+        reference = diff.locator("tr[data-id='352']").inner_text()
+        assert "Reference freq." in reference and "40.00 Hz" in reference
+        assert "50.00 Hz" in reference
+        # Restore: it asks first, with the writes it will make; "Cancel" writes nothing.
+        page.click("#restore-start")
+        page.locator("#confirm").wait_for()
+        question = page.locator("#confirm-text").inner_text()
+        assert "P462 (Ramp-up time)" in question and "P352 (Reference freq.)" in question
+        page.click("#confirm-no")
+        assert demo.run(lambda: engine.value(462)) != saved
+        page.click("#restore-start")
+        page.click("#confirm-yes")
+        page.locator("#restore-summary").wait_for()
+        assert page.locator("#restore-summary").inner_text() == "drive 1: 1 of 2 written, 1 refused"
+        # The ramp is back in the simulated drive; the protected parameter is refused in words.
+        assert demo.run(lambda: engine.value(462)) == saved
+        refused = page.locator("#param-diff li.refused").inner_text()
+        assert refused.startswith("P352 (Reference freq.): 40.00 Hz -> 50.00 Hz")
+        assert "refused: error 12: keyword missing" in refused
+        assert page.locator("#param-diff li.ok[data-id='462']").count() == 1
+        assert demo.run(lambda: engine.value(352)) == 4000
+        page.fill("#param-search", "")
+        page.wait_for_function(
+            "document.querySelector('#param-message').textContent.includes('values read')"
+        )
+        screenshot(page, "web-restore", full_page=False)
+    finally:
+        demo.call(backend.write(1, 51, None, "EXPERT"))
+        demo.call(backend.write(1, 352, None, "50"))
+        demo.call(backend.write(1, 51, None, "STANDARD"))
+
+
+def test_the_monitor_shows_filters_and_downloads_the_telegrams(
+    page: Any, demo: Running, tmp_path: Any
+) -> None:
+    page.goto(demo.url + "#monitor")
+    page.wait_for_function("document.querySelectorAll('#mon-list div').length > 20")
+    text = page.locator("#mon-list").inner_text()
+    assert "adr 1" in text and "adr 4" in text and "adr 7" in text
+    page.fill("#mon-filter", "adr 4")
+    page.wait_for_function(
+        "[...document.querySelectorAll('#mon-list div')]"
+        ".every(d => d.textContent.includes('adr 4'))"
+    )
+    page.click("#mon-pause")
+    frozen = page.locator("#mon-list").inner_text()
+    page.wait_for_timeout(500)
+    assert page.locator("#mon-list").inner_text() == frozen
+    page.click("#mon-pause")
+    page.fill("#mon-filter", "")
+    screenshot(page, "web-monitor", full_page=False)
+    with page.expect_download() as info:
+        page.click("#mon-pcapng")
+    path = tmp_path / "line.pcapng"
+    info.value.save_as(path)
+    capture = read_capture(path)
+    assert capture.baud == 38400
+    assert len(capture.records) > 20
+
+
+def test_the_page_fits_a_tablet(browser: Any, demo: Running) -> None:
+    page = open_page(browser, demo.url + "#drive/1", width=768, height=1024)
+    try:
+        page.wait_for_function("document.querySelector('#drive-state').textContent !== '-'")
+        overflow = page.evaluate(
+            "document.documentElement.scrollWidth - document.documentElement.clientWidth"
+        )
+        assert overflow <= 0
+        for button in ("on", "off1", "off2", "off3", "acknowledge", "jog1"):
+            assert page.locator(f"[data-cmd={button}]").is_visible()
+        screenshot(page, "web-tablet", full_page=False)
+    finally:
+        page.context.close()
+
+
+def test_the_trend_zooms_pauses_and_exports_what_it_shows(
+    page: Any, demo: Running, tmp_path: Any
+) -> None:
+    page.goto(demo.url + "#drive/7")
+    page.wait_for_function("document.querySelector('#drive-title').textContent.includes('drive 7')")
+    page.wait_for_function("window.pyuss.views.drive.data[0].length > 60")
+    box = page.locator("#trend .u-over").bounding_box()
+    assert box is not None
+    # drag across the middle of the plot: a zoom into that time span
+    y = box["y"] + box["height"] / 2
+    page.mouse.move(box["x"] + box["width"] * 0.80, y)
+    page.mouse.down()
+    page.mouse.move(box["x"] + box["width"] * 0.90, y, steps=5)
+    page.mouse.move(box["x"] + box["width"] * 0.97, y, steps=5)
+    page.mouse.up()
+    page.locator("#trend-follow").wait_for()
+    low, high = page.evaluate(
+        "[pyuss.views.drive.plot.scales.x.min, pyuss.views.drive.plot.scales.x.max]"
+    )
+    page.click("#trend-pause")
+    assert page.locator("#trend-pause").inner_text() == "Resume"
+    with page.expect_download() as info:
+        page.click("#trend-csv")
+    path = tmp_path / "trend.csv"
+    info.value.save_as(path)
+    lines = path.read_text(encoding="utf-8").splitlines()
+    assert lines[0] == '"time","Main actual value [Hz]","Setpoint [Hz]"'
+    import datetime as dt
+
+    times = [dt.datetime.fromisoformat(line.split(",")[0]).timestamp() for line in lines[1:]]
+    assert times and times == sorted(times)
+    assert all(low - 1e-3 <= t <= high + 1e-3 for t in times)  # what is shown, nothing else
+    shown = page.evaluate(
+        "pyuss.views.drive.data[0].filter(t => t >= pyuss.views.drive.plot.scales.x.min"
+        " && t <= pyuss.views.drive.plot.scales.x.max).length"
+    )
+    assert len(times) == shown
+    page.click("#trend-pause")
+    page.click("#trend-follow")
+    assert page.locator("#trend-follow").is_hidden()
+
+
+def test_read_only_hides_every_control(browser: Any, demo: Running) -> None:
+    from pyuss.web.server import WebServer
+
+    server = WebServer(demo.backend, port=0, read_only=True)
+    url = demo.call(server.start())
+    try:
+        page = open_page(browser, url + "#drive/1")
+        page.wait_for_function("document.querySelector('#drive-state').textContent !== '-'")
+        assert page.locator("#ro-badge").is_visible()
+        for selector in ("[data-cmd=on]", "[data-cmd=off1]", "#setpoint-form", "#scan-form"):
+            assert page.locator(selector).is_hidden(), selector
+        page.goto(url + "#params/1")
+        page.wait_for_function(
+            "document.querySelector('#param-message').textContent.includes('values read')"
+        )
+        assert page.locator("#param-table tr.writable").count() == 0
+        assert page.locator("#param-backup").is_visible()  # reading stays
+        page.context.close()
+    finally:
+        demo.call(server.close())

@@ -1,0 +1,308 @@
+"""The server's rules, over real sockets on 127.0.0.1: the token off loopback, the host and
+origin checks, read-only, and a bounded queue per WebSocket client."""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import json
+import os
+import socket
+from collections.abc import AsyncIterator
+from typing import Any
+
+import aiohttp
+import pytest
+
+from pyuss.errors import ConfigError
+from pyuss.web.backend import Backend
+from pyuss.web.server import WebServer
+
+WRITE = {"X-Pyuss": "1"}
+
+
+@pytest.fixture
+async def backend() -> AsyncIterator[Backend]:
+    backend = Backend(demo=True)
+    await backend.start()
+    try:
+        yield backend
+    finally:
+        await backend.close()
+
+
+async def serve(backend: Backend, **options: Any) -> WebServer:
+    server = WebServer(backend, port=0, **options)
+    await server.start()
+    return server
+
+
+def base(server: WebServer) -> str:
+    return f"http://127.0.0.1:{server.port}"
+
+
+async def test_listening_beyond_this_computer_needs_a_token(backend: Backend) -> None:
+    with pytest.raises(ConfigError, match="token is required"):
+        WebServer(backend, host="0.0.0.0", port=0)
+    with pytest.raises(ConfigError, match="token is required"):
+        WebServer(backend, host="192.0.2.1", port=0, token="")
+
+
+async def test_off_loopback_every_request_needs_the_token(backend: Backend) -> None:
+    server = await serve(backend, host="0.0.0.0", token="s3cret-token")
+    try:
+        assert server.url.endswith("?token=s3cret-token")
+        # a browser keeps cookies of an IP address; aiohttp's client only when told
+        async with aiohttp.ClientSession(cookie_jar=aiohttp.CookieJar(unsafe=True)) as http:
+            for path in ("/", "/api/bus", "/static/app.js", "/api/monitor.pcapng"):
+                async with http.get(base(server) + path) as reply:
+                    assert reply.status == 401, path
+            async with http.get(base(server) + "/api/bus?token=wrong") as reply:
+                assert reply.status == 401
+            with pytest.raises(aiohttp.WSServerHandshakeError) as refused:
+                await http.ws_connect(base(server) + "/ws")
+            assert refused.value.status == 401
+            async with http.get(
+                base(server) + "/api/bus", headers={"X-Pyuss-Token": "s3cret-token"}
+            ) as reply:
+                assert reply.status == 200
+            # the printed URL works, and the page's later requests carry the cookie it set
+            async with http.get(base(server) + "/?token=s3cret-token") as reply:
+                assert reply.status == 200
+            async with http.get(base(server) + "/api/bus") as reply:
+                assert reply.status == 200
+            async with http.ws_connect(base(server) + "/ws") as ws:
+                first = await ws.receive_json(timeout=10)
+                assert first["type"] == "bus"
+    finally:
+        await server.close()
+
+
+async def test_a_web_site_cannot_reach_the_page_on_loopback(backend: Backend) -> None:
+    server = await serve(backend)
+    try:
+        async with aiohttp.ClientSession() as http:
+            # DNS rebinding: a foreign name that resolves to 127.0.0.1
+            async with http.get(base(server) + "/api/bus", headers={"Host": "evil.example"}) as r:
+                assert r.status == 403
+            # a form of another site cannot add the header, a script of it sends its Origin
+            command = base(server) + "/api/drive/1/command"
+            async with http.post(command, json={"name": "on"}) as reply:
+                assert reply.status == 403
+            headers = {**WRITE, "Origin": "http://evil.example"}
+            async with http.post(command, json={"name": "on"}, headers=headers) as reply:
+                assert reply.status == 403
+            with pytest.raises(aiohttp.WSServerHandshakeError):
+                await http.ws_connect(base(server) + "/ws", origin="http://evil.example")
+            assert backend.master.drive(1).control == 0  # nothing reached the drive
+            own = {**WRITE, "Origin": base(server)}
+            async with http.post(command, json={"name": "off1"}, headers=own) as reply:
+                assert reply.status == 200
+    finally:
+        await server.close()
+
+
+async def test_read_only_refuses_every_change(backend: Backend) -> None:
+    server = await serve(backend, read_only=True)
+    try:
+        async with aiohttp.ClientSession(headers=WRITE) as http:
+            url = base(server)
+            for path, body in (
+                ("/api/drive/1/command", {"name": "on"}),
+                ("/api/drive/1/params/write", {"id": "462", "value": "2"}),
+                ("/api/scan", {"addresses": "0-3"}),
+                ("/api/drive/1/restore?name=d1.toml", {}),
+            ):
+                async with http.post(url + path, json=body) as reply:
+                    assert reply.status == 403, path
+                    assert "read-only" in (await reply.json())["error"]
+            async with http.post(url + "/api/drive/1/params/read", json={"ids": ["462"]}) as r:
+                assert r.status == 200
+                assert (await r.json())[0]["value"] == "10.0 s"
+            async with http.get(url + "/api/config") as reply:
+                assert (await reply.json())["read_only"] is True
+        assert backend.master.drive(1).control == 0
+    finally:
+        await server.close()
+
+
+async def test_bad_requests_get_one_clear_line(backend: Backend) -> None:
+    server = await serve(backend)
+    try:
+        async with aiohttp.ClientSession(headers=WRITE) as http:
+            url = base(server)
+            cases = [
+                ("/api/drive/1/command", {"name": "fly"}, 400, "unknown command"),
+                ("/api/drive/9/command", {"name": "on"}, 400, "not on the page"),
+                ("/api/drive/1/command", {"name": "setpoint", "value": "fast"}, 400, "number"),
+                ("/api/drive/1/params/write", {"id": "x", "value": "1"}, 400, "parameter"),
+                ("/api/drive/1/params/write", {"id": "2", "value": "1"}, 400, "read-only"),
+                ("/api/drive/1/params/write", {"id": "352", "value": "40"}, 409, "error 12"),
+                ("/api/scan", {"addresses": "40-50"}, 400, "0..31"),
+            ]
+            for path, body, status, words in cases:
+                async with http.post(url + path, json=body) as reply:
+                    assert reply.status == status, (path, body)
+                    assert words in (await reply.json())["error"], (path, body)
+            async with http.post(url + "/api/drive/1/command", data=b"\xff\x00") as reply:
+                assert reply.status == 400
+    finally:
+        await server.close()
+
+
+def _raw_websocket(port: int) -> socket.socket:
+    """A WebSocket client that completes the handshake and then never reads."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    sock.connect(("127.0.0.1", port))
+    key = base64.b64encode(os.urandom(16)).decode()
+    sock.sendall(
+        (
+            f"GET /ws HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\n"
+            f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
+            "Sec-WebSocket-Version: 13\r\n\r\n"
+        ).encode()
+    )
+    head = b""
+    while b"\r\n\r\n" not in head:
+        head += sock.recv(1)
+    assert head.startswith(b"HTTP/1.1 101")
+    return sock
+
+
+async def test_a_client_that_does_not_read_is_dropped_and_holds_up_nobody(
+    backend: Backend,
+) -> None:
+    server = await serve(backend, queue_size=4, send_timeout=1.0)
+    hostile = await asyncio.to_thread(_raw_websocket, server.port)
+    received = 0
+    try:
+        async with aiohttp.ClientSession() as http, http.ws_connect(base(server) + "/ws") as ws:
+
+            async def read() -> None:
+                nonlocal received
+                async for message in ws:
+                    if message.type == aiohttp.WSMsgType.TEXT and '"big"' in message.data[:20]:
+                        received += 1
+
+            reader = asyncio.create_task(read())
+            while len(server.hub.clients) < 2:
+                await asyncio.sleep(0.01)
+            big = json.dumps({"type": "big", "data": "x" * 200_000})
+            for _ in range(60):
+                server.hub.send(big)
+                await asyncio.sleep(0.02)
+            async with asyncio.timeout(30):
+                while server.hub.dropped == 0:
+                    await asyncio.sleep(0.05)
+                while received < 60:
+                    await asyncio.sleep(0.05)
+            reader.cancel()
+        # the one that never read was cut off; its queue never held more than 4 messages
+        assert server.hub.dropped == 1
+        assert server.hub.longest <= 4
+        assert received == 60  # the page that reads got everything
+        hostile.settimeout(5)
+        with pytest.raises(OSError):  # the server closed the connection: reads end or fail
+            while hostile.recv(65536):
+                pass
+            raise ConnectionResetError
+    finally:
+        hostile.close()
+        await server.close()
+
+
+async def test_a_client_sending_oversized_messages_is_closed(backend: Backend) -> None:
+    server = await serve(backend)
+    try:
+        async with aiohttp.ClientSession() as http, http.ws_connect(base(server) + "/ws") as ws:
+            await ws.send_str(json.dumps({"monitor": "x" * 100_000}))
+            async with asyncio.timeout(10):
+                while not ws.closed:
+                    await ws.receive()
+            assert ws.close_code == aiohttp.WSCloseCode.MESSAGE_TOO_BIG
+        async with asyncio.timeout(10):
+            while server.hub.clients:
+                await asyncio.sleep(0.05)
+    finally:
+        await server.close()
+
+
+async def collect(ws: Any, kind: str, into: list[dict[str, Any]]) -> None:
+    """Keep the live messages of type ``kind`` a page receives."""
+    async for message in ws:
+        data = json.loads(message.data)
+        if data["type"] == kind:
+            into.append(data)
+
+
+async def test_a_scan_from_the_page_reports_progress_live(backend: Backend) -> None:
+    server = await serve(backend)
+    try:
+        async with aiohttp.ClientSession() as http, http.ws_connect(base(server) + "/ws") as ws:
+            progress: list[dict[str, Any]] = []
+            listener = asyncio.create_task(collect(ws, "scan", progress))
+            async with http.post(
+                base(server) + "/api/scan", json={"addresses": "0-7"}, headers=WRITE
+            ) as reply:
+                assert reply.status == 200
+                found = (await reply.json())["found"]
+            async with asyncio.timeout(10):
+                while not progress or "found" not in progress[-1]:
+                    await asyncio.sleep(0.05)
+            listener.cancel()
+        assert [f["address"] for f in found] == [1, 4, 7]
+        steps = [p["done"] for p in progress[:-1]]
+        assert len(steps) > 8 and steps == sorted(steps)
+        assert progress[-1]["found"] == found
+    finally:
+        await server.close()
+
+
+async def test_backup_compare_and_restore_over_http(backend: Backend) -> None:
+    server = await serve(backend)
+    try:
+        async with aiohttp.ClientSession() as http, http.ws_connect(base(server) + "/ws") as ws:
+            progress: list[dict[str, Any]] = []
+            listener = asyncio.create_task(collect(ws, "progress", progress))
+            url = base(server) + "/api/drive/1"
+            async with http.get(url + "/backup?format=json") as reply:
+                assert reply.status == 200
+                disposition = reply.headers["Content-Disposition"]
+                assert disposition.startswith('attachment; filename="drive1-generic-')
+                assert disposition.endswith('.json"')
+                body = await reply.read()
+            assert json.loads(body)["pyuss_backup"] == 1
+            async with asyncio.timeout(10):
+                while not progress or progress[-1]["done"] < progress[-1]["total"]:
+                    await asyncio.sleep(0.05)
+            assert {p["job"] for p in progress} == {"backup"}
+            assert progress[-1]["total"] == 30 and len(progress) > 30
+            listener.cancel()
+            async with http.post(url + "/compare?name=d1.json", data=body, headers=WRITE) as r:
+                assert r.status == 200
+                assert (await r.json())["differences"] == []
+            # a restore is a change: the page's header is needed, as for every change
+            async with http.post(url + "/restore?name=d1.json", data=body) as reply:
+                assert reply.status == 403
+            await backend.write(1, 464, None, "3")
+            async with http.post(url + "/restore?name=d1.json", data=body, headers=WRITE) as r:
+                assert r.status == 200
+                done = await r.json()
+            assert done["message"] == "drive 1: 1 of 1 written"
+            assert done["results"][0]["change"] == "P464 (Ramp-down time): 3.0 s -> 10.0 s"
+            for path, data, words in [
+                ("/backup?format=xml", None, "backup format 'xml'"),
+                ("/compare?name=e.toml", b"", "e.toml is empty"),
+                ("/compare?name=n.toml", b"[x]\n", "n.toml: not a pyuss backup"),
+                ("/restore?name=b.toml", b"\x00\xff", "b.toml: not a text file"),
+            ]:
+                if data is None:
+                    request = http.get(url + path)
+                else:
+                    request = http.post(url + path, data=data, headers=WRITE)
+                async with request as reply:
+                    assert reply.status == 400, path
+                    assert words in (await reply.json())["error"], path
+    finally:
+        await server.close()
