@@ -1,11 +1,11 @@
 """What the points know of a parameter: name, unit, type, scaling, access; typed reads and writes.
 
-This is the one place where the points meet the parameter model. It reads the knowledge of a
-drive's parameters from its profile's parameter file (the TOML files of
-``pyuss/profiles/data``, read by `pyuss.drive.database`) and reads and writes the raw words
-through `Drive.read` / `Drive.read_float` / `Drive.write`, converting with the file's type
-and scaling. A parameter the file does not know is shown as the unsigned word or double word
-the drive sends, without a unit.
+This is the one place where the points meet the parameter model `pyuss.params`: `ParamMeta`
+is a `pyuss.params.ParamInfo` (the profile's parameter book, `ParamBook.for_profile`) seen as
+a number with a unit, and reads and writes go through the drive's typed `Drive.read` /
+`Drive.write`, which convert with the type and scaling and refuse a bad value before anything
+is sent. A parameter the book does not know is shown as the unsigned word or double word the
+drive sends, without a unit.
 
 Only numbers are exposed: the faces carry integers and floats; a text or octet-string
 parameter is refused when the configuration is checked.
@@ -18,10 +18,12 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
-from pyuss.drive.database import Access, Parameter, ParameterDatabase, load_profile
+from pyuss.drive.database import load_profile
 from pyuss.drive.datatypes import DataType
 from pyuss.errors import ConfigError
 from pyuss.master.drive import Drive
+from pyuss.params import ParamBook, ParamInfo
+from pyuss.profiles import get_profile
 
 __all__ = ["ParamMeta", "ParameterModel"]
 
@@ -84,28 +86,26 @@ def _finite(value: object) -> bool:
     return not isinstance(value, bool) and isinstance(value, int | float) and math.isfinite(value)
 
 
-def _meta(param: Parameter, index: int | None, profile_base: int) -> ParamMeta:
-    dtype = param.dtype
+def _meta(info: ParamInfo, index: int | None, base: int) -> ParamMeta:
+    dtype = info.dtype
     if dtype.is_string:
         raise ConfigError(
-            f"P{param.pnu} ({param.name}) is a {dtype.label} parameter: the gateway exposes "
+            f"P{info.pnu} ({info.name}) is a {dtype.label} parameter: the gateway exposes "
             "numbers only"
         )
-    if param.is_array and index is None:
+    if info.is_array and index is None:
         raise ConfigError(
-            f"P{param.pnu} ({param.name}) is an array of {param.array}: name an element "
-            f"(P{param.pnu}.{profile_base})"
+            f"P{info.pnu} ({info.name}) is an array of {info.array}: name an element "
+            f"(P{info.pnu}.{base})"
         )
-    if not param.is_array and index is not None:
-        raise ConfigError(f"P{param.pnu} ({param.name}) is not an array: leave out the index")
-    if param.is_array and index is not None:
-        last = profile_base + (param.array or 0) - 1
-        if not profile_base <= index <= last:
-            raise ConfigError(f"P{param.pnu}.{index}: the elements are {profile_base}..{last}")
-    scaling = param.scaling
-    low = param.minimum
-    high = param.maximum
-    writable = param.writable
+    if not info.is_array and index is not None:
+        raise ConfigError(f"P{info.pnu} ({info.name}) is not an array: leave out the index")
+    if info.is_array and index is not None:
+        last = base + (info.array or 0) - 1
+        if not base <= index <= last:
+            raise ConfigError(f"P{info.pnu}.{index}: the elements are {base}..{last}")
+    scaling = info.scaling
+    writable = info.writable
 
     def scaled(limit: int | float | None) -> float | None:
         if limit is None or not writable:
@@ -113,20 +113,20 @@ def _meta(param: Parameter, index: int | None, profile_base: int) -> ParamMeta:
         return float(limit) * scaling if scaling is not None else float(limit)
 
     return ParamMeta(
-        pnu=param.pnu,
+        pnu=info.pnu,
         index=index,
-        name=param.name,
-        unit=param.unit,
+        name=info.name,
+        unit=info.unit,
         is_float=dtype is DataType.FLOAT,
         signed=dtype in (DataType.INT8, DataType.INT16, DataType.INT32),
-        dword=param.word_count == 2,
+        dword=info.words == 2,
         scaling=scaling,
-        decimals=param.decimals,
-        writable=writable and param.access is not Access.RO,
+        decimals=info.decimals or 0,
+        writable=writable,
         known=True,
-        minimum=scaled(low),
-        maximum=scaled(high),
-        texts=dict(param.texts),
+        minimum=scaled(info.minimum),
+        maximum=scaled(info.maximum),
+        texts=dict(info.texts),
     )
 
 
@@ -137,18 +137,15 @@ class ParameterModel:
         self.profile = profile
 
     @functools.cached_property
-    def database(self) -> ParameterDatabase | None:
-        try:
-            return load_profile(self.profile)
-        except ConfigError:
-            return None
+    def book(self) -> ParamBook:
+        return ParamBook.for_profile(get_profile(self.profile))
 
     def meta(self, pnu: int, index: int | None = None, name: str | None = None) -> ParamMeta:
         """What is known of P``pnu`` (element ``index``); `ConfigError` for a parameter the
         points cannot show (text, a whole array)."""
-        db = self.database
-        if db is not None and pnu in db:
-            meta = _meta(db.parameter(pnu), index, db.profile.index_base)
+        info = self.book.get(pnu)
+        if info is not None:
+            meta = _meta(info, index, self.book.index_base)
         else:
             meta = ParamMeta(pnu, index, f"P{pnu}")
         if name is not None:
@@ -157,18 +154,18 @@ class ParameterModel:
 
     def role(self, role: str) -> tuple[int, int | None] | None:
         """The parameter the profile uses for ``role`` (``reference``, ``fault``), if any."""
-        db = self.database
-        if db is None:
+        try:
+            ref = load_profile(self.profile).roles.get(role)
+        except ConfigError:
             return None
-        ref = db.roles.get(role)
         return None if ref is None else (ref.pnu, ref.index)
 
     async def read(self, drive: Drive, meta: ParamMeta) -> int | float:
         """The value of ``meta`` in its unit, read through the drive's parameter channel."""
-        if meta.is_float:
-            return await drive.read_float(meta.pnu, meta.index)
-        raw = await drive.read(meta.pnu, meta.index, signed=meta.signed)
-        return meta.physical(raw)
+        value = await drive.read(meta.pnu, meta.index)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ConfigError(f"{meta.key}: the drive's value {value!r} is not a number")
+        return value
 
     async def write(
         self, drive: Drive, meta: ParamMeta, value: float, *, eeprom: bool = False
@@ -177,21 +174,9 @@ class ParameterModel:
         answered with, in the unit."""
         if not meta.writable:
             raise ConfigError(f"{meta.key} ({meta.name}) is read-only")
-        raw = meta.raw(value)
-        if isinstance(raw, float):
-            answered = await drive.write(meta.pnu, raw, meta.index, eeprom=eeprom)
-        else:
-            answered = await drive.write(
-                meta.pnu,
-                raw,
-                meta.index,
-                dword=meta.dword if meta.known else None,
-                eeprom=eeprom,
-            )
-        if isinstance(answered, float):
-            return answered
-        if meta.signed and not meta.dword and answered >= 0x8000:
-            answered -= 0x10000
-        elif meta.signed and meta.dword and answered >= 0x8000_0000:
-            answered -= 0x1_0000_0000
-        return meta.physical(answered)
+        raw = meta.raw(value)  # refuses what is not a number, between steps, beyond limits
+        send = float(value) if meta.is_float or meta.scaling is not None else int(raw)
+        answered = await drive.write(meta.pnu, send, meta.index, eeprom=eeprom)
+        if isinstance(answered, bool) or not isinstance(answered, int | float):
+            raise ConfigError(f"{meta.key}: the drive answered {answered!r}, not a number")
+        return answered
