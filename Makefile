@@ -25,7 +25,7 @@ typecheck: $(STAMP)
 	$(VENV)/bin/mypy --strict src
 
 pytest: $(STAMP)
-	bash .ci/system-deps tshark chromium
+	bash .ci/system-deps tshark chromium mosquitto
 	$(PY) -m pytest
 
 test: lint typecheck pytest

@@ -36,6 +36,7 @@ COMMANDS: tuple[str, ...] = (
     "describe",
     "mirror",
     "run",
+    "gateway",
     "simulate",
     "bus",
     "monitor",
