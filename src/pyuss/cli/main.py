@@ -62,6 +62,7 @@ SUMMARIES: dict[str, str] = {
     "describe": "read the description of a parameter",
     "mirror": "send mirror telegrams and check they come back unchanged",
     "run": "switch a drive on, follow its ramp live, switch it off on Ctrl+C",
+    "gateway": "serve USS drives on Modbus TCP, MQTT (Home Assistant) and OPC UA",
     "simulate": "simulate drives (USS slaves) on a pty, TCP, serial port or virtual bus",
     "bus": "run a virtual RS-485 bus (ptys, TCP) with true character timing",
     "monitor": "listen to a USS line, decode and pair telegrams, write captures",
