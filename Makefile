@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint typecheck pytest bench clean venv
+.PHONY: demo test lint typecheck pytest bench clean venv screenshots
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -25,13 +25,21 @@ typecheck: $(STAMP)
 	$(VENV)/bin/mypy --strict src
 
 pytest: $(STAMP)
-	bash .ci/system-deps tshark chromium
+	bash .ci/system-deps tshark chromium mosquitto
 	$(PY) -m pytest
 
 test: lint typecheck pytest
 
 bench: $(STAMP)
 	$(PY) bench/run.py
+
+# The browser tests save a picture of each view of the web page into build/screenshots/ on
+# every run; this runs them and refreshes docs/images/ (shown by docs/web.md) from them.
+screenshots: $(STAMP)
+	bash .ci/system-deps chromium
+	rm -rf build/screenshots
+	$(PY) -m pytest tests/web/test_page.py -q -p no:cacheprovider
+	cp build/screenshots/*.png docs/images/
 
 clean:
 	rm -rf $(VENV) build dist .mypy_cache .pytest_cache .ruff_cache src/*.egg-info

@@ -6,6 +6,7 @@ character, delivery time minus ideal end time (the lag: never negative, since th
 delivers early). Then the same through ptys, comparing two ways of stamping what a serial
 port reads: pyuss's worker thread (`SerialTransport`) and a reader in the event loop that also
 runs the bus; each chunk's stamp minus the ideal end time of its last byte.
+Everything runs on the event loop ``uss bus`` uses (`pyuss.loop`, microsecond timers).
 CPU, over wall time while the traffic runs: the bus's own (CPU time spent in putting
 characters on the line and handing them over, `VirtualBus.send` and the delivery timer), and
 the whole process's (the bus plus the two stations and the probe, all in this process).
@@ -22,6 +23,7 @@ import tty
 from collections.abc import Callable
 
 from pyuss.bus import Recorder, VirtualBus
+from pyuss.loop import run
 from pyuss.transport import SerialTransport, Transport
 
 REQUEST = bytes.fromhex("02 0C 05 10 34 00 00 00 00 04 7E 00 00 55")
@@ -143,7 +145,7 @@ def _ms(values: list[float]) -> str:
 def main() -> None:
     print(f"delivery lag per character (delivery time - ideal end time), {SECONDS} s each")
     for baud in BAUDS:
-        lags, bus_cpu, cpu, cycles = asyncio.run(_in_process(baud))
+        lags, bus_cpu, cpu, cycles = run(_in_process(baud))
         tc = 11 / baud
         print(
             f"  {baud:6d} baud, in-process: {_ms(lags)}; "
@@ -151,7 +153,7 @@ def main() -> None:
             f"CPU of one core: bus {bus_cpu * 100:5.1f} %, process {cpu * 100:5.1f} % "
             f"({cycles} request/response cycles)"
         )
-        threaded, looped = asyncio.run(_through_pty(baud))
+        threaded, looped = run(_through_pty(baud))
         print(f"  {baud:6d} baud, pty, thread reader (SerialTransport): {_ms(threaded)}")
         print(f"  {baud:6d} baud, pty, event-loop reader:              {_ms(looped)}")
 

@@ -1,15 +1,27 @@
-"""Run every benchmark under bench/ (files named bench_*.py, each with a ``main()``)."""
+"""Run every benchmark under bench/ (files named bench_*.py, each with a ``main()``), then print
+the figures that have goals in one table (docs/bench.md says how to read it).
+
+``python bench/run.py master scan`` runs only the ones named.
+"""
 
 from __future__ import annotations
 
 import importlib.util
+import os
 import sys
+import time
 from pathlib import Path
 
 
 def main() -> int:
     here = Path(__file__).resolve().parent
+    sys.path.insert(0, str(here))
+    from common import Figure, table
+
     only = set(sys.argv[1:])
+    figures: list[Figure] = []
+    began = time.monotonic()
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
     for path in sorted(here.glob("bench_*.py")):
         if only and path.stem.removeprefix("bench_") not in only:
             continue
@@ -17,8 +29,13 @@ def main() -> int:
         assert spec is not None and spec.loader is not None
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
-        print(f"== {path.stem.removeprefix('bench_')}")
-        module.main()
+        print(f"== {path.stem.removeprefix('bench_')}", flush=True)
+        figures += module.main() or []
+    took = time.monotonic() - began
+    print()
+    print(f"== figures and goals ({took:.0f} s; {os.cpu_count()} cores", end="")
+    print(f", load average {load:.1f} at the start)" if load is not None else ")")
+    print(table(figures))
     return 0
 
 

@@ -10,8 +10,11 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "pyuss"
 
+_BELOW_FACES = {"protocol", "transport", "bus", "drive", "profiles", "params", "master"}
+_BELOW_FACES |= {"commission"}
+
 # What each package may import from pyuss (besides itself and the shared root modules
-# errors, log and atomicfile).
+# errors, log, atomicfile and _lazy, and loop for all but the protocol layer).
 ALLOWED: dict[str, set[str]] = {
     "protocol": set(),
     "transport": {"protocol", "bus"},  # bus:// URLs open the virtual bus client (lazily)
@@ -25,9 +28,16 @@ ALLOWED: dict[str, set[str]] = {
     # commissioning (backup, compare, restore, status) builds on the master
     "commission": {"protocol", "drive", "profiles", "params", "master"},
     # faces above the master: the data logger and the web page know nothing of each other
-    "datalog": {"protocol", "transport", "bus", "drive", "profiles", "master"},
-    "web": {"protocol", "transport", "bus", "drive", "profiles", "master", "monitor"},
+    # (both type parameter values through params; the page's backups are commission's)
+    "datalog": _BELOW_FACES,
+    "web": _BELOW_FACES | {"monitor"},
+    # the plant's data points and the faces above them sit on the master
+    "points": {"protocol", "transport", "bus", "drive", "profiles", "params", "master"},
+    "gateway": {"protocol", "transport", "bus", "drive", "profiles", "params", "master", "points"},
 }
+# Each gateway face imports its own library only; the pure modules none of them.
+FACE_LIBRARIES = {"pymodbus", "aiomqtt", "paho", "asyncua"}
+FACE_OWN = {"modbus.py": {"pymodbus"}, "mqtt.py": {"aiomqtt", "paho"}, "opcua.py": {"asyncua"}}
 # Pure means no I/O and no clock: none of these in the protocol layer.
 IMPURE = {"asyncio", "socket", "serial", "time", "os", "threading", "subprocess", "select"}
 
@@ -50,8 +60,27 @@ def test_no_layer_reaches_up(package: str) -> None:
         for name in _imports(package)
         if name.startswith("pyuss.") and name.count(".") >= 1
     }
-    used -= {package, "errors", "log", "atomicfile"}
+    used -= {package, "errors", "log", "atomicfile", "_lazy"}
+    if package != "protocol":  # the event loop helpers are shared by every layer doing I/O
+        used -= {"loop"}
     assert used <= ALLOWED[package], f"pyuss.{package} imports {sorted(used - ALLOWED[package])}"
+
+
+@pytest.mark.parametrize("module", sorted(p.name for p in (SRC / "gateway").glob("*.py")))
+def test_gateway_faces_import_only_their_own_library(module: str) -> None:
+    tree = ast.parse((SRC / "gateway" / module).read_text(encoding="utf-8"))
+    roots = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            roots.add(node.module.split(".")[0])
+        elif isinstance(node, ast.Import):
+            roots.update(alias.name.split(".")[0] for alias in node.names)
+    assert roots & FACE_LIBRARIES <= FACE_OWN.get(module, set()), f"pyuss.gateway.{module}"
+
+
+def test_points_import_no_face_library() -> None:
+    roots = {name.split(".")[0] for name in _imports("points")}
+    assert not roots & FACE_LIBRARIES
 
 
 def test_protocol_layer_does_no_io_and_reads_no_clock() -> None:

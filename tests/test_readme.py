@@ -1,4 +1,4 @@
-"""The README is where a new user starts, and every example of README.md and docs/*.md runs as
+r"""The README is where a new user starts, and every example of README.md and docs/*.md runs as
 written: this test collects every fenced block of those files (also of pages added later) and
 runs it by the rules of README.md, "Examples in the documentation":
 
@@ -10,14 +10,15 @@ runs it by the rules of README.md, "Examples in the documentation":
   (``uss NAME: ...``) must fail, the others succeed. ``$ COMMAND &`` runs in the background:
   the lines shown are the first it prints, and what it really printed replaces them (device
   paths, URLs and their HOST:PORT) in the commands that follow.
-- ```sh: commands, one per line (``#`` comments), run as in a console session.
+- ```sh: commands, one per line (``#`` comments, ``\`` at the end continues a line), run as
+  in a console session.
 - ```toml: parsed; a parameter file (with ``[profile]``) is read as the simulator reads it.
 - ```text: output, a file format, a synopsis: not run.
 
 Commands that serve until stopped (``uss simulate``, ``uss bus``, ``uss bass ring``,
-``uss ksvario simulate``, ``uss web``, ``uss monitor`` on a port, ``uss run`` and ``uss log``
-without ``--duration`` or ``--count``) get
-Ctrl+C (SIGINT) once they have printed something, and must then end with 0 or 130; background
+``uss ksvario simulate``, ``uss web``, ``uss gateway``, ``uss monitor`` on a port, ``uss run``
+and ``uss log`` without ``--duration`` or ``--count``) get Ctrl+C (SIGINT) once they have
+printed something, and must then end with 0 or 130; background
 commands get it when the block is done. Everything runs in an empty temporary directory, with
 ``HOME`` there too (``uss wireshark install`` writes below it).
 
@@ -151,7 +152,7 @@ def _serves(words: list[str]) -> bool:
     command = words[1:3]
     if command[:1] in (["simulate"], ["bus"]) or command in (["bass", "ring"],):
         return "--duration" not in words
-    if command == ["ksvario", "simulate"] or command[:1] == ["web"]:
+    if command == ["ksvario", "simulate"] or command[:1] in (["web"], ["gateway"]):
         return True
     if command[:1] == ["log"]:
         return "--duration" not in words and "--count" not in words
@@ -311,7 +312,7 @@ def _shown(line: str) -> str | None:
 
 def _session(example: Example) -> list[tuple[str, list[str]]]:
     steps: list[tuple[str, list[str]]] = []
-    for line in example.code.splitlines():
+    for line in re.sub(r"\\\n\s*", " ", example.code).splitlines():
         if example.kind == "sh":
             if line.split("#", 1)[0].strip():
                 steps.append((line.strip(), []))

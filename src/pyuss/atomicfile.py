@@ -14,6 +14,12 @@ data lost. `write_atomically`, whose caller still holds the data, removes it ins
 
 The file gets the permissions any newly created file gets (0666 less the umask), not the 0600
 of a bare temporary file, so a GSD file or a capture can be shared like any other file.
+
+A writer killed outright (``kill -9``, a power cut) leaves its temporary file
+(``.NAME.XXXXXXXX.tmp`` beside NAME) behind. Every writer holds an exclusive lock
+(``flock``) on its temporary file while it lives; `remove_stale` removes the temporary files
+of a target whose lock nobody holds, i.e. whose writer is gone, and leaves those of a live
+writer alone. The EEPROM store calls it when a drive starts.
 """
 
 from __future__ import annotations
@@ -25,6 +31,14 @@ from pathlib import Path
 from typing import IO, Any
 
 from pyuss.errors import ConfigError
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - not a POSIX system: no locks, no stale-file sweep
+    fcntl = None  # type: ignore[assignment]
+
+_ATTEMPTS = 5
+"""Temporary files tried when a sweep of another process removes one as it is created."""
 
 
 def _umask() -> int:
@@ -74,9 +88,7 @@ class AtomicWriter:
         self.what = what
         self.keep_on_failure = keep_on_failure
         try:
-            fd, self.tmp = tempfile.mkstemp(
-                prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent
-            )
+            fd, self.tmp = _locked_temporary(self.path)
         except OSError as exc:
             raise ConfigError(f"cannot write {what} to {self.path}: {exc.strerror}") from None
         with contextlib.suppress(OSError):
@@ -99,9 +111,9 @@ class AtomicWriter:
             try:
                 file.flush()
                 os.fsync(file.fileno())
+                os.replace(self.tmp, self.path)  # still locked: no sweep takes it meanwhile
             finally:
                 file.close()
-            os.replace(self.tmp, self.path)
         except OSError as exc:
             problem = f"cannot finish {self.what} {self.path}: {exc.strerror or exc}"
             if self.keep_on_failure:
@@ -127,6 +139,66 @@ class AtomicWriter:
             self.close()
         else:
             self.discard()
+
+
+def _temporary_prefix(target: Path) -> str:
+    return f".{target.name}."
+
+
+def _locked_temporary(target: Path) -> tuple[int, str]:
+    """A new temporary file beside ``target``, locked for as long as its descriptor is open.
+
+    A sweep (`remove_stale`) in another process may find the file between its creation and
+    the lock and remove it: then the descriptor no longer names the file at that path, and
+    another one is made."""
+    for _ in range(_ATTEMPTS):
+        fd, tmp = tempfile.mkstemp(
+            prefix=_temporary_prefix(target), suffix=".tmp", dir=target.parent
+        )
+        if fcntl is None:
+            return fd, tmp
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            if os.path.samestat(os.fstat(fd), os.stat(tmp)):
+                return fd, tmp
+        except OSError:
+            pass
+        os.close(fd)
+    raise OSError(0, "temporary files were removed as they were made")
+
+
+def remove_stale(path: str | os.PathLike[str]) -> list[Path]:
+    """Remove the temporary files a killed writer of ``path`` left behind (those whose lock
+    no living writer holds); return what was removed. Errors are ignored: a file that cannot
+    be removed stays, as it did before."""
+    target = Path(path)
+    removed: list[Path] = []
+    if fcntl is None:
+        return removed
+    prefix = _temporary_prefix(target)
+    try:
+        names = [
+            n for n in os.listdir(target.parent) if n.startswith(prefix) and n.endswith(".tmp")
+        ]
+    except OSError:
+        return removed
+    for name in names:
+        stale = target.parent / name
+        try:
+            fd = os.open(stale, os.O_RDONLY | os.O_NOFOLLOW)
+        except OSError:
+            continue
+        try:
+            if not os.path.samestat(os.fstat(fd), os.lstat(stale)):
+                continue
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # held: a live writer's file
+            os.unlink(stale)
+            removed.append(stale)
+        except OSError:
+            continue
+        finally:
+            os.close(fd)
+    return removed
 
 
 def write_atomically(path: str | os.PathLike[str], data: bytes, what: str = "a file") -> None:

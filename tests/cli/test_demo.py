@@ -16,7 +16,7 @@ def test_demo_runs_and_shows_each_step(capsys: pytest.CaptureFixture[str]) -> No
     assert "P52 = 16384 (Load display)   (C 8 example 2: 4000h)" in out
     assert "P52 lower limit = 5FFFh" in out
     assert "P7 text 3 = '300 BAUD'" in out
-    assert "P2010.1 = 6 [9600 BAUD] (USS baudrate)" in out
+    assert "P2010.0 = 8 [38400 BAUD] (USS baudrate)" in out  # the bus's rate (C 3)
     assert "P1120 := 2.5 s -> P1120 = 2.50 s (Ramp-up time)" in out
     assert "P52 is now 1234h (acknowledged)" in out
     assert out.count("back unchanged") == 3

@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 import select
 import signal
 import socket
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 import serial
@@ -141,6 +144,34 @@ def test_station_of_a_virtual_bus() -> None:
         bus.communicate(timeout=TIMEOUT)
 
 
+def test_several_simulators_join_one_bus_each_under_its_own_name(tmp_path: Path) -> None:
+    """Station names default to simulate-ADDRESSES, so a second simulator process is not
+    refused; --name chooses one. The recording shows who answered."""
+    record = tmp_path / "wire.jsonl"
+    bus = _start(
+        "bus", "--baud", "19200", "--pty", "1", "--bus-tcp", "127.0.0.1:0", "--record", str(record)
+    )
+    try:
+        assert bus.stdout is not None
+        pty_path = bus.stdout.readline().strip()
+        endpoint = bus.stdout.readline().strip().removeprefix("bus://")
+        common = ("--bus", endpoint, "--baud", "19200", "--layout", "3,2")
+        with (
+            simulate(*common, "--address", "5"),
+            simulate(*common, "--address", "6", "--name", "conveyor"),
+            serial.Serial(pty_path, 19200, parity="E", timeout=TIMEOUT) as port,
+        ):
+            for address in (5, 6):
+                time.sleep(0.01)  # a master keeps the start pause after the last answer (A 5.1.2)
+                port.write(frame(address, "1034 0000 0000 047E 0000"))
+                assert _read_telegram(port)[2] == address
+    finally:
+        bus.send_signal(signal.SIGTERM)
+        bus.communicate(timeout=TIMEOUT)
+    senders = {json.loads(line).get("from") for line in record.read_text().splitlines()[1:]}
+    assert {"simulate-5", "conveyor"} <= senders
+
+
 def test_parameter_file_and_read_only(tmp_path: Path) -> None:
     params = tmp_path / "conveyor.toml"
     params.write_text(
@@ -211,6 +242,15 @@ def test_a_damaged_store_is_refused(tmp_path: Path, capsys: pytest.CaptureFixtur
         (["--pty", "--latency-time", "nan"], "--latency-time must be numbers >= 0"),
         (["--pty", "--latency", "-2"], "--latency-time must be numbers >= 0"),
         (
+            ["--pty", "--profile", "micromaster420", "--baud", "115200"],
+            "a micromaster420 drive does not run at 115200 baud (P2010.",
+        ),
+        (["--pty", "--baud", "115200"], "a generic drive does not run at 115200 baud (P684.1:"),
+        (["--pty", "--failure-time", "7"], "takes 0..6.5 s (P687.1)"),
+        (["--pty", "--profile", "nord", "--failure-time", "0.25"], "steps of 0.1 s (P513)"),
+        (["--pty", "--name", "x"], "--name: a station name is for --bus only"),
+        (["--bus", "127.0.0.1:1", "--name", "a+b"], "--name 'a+b': give a non-empty name"),
+        (
             ["--pty", "--profile", "bass", "--params", "x.toml", "--read-only"],
             "profile bass does not take --params, --read-only (USS drive options)",
         ),
@@ -273,3 +313,136 @@ def test_bass_ring_plugs_in_by_profile() -> None:
         assert port.read_until(b"\n") == request  # the drive echoes the request first
         answer = port.read_until(b"\n")
     assert answer.startswith(b"#00") and answer.endswith(b"\r\n")
+
+
+def _ask(port: serial.Serial, net: str) -> bytes:
+    """Send a PKW 3, PZD 2 request to drive 5 and return the answer's PWE word."""
+    port.write(frame(5, net))
+    return _read_telegram(port)[7:9]
+
+
+def test_interface_parameters_show_what_is_in_force() -> None:
+    """C 3.1, C 3.2: P684.1 shows the rate the line runs at (7 = 19200 baud), P687.1 the
+    telegram failure time in force (300 ms)."""
+    args = ("--pty", "--address", "5", "--layout", "3,2", "--baud", "19200")
+    with (
+        simulate(*args, "--failure-time", "0.3") as (path, err),
+        serial.Serial(path, 19200, parity="E", timeout=TIMEOUT) as port,
+    ):
+        baud = _ask(port, "62AC 0001 0000 047E 0000")  # ID 6: P684 index 1
+        failure = _ask(port, "62AF 0001 0000 047E 0000")  # ID 6: P687 index 1
+    assert baud == bytes.fromhex("0007")
+    assert failure == bytes.fromhex("012C")
+    assert "19200 baud" in err[0]
+
+
+def test_a_stored_baud_rate_is_the_rate_of_the_next_start(tmp_path: Path) -> None:
+    """Two drives share the pty, so its rate stays while it runs: a RAM write is refused
+    (error 1), an EEPROM write is stored, and the next start without --baud runs at it and
+    shows it."""
+    store = str(tmp_path / "drive{address}.store")
+    args = ("--pty", "--address", "5", "--layout", "3,2", "--store", store)
+    with (
+        simulate(*args, "--address", "6") as (path, err),
+        serial.Serial(path, 9600, parity="E", timeout=TIMEOUT) as port,
+    ):
+        port.write(frame(5, "72AC 0001 0007 047E 0000"))  # ID 7: P684.1 = 7, RAM
+        assert _read_telegram(port)[3:9] == bytes.fromhex("72AC 0001 0001")  # refused, error 1
+        port.write(frame(5, "C2AC 0001 0007 047E 0000"))  # ID 12: P684.1 = 7, EEPROM
+        assert _read_telegram(port)[3:9] == bytes.fromhex("42AC 0001 0007")
+    assert "9600 baud" in err[0]
+    with (
+        simulate(*args) as (path, err),
+        serial.Serial(path, 19200, parity="E", timeout=TIMEOUT) as port,
+    ):
+        baud = _ask(port, "62AC 0001 0000 047E 0000")
+    assert baud == bytes.fromhex("0007")
+    assert "19200 baud" in err[0]
+
+
+@pytest.mark.parametrize(
+    ("argv", "lines"),
+    [
+        (["simulate", "--tcp", ":0"], 1),
+        (["simulate", "--profile", "ksvario", "--tcp", "127.0.0.1:0"], 1),
+        (["simulate", "--profile", "bass", "--tcp", ":0"], 1),
+        (["simulate", "--profile", "baumueller", "--pty", "--bass-tcp", ":0"], 2),
+        (["ksvario", "simulate", "--port", "tcp-listen://127.0.0.1:0"], 1),
+        (["bass", "ring", "--listen", "tcp-listen://127.0.0.1:0"], 1),
+        (["bus", "--tcp", "127.0.0.1:0", "--bus-tcp", "127.0.0.1:0"], 2),
+    ],
+    ids=lambda v: " ".join(v) if isinstance(v, list) else str(v),
+)
+def test_a_server_on_port_0_prints_the_port_it_listens_on(argv: list[str], lines: int) -> None:
+    proc = _start(*argv)
+    try:
+        printed = [_first_line(proc)]
+        assert proc.stdout is not None
+        printed += [proc.stdout.readline().strip() for _ in range(lines - 1)]  # printed at once
+        tcp = [line for line in printed if "://" in line]
+        assert tcp, printed
+        for url in tcp:
+            host, port = url.split("://", 1)[1].rsplit(":", 1)
+            assert int(port) > 0, url
+            socket.create_connection((host, int(port)), timeout=TIMEOUT).close()
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0, err
+
+
+def _recv(sock: socket.socket, n: int) -> bytes:
+    data = b""
+    while len(data) < n:
+        chunk = sock.recv(256)
+        assert chunk, f"connection closed after {data!r}"
+        data += chunk
+    return data
+
+
+def _uss_master(host: str, port: int) -> None:
+    with socket.create_connection((host, port), timeout=TIMEOUT) as sock:
+        sock.sendall(READ_P52)
+        assert _recv(sock, 14).hex(" ").upper() == ANSWER_P52
+
+
+def _bass_master(host: str, port: int) -> None:
+    request = b"#00003C0033FD\r\n"  # Baumueller 1.1 example 2: read ID 51 of drive 0
+    with socket.create_connection((host, port), timeout=TIMEOUT) as sock:
+        sock.sendall(request)
+        data = _recv(sock, len(request) + 1)
+        while data.count(b"\n") < 2:
+            data += _recv(sock, 1)
+    assert data.startswith(request) and data.endswith(b"\r\n")
+
+
+def _ksvario_master(host: str, port: int) -> None:
+    assert main(["ksvario", "read", "0x4496", "--port", f"tcp://{host}:{port}"]) == 0
+
+
+@pytest.mark.parametrize(
+    ("argv", "master"),
+    [
+        (["simulate", "--tcp", ":0", "--address", "5", "--layout", "3,2"], _uss_master),
+        (["bass", "ring", "--listen", "tcp-listen://127.0.0.1:0", "--drives", "0"], _bass_master),
+        (["ksvario", "simulate", "--port", "tcp-listen://127.0.0.1:0"], _ksvario_master),
+    ],
+    ids=["uss simulate --tcp", "uss bass ring", "uss ksvario simulate"],
+)
+def test_idle_tcp_clients_never_lock_a_master_out(argv: list[str], master: Any) -> None:
+    """One idle client, and then as many as the server has places (8): a master that
+    connects after them is still served (several peers; the one silent longest gives way)."""
+    proc = _start(*argv)
+    idle: list[socket.socket] = []
+    try:
+        host, port = _first_line(proc).split("://", 1)[1].rsplit(":", 1)
+        idle.append(socket.create_connection((host, int(port)), timeout=TIMEOUT))
+        master(host, int(port))
+        idle += [socket.create_connection((host, int(port)), timeout=TIMEOUT) for _ in range(8)]
+        master(host, int(port))
+    finally:
+        for sock in idle:
+            sock.close()
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0, err

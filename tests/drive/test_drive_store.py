@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import os
+import signal
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -120,3 +123,59 @@ def test_store_folder_must_exist(tmp_path: Path) -> None:
 def test_codec_round_trip() -> None:
     values = {(18, None): (0x7000,), (4, 2): (0x4000, 0)}
     assert decode_store(encode_store("p", values), "p", "f") == values
+
+
+_WRITER = """
+import sys, time
+from pyuss.atomicfile import AtomicWriter
+writer = AtomicWriter(sys.argv[1], "the store")
+writer.write(b"half of a store")
+print(writer.tmp, flush=True)
+time.sleep(60)
+"""
+
+
+def _writer(path: Path) -> tuple[subprocess.Popen[str], Path]:
+    """A process caught in the middle of writing ``path``: its temporary file."""
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _WRITER, str(path)],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None
+    return proc, Path(proc.stdout.readline().strip())
+
+
+def test_temporary_file_of_a_killed_writer_is_removed_at_the_next_start(tmp_path: Path) -> None:
+    """kill -9 during an EEPROM write leaves .drive5.store.*.tmp; the next start of that
+    store removes it, and the stored values are those of the last complete write."""
+    path = tmp_path / "drive5.store"
+    power_on(path).write_words(18, [0x7000], interface="uss", eeprom=True)
+    proc, tmp = _writer(path)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert tmp.exists() and tmp.name.startswith(".drive5.store.")
+    drive = power_on(path)
+    assert not tmp.exists()
+    assert sorted(os.listdir(tmp_path)) == ["drive5.store"]
+    assert drive.value(18) == 0x7000
+
+
+def test_temporary_file_of_a_live_writer_is_left_alone(tmp_path: Path) -> None:
+    """Two drives sharing a store folder: the start of one never takes the file another is
+    writing at that moment; nor the files of other stores."""
+    path = tmp_path / "drive5.store"
+    other = tmp_path / ".drive6.store.abcdefgh.tmp"
+    other.write_bytes(b"not ours")
+    proc, tmp = _writer(path)
+    try:
+        power_on(path)
+        assert tmp.exists()
+        assert other.exists()
+    finally:
+        proc.kill()
+        proc.wait()
+    power_on(path)
+    assert not tmp.exists()
+    assert other.exists()

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -163,3 +167,51 @@ def test_uss_simulate_profile_ksvario_bad_input(
     assert main(["simulate", "--profile", "ksvario", "--pty", *extra]) == 2
     err = capsys.readouterr().err
     assert words in err and len(err.strip().splitlines()) == 1, err
+
+
+_BACKGROUND = (
+    '"$0" -m pyuss.cli.main "$@" < /dev/null > "$OUT" 2> "$ERR" & echo $!; wait $!; echo "rc=$?"'
+)
+"""How a shell script starts a simulator: in the background, without job control, so the
+shell leaves SIGINT (and SIGQUIT) ignored in it; stdin from /dev/null."""
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["ksvario", "simulate", "--pty"],
+        ["simulate", "--profile", "ksvario", "--pty", "--address", "5"],
+        ["simulate", "--pty", "--address", "5"],
+    ],
+    ids=["uss ksvario simulate", "uss simulate --profile ksvario", "uss simulate"],
+)
+def test_a_simulator_started_in_the_background_stops_cleanly(
+    argv: list[str], sig: signal.Signals, tmp_path: Path
+) -> None:
+    out, err = tmp_path / "out", tmp_path / "err"
+    out.touch()
+    err.touch()
+    shell = subprocess.Popen(
+        ["sh", "-c", _BACKGROUND, sys.executable, *argv],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "OUT": str(out), "ERR": str(err)},
+    )
+    assert shell.stdout is not None
+    pid = int(shell.stdout.readline())
+    try:
+        deadline = time.monotonic() + 20
+        while not out.read_text().strip() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert out.read_text().startswith("/dev/"), err.read_text()
+        os.kill(pid, sig)
+        rest, _ = shell.communicate(timeout=20)
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
+        shell.kill()
+        shell.wait()
+    assert rest.strip() == "rc=0", err.read_text()
+    assert "Traceback" not in err.read_text()

@@ -16,7 +16,6 @@ from pyuss.bus import VirtualBus
 from pyuss.datalog import NO_ANSWER, CsvLog, DataLogger, parse_values
 from pyuss.master import Master
 from pyuss.master.testing import simulated_drives
-from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 
 UV = [sys.executable, "-m", "pyuss.cli.main"]
@@ -29,7 +28,6 @@ def rows(path: Path) -> list[dict[str, str]]:
 
 async def test_a_drive_that_stops_answering_is_logged_as_silent(tmp_path: Path) -> None:
     bus = VirtualBus(38400)
-    db = get_profile("generic").database()
     path = tmp_path / "run.csv"
     try:
         async with (
@@ -41,9 +39,8 @@ async def test_a_drive_that_stops_answering_is_logged_as_silent(tmp_path: Path) 
             await drive.on()
             logger = DataLogger(
                 drive,
-                parse_values(["status", "actual", "operation_enabled", "P352"], db),
+                parse_values(["status", "actual", "operation_enabled", "P352"]),
                 rate=20,
-                database=db,
                 job_timeout=0.3,
             )
             await logger.prepare()
@@ -157,3 +154,41 @@ def test_bad_values_are_bad_input(tmp_path: Path) -> None:
     assert done.returncode == 2
     assert done.stderr.count("\n") == 1 and "speed" in done.stderr
     assert not (tmp_path / "x.csv").exists()
+
+
+async def test_values_are_typed_by_the_parameter_model(tmp_path: Path) -> None:
+    """A float in its unit with two decimals, a value of an array element as the number it is,
+    a whole array, the main actual value in Hz through the reference parameter P2000."""
+    bus = VirtualBus(38400)
+    path = tmp_path / "mm4.csv"
+    try:
+        async with (
+            simulated_drives(bus, [(3, "micromaster4", None)]),
+            Master(bus.attach("master"), profile="micromaster4") as master,
+        ):
+            drive = master.drive(3)
+            await drive.write(1120, 2.5)
+            logger = DataLogger(
+                drive, parse_values(["actual", "P1120", "P2010.1", "P947"]), rate=20
+            )
+            await logger.prepare()
+            log = CsvLog(path, logger.header())
+            await logger.run(log, asyncio.Event(), count=3)
+            log.close()
+    finally:
+        await bus.close()
+    table = rows(path)
+    assert list(table[0]) == [
+        "time",
+        "actual PZD2 [Hz]",
+        "P1120 Ramp-up time [s]",
+        "P2010.1 USS baudrate",
+        "P947 Last fault code",
+        "comm",
+    ]
+    assert len(table) == 3
+    for row in table:
+        assert row["P1120 Ramp-up time [s]"] == "2.50"
+        assert row["P2010.1 USS baudrate"] == "6"
+        assert row["P947 Last fault code"] == "0 0 0 0 0 0 0 0"
+        assert row["comm"] == "ok"

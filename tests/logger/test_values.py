@@ -6,12 +6,10 @@ import pytest
 
 from pyuss.datalog import Kind, parse_values
 from pyuss.errors import ConfigError
-from pyuss.profiles import get_profile
 
 
 def test_values_are_understood() -> None:
-    db = get_profile("generic").database()
-    values = parse_values(["status", "State", "actual", "fault", "bit9", "P52", "P4.2", "r352"], db)
+    values = parse_values(["status", "State", "actual", "fault", "bit9", "P52", "P4.2", "r352"])
     assert [v.kind for v in values] == [
         Kind.STATUS,
         Kind.STATE,
@@ -24,15 +22,15 @@ def test_values_are_understood() -> None:
     ]
     assert values[3].bit == 3 and values[4].bit == 9
     assert (values[6].pnu, values[6].index) == (4, 2)
-    assert values[7].parameter is not None and values[7].parameter.unit == "Hz"
+    assert (values[7].pnu, values[7].index) == (352, None)
 
 
 @pytest.mark.parametrize("text", ["speed", "P", "P4.300", "bit16"])
 def test_values_not_understood_are_named(text: str) -> None:
     with pytest.raises(ConfigError, match=text.replace(".", r"\.")):
-        parse_values([text], None)
+        parse_values([text])
 
 
 def test_at_least_one_value() -> None:
     with pytest.raises(ConfigError):
-        parse_values([], None)
+        parse_values([])

@@ -22,9 +22,9 @@ async def test_micromaster4_reaches_parameters_from_2000_on_through_the_page_bit
     layout = Layout(PKW_VARIABLE, 2)
     async with simulated_bus([(3, "micromaster4", layout)], profile="micromaster4") as env:
         drive = env.master.drive(3, layout=layout)
-        assert await drive.read(2011, 1) == 3  # the interface shows its address
-        assert await drive.read(2010, 1) == 6
-        assert await drive.write(2010, 8, 1) == 8
+        assert await drive.read(2011, 0) == 3  # the interface shows its address
+        assert await drive.read(2010, 0) == 8  # the COM link shows the bus's 38400 baud
+        assert await drive.write(2010, 8, 1) == 8  # the BOP link
         assert await drive.read(2000) == 50.0  # a float parameter reads as a float
         assert await drive.read_raw(2000) == (0x4248, 0x0000)
         assert await drive.read_array(2012) == [2, 2]  # arrays count from 0 here

@@ -123,6 +123,6 @@ def test_the_values_example_of_the_master_docs_runs(capsys: pytest.CaptureFixtur
         if "print(" in line
     ]
     assert out[0] == "10.0" and out[1] == "P1120 = 10.00 s (Ramp-up time)"
-    assert out[2] == "(16672, 0)" and out[3] == "2.5" and out[4] == "6"
+    assert out[2] == "(16672, 0)" and out[3] == "2.5" and out[4] == "8"  # the bus's 38400 baud
     assert out[5] == "[0, 0, 0, 0, 0, 0, 0, 0]"
     assert len(out) == len(expected)

@@ -169,9 +169,9 @@ def test_nord_defaults_and_error_numbers() -> None:
 
 
 def test_micromaster4_reaches_parameters_above_1999_through_the_page_bits() -> None:
-    with PtySim(engine(4, "micromaster4")) as sim, sim.master() as master:
+    with PtySim(engine(4, "micromaster4"), baud=9600) as sim, sim.master() as master:
         ask = lambda job: master.ask(4, LV, job, (OFF1, 0)).pkw  # noqa: E731
-        baud = ask(Pkw(6, 10, 0x8001))  # P2010[1]
+        baud = ask(Pkw(6, 10, 0x8001))  # P2010[1]: the line runs at 9600 baud, code 6
         write = ask(Pkw(7, 11, 0x8001, values=(7,)))  # P2011[1] = 7
         reference = ask(Pkw(1, 0, 0x8000))  # P2000, float
         low = ask(Pkw(1, 3))  # P3 (page 0)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import asyncio
 import select
 import threading
+import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future
 from typing import Any, TypeVar
@@ -20,6 +21,7 @@ from pyuss.drive import SimulatedDrive
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import AddressMode, Telegram, bcc
+from pyuss.protocol.timing import BAUD_RATES
 from pyuss.slave import SlaveEngine, SlaveServer
 from pyuss.transport.pty import PtyPort
 
@@ -53,10 +55,11 @@ def engine(
 
 
 class PtySim:
-    """Engines served on a pty until `close`; ``path`` is the device to open."""
+    """Engines served on a pty until `close`; ``path`` is the device to open. ``baud``: the
+    rate of the line (default: the fastest rate every drive runs at)."""
 
-    def __init__(self, setup: Setup, *, baud: int = 187500, **server: Any) -> None:
-        self.baud = baud
+    def __init__(self, setup: Setup, *, baud: int | None = None, **server: Any) -> None:
+        self.baud = baud or 0
         self.loop = asyncio.new_event_loop()
         self._ready: Future[None] = Future()
         self._stop: asyncio.Event | None = None
@@ -77,9 +80,14 @@ class PtySim:
     async def _serve(self, setup: Setup, options: dict[str, Any]) -> None:
         try:
             self._stop = asyncio.Event()
+            self.engines = list(setup(time.monotonic()))
+            if not self.baud:  # the fastest rate every drive runs at (quick tests)
+                rates = set(BAUD_RATES)
+                for one in self.engines:
+                    rates &= set(one.interface_parameters.rates())
+                self.baud = max(rates)
             pty = PtyPort(baud=self.baud)
             await pty.open()
-            self.engines = list(setup(pty.clock()))
             self.server = SlaveServer(pty, *self.engines, **options)
             self.path = pty.device_path
         except BaseException as exc:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pyuss.drive import SimulatedDrive, parse_database
+from pyuss.drive import DriveState, SimulatedDrive, parse_database
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
@@ -93,6 +93,25 @@ def test_pzd16_is_never_taken_from_a_broadcast() -> None:
         assert master.silent(frame(0x20, f"FFFF FFFF FFFF FFFF {pzd}"))
         last = sim.call(lambda: sim.engines[0]._last_pzd)
     assert last == (0,) * 16  # the image of the last non-broadcast telegram is kept
+
+
+def test_broadcast_merges_into_the_process_data_in_force() -> None:
+    """Appendix, C Table 5.4 bit 10: telegrams whose control word has bit 10 = 0 are ignored
+    and the old process data stay in force; a broadcast enabling bit 0 of PZD1 merges into
+    that control word (047Eh), not into the ignored 0000h, and switches the drive on."""
+    broadcast = bytes.fromhex("02 0E 20 00 03 00 01 00 00 00 00 04 7F 30 00 65")
+    assert broadcast == frame(0x20, "0003 0001 0000 0000 047F 3000")
+    with PtySim(engine(6, "generic", "4,2")) as sim, sim.master() as master:
+        master.exchange(frame(6, "0000 0000 0000 0000 047E 1000"))
+        for _ in range(3):
+            ignored = master.exchange(frame(6, "0000 0000 0000 0000 0000 1000"))
+        assert ignored[11:13] == bytes.fromhex("0231")  # ready to switch on
+        assert master.silent(broadcast)
+        answer = master.exchange(frame(6, "0000 0000 0000 0000 0000 0000"))
+        control, state = sim.call(lambda: (sim.drive.machine.control, sim.drive.state))
+    assert control == 0x047F
+    assert state is DriveState.OPERATION
+    assert answer[12] & 0x07 == 0x07  # status bits 0..2: ready to switch on, ready, operation
 
 
 def test_special_telegrams_go_to_a_registered_handler() -> None:

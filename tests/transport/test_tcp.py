@@ -23,19 +23,21 @@ async def test_client_and_server_carry_bytes_both_ways() -> None:
             assert joined(await read_bytes(client, 200)) == bytes(range(200))
 
 
-async def test_server_serves_one_peer_at_a_time_and_the_next_after() -> None:
+async def test_server_carries_the_line_to_several_peers() -> None:
+    """What any peer sends reaches the line; what the line sends reaches every peer; a peer
+    that leaves frees its place, and the next is served."""
     async with TcpServerTransport() as server:
         first = TcpTransport("127.0.0.1", server.port)
         await first.open()
         assert await server.wait_peer(WAIT)
-        second = TcpTransport("127.0.0.1", server.port)
-        await second.open()
-        with pytest.raises(TransportError, match="closed by the peer"):
-            await second.read(WAIT)
-        await second.close()
-        assert server.peers_refused == 1
-        await first.write(b"one")
-        assert joined(await read_bytes(server, 3)) == b"one"
+        async with TcpTransport("127.0.0.1", server.port) as second:
+            await second.write(b"two")
+            assert joined(await read_bytes(server, 3)) == b"two"
+            await first.write(b"one")
+            assert joined(await read_bytes(server, 3)) == b"one"
+            await server.write(b"all")
+            assert joined(await read_bytes(first, 3)) == b"all"
+            assert joined(await read_bytes(second, 3)) == b"all"
         await first.close()
         for _ in range(250):
             if not server.connected:
@@ -45,7 +47,56 @@ async def test_server_serves_one_peer_at_a_time_and_the_next_after() -> None:
         async with TcpTransport("127.0.0.1", server.port) as third:
             await third.write(b"three")
             assert joined(await read_bytes(server, 5)) == b"three"
-        assert server.peers_served == 2
+        assert server.peers_served == 3
+        assert server.peers_replaced == 0
+
+
+async def test_idle_peers_never_lock_a_new_one_out() -> None:
+    """All places taken by idle peers: a new peer replaces the one silent longest."""
+    async with TcpServerTransport(max_peers=2) as server:
+        idle = [socket.create_connection(("127.0.0.1", server.port)) for _ in range(2)]
+        try:
+            for _ in range(250):
+                if server.peers == 2:
+                    break
+                await asyncio.sleep(0.02)
+            idle[1].sendall(b"x")  # the second one spoke last
+            assert joined(await read_bytes(server, 1)) == b"x"
+            async with TcpTransport("127.0.0.1", server.port) as master:
+                await master.write(b"job")
+                assert joined(await read_bytes(server, 3)) == b"job"
+                await server.write(b"answer")
+                assert joined(await read_bytes(master, 6)) == b"answer"
+            assert server.peers_replaced == 1
+            idle[0].setblocking(False)
+            async with asyncio.timeout(WAIT):
+                gone = await asyncio.get_running_loop().sock_recv(idle[0], 16)
+            assert gone == b""  # the longest silent one was closed
+        finally:
+            for sock in idle:
+                sock.close()
+
+
+async def test_a_peer_that_does_not_read_is_disconnected_not_waited_for() -> None:
+    async with TcpServerTransport() as server:
+        stuck = socket.create_connection(("127.0.0.1", server.port))
+        stuck.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        try:
+            async with TcpTransport("127.0.0.1", server.port) as master:
+                for _ in range(250):
+                    if server.peers == 2:
+                        break
+                    await asyncio.sleep(0.02)
+                for _ in range(4000):
+                    await server.write(bytes(1024))  # never blocks on the stuck peer
+                    if server.peers_dropped:
+                        break
+                    await read_bytes(master, 1024)
+                assert server.peers_dropped == 1
+                await master.write(b"still")
+                assert joined(await read_bytes(server, 5)) == b"still"
+        finally:
+            stuck.close()
 
 
 async def test_server_write_without_peer_is_counted_not_sent() -> None:

@@ -1,5 +1,9 @@
 """The page's server on a thread of its own (its own event loop), against the demo's
-simulated drives, and a real headless Chromium driven by Playwright."""
+simulated drives, and a real headless Chromium driven by Playwright.
+
+The browser tests save a screenshot of each view into build/screenshots/ (git-ignored) on every
+run; `make screenshots` runs them and copies the pictures into docs/images/, which docs/web.md
+shows. A test run leaves the tracked tree as it was."""
 
 from __future__ import annotations
 
@@ -18,7 +22,17 @@ from pyuss.web.server import WebServer
 
 T = TypeVar("T")
 CHROMIUM = "/usr/bin/chromium"
-IMAGES = Path(__file__).resolve().parents[2] / "docs" / "images"
+ROOT = Path(__file__).resolve().parents[2]
+SHOTS = ROOT / "build" / "screenshots"
+"""Where the browser tests save their screenshots (`make screenshots` copies them to docs)."""
+
+
+def screenshot(page: Any, name: str, *, full_page: bool = False) -> Path:
+    """Save a picture of what ``page`` shows as build/screenshots/NAME.png."""
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    path = SHOTS / f"{name}.png"
+    page.screenshot(path=path, full_page=full_page)
+    return path
 
 
 class Running:

@@ -1,11 +1,17 @@
 """The page's data access: the master's own traffic decoded for the monitor view, the scan,
-values in units."""
+values in units, parameters typed through `pyuss.params`, backup, compare and restore through
+`pyuss.commission`."""
 
 from __future__ import annotations
 
 import asyncio
+import re
+
+import pytest
 
 from pyuss.bus import VirtualBus
+from pyuss.commission.backup import loads as load_text
+from pyuss.errors import ConfigError
 from pyuss.master.testing import simulated_drives
 from pyuss.protocol.layout import Layout
 from pyuss.web.backend import Backend, DriveSpec
@@ -69,5 +75,96 @@ async def test_setpoints_in_the_reference_unit() -> None:
         await backend.command(1, "setpoint", {"value": "10", "unit": "Hz"})
         assert backend.master.drive(1).setpoints == (round(0x4000 * 0.2),)
         assert abs((backend.setpoint_value(1) or 0) - 10.0) < 0.01
+    finally:
+        await backend.close()
+
+
+async def test_the_expert_list_and_edits_go_through_the_parameter_model() -> None:
+    backend = Backend(demo=True)
+    await backend.start()
+    try:
+        rows = {r["id"]: r for r in backend.parameters(7)}
+        ramp = rows["1120"]
+        assert (ramp["name"], ramp["unit"], ramp["type"]) == ("Ramp-up time", "s", "float")
+        assert (ramp["min"], ramp["max"], ramp["writable"]) == ("0.00", "650.00", True)
+        assert "2010.0" in rows and "2010.1" in rows  # MICROMASTER 4 counts from 0
+        assert rows["2010.1"]["texts"]["7"] == "19200 BAUD"
+        assert not rows["52"]["writable"]  # a bit field: raw words only
+        # typed as the manual writes them: a time in another unit, a value text
+        assert (await backend.write(7, 1120, None, "1500 ms"))["value"] == "1.50 s"
+        assert (await backend.write(7, 2010, 1, "19200 baud"))["value"] == "7 [19200 BAUD]"
+        assert (await backend.read(7, [(2010, 1)]))[0]["input"] == "7"
+        await backend.write(7, 2010, 1, "9600 BAUD")
+        # refused before anything is sent: no job reaches the drive
+        jobs = backend.master.drive(7).diagnostics().jobs
+        before = jobs.completed + jobs.refused
+        for pnu, index, text, words in [
+            (1120, None, "700", "outside 0.00..650.00 s"),
+            (1120, None, "fast", "not a number"),
+            (1120, None, "2 Hz", "unit 'Hz' does not fit"),
+            (2010, 1, "0x2", "outside 3..13"),
+            (21, None, "5", "read-only"),
+            (52, None, "1", "read-only"),
+        ]:
+            try:
+                await backend.write(7, pnu, index, text)
+            except ConfigError as exc:
+                assert words in str(exc), (text, str(exc))
+            else:
+                raise AssertionError(f"{text!r} for P{pnu} was not refused")
+        jobs = backend.master.drive(7).diagnostics().jobs
+        assert jobs.completed + jobs.refused == before
+    finally:
+        await backend.close()
+
+
+async def test_backup_compare_and_restore_are_those_of_uss_backup() -> None:
+    backend = Backend(demo=True)
+    await backend.start()
+    engine = backend.engines[1].drive
+    try:
+        name, text = await backend.backup(1)
+        assert name.startswith("drive1-generic-") and name.endswith(".toml")
+        saved = load_text(text)
+        assert saved.find(462) is not None and saved.identity[0].label == "P91"
+        await backend.write(1, 462, None, "4.5")
+        compared = await backend.compare(1, text.encode(), name)
+        assert compared["differences"] == [
+            {
+                "id": "462",
+                "label": "P462",
+                "name": "Ramp-up time",
+                "drive": "4.5 s",
+                "file": "10.0 s",
+            }
+        ]
+        assert [w["change"] for w in compared["writes"]] == ["P462 (Ramp-up time): 4.5 s -> 10.0 s"]
+        assert compared["stranger"] is None and compared["refused"] is None
+        # a backup of another drive (its serial number differs) needs force
+        other = text.replace('value = "00 00 30 39"', 'value = "00 00 30 40"')
+        # a value the parameter cannot take refuses the whole file before anything is written
+        broken = text.replace("value = 10.0\n", "value = 1000.0\n")
+        for data, key, words in [
+            (other, "stranger", "other.toml is from another drive: P91 (Serial number)"),
+            (broken, "refused", "P462: 1000.0 s is outside 0.0..999.9 s"),
+        ]:
+            compared = await backend.compare(1, data.encode(), "other.toml")
+            assert words in compared[key]
+            with pytest.raises(ConfigError, match=re.escape(words)):
+                await backend.restore(1, data.encode(), "other.toml")
+            assert engine.value(462) == 45
+        done = await backend.restore(1, other.encode(), "other.toml", force=True)
+        assert done["message"] == "drive 1: 1 of 1 written"
+        assert engine.value(462) == 100
+        done = await backend.restore(1, text.encode(), name)
+        assert done["message"] == f"drive 1 already holds {name}: nothing to write"
+        # files that are no backups: one line naming what is wrong
+        for data, words in [
+            (b"\xff\xfe", "not a text file"),
+            (b"x = 1\n", "not a pyuss backup"),
+            (text.replace("count = 30", "count = 31").encode(), "cut short"),
+        ]:
+            with pytest.raises(ConfigError, match=re.escape(words)):
+                await backend.compare(1, data, "f.toml")
     finally:
         await backend.close()

@@ -1,7 +1,8 @@
 """The page in a real headless Chromium against the demo's simulated drives: every view loads,
 the trend moves, commands switch the simulated drive (after asking), parameter edits reach it
 and its refusals are shown in words, the monitor shows the telegrams. Each test saves a
-screenshot of its view into docs/images/ (docs/web.md shows them)."""
+screenshot of its view into build/screenshots/ (`make screenshots` puts them into docs/images/,
+which docs/web.md shows)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,8 @@ import pytest
 
 from pyuss.drive.states import DriveState
 from pyuss.monitor.capture import read_capture
-from web.conftest import IMAGES, Running, open_page
+from pyuss.profiles import profile_names
+from web.conftest import Running, open_page, screenshot
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
@@ -36,8 +38,13 @@ def test_the_bus_view_lists_the_drives_with_their_health(page: Any) -> None:
     )
     assert [rows.nth(i).get_attribute("data-address") for i in range(3)] == ["1", "4", "7"]
     assert "switch-on inhibited" in rows.nth(0).inner_text()
+    assert "0.00 Hz" in rows.nth(0).inner_text()  # the main actual value in its unit
+    assert "0.00 %" in rows.nth(1).inner_text()  # no reference parameter: percent
     assert page.locator("#bus-baud").inner_text() == "38400 baud"
-    page.screenshot(path=IMAGES / "web-bus.png", full_page=True)
+    # a scan may look for any profile pyuss knows
+    options = page.locator("#scan-profile option").all_inner_texts()
+    assert options == list(profile_names())
+    screenshot(page, "web-bus", full_page=True)
 
 
 def test_the_trend_moves_and_on_off_switch_the_drive_after_asking(page: Any, demo: Running) -> None:
@@ -70,7 +77,7 @@ def test_the_trend_moves_and_on_off_switch_the_drive_after_asking(page: Any, dem
         " return parseFloat(c) > 5; })()"
     )
     page.wait_for_timeout(1500)  # let the ramp draw a visible line for the picture
-    page.screenshot(path=IMAGES / "web-drive.png", full_page=True)
+    screenshot(page, "web-drive", full_page=True)
     # OFF1: the drive ramps down and switches off (no question: it stops the motor).
     page.click("[data-cmd=off1]")
     page.wait_for_function(
@@ -136,7 +143,83 @@ def test_a_parameter_edit_reaches_the_drive_and_a_refusal_is_shown(
     assert demo.run(lambda: demo.backend.engines[1].drive.value(352)) == 5000
     page.click("#edit-cancel")
     page.fill("#param-search", "")
-    page.screenshot(path=IMAGES / "web-params.png", full_page=False)
+    screenshot(page, "web-params", full_page=False)
+
+
+def test_a_backup_downloads_and_restores_and_a_refusal_is_shown(
+    page: Any, demo: Running, tmp_path: Any
+) -> None:
+    from pyuss.commission import load
+
+    engine = demo.backend.engines[1].drive
+    backend = demo.backend
+    page.goto(demo.url + "#params/1")
+    page.wait_for_function(
+        "document.querySelector('#param-message').textContent.includes('values read')"
+    )
+    # The backup: a file of uss backup, downloaded by the browser.
+    with page.expect_download() as info:
+        page.click("#param-backup")
+    download = info.value
+    assert download.suggested_filename.startswith("drive1-generic-")
+    assert download.suggested_filename.endswith(".toml")
+    path = tmp_path / download.suggested_filename
+    download.save_as(path)
+    backup = load(path)
+    assert (backup.address, backup.profile) == (1, "generic")
+    ramp = backup.find(462)
+    assert ramp is not None and ramp.unit == "s"
+    saved = demo.run(lambda: engine.value(462))
+    page.wait_for_function(
+        "document.querySelector('#param-message').textContent.includes('saved as')"
+    )
+    try:
+        # Changes: the ramp-up time on the page; the reference frequency by an expert (access
+        # level 3 unlocks it), who goes back to level 2 afterwards.
+        page.fill("#param-search", "ramp-up")
+        page.locator("#param-table tbody tr[data-id='462'] td.value").click()
+        page.fill("#edit-value", "7.5" if saved != 75 else "8")
+        page.click("#edit-write")
+        page.wait_for_function("!document.querySelector('#edit').open")
+        assert demo.run(lambda: engine.value(462)) != saved
+        demo.call(backend.write(1, 51, None, "EXPERT"))
+        demo.call(backend.write(1, 352, None, "40"))
+        demo.call(backend.write(1, 51, None, "STANDARD"))
+        # Compare: the differences with names and units.
+        page.set_input_files("#param-file", str(path))
+        page.locator("#param-diff table.diff").wait_for()
+        diff = page.locator("#param-diff")
+        assert "Ramp-up time" in diff.locator("tr[data-id='462']").inner_text()
+        reference = diff.locator("tr[data-id='352']").inner_text()
+        assert "Reference freq." in reference and "40.00 Hz" in reference
+        assert "50.00 Hz" in reference
+        # Restore: it asks first, with the writes it will make; "Cancel" writes nothing.
+        page.click("#restore-start")
+        page.locator("#confirm").wait_for()
+        question = page.locator("#confirm-text").inner_text()
+        assert "P462 (Ramp-up time)" in question and "P352 (Reference freq.)" in question
+        page.click("#confirm-no")
+        assert demo.run(lambda: engine.value(462)) != saved
+        page.click("#restore-start")
+        page.click("#confirm-yes")
+        page.locator("#restore-summary").wait_for()
+        assert page.locator("#restore-summary").inner_text() == "drive 1: 1 of 2 written, 1 refused"
+        # The ramp is back in the simulated drive; the protected parameter is refused in words.
+        assert demo.run(lambda: engine.value(462)) == saved
+        refused = page.locator("#param-diff li.refused").inner_text()
+        assert refused.startswith("P352 (Reference freq.): 40.00 Hz -> 50.00 Hz")
+        assert "refused: error 12: keyword missing" in refused
+        assert page.locator("#param-diff li.ok[data-id='462']").count() == 1
+        assert demo.run(lambda: engine.value(352)) == 4000
+        page.fill("#param-search", "")
+        page.wait_for_function(
+            "document.querySelector('#param-message').textContent.includes('values read')"
+        )
+        screenshot(page, "web-restore", full_page=False)
+    finally:
+        demo.call(backend.write(1, 51, None, "EXPERT"))
+        demo.call(backend.write(1, 352, None, "50"))
+        demo.call(backend.write(1, 51, None, "STANDARD"))
 
 
 def test_the_monitor_shows_filters_and_downloads_the_telegrams(
@@ -157,7 +240,7 @@ def test_the_monitor_shows_filters_and_downloads_the_telegrams(
     assert page.locator("#mon-list").inner_text() == frozen
     page.click("#mon-pause")
     page.fill("#mon-filter", "")
-    page.screenshot(path=IMAGES / "web-monitor.png", full_page=False)
+    screenshot(page, "web-monitor", full_page=False)
     with page.expect_download() as info:
         page.click("#mon-pcapng")
     path = tmp_path / "line.pcapng"
@@ -177,7 +260,7 @@ def test_the_page_fits_a_tablet(browser: Any, demo: Running) -> None:
         assert overflow <= 0
         for button in ("on", "off1", "off2", "off3", "acknowledge", "jog1"):
             assert page.locator(f"[data-cmd={button}]").is_visible()
-        page.screenshot(path=IMAGES / "web-tablet.png", full_page=False)
+        screenshot(page, "web-tablet", full_page=False)
     finally:
         page.context.close()
 
@@ -240,6 +323,7 @@ def test_read_only_hides_every_control(browser: Any, demo: Running) -> None:
             "document.querySelector('#param-message').textContent.includes('values read')"
         )
         assert page.locator("#param-table tr.writable").count() == 0
+        assert page.locator("#param-backup").is_visible()  # reading stays
         page.context.close()
     finally:
         demo.call(server.close())

@@ -111,6 +111,7 @@ async def test_read_only_refuses_every_change(backend: Backend) -> None:
                 ("/api/drive/1/command", {"name": "on"}),
                 ("/api/drive/1/params/write", {"id": "462", "value": "2"}),
                 ("/api/scan", {"addresses": "0-3"}),
+                ("/api/drive/1/restore?name=d1.toml", {}),
             ):
                 async with http.post(url + path, json=body) as reply:
                     assert reply.status == 403, path
@@ -227,19 +228,20 @@ async def test_a_client_sending_oversized_messages_is_closed(backend: Backend) -
         await server.close()
 
 
+async def collect(ws: Any, kind: str, into: list[dict[str, Any]]) -> None:
+    """Keep the live messages of type ``kind`` a page receives."""
+    async for message in ws:
+        data = json.loads(message.data)
+        if data["type"] == kind:
+            into.append(data)
+
+
 async def test_a_scan_from_the_page_reports_progress_live(backend: Backend) -> None:
     server = await serve(backend)
     try:
         async with aiohttp.ClientSession() as http, http.ws_connect(base(server) + "/ws") as ws:
             progress: list[dict[str, Any]] = []
-
-            async def listen() -> None:
-                async for message in ws:
-                    data = json.loads(message.data)
-                    if data["type"] == "scan":
-                        progress.append(data)
-
-            listener = asyncio.create_task(listen())
+            listener = asyncio.create_task(collect(ws, "scan", progress))
             async with http.post(
                 base(server) + "/api/scan", json={"addresses": "0-7"}, headers=WRITE
             ) as reply:
@@ -253,5 +255,54 @@ async def test_a_scan_from_the_page_reports_progress_live(backend: Backend) -> N
         steps = [p["done"] for p in progress[:-1]]
         assert len(steps) > 8 and steps == sorted(steps)
         assert progress[-1]["found"] == found
+    finally:
+        await server.close()
+
+
+async def test_backup_compare_and_restore_over_http(backend: Backend) -> None:
+    server = await serve(backend)
+    try:
+        async with aiohttp.ClientSession() as http, http.ws_connect(base(server) + "/ws") as ws:
+            progress: list[dict[str, Any]] = []
+            listener = asyncio.create_task(collect(ws, "progress", progress))
+            url = base(server) + "/api/drive/1"
+            async with http.get(url + "/backup?format=json") as reply:
+                assert reply.status == 200
+                disposition = reply.headers["Content-Disposition"]
+                assert disposition.startswith('attachment; filename="drive1-generic-')
+                assert disposition.endswith('.json"')
+                body = await reply.read()
+            assert json.loads(body)["pyuss_backup"] == 1
+            async with asyncio.timeout(10):
+                while not progress or progress[-1]["done"] < progress[-1]["total"]:
+                    await asyncio.sleep(0.05)
+            assert {p["job"] for p in progress} == {"backup"}
+            assert progress[-1]["total"] == 30 and len(progress) > 30
+            listener.cancel()
+            async with http.post(url + "/compare?name=d1.json", data=body, headers=WRITE) as r:
+                assert r.status == 200
+                assert (await r.json())["differences"] == []
+            # a restore is a change: the page's header is needed, as for every change
+            async with http.post(url + "/restore?name=d1.json", data=body) as reply:
+                assert reply.status == 403
+            await backend.write(1, 464, None, "3")
+            async with http.post(url + "/restore?name=d1.json", data=body, headers=WRITE) as r:
+                assert r.status == 200
+                done = await r.json()
+            assert done["message"] == "drive 1: 1 of 1 written"
+            assert done["results"][0]["change"] == "P464 (Ramp-down time): 3.0 s -> 10.0 s"
+            for path, data, words in [
+                ("/backup?format=xml", None, "backup format 'xml'"),
+                ("/compare?name=e.toml", b"", "e.toml is empty"),
+                ("/compare?name=n.toml", b"[x]\n", "n.toml: not a pyuss backup"),
+                ("/restore?name=b.toml", b"\x00\xff", "b.toml: not a text file"),
+            ]:
+                if data is None:
+                    request = http.get(url + path)
+                else:
+                    request = http.post(url + path, data=data, headers=WRITE)
+                async with request as reply:
+                    assert reply.status == 400, path
+                    assert words in (await reply.json())["error"], path
     finally:
         await server.close()

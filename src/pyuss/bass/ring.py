@@ -350,7 +350,8 @@ class BassRing:
         """Carry the ring's PC side on an open ``transport`` until it is closed.
 
         For example a `pyuss.transport.PtyPort` (other programs open its device like a serial
-        port) or a `pyuss.transport.TcpServerTransport` (one TCP client at a time).
+        port) or a `pyuss.transport.TcpServerTransport` (several TCP clients on the PC side;
+        an idle one gives way to a new one).
 
         What the PC does not take (a pty nobody reads, its buffer full) is lost, as on an
         RS-232 line whose receiver does not read: the ring goes on serving the next requests.

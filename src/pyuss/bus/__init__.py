@@ -7,10 +7,15 @@
 - `BusClientTransport`: a ``bus://`` station in another process (`pyuss.bus.client`).
 """
 
-from pyuss.bus.client import BusClientTransport
-from pyuss.bus.core import BusStats, Station, VirtualBus, WireChar
-from pyuss.bus.faults import Fault, FaultKind, FaultPlan, parse_fault
-from pyuss.bus.recorder import Record, Recorder, Recording, load_recording, replay
+from typing import TYPE_CHECKING
+
+from pyuss._lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from pyuss.bus.client import BusClientTransport
+    from pyuss.bus.core import BusStats, Station, VirtualBus, WireChar
+    from pyuss.bus.faults import Fault, FaultKind, FaultPlan, parse_fault
+    from pyuss.bus.recorder import Record, Recorder, Recording, load_recording, replay
 
 __all__ = [
     "BusClientTransport",
@@ -28,3 +33,29 @@ __all__ = [
     "parse_fault",
     "replay",
 ]
+
+__getattr__, __dir__ = lazy_exports(
+    __name__,
+    {
+        "pyuss.bus.client": ("BusClientTransport",),
+        "pyuss.bus.core": (
+            "BusStats",
+            "Station",
+            "VirtualBus",
+            "WireChar",
+        ),
+        "pyuss.bus.faults": (
+            "Fault",
+            "FaultKind",
+            "FaultPlan",
+            "parse_fault",
+        ),
+        "pyuss.bus.recorder": (
+            "Record",
+            "Recorder",
+            "Recording",
+            "load_recording",
+            "replay",
+        ),
+    },
+)

@@ -4,21 +4,90 @@ Unlike a raw TCP or pty station, it receives the bus's ideal character end times
 error flags (see `pyuss.bus.wire`), so a receiver measures the same gaps and sees the same
 parity and framing errors as an in-process station. Timestamps are the bus's
 ``time.monotonic()``, which is the clock of every process on the same machine.
+
+What the bus sends is decoded and queued as it arrives (an `asyncio.Protocol`, no reader task
+in between), and `BusClientTransport.write_at` hands a telegram to the bus ahead of time with
+the moment it is to start (send frames, `pyuss.bus.wire`): the master's start pause and the
+simulator's response delay are kept on the bus's timeline to the microsecond, however late the
+station's process wakes up.
 """
 
 from __future__ import annotations
 
 import asyncio
 import json
+import time
+from typing import cast
 
-from pyuss.bus.wire import FrameDecoder
+from pyuss.bus.wire import FrameDecoder, encode_send
 from pyuss.errors import ConfigError, ProtocolError, TransportError
-from pyuss.transport.tcp import TcpTransport
+from pyuss.transport.base import LineError
+from pyuss.transport.queued import QueuedTransport
+from pyuss.transport.tcp import check_endpoint
 
 _ANSWER_TIMEOUT = 5.0
+_MAX_HELLO = 4096
+"""The bus's answer to the hello is one short JSON line."""
+_MAX_BACKLOG = 1 << 20
+"""Unsent bytes at which the bus counts as not reading (the write fails)."""
+
+Delivery = tuple[bytes, float, tuple[tuple[int, LineError], ...]]
 
 
-class BusClientTransport(TcpTransport):
+class _Protocol(asyncio.Protocol):
+    """The connection: the bus's answer line, then delivery frames straight to the owner."""
+
+    def __init__(self, owner: BusClientTransport) -> None:
+        self.owner = owner
+        self.transport: asyncio.Transport | None = None
+        self.answer: asyncio.Future[bytes] = asyncio.get_running_loop().create_future()
+        self._head = bytearray()
+        self._decoder: FrameDecoder | None = None
+        self.early: list[Delivery] = []
+        """Deliveries that came before the station was open (right after the answer)."""
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        self.transport = cast(asyncio.Transport, transport)  # a stream transport (any loop's)
+
+    def data_received(self, data: bytes) -> None:
+        if self._decoder is None:
+            self._head += data
+            line, newline, rest = self._head.partition(b"\n")
+            if not newline:
+                if len(self._head) > _MAX_HELLO:
+                    self._fail("the bus's answer is too long")
+                return
+            self._decoder = FrameDecoder()
+            if not self.answer.done():
+                self.answer.set_result(bytes(line))
+            data = bytes(rest)
+            if not data:
+                return
+        try:
+            deliveries = self._decoder.feed(data)
+        except ProtocolError as exc:
+            self._fail(str(exc))
+            return
+        owner = self.owner
+        if not owner.is_open:
+            self.early += deliveries
+            return
+        for payload, timestamp, errors in deliveries:
+            owner._deliver(payload, timestamp, errors)
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        why = f"connection lost: {exc}" if exc else "connection closed by the bus"
+        if not self.answer.done():
+            self.answer.set_exception(ConnectionError(why))
+        self.owner._connection_lost(why)
+
+    def _fail(self, why: str) -> None:
+        self.owner._connection_lost(why)
+        if self.transport is not None:
+            self.transport.close()
+
+
+class BusClientTransport(QueuedTransport):
     """A ``bus://`` station.
 
     ``name``: the station's name on the bus (the bus picks one when ``None``).
@@ -40,12 +109,19 @@ class BusClientTransport(TcpTransport):
         listen_only: bool = False,
         connect_timeout: float = 5.0,
     ) -> None:
-        super().__init__(host, port, baud=baud, echo=echo, connect_timeout=connect_timeout)
+        super().__init__(baud=baud, echo=echo)
+        self.host, self.port = check_endpoint(host, port)
+        if connect_timeout <= 0:
+            raise ConfigError(f"connect_timeout must be > 0 seconds, not {connect_timeout!r}")
         if name is not None and (not name or "+" in name):
             raise ConfigError(f"station name must be non-empty without '+', not {name!r}")
+        self._connect_timeout = connect_timeout
         self.name = name
         self._bus_echo = bus_echo or echo
         self.listen_only = listen_only
+        self._protocol: _Protocol | None = None
+        self.timed = False
+        """Whether the bus takes send frames (`write_at` is then exact)."""
 
     @property
     def exact_timestamps(self) -> bool:
@@ -54,12 +130,45 @@ class BusClientTransport(TcpTransport):
     def describe(self) -> str:
         return f"bus://{self.host}:{self.port} station {self.name or '(unnamed)'}"
 
-    async def _handshake(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
-        hello = {"name": self.name, "echo": self._bus_echo, "listen_only": self.listen_only}
+    async def open(self) -> None:
+        if self.is_open:
+            return
+        loop = asyncio.get_running_loop()
         try:
-            writer.write(json.dumps(hello).encode() + b"\n")
+            async with asyncio.timeout(self._connect_timeout):
+                _, protocol = await loop.create_connection(
+                    lambda: _Protocol(self), self.host, self.port
+                )
+        except TimeoutError:
+            raise TransportError(
+                f"cannot connect to {self.describe()}: no answer in {self._connect_timeout} s"
+            ) from None
+        except OSError as exc:
+            raise TransportError(f"cannot connect to {self.describe()}: {exc}") from None
+        try:
+            await self._handshake(protocol)
+        except BaseException:
+            if protocol.transport is not None:
+                protocol.transport.close()
+            raise
+        self._protocol = protocol
+        self._mark_open()
+        early, protocol.early = protocol.early, []
+        for payload, timestamp, errors in early:
+            self._deliver(payload, timestamp, errors)
+
+    async def _handshake(self, protocol: _Protocol) -> None:
+        assert protocol.transport is not None
+        hello = {
+            "name": self.name,
+            "echo": self._bus_echo,
+            "listen_only": self.listen_only,
+            "timed": True,
+        }
+        try:
+            protocol.transport.write(json.dumps(hello).encode() + b"\n")
             async with asyncio.timeout(_ANSWER_TIMEOUT):
-                line = await reader.readline()
+                line = await protocol.answer
             answer = json.loads(line)
         except (OSError, TimeoutError, ValueError) as exc:
             raise TransportError(
@@ -73,23 +182,44 @@ class BusClientTransport(TcpTransport):
                 f"{self.describe()}: the bus runs at {answer.get('baud')} baud, not {self.baud}"
             )
         self.name = str(answer.get("name"))
+        self.timed = answer.get("timed") is True
 
-    async def _run(self, reader: asyncio.StreamReader) -> None:
-        decoder = FrameDecoder()
-        why = "connection closed by the bus"
-        try:
-            while True:
-                data = await reader.read(65536)
-                if not data:
-                    break
-                for payload, timestamp, errors in decoder.feed(data):
-                    self._deliver(payload, timestamp, errors)
-        except (OSError, ProtocolError) as exc:
-            why = str(exc)
+    def _connection_lost(self, why: str) -> None:
         if self.is_open:
             self._lose(TransportError(f"{self.describe()}: {why}"))
 
     async def write(self, data: bytes) -> None:
+        self._send(bytes(data), 0.0)
+
+    async def write_at(self, data: bytes, start: float) -> None:
+        """Like `write`, but the first character starts at ``start`` (monotonic seconds) if
+        that is later. A bus without send frames gets the bytes at that moment instead."""
+        if not self.timed:
+            from pyuss.loop import sleep_until
+
+            await sleep_until(start, time.monotonic)
+            start = 0.0
+        self._send(bytes(data), start)
+
+    def _send(self, data: bytes, start: float) -> None:
         if self.listen_only:
             raise TransportError(f"{self.describe()} is listen-only: it cannot send")
-        await super().write(data)
+        self._check_writable()
+        protocol = self._protocol
+        assert protocol is not None and protocol.transport is not None
+        transport = protocol.transport
+        if transport.is_closing() or transport.get_write_buffer_size() > _MAX_BACKLOG:
+            error = TransportError(f"{self.describe()}: write failed: the bus does not read")
+            self._lose(error)
+            raise error
+        self._arm_echo(data)
+        transport.write(encode_send(start, data) if self.timed else data)
+        self.stats.bytes_out += len(data)
+
+    async def close(self) -> None:
+        if not self.is_open and self._protocol is None:
+            return
+        self._mark_closed()
+        protocol, self._protocol = self._protocol, None
+        if protocol is not None and protocol.transport is not None:
+            protocol.transport.close()

@@ -23,7 +23,17 @@ the same time base.
 Stations: `VirtualBus.attach` gives an in-process station (a `Transport`). Listen-only
 stations (monitors) cannot send. With ``echo=True`` a station hears its own characters, as a
 2-wire adapter does (raw: the station's transport does not remove them). The bus allows at
-most 32 sending stations (B 1: one master, 31 slaves); listen-only ones are not limited.
+most 32 sending stations (B 1: one master, 31 slaves); listen-only ones are not limited. When
+all 32 places are taken, a station that may be evicted (an anonymous raw TCP station, see
+`pyuss.bus.serve`) and has sent nothing for `EVICT_IDLE` seconds gives its place to the new
+one; the one silent longest goes first.
+
+Bounds: a station has at most `MAX_QUEUE` characters waiting for or on the line; what it sends
+beyond that is dropped and counted (`Station.overflow`, `BusStats.overflow`), so a station that
+writes a megabyte neither grows the bus's memory nor holds the line for minutes. When a station
+leaves, what it had not yet started to send is dropped (`BusStats.unsent`): a character
+already on the wire ends, the rest never reaches the line. `VirtualBus.queued` tells how many
+characters wait.
 """
 
 from __future__ import annotations
@@ -46,6 +56,10 @@ log = logging.getLogger(__name__)
 
 #: Stations that may send on one segment (B 1: 1 master + 31 slaves).
 MAX_SENDERS = 32
+#: Characters one station may have waiting for or on the line; the rest of a write is dropped.
+MAX_QUEUE = 4096
+#: Seconds an evictable station must have been silent to give its place to a new station.
+EVICT_IDLE = 1.0
 _EPS = 1e-9
 
 Sink = Callable[[bytes, float, tuple[tuple[int, LineError], ...]], None]
@@ -75,6 +89,12 @@ class BusStats:
     collisions: int = 0
     garbled: int = 0
     lost: int = 0
+    overflow: int = 0
+    """Characters dropped because their station's queue was full (`MAX_QUEUE`)."""
+    unsent: int = 0
+    """Characters dropped because their station left before they went on the line."""
+    evicted: int = 0
+    """Stations that gave their place to a new one (idle raw TCP stations on a full bus)."""
     faults: Counter[str] = field(default_factory=Counter)
 
 
@@ -85,6 +105,8 @@ class _Pending:
     sender: str = field(compare=False)
     frame: int = field(compare=False)
     notes: tuple[str, ...] = field(compare=False, default=())
+    owner: Station | None = field(compare=False, default=None)
+    """The station whose queue the character counts in (None: injected)."""
 
 
 def sample(frames: list[tuple[float, int]], start: float, bit: float) -> tuple[int, LineError]:
@@ -100,6 +122,11 @@ def sample(frames: list[tuple[float, int]], start: float, bit: float) -> tuple[i
                 level = 0
                 break
         levels |= level << k
+    return _read_levels(levels)
+
+
+def _read_levels(levels: int) -> tuple[int, LineError]:
+    """The byte and error flags of the 11 line levels a UART sampled."""
     byte = (levels >> 1) & 0xFF
     flags = LineError.NONE
     if (byte.bit_count() + ((levels >> 9) & 1)) & 1:
@@ -128,6 +155,15 @@ class Station(QueuedTransport):
         self.listen_only = listen_only
         self._sink = sink
         self.tx_free = 0.0
+        self.queued = 0
+        """Characters of this station waiting for or on the line (at most `MAX_QUEUE`)."""
+        self.overflow = 0
+        """Characters this station sent beyond `MAX_QUEUE`: dropped."""
+        self.last_active = time.monotonic()
+        """When it attached or last sent something (monotonic)."""
+        self.evict: Callable[[], None] | None = None
+        """Set by whoever may take the station off the bus for a new one (raw TCP stations):
+        detaches it and closes its connection."""
 
     def describe(self) -> str:
         return f"bus station {self.name!r}"
@@ -144,7 +180,7 @@ class Station(QueuedTransport):
         self._mark_open()
 
     async def close(self) -> None:
-        self.bus.detach(self.name)
+        self.bus.detach(self.name, self)
         self._mark_closed()
 
     async def write(self, data: bytes) -> None:
@@ -153,6 +189,15 @@ class Station(QueuedTransport):
             raise TransportError(f"{self.describe()} is listen-only: it cannot send")
         self.stats.bytes_out += len(data)
         self.bus.send(self.name, bytes(data))
+
+    async def write_at(self, data: bytes, start: float) -> None:
+        """Like `write`, but the first character starts at ``start`` (monotonic seconds) if
+        that is later: the station keeps a pause to the microsecond without waiting for it."""
+        self._check_writable()
+        if self.listen_only:
+            raise TransportError(f"{self.describe()} is listen-only: it cannot send")
+        self.stats.bytes_out += len(data)
+        self.bus.send(self.name, bytes(data), at=start)
 
     def receive(
         self, data: bytes, timestamp: float, errors: tuple[tuple[int, LineError], ...]
@@ -212,7 +257,7 @@ class VirtualBus:
         if name in self.stations:
             raise ConfigError(f"a station named {name!r} is already on the bus")
         senders = sum(1 for s in self.stations.values() if not s.listen_only)
-        if not listen_only and senders >= MAX_SENDERS:
+        if not listen_only and senders >= MAX_SENDERS and not self._make_room():
             raise ConfigError(
                 f"the bus has {MAX_SENDERS} sending stations already (B 1: 1 master, 31 slaves); "
                 f"attach {name!r} listen-only or detach one"
@@ -221,9 +266,53 @@ class VirtualBus:
         self.stations[name] = station
         return station
 
-    def detach(self, name: str) -> None:
-        """Remove a station (its queued characters still go out); no error if absent."""
-        self.stations.pop(name, None)
+    def detach(self, name: str, station: Station | None = None) -> None:
+        """Remove a station; no error if absent (nor if ``station`` is given and ``name`` is
+        another one now). What it had not started to send is dropped (`BusStats.unsent`)."""
+        current = self.stations.get(name)
+        if current is None or (station is not None and current is not station):
+            return
+        del self.stations[name]
+        if current.queued:
+            now = time.monotonic()
+            keep = [p for p in self._heap if p.owner is not current or p.start <= now]
+            dropped = len(self._heap) - len(keep)
+            if dropped:
+                heapq.heapify(keep)
+                self._heap[:] = keep
+                current.queued -= dropped
+                self.stats.unsent += dropped
+                log.info("bus: station %s left: %d characters not sent", name, dropped)
+
+    def queued(self, name: str | None = None) -> int:
+        """Characters waiting for or on the line: of station ``name``, or of all."""
+        if name is None:
+            return len(self._heap)
+        station = self.stations.get(name)
+        return 0 if station is None else station.queued
+
+    def _make_room(self) -> bool:
+        """Evict the evictable sending station silent longest (at least `EVICT_IDLE`)."""
+        now = time.monotonic()
+        idle = [
+            s
+            for s in self.stations.values()
+            if s.evict is not None and not s.listen_only and now - s.last_active >= EVICT_IDLE
+        ]
+        if not idle:
+            return False
+        victim = min(idle, key=lambda s: s.last_active)
+        log.warning(
+            "bus: all %d sending places taken: station %s, silent for %.1f s, gives its place",
+            MAX_SENDERS,
+            victim.name,
+            now - victim.last_active,
+        )
+        assert victim.evict is not None
+        victim.evict()
+        self.detach(victim.name, victim)
+        self.stats.evicted += 1
+        return True
 
     def make_deaf(self, name: str, duration: float) -> None:
         """From now on, ``name`` hears nothing for ``duration`` seconds."""
@@ -250,28 +339,45 @@ class VirtualBus:
         return self._engine.dead(name, now - self.epoch)
 
     # -- sending ----------------------------------------------------------------------------
-    def send(self, sender: str, data: bytes) -> None:
-        """Put ``data`` from station ``sender`` on the line (see the module docstring)."""
+    def send(self, sender: str, data: bytes, at: float | None = None) -> None:
+        """Put ``data`` from station ``sender`` on the line (see the module docstring); with
+        ``at`` (monotonic seconds) not before then, as a UART with a timed transmit does."""
         station = self.stations.get(sender)
         if station is None:
             raise TransportError(f"no station {sender!r} on the bus")
         now = time.monotonic()
+        station.last_active = now
         if self._dead(sender, now):
             self.stats.lost += len(data)
             return
+        room = MAX_QUEUE - station.queued
+        if len(data) > room:
+            over = len(data) - max(room, 0)
+            log.log(
+                logging.DEBUG if station.overflow else logging.WARNING,  # warned once
+                "bus: station %s sends faster than the line carries: %d characters dropped "
+                "(it may have %d waiting)",
+                sender,
+                over,
+                MAX_QUEUE,
+            )
+            station.overflow += over
+            self.stats.overflow += over
+            data = data[: max(room, 0)]
         tc = self.char_time
         t = station.tx_free
-        if t <= now:
-            t = now + self._engine.answer_delay(sender, now - self.epoch)
+        begin = now if at is None or at <= now else at
+        if t <= begin:
+            t = begin + self._engine.answer_delay(sender, now - self.epoch)
         for byte in data:
             plan = self._engine.character(sender, byte, t - self.epoch)
             t += plan.gap_before * tc
             notes = tuple(n for n in plan.notes if n != "insert")
             if not plan.drop:
-                self._put(sender, t, plan.frame, notes)
+                self._put(sender, t, plan.frame, notes, station)
             t += tc
             for extra in plan.insert_after:
-                self._put(sender, t, frame_bits(extra), ("insert",))
+                self._put(sender, t, frame_bits(extra), ("insert",), station)
                 t += tc
         station.tx_free = t
         self._schedule()
@@ -289,8 +395,17 @@ class VirtualBus:
         self._put(sender, start, frame, ())
         self._schedule()
 
-    def _put(self, sender: str, start: float, frame: int, notes: tuple[str, ...]) -> None:
-        heapq.heappush(self._heap, _Pending(start, next(self._seq), sender, frame, notes))
+    def _put(
+        self,
+        sender: str,
+        start: float,
+        frame: int,
+        notes: tuple[str, ...],
+        owner: Station | None = None,
+    ) -> None:
+        heapq.heappush(self._heap, _Pending(start, next(self._seq), sender, frame, notes, owner))
+        if owner is not None:
+            owner.queued += 1
 
     def _schedule(self) -> None:
         if not self._heap:
@@ -317,6 +432,9 @@ class VirtualBus:
             group = [first]
             while heap and heap[0].start < end - _EPS:
                 group.append(heapq.heappop(heap))
+            for pending in group:
+                if pending.owner is not None:
+                    pending.owner.queued -= 1
             out.append(self._resolve(group, end))
         for char in out:
             self._record(char)
@@ -331,6 +449,10 @@ class VirtualBus:
         # (their tail): the receivers sample them too.
         self._on_line = [p for p in self._on_line if p.start + tc > first.start + _EPS]
         tails = self._on_line
+        if not tails and len(group) == 1:  # alone on the line: its own levels, as sampled
+            byte, flags = _read_levels(first.frame & 0x7FF)
+            self._on_line = group
+            return WireChar(first.start, end, byte, flags, first.sender, first.notes)
         frames = [(p.start, p.frame) for p in (*tails, *group)]
         byte, flags = sample(frames, first.start, self.bit_time)
         notes = tuple(n for p in group for n in p.notes)

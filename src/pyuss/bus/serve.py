@@ -10,6 +10,13 @@ Raw connections (any serial-over-TCP client: pyuss ``tcp://``, pyserial ``socket
 named ``tcp1``, ``tcp2``, ... and carry bytes only. Framed connections (``framed=True``, for
 pyuss ``bus://`` clients, see `pyuss.bus.wire`) keep the ideal timestamps and the line error
 flags of every delivery and let the client choose its name, echo and listen-only mode.
+
+Raw stations are anonymous: when all 32 sending places of the bus are taken, the raw station
+silent longest (at least `pyuss.bus.core.EVICT_IDLE` seconds) is disconnected to make room for
+a new station, so idle raw connections never lock ``bus://`` masters out. What a station sends
+beyond its queue (`pyuss.bus.core.MAX_QUEUE`) is dropped; what it had not sent when it leaves
+is dropped too. A socket that does not read what the bus sends it loses what comes next once
+`MAX_BACKLOG` bytes wait in it.
 """
 
 from __future__ import annotations
@@ -19,12 +26,13 @@ import contextlib
 import itertools
 import json
 import logging
+import time
 from collections.abc import Collection
 from typing import Any
 
 from pyuss.bus.core import Station, VirtualBus
-from pyuss.bus.wire import MAX_DATA, encode_frame
-from pyuss.errors import ConfigError, TransportError
+from pyuss.bus.wire import MAX_AHEAD, MAX_DATA, SendDecoder, encode_frame
+from pyuss.errors import ConfigError, ProtocolError, TransportError
 from pyuss.transport.base import LineError
 from pyuss.transport.pty import PtyPort
 from pyuss.transport.tcp import check_endpoint, close_writer
@@ -32,7 +40,7 @@ from pyuss.transport.tcp import check_endpoint, close_writer
 log = logging.getLogger(__name__)
 
 #: A station whose socket has this much unsent data loses what comes next (it does not read).
-_MAX_BACKLOG = 1 << 20
+MAX_BACKLOG = 1 << 20
 _HELLO_TIMEOUT = 5.0
 
 
@@ -145,7 +153,7 @@ def _socket_sink(writer: asyncio.StreamWriter, *, framed: bool, station: list[St
     def sink(data: bytes, timestamp: float, errors: tuple[tuple[int, LineError], ...]) -> None:
         if writer.is_closing():
             return
-        if writer.transport.get_write_buffer_size() > _MAX_BACKLOG:
+        if writer.transport.get_write_buffer_size() > MAX_BACKLOG:
             if station:
                 station[0].stats.dropped_out += len(data)
             return
@@ -175,22 +183,41 @@ async def _raw_station(
         log.warning("bus: turned away a TCP station: %s", exc)
         return
     holder.append(station)
+    station.evict = writer.close  # anonymous: gives its place when idle on a full bus
     log.info("bus: station %s connected from %s", name, writer.get_extra_info("peername"))
-    await _pump_in(bus, name, reader)
+    await _pump_in(bus, station, reader)
 
 
-async def _pump_in(bus: VirtualBus, name: str, reader: asyncio.StreamReader) -> None:
+async def _pump_in(
+    bus: VirtualBus,
+    station: Station,
+    reader: asyncio.StreamReader,
+    frames: SendDecoder | None = None,
+) -> None:
+    """Put what a station sends on the line: raw bytes, or send frames (`pyuss.bus.wire`)."""
+    name = station.name
     try:
         while True:
             data = await reader.read(65536)
             if not data:
                 break
-            if name in bus.stations and not bus.stations[name].listen_only:
+            if bus.stations.get(name) is not station or station.listen_only:
+                continue
+            if frames is None:
                 bus.send(name, data)
-    except OSError as exc:
+                continue
+            now = time.monotonic()
+            for start, part in frames.feed(data):
+                if start > now + MAX_AHEAD:
+                    raise ProtocolError(
+                        f"a send frame asks to start {start - now:.3f} s ahead "
+                        f"(at most {MAX_AHEAD:g} s)"
+                    )
+                bus.send(name, part, at=start)
+    except (OSError, ProtocolError) as exc:
         log.info("bus: station %s lost: %s", name, exc)
     finally:
-        bus.detach(name)
+        bus.detach(name, station)
         log.info("bus: station %s left", name)
 
 
@@ -209,6 +236,7 @@ async def _framed_station(
         name = hello.get("name") or _free_name(bus, "tcp")
         echo = bool(hello.get("echo", False))
         listen_only = bool(hello.get("listen_only", False))
+        timed = hello.get("timed") is True
     except (TimeoutError, ValueError, OSError) as exc:
         answer({"ok": False, "error": f"bad hello: {exc}"})
         return
@@ -224,6 +252,6 @@ async def _framed_station(
         answer({"ok": False, "error": str(exc)})
         return
     holder.append(station)
-    answer({"ok": True, "name": station.name, "baud": bus.baud})
+    answer({"ok": True, "name": station.name, "baud": bus.baud, "timed": timed})
     log.info("bus: station %s connected (bus://)", station.name)
-    await _pump_in(bus, station.name, reader)
+    await _pump_in(bus, station, reader, SendDecoder() if timed else None)

@@ -1,16 +1,31 @@
 """The byte format between the virtual bus and its ``bus://`` stations in other processes.
 
 The station opens a TCP connection and sends one JSON line, its hello:
-``{"name": "m" | null, "echo": false, "listen_only": false}``. The bus answers with one JSON
-line, ``{"ok": true, "name": "m", "baud": 19200}`` or ``{"ok": false, "error": "..."}``.
-From then on the station sends raw bytes (what it puts on the line), and the bus sends
-frames, each the characters of one delivery::
+``{"name": "m" | null, "echo": false, "listen_only": false, "timed": true}``. The bus answers
+with one JSON line, ``{"ok": true, "name": "m", "baud": 19200, "timed": true}`` or
+``{"ok": false, "error": "..."}``. From then on the bus sends frames, each the characters of
+one delivery::
 
     timestamp  float64, big endian: the ideal end time of the last character (monotonic s)
     length     uint16: number of data bytes
     n_errors   uint16: number of flagged characters
     data       length bytes
     errors     n_errors x (uint16 position in data, uint8 LineError flags)
+
+and the station sends what it puts on the line: raw bytes, or, when both sides said
+``"timed": true``, send frames::
+
+    start      float64, big endian: when the first character is to start (monotonic s);
+               0 or a time already past: at once
+    length     uint16: number of data bytes
+    data       length bytes
+
+A send frame lets a station keep a start pause or a response delay to the microsecond without
+waking up at that moment: it hands its telegram over a little early, and the bus puts it on
+the line at ``start`` (or when the station's previous characters have left the line, if
+later). Nothing is put on the line before the bus received it, so the line stays causal; a
+start more than `MAX_AHEAD` seconds ahead is a protocol error. A bus that does not answer
+``"timed": true`` (an older one) gets raw bytes, and the station keeps its times itself.
 """
 
 from __future__ import annotations
@@ -22,8 +37,11 @@ from pyuss.transport.base import LineError
 
 HEADER = struct.Struct(">dHH")
 ERROR = struct.Struct(">HB")
+SEND = struct.Struct(">dH")
 #: Deliveries larger than this are cut into several frames.
 MAX_DATA = 65535
+MAX_AHEAD = 1.0
+"""How far ahead (seconds) a send frame may ask for its start."""
 
 
 def encode_frame(timestamp: float, data: bytes, errors: tuple[tuple[int, LineError], ...]) -> bytes:
@@ -58,4 +76,34 @@ class FrameDecoder:
                     raise ProtocolError(f"bus frame flags position {pos} beyond {length} bytes")
                 errors.append((pos, LineError(flags)))
             out.append((payload, timestamp, tuple(errors)))
+        return out
+
+
+def encode_send(start: float, data: bytes) -> bytes:
+    """A send frame (station to bus): ``data`` to start at ``start`` (0: at once)."""
+    parts = []
+    for i in range(0, max(len(data), 1), MAX_DATA):
+        part = data[i : i + MAX_DATA]
+        parts += [SEND.pack(start if i == 0 else 0.0, len(part)), part]
+    return b"".join(parts)
+
+
+class SendDecoder:
+    """Cuts a station's stream of send frames back into ``(start, data)``."""
+
+    def __init__(self) -> None:
+        self._buf = bytearray()
+
+    def feed(self, data: bytes) -> list[tuple[float, bytes]]:
+        self._buf += data
+        out = []
+        while len(self._buf) >= SEND.size:
+            start, length = SEND.unpack_from(self._buf)
+            size = SEND.size + length
+            if len(self._buf) < size:
+                break
+            if start != start or start in (float("inf"), float("-inf")):
+                raise ProtocolError("send frame with a start time that is not a number")
+            out.append((start, bytes(self._buf[SEND.size : size])))
+            del self._buf[:size]
         return out

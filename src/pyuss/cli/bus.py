@@ -8,6 +8,12 @@ recording and prints a summary on stderr. Stopping is the normal end: exit code 
 
 ``--echo`` makes stations hear their own characters, as 2-wire adapters do: alone, every pty
 and tcp station; with names (``--echo pty1,tcp2``), only those.
+
+Each station may have 4096 characters waiting for the line; what it writes beyond that is
+dropped (and counted), and what it had not sent when it leaves is dropped, so one station
+cannot jam the line for long. When all 32 sending places are taken, a new station gets the
+place of the raw tcp station silent longest (1 s at least): idle connections never lock
+``bus://`` stations out (docs/bus.md).
 """
 
 from __future__ import annotations
@@ -199,4 +205,11 @@ async def _serve(
         f"({stats.garbled} garbled characters), {stats.lost} lost, faults: {faults}",
         file=sys.stderr,
     )
+    if stats.overflow or stats.unsent or stats.evicted:
+        print(
+            f"uss bus: {stats.overflow} characters dropped from full station queues, "
+            f"{stats.unsent} not sent by stations that left, {stats.evicted} idle tcp "
+            "stations closed to make room",
+            file=sys.stderr,
+        )
     return EXIT_OK

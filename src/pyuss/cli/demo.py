@@ -86,7 +86,7 @@ async def _parameters(master: Master, generic: Drive, baumueller: Drive, mm4: Dr
     say(f"   drive 4 (baumueller)   {ramp.text()}")
     written_value = await baumueller.write_param(60, 1500)
     say(f"   drive 4 (baumueller)   P60 := 1500 ms -> {written_value.text()}")
-    baud = await mm4.read_param(2010, 1)
+    baud = await mm4.read_param(2010, 0)
     say(f"   drive 7 (micromaster4) {baud.text()} (IND page bit 15)")
     seconds = await mm4.write_param(1120, 2.5)
     say(f"   drive 7 (micromaster4) P1120 := 2.5 s -> {seconds.text()}")

@@ -16,11 +16,12 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import signal
 import sys
 
 from pyuss.atomicfile import write_atomically
 from pyuss.cli._help import plain
-from pyuss.errors import ConfigError
+from pyuss.errors import ConfigError, UssError
 from pyuss.ksvario.address import Address, View, parse_address
 from pyuss.ksvario.channel import ByteOrder, DataFormat, Value, encode_value
 from pyuss.ksvario.coupler import CacheSelection, Coupler
@@ -72,7 +73,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         action="store_true",
         help="serve on a new pseudo-terminal, whose path is printed first (the default)",
     )
-    sim.add_argument("--port", help="serve on this serial port (or pyserial URL) instead of a pty")
+    sim.add_argument(
+        "--port",
+        help="serve on this serial port, pyserial URL or tcp-listen://HOST:PORT (port 0: a "
+        "free one; the first line printed names it) instead of a pty",
+    )
     sim.add_argument(
         "--station", type=int, default=5, help="its PROFIBUS-DP station address, 0..125 (default 5)"
     )
@@ -192,25 +197,39 @@ def _simulate(args: argparse.Namespace) -> int:
         return _fail(f"channels {args.channels} is out of range 1..30")
     try:
         check_baud(args.baud)
+        return asyncio.run(_simulate_until_stopped(args))
     except ConfigError as exc:
         return _fail(str(exc))
+    except UssError as exc:  # the line cannot be opened, or is lost
+        print(f"uss ksvario: {exc}", file=sys.stderr)
+        return 1
+
+
+async def _simulate_until_stopped(args: argparse.Namespace) -> int:
+    """Serve until SIGINT or SIGTERM: exit code 0. The handlers are installed explicitly, as
+    a shell script that starts the simulator in the background leaves SIGINT ignored."""
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
 
     def ready(device: str) -> None:
         print(device, flush=True)
         print(f"KS VARIO station {args.station}, ident 1030h; Ctrl-C stops", file=sys.stderr)
 
     try:
-        asyncio.run(
-            serve(
-                station=args.station,
-                port=args.port,
-                baud=args.baud,
-                channels=args.channels,
-                on_ready=ready,
-            )
+        await serve(
+            station=args.station,
+            port=args.port,
+            baud=args.baud,
+            channels=args.channels,
+            on_ready=ready,
+            stop=stop,
         )
-    except KeyboardInterrupt:
-        return 130
+    finally:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.remove_signal_handler(sig)
+    print(f"uss ksvario: station {args.station} stopped", file=sys.stderr)
     return 0
 
 

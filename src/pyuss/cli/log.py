@@ -79,14 +79,10 @@ async def _log(args: argparse.Namespace) -> int:
     if args.duration is not None and not args.duration > 0:
         raise ConfigError(f"--duration {args.duration}: must be > 0 seconds")
     rotate = parse_size(args.rotate) if args.rotate else None
-    parse_values(args.values, None)  # bad VALUES are bad input before the port is opened
+    quantities = parse_values(args.values)  # bad VALUES: bad input before the port is opened
     async with _master.open_master(args, mode=CYCLIC) as master:
         drive = master.drive(args.address)
-        database = drive.profile.database()  # the family identified with --profile auto
-        quantities = parse_values(args.values, database)
-        logger = DataLogger(
-            drive, quantities, rate=args.rate, database=database, job_timeout=args.timeout
-        )
+        logger = DataLogger(drive, quantities, rate=args.rate, job_timeout=args.timeout)
         await logger.prepare()
         log = CsvLog(args.output, logger.header(), append=args.append, rotate=rotate)
         if log.repaired:

@@ -1,6 +1,11 @@
 """The `uss` command. Each sub-command lives in its own module of `pyuss.cli` and exposes
 ``register(subparsers)``; `COMMANDS` lists them in the order `uss --help` shows them.
 
+Only the module of the sub-command given is imported (`uss --help` lists the others by their
+`SUMMARIES`), so a command starts without loading what other commands need: `uss decode`
+never imports the master or asyncio. A command that runs an event loop gets one with
+microsecond timers (`pyuss.loop`).
+
 Exit codes (all commands): 0 success, 1 the operation failed (no answer, drive refused, ...),
 2 bad input (arguments, hex, files), 130 interrupted.
 """
@@ -32,6 +37,7 @@ COMMANDS: tuple[str, ...] = (
     "describe",
     "mirror",
     "run",
+    "gateway",
     "simulate",
     "bus",
     "monitor",
@@ -42,6 +48,34 @@ COMMANDS: tuple[str, ...] = (
     "bass",
     "ksvario",
 )
+
+SUMMARIES: dict[str, str] = {
+    "demo": "run the master against three simulated drives on a virtual bus",
+    "scan": "find drives, their baud rate and telegram layout",
+    "read": "read parameter values from a drive",
+    "write": "write a parameter value of a drive",
+    "params": "list the known parameters of a profile or drive, searchable",
+    "backup": "read a drive's parameter set into a file",
+    "diff": "compare a drive with a backup, or two backups",
+    "restore": "write a backup file back to a drive",
+    "status": "show a drive's state, status word and values",
+    "ack": "acknowledge a drive's fault",
+    "describe": "read the description of a parameter",
+    "mirror": "send mirror telegrams and check they come back unchanged",
+    "run": "switch a drive on, follow its ramp live, switch it off on Ctrl+C",
+    "gateway": "serve USS drives on Modbus TCP, MQTT (Home Assistant) and OPC UA",
+    "simulate": "simulate drives (USS slaves) on a pty, TCP, serial port or virtual bus",
+    "bus": "run a virtual RS-485 bus (ptys, TCP) with true character timing",
+    "monitor": "listen to a USS line, decode and pair telegrams, write captures",
+    "wireshark": "install or locate the Wireshark dissector for monitor captures",
+    "decode": "decode a telegram given in hex",
+    "web": "a commissioning page in the browser: bus, drives, parameters, trend, monitor",
+    "log": "log drive values to a CSV file (status, actual values, parameters)",
+    "bass": "Baumueller BASS service protocol (RS-232): read, write, simulated ring",
+    "ksvario": "PMA KS VARIO over PROFIBUS-DP: read, write, simulate, GSD file",
+}
+"""The line of each command in `uss --help`, as its module registers it (a test keeps them
+equal); a command missing here is imported to build the list."""
 
 ONE_SHOT = frozenset(
     {"scan", "read", "write", "describe", "mirror", "params", "backup", "diff", "restore"}
@@ -76,7 +110,9 @@ class _Parser(argparse.ArgumentParser):
         super().error(message)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None, *, lazy: bool = False) -> argparse.ArgumentParser:
+    """The parser of `uss`. ``lazy``: import only the module of ``command`` (None: none) and
+    list the other commands by their summaries; otherwise every command module is imported."""
     parser = _Parser(
         prog="uss",
         description="Talk to drives over the USS protocol (Siemens MICROMASTER and SINAMICS, "
@@ -98,16 +134,29 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name in COMMANDS:
-        module = importlib.import_module(f"pyuss.cli.{name}")
-        module.register(sub)
+        if lazy and name != command and name in SUMMARIES:
+            sub.add_parser(name, help=SUMMARIES[name], add_help=False)
+        else:
+            importlib.import_module(f"pyuss.cli.{name}").register(sub)
     return parser
 
 
+def command_of(argv: Sequence[str]) -> str | None:
+    """The sub-command named in ``argv``: the first word that is no option (the options of
+    `uss` itself take no value)."""
+    for word in argv:
+        if word == "--":
+            return None
+        if not word.startswith("-"):
+            return word if word in COMMANDS else None
+    return None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
     words = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(command_of(words), lazy=True)
     _Parser.json_errors = "--json" in words
-    _Parser.command = next((word for word in words if word in COMMANDS), None)
+    _Parser.command = command_of(words)
     try:
         args = parser.parse_args(words)
     finally:
@@ -115,6 +164,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     quiet = logging.ERROR if args.command in ONE_SHOT else logging.WARNING
     level = quiet if args.verbose == 0 else (logging.INFO if args.verbose == 1 else logging.DEBUG)
     logging.basicConfig(level=level, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    if "asyncio" in sys.modules:  # the command runs an event loop: keep sub-ms timing
+        from pyuss.loop import installed
+
+        with installed(least_slack=args.command not in ONE_SHOT):
+            return _run(args)
+    return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     try:
         code: int = args.func(args)
     except KeyboardInterrupt:

@@ -29,7 +29,7 @@ from pyuss.cli._master import (
     run,
 )
 from pyuss.commission import backup as backups
-from pyuss.commission.compare import plan, restore, same_entry
+from pyuss.commission.compare import another_drive, plan, restore
 from pyuss.errors import ConfigError
 
 
@@ -72,20 +72,9 @@ def main(args: argparse.Namespace) -> int:
         async with open_master(args) as bus:
             drive = bus.drive(args.address)
             _params.setup(args, drive)
-            identity = await backups.read_parameters(
-                drive, [(e.pnu, e.index) for e in wanted.identity]
-            )
-            strangers = [
-                (old, new)
-                for old, new in zip(wanted.identity, identity, strict=True)
-                if not same_entry(old, new)
-            ]
-            if strangers and not args.force:
-                old, new = strangers[0]
-                raise ConfigError(
-                    f"{args.file} is from another drive: {old.label} ({old.name}) is "
-                    f"{old.text()} there, {new.text()} here (--force to restore anyway)"
-                )
+            stranger = await another_drive(wanted, drive)
+            if stranger is not None and not args.force:
+                raise ConfigError(f"{stranger} (--force to restore anyway)")
             progress = _params.Progress("reading", enabled=None if not args.json else False)
             try:
                 now = await backups.read_parameters(

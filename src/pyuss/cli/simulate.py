@@ -5,14 +5,23 @@ its own parameters, on one of:
 
 - ``--pty``: a pseudo-terminal; the FIRST line printed is its device path (open it as a serial
   port, e.g. ``/dev/pts/7``);
-- ``--tcp HOST:PORT``: a TCP server carrying the line (one master at a time; HOST is 127.0.0.1
-  when only ``:PORT`` is given; PORT 0 picks a free one); the first line is ``tcp://HOST:PORT``;
+- ``--tcp HOST:PORT``: a TCP server carrying the line to several clients at once (an idle
+  client gives way to a new one when all 8 places are taken); HOST is 127.0.0.1 when only
+  ``:PORT`` is given; PORT 0 picks a free one; the first line is ``tcp://HOST:PORT`` with the
+  port listened on;
 - ``--serial DEVICE``: a real serial port (any pyserial URL); the first line is DEVICE;
 - ``--bus HOST:PORT``: a station of a virtual bus run by ``uss bus --bus-tcp``; the first line
-  is ``bus://HOST:PORT``.
+  is ``bus://HOST:PORT``. The station is named ``simulate-`` and the addresses (``--name``
+  chooses another), so simulators of other drives join the same bus.
+
+Without ``--baud`` the line runs at the rate the drives' baud rate parameter is set to (C 3:
+generic P684.1, from ``--store`` or the file), else 9600. The interface parameters show what is
+in force (P684.1 the line's rate, P687.1 the failure time). A baud rate written to a drive
+alone on a pty or TCP line is in force at once; elsewhere it is stored for the next start
+(docs/slave.md).
 
 ``--profile baumueller`` drives also have Baumueller's BASS service interface (Baumueller
-communication software manual, chapter 1):
+communication software manual, part 1):
 ``--bass-pty``, ``--bass-tcp HOST:PORT`` or ``--bass-serial DEVICE`` serves it (RS-232, 9600
 baud 8N1). Each drive is then ONE drive on two interfaces: a BASS write is
 seen over USS, and a BASS write of an active parameter makes the USS side send a spontaneous
@@ -41,6 +50,8 @@ import importlib
 import math
 import signal
 import sys
+import time
+import urllib.parse
 from collections.abc import AsyncIterator, Awaitable, Callable
 from pathlib import Path
 from typing import Any
@@ -55,6 +66,7 @@ from pyuss.errors import ConfigError, UssError
 from pyuss.profiles import get_profile, profile_names
 from pyuss.protocol.layout import Layout
 from pyuss.slave.engine import JobLatency, SlaveEngine
+from pyuss.slave.interface import InterfaceParameters
 from pyuss.slave.server import SlaveServer
 from pyuss.transport.base import Transport
 from pyuss.transport.pty import PtyPort
@@ -65,8 +77,10 @@ from pyuss.transport.url import open_transport
 EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_USAGE = 2
+DEFAULT_BAUD = 9600
+"""The line's rate when neither ``--baud`` nor a drive's baud rate parameter gives one."""
 BASS_PROFILE = "baumueller"
-"""The profile whose drives also have the BASS service interface (Baumueller manual, ch. 1)."""
+"""The profile whose drives also have the BASS service interface (Baumueller manual, part 1)."""
 
 
 @dataclasses.dataclass(frozen=True, slots=True)
@@ -75,7 +89,8 @@ class Options:
 
     profile: str
     addresses: tuple[int, ...]
-    baud: int
+    baud: int | None
+    """``--baud``; None: the drives' baud rate parameter (USS drives), else `DEFAULT_BAUD`."""
     line: str
     """``pty``, ``tcp``, ``serial`` or ``bus``."""
     where: str
@@ -93,6 +108,8 @@ class Options:
     """``pty``, ``tcp`` or ``serial`` for the BASS service interface (baumueller); None: none."""
     bass_where: str = ""
     """The serial device, or HOST:PORT of ``tcp``, of the BASS side."""
+    name: str | None = None
+    """The station name on a ``uss bus`` (``--name``); None: ``simulate-`` and the addresses."""
 
 
 Announce = Callable[[str], None]
@@ -139,9 +156,11 @@ def register(subparsers: Any) -> None:
     parser.add_argument(
         "--baud",
         type=_int,
-        default=9600,
-        help=f"baud rate of the line: {', '.join(map(str, BAUD_RATES))} (USS specification "
-        "B 2.4; default 9600; a pty has none)",
+        metavar="B",
+        help="baud rate of the line: "
+        f"{', '.join(map(str, BAUD_RATES))} (USS specification B 2.4; default: the rate the "
+        "drives' baud rate parameter is set to, generic P684.1, from --store, else "
+        f"{DEFAULT_BAUD}; USS specification C 3; a pty has none)",
     )
     where = parser.add_mutually_exclusive_group(required=True)
     where.add_argument(
@@ -161,6 +180,12 @@ def register(subparsers: Any) -> None:
         "--bus",
         metavar="HOST:PORT",
         help="answer as a station of a virtual bus started with uss bus --bus-tcp",
+    )
+    parser.add_argument(
+        "--name",
+        metavar="NAME",
+        help="with --bus: the station's name on the bus (default simulate-ADDRESSES, e.g. "
+        "simulate-5 or simulate-5-6, so simulators of other drives can join the same bus)",
     )
     bass = parser.add_mutually_exclusive_group()
     bass.add_argument(
@@ -263,12 +288,13 @@ def options(args: argparse.Namespace) -> Options:
     """Check the arguments; `ConfigError` naming what is wrong."""
     # a KS VARIO is a PROFIBUS-DP station: DP baud rates and station addresses 0..125
     ksvario = args.profile == "ksvario"
+    baud: int | None = args.baud
     if ksvario:
         from pyuss.ksvario.dp.fdl import check_baud as check_dp_baud
 
-        baud = check_dp_baud(args.baud)
-    else:
-        baud = check_baud(args.baud)
+        baud = check_dp_baud(DEFAULT_BAUD if baud is None else baud)
+    elif baud is not None:
+        baud = check_baud(baud)
     chosen = _chosen_line("--", args.pty, args.tcp, args.serial)
     if chosen is not None:
         line, where = chosen
@@ -277,6 +303,11 @@ def options(args: argparse.Namespace) -> Options:
         if port == 0:
             raise ConfigError(f"--bus {args.bus!r}: give the port the bus listens on")
         line, where = "bus", f"{host}:{port}"
+    if args.name is not None:
+        if line != "bus":
+            raise ConfigError("--name: a station name is for --bus only")
+        if not args.name or "+" in args.name or not args.name.isprintable() or "&" in args.name:
+            raise ConfigError(f"--name {args.name!r}: give a non-empty name without '+' or '&'")
     addresses = tuple(args.address) or (0,)
     for address in addresses:
         if ksvario and not 0 <= address <= 125:
@@ -317,6 +348,7 @@ def options(args: argparse.Namespace) -> Options:
         duration=args.duration,
         bass_line=bass_line,
         bass_where=bass_where,
+        name=args.name,
     )
 
 
@@ -403,17 +435,17 @@ def _store(opts: Options, address: int) -> str | None:
     return path
 
 
-def _line(
-    opts: Options, *, baud: int | None = None, parity: str = "E"
-) -> tuple[Transport, Callable[[], str]]:
+def _line(opts: Options, *, baud: int, parity: str = "E") -> tuple[Transport, Callable[[], str]]:
     """The transport and, once open, the line to print first."""
-    return _open_line(opts.line, opts.where, opts.baud if baud is None else baud, parity)
+    name = opts.name or "simulate-" + "-".join(str(a) for a in opts.addresses)
+    return _open_line(opts.line, opts.where, baud, parity, name=name)
 
 
 def _open_line(
-    line: str, where: str, baud: int, parity: str
+    line: str, where: str, baud: int, parity: str, *, name: str = "simulate"
 ) -> tuple[Transport, Callable[[], str]]:
-    """The transport of a ``line`` kind at ``where`` and, once open, the line naming it."""
+    """The transport of a ``line`` kind at ``where`` and, once open, the line naming it
+    (``name``: the station name on a bus)."""
     if line == "pty":
         pty = PtyPort(baud=baud)
         return pty, lambda: pty.device_path
@@ -422,26 +454,50 @@ def _open_line(
         server = TcpServerTransport(host, port, baud=baud)
         return server, lambda: f"tcp://{host}:{server.port}"
     if line == "bus":
-        url = f"bus://{where}?name=simulate"
+        url = f"bus://{where}?{urllib.parse.urlencode({'name': name})}"
         bus = open_transport(url, baud=baud)
         return bus, lambda: f"bus://{where}"
     serial_line = open_transport(where, baud=baud, parity=parity)
     return serial_line, lambda: where
 
 
+def _line_baud(opts: Options, drives: list[tuple[int, SimulatedDrive]]) -> int:
+    """The rate of the line: ``--baud``, else the one the drives' baud rate parameter is set
+    to (their store or their file; C 3), else `DEFAULT_BAUD`."""
+    if opts.baud is not None:
+        return opts.baud
+    rates = {a: InterfaceParameters(d).baud() for a, d in drives}
+    given = {a: r for a, r in rates.items() if r is not None}
+    if not given:
+        return DEFAULT_BAUD
+    if len(set(given.values())) > 1:
+        listed = ", ".join(f"drive {a}: {r}" for a, r in given.items())
+        raise ConfigError(f"the drives are set to different baud rates ({listed}): give --baud")
+    address, baud = next(iter(given.items()))
+    drive = dict(drives)[address]
+    ref = drive.db.interface["baud"]
+    try:
+        return check_baud(baud)
+    except ConfigError:
+        raise ConfigError(
+            f"drive {address} is set to {baud} baud ({ref}), not a rate of B 2.4: give --baud"
+        ) from None
+
+
 async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> None:
     profile = get_profile(opts.profile)
     db = _database(opts)
-    transport, first_line = _line(opts)
+    now = time.monotonic()  # the clock of every transport
+    drives = [(a, SimulatedDrive(db, store=_store(opts, a), now=now)) for a in opts.addresses]
+    baud = _line_baud(opts, drives)
+    transport, first_line = _line(opts, baud=baud)
     await transport.open()
     spontaneous = opts.spontaneous
     if spontaneous is None and opts.bass_line is not None:
         spontaneous = True  # one drive, two interfaces: BASS changes are reported (C 4.2.1.2)
     try:
-        now = transport.clock()
         engines = []
-        for address in opts.addresses:
-            drive = SimulatedDrive(db, store=_store(opts, address), now=now)
+        for address, drive in drives:
             engines.append(
                 SlaveEngine(
                     address,
@@ -462,10 +518,10 @@ async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> 
             if bass is not None:
                 announce(bass.device)
             for engine in engines:
-                low, high = engine.response_window(opts.baud)
+                low, high = engine.response_window(baud)
                 print(
                     f"uss simulate: address {engine.address}: profile {profile.name}, "
-                    f"parameters {db.profile.name}, layout {engine.layout}, answer "
+                    f"parameters {db.profile.name}, {baud} baud, layout {engine.layout}, answer "
                     f"{low * 1000:.3f}..{high * 1000:.3f} ms, failure time "
                     f"{engine.failure_time:g} s",
                     file=sys.stderr,
@@ -473,7 +529,7 @@ async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> 
             if bass is not None:
                 order = ", ".join(str(s.address) for s in bass.ring.stations)
                 print(
-                    f"uss simulate: USS (RS-485, {opts.baud} baud) on {uss_device}; BASS "
+                    f"uss simulate: USS (RS-485, {baud} baud) on {uss_device}; BASS "
                     f"(RS-232, {BASS_BAUD} baud 8N1) on {bass.device}: ring of drives {order}",
                     file=sys.stderr,
                 )
@@ -557,14 +613,21 @@ async def _serve_ksvario(opts: Options, stop: asyncio.Event, announce: Announce)
         "tcp": f"tcp-listen://{opts.where}",
         "bus": f"bus://{opts.where}",
     }[opts.line]
+    if opts.line == "bus":
+        name = opts.name or f"ksvario-{opts.addresses[0]}"
+        port = f"{port}?{urllib.parse.urlencode({'name': name})}"
     await module.serve(
-        station=opts.addresses[0], port=port, baud=opts.baud, on_ready=announce, stop=stop
+        station=opts.addresses[0],
+        port=port,
+        baud=opts.baud or DEFAULT_BAUD,
+        on_ready=announce,
+        stop=stop,
     )
 
 
 async def _serve_bass(opts: Options, stop: asyncio.Event, announce: Announce) -> None:
-    """A closed RS-232 ring of BASS drives (Baumueller manual, chapter 1), one per
-    ``--address`` (its DIP address), with the demonstration operating data of
+    """A closed RS-232 ring of BASS drives (Baumueller communication software manual, part 1),
+    one per ``--address`` (its DIP address), with the demonstration operating data of
     `pyuss.bass.ring`; 9600 baud, 8N1."""
     if opts.line == "bus":
         raise ConfigError("profile bass: a BASS ring is RS-232, not a station of a USS bus")

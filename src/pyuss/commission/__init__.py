@@ -4,7 +4,8 @@ one look at a drive's state.
 - `pyuss.commission.backup`: `take` a `Backup` of a drive (every parameter its book knows,
   ``scan`` for the others), `save` it (TOML, JSON, CSV export; atomically), `load` it back
   (refusing cut-short or broken files).
-- `pyuss.commission.compare`: `compare` two sets; `plan` and `restore` write a set back.
+- `pyuss.commission.compare`: `compare` two sets; `another_drive` says whether a file is
+  another drive's; `plan` and `restore` write a set back.
 - `pyuss.commission.status`: `look` at a drive: state, status word, actual values with
   units, fault and warning numbers with texts.
 
@@ -13,7 +14,16 @@ these. See docs/commissioning.md.
 """
 
 from pyuss.commission.backup import Backup, Entry, load, save, take
-from pyuss.commission.compare import Difference, Outcome, Skip, Write, compare, plan, restore
+from pyuss.commission.compare import (
+    Difference,
+    Outcome,
+    Skip,
+    Write,
+    another_drive,
+    compare,
+    plan,
+    restore,
+)
 from pyuss.commission.status import Look, look
 
 __all__ = [
@@ -24,6 +34,7 @@ __all__ = [
     "Outcome",
     "Skip",
     "Write",
+    "another_drive",
     "compare",
     "load",
     "look",

@@ -21,7 +21,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from pyuss.commission.backup import MAX_TIMEOUTS, Backup, Entry, error_dict
+from pyuss.commission.backup import MAX_TIMEOUTS, Backup, Entry, error_dict, read_parameters
 from pyuss.drive.datatypes import DataType
 from pyuss.errors import ConfigError, UssError, UssTimeout
 from pyuss.master.drive import Drive
@@ -30,7 +30,16 @@ from pyuss.params.model import ParamInfo, param_label
 from pyuss.params.values import ValueRefused, encode, format_value
 from pyuss.profiles import Profile
 
-__all__ = ["Difference", "Outcome", "Skip", "Write", "compare", "plan", "restore"]
+__all__ = [
+    "Difference",
+    "Outcome",
+    "Skip",
+    "Write",
+    "another_drive",
+    "compare",
+    "plan",
+    "restore",
+]
 
 
 def _same(a: Any, b: Any) -> bool:
@@ -117,6 +126,19 @@ def compare(left: Backup, right: Backup) -> list[Difference]:
 
 
 # -- restore ----------------------------------------------------------------------------------
+
+
+async def another_drive(wanted: Backup, drive: Drive) -> str | None:
+    """Why ``wanted`` is another drive's file: the first of its identity parameters (firmware,
+    device type) the drive holds otherwise, in words; None when they all agree. Reads them."""
+    found = await read_parameters(drive, [(e.pnu, e.index) for e in wanted.identity])
+    for old, new in zip(wanted.identity, found, strict=True):
+        if not same_entry(old, new):
+            return (
+                f"{wanted.source or 'the backup'} is from another drive: {old.label} "
+                f"({old.name}) is {old.text()} there, {new.text()} here"
+            )
+    return None
 
 
 @dataclass(frozen=True, slots=True)

@@ -17,23 +17,26 @@ from typing import Any
 from pyuss.commission.backup import Entry, read_parameters
 from pyuss.master.drive import Drive
 from pyuss.master.process import DriveStatus, state_of
+from pyuss.params.model import param_label
 from pyuss.protocol.pzd import STATUS_BITS, describe_bits, raw16_to_percent
 
-__all__ = ["Look", "fault_texts", "look", "reference_value"]
+__all__ = ["Look", "fault_texts", "look", "reference_value", "warning_texts"]
 
 ROLES = ("state", "actual", "setpoint", "fault", "warning")
 
 
 def fault_texts(drive: Drive) -> dict[int, str]:
-    """Fault and warning numbers the profile knows, with their texts."""
+    """Fault numbers the profile knows, with their texts (the family's own list first)."""
     texts: dict[int, str] = {}
-    db = drive.profile.database()
-    for name, code in db.faults.items():
+    for name, code in drive.profile.database().faults.items():
         texts.setdefault(code, name.replace("_", " "))
-    own = getattr(drive.profile, "fault_texts", None) or getattr(db, "fault_texts", None)
-    if own:
-        texts.update({int(k): str(v) for k, v in dict(own).items()})
+    texts.update(drive.profile.faults)
     return texts
+
+
+def warning_texts(drive: Drive) -> dict[int, str]:
+    """Warning numbers the profile knows, with their texts."""
+    return dict(drive.profile.warnings)
 
 
 async def reference_value(drive: Drive) -> tuple[float, str] | None:
@@ -65,13 +68,28 @@ class Look:
     shown: dict[str, str] = field(default_factory=dict)
     """Each parameter's value as printed (by label), with its unit and value text."""
     texts: dict[int, str] = field(default_factory=dict)
+    """Fault texts by number."""
+    warnings: dict[int, str] = field(default_factory=dict)
+    """Warning texts by number, for the parameter labelled `warning_label`."""
+    warning_label: str = ""
+    family_bits: dict[int, str] = field(default_factory=dict)
+    """What the device-specific status bits 11..15 show on this family (its profile)."""
+
+    def _text_of(self, entry: Entry) -> str | None:
+        if not entry.ok or not isinstance(entry.value, int) or entry.value == 0:
+            return None
+        table = self.warnings if entry.label == self.warning_label else self.texts
+        return table.get(entry.value)
 
     @property
     def state(self) -> str:
         return state_of(self.word)
 
     def bits(self) -> list[tuple[int, bool, str]]:
-        return describe_bits(self.word, STATUS_BITS)
+        return [
+            (bit, on, self.family_bits.get(bit, text) if bit >= 11 else text)
+            for bit, on, text in describe_bits(self.word, STATUS_BITS)
+        ]
 
     def lines(self) -> list[str]:
         out = [f"drive {self.address}: {self.state}", f"status word {self.word:04X}h"]
@@ -81,8 +99,9 @@ class Look:
             out.append(f"actual value (PZD2) {self.actual_percent:.2f} %{physical}")
         for entry in self.parameters:
             text = self.shown.get(entry.label) or entry.text()
-            if entry.ok and isinstance(entry.value, int) and entry.value in self.texts:
-                text += f" ({self.texts[entry.value]})"
+            meaning = self._text_of(entry)
+            if meaning:
+                text += f" ({meaning})"
             name = f" ({entry.name})" if entry.name else ""
             out.append(f"{entry.label}{name} = {text}")
         return out
@@ -101,7 +120,7 @@ class Look:
                 {
                     **e.to_dict(),
                     "text": self.shown.get(e.label, ""),
-                    "fault_text": self.texts.get(e.value) if isinstance(e.value, int) else None,
+                    "fault_text": self._text_of(e),
                 }
                 for e in self.parameters
             ],
@@ -127,7 +146,15 @@ async def look(drive: Drive, *, timeout: float | None = None) -> Look:
         value = await drive.read(ref.pnu, ref.index, timeout=timeout)
         assert isinstance(value, int)
         word = value
-    result = Look(drive.address, word, texts=fault_texts(drive))
+    warning = db.roles.get("warning")
+    result = Look(
+        drive.address,
+        word,
+        texts=fault_texts(drive),
+        warnings=warning_texts(drive),
+        warning_label=param_label(warning.pnu, warning.index) if warning else "",
+        family_bits={bit: text for bit, text in drive.profile.status_bits.items() if bit >= 11},
+    )
     if status is not None and status.actual:
         result.actual_percent = raw16_to_percent(status.actual[0])
         reference = await reference_value(drive)

@@ -7,7 +7,10 @@
 - the process-data values (status word, state, actual values, status bits) are those of the
   first answer of the drive after the slot began, so every row holds fresh data; the row's
   time is when that answer came (wall clock, ISO 8601 with the UTC offset, milliseconds);
-- parameters are read with a parameter job for every row;
+- parameters are read with a parameter job for every row, typed through the drive's parameter
+  book (`pyuss.params`, ``Drive.read_param``); actual values PZD3 and up are converted by the
+  parameters the profile maps them to, PZD2 in the unit of the reference parameter
+  (`pyuss.commission.status.reference_value`);
 - a drive that does not answer (no answer within ``max(1 / rate, 0.5 s)``, "slave does not
   send" of A 5.2.1.1, or a parameter job that timed out) gives a row with every value empty
   and ``no answer`` in the ``comm`` column: never the last values again. A parameter the
@@ -24,15 +27,14 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from pyuss.commission.status import reference_value
 from pyuss.datalog.csvfile import CsvLog
 from pyuss.datalog.values import Kind, Quantity
-from pyuss.drive.database import Parameter, ParameterDatabase
-from pyuss.drive.datatypes import DataType
-from pyuss.drive.faults import ParameterFault
+from pyuss.drive.datatypes import Value
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
 from pyuss.master import Drive, DriveStatus
 from pyuss.master.errors import NoWriteAuthority
-from pyuss.protocol.pkw import Pkw, RequestId
+from pyuss.params import ParamInfo, decode, format_value
 from pyuss.protocol.pzd import STATUS_BITS, raw16_to_percent
 
 __all__ = ["COMM_OK", "NO_ANSWER", "DataLogger", "LogResult", "iso_now"]
@@ -48,12 +50,6 @@ def iso_now() -> str:
     return _dt.datetime.now().astimezone().isoformat(timespec="milliseconds")
 
 
-def _number(value: float, decimals: int) -> str:
-    if decimals:
-        return f"{value:.{decimals}f}"
-    return f"{value:.6g}" if isinstance(value, float) else str(value)
-
-
 @dataclass(frozen=True, slots=True)
 class LogResult:
     rows: int
@@ -61,33 +57,26 @@ class LogResult:
     """Rows written as "no answer"."""
 
 
-async def read_parameter(
-    drive: Drive, pnu: int, index: int | None, parameter: Parameter | None, timeout: float
-) -> str:
-    """One parameter's value as a CSV cell: scaled by the parameter file (the raw value when
-    the file does not know the parameter)."""
-    if parameter is None:
-        return str(await drive.read(pnu, index, timeout=timeout))
-    bits, high = drive.profile.encode_pnu(pnu)
-    if index is None:
-        request = Pkw(RequestId.READ_VALUE, bits, high)
-    else:
-        request = Pkw(RequestId.READ_ARRAY, bits, index | high)
-    answer = await drive.job(request, pnu=pnu, index=index, timeout=timeout)
-    words = answer.values
-    if len(words) > parameter.word_count:
-        words = words[-parameter.word_count :]  # a word travels in PWE2 with PKW 4 (C 4.2.3)
-    try:
-        value = parameter.from_words(words)
-    except ParameterFault as exc:
-        raise UssError(f"P{pnu}: the answer does not fit the parameter file: {exc}") from None
+def cell(info: ParamInfo | None, value: Value | Sequence[Value]) -> str:
+    """A value as a CSV cell: a number as a spreadsheet reads it (scaled, the decimals of its
+    parameter, no unit or value text: the header has the unit), text without padding, bytes
+    in hex, the elements of an array separated by blanks."""
+    if isinstance(value, list | tuple):
+        return " ".join(cell(info, v) for v in value)
     if isinstance(value, bytes):
         return value.hex(" ").upper()
     if isinstance(value, str):
         return value.rstrip()
-    if parameter.scaling and not isinstance(value, float):
-        return _number(value * parameter.scaling, parameter.decimals)
-    return _number(value, 0)
+    if info is None or info.is_bit_field:
+        return str(value)
+    return format_value(info, value, unit=False, texts=False)
+
+
+async def read_parameter(drive: Drive, pnu: int, index: int | None, timeout: float) -> str:
+    """One parameter's value as a CSV cell (`cell`), read and typed through the drive's
+    parameter book."""
+    reading = await drive.read_param(pnu, index, timeout=timeout)
+    return cell(reading.info, reading.value)
 
 
 class DataLogger:
@@ -99,7 +88,6 @@ class DataLogger:
         quantities: Sequence[Quantity],
         *,
         rate: float,
-        database: ParameterDatabase | None = None,
         job_timeout: float = 1.0,
     ) -> None:
         if isinstance(rate, bool) or not (isinstance(rate, int | float) and 0 < rate <= 1000):
@@ -115,37 +103,22 @@ class DataLogger:
         self.drive = drive
         self.quantities = list(quantities)
         self.rate = float(rate)
-        self.database = database
         self.job_timeout = job_timeout
         self.reference: tuple[float, str] | None = None
 
     async def prepare(self) -> None:
-        """Read the reference (for actual values in units) and every parameter once: a
+        """Read the reference (for actual values in units) and every parameter once (which
+        also learns what the drive says of parameters no file knows, for the header): a
         parameter the drive refuses ends the log before it starts (`DriveRefusal`)."""
-        db = self.database
-        ref = db.roles.get("reference") if db is not None else None
-        if (
-            db is not None
-            and ref is not None
-            and any(q.kind is Kind.ACTUAL for q in self.quantities)
-        ):
-            param = db.parameter(ref.pnu)
+        if any(q.kind is Kind.ACTUAL for q in self.quantities):
             try:
-                cell = await read_parameter(self.drive, ref.pnu, ref.index, param, self.job_timeout)
-                if param.unit:
-                    self.reference = (float(cell), param.unit)
-            except (UssError, ValueError):
+                self.reference = await reference_value(self.drive)
+            except UssError:
                 self.reference = None
         for quantity in self.quantities:
             if quantity.kind is Kind.PARAMETER:
                 with contextlib.suppress(UssTimeout):  # no answer now: the rows say so
-                    await read_parameter(
-                        self.drive,
-                        quantity.pnu,
-                        quantity.index,
-                        quantity.parameter,
-                        self.job_timeout,
-                    )
+                    await read_parameter(self.drive, quantity.pnu, quantity.index, self.job_timeout)
 
     def _actual_columns(self) -> list[str]:
         names = []
@@ -162,13 +135,11 @@ class DataLogger:
                 names.append(f"actual PZD{number} {param.name}{unit}")
         return names
 
-    def _process_parameter(self, number: int) -> Parameter | None:
-        db = self.database
-        if db is None:
-            return None
-        pnus = db.process_actuals
-        pnu = pnus[number - 3] if number - 3 < len(pnus) else 0
-        return db.parameter(pnu) if pnu else None
+    def _process_parameter(self, number: int) -> ParamInfo | None:
+        """The parameter the profile maps to actual value PZD``number`` (3 and up)."""
+        pnus = self.drive.profile.database().process_actuals
+        pnu = pnus[number - 3] if 0 <= number - 3 < len(pnus) else 0
+        return self.drive.params.get(pnu) if pnu else None
 
     def header(self) -> list[str]:
         """The CSV header: time, one column per value (units in brackets), comm."""
@@ -186,7 +157,7 @@ class DataLogger:
                 label = f"P{quantity.pnu}" + (
                     "" if quantity.index is None else f".{quantity.index}"
                 )
-                param = quantity.parameter
+                param = self.drive.params.get(quantity.pnu)
                 if param is not None:
                     label += f" {param.name}" + (f" [{param.unit}]" if param.unit else "")
                 names.append(label)
@@ -205,15 +176,11 @@ class DataLogger:
                 cells.append(f"{value:.3f}")
             else:
                 param = self._process_parameter(number)
-                if param is None:
-                    cells.append(str(raw))
-                    continue
-                signed = param.dtype in (DataType.INT16, DataType.INT8) and raw & 0x8000
-                number_value = raw - 0x10000 if signed else raw
-                if param.scaling:
-                    cells.append(_number(number_value * param.scaling, param.decimals))
-                else:
-                    cells.append(str(number_value))
+                text = str(raw)  # the word as it came where nothing is known of it
+                if param is not None and param.words == 1:
+                    with contextlib.suppress(UssError):
+                        text = cell(param, decode(param, (raw,)))
+                cells.append(text)
         return cells
 
     def _process_cells(self, quantity: Quantity, status: DriveStatus) -> list[str]:
@@ -252,13 +219,7 @@ class DataLogger:
                 continue
             try:
                 cells.append(
-                    await read_parameter(
-                        self.drive,
-                        quantity.pnu,
-                        quantity.index,
-                        quantity.parameter,
-                        self.job_timeout,
-                    )
+                    await read_parameter(self.drive, quantity.pnu, quantity.index, self.job_timeout)
                 )
             except UssTimeout:
                 return self._silent(stamp), False

@@ -8,8 +8,9 @@
 - a status bit's name (``ready``, ``fault``, ``operation_enabled``, ``in_tolerance``, ...:
   the names of `pyuss.protocol.pzd.StatusWord` in any case, or ``bit3``): 1 or 0;
 - a parameter: ``P52``, ``P4.2`` (element 2 of array P4), also ``r52`` or ``52``: its value,
-  scaled, in the unit of the profile's parameter file (the raw value when the file does not
-  know it). Parameters are read with a parameter job for every sample.
+  typed and scaled by what the drive's parameter book knows of it (`pyuss.params`: the
+  profile's file, the drive's own description), in its unit; the unsigned word the drive sent
+  when nothing is known of it. Parameters are read with a parameter job for every sample.
 """
 
 from __future__ import annotations
@@ -19,8 +20,6 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from pyuss.drive.database import Parameter, ParameterDatabase
-from pyuss.drive.faults import ParameterFault
 from pyuss.errors import ConfigError
 from pyuss.protocol.pzd import StatusWord
 
@@ -52,8 +51,6 @@ class Quantity:
     bit: int = 0
     pnu: int = 0
     index: int | None = None
-    parameter: Parameter | None = None
-    """The parameter file's entry (None when the file does not know the parameter)."""
 
     @property
     def process(self) -> bool:
@@ -65,7 +62,7 @@ def _bit_names() -> str:
     return ", ".join(sorted(_BITS))
 
 
-def parse_values(texts: Sequence[str], database: ParameterDatabase | None) -> list[Quantity]:
+def parse_values(texts: Sequence[str]) -> list[Quantity]:
     """The VALUES given on the command line; `ConfigError` naming a value not understood."""
     if not texts:
         raise ConfigError("name at least one value to log: status, actual, a bit name or P52")
@@ -93,11 +90,5 @@ def parse_values(texts: Sequence[str], database: ParameterDatabase | None) -> li
         index = int(match.group(2)) if match.group(2) is not None else None
         if index is not None and not 0 <= index <= 254:
             raise ConfigError(f"value {text!r}: the index must be 0..254")
-        parameter = None
-        if database is not None:
-            try:
-                parameter = database.parameter(pnu)
-            except ParameterFault:
-                parameter = None
-        out.append(Quantity(Kind.PARAMETER, word, pnu=pnu, index=index, parameter=parameter))
+        out.append(Quantity(Kind.PARAMETER, word, pnu=pnu, index=index))
     return out

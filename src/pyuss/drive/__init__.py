@@ -13,26 +13,31 @@
 See docs/drive.md.
 """
 
-from pyuss.drive.database import (
-    Access,
-    Commissioning,
-    DescriptionStyle,
-    Parameter,
-    ParameterDatabase,
-    ParamRef,
-    WordBits,
-    builtin_profiles,
-    load_database,
-    load_profile,
-    parse_database,
-)
-from pyuss.drive.datatypes import DataType, Value
-from pyuss.drive.description import DescriptionElement
-from pyuss.drive.faults import DriveErrorNumber, NoWriteAuthority, ParameterFault
-from pyuss.drive.memory import LOCAL, WHOLE_ARRAY, ParameterChange, ParameterMemory
-from pyuss.drive.simulated import SimulatedDrive
-from pyuss.drive.states import DriveState, DriveStateMachine, Motion
-from pyuss.drive.store import ParameterStore, StoreError
+from typing import TYPE_CHECKING
+
+from pyuss._lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from pyuss.drive.database import (
+        Access,
+        Commissioning,
+        DescriptionStyle,
+        Parameter,
+        ParameterDatabase,
+        ParamRef,
+        WordBits,
+        builtin_profiles,
+        load_database,
+        load_profile,
+        parse_database,
+    )
+    from pyuss.drive.datatypes import DataType, Value
+    from pyuss.drive.description import DescriptionElement
+    from pyuss.drive.faults import DriveErrorNumber, NoWriteAuthority, ParameterFault
+    from pyuss.drive.memory import LOCAL, WHOLE_ARRAY, ParameterChange, ParameterMemory
+    from pyuss.drive.simulated import SimulatedDrive
+    from pyuss.drive.states import DriveState, DriveStateMachine, Motion
+    from pyuss.drive.store import ParameterStore, StoreError
 
 __all__ = [
     "LOCAL",
@@ -63,3 +68,48 @@ __all__ = [
     "load_profile",
     "parse_database",
 ]
+
+__getattr__, __dir__ = lazy_exports(
+    __name__,
+    {
+        "pyuss.drive.database": (
+            "Access",
+            "Commissioning",
+            "DescriptionStyle",
+            "Parameter",
+            "ParameterDatabase",
+            "ParamRef",
+            "WordBits",
+            "builtin_profiles",
+            "load_database",
+            "load_profile",
+            "parse_database",
+        ),
+        "pyuss.drive.datatypes": (
+            "DataType",
+            "Value",
+        ),
+        "pyuss.drive.description": ("DescriptionElement",),
+        "pyuss.drive.faults": (
+            "DriveErrorNumber",
+            "NoWriteAuthority",
+            "ParameterFault",
+        ),
+        "pyuss.drive.memory": (
+            "LOCAL",
+            "WHOLE_ARRAY",
+            "ParameterChange",
+            "ParameterMemory",
+        ),
+        "pyuss.drive.simulated": ("SimulatedDrive",),
+        "pyuss.drive.states": (
+            "DriveState",
+            "DriveStateMachine",
+            "Motion",
+        ),
+        "pyuss.drive.store": (
+            "ParameterStore",
+            "StoreError",
+        ),
+    },
+)

@@ -27,10 +27,9 @@ from __future__ import annotations
 
 import enum
 import math
-import tomllib
+import re
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from importlib import resources
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -57,6 +56,11 @@ MAX_STRING = 240
 """Longest octet or visible string: it must fit the variable PKW area (C 4.1.2: m <= 124)."""
 
 TIME_UNITS: dict[str, float] = {"ms": 0.001, "s": 1.0, "min": 60.0}
+
+BAUD_UNITS = ("baud", "bd", "bit/s", "bps")
+"""Units (any case) of a baud rate parameter whose value is the rate itself (Baumueller 182)."""
+
+_BAUD_TEXT = re.compile(r"\s*(\d+(?:[.,]\d+)?)\s*(k?)\s*(?:baud|bd|bit/s|bps)\b", re.IGNORECASE)
 
 
 class Access(enum.Enum):
@@ -420,6 +424,13 @@ class ParameterDatabase:
         except KeyError:
             raise ParameterFault(ErrorNumber.ILLEGAL_PNU, "no such parameter", pnu=pnu) from None
 
+    def baud_codes(self) -> Mapping[int, int] | None:
+        """How the ``baud`` interface parameter holds the rate: a table code -> baud (C 3.1:
+        1 = 300 ... 10 = 187500; MICROMASTER 4 P2010 has its own codes), or None where the value
+        is the rate itself (unit Baud, Baumueller 182). See `baud_codes`."""
+        ref = self.interface.get("baud")
+        return None if ref is None else baud_codes(self.parameter(ref.pnu))
+
     def position(self, param: Parameter, index: int | None) -> int:
         """The element an IND addresses: 0 for a scalar without index, else ``index - base``.
 
@@ -447,6 +458,27 @@ class ParameterDatabase:
         return index - base
 
 
+def baud_codes(param: Parameter) -> Mapping[int, int] | None:
+    """The baud rates a baud rate parameter's values stand for: None when its unit is a baud
+    unit (`BAUD_UNITS`: the value is the rate), else code -> rate from its value texts
+    ("9600 BAUD", "19.2 kBaud"); texts naming no rate are left out. `ConfigError` when neither
+    tells a rate."""
+    if param.unit.lower() in BAUD_UNITS:
+        return None
+    codes: dict[int, int] = {}
+    for code, text in param.texts.items():
+        match = _BAUD_TEXT.match(text)
+        if match is not None:
+            number = float(match.group(1).replace(",", "."))
+            codes[code] = round(number * (1000 if match.group(2) else 1))
+    if not codes:
+        raise ConfigError(
+            f"P{param.pnu} holds no baud rate: give it the unit Baud (its value is the rate) "
+            'or value texts naming the rates ({ 6 = "9600 BAUD", ... })'
+        )
+    return codes
+
+
 # --------------------------------------------------------------------------------------------
 # loading
 
@@ -461,6 +493,8 @@ def builtin_profiles() -> tuple[str, ...]:
 
 
 def _builtin_files() -> tuple[str, ...]:
+    from importlib import resources  # here: a command that reads no file starts sooner
+
     folder = resources.files(BUILTIN_PACKAGE).joinpath("data")
     return tuple(
         sorted(p.name.removesuffix(".toml") for p in folder.iterdir() if p.name.endswith(".toml"))
@@ -486,6 +520,8 @@ def parse_database(text: str, source: str = "<text>") -> ParameterDatabase:
 
 
 def _parse_toml(text: str, source: str) -> dict[str, Any]:
+    import tomllib  # here: a command that reads no file starts sooner
+
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -498,6 +534,8 @@ def _read_source(ref: str) -> tuple[str, str]:
         name = ref.removeprefix("builtin:")
         if name not in _builtin_files():
             raise ConfigError(f"unknown profile {name!r} (known: {', '.join(builtin_profiles())})")
+        from importlib import resources
+
         res = resources.files(BUILTIN_PACKAGE).joinpath("data", f"{name}.toml")
         return f"profile {name} ({name}.toml)", res.read_text(encoding="utf-8")
     try:
@@ -868,7 +906,17 @@ def _check_roles(db: ParameterDatabase, source: str) -> None:
         ):
             raise where.error(name, f"P{ref.pnu} must be an integer parameter")
     for name, ref in db.interface.items():
-        _check_ref(ref, parameters, db.profile, _Where(source, "[interface]"), name)
+        where = _Where(source, "[interface]")
+        param = _check_ref(ref, parameters, db.profile, where, name)
+        if name == "baud":
+            try:
+                baud_codes(param)
+            except ConfigError as exc:
+                raise where.error(name, str(exc)) from None
+        if name == "failure_time" and param.unit and param.unit not in TIME_UNITS:
+            raise where.error(
+                name, f"P{ref.pnu} must have a time unit (s, ms, min; none: s), not {param.unit!r}"
+            )
 
 
 def _reference_unit(db: ParameterDatabase) -> str | None:

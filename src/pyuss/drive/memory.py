@@ -12,7 +12,11 @@ rules of the parameter channel (C 4.2) that belong to the drive rather than to t
   this operating state (17);
 - writes with the EEPROM request IDs persist in the store file (`pyuss.drive.store`);
 - change notification: a change of an ACTIVE parameter calls every subscriber except the
-  interface that made it (C 4.2.1.2; the slave engine reports it as a spontaneous message).
+  interface that made it (C 4.2.1.2; the slave engine reports it as a spontaneous message);
+  `watch` calls back after any change of one parameter, whoever made it (the slave engine
+  follows its interface parameters that way);
+- `add_write_rule`: a further condition on the writes of one element (the slave engine refuses
+  a baud rate change that would never take effect).
 
 Interfaces are named by strings; `LOCAL` is the drive itself (operator panel, internal updates).
 Write authority is granted to every interface until `set_write_authority` takes it away; a
@@ -79,6 +83,13 @@ class ParameterChange:
 
 Listener = Callable[[ParameterChange], None]
 
+WriteRule = Callable[[Value, bool], None]
+"""A further condition on writes of one parameter element through an interface: called with
+the checked value and whether it is an EEPROM write; raises `ParameterFault` to refuse."""
+
+Watcher = Callable[[int], None]
+"""Called with the PNU after any change of its value, whoever made it."""
+
 
 class ParameterMemory:
     """The values of one drive's parameters and the rules of changing them."""
@@ -94,6 +105,8 @@ class ParameterMemory:
         self._values: dict[int, list[Value]] = {p.pnu: list(p.default) for p in db}
         self._texts: dict[tuple[int, bool, int], str] = {}
         self._listeners: dict[str, list[Listener]] = {}
+        self._rules: dict[ParamRef, list[WriteRule]] = {}
+        self._watchers: dict[int, list[Watcher]] = {}
         self._denied: set[str] = set()
         self._running = running
         self._store = None if store is None else ParameterStore(store, db.profile.name)
@@ -150,6 +163,30 @@ class ParameterMemory:
                 listeners.remove(listener)
 
         return unsubscribe
+
+    def add_write_rule(self, ref: ParamRef, rule: WriteRule) -> Callable[[], None]:
+        """Apply ``rule`` to every write of the element ``ref`` through an interface (not to
+        the drive's own `update`). Returns a function that removes it."""
+        self._rules.setdefault(ref, []).append(rule)
+
+        def remove() -> None:
+            rules = self._rules.get(ref, [])
+            if rule in rules:
+                rules.remove(rule)
+
+        return remove
+
+    def watch(self, pnu: int, watcher: Watcher) -> Callable[[], None]:
+        """Call ``watcher(pnu)`` after every change of a value of ``pnu`` (any interface, the
+        drive itself, any parameter, active or not). Returns a function that ends it."""
+        self._watchers.setdefault(pnu, []).append(watcher)
+
+        def unwatch() -> None:
+            watchers = self._watchers.get(pnu, [])
+            if watcher in watchers:
+                watchers.remove(watcher)
+
+        return unwatch
 
     def set_write_authority(self, interface: str, allowed: bool) -> None:
         """Grant or withdraw the parameter write authority of an interface (C 4.2.1.1)."""
@@ -291,6 +328,7 @@ class ParameterMemory:
         position = self._position(param, index)
         self._may_write(param, index, eeprom)
         checked = self._checked(param, value, index)
+        self._apply_rules(param, index, checked, eeprom)
         self._commit(param, [(position, index, checked)], interface, eeprom, whole=False)
         self._written(pnu)
         return checked
@@ -312,6 +350,7 @@ class ParameterMemory:
         self._may_write(param, index, eeprom)
         value = self._decoded(param, words, index)
         checked = self._checked(param, value, index)
+        self._apply_rules(param, index, checked, eeprom)
         self._commit(param, [(position, index, checked)], interface, eeprom, whole=False)
         self._written(pnu)
         return param.to_words(checked)
@@ -344,6 +383,8 @@ class ParameterMemory:
             index = base + position
             value = self._checked(param, self._decoded(param, chunk, index), index)
             updates.append((position, index, value))
+        for _, index, value in updates:
+            self._apply_rules(param, index, value, eeprom)
         self._commit(param, updates, interface, eeprom, whole=True)
         words_held = self.read_array_words(pnu)
         self._written(pnu)
@@ -523,6 +564,15 @@ class ParameterMemory:
     def _writable(self, pnu: int) -> bool:
         return pnu in self.db and self.db.parameter(pnu).writable
 
+    def _apply_rules(
+        self, param: ParameterSpec, index: int | None, value: Value, eeprom: bool
+    ) -> None:
+        for rule in self._rules.get(ParamRef(param.pnu, index), ()):
+            try:
+                rule(value, eeprom)
+            except ParameterFault as exc:
+                raise ParameterFault(exc.number, exc.detail, pnu=param.pnu, index=index) from None
+
     def _unlocked(self) -> bool:
         ref = self.db.profile.access_level
         if ref is None:
@@ -569,6 +619,8 @@ class ParameterMemory:
             values[position] = value
         if changed:
             self._changed(param.pnu)
+            for watcher in list(self._watchers.get(param.pnu, ())):
+                watcher(param.pnu)
         if not (param.active and changed):
             return
         if whole:

@@ -14,21 +14,28 @@ bit. The file is written atomically: a temporary file in the same folder, writte
 fsynced, renamed over the old one, then the folder is fsynced. A file that is torn (shorter than
 its header says), altered (checksum), not of this format, or written for another profile is
 refused with a `StoreError` naming the file; it is never loaded in part.
+
+A drive killed while it wrote its store (``kill -9``) leaves a temporary file
+``.NAME.XXXXXXXX.tmp`` beside the store; the next start of that store removes such files of
+writers that are gone (`pyuss.atomicfile.remove_stale`), never one a running drive is writing.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import re
 from collections.abc import Mapping
 from pathlib import Path
 
-from pyuss.atomicfile import write_atomically
+from pyuss.atomicfile import remove_stale, write_atomically
 from pyuss.errors import ConfigError
 
 MAGIC = "pyuss-drive-store"
 VERSION = 1
+log = logging.getLogger("pyuss.drive")
+
 _HEADER = re.compile(rb"pyuss-drive-store (\d+) sha256=([0-9a-f]{64}) bytes=(\d+)\n")
 
 Key = tuple[int, int | None]
@@ -104,6 +111,8 @@ class ParameterStore:
         self.profile = profile
         if not self.path.parent.is_dir():
             raise StoreError(f"{self.path}: folder {self.path.parent} does not exist")
+        for stale in remove_stale(self.path):
+            log.info("%s: removed %s, left by a write that was cut off", self.path, stale.name)
 
     def load(self) -> dict[Key, tuple[int, ...]]:
         """The stored values; empty for a drive that never stored anything (no file yet)."""

@@ -2,10 +2,11 @@
 simulate` and for a general `uss simulate --profile ksvario`.
 
 `serve(...)` opens the line (a new `PtyPort` by default, or any transport URL of
-`pyuss.transport.url`: a serial port or pyserial URL at 8E1, tcp://, bus://), calls
-``on_ready(device)`` with the path a DP master must open, and answers the master until
-cancelled. The coupler is created with the example selection of seed 003 3.2 unless one is
-given.
+`pyuss.transport.url`: a serial port or pyserial URL at 8E1, tcp://, tcp-listen://, bus://),
+calls ``on_ready(device)`` with what a DP master must open (the pty's path, ``tcp://HOST:PORT``
+with the port listened on for ``tcp-listen://HOST:0``, ``bus://HOST:PORT``, else the URL), and
+answers the master until cancelled or ``stop`` is set. The coupler is created with the example
+selection of the KS VARIO PROFIBUS-DP interface description 3.2 unless one is given.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from pyuss.ksvario.dp.server import run_slave
 from pyuss.ksvario.dp.slave import DpSlave
 from pyuss.transport.base import Transport
 from pyuss.transport.pty import PtyPort
+from pyuss.transport.tcp import TcpServerTransport
 from pyuss.transport.url import open_transport
 
 
@@ -48,9 +50,19 @@ async def serve(
     line = dp_line(port, baud=baud)
     await line.open()
     try:
-        device = line.device_path if isinstance(line, PtyPort) else port or ""
+        device = _device(line, port)
         if on_ready is not None:
             on_ready(device)
         await run_slave(slave, line, stop)
     finally:
         await line.close()
+
+
+def _device(line: Transport, port: str | None) -> str:
+    """What a master opens to reach the station on ``line``."""
+    if isinstance(line, PtyPort):
+        return line.device_path
+    if isinstance(line, TcpServerTransport):
+        return f"tcp://{line.host}:{line.port}"  # the port chosen for port 0
+    url = port or ""
+    return url.partition("?")[0] if url.lower().startswith("bus://") else url

@@ -10,23 +10,34 @@
 See docs/master.md.
 """
 
-from pyuss.master.description import Description, DescriptionElement
-from pyuss.master.drive import Drive
-from pyuss.master.errors import (
-    DriveFault,
-    JobOutcome,
-    JobTimeout,
-    MasterClosed,
-    MirrorMismatch,
-    NotSending,
-    NoWriteAuthority,
-    StatusTimeout,
-)
-from pyuss.master.jobs import SpontaneousMessage
-from pyuss.master.process import OPERATE, DriveStatus
-from pyuss.master.profile import resolve_profile
-from pyuss.master.scheduler import ACYCLIC, CYCLIC, Master, MirrorResult, Mode, Reply
-from pyuss.master.stats import BusDiagnostics, CycleStats, JobStats, SampleSummary, SlaveDiagnostics
+from typing import TYPE_CHECKING
+
+from pyuss._lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from pyuss.master.description import Description, DescriptionElement
+    from pyuss.master.drive import Drive
+    from pyuss.master.errors import (
+        DriveFault,
+        JobOutcome,
+        JobTimeout,
+        MasterClosed,
+        MirrorMismatch,
+        NotSending,
+        NoWriteAuthority,
+        StatusTimeout,
+    )
+    from pyuss.master.jobs import SpontaneousMessage
+    from pyuss.master.process import OPERATE, DriveStatus
+    from pyuss.master.profile import resolve_profile
+    from pyuss.master.scheduler import ACYCLIC, CYCLIC, Master, MirrorResult, Mode, Reply
+    from pyuss.master.stats import (
+        BusDiagnostics,
+        CycleStats,
+        JobStats,
+        SampleSummary,
+        SlaveDiagnostics,
+    )
 
 __all__ = [
     "ACYCLIC",
@@ -56,3 +67,45 @@ __all__ = [
     "StatusTimeout",
     "resolve_profile",
 ]
+
+__getattr__, __dir__ = lazy_exports(
+    __name__,
+    {
+        "pyuss.master.description": (
+            "Description",
+            "DescriptionElement",
+        ),
+        "pyuss.master.drive": ("Drive",),
+        "pyuss.master.errors": (
+            "DriveFault",
+            "JobOutcome",
+            "JobTimeout",
+            "MasterClosed",
+            "MirrorMismatch",
+            "NotSending",
+            "NoWriteAuthority",
+            "StatusTimeout",
+        ),
+        "pyuss.master.jobs": ("SpontaneousMessage",),
+        "pyuss.master.process": (
+            "OPERATE",
+            "DriveStatus",
+        ),
+        "pyuss.master.profile": ("resolve_profile",),
+        "pyuss.master.scheduler": (
+            "ACYCLIC",
+            "CYCLIC",
+            "Master",
+            "MirrorResult",
+            "Mode",
+            "Reply",
+        ),
+        "pyuss.master.stats": (
+            "BusDiagnostics",
+            "CycleStats",
+            "JobStats",
+            "SampleSummary",
+            "SlaveDiagnostics",
+        ),
+    },
+)

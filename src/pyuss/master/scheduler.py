@@ -44,11 +44,21 @@ Time bases
     tolerance after the response delay limit. The master's own
     sending keeps at least the specification's start pause always. ``latency`` (default 20 ms)
     is how long after a deadline the master still waits for bytes that were on the line in
-    time but not yet delivered; it only costs time when a slave is silent.
+    time but not yet delivered: before it takes a telegram for broken off, and, as
+    ``silence`` unless that is given, after the response window (and the end of a first
+    character that began at its end) before it takes a slave for silent; that only costs
+    time when a slave is silent. `pyuss.master.scan` waits `EXACT_LATENCY` there on the
+    virtual bus, which hands characters over within microseconds.
+
+    On the virtual bus the master hands each telegram over a moment before its start pause
+    ends, with the time it is to start (`pyuss.bus.timed`), so the pause is kept to the
+    microsecond; elsewhere it sleeps until shortly before and yields to the event loop for
+    the rest (`pyuss.loop`), which is as exact as the machine allows on any event loop.
 
     The end of a request is taken as the time the write began plus its characters' time on the
-    line (or the time the write returned, if later). A simulator behind a bare pty answers
-    sooner than a real line allows, so its response times read 0.
+    line (or the time the write returned, if later). Over a bare pty or TCP link the answer's
+    start is estimated from when its last byte was read: a peer that writes faster than a real
+    line reads as answering sooner (down to 0; `uss simulate` paces its answers).
 
 Process data (C 5.1)
     Every telegram to a slave carries its latest control word and setpoints, as the user set
@@ -74,7 +84,8 @@ from typing import TYPE_CHECKING
 
 from pyuss.errors import ConfigError, TelegramError, TransportError, UssError, UssTimeout
 from pyuss.log import log_frame
-from pyuss.master.broadcast import enable_array_data, masked_control_data
+from pyuss.loop import COARSE_MARGIN
+from pyuss.loop import margin as loop_margin
 from pyuss.master.errors import MasterClosed, MirrorMismatch, NotSending
 from pyuss.master.jobs import Job, ParameterChannel, SpontaneousMessage
 from pyuss.master.process import DriveStatus
@@ -92,6 +103,7 @@ from pyuss.transport.queued import check_baud
 from pyuss.transport.reconnect import LinkDown
 
 if TYPE_CHECKING:
+    from pyuss.bus.timed import TimedWrite
     from pyuss.master.drive import Drive
 
 __all__ = ["ACYCLIC", "CYCLIC", "Master", "MirrorResult", "Mode", "Reply"]
@@ -102,6 +114,10 @@ DEFAULT_TOLERANCE = STAMP_TOLERANCE
 """Receive tolerance for transports that stamp bytes when read (USB adapters: 1..16 ms)."""
 DEFAULT_LATENCY = 0.020
 """How long past a deadline the master still waits for bytes that were on the line in time."""
+EXACT_LATENCY = 0.004
+"""How long the master waits for the first character of an answer beyond the response window
+on a virtual bus, which hands each character over within microseconds of its end
+(milliseconds on a loaded machine): what a silent address costs beyond its window."""
 DEFAULT_JOB_TIMEOUT = 2.0
 _JOB_CHECK = 0.05
 """Longest wait for the line during an exchange before the jobs of other slaves are looked at
@@ -119,6 +135,13 @@ class Mode(enum.Enum):
 
 CYCLIC = Mode.CYCLIC
 ACYCLIC = Mode.ACYCLIC
+
+
+def _timed_writer(transport: Transport) -> TimedWrite | None:
+    """`pyuss.bus.timed.timed_writer` (imported only here: the bus is loaded for its stations)."""
+    from pyuss.bus.timed import timed_writer
+
+    return timed_writer(transport)
 
 
 @dataclass(frozen=True, slots=True)
@@ -247,7 +270,8 @@ class Master:
     allows. ``mode``: `CYCLIC` or `ACYCLIC`. ``response_delay``: the default response delay limit in
     seconds (else the profile's, 20 ms). ``job_timeout``: seconds a parameter job may take
     from its first telegram. ``rx_tolerance`` and ``latency``: see "Time bases" in the module
-    docstring (None picks by transport). ``close_transport``: close the transport on exit.
+    docstring (None picks by transport); ``silence``: the wait for a silent slave beyond its
+    response window (default ``latency``). ``close_transport``: close the transport on exit.
 
     Nothing is opened and no event loop is touched until `start` (or ``async with``).
     """
@@ -265,6 +289,7 @@ class Master:
         job_timeout: float = DEFAULT_JOB_TIMEOUT,
         rx_tolerance: float | None = None,
         latency: float | None = None,
+        silence: float | None = None,
         close_transport: bool = True,
     ) -> None:
         if isinstance(transport, str):
@@ -288,7 +313,11 @@ class Master:
         for name, value in (("job_timeout", job_timeout), ("response_delay", response_delay)):
             if value is not None and (isinstance(value, bool) or not value > 0):
                 raise ConfigError(f"{name} must be a positive number of seconds, not {value!r}")
-        for name, value in (("rx_tolerance", rx_tolerance), ("latency", latency)):
+        for name, value in (
+            ("rx_tolerance", rx_tolerance),
+            ("latency", latency),
+            ("silence", silence),
+        ):
             if value is not None and (isinstance(value, bool) or not value >= 0):
                 raise ConfigError(f"{name} must be >= 0 seconds, not {value!r}")
         self.transport = transport
@@ -304,6 +333,7 @@ class Master:
         self.job_timeout = float(job_timeout)
         self.rx_tolerance = stamp_tolerance(transport) if rx_tolerance is None else rx_tolerance
         self.latency = DEFAULT_LATENCY if latency is None else latency
+        self.silence = self.latency if silence is None else silence
         self.close_transport = close_transport
         self._links: dict[int, _Link] = {}
         self._poll: list[int] = []
@@ -331,6 +361,8 @@ class Master:
         self._closing = False
         self._rotation = 0
         self._submitted = 0
+        self._margin = COARSE_MARGIN
+        self._write_at = _timed_writer(transport)
 
     # -- life cycle ------------------------------------------------------------------------
     async def __aenter__(self) -> Master:
@@ -355,6 +387,7 @@ class Master:
             raise ConfigError("the master was started already")
         await self.transport.open()
         self._wake = asyncio.Event()
+        self._margin = loop_margin()
         self._task = asyncio.create_task(self._run(), name=f"uss master {self.baud} baud")
 
     async def close(self) -> None:
@@ -641,6 +674,8 @@ class Master:
         if enable is not None:
             if pkw is not None:
                 raise ConfigError("give a Broadcast Enable Array or PKW words, not both")
+            from pyuss.master.broadcast import enable_array_data
+
             return await self._broadcast(enable_array_data(pzd, enable, layout))
         if layout is None:
             layout = Layout(4 if pkw is not None else 0, len(pzd))
@@ -658,6 +693,8 @@ class Master:
         """Baumueller's broadcast (seed 004 2.2, NOTES 9): ``control`` merged into the control
         word of every drive (or of ``addresses`` with broadcast coding) through ``mask``; see
         `pyuss.master.broadcast.masked_control_data`. Returns as `broadcast`."""
+        from pyuss.master.broadcast import masked_control_data
+
         return await self._broadcast(
             masked_control_data(control, mask, layout=layout, addresses=addresses)
         )
@@ -981,15 +1018,22 @@ class Master:
         telegram's start and end time."""
         pause = max(2.0, pause_chars) * self.timing.char_time
         await asyncio.sleep(0)  # let tasks woken by the last answer queue their jobs first
+        # On a virtual bus the telegram is handed over a moment early with its start time
+        # (`timed_writer`); elsewhere the last moments of the pause pass yielding to the loop.
+        ahead = max(self._margin, self.timing.char_time) if self._write_at is not None else 0.0
         while True:
             await self._drain()
-            quiet = max(self._line_free, self._receiver.last_byte_end)
-            left = quiet + pause - self._clock()
-            if left <= 0:
+            due = max(self._line_free, self._receiver.last_byte_end) + pause + 1e-9
+            left = due - self._clock()
+            if left <= ahead:
                 break
-            chunk = await self.transport.read(left)
-            if chunk is not None:
-                self._stray_events(self._feed(chunk))
+            sleep = left - max(ahead, self._margin)
+            if sleep > 0:  # sleep while the loop's timers are precise enough
+                chunk = await self.transport.read(sleep)
+                if chunk is not None:
+                    self._stray_events(self._feed(chunk))
+            else:
+                await asyncio.sleep(0)
         self._stray_events(self._receiver.poll(self._clock()))
         self._receiver.reset()
         self._after_broadcast = False
@@ -997,7 +1041,11 @@ class Master:
             frame = frame()
         start = self._clock()
         try:
-            await self.transport.write(frame)
+            if self._write_at is not None and due > start:
+                await self._write_at(frame, due)
+                start = due
+            else:
+                await self.transport.write(frame)
         except LinkDown as exc:
             log.warning("master: telegram not sent: %s", exc)
             await asyncio.sleep(min(0.1, self.latency + 0.01))
@@ -1071,6 +1119,10 @@ class Master:
             if jobs_due is not None and now > jobs_due:
                 self._expire_jobs(exclude=link)
                 jobs_due = self._next_deadline(exclude=link)
+            # every chunk that is in is fed before time is judged (a read may time out just
+            # as a chunk arrives)
+            while (chunk := await self.transport.read(0)) is not None:
+                events += self._feed(chunk)
             events += receiver.poll(now - self.latency)
             found: tuple[_Outcome, Received] | None = None
             for event in events:
@@ -1088,8 +1140,15 @@ class Master:
                 wait = (nxt if nxt is not None else now) + self.latency - now
                 wait = max(wait, self.timing.char_time)
             else:
-                wait = deadline + self.latency - now
+                # the first character of an answer that began at the deadline ends one
+                # character time later and is handed over a little after that
+                wait = deadline + self.timing.char_time + self.silence - now
                 if wait <= 0:
+                    await asyncio.sleep(0)  # what is due is handed over first
+                    chunk = await self.transport.read(0)
+                    if chunk is not None:
+                        events = self._feed(chunk)
+                        continue
                     outcome = _Outcome.FAULT if faulty else _Outcome.SILENT
                     return self._finish(outcome, None, start, end, link)
             if jobs_due is not None:

@@ -30,6 +30,7 @@ from typing import Any, TypeVar
 
 from pyuss.drive.database import ParameterDatabase
 from pyuss.drive.datatypes import Value
+from pyuss.loop import new_event_loop
 from pyuss.master import scheduler
 from pyuss.master.description import Description
 from pyuss.master.drive import Drive as AsyncDrive
@@ -101,7 +102,7 @@ class Master:
         """Start the background thread, open the transport and start the scheduler."""
         if self._loop is not None:
             return
-        loop = asyncio.new_event_loop()
+        loop = new_event_loop(least_slack=False)  # microsecond timers (pyuss.loop)
         thread = threading.Thread(target=loop.run_forever, name="uss master", daemon=True)
         thread.start()
         self._loop, self._thread = loop, thread

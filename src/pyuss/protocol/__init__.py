@@ -3,62 +3,67 @@
 Everything here is pure: no I/O and no clock reads; times are passed in (seconds).
 """
 
-from pyuss.protocol.broadcast import BroadcastEnableArray, apply_broadcast
-from pyuss.protocol.diagnostics import Counters, Diagnostics, ErrorStatus, FaultKind
-from pyuss.protocol.layout import PKW_VARIABLE, Layout, NetData
-from pyuss.protocol.pkw import (
-    INDEX_ALL,
-    ErrorNumber,
-    Pkw,
-    RequestId,
-    ResponseId,
-    TextIndex,
-    error_meaning,
-    expected_responses,
-    make_index,
-    positive_responses,
-    pwe_dword,
-    pwe_float,
-    pwe_text,
-    pwe_word,
-    words_to_text,
-)
-from pyuss.protocol.pzd import (
-    ControlWord,
-    StatusWord,
-    percent_to_raw16,
-    percent_to_raw32,
-    raw16_to_percent,
-    raw32_to_percent,
-)
-from pyuss.protocol.receiver import Event, Received, ReceiveFault, Receiver
-from pyuss.protocol.telegram import (
-    MAX_ADDRESS,
-    MAX_LGE,
-    MAX_NET_BYTES,
-    MIN_LGE,
-    STX,
-    AddressError,
-    AddressMode,
-    BccError,
-    LengthError,
-    StxError,
-    Telegram,
-    adr_byte,
-    bcc,
-    parse_adr,
-)
-from pyuss.protocol.timing import (
-    BAUD_RATES,
-    MAX_RESPONSE_DELAY,
-    LineTiming,
-    char_time,
-    check_baud,
-    residual_time_flush,
-    residual_time_max,
-    response_delay_limit,
-    start_pause,
-)
+from typing import TYPE_CHECKING
+
+from pyuss._lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from pyuss.protocol.broadcast import BroadcastEnableArray, apply_broadcast
+    from pyuss.protocol.diagnostics import Counters, Diagnostics, ErrorStatus, FaultKind
+    from pyuss.protocol.layout import PKW_VARIABLE, Layout, NetData
+    from pyuss.protocol.pkw import (
+        INDEX_ALL,
+        ErrorNumber,
+        Pkw,
+        RequestId,
+        ResponseId,
+        TextIndex,
+        error_meaning,
+        expected_responses,
+        make_index,
+        positive_responses,
+        pwe_dword,
+        pwe_float,
+        pwe_text,
+        pwe_word,
+        words_to_text,
+    )
+    from pyuss.protocol.pzd import (
+        ControlWord,
+        StatusWord,
+        percent_to_raw16,
+        percent_to_raw32,
+        raw16_to_percent,
+        raw32_to_percent,
+    )
+    from pyuss.protocol.receiver import Event, Received, ReceiveFault, Receiver
+    from pyuss.protocol.telegram import (
+        MAX_ADDRESS,
+        MAX_LGE,
+        MAX_NET_BYTES,
+        MIN_LGE,
+        STX,
+        AddressError,
+        AddressMode,
+        BccError,
+        LengthError,
+        StxError,
+        Telegram,
+        adr_byte,
+        bcc,
+        parse_adr,
+    )
+    from pyuss.protocol.timing import (
+        BAUD_RATES,
+        MAX_RESPONSE_DELAY,
+        LineTiming,
+        char_time,
+        check_baud,
+        residual_time_flush,
+        residual_time_max,
+        response_delay_limit,
+        start_pause,
+    )
 
 __all__ = [
     "BAUD_RATES",
@@ -119,3 +124,82 @@ __all__ = [
     "start_pause",
     "words_to_text",
 ]
+
+__getattr__, __dir__ = lazy_exports(
+    __name__,
+    {
+        "pyuss.protocol.broadcast": (
+            "BroadcastEnableArray",
+            "apply_broadcast",
+        ),
+        "pyuss.protocol.diagnostics": (
+            "Counters",
+            "Diagnostics",
+            "ErrorStatus",
+            "FaultKind",
+        ),
+        "pyuss.protocol.layout": (
+            "PKW_VARIABLE",
+            "Layout",
+            "NetData",
+        ),
+        "pyuss.protocol.pkw": (
+            "INDEX_ALL",
+            "ErrorNumber",
+            "Pkw",
+            "RequestId",
+            "ResponseId",
+            "TextIndex",
+            "error_meaning",
+            "expected_responses",
+            "make_index",
+            "positive_responses",
+            "pwe_dword",
+            "pwe_float",
+            "pwe_text",
+            "pwe_word",
+            "words_to_text",
+        ),
+        "pyuss.protocol.pzd": (
+            "ControlWord",
+            "StatusWord",
+            "percent_to_raw16",
+            "percent_to_raw32",
+            "raw16_to_percent",
+            "raw32_to_percent",
+        ),
+        "pyuss.protocol.receiver": (
+            "Event",
+            "Received",
+            "ReceiveFault",
+            "Receiver",
+        ),
+        "pyuss.protocol.telegram": (
+            "MAX_ADDRESS",
+            "MAX_LGE",
+            "MAX_NET_BYTES",
+            "MIN_LGE",
+            "STX",
+            "AddressError",
+            "AddressMode",
+            "BccError",
+            "LengthError",
+            "StxError",
+            "Telegram",
+            "adr_byte",
+            "bcc",
+            "parse_adr",
+        ),
+        "pyuss.protocol.timing": (
+            "BAUD_RATES",
+            "MAX_RESPONSE_DELAY",
+            "LineTiming",
+            "char_time",
+            "check_baud",
+            "residual_time_flush",
+            "residual_time_max",
+            "response_delay_limit",
+            "start_pause",
+        ),
+    },
+)

@@ -184,6 +184,8 @@ class ParameterChannel:
         except NoWriteAuthority:
             return self._no_authority(job)
         except ParameterFault as fault:
+            if _changes(job):  # why a change was refused (`uss -v simulate` shows it)
+                log.info("change refused: %s", fault)
             return self.refused(job, fault.number)
         except TooLarge:
             return self.refused(job, self.profile.too_large_error)

@@ -45,25 +45,28 @@ names none; status word bit 3) and the diagnostics record a
 timeout (A 5.2.3 bit 7, counter 16). The next good telegram starts the monitoring again; the
 fault stays until the master acknowledges it (control word bit 7). Broadcasts do not count.
 The time comes from the interface parameter ``failure_time`` of the parameter file (its unit
-and scaling; 0 = off) unless given. `SlaveEngine.tick` checks it; a server calls it when
-`SlaveEngine.next_deadline` has come.
+and scaling; 0 = off) unless given; the time in force is shown there. `SlaveEngine.tick`
+checks it; a server calls it when `SlaveEngine.next_deadline` has come.
 
 Baumueller drives without response-delay mode (P181 bit 2 = 0) answer with the telegram prepared
 after the previous request (seed 004 2.5): the engine then returns that one and prepares the
 next; the first request is answered with its own process data and "no response".
 
 Layout: given, or read from the drive's interface parameters ``pkw``/``pzd`` (C 3), or the
-profile's default; the address and layout in force are written back to those parameters.
+profile's default; the address and layout in force are written back to those parameters, and
+so are the failure time in force and (`set_line_baud`) the line's baud rate
+(`pyuss.slave.interface`). A change of the failure time parameter through any interface is
+in force from then on.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
-from pyuss.drive.database import TIME_UNITS
 from pyuss.drive.faults import ParameterFault
 from pyuss.drive.memory import WHOLE_ARRAY, ParameterChange
 from pyuss.drive.simulated import SimulatedDrive
@@ -72,9 +75,11 @@ from pyuss.profiles.base import Profile
 from pyuss.protocol.diagnostics import Diagnostics, FaultKind
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.pkw import Pkw, ResponseId
+from pyuss.protocol.pzd import ControlWord
 from pyuss.protocol.telegram import MAX_ADDRESS, AddressMode, Telegram
 from pyuss.slave.channel import ParameterChannel
 from pyuss.slave.diagnostic import DiagnosticParameters, software_version
+from pyuss.slave.interface import InterfaceParameters
 from pyuss.slave.process import bit_set, broadcast_action, process_mapping
 
 __all__ = ["TELEGRAM_FAILURE_FAULT", "JobLatency", "SlaveEngine", "SpecialHandler"]
@@ -150,9 +155,20 @@ class SlaveEngine:
         self.latency = latency or JobLatency()
         self.special = special
         self.layout = profile.check_layout(layout) if layout is not None else self._file_layout()
-        self.failure_time = self._failure_time() if failure_time is None else failure_time
-        if not self.failure_time >= 0:
-            raise ConfigError(f"telegram failure time must be >= 0 s, not {self.failure_time!r}")
+        self.interface_parameters = InterfaceParameters(drive)
+        self._failure_time = 0.0
+        if failure_time is None:
+            self._failure_time = self.interface_parameters.failure_time() or 0.0
+        else:
+            self.failure_time = failure_time
+        self.baud: int | None = None
+        """The baud rate of the line, once a server told it (`set_line_baud`)."""
+        self.pending_baud: int | None = None
+        """A rate written to the baud rate parameter that the line is to switch to."""
+        self._follows = False
+        self._undo: list[Callable[[], None]] = [
+            self.interface_parameters.watch_failure_time(self._failure_time_changed)
+        ]
         self.diagnostics = diagnostics or Diagnostics(software_version=software_version())
         base = profile.diagnostic_pnu if diagnostic_pnu is None else diagnostic_pnu
         self.diagnostic_parameters = DiagnosticParameters(base, self.diagnostics, drive.db)
@@ -193,10 +209,66 @@ class SlaveEngine:
         self.diagnostic_parameters.diagnostics = diagnostics
 
     def close(self) -> None:
-        """End the change subscription (the drive lives on)."""
+        """End the change subscription and the watch of the interface parameters (the drive
+        lives on)."""
         if self._unsubscribe is not None:
             self._unsubscribe()
             self._unsubscribe = None
+        undo, self._undo = self._undo, []
+        for step in undo:
+            step()
+
+    # -- interface settings in force ---------------------------------------------------------
+
+    @property
+    def failure_time(self) -> float:
+        """The telegram failure time in force, in seconds (0: not watched, C 3.1)."""
+        return self._failure_time
+
+    @failure_time.setter
+    def failure_time(self, seconds: float) -> None:
+        """Watch for ``seconds`` from now on, and show it in the drive's failure time
+        parameter; `ConfigError` when the drive cannot have that time."""
+        if isinstance(seconds, bool) or not isinstance(seconds, int | float) or not seconds >= 0:
+            raise ConfigError(f"telegram failure time must be >= 0 s, not {seconds!r}")
+        if math.isinf(seconds):
+            raise ConfigError("telegram failure time must be a finite number of seconds")
+        self.interface_parameters.show_failure_time(seconds)
+        self._failure_time = float(seconds)
+
+    def _failure_time_changed(self, seconds: float) -> None:
+        if seconds != self._failure_time:
+            log.info("address %d: telegram failure time %g s from now on", self.address, seconds)
+        self._failure_time = seconds
+
+    def set_line_baud(self, baud: int, *, follows: bool = False) -> None:
+        """The line runs at ``baud``: the drive shows it in its baud rate parameter.
+        ``follows``: the line switches to a rate written to that parameter (`pending_baud`,
+        for the server to carry out after the answer); else the rate is fixed while the line
+        runs and a change must be stored for the next start (`pyuss.slave.interface`).
+        `ConfigError` when the drive does not run at ``baud``."""
+        self.interface_parameters.show_baud(baud)
+        ref = self.drive.db.interface.get("baud")
+        if self.baud is None and ref is not None:
+            self._undo.append(self.interface_parameters.guard_baud(lambda: self._follows))
+            self._undo.append(self.drive.watch(ref.pnu, self._baud_changed))
+        self.baud = baud
+        self._follows = follows
+        self.pending_baud = None
+
+    def _baud_changed(self, _pnu: int) -> None:
+        wanted = self.interface_parameters.baud()
+        if wanted is None or wanted == self.baud:
+            self.pending_baud = None
+        elif self._follows:
+            self.pending_baud = wanted
+        else:
+            log.info(
+                "address %d: baud rate %d stored; the line runs at %s baud until the next start",
+                self.address,
+                wanted,
+                self.baud,
+            )
 
     # -- settings from and to the parameters ------------------------------------------------
 
@@ -246,16 +318,6 @@ class SlaveEngine:
                 log.warning(
                     "address %d: cannot show %s %d in %s: %s", self.address, role, value, ref, exc
                 )
-
-    def _failure_time(self) -> float:
-        ref = self.drive.db.interface.get("failure_time")
-        if ref is None:
-            return 0.0
-        param = self.drive.db.parameter(ref.pnu)
-        raw = self.drive.ref_value(ref)
-        assert isinstance(raw, int | float)
-        value = raw * (1.0 if param.scaling is None else param.scaling)
-        return max(0.0, value * TIME_UNITS.get(param.unit, 1.0))
 
     # -- timing -----------------------------------------------------------------------------
 
@@ -343,7 +405,10 @@ class SlaveEngine:
             return None
         self._good(telegram, now)
         pipelined = self.profile.delay_mode is not None and not self.delay_mode
-        self._last_pzd = net.pzd
+        if not net.pzd or net.pzd[0] & ControlWord.CONTROL_BY_PLC:
+            # the process data in force; with control bit 10 = 0 the telegram's are ignored
+            # and the old ones stay (C Table 5.4), also as the base of the next broadcast
+            self._last_pzd = net.pzd
         pzd = self.process.exchange(self.drive, net.pzd, now)
         pkw = None if net.pkw is None else self._parameter(net.pkw, now)
         answer = Telegram(self.address, AddressMode.NORMAL, layout.pack(pkw, pzd))

@@ -13,7 +13,8 @@ setpoint also drives the ramp-function generator (a 32-bit one as 4000 0000h = 1
 Broadcasts are applied with `apply_broadcast` in the profile's form (`BroadcastForm`):
 
 - ``ENABLE_ARRAY``: the 4-word Broadcast Enable Array in the PKW area selects PZD words and
-  bits; everything else keeps the value of the last non-broadcast telegram (appendix). A slave
+  bits; everything else keeps the value of the process data in force: the last non-broadcast
+  telegram whose control word bit 10 was 1 (appendix, C Table 5.4). A slave
   whose layout has no 4-word PKW area cannot take it (the broadcast carries a different length).
 - ``MASKED_CONTROL``: PZD1 merges into the control word in force through the mask in PWE1
   (PKW >= 3, PZD >= 2, request ID 0); with PKW 0 the control word is taken whole; setpoints and

@@ -22,6 +22,9 @@ Start pauses are measured on that line, and the answer starts the response delay
 request would have ended, as it would on a real line of that baud rate. ``timed`` overrides the
 choice (default: timed unless the transport is a pty or a raw TCP one). Short waits are
 finished by polling the clock, as the event loop's timers are only as fine as a millisecond.
+A pty or TCP line with one drive on it follows that drive's baud rate parameter (C 3): a
+change written to it is answered at the old rate, then the line runs at the new one (pacing,
+start pause, response window). Other lines keep their rate while they run.
 Characters reach the program some time after they ended on the line; the receiver decides that
 the line has fallen idle (the end of an incomplete telegram) only ``latency`` later (20 ms by
 default), so that late bytes are not mistaken for a pause.
@@ -40,12 +43,12 @@ from __future__ import annotations
 import asyncio
 import logging
 import math
-import time
-from collections.abc import Iterable
 from dataclasses import dataclass
 
+from pyuss.bus.timed import is_station, timed_writer
 from pyuss.errors import ConfigError, TelegramError, TransportError
 from pyuss.log import log_frame
+from pyuss.loop import sleep_until
 from pyuss.protocol.diagnostics import Diagnostics
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.receiver import Received, ReceiveFault, Receiver
@@ -63,10 +66,10 @@ log = logging.getLogger("pyuss.slave")
 
 _IDLE_READ = 0.1
 """Longest single wait for the line, so that a stop request is seen soon."""
-_SPIN = 0.0015
-"""Waits shorter than this are finished by polling the clock (timer resolution: 1 ms)."""
 _MAX_BACKLOG = 1.0
 """On an untimed line, reads are not placed more than this many seconds behind their arrival."""
+_GUARD = 1e-9
+"""Answers aim this much past their moment, so that rounding never puts them a hair early."""
 LATE_MARGIN = 0.001
 """An answer is counted late when it starts more than this after the profile's latest moment
 (the clock and the event loop have some jitter; a window may be a single moment)."""
@@ -131,7 +134,12 @@ class SlaveServer:
             self.engines[engine.address] = engine
         self.transport = transport
         self.baud = transport.baud
+        self.timed = _timed(transport) if timed is None else timed
+        # A pty or TCP line has no rate of its own: with one drive on it, it follows that
+        # drive's baud rate parameter (C 3); other lines keep theirs while they run.
+        follows = not self.timed and len(engines) == 1
         for engine in engines:
+            engine.set_line_baud(self.baud, follows=follows)  # the drives show it (C 3)
             low, high = engine.response_window(self.baud)
             if response_delay is not None and not low <= response_delay <= high:
                 raise ConfigError(
@@ -143,19 +151,37 @@ class SlaveServer:
         self.diagnostics = diagnostics or Diagnostics(software_version=software_version())
         for engine in engines:
             engine.use_diagnostics(self.diagnostics)
+        self.receiver = self._receiver()
+        self.stats = ServerStats()
+        self.latency = latency
+        self._char_time = 11 / self.baud
+        self._line_free = -math.inf
+        self._due: float | None = None
+        self._write_at = timed_writer(transport)
+
+    def _receiver(self) -> Receiver:
+        engines = self.engines.values()
         fixed = {e.address: e.layout.lge for e in engines if e.layout.lge is not None}
-        self.receiver = Receiver(
+        return Receiver(
             self.baud,
             fixed_lengths=fixed,
             diagnostics=self.diagnostics,
             # one receiver per line: the most lenient device on it sets the deadline
             residual_extra_chars=max(e.profile.residual_extra_chars for e in engines),
         )
-        self.stats = ServerStats()
-        self.timed = _timed(transport) if timed is None else timed
-        self.latency = latency
-        self._char_time = 11 / self.baud
-        self._line_free = -math.inf
+
+    def _follow_baud(self) -> None:
+        """Switch the line to a rate a drive's baud rate parameter was set to (C 3), after the
+        answer to that change went out at the old rate."""
+        for engine in self.engines.values():
+            baud = engine.pending_baud
+            if baud is None:
+                continue
+            log.info("address %d: the line runs at %d baud from now on", engine.address, baud)
+            self.baud = baud
+            self._char_time = 11 / baud
+            self.receiver = self._receiver()
+            engine.set_line_baud(baud, follows=True)
 
     # -- serving ----------------------------------------------------------------------------
 
@@ -178,8 +204,11 @@ class SlaveServer:
         transport = self.transport
         now = transport.clock()
         wait = _IDLE_READ
-        for deadline in self._deadlines():
-            wait = min(wait, max(0.0, deadline - now))
+        poll = self.receiver.next_poll()
+        if poll is not None:
+            wait = min(wait, max(0.0, poll + self.latency - now))
+        if self._due is not None:
+            wait = min(wait, max(0.0, self._due - now))
         try:
             chunk = await transport.read(wait)
         except EchoError as exc:
@@ -200,18 +229,27 @@ class SlaveServer:
                 await self._received(event)
             else:
                 self._fault(event)
-        now = transport.clock()
-        for engine in self.engines.values():
-            engine.tick(now)
+        # The engines' deadlines (telegram failure times) move with the telegrams they get;
+        # between telegrams they are looked at again on every idle read.
+        if chunk is None or events:
+            self._due = self._next_due()
+        if self._due is not None:
+            now = transport.clock()
+            if now >= self._due:
+                for engine in self.engines.values():
+                    engine.tick(now)
+                self._due = self._next_due()
+        if events:  # a telegram may have set a drive's baud rate parameter
+            self._follow_baud()
 
-    def _deadlines(self) -> Iterable[float]:
-        poll = self.receiver.next_poll()
-        if poll is not None:
-            yield poll + self.latency
+    def _next_due(self) -> float | None:
+        """The first moment an engine's `SlaveEngine.tick` has something to do."""
+        due = None
         for engine in self.engines.values():
             deadline = engine.next_deadline()
-            if deadline is not None:
-                yield deadline
+            if deadline is not None and (due is None or deadline < due):
+                due = deadline
+        return due
 
     def _fault(self, event: ReceiveFault) -> None:
         self.stats.faults += 1
@@ -243,12 +281,24 @@ class SlaveServer:
                 log.debug("%s -> no answer", describe(telegram, layout))
             return
         low, high = engine.response_window(self.baud)
-        delay = low if self.response_delay is None else self.response_delay
-        await self._wait_until(event.end + delay)
+        delay = low if self.response_delay is None else min(max(self.response_delay, low), high)
+        target = event.end + delay + _GUARD
         data = answer.encode()
-        start = self.transport.clock()
         try:
-            await self.transport.write(data)
+            if self._write_at is not None:  # the bus starts it at ``target`` exactly
+                await self._write_at(data, target)
+                start = max(self.transport.clock(), target)
+            elif self.timed:
+                await self._wait_until(target)
+                start = self.transport.clock()
+                await self.transport.write(data)
+            else:
+                # No timing on the line: the answer goes out when its last character would
+                # have ended on a real line, so the master reads it as a real line brings it.
+                start = max(target, self._line_free)
+                self._line_free = start + len(data) * self._char_time
+                await self._wait_until(self._line_free)
+                await self.transport.write(data)
         except TransportError as exc:  # a line that is really lost ends `run` at the next read
             self.stats.unsent += 1
             log.warning("address %d: answer not sent: %s", engine.address, exc)
@@ -268,12 +318,7 @@ class SlaveServer:
             )
 
     async def _wait_until(self, target: float) -> None:
-        clock = self.transport.clock
-        remaining = target - clock()
-        if remaining > _SPIN:
-            await asyncio.sleep(remaining - _SPIN)
-        while clock() < target:
-            time.sleep(0)  # poll the clock for the last fraction of a millisecond
+        await sleep_until(target, self.transport.clock)
 
     # -- helpers ----------------------------------------------------------------------------
 
@@ -285,9 +330,7 @@ class SlaveServer:
 
 def _timed(transport: Transport) -> bool:
     """Whether the transport's timestamps follow the line (see the module docstring)."""
-    from pyuss.bus.client import BusClientTransport
-
-    if isinstance(transport, BusClientTransport):
+    if is_station(transport):
         return True
     return not isinstance(transport, PtyPort | TcpTransport | TcpServerTransport)
 

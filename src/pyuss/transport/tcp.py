@@ -1,11 +1,15 @@
 """TCP byte pipes: a transparent serial line over TCP, as RS-485/Ethernet converters offer.
 
 `TcpTransport` is the client: it connects to a converter (or to `TcpServerTransport`, or to
-the virtual bus's ``serve_tcp``) and moves raw bytes. `TcpServerTransport` listens and serves
-one peer at a time: a second peer is turned away (its connection is closed at once) while the
-first is connected; when the peer leaves, the server waits for the next one. What the owner
-writes while no peer is connected has no listener: it is counted in ``stats.dropped_out`` and
-logged, like talking on an empty line.
+the virtual bus's ``serve_tcp``) and moves raw bytes. `TcpServerTransport` listens and carries
+the line to several peers at once, as a multi-connection serial device server does: what any
+peer sends goes on the line, what the owner writes goes to every peer (two masters that talk at
+once collide, as on RS-485). One idle or stuck peer never locks the others out: when all
+``max_peers`` places are taken, a new peer replaces the one that has been silent longest (its
+connection is closed), and a peer that does not read what it is sent (its socket holds more
+than `MAX_PEER_BACKLOG` bytes) is disconnected rather than allowed to hold up the line. What
+the owner writes while no peer is connected has no listener: it is counted in
+``stats.dropped_out`` and logged, like talking on an empty line.
 
 TCP knows no character timing and no line errors: chunks are stamped with ``time.monotonic()``
 when the event loop reads them, and the delivered grouping of bytes is the network's.
@@ -26,6 +30,11 @@ from pyuss.transport.queued import QueuedTransport
 log = logging.getLogger(__name__)
 
 _READ_SIZE = 65536
+
+MAX_PEERS = 8
+"""Peers a `TcpServerTransport` serves at once by default."""
+MAX_PEER_BACKLOG = 1 << 16
+"""Bytes a peer may leave unread in its socket before the server disconnects it."""
 
 
 def check_endpoint(host: object, port: object, *, allow_zero: bool = False) -> tuple[str, int]:
@@ -148,22 +157,38 @@ class TcpTransport(QueuedTransport):
 
 
 class TcpServerTransport(QueuedTransport):
-    """A TCP server carrying a serial line to one peer at a time. See the module docstring.
+    """A TCP server carrying a serial line to up to ``max_peers`` peers at once. See the module
+    docstring.
 
     ``port=0`` picks a free port; `port` tells which once open.
     """
 
     def __init__(
-        self, host: str = "127.0.0.1", port: int = 0, *, baud: int = 9600, echo: bool = False
+        self,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        *,
+        baud: int = 9600,
+        echo: bool = False,
+        max_peers: int = MAX_PEERS,
     ) -> None:
         super().__init__(baud=baud, echo=echo)
         self.host, self._port = check_endpoint(host, port, allow_zero=True)
+        if isinstance(max_peers, bool) or not isinstance(max_peers, int) or max_peers < 1:
+            raise ConfigError(f"max_peers must be a positive integer, not {max_peers!r}")
+        self.max_peers = max_peers
         self._server: asyncio.Server | None = None
-        self._peer: asyncio.StreamWriter | None = None
-        self._peer_task: asyncio.Task[None] | None = None
+        self._peers: dict[asyncio.StreamWriter, float] = {}
+        """Connected peers and when each last sent something (monotonic)."""
+        self._peer_tasks: set[asyncio.Task[None]] = set()
         self._peer_event: asyncio.Event | None = None
         self.peers_served = 0
+        self.peers_replaced = 0
+        """Peers closed to make room for a new one (they had been silent longest)."""
+        self.peers_dropped = 0
+        """Peers closed because they did not read what the line sent them."""
         self.peers_refused = 0
+        """Peers turned away because the server was closing."""
 
     @property
     def port(self) -> int:
@@ -173,7 +198,12 @@ class TcpServerTransport(QueuedTransport):
     @property
     def connected(self) -> bool:
         """Whether a peer is connected now."""
-        return self._peer is not None
+        return bool(self._peers)
+
+    @property
+    def peers(self) -> int:
+        """How many peers are connected now."""
+        return len(self._peers)
 
     def describe(self) -> str:
         return f"tcp server {self.host}:{self._port}"
@@ -202,43 +232,77 @@ class TcpServerTransport(QueuedTransport):
 
     async def _on_peer(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         who = writer.get_extra_info("peername")
-        if self._peer is not None or not self.is_open:
+        if not self.is_open:
             self.peers_refused += 1
-            log.info("%s: turned away %s: already serving a peer", self.describe(), who)
             await close_writer(writer)
             return
+        if len(self._peers) >= self.max_peers:
+            idle = min(self._peers, key=self._peers.__getitem__)
+            self.peers_replaced += 1
+            log.info(
+                "%s: %d peers connected: closed %s, silent for %.1f s, to serve %s",
+                self.describe(),
+                len(self._peers),
+                idle.get_extra_info("peername"),
+                time.monotonic() - self._peers[idle],
+                who,
+            )
+            self._forget(idle)
+            idle.close()
         _no_delay(writer)
-        self._peer = writer
+        self._peers[writer] = time.monotonic()
         self.peers_served += 1
         assert self._peer_event is not None
         self._peer_event.set()
         log.info("%s: peer %s connected", self.describe(), who)
-        self._peer_task = asyncio.current_task()
+        task = asyncio.current_task()
+        assert task is not None
+        self._peer_tasks.add(task)
+
+        def deliver(data: bytes, timestamp: float) -> None:
+            if writer in self._peers:
+                self._peers[writer] = timestamp
+                self._deliver(data, timestamp)
+
         try:
-            why = await pump(reader, self._deliver)
+            why = await pump(reader, deliver)
             log.info("%s: peer %s left: %s", self.describe(), who, why)
         finally:
-            if self._peer is writer:
-                self._peer = None
-                self._peer_task = None
-                self._peer_event.clear()
+            self._peer_tasks.discard(task)
+            self._forget(writer)
             await close_writer(writer)
+
+    def _forget(self, writer: asyncio.StreamWriter) -> None:
+        self._peers.pop(writer, None)
+        if not self._peers and self._peer_event is not None:
+            self._peer_event.clear()
 
     async def write(self, data: bytes) -> None:
         self._check_writable()
-        peer = self._peer
-        if peer is None:
+        if not self._peers:
             self.stats.dropped_out += len(data)
             log.info("%s: no peer connected: %d bytes not sent", self.describe(), len(data))
             return
         self._arm_echo(bytes(data))
-        try:
-            peer.write(data)
-            await peer.drain()
-        except (OSError, RuntimeError) as exc:
-            self.stats.dropped_out += len(data)
-            log.warning("%s: peer lost while writing: %s", self.describe(), exc)
-            return
+        for peer in list(self._peers):
+            if peer.is_closing():
+                self._forget(peer)
+                continue
+            if peer.transport.get_write_buffer_size() > MAX_PEER_BACKLOG:
+                self.peers_dropped += 1
+                log.warning(
+                    "%s: peer %s does not read what it is sent: disconnected",
+                    self.describe(),
+                    peer.get_extra_info("peername"),
+                )
+                self._forget(peer)
+                peer.close()
+                continue
+            try:
+                peer.write(data)
+            except (OSError, RuntimeError) as exc:
+                log.warning("%s: peer lost while writing: %s", self.describe(), exc)
+                self._forget(peer)
         self.stats.bytes_out += len(data)
 
     async def close(self) -> None:
@@ -247,13 +311,15 @@ class TcpServerTransport(QueuedTransport):
         self._mark_closed()
         if self._server is not None:
             self._server.close()
-        if self._peer_task is not None:
-            self._peer_task.cancel()
+        tasks = list(self._peer_tasks)
+        for task in tasks:
+            task.cancel()
+        for task in tasks:
             with contextlib.suppress(asyncio.CancelledError):
-                await self._peer_task
-        if self._peer is not None:
-            await close_writer(self._peer)
-            self._peer = None
+                await task
+        for peer in list(self._peers):
+            await close_writer(peer)
+        self._peers.clear()
         if self._server is not None:
             await self._server.wait_closed()
             self._server = None

@@ -4,7 +4,8 @@
 URL                            transport
 =============================  ==============================================================
 ``tcp://HOST:PORT``            `TcpTransport`: a serial line over TCP (converter, simulator)
-``tcp-listen://HOST:PORT``     `TcpServerTransport`: serve the line to one TCP peer at a time
+``tcp-listen://HOST:PORT``     `TcpServerTransport`: serve the line to TCP peers, several at
+                               once (an idle one gives way to a new one)
 ``bus://HOST:PORT``            a station on a virtual bus served by ``uss bus --bus-tcp``
                                (exact character times and line errors); query options
                                ``name=``, ``echo=1``, ``listen_only=1``

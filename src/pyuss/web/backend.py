@@ -8,9 +8,10 @@ trend, and a `pyuss.monitor.Monitor` that decodes the telegrams on the line: the
 traffic seen through `pyuss.web.tap.TapTransport`, or, in the demo, a listen-only station of
 the virtual bus.
 
-Parameter knowledge (names, units, types, limits, value texts) comes from the drive profile's
-parameter file (`pyuss.profiles.Profile.database`); values travel as the words of the
-parameter channel and are converted with that file's types.
+Parameter knowledge (names, units, types, limits, value texts) is each drive's parameter book
+(`pyuss.params.ParamBook`, ``Drive.params``); values are read, parsed, checked, written and
+shown through `pyuss.params`. Backups, comparisons and restores are those of ``uss backup``,
+``uss diff`` and ``uss restore`` (`pyuss.commission`): one file format, one comparison.
 """
 
 from __future__ import annotations
@@ -18,7 +19,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import math
-import re
 import tempfile
 import time
 from collections import deque
@@ -27,9 +27,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pyuss.drive.database import Parameter, ParameterDatabase
-from pyuss.drive.datatypes import DataType
-from pyuss.drive.faults import ParameterFault
+from pyuss.commission import backup as backups
+from pyuss.commission.compare import Write, another_drive, compare, plan, restore
+from pyuss.commission.status import reference_value
+from pyuss.drive.database import ParameterDatabase
+from pyuss.drive.datatypes import Value
 from pyuss.errors import ConfigError, UssError
 from pyuss.master import Drive, DriveStatus, Master
 from pyuss.master.scan import Found, scan
@@ -37,9 +39,11 @@ from pyuss.monitor.core import Monitor, default_gap
 from pyuss.monitor.infer import LayoutBook
 from pyuss.monitor.model import Exchange
 from pyuss.monitor.render import exchange_line
+from pyuss.params import ParamInfo, ValueRefused, decode, format_value, parse
+from pyuss.params.model import Reading, param_label
+from pyuss.params.values import physical
 from pyuss.profiles import get_profile, profile_names
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
-from pyuss.protocol.pkw import Pkw, RequestId, pwe_dword, pwe_float, pwe_word
 from pyuss.protocol.pzd import STATUS_BITS, raw16_to_percent
 from pyuss.protocol.telegram import MAX_ADDRESS
 from pyuss.transport.base import Chunk, Transport, stamp_tolerance
@@ -58,6 +62,9 @@ SAMPLE_BUFFER = 2000
 """Process-data samples kept per drive between two takes (older ones are dropped)."""
 EXCHANGE_BUFFER = 5000
 """Decoded telegrams kept for the monitor view and its pcapng download."""
+
+Progress = Callable[[int, int, str], object]
+"""``progress(done, total, label)`` of a backup, compare or restore."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -109,10 +116,6 @@ class _DriveState:
     database: ParameterDatabase
     samples: deque[Sample] = field(default_factory=lambda: deque(maxlen=SAMPLE_BUFFER))
     reference: _Unit | None = None
-
-
-def _number(value: float, decimals: int) -> str:
-    return f"{value:.{decimals}f}" if decimals else f"{value:g}"
 
 
 class Backend:
@@ -231,7 +234,7 @@ class Backend:
         self._drives = {}
         for spec in self._specs:
             drive = master.drive(spec.address, layout=spec.layout, profile=spec.profile)
-            state = _DriveState(spec, drive, get_profile(spec.profile).database())
+            state = _DriveState(spec, drive, drive.profile.database())
             drive.on_update(self._sampler(state))
             self._drives[spec.address] = state
         await master.start()
@@ -284,17 +287,18 @@ class Backend:
 
     async def _read_reference(self, state: _DriveState) -> None:
         """Read the drive's reference value (100 % of PZD2) once, for actual values in units."""
-        ref = state.database.roles.get("reference")
-        if ref is None:
-            return
-        param = state.database.parameter(ref.pnu)
         try:
-            value = await self._read_value(state, param, ref.index)
+            found = await reference_value(state.drive)
         except UssError:
             return
-        if isinstance(value, int | float) and param.unit:
-            scaled = value * param.scaling if param.scaling else value
-            state.reference = _Unit(float(scaled), param.unit)
+        if found is not None:
+            state.reference = _Unit(*found)
+
+    def _process_info(self, state: _DriveState, number: int) -> ParamInfo | None:
+        """The parameter the profile maps to actual value PZD``number`` (3 and up)."""
+        pnus = state.database.process_actuals
+        pnu = pnus[number - 3] if 0 <= number - 3 < len(pnus) else 0
+        return state.drive.params.get(pnu) if pnu else None
 
     def _state(self, address: int) -> _DriveState:
         try:
@@ -317,11 +321,9 @@ class Backend:
                 unit = state.reference.unit if state.reference else "%"
                 actuals.append({"pzd": 2, "name": "Main actual value", "unit": unit})
                 continue
-            pnus = state.database.process_actuals
-            pnu = pnus[number - 3] if number - 3 < len(pnus) else 0
-            if pnu:
-                param = state.database.parameter(pnu)
-                actuals.append({"pzd": number, "name": param.name, "unit": param.unit})
+            info = self._process_info(state, number)
+            if info is not None:
+                actuals.append({"pzd": number, "name": info.name, "unit": info.unit})
             else:
                 actuals.append({"pzd": number, "name": f"PZD{number}", "unit": ""})
         return {
@@ -354,14 +356,12 @@ class Backend:
                     percent * state.reference.reference / 100 if state.reference else percent
                 )
                 continue
-            pnus = state.database.process_actuals
-            pnu = pnus[number - 3] if number - 3 < len(pnus) else 0
-            if not pnu:
-                out.append(float(raw))
-                continue
-            param = state.database.parameter(pnu)
-            value = raw - 0x10000 if param.dtype is DataType.INT16 and raw & 0x8000 else raw
-            out.append(value * param.scaling if param.scaling else float(value))
+            info = self._process_info(state, number)
+            value: Value = raw
+            if info is not None and info.words == 1:
+                with contextlib.suppress(UssError):
+                    value = decode(info, (raw,))
+            out.append(float(value) if isinstance(value, int | float) else float(raw))
         return out
 
     def setpoint_value(self, address: int) -> float | None:
@@ -392,6 +392,7 @@ class Backend:
             "fault": bool(status and status.fault),
             "warning": bool(status and status.warning),
             "actual": [] if status is None else self.actual_values(address, status.actual),
+            "actual_unit": state.reference.unit if state.reference else "%",
             "health": {
                 "exchanges": diagnostics.exchanges,
                 "answers": diagnostics.answers,
@@ -501,200 +502,192 @@ class Backend:
 
     # -- parameters ---------------------------------------------------------------------------
     def parameters(self, address: int) -> list[dict[str, Any]]:
-        """The expert list: every parameter (every element of an array) the profile's file
-        knows, with its name, unit, type, limits and texts; values come from `read`."""
-        state = self._state(address)
-        base = state.database.profile.index_base
+        """The expert list: every parameter (every element of an array) the drive's parameter
+        book knows (`pyuss.params.ParamBook`: the user's file, the drive's descriptions, the
+        profile's file), with its name, unit, type, limits and texts; values come from `read`."""
+        book = self._state(address).drive.params
         rows = []
-        for param in state.database:
-            indexes: list[int | None] = (
-                [None] if param.array is None else list(range(base, base + param.array))
-            )
+        for info in book:
+            indexes: list[int | None] = [None] if info.array is None else list(book.indices(info))
             for index in indexes:
-                rows.append(self._row(param, index))
+                rows.append(_row(info, index))
         return rows
-
-    def _row(self, param: Parameter, index: int | None) -> dict[str, Any]:
-        numeric = param.dtype.is_integer or param.dtype is DataType.FLOAT
-        low = high = None
-        if numeric:
-            low, high = (self._physical(param, param.low), self._physical(param, param.high))
-        return {
-            "id": f"{param.pnu}" + ("" if index is None else f".{index}"),
-            "pnu": param.pnu,
-            "index": index,
-            "name": param.name,
-            "unit": param.unit,
-            "type": param.dtype.label,
-            "writable": param.writable and numeric,
-            "access": param.access.value,
-            "min": low,
-            "max": high,
-            "texts": {str(k): v for k, v in param.texts.items()},
-            "doc": param.doc,
-        }
-
-    @staticmethod
-    def _physical(param: Parameter, raw: float) -> float:
-        if param.scaling:
-            return round(raw * param.scaling, max(param.decimals, 0) + 6)
-        return raw
-
-    def _param(self, address: int, pnu: int, index: int | None) -> tuple[_DriveState, Parameter]:
-        state = self._state(address)
-        try:
-            param = state.database.parameter(pnu)
-        except ParameterFault:
-            raise ConfigError(f"P{pnu} is not in the parameter list of drive {address}") from None
-        if (param.array is None) != (index is None):
-            what = "needs an index" if index is None else "is not an array"
-            raise ConfigError(f"P{pnu} {what}")
-        return state, param
-
-    async def _read_value(
-        self, state: _DriveState, param: Parameter, index: int | None
-    ) -> int | float | str | bytes:
-        drive = state.drive
-        bits, high = drive.profile.encode_pnu(param.pnu)
-        if index is None:
-            request = Pkw(RequestId.READ_VALUE, bits, high)
-        else:
-            request = Pkw(RequestId.READ_ARRAY, bits, index | high)
-        answer = await drive.job(request, pnu=param.pnu, index=index, timeout=self.job_timeout)
-        words = answer.values
-        count = param.word_count
-        if len(words) > count:
-            words = words[-count:]  # a word travels in PWE2 with PKW 4 (C 4.2.3)
-        try:
-            return param.from_words(words)
-        except ParameterFault as exc:
-            raise ConfigError(f"P{param.pnu}: the drive's answer does not fit: {exc}") from None
-
-    def format(self, param: Parameter, value: int | float | str | bytes) -> str:
-        """A value as the page shows it: scaled, with its unit and value text."""
-        if isinstance(value, bytes):
-            return value.hex(" ").upper()
-        if isinstance(value, str):
-            return value.rstrip()
-        text = param.texts.get(int(value)) if isinstance(value, int) else None
-        if param.dtype is DataType.V2 and isinstance(value, int):
-            shown = f"{value:04X}h"
-        elif param.scaling:
-            shown = _number(value * param.scaling, param.decimals)
-        elif isinstance(value, float):
-            shown = f"{value:g}"
-        else:
-            shown = str(value)
-        if param.unit:
-            shown += f" {param.unit}"
-        if text:
-            shown += f" ({text.strip()})"
-        return shown
-
-    @staticmethod
-    def _input(param: Parameter, value: int | float | str | bytes) -> str | None:
-        """The value as a user would type it to write it again (None: not editable)."""
-        if isinstance(value, float):
-            return f"{value:g}"
-        if isinstance(value, int):
-            return _number(value * param.scaling, param.decimals) if param.scaling else str(value)
-        return None
 
     async def read(
         self, address: int, refs: Sequence[tuple[int, int | None]]
     ) -> list[dict[str, Any]]:
-        """Read parameters; each result has ``value`` (the page's text) or ``error``."""
+        """Read parameters, typed by the drive's book; each result has ``value`` (the value as
+        printed: ``10.00 s``, ``1 [READY]``) and ``input`` (as a user types it), or
+        ``error``."""
+        drive = self._state(address).drive
         out: list[dict[str, Any]] = []
         for pnu, index in refs:
-            item: dict[str, Any] = {"id": f"{pnu}" + ("" if index is None else f".{index}")}
+            item: dict[str, Any] = {"id": _id(pnu, index)}
             try:
-                state, param = self._param(address, pnu, index)
-                value = await self._read_value(state, param, index)
-                item["value"] = self.format(param, value)
-                item["input"] = self._input(param, value)
+                reading = await drive.read_param(pnu, index, timeout=self.job_timeout)
             except UssError as exc:
                 item["error"] = _words(exc)
+            else:
+                item.update(_shown(reading))
             out.append(item)
         return out
-
-    def parse(self, param: Parameter, text: str) -> int | float:
-        """A value the user typed, checked against type and limits before anything is sent:
-        a number (with or without the unit), ``0x`` hex, or one of the value texts."""
-        if not (param.dtype.is_integer or param.dtype is DataType.FLOAT):
-            raise ConfigError(f"P{param.pnu} ({param.dtype.label}) cannot be edited here")
-        raw_text = str(text).strip()
-        for code, name in param.texts.items():
-            if raw_text.lower() == name.strip().lower():
-                return code
-        body = raw_text
-        if param.unit and body.lower().endswith(param.unit.lower()):
-            body = body[: -len(param.unit)].strip()
-        body = body.removesuffix("h") if re.fullmatch(r"[0-9A-Fa-f]+h", body) else body
-        number: float
-        try:
-            if raw_text.lower().endswith("h") and re.fullmatch(r"[0-9A-Fa-f]+h", raw_text):
-                number = int(raw_text[:-1], 16)
-            elif body.lower().startswith(("0x", "-0x")):
-                number = int(body, 16)
-            else:
-                number = float(body)
-        except ValueError:
-            texts = ", ".join(f"{v} = {t.strip()}" for v, t in param.texts.items())
-            hint = f" (or one of: {texts})" if texts else ""
-            raise ConfigError(f"{text!r} is not a number{hint}") from None
-        if not math.isfinite(number):
-            raise ConfigError(f"{text!r} is not a finite number")
-        if param.dtype is DataType.FLOAT:
-            value: int | float = float(number)
-        else:
-            scaled = number / param.scaling if param.scaling else number
-            if abs(scaled - round(scaled)) > 1e-6:
-                step = _number(param.scaling or 1, param.decimals)
-                raise ConfigError(f"{text!r}: P{param.pnu} takes steps of {step} {param.unit}")
-            value = round(scaled)
-        try:
-            return param.check_write(value)  # type: ignore[return-value]
-        except ParameterFault as exc:
-            if isinstance(value, int | float):
-                low = _number(self._physical(param, param.low), param.decimals)
-                high = _number(self._physical(param, param.high), param.decimals)
-                unit = f" {param.unit}" if param.unit else ""
-                raise ConfigError(
-                    f"{text!r} is outside {low}..{high}{unit} for P{param.pnu}"
-                ) from None
-            raise ConfigError(str(exc)) from None
 
     async def write(
         self, address: int, pnu: int, index: int | None, text: str, *, eeprom: bool = False
     ) -> dict[str, Any]:
-        """Write a typed value (see `parse`); the drive's refusal raises `DriveRefusal`.
-        Returns the value read back."""
-        state, param = self._param(address, pnu, index)
-        if not param.writable:
-            raise ConfigError(f"P{pnu} is read-only")
-        value = self.parse(param, text)
-        if param.dtype is DataType.FLOAT:
-            words: tuple[int, ...] = pwe_float(float(value))
-        else:
-            raw = int(value) & (0xFFFF_FFFF if param.word_count == 2 else 0xFFFF)
-            words = pwe_dword(raw) if param.word_count == 2 else pwe_word(raw)
-        await state.drive.write_raw(
-            pnu,
-            words,
-            index,
-            eeprom=eeprom,
-            dword=param.word_count == 2,
-            timeout=self.job_timeout,
+        """Write a value as the user typed it (``2.5``, ``2.5 s``, ``0x7000``, a value text):
+        parsed and checked against the parameter's type and limits before anything is sent
+        (`pyuss.params.parse`, refusals as `ValueRefused`); the drive's refusal raises
+        `DriveRefusal`. Returns the value the drive answered with, as `read` does."""
+        state = self._state(address)
+        drive = state.drive
+        info = await drive.info(pnu, timeout=self.job_timeout)
+        if info is None:
+            raise ConfigError(
+                f"{param_label(pnu, index)}: nothing is known of it (no parameter file has "
+                "it, the drive gives no description), so its value cannot be checked: write "
+                "its words with uss write --raw"
+            )
+        if info.read_only:
+            raise ValueRefused(f"{param_label(pnu, index)} ({info.name}) is read-only")
+        value = parse(info, text, index)
+        reading = await drive.write_param(
+            pnu, value, index, eeprom=eeprom, timeout=self.job_timeout
         )
-        (result,) = await self.read(address, [(pnu, index)])
         ref = state.database.roles.get("reference")
         if ref is not None and ref.pnu == pnu:
             await self._read_reference(state)
-        return result
+        return {"id": _id(pnu, index), **_shown(reading)}
 
-    backup_available = False
-    """Backup, compare and restore from the page: they use the backup files of `uss backup`
-    (`pyuss.params`), which the page does not have yet; the page hides them meanwhile."""
+    # -- backup, compare, restore -------------------------------------------------------------
+    async def backup(
+        self, address: int, fmt: str = "toml", progress: Progress | None = None
+    ) -> tuple[str, str]:
+        """A backup of the drive's parameter set (`pyuss.commission.take`) as the text of a
+        backup file (TOML, JSON or the CSV export, `pyuss.commission.backup.dumps`) and the
+        file's name: ``drive1-generic-20250314-092653.toml``."""
+        drive = self._state(address).drive
+        if fmt not in backups.FORMATS:
+            raise ConfigError(f"backup format {fmt!r}: one of {', '.join(backups.FORMATS)}")
+        taken = await backups.take(drive, port=self.port, progress=progress)
+        text = backups.dumps(taken, fmt)
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        return f"drive{address}-{drive.profile.name}-{stamp}.{fmt}", text
+
+    async def _wanted_and_now(
+        self, address: int, data: bytes, name: str, progress: Progress | None
+    ) -> tuple[Drive, backups.Backup, backups.Backup]:
+        drive = self._state(address).drive
+        try:
+            text = data.decode("utf-8")
+        except UnicodeDecodeError:
+            raise ConfigError(f"{name}: not a text file (a backup is TOML or JSON)") from None
+        wanted = backups.loads(text, name)
+        wanted_refs = [(e.pnu, e.index) for e in wanted.entries]
+        entries = await backups.read_parameters(drive, wanted_refs, progress=progress)
+        now = backups.Backup(address, drive.profile.name, entries, source=f"drive {address}")
+        return drive, wanted, now
+
+    async def _stranger(self, wanted: backups.Backup, drive: Drive) -> str | None:
+        if wanted.profile != drive.profile.name:
+            return (
+                f"{wanted.source} is a backup of a {wanted.profile} drive, drive "
+                f"{drive.address} is {drive.profile.name}"
+            )
+        return await another_drive(wanted, drive)
+
+    async def compare(
+        self, address: int, data: bytes, name: str, progress: Progress | None = None
+    ) -> dict[str, Any]:
+        """The drive compared with an uploaded backup file (`pyuss.commission.compare`): what
+        differs, with names and units, what a restore would write and leave out, and why the
+        file may be another drive's (``stranger``) or cannot be restored (``refused``)."""
+        drive, wanted, now = await self._wanted_and_now(address, data, name, progress)
+        book = drive.params
+        differences = []
+        for diff in compare(now, wanted):
+            info = book.get(diff.pnu)
+            differences.append(
+                {
+                    "id": _id(diff.pnu, diff.index),
+                    "label": diff.label,
+                    "name": diff.name,
+                    "drive": None if diff.left is None else diff.left.text(info),
+                    "file": None if diff.right is None else diff.right.text(info),
+                }
+            )
+        reply: dict[str, Any] = {
+            "file": name,
+            "address": wanted.address,
+            "profile": wanted.profile,
+            "date": wanted.date,
+            "differences": differences,
+            "writes": [],
+            "skipped": [],
+            "stranger": await self._stranger(wanted, drive),
+            "refused": None,
+        }
+        try:
+            writes, skips = plan(wanted, now, book, drive.profile)
+        except ConfigError as exc:
+            reply["refused"] = str(exc)
+        else:
+            reply["writes"] = [_write_dict(w) for w in writes]
+            reply["skipped"] = [
+                {"label": s.entry.label, "name": s.entry.name, "reason": s.reason} for s in skips
+            ]
+        return reply
+
+    async def restore(
+        self,
+        address: int,
+        data: bytes,
+        name: str,
+        *,
+        force: bool = False,
+        eeprom: bool = False,
+        progress: Progress | None = None,
+    ) -> dict[str, Any]:
+        """Write an uploaded backup file back (`pyuss.commission.plan` and ``restore``): only
+        the writable parameters that differ, in the profile's order, each value checked first
+        (a value the parameter cannot take refuses the whole file before anything is
+        written). A file of another profile or drive needs ``force``. Each refusal of the
+        drive comes back with its number and meaning; the others are still written."""
+        drive, wanted, now = await self._wanted_and_now(address, data, name, progress)
+        stranger = await self._stranger(wanted, drive)
+        if stranger is not None and not force:
+            raise ConfigError(stranger)
+        writes, skips = plan(wanted, now, drive.params, drive.profile)
+        outcomes = await restore(drive, writes, eeprom=eeprom, progress=progress)
+        state = self._state(address)
+        ref = state.database.roles.get("reference")
+        if ref is not None and any(o.ok and o.write.pnu == ref.pnu for o in outcomes):
+            await self._read_reference(state)
+        failed = [o for o in outcomes if not o.ok]
+        stored = " and stored in EEPROM" if eeprom else ""
+        message = (
+            f"drive {address}: {len(outcomes) - len(failed)} of {len(outcomes)} written"
+            f"{stored}" + (f", {len(failed)} refused" if failed else "")
+        )
+        if not writes:
+            message = f"drive {address} already holds {name}: nothing to write"
+        return {
+            "message": message,
+            "written": len(outcomes) - len(failed),
+            "refused": len(failed),
+            "results": [
+                {
+                    **_write_dict(o.write),
+                    "ok": o.ok,
+                    "answer": o.answer,
+                    "error": o.error_text() or None,
+                }
+                for o in outcomes
+            ],
+            "skipped": [
+                {"label": s.entry.label, "name": s.entry.name, "reason": s.reason} for s in skips
+            ],
+        }
 
     # -- scan ---------------------------------------------------------------------------------
     async def scan(
@@ -840,3 +833,82 @@ class Backend:
 def _words(exc: UssError) -> str:
     """An error in words for the page."""
     return str(exc)
+
+
+def _id(pnu: int, index: int | None) -> str:
+    """How the page names a parameter: ``462``, ``947.3``."""
+    return f"{pnu}" if index is None else f"{pnu}.{index}"
+
+
+def _shown_raw(info: ParamInfo, raw: int | float) -> str:
+    return format_value(info, physical(info, raw), unit=False, texts=False)
+
+
+def _limits(info: ParamInfo) -> tuple[str | None, str | None]:
+    """The lowest and highest value a write may set, as shown, where the parameter file or the
+    drive's description gives limits (a side it leaves open is the bound of an integer type);
+    none for a parameter without (not the bare range of its data type)."""
+    if not info.is_numeric or info.is_bit_field:
+        return None, None
+    if info.minimum is None and info.maximum is None and not info.allowed:
+        return None, None
+    out: list[str | None] = []
+    for raw, given in ((info.low, info.minimum), (info.high, info.maximum)):
+        if raw is None or (given is None and not info.allowed and not info.dtype.is_integer):
+            out.append(None)
+        else:
+            out.append(_shown_raw(info, raw))
+    return out[0], out[1]
+
+
+def _row(info: ParamInfo, index: int | None) -> dict[str, Any]:
+    """One row of the expert list."""
+    low, high = _limits(info)
+    numeric = info.is_numeric and not info.is_bit_field
+    allowed = [_shown_raw(info, a) for a in info.allowed or ()] if numeric else []
+    return {
+        "id": _id(info.pnu, index),
+        "pnu": info.pnu,
+        "index": index,
+        "name": info.name,
+        "unit": info.unit,
+        "type": info.type_name,
+        "writable": info.writable and not info.is_bit_field,
+        "access": info.access.value,
+        "min": low,
+        "max": high,
+        "allowed": allowed or None,
+        "texts": {str(k): v.strip() for k, v in info.texts.items()},
+        "level": info.level,
+        "changeable": info.changeable,
+        "source": info.source.value,
+        "doc": info.doc,
+    }
+
+
+def _input(info: ParamInfo | None, value: Value | list[Value]) -> str | None:
+    """A value as a user types it to write it again (None: not editable on the page)."""
+    if info is None or info.is_bit_field or isinstance(value, list):
+        return None
+    if isinstance(value, bytes):
+        return value.hex(" ").upper()
+    if isinstance(value, str):
+        return value.rstrip()
+    return format_value(info, value, unit=False, texts=False)
+
+
+def _shown(reading: Reading) -> dict[str, Any]:
+    """``value`` as printed (``10.00 s``, ``1 [READY]``) and ``input`` (see `_input`)."""
+    return {
+        "value": format_value(reading.info, reading.value),
+        "input": _input(reading.info, reading.value),
+    }
+
+
+def _write_dict(write: Write) -> dict[str, Any]:
+    return {
+        "id": _id(write.pnu, write.index),
+        "label": write.label,
+        "name": write.info.name if write.info is not None else "",
+        "change": write.text(),
+    }

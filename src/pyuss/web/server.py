@@ -5,12 +5,17 @@ Routes (all under the token when there is one):
 - ``GET /``: the page; ``/static/...``: its scripts, styles and the plotting library.
 - ``GET /api/config``, ``/api/bus``, ``/api/drive/N``, ``/api/drive/N/params``: what the page
   shows; ``POST /api/drive/N/params/read``: parameter values.
-- ``POST /api/drive/N/command``, ``/api/drive/N/params/write``, ``/api/scan``: changes
-  (refused with ``--read-only``).
+- ``GET /api/drive/N/backup?format=toml|json|csv``: a backup file of the drive's parameters
+  (`pyuss.commission`, the files of ``uss backup``); ``POST /api/drive/N/compare?name=FILE``
+  with a backup file as the body: the differences, what a restore would write.
+- ``POST /api/drive/N/command``, ``/api/drive/N/params/write``, ``/api/scan``,
+  ``/api/drive/N/restore?name=FILE[&force=1][&eeprom=1]``: changes (refused with
+  ``--read-only``).
 - ``GET /api/monitor.pcapng``: the telegrams of the monitor view as a capture.
 - ``GET /ws``: live updates (`pyuss.web.hub`): ``tick`` messages with every drive's new
   process-data samples 20 times a second, ``bus`` messages with state and communication
-  health twice a second, ``telegrams`` for clients showing the monitor, ``scan`` progress.
+  health twice a second, ``telegrams`` for clients showing the monitor, ``scan`` progress,
+  ``progress`` of a backup, compare or restore.
 
 Security (docs/web.md): bound to 127.0.0.1 unless told otherwise. Bound elsewhere, a token is
 required (`WebServer` refuses to start without one) and every request must carry it: in the
@@ -50,6 +55,7 @@ except ImportError:  # pragma: no cover - the extra is installed for the tests
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
 from pyuss.master.errors import NoWriteAuthority
 from pyuss.master.process import state_of
+from pyuss.profiles import profile_names
 from pyuss.web.backend import Backend
 from pyuss.web.hub import QUEUE_SIZE, SEND_TIMEOUT, Hub
 
@@ -155,6 +161,9 @@ class WebServer:
         app.router.add_get(r"/api/drive/{address:\d+}/params", self._params)
         app.router.add_post(r"/api/drive/{address:\d+}/params/read", self._params_read)
         app.router.add_post(r"/api/drive/{address:\d+}/params/write", self._params_write)
+        app.router.add_get(r"/api/drive/{address:\d+}/backup", self._backup)
+        app.router.add_post(r"/api/drive/{address:\d+}/compare", self._compare)
+        app.router.add_post(r"/api/drive/{address:\d+}/restore", self._restore)
         app.router.add_post("/api/scan", self._scan)
         app.router.add_get("/api/monitor.pcapng", self._pcapng)
         app.router.add_get("/ws", self._ws)
@@ -262,7 +271,7 @@ class WebServer:
                 "moves": sorted(Backend.MOVES),
                 "commands": list(Backend.COMMANDS),
                 "tick": TICK,
-                "backup": self.backend.backup_available,
+                "profiles": list(profile_names()),
             }
         )
 
@@ -303,6 +312,61 @@ class WebServer:
             eeprom=bool(data.get("eeprom", False)),
         )
         return web.json_response(result)
+
+    def _progress(self, address: int, job: str) -> Callable[[int, int, str], None]:
+        """Progress of a backup, compare or restore, sent live to every page."""
+
+        def progress(done: int, total: int, label: str) -> None:
+            message = {"type": "progress", "address": address, "job": job}
+            self.hub.send(json.dumps({**message, "done": done, "total": total, "label": label}))
+
+        return progress
+
+    async def _backup(self, request: web.Request) -> web.Response:
+        address = self._address(request)
+        fmt = request.query.get("format", "toml")
+        name, text = await self.backend.backup(
+            address, fmt, progress=self._progress(address, "backup")
+        )
+        types = {"toml": "application/toml", "json": "application/json", "csv": "text/csv"}
+        return web.Response(
+            text=text,
+            content_type=types[fmt],
+            headers={"Content-Disposition": f'attachment; filename="{name}"'},
+        )
+
+    @staticmethod
+    async def _upload(request: web.Request) -> tuple[bytes, str]:
+        """The backup file a page sends as the request body, and its name (``name=``)."""
+        name = request.query.get("name", "").strip() or "the file"
+        if len(name) > 200 or any(c in name for c in "\r\n\0"):
+            raise ConfigError("the file name is too long or not a name")
+        data = await request.read()
+        if not data:
+            raise ConfigError(f"{name} is empty: choose a backup file (TOML or JSON)")
+        return data, name
+
+    async def _compare(self, request: web.Request) -> web.Response:
+        address = self._address(request)
+        data, name = await self._upload(request)
+        reply = await self.backend.compare(
+            address, data, name, progress=self._progress(address, "compare")
+        )
+        return web.json_response(reply)
+
+    async def _restore(self, request: web.Request) -> web.Response:
+        self._writable()
+        address = self._address(request)
+        data, name = await self._upload(request)
+        reply = await self.backend.restore(
+            address,
+            data,
+            name,
+            force=request.query.get("force") == "1",
+            eeprom=request.query.get("eeprom") == "1",
+            progress=self._progress(address, "restore"),
+        )
+        return web.json_response(reply)
 
     async def _scan(self, request: web.Request) -> web.Response:
         self._writable()

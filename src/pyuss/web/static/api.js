@@ -42,6 +42,23 @@ export async function upload(path, file) {
   }));
 }
 
+// A file the server sends (a backup): its name from Content-Disposition and its content.
+export async function fetchFile(path) {
+  const response = await fetch(path, { headers: headers() });
+  if (!response.ok) await handle(response);
+  const match = /filename="([^"]+)"/.exec(response.headers.get("Content-Disposition") || "");
+  return { name: match ? match[1] : "download", blob: await response.blob() };
+}
+
+export function saveBlob(name, blob) {
+  const link = document.createElement("a");
+  link.href = URL.createObjectURL(blob);
+  link.download = name;
+  document.body.append(link);
+  link.click();
+  setTimeout(() => { URL.revokeObjectURL(link.href); link.remove(); }, 1000);
+}
+
 export function withToken(path) {
   return token ? `${path}${path.includes("?") ? "&" : "?"}token=${encodeURIComponent(token)}` : path;
 }
@@ -52,13 +69,7 @@ export function socketUrl() {
 }
 
 export function download(name, text, type = "text/csv") {
-  const blob = new Blob([text], { type });
-  const link = document.createElement("a");
-  link.href = URL.createObjectURL(blob);
-  link.download = name;
-  document.body.append(link);
-  link.click();
-  setTimeout(() => { URL.revokeObjectURL(link.href); link.remove(); }, 1000);
+  saveBlob(name, new Blob([text], { type }));
 }
 
 export function hex4(word) {
@@ -77,10 +88,12 @@ export function el(tag, props = {}, ...children) {
   return node;
 }
 
-// Ask before anything that can set a motor turning; resolves true for "yes".
-export function confirmMove(text) {
+// Ask before anything that can set a motor turning (or writes a whole parameter set);
+// resolves true for "yes".
+export function confirmMove(text, yes = "Yes, go") {
   const dialog = document.getElementById("confirm");
   document.getElementById("confirm-text").textContent = text;
+  document.getElementById("confirm-yes").textContent = yes;
   return new Promise((resolve) => {
     dialog.addEventListener("close", () => resolve(dialog.returnValue === "yes"), { once: true });
     dialog.returnValue = "";

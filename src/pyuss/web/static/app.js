@@ -89,7 +89,6 @@ async function main() {
   state.config = await get("/api/config");
   document.body.classList.toggle("read-only", state.config.read_only);
   document.getElementById("ro-badge").hidden = !state.config.read_only;
-  for (const node of document.querySelectorAll(".backup")) node.hidden = !state.config.backup;
   views.bus = new BusView(state);
   views.drive = new DriveView(state);
   views.params = new ParamsView(state);

@@ -7,6 +7,8 @@ export class BusView {
     this.body = document.querySelector("#bus-table tbody");
     this.progress = document.getElementById("scan-progress");
     this.result = document.getElementById("scan-result");
+    const profiles = document.getElementById("scan-profile");
+    profiles.replaceChildren(...(state.config.profiles || ["generic"]).map((name) => el("option", {}, name)));
     document.getElementById("scan-form").addEventListener("submit", (e) => {
       e.preventDefault();
       this.scan();
@@ -33,7 +35,7 @@ export class BusView {
       const h = d.health;
       const c = h.counters;
       const state = d.not_sending ? "does not send" : d.state;
-      const actual = d.actual.length ? d.actual[0].toFixed(2) : "-";
+      const actual = d.actual.length ? `${d.actual[0].toFixed(2)} ${d.actual_unit}` : "-";
       const row = el("tr", { dataset: { address: d.address } },
         el("td", {}, el("a", { href: `#drive/${d.address}` }, d.address)),
         el("td", {}, d.profile), el("td", {}, d.layout), el("td", {}, state),

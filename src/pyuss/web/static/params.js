@@ -1,5 +1,12 @@
 // Parameters view: the expert list, search, typed edit, backup, compare and restore.
-import { el, get, post, upload, withToken } from "./api.js";
+import { confirmMove, el, fetchFile, get, post, saveBlob, upload, withToken } from "./api.js";
+
+function rangeText(row) {
+  const unit = row.unit ? ` ${row.unit}` : "";
+  if (row.allowed) return `one of ${row.allowed.join(", ")}${unit}`;
+  if (row.min == null && row.max == null) return "";
+  return `${row.min ?? ""} .. ${row.max ?? ""}${unit}`;
+}
 
 export class ParamsView {
   constructor(state) {
@@ -9,8 +16,12 @@ export class ParamsView {
     this.body = document.querySelector("#param-table tbody");
     this.search = document.getElementById("param-search");
     this.note = document.getElementById("param-message");
+    this.progress = document.getElementById("param-progress");
+    this.box = document.getElementById("param-diff");
+    this.busy = false;
     this.search.addEventListener("input", () => this.render());
     document.getElementById("param-read").addEventListener("click", () => this.readAll());
+    document.getElementById("param-backup").addEventListener("click", () => this.backup());
     document.getElementById("param-file").addEventListener("change", (e) => this.compare(e.target));
     document.getElementById("edit-form").addEventListener("submit", (e) => this.submit(e));
     this.loaded = null;
@@ -27,9 +38,17 @@ export class ParamsView {
     this.rows = [];
     this.values.clear();
     this.body.replaceChildren();
-    document.getElementById("param-diff").hidden = true;
-    document.getElementById("param-backup").href = withToken(`/api/drive/${address}/backup`);
+    this.box.hidden = true;
     if (this.state.view === "params" && address != null) this.load(address);
+  }
+
+  // Live progress of a backup, compare or restore of the drive shown.
+  message(message) {
+    if (message.type !== "progress" || message.address !== this.state.address || !this.busy) return;
+    this.progress.hidden = message.done >= message.total;
+    this.progress.max = Math.max(message.total, 1);
+    this.progress.value = message.done;
+    if (message.label) this.note.textContent = `${this.busy}: ${message.label} (${message.done + 1} of ${message.total})`;
   }
 
   async load(address) {
@@ -50,13 +69,13 @@ export class ParamsView {
     const writable = !this.state.config.read_only;
     const rows = this.rows.filter((r) => this.matches(r, words)).map((r) => {
       const value = this.values.get(r.id) || {};
-      const range = r.min == null ? "" : `${r.min} .. ${r.max}${r.unit ? ` ${r.unit}` : ""}`;
       const cell = el("td", { class: value.error ? "value err" : "value" },
         value.error ? value.error : value.value ?? "…");
+      const access = r.access === "ro" ? "read-only" : r.access === "protected" ? "protected" : "";
       const tr = el("tr", { dataset: { id: r.id } },
         el("td", {}, `P${r.id}`), el("td", { class: "name", title: r.doc }, r.name), cell,
-        el("td", { class: "note" }, range),
-        el("td", { class: "note" }, r.access === "ro" ? "read-only" : r.access === "protected" ? "protected" : ""));
+        el("td", { class: "note" }, rangeText(r)),
+        el("td", { class: "note" }, access));
       if (r.writable && writable) {
         tr.classList.add("writable");
         cell.addEventListener("click", () => this.edit(r));
@@ -83,10 +102,12 @@ export class ParamsView {
     this.editing = row;
     const dialog = document.getElementById("edit");
     document.getElementById("edit-title").textContent = `P${row.id} ${row.name}`;
-    const texts = Object.entries(row.texts).map(([k, v]) => `${k} = ${v.trim()}`).join(", ");
-    const range = row.min == null ? "" : `Range ${row.min} .. ${row.max}${row.unit ? ` ${row.unit}` : ""}. `;
-    document.getElementById("edit-info").textContent =
-      `${row.type}. ${range}${texts ? `Values: ${texts}.` : ""} Now: ${this.values.get(row.id)?.value ?? "?"}`;
+    const texts = Object.entries(row.texts).map(([k, v]) => `${k} = ${v}`).join(", ");
+    const range = rangeText(row);
+    const parts = [row.type + (row.unit ? ` in ${row.unit}` : ""),
+      range ? `Range ${range}` : "", texts ? `Values: ${texts}` : "",
+      `Now: ${this.values.get(row.id)?.value ?? "?"}`];
+    document.getElementById("edit-info").textContent = parts.filter(Boolean).join(". ") + ".";
     const input = document.getElementById("edit-value");
     input.value = this.values.get(row.id)?.input ?? "";
     document.getElementById("edit-error").textContent = "";
@@ -116,43 +137,120 @@ export class ParamsView {
     }
   }
 
+  // Run one long job (backup, compare, restore) at a time, with its progress bar.
+  async job(name, work) {
+    if (this.busy) return;
+    this.busy = name;
+    this.progress.value = 0;
+    this.progress.hidden = false;
+    try {
+      return await work();
+    } finally {
+      this.busy = false;
+      this.progress.hidden = true;
+    }
+  }
+
+  async backup() {
+    const address = this.state.address;
+    const format = document.getElementById("param-format").value;
+    this.note.textContent = `Backup of drive ${address} …`;
+    await this.job("Backup", async () => {
+      try {
+        const file = await fetchFile(withToken(`/api/drive/${address}/backup?format=${format}`));
+        saveBlob(file.name, file.blob);
+        this.note.textContent = `Backup of drive ${address} saved as ${file.name}.`;
+      } catch (e) {
+        this.note.textContent = "";
+        this.showError(`Backup: ${e.message}`);
+      }
+    });
+  }
+
+  showError(text) {
+    this.box.hidden = false;
+    this.box.replaceChildren(el("p", { class: "error" }, text));
+  }
+
   async compare(input) {
     const file = input.files[0];
     input.value = "";
     if (!file) return;
     const address = this.state.address;
-    const box = document.getElementById("param-diff");
-    try {
-      const reply = await upload(`/api/drive/${address}/compare`, file);
-      const differ = reply.differences;
-      box.hidden = false;
-      const table = el("table", { class: "diff" },
-        el("thead", {}, el("tr", {}, el("th", {}, "No."), el("th", {}, "Name"),
-          el("th", {}, "Drive"), el("th", {}, `File ${file.name}`))),
-        el("tbody", {}, ...differ.map((d) => el("tr", {},
-          el("td", {}, `P${d.id}`), el("td", {}, d.name ?? ""),
-          el("td", { class: "changed" }, d.drive ?? "-"), el("td", {}, d.file ?? "-")))));
-      const restore = el("button", { class: "go writes", type: "button" }, "Restore these to the drive");
-      restore.addEventListener("click", () => this.restore(file));
-      box.replaceChildren(
-        el("p", {}, differ.length
-          ? `${differ.length} parameter(s) of drive ${address} differ from ${file.name}.`
-          : `Drive ${address} holds the values of ${file.name}.`),
-        differ.length ? table : "", differ.length && !this.state.config.read_only ? restore : "");
-    } catch (e) {
-      box.hidden = false;
-      box.replaceChildren(el("p", { class: "error" }, `Compare: ${e.message}`));
-    }
+    this.note.textContent = `Comparing drive ${address} with ${file.name} …`;
+    await this.job("Compare", async () => {
+      try {
+        const reply = await upload(`/api/drive/${address}/compare?name=${encodeURIComponent(file.name)}`, file);
+        this.note.textContent = "";
+        this.showDiff(address, file, reply);
+      } catch (e) {
+        this.note.textContent = "";
+        this.showError(`Compare: ${e.message}`);
+      }
+    });
   }
 
-  async restore(file) {
-    const box = document.getElementById("param-diff");
-    try {
-      const reply = await upload(`/api/drive/${this.state.address}/restore`, file);
-      box.replaceChildren(el("p", {}, reply.message));
-      await this.readAll();
-    } catch (e) {
-      box.replaceChildren(el("p", { class: "error" }, `Restore: ${e.message}`));
+  showDiff(address, file, reply) {
+    const differ = reply.differences;
+    const parts = [el("h3", {}, `Drive ${address} and ${file.name}`),
+      el("p", { class: "note" }, `Backup of drive ${reply.address} (${reply.profile}), ${reply.date || "no date"}.`)];
+    parts.push(el("p", {}, differ.length
+      ? `${differ.length} parameter(s) differ.`
+      : `Drive ${address} holds the values of ${file.name}.`));
+    if (differ.length) {
+      parts.push(el("div", { class: "scroll" }, el("table", { class: "diff" },
+        el("thead", {}, el("tr", {}, el("th", {}, "No."), el("th", {}, "Name"),
+          el("th", {}, `Drive ${address}`), el("th", {}, `File`))),
+        el("tbody", {}, ...differ.map((d) => el("tr", { dataset: { id: d.id } },
+          el("td", {}, d.label), el("td", {}, d.name ?? ""),
+          el("td", {}, d.drive ?? "(not there)"), el("td", { class: "changed" }, d.file ?? "(not there)")))))));
     }
+    if (reply.skipped.length) {
+      parts.push(el("p", { class: "note" }, "Not written by a restore: " +
+        reply.skipped.map((s) => `${s.label} (${s.reason})`).join("; ") + "."));
+    }
+    if (reply.stranger) parts.push(el("p", { class: "warn" }, reply.stranger + "."));
+    if (reply.refused) {
+      parts.push(el("p", { class: "error" }, `This file cannot be restored: ${reply.refused}`));
+    } else if (reply.writes.length && !this.state.config.read_only) {
+      const eeprom = el("input", { type: "checkbox", id: "restore-eeprom" });
+      const go = el("button", { class: "go", type: "button", id: "restore-start" },
+        `Restore ${reply.writes.length} parameter(s) to drive ${address} …`);
+      go.addEventListener("click", () => this.restore(address, file, reply, eeprom.checked));
+      parts.push(el("div", { class: "row writes" }, go,
+        el("label", {}, eeprom, " also store in EEPROM")));
+    }
+    this.box.hidden = false;
+    this.box.replaceChildren(...parts);
+  }
+
+  async restore(address, file, reply, eeprom) {
+    const lines = reply.writes.map((w) => w.change).join("\n");
+    const question = `Write ${reply.writes.length} parameter(s) from ${file.name} to drive ${address}` +
+      `${eeprom ? " and store them in EEPROM" : ""}?\n\n${lines}` +
+      (reply.stranger ? `\n\nCareful: ${reply.stranger}.` : "");
+    if (!(await confirmMove(question, "Yes, write"))) {
+      this.note.textContent = "Nothing written.";
+      return;
+    }
+    const query = `name=${encodeURIComponent(file.name)}${reply.stranger ? "&force=1" : ""}${eeprom ? "&eeprom=1" : ""}`;
+    await this.job("Restore", async () => {
+      try {
+        const done = await upload(`/api/drive/${address}/restore?${query}`, file);
+        this.showResults(done);
+      } catch (e) {
+        this.note.textContent = "";
+        this.showError(`Restore: ${e.message}`);
+      }
+    });
+    await this.readAll();
+  }
+
+  showResults(done) {
+    const items = done.results.map((r) => el("li", { class: r.ok ? "ok" : "refused", dataset: { id: r.id } },
+      r.ok ? `${r.change}: written` : `${r.change}: refused: ${r.error}`));
+    this.box.hidden = false;
+    this.box.replaceChildren(el("h3", {}, "Restore"), el("p", { id: "restore-summary" }, done.message),
+      el("ul", { class: "results" }, ...items));
   }
 }

@@ -1,0 +1,201 @@
+"""Serve USS drives to the plant on Modbus TCP, MQTT and OPC UA, until stopped.
+
+The plant comes from a configuration file (``--config plant.toml``: buses, drives, faces; see
+docs/gateway.md) or, for one bus, from flags (``--port URL --address 5 --address 6``). The
+faces are named by their addresses: ``--modbus 127.0.0.1:5020``,
+``--mqtt mqtt://127.0.0.1:1883``, ``--opcua opc.tcp://127.0.0.1:4840`` (with a configuration
+file, these replace the address of that face or add it). Listening faces bind to the host
+given: 127.0.0.1 unless told otherwise.
+
+Prints one line per bus and face and then ``ready``; runs until SIGINT or SIGTERM (or
+``--duration`` seconds), then says ``offline`` on MQTT, closes the servers and the ports.
+
+Exit codes: 0 stopped; 1 a port or broker failed beyond recovery; 2 bad configuration (one
+line naming the key, before any port opens), or a face whose library is missing (the line
+names the pip install to run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import dataclasses
+import signal
+import sys
+from typing import Any
+
+from pyuss.cli._help import plain
+from pyuss.errors import ConfigError
+
+EXIT_OK = 0
+EXIT_USAGE = 2
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "gateway",
+        help="serve USS drives on Modbus TCP, MQTT (Home Assistant) and OPC UA",
+        description=plain(__doc__),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--config", metavar="FILE", help="the plant's configuration (TOML)")
+    one = parser.add_argument_group("one bus without a configuration file")
+    one.add_argument("--port", metavar="URL", help="serial port or URL (/dev/ttyUSB0, bus://...)")
+    one.add_argument(
+        "--address",
+        action="append",
+        type=int,
+        default=[],
+        metavar="N",
+        help="a drive's address 0..31 (repeat for more drives)",
+    )
+    one.add_argument("--baud", type=int, default=9600, help="baud rate (default 9600)")
+    one.add_argument("--profile", default="generic", help="device profile (default generic)")
+    one.add_argument("--layout", metavar="PKW,PZD", help="telegram layout (default: profile's)")
+    one.add_argument(
+        "--parameter",
+        action="append",
+        default=[],
+        metavar="PNU",
+        help="a parameter to expose on every drive: 107 or 4.2 (repeatable)",
+    )
+    one.add_argument(
+        "--cycle-time", type=float, metavar="S", help="bus cycle in seconds (default: fastest)"
+    )
+    one.add_argument("--bus-name", default="bus", help="the bus's name in topics and nodes")
+    faces = parser.add_argument_group("faces")
+    faces.add_argument("--modbus", metavar="HOST:PORT", help="serve Modbus TCP here")
+    faces.add_argument("--mqtt", metavar="URL", help="publish to this MQTT broker")
+    faces.add_argument("--opcua", metavar="URL", help="serve OPC UA here (opc.tcp://HOST:PORT)")
+    faces.add_argument(
+        "--read-only", action="store_true", help="every face refuses writes and commands"
+    )
+    parser.add_argument(
+        "--duration", type=float, metavar="S", help="stop after S seconds (default: run on)"
+    )
+    parser.set_defaults(func=run)
+
+
+def build_config(args: argparse.Namespace) -> Any:
+    """The `GatewayConfig` the arguments ask for; `ConfigError` naming the flag or key."""
+    from pyuss.gateway.config import (
+        GatewayConfig,
+        ModbusOptions,
+        MqttOptions,
+        OpcuaOptions,
+        load_config,
+    )
+    from pyuss.points.config import plant_from_flags
+    from pyuss.points.endpoint import parse_endpoint
+
+    if args.config is not None:
+        if args.port is not None or args.address or args.parameter:
+            raise ConfigError("--config: give the buses in the file, not with --port/--address")
+        config = load_config(args.config)
+    else:
+        if args.port is None:
+            raise ConfigError("--port: give a port URL (or --config FILE)")
+        plant = plant_from_flags(
+            port=args.port,
+            addresses=args.address,
+            baud=args.baud,
+            profile=args.profile,
+            layout=args.layout,
+            name=args.bus_name,
+            cycle_time=args.cycle_time,
+            parameters=args.parameter,
+        )
+        config = GatewayConfig(plant)
+
+    def endpoint(text: str, face: str, flag: str) -> Any:
+        try:
+            return parse_endpoint(text, face)
+        except ConfigError as exc:
+            raise ConfigError(f"{flag}: {exc}") from None
+
+    if args.modbus is not None:
+        where = endpoint(args.modbus, "modbus", "--modbus")
+        config = dataclasses.replace(
+            config,
+            modbus=dataclasses.replace(config.modbus, endpoint=where)
+            if config.modbus
+            else ModbusOptions(where),
+        )
+    if args.mqtt is not None:
+        where = endpoint(args.mqtt, "mqtt", "--mqtt")
+        config = dataclasses.replace(
+            config,
+            mqtt=dataclasses.replace(
+                config.mqtt, endpoint=where, username=where.username, password=where.password
+            )
+            if config.mqtt
+            else MqttOptions(where, username=where.username, password=where.password),
+        )
+    if args.opcua is not None:
+        where = endpoint(args.opcua, "opcua", "--opcua")
+        config = dataclasses.replace(
+            config,
+            opcua=dataclasses.replace(config.opcua, endpoint=where)
+            if config.opcua
+            else OpcuaOptions(where),
+        )
+    if args.read_only:
+        for face in ("modbus", "mqtt", "opcua"):
+            options = getattr(config, face)
+            if options is not None:
+                config = dataclasses.replace(
+                    config, **{face: dataclasses.replace(options, read_only=True)}
+                )
+    if config.modbus is None and config.mqtt is None and config.opcua is None:
+        raise ConfigError("no face: give --modbus, --mqtt or --opcua (or their tables)")
+    if args.duration is not None and not args.duration > 0:
+        raise ConfigError(f"--duration {args.duration}: must be > 0 seconds")
+    return config
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        config = build_config(args)
+        from pyuss.gateway.run import Gateway
+
+        gateway = Gateway(config)
+    except ConfigError as exc:
+        print(f"uss gateway: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        return asyncio.run(serve(gateway, args.duration))
+    except ConfigError as exc:
+        print(f"uss gateway: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+async def serve(gateway: Any, duration: float | None) -> int:
+    loop = asyncio.get_running_loop()
+    stop = asyncio.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+    try:
+        await gateway.start()
+        try:
+            for bus in gateway.plant.buses.values():
+                config = bus.model.config
+                print(
+                    f"bus {config.name}: {config.port} at {config.baud} baud, drives "
+                    + ", ".join(f"{d.name}={d.address}" for d in bus.model.drives),
+                    flush=True,
+                )
+            for name, face in gateway.faces.items():
+                where = getattr(face, "endpoint", None) or getattr(face, "options", None)
+                where = getattr(where, "endpoint", where)
+                print(f"{name}: {where}", flush=True)
+            print("ready", flush=True)
+            with contextlib.suppress(TimeoutError):
+                async with asyncio.timeout(duration):
+                    await stop.wait()
+        finally:
+            await gateway.close()
+    finally:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.remove_signal_handler(sig)
+    return EXIT_OK

@@ -1,0 +1,11 @@
+"""USS drives on Modbus TCP, MQTT and OPC UA: the faces of the plant's data points.
+
+- `pyuss.gateway.config`: the configuration file (buses, drives, faces).
+- `pyuss.gateway.run`: `Gateway`, the plant and its faces started and stopped together.
+- `pyuss.gateway.registers` (pure) and `pyuss.gateway.modbus` (pymodbus): Modbus TCP.
+- `pyuss.gateway.topics` (pure) and `pyuss.gateway.mqtt` (aiomqtt): MQTT, Home Assistant.
+- `pyuss.gateway.opcua` (asyncua): OPC UA.
+
+Each face module imports its own library only; the libraries are extras
+(``pip install 'pyuss[modbus]'``, ``[mqtt]``, ``[opcua]``, ``[all]``). See docs/gateway.md.
+"""

@@ -1,0 +1,314 @@
+"""The gateway's configuration: the plant (`pyuss.points.config`) and the faces' options.
+
+One TOML file (``uss gateway --config plant.toml``) holds the buses and drives (``[[bus]]``
+tables, see `pyuss.points.config`) and one table per face::
+
+    [modbus]
+    listen = "127.0.0.1:5020"        # default; a bus may have its own: modbus = "..." in [[bus]]
+    word_order = "big"               # of 32-bit values: "big" (high word first) or "little"
+    read_only = false
+
+    [mqtt]
+    broker = "mqtt://127.0.0.1:1883" # mqtts:// for TLS; user and password may stand in the URL
+    prefix = "uss"
+    username = "gateway"             # or in the URL
+    password = "..."
+    ca = "/etc/ssl/certs/ca.pem"     # TLS: CA file, client certificate and key (optional)
+    cert = "client.pem"
+    key = "client.key"
+    client_id = "pyuss-{bus}"        # one MQTT session per bus; {bus} is its name
+    discovery = true                 # Home Assistant discovery
+    discovery_prefix = "homeassistant"
+    read_only = false
+
+    [opcua]
+    listen = "opc.tcp://127.0.0.1:4840"
+    security = ["None"]              # and/or "Basic256Sha256_Sign", "Basic256Sha256_SignAndEncrypt"
+    certificate = "server.der"       # needed by the signing policies
+    private_key = "server.pem"
+    users = { operator = "secret" }  # may write and call commands
+    anonymous = "read"               # "read" (default), "write" or "none"
+    read_only = false
+
+A face without its table is not started. Bad configuration raises `ConfigError` naming the key,
+before anything is opened.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from pyuss.errors import ConfigError
+from pyuss.gateway.registers import WordOrder
+from pyuss.points.config import PlantConfig, Where, parse_plant
+from pyuss.points.endpoint import Endpoint, parse_endpoint
+from pyuss.points.model import resolve
+
+__all__ = [
+    "GatewayConfig",
+    "ModbusOptions",
+    "MqttOptions",
+    "OpcuaOptions",
+    "load_config",
+    "parse_config",
+]
+
+DEFAULT_MODBUS = "127.0.0.1:5020"
+DEFAULT_MQTT = "mqtt://127.0.0.1:1883"
+DEFAULT_OPCUA = "opc.tcp://127.0.0.1:4840"
+SECURITY_POLICIES = ("None", "Basic256Sha256_Sign", "Basic256Sha256_SignAndEncrypt")
+ANONYMOUS = ("read", "write", "none")
+
+
+@dataclass(frozen=True, slots=True)
+class ModbusOptions:
+    endpoint: Endpoint
+    word_order: WordOrder = WordOrder.BIG
+    read_only: bool = False
+    bus_endpoints: Mapping[str, Endpoint] = field(default_factory=dict)
+    """Buses with a Modbus address of their own."""
+
+
+@dataclass(frozen=True, slots=True)
+class MqttOptions:
+    endpoint: Endpoint
+    prefix: str = "uss"
+    username: str | None = None
+    password: str | None = field(default=None, repr=False)
+    ca: str | None = None
+    cert: str | None = None
+    key: str | None = None
+    insecure: bool = False
+    client_id: str = "pyuss-{bus}"
+    discovery: bool = True
+    discovery_prefix: str = "homeassistant"
+    read_only: bool = False
+    keepalive: int = 30
+    reconnect: float = 1.0
+    """Seconds between attempts to reach the broker again."""
+
+    @property
+    def tls(self) -> bool:
+        return self.endpoint.tls or self.ca is not None or self.cert is not None
+
+
+@dataclass(frozen=True, slots=True)
+class OpcuaOptions:
+    endpoint: Endpoint
+    security: tuple[str, ...] = ("None",)
+    certificate: str | None = None
+    private_key: str | None = None
+    users: Mapping[str, str] = field(default_factory=dict, repr=False)
+    anonymous: str = "read"
+    read_only: bool = False
+    namespace: str = "urn:pyuss:gateway"
+
+
+@dataclass(frozen=True, slots=True)
+class GatewayConfig:
+    plant: PlantConfig
+    modbus: ModbusOptions | None = None
+    mqtt: MqttOptions | None = None
+    opcua: OpcuaOptions | None = None
+
+
+def _endpoint(value: object, face: str, where: Where) -> Endpoint:
+    try:
+        return parse_endpoint(value, face)
+    except ConfigError as exc:
+        raise where.error(str(exc)) from None
+
+
+def _topic_part(value: object, where: Where, *, slashes: bool = False) -> str:
+    text = where.text(value)
+    bad = "+#" if slashes else "+#/"
+    if any(c in text for c in bad) or text.startswith("/") or text.endswith("/"):
+        raise where.error(f"{text!r} cannot be part of an MQTT topic (no {' '.join(bad)})")
+    return text
+
+
+def _file(value: object, where: Where, base: Path | None) -> str:
+    text = where.text(value)
+    path = Path(text)
+    if not path.is_absolute() and base is not None:
+        path = base / path
+    if not path.is_file():
+        raise where.error(f"{str(path)!r}: no such file")
+    return str(path)
+
+
+def modbus_options(table: Mapping[str, Any], where: Where, buses: PlantConfig) -> ModbusOptions:
+    table = where.table(table, ("listen", "word_order", "read_only"))
+    endpoint = _endpoint(table.get("listen", DEFAULT_MODBUS), "modbus", where.key("listen"))
+    try:
+        order = WordOrder.parse(table.get("word_order", "big"))
+    except ConfigError as exc:
+        raise where.key("word_order").error(str(exc)) from None
+    read_only = where.key("read_only").flag(table.get("read_only", False))
+    own: dict[str, Endpoint] = {}
+    for number, bus in enumerate(buses.buses):
+        if "modbus" in bus.extra:
+            own[bus.name] = _endpoint(
+                bus.extra["modbus"], "modbus", Where("bus").key(number).key("modbus")
+            )
+    return ModbusOptions(endpoint, order, read_only, own)
+
+
+def mqtt_options(table: Mapping[str, Any], where: Where, base: Path | None = None) -> MqttOptions:
+    known = (
+        "broker",
+        "prefix",
+        "username",
+        "password",
+        "ca",
+        "cert",
+        "key",
+        "insecure",
+        "client_id",
+        "discovery",
+        "discovery_prefix",
+        "read_only",
+        "keepalive",
+        "reconnect",
+    )
+    table = where.table(table, known)
+    endpoint = _endpoint(table.get("broker", DEFAULT_MQTT), "mqtt", where.key("broker"))
+    username = endpoint.username
+    password = endpoint.password
+    if "username" in table:
+        username = where.key("username").text(table["username"])
+    if "password" in table:
+        if not isinstance(table["password"], str):
+            raise where.key("password").error("expected a string")
+        password = table["password"]
+    if password is not None and username is None:
+        raise where.key("password").error("a password needs a username")
+    client_id = where.key("client_id").text(table.get("client_id", "pyuss-{bus}"))
+    try:
+        client_id.format(bus="x")
+    except (KeyError, IndexError, ValueError):
+        raise where.key("client_id").error("may only use {bus}") from None
+    keepalive = where.key("keepalive").integer(table.get("keepalive", 30), 5, 3600)
+    reconnect = where.key("reconnect").seconds(table.get("reconnect", 1.0))
+    return MqttOptions(
+        endpoint=endpoint,
+        prefix=_topic_part(table.get("prefix", "uss"), where.key("prefix"), slashes=True),
+        username=username,
+        password=password,
+        ca=_file(table["ca"], where.key("ca"), base) if "ca" in table else None,
+        cert=_file(table["cert"], where.key("cert"), base) if "cert" in table else None,
+        key=_file(table["key"], where.key("key"), base) if "key" in table else None,
+        insecure=where.key("insecure").flag(table.get("insecure", False)),
+        client_id=client_id,
+        discovery=where.key("discovery").flag(table.get("discovery", True)),
+        discovery_prefix=_topic_part(
+            table.get("discovery_prefix", "homeassistant"), where.key("discovery_prefix")
+        ),
+        read_only=where.key("read_only").flag(table.get("read_only", False)),
+        keepalive=keepalive,
+        reconnect=reconnect,
+    )
+
+
+def opcua_options(table: Mapping[str, Any], where: Where, base: Path | None = None) -> OpcuaOptions:
+    known = (
+        "listen",
+        "security",
+        "certificate",
+        "private_key",
+        "users",
+        "anonymous",
+        "read_only",
+        "namespace",
+    )
+    table = where.table(table, known)
+    endpoint = _endpoint(table.get("listen", DEFAULT_OPCUA), "opcua", where.key("listen"))
+    security_value = table.get("security", ["None"])
+    if isinstance(security_value, str):
+        security_value = [security_value]
+    if not isinstance(security_value, list) or not security_value:
+        raise where.key("security").error("expected a list of security policies")
+    for item in security_value:
+        if item not in SECURITY_POLICIES:
+            raise where.key("security").error(
+                f"unknown policy {item!r} (known: {', '.join(SECURITY_POLICIES)})"
+            )
+    security = tuple(security_value)
+    certificate = (
+        _file(table["certificate"], where.key("certificate"), base)
+        if "certificate" in table
+        else None
+    )
+    private_key = (
+        _file(table["private_key"], where.key("private_key"), base)
+        if "private_key" in table
+        else None
+    )
+    if any(p != "None" for p in security) and (certificate is None or private_key is None):
+        raise where.key("security").error(
+            "signing policies need certificate and private_key (the server's own)"
+        )
+    users_value = table.get("users", {})
+    if not isinstance(users_value, Mapping):
+        raise where.key("users").error('expected a table of user = "password"')
+    users: dict[str, str] = {}
+    for name, password in users_value.items():
+        if not isinstance(password, str) or not password:
+            raise where.key("users").key(str(name)).error("expected a non-empty password")
+        users[str(name)] = password
+    anonymous = table.get("anonymous", "read")
+    if anonymous not in ANONYMOUS:
+        raise where.key("anonymous").error(f"expected one of {', '.join(ANONYMOUS)}")
+    namespace = where.key("namespace").text(table.get("namespace", "urn:pyuss:gateway"))
+    return OpcuaOptions(
+        endpoint=endpoint,
+        security=security,
+        certificate=certificate,
+        private_key=private_key,
+        users=users,
+        anonymous=anonymous,
+        read_only=where.key("read_only").flag(table.get("read_only", False)),
+        namespace=namespace,
+    )
+
+
+TOP_KEYS = ("bus", "modbus", "mqtt", "opcua", "web")
+"""``web`` belongs to ``uss web``; the gateway leaves it alone."""
+
+
+def parse_config(data: Mapping[str, Any], base: Path | None = None) -> GatewayConfig:
+    """The gateway configuration from a TOML document (already parsed)."""
+    root = Where("")
+    root.table(data, TOP_KEYS)
+    plant = parse_plant(data.get("bus"), Where("bus"), face_keys=("modbus",))
+    return GatewayConfig(
+        plant=plant,
+        modbus=modbus_options(data["modbus"], Where("modbus"), plant) if "modbus" in data else None,
+        mqtt=mqtt_options(data["mqtt"], Where("mqtt"), base) if "mqtt" in data else None,
+        opcua=opcua_options(data["opcua"], Where("opcua"), base) if "opcua" in data else None,
+    )
+
+
+def load_config(path: str | Path) -> GatewayConfig:
+    """Read and check a configuration file; `ConfigError` names the file and the key."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read it ({exc.strerror or exc})") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not UTF-8 text") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    try:
+        config = parse_config(data, path.parent)
+        resolve(config.plant)  # what the points cannot show is bad configuration too
+        return config
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None

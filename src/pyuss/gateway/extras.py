@@ -1,0 +1,57 @@
+"""Which library each face needs, and the one line that says how to install it.
+
+The base install of pyuss is pyserial only; each face is an extra (``pip install
+'pyuss[modbus]'``, ``[mqtt]``, ``[opcua]`` or ``[all]``). `require` is called before a face
+starts, so a missing or unsuitable library is one line naming the pip install to run, before
+any port opens.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.metadata
+
+from pyuss.errors import ConfigError
+
+__all__ = ["FACES", "MissingExtra", "require"]
+
+FACES: dict[str, tuple[str, str, tuple[int, int] | None, tuple[int, int] | None]] = {
+    # face: (module, distribution, lowest version, first version not supported)
+    "modbus": ("pymodbus", "pymodbus", (3, 15), (3, 17)),
+    "mqtt": ("aiomqtt", "aiomqtt", (2, 3), (3, 0)),
+    "opcua": ("asyncua", "asyncua", (2, 0), (3, 0)),
+}
+
+
+class MissingExtra(ConfigError, ImportError):
+    """A face's library is not installed, or not in the versions the face supports."""
+
+
+def _version(text: str) -> tuple[int, int]:
+    parts = []
+    for item in text.split(".")[:2]:
+        digits = "".join(ch for ch in item if ch.isdigit())
+        parts.append(int(digits or 0))
+    while len(parts) < 2:
+        parts.append(0)
+    return parts[0], parts[1]
+
+
+def require(face: str) -> None:
+    """Check that the library of ``face`` can be imported in a supported version."""
+    module, dist, low, high = FACES[face]
+    install = f"pip install 'pyuss[{face}]'"
+    try:
+        importlib.import_module(module)
+    except ImportError as exc:
+        raise MissingExtra(f"the {face} face needs {dist} ({exc}): {install}") from None
+    try:
+        version = _version(importlib.metadata.version(dist))
+    except importlib.metadata.PackageNotFoundError:
+        return
+    if (low is not None and version < low) or (high is not None and version >= high):
+        have = ".".join(map(str, version))
+        want = f">={'.'.join(map(str, low or (0, 0)))},<{'.'.join(map(str, high or (99, 0)))}"
+        raise MissingExtra(
+            f"the {face} face needs {dist} {want}, this is {have}: {install} --upgrade"
+        )

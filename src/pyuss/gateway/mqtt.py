@@ -1,0 +1,413 @@
+"""The MQTT face: one aiomqtt client per bus, publishing its drives and taking commands.
+
+Topics, payloads and discovery are `pyuss.gateway.topics` (pure, tested without a broker);
+this module is the client around them:
+
+- It connects with a persistent session (``clean_session`` off, a fixed client id per bus,
+  ``pyuss-BUS``) and a last will that sets ``uss/BUS/availability`` to ``offline``; it
+  subscribes to the command topics with QoS 1. While it is away the broker keeps the commands
+  sent to it (a broker that keeps its sessions over a restart keeps them over that, too).
+- After every (re)connection it subscribes again, publishes ``online``, the discovery
+  messages, every drive's state and availability, and the replies it could not send.
+- States go out retained whenever a drive's state changes (at most once per bus cycle per
+  drive, the newest one), parameters when they were read.
+- Commands of one drive are carried out one after the other, in order, by a task of that
+  drive, so the message loop never waits for a drive; a command with an id is carried out
+  once (`pyuss.gateway.topics`), its reply kept for repeats (the last 1000 ids per bus).
+- On stop it publishes ``offline`` itself and disconnects.
+
+Why aiomqtt: the asyncio client over paho-mqtt (the reference MQTT client for Python); it
+brings sessions, QoS 1, last will, TLS and user/password.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import logging
+import ssl
+from collections import OrderedDict, deque
+from typing import Any
+
+import aiomqtt
+
+from pyuss.errors import ConfigError, UssError
+from pyuss.gateway.config import MqttOptions
+from pyuss.gateway.topics import (
+    Command,
+    DriveTopics,
+    discovery,
+    number,
+    param_payload,
+    parse_command,
+    reply_payload,
+    state_payload,
+    subscriptions,
+    switch_value,
+)
+from pyuss.points.errors import ReadOnly, UnknownPoint, error_dict
+from pyuss.points.plant import BusPoints, DrivePoints, Plant
+from pyuss.points.state import DriveState
+
+__all__ = ["MqttBusFace", "MqttFace"]
+
+log = logging.getLogger("pyuss.gateway.mqtt")
+client_log = logging.getLogger("pyuss.gateway.mqtt.client")
+"""The MQTT client's own messages; its "pending publish calls" notes are normal when many
+drives change at once (each drive waits for its own publish), so only errors are shown."""
+client_log.setLevel(logging.ERROR)
+
+KEEP_IDS = 1000
+"""Replies kept per bus for commands repeated with the same id."""
+OUTBOX = 1000
+"""Replies kept while the broker cannot be reached (the oldest are dropped first)."""
+QUEUE = 100
+"""Commands waiting per drive; more are answered with a refusal."""
+
+
+def _tls(options: MqttOptions) -> ssl.SSLContext | None:
+    if not options.tls:
+        return None
+    context = ssl.create_default_context(cafile=options.ca)
+    if options.cert is not None:
+        context.load_cert_chain(options.cert, options.key)
+    if options.insecure:
+        context.check_hostname = False
+        context.verify_mode = ssl.CERT_NONE
+    return context
+
+
+class _DriveWorker:
+    """Publishes one drive's states and carries out its commands in order."""
+
+    def __init__(self, face: MqttBusFace, drive: DrivePoints) -> None:
+        self.face = face
+        self.drive = drive
+        self.topics = DriveTopics(face.options.prefix, drive.model.bus, drive.name)
+        self.queue: asyncio.Queue[Command] = asyncio.Queue(QUEUE)
+        self.published: dict[str, Any] = {}
+        self.discovery_key: object = None
+
+    async def publish_state(self, state: DriveState) -> None:
+        face = self.face
+        await face.publish(self.topics.state, state_payload(state), qos=0, retain=True)
+        online = "online" if state.online else "offline"
+        if self.published.get("availability") != online and await face.publish(
+            self.topics.availability, online, qos=1, retain=True
+        ):
+            self.published["availability"] = online
+        for key, reading in state.parameters.items():
+            stamp = (reading.value, reading.time)
+            if (
+                reading.time is not None
+                and self.published.get(key) != stamp
+                and await face.publish(self.topics.param(key), param_payload(reading), retain=True)
+            ):
+                self.published[key] = stamp
+        signature = (state.reference, state.model.unit)
+        if (
+            face.options.discovery
+            and signature != self.discovery_key
+            and await self.publish_discovery(state)
+        ):
+            self.discovery_key = signature
+
+    async def publish_discovery(self, state: DriveState) -> bool:
+        ok = True
+        for topic, config in discovery(
+            self.drive.model,
+            state,
+            prefix=self.face.options.prefix,
+            discovery_prefix=self.face.options.discovery_prefix,
+            read_only=self.face.options.read_only,
+        ):
+            ok = await self.face.publish(topic, json.dumps(config), qos=1, retain=True) and ok
+        return ok
+
+    async def states(self) -> None:
+        async for state in self.drive.updates():
+            await self.face.connected.wait()
+            await self.publish_state(state)
+
+    async def commands(self) -> None:
+        while True:
+            command = await self.queue.get()
+            reply = await self.carry_out(command)
+            self.face.remember(command, reply)
+            await self.face.reply(command, reply, self.topics.reply)
+
+    async def carry_out(self, command: Command) -> dict[str, Any]:
+        try:
+            if command.writes and self.face.options.read_only:
+                raise ReadOnly("this MQTT face is read-only: only read commands are taken")
+            result = await self._run(command)
+        except (UssError, ValueError) as exc:
+            return reply_payload(command, error=error_dict(exc))
+        return reply_payload(command, result=result)
+
+    async def _run(self, command: Command) -> dict[str, Any]:
+        drive = self.drive
+        name = command.name
+        state: DriveState
+        if name in ("on", "off1", "off2", "off3", "acknowledge"):
+            state = await drive.command(name)
+        elif name == "run":
+            state = await drive.command("on" if switch_value(command.value) else "off1")
+        elif name in ("setpoint", "setpoint_percent"):
+            unit = "percent" if name == "setpoint_percent" else "value"
+            state = await drive.set_setpoint(number(command.value, name), command.key, unit=unit)
+        elif name == "control_word":
+            word = number(command.value, name)
+            if not isinstance(word, int):
+                raise ConfigError(f"control word must be a whole number, not {command.value!r}")
+            state = await drive.set_control_word(word)
+        elif name == "read":
+            assert command.pnu is not None
+            return (await drive.read_parameter(command.pnu, command.index)).to_dict()
+        elif name == "write":
+            assert command.pnu is not None
+            value = number(command.value, f"write P{command.pnu}")
+            reading = await drive.write_parameter(
+                command.pnu, value, command.index, eeprom=command.eeprom
+            )
+            return reading.to_dict()
+        else:  # pragma: no cover - parse_command knows the names
+            raise UnknownPoint(f"unknown command {name!r}")
+        return {
+            "status_word": state.status_word,
+            "state": state.state,
+            "control_word": state.control_word,
+            "setpoint": {k: v.to_dict() for k, v in state.setpoints.items()},
+        }
+
+
+class MqttBusFace:
+    """The MQTT client of one bus (see the module docstring)."""
+
+    def __init__(self, bus: BusPoints, options: MqttOptions) -> None:
+        self.bus = bus
+        self.options = options
+        self.client_id = options.client_id.format(bus=bus.name)
+        self.availability = f"{options.prefix}/{bus.name}/availability"
+        self.workers = {drive.name: _DriveWorker(self, drive) for drive in bus.drives.values()}
+        self.connected = asyncio.Event()
+        self._client: aiomqtt.Client | None = None
+        self._done: OrderedDict[tuple[str, str], dict[str, Any]] = OrderedDict()
+        self._pending: set[tuple[str, str]] = set()
+        self._outbox: deque[tuple[str, bytes]] = deque(maxlen=OUTBOX)
+        self._tasks: list[asyncio.Task[None]] = []
+        self._stop = asyncio.Event()
+        self._runner: asyncio.Task[None] | None = None
+        self.connections = 0
+        """How many times the client connected (1 + reconnections)."""
+
+    # -- publishing ----------------------------------------------------------------------------
+    async def publish(
+        self, topic: str, payload: bytes | str, *, qos: int = 1, retain: bool = False
+    ) -> bool:
+        """Publish if connected; False if it could not be sent."""
+        client = self._client
+        if client is None or not self.connected.is_set():
+            return False
+        try:
+            await client.publish(topic, payload, qos=qos, retain=retain)
+        except aiomqtt.MqttError as exc:
+            log.info("%s: publish to %s failed: %s", self.bus.name, topic, exc)
+            return False
+        return True
+
+    async def reply(self, command: Command, reply: dict[str, Any], default: str) -> None:
+        topic = command.reply_to or default
+        payload = json.dumps(reply).encode()
+        if not await self.publish(topic, payload, qos=1):
+            self._outbox.append((topic, payload))
+
+    def remember(self, command: Command, reply: dict[str, Any]) -> None:
+        if command.id is None:
+            return
+        key = (command.drive, command.id)
+        self._pending.discard(key)
+        self._done[key] = reply
+        while len(self._done) > KEEP_IDS:
+            self._done.popitem(last=False)
+
+    # -- receiving -----------------------------------------------------------------------------
+    async def _message(self, topic: str, payload: bytes) -> None:
+        log.debug("%s: %s %r", self.bus.name, topic, payload[:200])
+        options = self.options
+        try:
+            command = parse_command(topic, payload, options.prefix, self.bus.name)
+        except (ConfigError, ValueError) as exc:
+            log.info("%s: ignored %s: %s", self.bus.name, topic, exc)
+            drive_name = _drive_of(topic, options.prefix, self.bus.name)
+            if drive_name in self.workers:
+                bad = Command(drive=drive_name, name="?")
+                reply = reply_payload(bad, error=error_dict(exc))
+                await self.reply(bad, reply, self.workers[drive_name].topics.reply)
+            return
+        worker = self.workers.get(command.drive)
+        if worker is None:
+            log.info("%s: command for unknown drive %r", self.bus.name, command.drive)
+            return
+        if command.id is not None:
+            key = (command.drive, command.id)
+            if key in self._done:
+                again = dict(self._done[key], duplicate=True)
+                await self.reply(command, again, worker.topics.reply)
+                return
+            if key in self._pending:
+                return  # the first one is still being carried out; it will reply
+            self._pending.add(key)
+        try:
+            worker.queue.put_nowait(command)
+        except asyncio.QueueFull:
+            if command.id is not None:
+                self._pending.discard((command.drive, command.id))
+            error = {"type": "Busy", "message": f"{QUEUE} commands wait already", "class": "busy"}
+            await self.reply(command, reply_payload(command, error=error), worker.topics.reply)
+
+    # -- the connection ------------------------------------------------------------------------
+    def _make_client(self) -> aiomqtt.Client:
+        options = self.options
+        return aiomqtt.Client(
+            options.endpoint.host,
+            options.endpoint.port,
+            username=options.username,
+            password=options.password,
+            identifier=self.client_id,
+            clean_session=False,
+            keepalive=options.keepalive,
+            will=aiomqtt.Will(self.availability, "offline", qos=1, retain=True),
+            tls_context=_tls(options),
+            timeout=10,
+            logger=client_log,
+        )
+
+    async def _connected(self, client: aiomqtt.Client) -> None:
+        self._client = client
+        for topic in subscriptions(self.options.prefix, self.bus.name):
+            await client.subscribe(topic, qos=1)
+        await client.publish(self.availability, "online", qos=1, retain=True)
+        self.connected.set()
+        self.connections += 1
+        for worker in self.workers.values():
+            worker.published.clear()
+            worker.discovery_key = None
+            await worker.publish_state(worker.drive.snapshot())
+        while self._outbox:
+            topic, payload = self._outbox[0]
+            await client.publish(topic, payload, qos=1)
+            self._outbox.popleft()
+        log.info("%s: connected to MQTT broker %s", self.bus.name, self.options.endpoint)
+
+    async def _consume(self, client: aiomqtt.Client) -> None:
+        async for message in client.messages:
+            payload = message.payload
+            data = payload if isinstance(payload, bytes) else str(payload).encode()
+            await self._message(message.topic.value, data)
+
+    async def run(self) -> None:
+        """Stay connected (reconnect after losses) until `close`."""
+        while not self._stop.is_set():
+            client = self._make_client()  # a fresh client per connection
+            consume: asyncio.Task[None] | None = None
+            try:
+                async with client:
+                    await self._connected(client)
+                    consume = asyncio.create_task(self._consume(client))
+                    consume.add_done_callback(_retrieve)
+                    stop = asyncio.create_task(self._stop.wait())
+                    try:
+                        await asyncio.wait({consume, stop}, return_when=asyncio.FIRST_COMPLETED)
+                    finally:
+                        stop.cancel()
+                    if consume.done():
+                        consume.result()  # the connection was lost: MqttError
+                    # stopping: leaving the block disconnects cleanly
+            except aiomqtt.MqttError as exc:
+                if self._stop.is_set():
+                    break
+                log.warning(
+                    "%s: MQTT broker %s: %s; again in %g s",
+                    self.bus.name,
+                    self.options.endpoint,
+                    exc,
+                    self.options.reconnect,
+                )
+            finally:
+                self.connected.clear()
+                self._client = None
+                if consume is not None and not consume.done():
+                    consume.cancel()
+            if not self._stop.is_set():
+                with contextlib.suppress(TimeoutError):
+                    async with asyncio.timeout(self.options.reconnect):
+                        await self._stop.wait()
+
+    async def start(self) -> None:
+        for worker in self.workers.values():
+            self._tasks.append(asyncio.create_task(worker.states()))
+            self._tasks.append(asyncio.create_task(worker.commands()))
+        self._runner = asyncio.create_task(self.run(), name=f"mqtt {self.bus.name}")
+
+    async def close(self) -> None:
+        """Stop publishing, publish ``offline``, disconnect."""
+        for task in self._tasks:
+            task.cancel()
+        if self._tasks:
+            # bounded: a task inside the MQTT client may take its time to end
+            with contextlib.suppress(TimeoutError):
+                async with asyncio.timeout(3):
+                    await asyncio.gather(*self._tasks, return_exceptions=True)
+        self._tasks.clear()
+        client = self._client
+        if client is not None and self.connected.is_set():
+            with contextlib.suppress(aiomqtt.MqttError, asyncio.TimeoutError):
+                async with asyncio.timeout(2):
+                    await client.publish(self.availability, "offline", qos=1, retain=True)
+                    for worker in self.workers.values():
+                        await client.publish(
+                            worker.topics.availability, "offline", qos=1, retain=True
+                        )
+        self._stop.set()
+        runner, self._runner = self._runner, None
+        if runner is not None:
+            try:
+                async with asyncio.timeout(5):
+                    await runner
+            except (TimeoutError, aiomqtt.MqttError):
+                runner.cancel()
+
+
+def _retrieve(task: asyncio.Task[None]) -> None:
+    """Mark the outcome of a finished task as seen (a lost connection is handled by `run`)."""
+    if not task.cancelled():
+        task.exception()
+
+
+def _drive_of(topic: str, prefix: str, bus: str) -> str | None:
+    parts = topic.split("/")
+    head = [*prefix.split("/"), bus]
+    if parts[: len(head)] == head and len(parts) > len(head):
+        return parts[len(head)]
+    return None
+
+
+class MqttFace:
+    """The MQTT face of a plant: one `MqttBusFace` per bus."""
+
+    def __init__(self, plant: Plant, options: MqttOptions) -> None:
+        self.options = options
+        self.buses = {name: MqttBusFace(bus, options) for name, bus in plant.buses.items()}
+        ids = [face.client_id for face in self.buses.values()]
+        if len(set(ids)) != len(ids):
+            raise ConfigError("mqtt.client_id: must contain {bus}, one session per bus")
+
+    async def start(self) -> None:
+        for face in self.buses.values():
+            await face.start()
+
+    async def close(self) -> None:
+        for face in self.buses.values():
+            await face.close()

@@ -1,0 +1,505 @@
+"""The Modbus register map of one drive: data points <-> registers, without sockets.
+
+The Modbus face (`pyuss.gateway.modbus`) answers unit id N with the drive at USS address N;
+this module decides what every register of that unit means. Addresses are the protocol's,
+counting from 0 (the "register 30001/40001" of many HMIs is address 0). A value of 32 bits
+(integer or IEEE 754 float) fills two registers; `WordOrder` says which comes first (high
+word first by default, as USS itself sends double words). Reserved addresses inside the map
+read 0; addresses beyond it are refused (exception 02).
+
+Input registers (function 4), what the drive reports::
+
+    0        status word (PZD1 of the latest answer)
+    1        drive state: 0 no answer yet, 1 not ready to switch on, 2 switch-on inhibited,
+             3 ready to switch on, 4 ready, 5 operation enabled, 6 fault, 7 OFF2, 8 OFF3
+    2        health bits: 0 does not send (A 5.2.1.1), 1 no answer yet, 2 fault (status bit
+             3), 3 warning (status bit 7), 4 the reference is known
+    3        error status word of A 5.2.3
+    4        last fault number (read from the profile's fault parameter when the fault bit
+             rose; 0 none)
+    5        last refused job: response ID (0 none, 7 refused, 8 no write authority)
+    6        last refused job: the drive's error number (C Table 4.3)
+    7        last refused job: PNU
+    8..22    PZD2..PZD16 of the latest answer (raw words)
+    24+4k    actual value k in its unit (float, 2 registers); k = 0..3, configured order
+    26+4k    actual value k in percent (float, 2 registers)
+    40..55   the 16 diagnostic parameters of A 5.2.3 (counters modulo 65536)
+    56..57   answers received (32 bits)
+    58..59   answers missed (timeouts, 32 bits)
+    100+2k   configured parameter k as last read (no job is sent): float for float and
+             scaled parameters, else a 32-bit integer; NaN / 8000 0000h until read
+
+Holding registers (functions 3, 6, 16, 23), what the master sends::
+
+    0        control word (read: as sent; write: sent from the next telegram)
+    1        command (write): 1 ON, 2 OFF1, 3 OFF2, 4 OFF3, 5 acknowledge; reads 0
+    2..16    PZD2..PZD16 of the request (raw setpoint words)
+    24+4k    setpoint k in its unit (float); k = 0..3, configured order
+    26+4k    setpoint k in percent (float)
+    100+2k   configured parameter k: a read sends a parameter job (unless the parameter is
+             polled: then its last value), a write sends one
+    200..210 the parameter mailbox, for any parameter:
+             200 PNU, 201 index (FFFFh: none), 202 format (0 as the parameter model says,
+             1 unsigned 16, 2 signed 16, 3 unsigned 32, 4 signed 32, 5 float),
+             203..204 the value to write (32 bits; formats 1 and 2 use its low 16), 205 command
+             (write 1 read, 2 write, 3 write and store in EEPROM), 206 status (0 idle,
+             1 done, 2 refused, 3 failed), 207 response ID (7 or 8 when refused), 208 the
+             drive's error number, 209..210 the value read or answered
+
+A write returns once the telegram carrying it was answered (process data) or the parameter job
+was answered, so a client that writes a setpoint sees it on the bus in the next cycle, and a
+refusal comes back as the Modbus exception of `EXCEPTIONS`. The drive's error number is in
+the mailbox (208) and in input registers 5..7.
+
+Values of two registers must be written whole, in one request (function 16 or 23).
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+import struct
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from pyuss.errors import ConfigError, DriveRefusal, UssError
+from pyuss.master.errors import NoWriteAuthority
+from pyuss.points.errors import Failure, classify
+from pyuss.points.parameters import ParamMeta
+from pyuss.points.plant import DrivePoints
+from pyuss.points.state import DriveState
+
+__all__ = [
+    "EXCEPTIONS",
+    "HOLDING_SIZE",
+    "INPUT_SIZE",
+    "DriveRegisters",
+    "ModbusException",
+    "RegisterError",
+    "WordOrder",
+    "from_registers",
+    "to_registers",
+]
+
+
+class ModbusException(enum.IntEnum):
+    """Modbus exception codes the gateway answers with."""
+
+    ILLEGAL_FUNCTION = 0x01
+    ILLEGAL_DATA_ADDRESS = 0x02
+    ILLEGAL_DATA_VALUE = 0x03
+    SERVER_DEVICE_FAILURE = 0x04
+    GATEWAY_PATH_UNAVAILABLE = 0x0A
+    GATEWAY_TARGET_NO_RESPONSE = 0x0B
+
+
+EXCEPTIONS: dict[Failure, ModbusException] = {
+    Failure.NOT_FOUND: ModbusException.ILLEGAL_DATA_ADDRESS,
+    Failure.BAD_VALUE: ModbusException.ILLEGAL_DATA_VALUE,
+    Failure.REFUSED: ModbusException.SERVER_DEVICE_FAILURE,
+    Failure.NO_AUTHORITY: ModbusException.SERVER_DEVICE_FAILURE,
+    Failure.READ_ONLY: ModbusException.ILLEGAL_FUNCTION,
+    Failure.NO_ANSWER: ModbusException.GATEWAY_TARGET_NO_RESPONSE,
+    Failure.UNAVAILABLE: ModbusException.GATEWAY_PATH_UNAVAILABLE,
+}
+"""The exception for each class of failure (`pyuss.points.errors`)."""
+
+
+class RegisterError(UssError):
+    """A request the map answers with a Modbus exception."""
+
+    def __init__(self, code: ModbusException, message: str) -> None:
+        self.code = code
+        super().__init__(f"Modbus exception {int(code):02X}h: {message}")
+
+
+class WordOrder(enum.Enum):
+    """Which register of a 32-bit value comes first."""
+
+    BIG = "big"
+    """High word first (the USS order of double words, C 6)."""
+    LITTLE = "little"
+    """Low word first."""
+
+    @classmethod
+    def parse(cls, text: object) -> WordOrder:
+        for order in cls:
+            if text == order.value:
+                return order
+        raise ConfigError(f"word order must be 'big' or 'little', not {text!r}")
+
+
+def to_registers(value: float | int | None, kind: str, order: WordOrder) -> tuple[int, int]:
+    """Two registers of ``value``: ``kind`` "float" (IEEE 754; None -> NaN) or "int"
+    (32 bits two's complement; None -> 8000 0000h)."""
+    if kind == "float":
+        number = math.nan if value is None else float(value)
+        raw = struct.unpack(">I", struct.pack(">f", number))[0]
+    else:
+        raw = 0x8000_0000 if value is None else int(value) & 0xFFFF_FFFF
+    high, low = raw >> 16, raw & 0xFFFF
+    return (high, low) if order is WordOrder.BIG else (low, high)
+
+
+def from_registers(words: Sequence[int], kind: str, order: WordOrder) -> float | int:
+    """The value of two registers (see `to_registers`); "int" reads signed 32 bits,
+    "uint" unsigned."""
+    first, second = words[0] & 0xFFFF, words[1] & 0xFFFF
+    high, low = (first, second) if order is WordOrder.BIG else (second, first)
+    raw = high << 16 | low
+    if kind == "float":
+        value: float = struct.unpack(">f", struct.pack(">I", raw))[0]
+        return value
+    if kind == "uint":
+        return raw
+    return raw - (1 << 32) if raw & 0x8000_0000 else raw
+
+
+INPUT_SIZE = 100 + 2 * 50
+HOLDING_SIZE = 211
+MAX_PROCESS_POINTS = 4
+MAX_PARAMETERS = 50
+PROCESS_BASE = 24
+COUNTERS_BASE = 40
+PARAM_BASE = 100
+MAILBOX = 200
+
+COMMAND_CODES = {1: "on", 2: "off1", 3: "off2", 4: "off3", 5: "acknowledge"}
+"""Holding register 1."""
+
+
+class MailboxFormat(enum.IntEnum):
+    AUTO = 0
+    UINT16 = 1
+    INT16 = 2
+    UINT32 = 3
+    INT32 = 4
+    FLOAT = 5
+
+
+class MailboxStatus(enum.IntEnum):
+    IDLE = 0
+    DONE = 1
+    REFUSED = 2
+    FAILED = 3
+
+
+def param_kind(meta: ParamMeta) -> str:
+    """How a parameter sits in two registers: "float" or "int"."""
+    return "int" if meta.is_integer else "float"
+
+
+@dataclass(slots=True)
+class _Mailbox:
+    pnu: int = 0
+    index: int = 0xFFFF
+    fmt: int = 0
+    value: tuple[int, int] = (0, 0)
+    status: MailboxStatus = MailboxStatus.IDLE
+    response: int = 0
+    error: int = 0
+    result: tuple[int, int] = (0, 0)
+
+
+def _bits(state: DriveState) -> int:
+    bits = 0
+    if state.health.not_sending:
+        bits |= 1
+    if not state.answered:
+        bits |= 2
+    if state.fault:
+        bits |= 4
+    if state.warning:
+        bits |= 8
+    if state.reference is not None or state.model.unit == "%":
+        bits |= 16
+    return bits
+
+
+class DriveRegisters:
+    """The registers of one drive (see the module docstring). ``read_only``: every write
+    that would reach the drive is refused with exception 01."""
+
+    def __init__(
+        self,
+        drive: DrivePoints,
+        *,
+        word_order: WordOrder = WordOrder.BIG,
+        read_only: bool = False,
+    ) -> None:
+        self.drive = drive
+        self.word_order = word_order
+        self.read_only = read_only
+        self.mailbox = _Mailbox()
+        model = drive.model
+        if len(model.parameters) > MAX_PARAMETERS:
+            raise ConfigError(
+                f"{model.key}: the Modbus map holds {MAX_PARAMETERS} parameters, "
+                f"not {len(model.parameters)}"
+            )
+        for kind, items in (("actual", model.actual), ("setpoints", model.setpoints)):
+            if len(items) > MAX_PROCESS_POINTS:
+                raise ConfigError(
+                    f"{model.key}: the Modbus map holds {MAX_PROCESS_POINTS} {kind} values"
+                )
+
+    # -- reading -----------------------------------------------------------------------------
+    def _pair(self, value: float | int | None, kind: str) -> tuple[int, int]:
+        return to_registers(value, kind, self.word_order)
+
+    def input_image(self) -> list[int]:
+        """Every input register, as the drive's state is now."""
+        state = self.drive.snapshot()
+        regs = [0] * INPUT_SIZE
+        regs[0] = state.status_word or 0
+        regs[1] = state.state_code
+        regs[2] = _bits(state)
+        regs[3] = int(state.health.counters.error_status) & 0xFFFF
+        regs[4] = (state.health.last_fault or 0) & 0xFFFF
+        refusal = state.health.last_refusal
+        if refusal is not None:
+            regs[5] = 8 if refusal.get("response_id") == 8 else 7
+            regs[6] = int(refusal.get("number", 0)) & 0xFFFF
+            regs[7] = int(refusal.get("pnu", 0)) & 0xFFFF
+        for i, word in enumerate(state.actual_words[:15]):
+            regs[8 + i] = word & 0xFFFF
+        for k, item in enumerate(state.model.actual):
+            value = state.actual.get(item.key)
+            base = PROCESS_BASE + 4 * k
+            regs[base : base + 2] = self._pair(None if value is None else value.value, "float")
+            regs[base + 2 : base + 4] = self._pair(
+                None if value is None else value.percent, "float"
+            )
+        for i, word in enumerate(state.health.counters.words()):
+            regs[COUNTERS_BASE + i] = word
+        regs[56:58] = self._pair(state.health.answers & 0xFFFF_FFFF, "int")
+        regs[58:60] = self._pair(state.health.timeouts & 0xFFFF_FFFF, "int")
+        for k, point in enumerate(state.model.parameters):
+            reading = state.parameters.get(point.key)
+            base = PARAM_BASE + 2 * k
+            regs[base : base + 2] = self._pair(
+                None if reading is None else reading.value, param_kind(point.meta)
+            )
+        return regs
+
+    def read_input(self, address: int, count: int) -> list[int]:
+        self._check_range(address, count, INPUT_SIZE)
+        return self.input_image()[address : address + count]
+
+    def holding_image(self) -> list[int]:
+        state = self.drive.snapshot()
+        regs = [0] * HOLDING_SIZE
+        regs[0] = state.control_word & 0xFFFF
+        for i, word in enumerate(state.setpoint_words[:15]):
+            regs[2 + i] = word & 0xFFFF
+        for k, item in enumerate(state.model.setpoints):
+            value = state.setpoints.get(item.key)
+            base = PROCESS_BASE + 4 * k
+            regs[base : base + 2] = self._pair(None if value is None else value.value, "float")
+            regs[base + 2 : base + 4] = self._pair(
+                None if value is None else value.percent, "float"
+            )
+        for k, point in enumerate(state.model.parameters):
+            reading = state.parameters.get(point.key)
+            base = PARAM_BASE + 2 * k
+            regs[base : base + 2] = self._pair(
+                None if reading is None else reading.value, param_kind(point.meta)
+            )
+        box = self.mailbox
+        regs[MAILBOX : MAILBOX + 11] = [
+            box.pnu,
+            box.index,
+            box.fmt,
+            *box.value,
+            0,
+            int(box.status),
+            box.response,
+            box.error,
+            *box.result,
+        ]
+        return regs
+
+    async def read_holding(self, address: int, count: int) -> list[int]:
+        """Holding registers; configured parameters that are not polled are read from the
+        drive first (one job each)."""
+        self._check_range(address, count, HOLDING_SIZE)
+        for k, point in enumerate(self.drive.model.parameters):
+            base = PARAM_BASE + 2 * k
+            if point.poll is None and address < base + 2 and base < address + count:
+                await self._guard(self.drive.read_parameter(point.meta.pnu, point.meta.index))
+        return self.holding_image()[address : address + count]
+
+    @staticmethod
+    def _check_range(address: int, count: int, size: int) -> None:
+        if count < 1 or address < 0 or address + count > size:
+            raise RegisterError(
+                ModbusException.ILLEGAL_DATA_ADDRESS,
+                f"registers {address}..{address + count - 1} are outside the map (0..{size - 1})",
+            )
+
+    # -- writing -----------------------------------------------------------------------------
+    async def _guard(self, operation: object) -> object:
+        """Await ``operation``; failures become `RegisterError` with the class's code."""
+        try:
+            return await operation  # type: ignore[misc]
+        except RegisterError:
+            raise
+        except (UssError, ValueError) as exc:
+            raise RegisterError(EXCEPTIONS[classify(exc)], str(exc)) from exc
+
+    def _refuse_write(self) -> None:
+        if self.read_only:
+            raise RegisterError(ModbusException.ILLEGAL_FUNCTION, "this Modbus face is read-only")
+
+    async def write_holding(self, address: int, values: Sequence[int]) -> None:
+        """Write ``values`` from ``address`` on; returns when the drive answered. The parts of
+        one request are applied in this order: process data (one telegram), parameters,
+        the mailbox, the command."""
+        count = len(values)
+        self._check_range(address, count, HOLDING_SIZE)
+        words = {address + i: v & 0xFFFF for i, v in enumerate(values)}
+
+        def whole(base: int, what: str) -> tuple[int, int] | None:
+            inside = [a in words for a in (base, base + 1)]
+            if not any(inside):
+                return None
+            if not all(inside):
+                raise RegisterError(
+                    ModbusException.ILLEGAL_DATA_VALUE,
+                    f"{what} at {base}..{base + 1} is 32 bits: write both registers at once",
+                )
+            return words[base], words[base + 1]
+
+        model = self.drive.model
+        writable = {0, 1, *range(2, 2 + max(model.layout.pzd - 1, 0))}
+        for k in range(len(model.setpoints)):
+            writable.update(range(PROCESS_BASE + 4 * k, PROCESS_BASE + 4 * k + 4))
+        for k in range(len(model.parameters)):
+            writable.update((PARAM_BASE + 2 * k, PARAM_BASE + 2 * k + 1))
+        writable.update(range(MAILBOX, MAILBOX + 6))
+        for reg in words:
+            if reg not in writable:
+                raise RegisterError(
+                    ModbusException.ILLEGAL_DATA_ADDRESS,
+                    f"register {reg} cannot be written (see the register map)",
+                )
+        mailbox_only = all(MAILBOX <= reg < MAILBOX + 6 for reg in words)
+        if not mailbox_only:
+            self._refuse_write()
+        # process data: raw PZD words, setpoints as floats, the control word: one telegram
+        pzd: dict[int, int] = {}
+        for reg in range(2, 17):
+            if reg in words:
+                pzd[reg] = words[reg]
+        for k, item in enumerate(model.setpoints):
+            base = PROCESS_BASE + 4 * k
+            for offset, unit in ((0, "value"), (2, "percent")):
+                pair = whole(base + offset, f"setpoint {item.key}")
+                if pair is None:
+                    continue
+                number = from_registers(pair, "float", self.word_order)
+                try:
+                    raw = self.drive.setpoint_raw(number, item.key, unit=unit)
+                except ConfigError as exc:
+                    raise RegisterError(ModbusException.ILLEGAL_DATA_VALUE, str(exc)) from exc
+                if item.dword:
+                    pzd[item.pzd] = raw >> 16 & 0xFFFF
+                    pzd[item.pzd + 1] = raw & 0xFFFF
+                else:
+                    pzd[item.pzd] = raw & 0xFFFF
+        control = words.get(0)
+        if pzd or control is not None:
+            await self._guard(self.drive.set_process(control=control, words=pzd))
+        for k, point in enumerate(model.parameters):
+            pair = whole(PARAM_BASE + 2 * k, point.key)
+            if pair is None:
+                continue
+            kind = param_kind(point.meta)
+            value = from_registers(pair, kind, self.word_order)
+            await self._guard(self.drive.write_parameter(point.meta.pnu, value, point.meta.index))
+        if any(MAILBOX <= reg < MAILBOX + 6 for reg in words):
+            await self._mailbox(words, whole)
+        if 1 in words:
+            name = COMMAND_CODES.get(words[1])
+            if name is None:
+                raise RegisterError(
+                    ModbusException.ILLEGAL_DATA_VALUE,
+                    f"command {words[1]} is not 1..5 (ON, OFF1, OFF2, OFF3, acknowledge)",
+                )
+            await self._guard(self.drive.command(name))
+
+    async def _mailbox(self, words: dict[int, int], whole: object) -> None:
+        box = self.mailbox
+        if MAILBOX in words:
+            box.pnu = words[MAILBOX]
+        if MAILBOX + 1 in words:
+            box.index = words[MAILBOX + 1]
+        if MAILBOX + 2 in words:
+            box.fmt = words[MAILBOX + 2]
+        pair = whole(MAILBOX + 3, "the mailbox value")  # type: ignore[operator]
+        if pair is not None:
+            box.value = pair
+        command = words.get(MAILBOX + 5)
+        if command is None or command == 0:
+            return
+        if command not in (1, 2, 3):
+            raise RegisterError(
+                ModbusException.ILLEGAL_DATA_VALUE,
+                f"mailbox command {command} is not 1 (read), 2 (write) or 3 (write, EEPROM)",
+            )
+        if command != 1:
+            self._refuse_write()
+        try:
+            fmt = MailboxFormat(box.fmt)
+        except ValueError:
+            raise RegisterError(
+                ModbusException.ILLEGAL_DATA_VALUE, f"mailbox format {box.fmt} is not 0..5"
+            ) from None
+        index = None if box.index == 0xFFFF else box.index
+        box.status, box.response, box.error = MailboxStatus.IDLE, 0, 0
+        try:
+            meta = self.drive.meta(box.pnu, index)
+            if command == 1:
+                reading = await self.drive.read_parameter(box.pnu, index)
+            else:
+                value = self._mailbox_value(box.value, fmt, meta)
+                reading = await self.drive.write_parameter(
+                    box.pnu, value, index, eeprom=command == 3
+                )
+        except (DriveRefusal, NoWriteAuthority) as exc:
+            box.status = MailboxStatus.REFUSED
+            box.response = 8 if isinstance(exc, NoWriteAuthority) else 7
+            box.error = exc.number & 0xFFFF if isinstance(exc, DriveRefusal) else 0
+            box.result = (0, 0)
+            raise RegisterError(EXCEPTIONS[classify(exc)], str(exc)) from exc
+        except (UssError, ValueError) as exc:
+            box.status = MailboxStatus.FAILED
+            box.result = (0, 0)
+            raise RegisterError(EXCEPTIONS[classify(exc)], str(exc)) from exc
+        box.status = MailboxStatus.DONE
+        box.result = self._mailbox_result(reading.value, fmt, meta)
+
+    def _mailbox_value(self, pair: tuple[int, int], fmt: MailboxFormat, meta: ParamMeta) -> float:
+        if fmt is MailboxFormat.AUTO:
+            fmt = MailboxFormat.INT32 if meta.is_integer else MailboxFormat.FLOAT
+        if fmt is MailboxFormat.FLOAT:
+            return from_registers(pair, "float", self.word_order)
+        if fmt is MailboxFormat.UINT32:
+            return from_registers(pair, "uint", self.word_order)
+        if fmt is MailboxFormat.INT32:
+            return from_registers(pair, "int", self.word_order)
+        low = int(from_registers(pair, "uint", self.word_order)) & 0xFFFF
+        if fmt is MailboxFormat.INT16 and low & 0x8000:
+            return low - 0x10000
+        return low
+
+    def _mailbox_result(
+        self, value: float | int | None, fmt: MailboxFormat, meta: ParamMeta
+    ) -> tuple[int, int]:
+        if fmt is MailboxFormat.AUTO:
+            fmt = MailboxFormat.INT32 if meta.is_integer else MailboxFormat.FLOAT
+        if fmt is MailboxFormat.FLOAT:
+            return self._pair(value, "float")
+        if value is None:
+            return self._pair(None, "int")
+        return self._pair(round(value), "int")

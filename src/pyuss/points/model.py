@@ -1,0 +1,195 @@
+"""The points of every drive, resolved from the configuration before anything is opened.
+
+`resolve` checks a `PlantConfig` against what the parameter model knows (a text parameter
+cannot be shown as a number, an array needs an element, a process word must fit the layout)
+and returns the `PlantModel` the runtime and the faces are built from. Errors name the key of
+the configuration, as `pyuss.points.config` does.
+
+Per drive the points are the same for every face:
+
+- the status word and its bits (C Tables 5.5, 5.6: `STATUS_BIT_NAMES`) and the state they spell;
+- actual values: PZD words of the answer, in percent (4000h = 100 %) and, where the reference
+  is known, in its unit;
+- the control word and setpoints: PZD words of the request, the same way;
+- chosen parameters (`ParamMeta`), read when asked or polled;
+- health: "does not send" (A 5.2.1.1), the counters of A 5.2.3, the last fault, the last
+  refused job.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from pyuss.errors import ConfigError
+from pyuss.points.config import BusConfig, DriveConfig, ParamRef, PlantConfig, ProcessConfig, Where
+from pyuss.points.parameters import ParameterModel, ParamMeta
+from pyuss.profiles import get_profile
+from pyuss.protocol.layout import Layout
+from pyuss.protocol.pzd import StatusWord
+
+__all__ = [
+    "COMMANDS",
+    "STATUS_BIT_NAMES",
+    "BusModel",
+    "DriveModel",
+    "ParameterPoint",
+    "PlantModel",
+    "resolve",
+]
+
+STATUS_BIT_NAMES: dict[int, str] = {
+    flag.bit_length() - 1: str(flag.name).lower()
+    for flag in StatusWord
+    if flag.name is not None and not flag.name.startswith("DEVICE")
+}
+"""Status bits 0..10 by the names the faces use (``ready_to_switch_on`` ... ``target_reached``)."""
+
+COMMANDS = ("on", "off1", "off2", "off3", "acknowledge")
+"""The drive commands every face offers (control word sequences of `pyuss.master.Drive`)."""
+
+
+@dataclass(frozen=True, slots=True)
+class ParameterPoint:
+    meta: ParamMeta
+    poll: float | None
+
+    @property
+    def key(self) -> str:
+        return self.meta.key
+
+
+@dataclass(frozen=True, slots=True)
+class DriveModel:
+    bus: str
+    address: int
+    name: str
+    profile: str
+    layout: Layout
+    actual: tuple[ProcessConfig, ...]
+    setpoints: tuple[ProcessConfig, ...]
+    parameters: tuple[ParameterPoint, ...]
+    reference: float | ParamMeta | None
+    """Physical value of 100 %: a number, the parameter to read it from, or None (percent)."""
+    unit: str
+    """Unit of the process values ("%" without a reference)."""
+    fault: ParamMeta | None
+    """The parameter holding the fault number, read when the fault bit rises."""
+    config: DriveConfig
+
+    @property
+    def key(self) -> str:
+        """``bus/name``: unique in the plant."""
+        return f"{self.bus}/{self.name}"
+
+    def parameter(self, key: str) -> ParameterPoint | None:
+        for point in self.parameters:
+            if point.key == key:
+                return point
+        return None
+
+
+@dataclass(frozen=True, slots=True)
+class BusModel:
+    config: BusConfig
+    drives: tuple[DriveModel, ...]
+
+    @property
+    def name(self) -> str:
+        return self.config.name
+
+
+@dataclass(frozen=True, slots=True)
+class PlantModel:
+    buses: tuple[BusModel, ...]
+    config: PlantConfig
+
+    @property
+    def drives(self) -> tuple[DriveModel, ...]:
+        return tuple(d for bus in self.buses for d in bus.drives)
+
+
+def _drive(bus: BusConfig, config: DriveConfig, where: Where) -> DriveModel:
+    profile_name = config.profile or bus.profile
+    profile = get_profile(profile_name)
+    layout = config.layout or bus.layout or profile.default_layout
+    try:
+        profile.check_layout(layout)
+    except ConfigError as exc:
+        raise where.key("layout").error(str(exc)) from None
+    for kind, items in (("actual", config.actual), ("setpoints", config.setpoints)):
+        for number, item in enumerate(items):
+            last = item.pzd + (1 if item.dword else 0)
+            if last > layout.pzd:
+                raise (
+                    where.key(kind)
+                    .key(number)
+                    .error(f"PZD{last} is beyond layout {layout} ({layout.pzd} PZD words)")
+                )
+    model = ParameterModel(profile_name)
+    parameters: list[ParameterPoint] = []
+    for number, param in enumerate(config.parameters):
+        try:
+            meta = model.meta(param.pnu, param.index, param.name)
+        except ConfigError as exc:
+            raise where.key("parameters").key(number).error(str(exc)) from None
+        if layout.pkw == 0:
+            raise where.key("parameters").error(
+                f"layout {layout} has no PKW area: no parameter can be read (C 4.1)"
+            )
+        if meta.dword and layout.pkw == 3:
+            raise (
+                where.key("parameters")
+                .key(number)
+                .error(
+                    f"{meta.key} is a double word: layout {layout} carries one word (PKW 4 or v)"
+                )
+            )
+        parameters.append(ParameterPoint(meta, param.poll))
+    reference: float | ParamMeta | None
+    unit = "%"
+    if isinstance(config.reference, float):
+        reference = config.reference
+        unit = config.unit or ""
+    else:
+        ref: tuple[int, int | None] | None
+        if isinstance(config.reference, ParamRef):
+            ref = (config.reference.pnu, config.reference.index)
+        else:
+            ref = model.role("reference") if layout.pkw else None
+        if ref is None:
+            reference = None
+        else:
+            try:
+                reference = model.meta(*ref)
+            except ConfigError as exc:
+                raise where.key("reference").error(str(exc)) from None
+            unit = reference.unit
+    fault_ref = model.role("fault") if layout.pkw else None
+    fault = model.meta(*fault_ref) if fault_ref is not None else None
+    return DriveModel(
+        bus=bus.name,
+        address=config.address,
+        name=config.name,
+        profile=profile_name,
+        layout=layout,
+        actual=config.actual,
+        setpoints=config.setpoints,
+        parameters=tuple(parameters),
+        reference=reference,
+        unit=unit,
+        fault=fault,
+        config=config,
+    )
+
+
+def resolve(plant: PlantConfig, where: Where | None = None) -> PlantModel:
+    """The `PlantModel` of ``plant``; `ConfigError` naming the key of what cannot be shown."""
+    where = where or Where("bus")
+    buses = []
+    for number, bus in enumerate(plant.buses):
+        at = where.key(number)
+        drives = tuple(
+            _drive(bus, drive, at.key("drive").key(n)) for n, drive in enumerate(bus.drives)
+        )
+        buses.append(BusModel(bus, drives))
+    return PlantModel(tuple(buses), plant)

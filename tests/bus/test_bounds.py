@@ -1,0 +1,157 @@
+"""One station cannot grow the bus or jam its line, and idle raw connections cannot lock
+``bus://`` stations out: real TCP sockets on 127.0.0.1, the bus's own queue sizes."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import socket
+import time
+
+import pytest
+
+from pyuss.bus import BusClientTransport, VirtualBus
+from pyuss.bus.core import EVICT_IDLE, MAX_QUEUE, MAX_SENDERS
+from pyuss.errors import ConfigError
+from transport.helpers import WAIT, joined, read_bytes
+
+BAUD = 9600
+
+
+async def _until(condition: object, what: str) -> None:
+    """Let the event loop run until ``condition()`` holds (generous: a loaded machine)."""
+    deadline = time.monotonic() + WAIT
+    while not condition():  # type: ignore[operator]
+        assert time.monotonic() < deadline, what
+        await asyncio.sleep(0.01)
+
+
+async def _send_and_leave(port: int, size: int) -> None:
+    """A raw TCP station (pyserial socket://, tcp://) that writes ``size`` bytes and leaves."""
+    loop = asyncio.get_running_loop()
+    with socket.create_connection(("127.0.0.1", port)) as sock:
+        sock.setblocking(False)
+        await loop.sock_sendall(sock, bytes(size))
+
+
+@pytest.mark.parametrize("size", [64 * 1024, 1024 * 1024], ids=["64 KiB", "1 MiB"])
+async def test_a_flooding_station_is_bounded_and_its_rest_dropped_when_it_leaves(
+    size: int,
+) -> None:
+    bus = VirtualBus(BAUD)
+    try:
+        _, raw_port = await bus.serve_tcp("127.0.0.1", 0)
+        host, port = await bus.serve_tcp("127.0.0.1", 0, framed=True)
+        most = 0
+
+        def watch(_char: object) -> None:
+            nonlocal most
+            most = max(most, bus.queued())
+
+        bus.on_char.append(watch)
+        stats = bus.stats
+        await _send_and_leave(raw_port, size)
+        await _until(
+            lambda: stats.overflow + stats.unsent + stats.chars + bus.queued() == size,
+            "every byte was taken, dropped or sent",
+        )
+        await _until(lambda: stats.unsent, "the station left")
+        assert most <= MAX_QUEUE
+        assert stats.overflow >= size - MAX_QUEUE - stats.chars  # room freed as chars went out
+        assert bus.queued() <= 2  # at most what was on the wire as it left
+        # the line is free at once: two bus:// stations talk as if nothing had happened
+        async with (
+            BusClientTransport(host, port, baud=BAUD, name="master") as master,
+            BusClientTransport(host, port, baud=BAUD, name="drive") as drive,
+        ):
+            await master.write(b"\x02\x06\x05\x10\x34\x00\x00\x27")
+            got = joined(await read_bytes(drive, 8, timeout=WAIT))
+        assert got == b"\x02\x06\x05\x10\x34\x00\x00\x27"
+    finally:
+        await bus.close()
+
+
+async def test_a_station_that_leaves_takes_its_unsent_characters_along() -> None:
+    bus = VirtualBus(BAUD)
+    try:
+        chatty = bus.attach("chatty")
+        await chatty.open()
+        began = time.monotonic()
+        await chatty.write(bytes(1000))
+        assert bus.queued("chatty") == 1000
+        await chatty.close()
+        started = (time.monotonic() - began) / bus.char_time + 1  # went on the wire meanwhile
+        assert bus.queued() <= started
+        assert bus.stats.unsent >= 1000 - started
+    finally:
+        await bus.close()
+
+
+async def test_idle_raw_connections_never_lock_a_bus_master_out() -> None:
+    """32 raw TCP connections take every sending place (B 1); a bus:// master that comes
+    later gets the place of the raw station silent longest."""
+    bus = VirtualBus(BAUD)
+    idle: list[socket.socket] = []
+    try:
+        _, raw_port = await bus.serve_tcp("127.0.0.1", 0)
+        host, port = await bus.serve_tcp("127.0.0.1", 0, framed=True)
+        idle = [socket.create_connection(("127.0.0.1", raw_port)) for _ in range(MAX_SENDERS)]
+        await _until(lambda: len(bus.stations) == MAX_SENDERS, "every raw station attached")
+        await asyncio.sleep(EVICT_IDLE + 0.1)  # they stay silent
+        async with BusClientTransport(host, port, baud=BAUD, name="master") as master:
+            assert master.name == "master"
+            assert "master" in bus.stations
+        assert bus.stats.evicted == 1
+        assert len([n for n in bus.stations if n.startswith("tcp")]) == MAX_SENDERS - 1
+        idle[0].settimeout(WAIT)
+        assert idle[0].recv(16) == b""  # tcp1, the first silent, was disconnected
+    finally:
+        for sock in idle:
+            sock.close()
+        await bus.close()
+
+
+def test_only_idle_evictable_stations_give_their_place() -> None:
+    bus = VirtualBus(BAUD)
+    evicted: list[str] = []
+    for i in range(MAX_SENDERS):
+        station = bus.attach(f"s{i}")
+        if i >= 30:  # two anonymous ones, which may give their place
+
+            def evict(name: str = f"s{i}") -> None:
+                evicted.append(name)
+
+            station.evict = evict
+    with pytest.raises(ConfigError, match="32 sending stations"):
+        bus.attach("new")  # they just sent: not idle
+    bus.stations["s31"].last_active -= EVICT_IDLE
+    bus.stations["s30"].last_active -= 2 * EVICT_IDLE
+    bus.attach("new")  # the one silent longest goes first
+    assert evicted == ["s30"]
+    bus.attach("newer")
+    assert evicted == ["s30", "s31"]
+    with pytest.raises(ConfigError, match="32 sending stations"):
+        bus.attach("newest")  # no evictable station left: the others are not anonymous
+    assert bus.stats.evicted == 2
+
+
+async def test_an_evicted_raw_station_puts_nothing_more_on_the_line() -> None:
+    """A connection closed to make room must not put late bytes on the line."""
+    bus = VirtualBus(BAUD)
+    try:
+        _, raw_port = await bus.serve_tcp("127.0.0.1", 0)
+        with socket.create_connection(("127.0.0.1", raw_port)) as sock:
+            await _until(lambda: "tcp1" in bus.stations, "attached")
+            station = bus.stations["tcp1"]
+            assert station.evict is not None
+            station.evict()
+            bus.detach("tcp1", station)
+            with contextlib.suppress(OSError):
+                for _ in range(20):
+                    sock.sendall(bytes(100))
+                    await asyncio.sleep(0.01)
+        await asyncio.sleep(0.1)
+        assert bus.stats.chars == 0
+        assert bus.queued() == 0
+    finally:
+        await bus.close()

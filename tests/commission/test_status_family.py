@@ -1,0 +1,27 @@
+"""`uss status` speaks the family's language: its status bits 11..15 and its fault texts."""
+
+from __future__ import annotations
+
+from master.conftest import simulated_bus
+from pyuss.commission.status import look
+from pyuss.profiles import get_profile
+from pyuss.protocol.layout import PKW_VARIABLE, Layout
+
+
+async def test_status_names_the_familys_bits_and_fault() -> None:
+    layout = Layout(PKW_VARIABLE, 2)
+    async with simulated_bus([(3, "sinamics-v20", layout)], profile="sinamics-v20") as env:
+        env.engines[3].drive.raise_fault(72)  # the telegram off time ran out: F0072
+        drive = env.master.drive(3, layout=layout)
+        seen = await look(drive, timeout=2.0)
+    meanings = {bit: text for bit, _, text in seen.bits()}
+    assert meanings[11] == "motor current limit warning (0 = active)"
+    assert meanings[14] == "motor turns right"
+    assert "device-specific" not in meanings.values()
+    assert meanings[3] == "fault"  # the specification's bits keep their words
+    text = get_profile("sinamics-v20").faults[72]
+    assert "setpoint fault" in text
+    faults = [line for line in seen.lines() if line.startswith("P947.0")]
+    assert faults == [f"P947.0 (Fault numbers) = 72 ({text})"], seen.lines()
+    shown = {p["label"]: p["fault_text"] for p in seen.to_dict()["parameters"]}
+    assert shown["P947.0"] == text and shown["P2110.0"] is None  # no warning

@@ -1,0 +1,201 @@
+"""``uss gateway`` as a user runs it: separate processes for the bus, the simulated drives and
+the gateway; bad configuration refused before any port opens; SIGTERM stops it cleanly."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+
+from gateway.harness import Broker, free_port
+
+USS = [sys.executable, "-m", "pyuss.cli.main"]
+
+
+def start(*args: str) -> subprocess.Popen[str]:
+    # stderr (log lines) goes to a file: a pipe nobody reads would fill and stop the process
+    log = tempfile.TemporaryFile("w+")  # noqa: SIM115 - closed with the process
+    return subprocess.Popen(
+        [*USS, *args],
+        stdout=subprocess.PIPE,
+        stderr=log,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+
+
+def first_line(process: subprocess.Popen[str], want: str, timeout: float = 30) -> str:
+    assert process.stdout is not None
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        line = process.stdout.readline()
+        if not line:
+            break
+        if want in line:
+            return line.strip()
+    raise AssertionError(
+        f"no line with {want!r}; stderr: {process.stderr.read() if process.stderr else ''}"
+    )
+
+
+def stop(process: subprocess.Popen[str]) -> int:
+    if process.poll() is None:
+        process.send_signal(signal.SIGTERM)
+    return process.wait(30)
+
+
+def test_bus_simulator_and_gateway_as_separate_processes(broker: Broker) -> None:
+    import aiomqtt  # noqa: F401  (the mqtt extra is installed)
+    from pymodbus.client import ModbusTcpClient
+
+    bus = start("bus", "--baud", "38400", "--bus-tcp", "127.0.0.1:0")
+    processes = [bus]
+    try:
+        url = first_line(bus, "bus://")
+        host_port = url.removeprefix("bus://")
+        sim = start(
+            "simulate",
+            "--baud",
+            "38400",
+            "--bus",
+            host_port,
+            "--layout",
+            "4,2",
+            "--address",
+            "5",
+            "--address",
+            "6",
+        )
+        processes.append(sim)
+        first_line(sim, "bus://")
+        modbus_port = free_port()
+        gateway = start(
+            "gateway",
+            "--port",
+            url,
+            "--baud",
+            "38400",
+            "--layout",
+            "4,2",
+            "--address",
+            "5",
+            "--address",
+            "6",
+            "--parameter",
+            "107",
+            "--modbus",
+            f"127.0.0.1:{modbus_port}",
+            "--mqtt",
+            broker.url,
+        )
+        processes.append(gateway)
+        first_line(gateway, "ready")
+        client = ModbusTcpClient("127.0.0.1", port=modbus_port, timeout=10)
+        assert client.connect()
+        # wait until the gateway has read the reference (health bit 4), then set 25 Hz and ON
+        deadline = time.monotonic() + 20
+        while not client.read_input_registers(2, count=1, device_id=5).registers[0] & 16:
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        words = list(struct.unpack(">HH", struct.pack(">f", 25.0)))
+        assert not client.write_registers(24, words, device_id=5).isError()
+        assert not client.write_register(1, 1, device_id=5).isError()
+        status = client.read_input_registers(0, count=2, device_id=5).registers
+        assert status[0] & 0x0004 and status[1] == 5  # operation enabled
+        p107 = client.read_holding_registers(100, count=2, device_id=5).registers
+        assert struct.unpack(">f", struct.pack(">HH", *p107))[0] == 50.0
+        client.close()
+        assert stop(gateway) == 0
+        result = subprocess.run(
+            [
+                "mosquitto_sub",
+                "-p",
+                str(broker.port),
+                "-t",
+                "uss/bus/availability",
+                "-C",
+                "1",
+                "-W",
+                "5",
+            ],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        assert result.stdout.strip() == "offline"
+        state = subprocess.run(
+            [
+                "mosquitto_sub",
+                "-p",
+                str(broker.port),
+                "-t",
+                "uss/bus/drive5/state",
+                "-C",
+                "1",
+                "-W",
+                "5",
+            ],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        assert json.loads(state.stdout)["setpoint"]["main"]["value"] == 25.0
+    finally:
+        for process in reversed(processes):
+            stop(process)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (
+            ["--port", "/dev/null", "--address", "40", "--modbus", "5020"],
+            "--address: 40 is not 0..31",
+        ),
+        (["--port", "/dev/null", "--address", "5"], "no face"),
+        (["--port", "/dev/null", "--address", "5", "--modbus", "host:99999"], "--modbus:"),
+        (["--port", "/dev/null", "--address", "5", "--mqtt", "ftp://x"], "--mqtt:"),
+        (["--config", "/nonexistent.toml"], "cannot read it"),
+    ],
+)
+def test_bad_configuration_is_one_line_and_exit_code_2(args: list[str], message: str) -> None:
+    result = subprocess.run([*USS, "gateway", *args], capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], result.stderr
+
+
+def test_a_bad_key_in_the_file_is_named_before_any_port_opens(tmp_path: Path) -> None:
+    config = tmp_path / "plant.toml"
+    config.write_text(
+        '[[bus]]\nport = "/dev/ttyNOPE"\n[[bus.drive]]\naddress = 5\nparameters = [90]\n[opcua]\n',
+        encoding="utf-8",
+    )
+    result = subprocess.run(
+        [*USS, "gateway", "--config", str(config)], capture_output=True, text=True, timeout=60
+    )
+    assert result.returncode == 2
+    assert result.stderr.strip() == (
+        f"uss gateway: {config}: bus[0].drive[0].parameters[0]: P90 (Plant name) is a string "
+        "parameter: the gateway exposes numbers only"
+    )
+
+
+def test_a_face_without_its_library_names_the_pip_install() -> None:
+    code = (
+        "import sys; sys.modules['pymodbus'] = None\n"
+        "from pyuss.gateway.extras import require\n"
+        "try:\n    require('modbus')\nexcept Exception as exc:\n    print(exc)\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=60
+    )
+    assert "pip install 'pyuss[modbus]'" in result.stdout

@@ -1,0 +1,118 @@
+"""The Modbus register map: 32-bit values in two registers with either word order (pure), and
+the map over simulated drives with a real pymodbus client."""
+
+from __future__ import annotations
+
+import struct
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from gateway.harness import ModbusClient, eventually, simulated_gateway
+from pyuss.gateway.registers import (
+    EXCEPTIONS,
+    DriveRegisters,
+    ModbusException,
+    RegisterError,
+    WordOrder,
+    from_registers,
+    to_registers,
+)
+from pyuss.points.errors import Failure
+
+
+@given(st.integers(min_value=-(1 << 31), max_value=(1 << 31) - 1), st.sampled_from(WordOrder))
+def test_integers_fill_two_registers_either_way_round(value: int, order: WordOrder) -> None:
+    words = to_registers(value, "int", order)
+    assert all(0 <= w <= 0xFFFF for w in words)
+    assert from_registers(words, "int", order) == value
+
+
+@given(st.floats(width=32, allow_nan=False), st.sampled_from(WordOrder))
+def test_floats_fill_two_registers_either_way_round(value: float, order: WordOrder) -> None:
+    assert from_registers(to_registers(value, "float", order), "float", order) == value
+
+
+def test_big_word_order_puts_the_high_word_first_as_uss_does() -> None:
+    assert to_registers(0x12345678, "int", WordOrder.BIG) == (0x1234, 0x5678)
+    assert to_registers(0x12345678, "int", WordOrder.LITTLE) == (0x5678, 0x1234)
+    assert to_registers(50.0, "float", WordOrder.BIG) == (0x4248, 0x0000)
+
+
+def test_every_failure_has_a_documented_exception() -> None:
+    assert set(EXCEPTIONS) == set(Failure)
+    assert EXCEPTIONS[Failure.REFUSED] is ModbusException.SERVER_DEVICE_FAILURE
+
+
+async def test_the_map_without_sockets_reads_status_and_refuses_half_a_float() -> None:
+    async with simulated_gateway() as (gateway, _):
+        registers = DriveRegisters(gateway.plant.drive("bus", 5))
+        image = registers.read_input(0, 60)
+        assert image[0] == 0x0240  # switch-on inhibited, control requested
+        assert image[1] == 2  # state code: switch-on inhibited
+        assert from_registers(registers.read_input(24, 2), "float", WordOrder.BIG) == 0.0
+        with pytest.raises(RegisterError) as error:
+            await registers.write_holding(24, [0x41C8])  # half of 25.0
+        assert error.value.code is ModbusException.ILLEGAL_DATA_VALUE
+        with pytest.raises(RegisterError) as error:
+            registers.read_input(190, 20)
+        assert error.value.code is ModbusException.ILLEGAL_DATA_ADDRESS
+
+
+async def test_a_modbus_client_reads_status_actual_value_and_health() -> None:
+    async with (
+        simulated_gateway(modbus=True) as (gateway, engines),
+        ModbusClient(gateway) as client,
+    ):
+        await client.set_setpoint(5, 10.0)
+        await client.switch_on(5)
+
+        async def actual() -> float:
+            response = await client.client.read_input_registers(24, count=2, device_id=5)
+            value: float = struct.unpack(">f", struct.pack(">HH", *response.registers))[0]
+            return value
+
+        values: list[float] = []
+
+        async def sample() -> bool:
+            values.append(await actual())
+            return values[-1] > 0
+
+        for _ in range(500):
+            if await sample():
+                break
+        assert values[-1] > 0
+        status = await client.client.read_input_registers(0, count=4, device_id=5)
+        assert status.registers[0] & 0x0004  # operation enabled
+        assert status.registers[1] == 5
+        assert status.registers[2] & 1 == 0  # the drive sends
+        holding = await client.client.read_holding_registers(0, count=3, device_id=5)
+        assert holding.registers[0] == 0x047F
+        assert holding.registers[2] == round(0.2 * 0x4000)  # 10 Hz of 50 Hz: 20 % of 4000h
+        missing = await client.client.read_input_registers(0, count=1, device_id=9)
+        assert missing.isError() and missing.exception_code == 0x0B
+        await eventually(lambda: engines[5].drive.value(3) == 1000)
+
+
+async def test_the_mailbox_reads_and_writes_any_parameter_in_one_request() -> None:
+    async with (
+        simulated_gateway(modbus=True) as (gateway, engines),
+        ModbusClient(gateway) as client,
+    ):
+        # function 23: write the job and read its result in one transaction
+        response = await client.client.readwrite_registers(
+            read_address=206,
+            read_count=5,
+            write_address=200,
+            values=[18, 0xFFFF, 2, 0, 0x1234, 2],  # P18 = 1234h as signed 16
+            device_id=5,
+        )
+        assert response.registers[:3] == [1, 0, 0]  # done, no refusal
+        assert engines[5].drive.value(18) == 0x1234
+        refused = await client.client.write_registers(200, [999, 0xFFFF, 1, 0, 1, 2], device_id=5)
+        assert refused.isError() and refused.exception_code == 0x02  # error 0: no such PNU
+        box = await client.client.read_holding_registers(206, count=3, device_id=5)
+        assert box.registers == [2, 7, 0]  # refused, response 7, error number 0
+        health = await client.client.read_input_registers(5, count=3, device_id=5)
+        assert health.registers == [7, 0, 999]

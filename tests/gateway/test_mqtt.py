@@ -1,0 +1,220 @@
+"""The MQTT face against a real mosquitto: discovery, availability, commands carried out once,
+nothing lost over a broker restart, two gateways on one broker."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+from collections.abc import AsyncIterator
+from typing import Any
+
+import aiomqtt
+
+from gateway import ha_schema
+from gateway.harness import Broker, MqttClient, eventually, simulated_gateway
+
+
+@contextlib.asynccontextmanager
+async def watcher(broker: Broker, *topics: str) -> AsyncIterator[dict[str, bytes]]:
+    """A client that keeps the last payload of every topic it sees."""
+    seen: dict[str, bytes] = {}
+    async with aiomqtt.Client("127.0.0.1", broker.port) as client:
+        for topic in topics:
+            await client.subscribe(topic, qos=1)
+
+        async def listen() -> None:
+            async for message in client.messages:
+                seen[message.topic.value] = bytes(message.payload)  # type: ignore[arg-type]
+
+        task = asyncio.create_task(listen())
+        try:
+            yield seen
+        finally:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+
+
+async def test_home_assistant_discovery_validates_against_the_documented_schema(
+    broker: Broker,
+) -> None:
+    async with (
+        simulated_gateway(mqtt=broker.url) as (_gateway, _),
+        watcher(broker, "homeassistant/#") as seen,
+    ):
+        await eventually(lambda: len(seen) >= 2 * 12)  # 12 entities per drive
+        await asyncio.sleep(0.3)
+        configs = {topic: json.loads(payload) for topic, payload in seen.items() if payload}
+    components = {topic.split("/")[1] for topic in configs}
+    assert components == {"sensor", "binary_sensor", "number", "switch", "button"}
+    problems = [p for topic, config in configs.items() for p in ha_schema.check(topic, config)]
+    assert problems == []
+    unique = [config["unique_id"] for config in configs.values()]
+    assert len(unique) == len(set(unique))
+    frequency = configs["homeassistant/sensor/pyuss_bus_drive5/actual_main/config"]
+    assert frequency["unit_of_measurement"] == "Hz"
+    assert frequency["device_class"] == "frequency"
+    setpoint = configs["homeassistant/number/pyuss_bus_drive5/setpoint/config"]
+    assert setpoint["min"] == -100.0  # -200 % of the 50 Hz reference
+    assert setpoint["command_topic"] == "uss/bus/drive5/cmd/setpoint"
+    parameter = configs["homeassistant/sensor/pyuss_bus_drive5/param_P107/config"]
+    assert parameter["unit_of_measurement"] == "Hz"
+    assert parameter["state_topic"] == "uss/bus/drive5/param/P107"
+
+
+def test_the_schema_check_finds_what_home_assistant_refuses() -> None:
+    good = {
+        "name": "x",
+        "unique_id": "u",
+        "device": {"identifiers": ["d"]},
+        "state_topic": "a/b",
+        "unit_of_measurement": "Hz",
+        "device_class": "frequency",
+    }
+    assert ha_schema.check("homeassistant/sensor/n/o/config", good) == []
+    assert ha_schema.check("homeassistant/sensor/n o/o/config", good)
+    assert ha_schema.check(
+        "homeassistant/sensor/n/o/config", {**good, "unit_of_measurement": "rpm"}
+    )
+    assert ha_schema.check("homeassistant/sensor/n/o/config", {**good, "state_topic": "a/#"})
+    assert ha_schema.check("homeassistant/number/n/o/config", {**good, "min": 5, "max": 1})
+    assert ha_schema.check("homeassistant/button/n/o/config", {"name": "x", "unique_id": "u"})
+
+
+async def test_home_assistant_commands_switch_and_set_the_drive(broker: Broker) -> None:
+    async with (
+        simulated_gateway(mqtt=broker.url) as (_, engines),
+        aiomqtt.Client("127.0.0.1", broker.port) as client,
+    ):
+        await client.publish("uss/bus/drive5/cmd/run", "ON", qos=1)
+        await client.publish("uss/bus/drive5/cmd/setpoint", "12.5", qos=1)
+        drive = engines[5].drive
+        await eventually(lambda: drive.value(3) == 1250 and drive.status_word() & 4)
+        await client.publish("uss/bus/drive5/cmd/run", "OFF", qos=1)
+        await eventually(lambda: not drive.status_word() & 4)
+
+
+async def test_state_is_retained_json_with_units(broker: Broker) -> None:
+    async with (
+        simulated_gateway(mqtt=broker.url) as _,
+        watcher(broker, "uss/bus/drive5/state", "uss/bus/drive5/availability") as seen,
+    ):
+        await eventually(lambda: "uss/bus/drive5/state" in seen)  # retained
+        state = json.loads(seen["uss/bus/drive5/state"])
+        await eventually(lambda: seen.get("uss/bus/drive5/availability") == b"online")
+    assert state["address"] == 5
+    assert state["actual"]["main"]["unit"] == "Hz"
+    assert state["reference"] == {"value": 50.0, "unit": "Hz"}
+    assert state["bits"]["switch_on_inhibited"] is True
+
+
+async def test_a_command_repeated_with_its_id_is_carried_out_once(broker: Broker) -> None:
+    async with (
+        simulated_gateway(mqtt=broker.url) as (gateway, engines),
+        MqttClient(gateway) as client,
+    ):
+        await client.command(5, "on")
+        topic = "uss/bus/drive5/cmd/setpoint"
+        await client.client.publish(topic, json.dumps({"id": "once", "value": 10.0}), qos=1)
+        await eventually(lambda: "once" in client.replies)
+        first = client.replies.pop("once")
+        client.events.pop("once")
+        # the same id again (a QoS 1 duplicate, a retry) with another value
+        await client.client.publish(topic, json.dumps({"id": "once", "value": 20.0}), qos=1)
+        await eventually(lambda: "once" in client.replies)
+        again = client.replies["once"]
+    assert first["ok"] and again["ok"]
+    assert again["duplicate"] is True
+    assert again["result"] == first["result"]
+    assert engines[5].drive.value(3) == 1000  # 10.00 Hz: the second was not applied
+
+
+async def test_a_bad_command_gets_a_reply_naming_what_was_wrong(broker: Broker) -> None:
+    async with (
+        simulated_gateway(mqtt=broker.url) as (gateway, _),
+        MqttClient(gateway) as client,
+    ):
+        await client.client.publish(
+            "uss/bus/drive5/cmd/setpoint", json.dumps({"id": "bad", "value": "fast"}), qos=1
+        )
+        await eventually(lambda: "bad" in client.replies)
+        await client.client.publish("uss/bus/drive5/cmd/jump", "", qos=1)
+        await eventually(lambda: "None" in client.replies)
+    assert client.replies["bad"]["error"]["class"] == "bad_value"
+    assert "not a number" in client.replies["bad"]["error"]["message"]
+    assert "unknown command 'jump'" in client.replies["None"]["error"]["message"]
+
+
+async def test_no_command_is_lost_or_applied_twice_over_a_broker_restart(broker: Broker) -> None:
+    async with simulated_gateway(mqtt=broker.url) as (gateway, engines):
+        face = gateway.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
+        sent: list[str] = []
+        replies: dict[str, list[dict[str, Any]]] = {}
+
+        async def client_session(values: range) -> None:
+            async with aiomqtt.Client(
+                "127.0.0.1", broker.port, identifier="test-client", clean_session=False
+            ) as client:
+                await client.subscribe("uss/bus/drive5/reply", qos=1)
+                for value in values:
+                    ident = f"w{value}"
+                    sent.append(ident)
+                    payload = {"id": ident, "pnu": 18, "value": value}
+                    await client.publish("uss/bus/drive5/cmd/write", json.dumps(payload), qos=1)
+                async with asyncio.timeout(20):
+                    async for message in client.messages:
+                        reply = json.loads(bytes(message.payload))  # type: ignore[arg-type]
+                        replies.setdefault(reply["id"], []).append(reply)
+                        if all(i in replies for i in sent):
+                            return
+
+        await client_session(range(1, 6))
+        broker.stop()
+        await eventually(lambda: not face.connected.is_set())
+        broker.start()
+        # commands sent at once, whether the gateway is back yet or not: the broker keeps
+        # them for its session
+        await client_session(range(6, 11))
+        await eventually(lambda: face.connections >= 2)
+    assert sorted(replies) == sorted(sent)
+    assert all(len(r) == 1 and r[0]["ok"] for r in replies.values())
+    assert engines[5].drive.value(18) == 10
+
+
+async def test_two_gateways_share_one_broker_and_one_client_commands_every_drive(
+    broker: Broker,
+) -> None:
+    async with (
+        simulated_gateway(mqtt=broker.url, bus_name="line1") as (one, engines1),
+        simulated_gateway(mqtt=broker.url, bus_name="line2") as (_two, engines2),
+        watcher(broker, "uss/+/+/state") as seen,
+    ):
+        await eventually(lambda: len(seen) == 4)
+        assert sorted(seen) == [
+            "uss/line1/drive5/state",
+            "uss/line1/drive6/state",
+            "uss/line2/drive5/state",
+            "uss/line2/drive6/state",
+        ]
+        async with MqttClient(one) as client:  # one client for both buses
+            for bus in ("line1", "line2"):
+                for address, value in ((5, 5.0), (6, 6.0)):
+                    await client.command(address, "on", bus=bus)
+                    await client.command(
+                        address, "setpoint", bus=bus, value=value + (bus == "line2")
+                    )
+        for engines, extra in ((engines1, 0), (engines2, 100)):
+            assert engines[5].drive.value(3) == 500 + extra
+            assert engines[6].drive.value(3) == 600 + extra
+
+
+async def test_stopping_the_gateway_says_offline(broker: Broker) -> None:
+    async with simulated_gateway(mqtt=broker.url) as _:
+        pass
+    async with watcher(broker, "uss/bus/availability", "uss/bus/drive5/availability") as seen:
+        await eventually(lambda: len(seen) == 2)
+    assert seen == {
+        "uss/bus/availability": b"offline",
+        "uss/bus/drive5/availability": b"offline",
+    }

@@ -1,0 +1,90 @@
+"""The OPC UA face with the asyncua client: browsing, engineering units, subscriptions at the
+bus cycle, methods, anonymous clients read-only."""
+
+from __future__ import annotations
+
+import asyncio
+from typing import Any
+
+import pytest
+from asyncua import ua
+
+from gateway.harness import OpcuaClient, eventually, simulated_gateway
+
+
+async def test_a_client_browses_the_drives_and_reads_units() -> None:
+    async with simulated_gateway(opcua=True) as (gateway, _), OpcuaClient(gateway) as client:
+        uss = client.client.get_node(ua.NodeId("USS", client.ns))
+        (bus,) = await uss.get_children()
+        drives = sorted([(await d.read_browse_name()).Name for d in await bus.get_children()])
+        assert drives == ["drive5", "drive6"]
+        children = set()
+        for child in await client.node(5).get_children():
+            children.add((await child.read_browse_name()).Name)
+        assert {
+            "StatusWord",
+            "Status",
+            "Actual",
+            "Setpoint",
+            "ControlWord",
+            "Parameters",
+        } <= children
+        assert {
+            "On",
+            "Off1",
+            "Off2",
+            "Off3",
+            "Acknowledge",
+            "ReadParameter",
+            "WriteParameter",
+        } <= children
+        actual = client.node(5, ".Actual.main")
+        units = await actual.get_child(ua.QualifiedName("EngineeringUnits", 0))
+        eu = await units.read_value()
+        assert eu.DisplayName.Text == "Hz"
+        assert eu.UnitId == (ord("H") << 16 | ord("T") << 8 | ord("Z"))  # UNECE HTZ
+        assert await client.node(5, ".Address").read_value() == 5
+
+
+async def test_a_subscription_delivers_the_actual_value_as_the_drive_ramps() -> None:
+    async with simulated_gateway(opcua=True) as (gateway, engines), OpcuaClient(gateway) as client:
+        seen: list[float] = []
+
+        class Handler:
+            def datachange_notification(self, node: Any, value: Any, data: Any) -> None:
+                seen.append(value)
+
+        subscription = await client.client.create_subscription(50, Handler())
+        await subscription.subscribe_data_change(client.node(5, ".Actual.main"))
+        await client.set_setpoint(5, 10.0)
+        await client.switch_on(5)
+        await eventually(lambda: any(v > 0 for v in seen if v == v))
+        await eventually(lambda: len({v for v in seen if v == v}) >= 3)  # several steps of the ramp
+        await subscription.delete()
+    assert engines[5].drive.value(3) == 1000
+
+
+async def test_anonymous_clients_read_but_may_not_write_or_command() -> None:
+    async with simulated_gateway(opcua=True) as (gateway, engines):
+        async with OpcuaClient(gateway, user=None) as anonymous:
+            assert await anonymous.node(5, ".StatusWord").read_value() != 0
+            value, unit = await anonymous.read_parameter(5, 107)  # reading a parameter is fine
+            assert (value, unit) == (50.0, "Hz")
+            node = anonymous.node(5, ".Setpoint.main")
+            with pytest.raises(ua.UaStatusCodeError) as error:
+                await node.write_value(ua.DataValue(ua.Variant(25.0, ua.VariantType.Double)))
+            assert error.value.code == ua.StatusCodes.BadUserAccessDenied
+            with pytest.raises(ua.UaStatusCodeError) as error:
+                await anonymous.node(5).call_method(ua.QualifiedName("On", anonymous.ns))
+            assert error.value.code == ua.StatusCodes.BadUserAccessDenied
+        assert engines[5].drive.value(3) == 0
+        assert not engines[5].drive.status_word() & 4
+
+
+async def test_a_wrong_password_is_refused() -> None:
+    async with simulated_gateway(opcua=True) as (gateway, _):
+        client = OpcuaClient(gateway)
+        client.client.set_password("wrong")
+        with pytest.raises((ua.UaError, asyncio.TimeoutError, OSError)):
+            async with client:
+                pass

@@ -1,0 +1,156 @@
+"""The plant's configuration: bad values are refused with one line naming the key, before
+anything is opened; endpoint addresses are parsed in one place."""
+
+from __future__ import annotations
+
+import tomllib
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from pyuss.errors import ConfigError
+from pyuss.gateway.config import parse_config
+from pyuss.points.config import parse_plant, plant_from_flags
+from pyuss.points.endpoint import parse_endpoint
+from pyuss.points.model import resolve
+from pyuss.points.parameters import ParameterModel
+
+GOOD = """
+[[bus]]
+name = "line1"
+port = "bus://127.0.0.1:4000"
+baud = 38400
+layout = "4,2"
+[[bus.drive]]
+address = 5
+name = "conveyor"
+parameters = [107, "4.2", { pnu = 52, poll = 5.0 }]
+"""
+
+
+def test_a_good_file_gives_the_plant() -> None:
+    config = parse_config(tomllib.loads(GOOD + "[modbus]\n"))
+    bus = config.plant.buses[0]
+    assert (bus.name, bus.port, bus.baud, str(bus.layout)) == (
+        "line1",
+        "bus://127.0.0.1:4000",
+        38400,
+        "4,2",
+    )
+    drive = bus.drives[0]
+    assert [p.key for p in drive.parameters] == ["P107", "P4.2", "P52"]
+    assert drive.parameters[2].poll == 5.0
+    assert config.modbus is not None and config.modbus.endpoint.host == "127.0.0.1"
+    model = resolve(config.plant)
+    assert model.drives[0].unit == "Hz"  # from the generic profile's reference P352
+    assert model.drives[0].parameters[0].meta.is_float
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (("address = 5", "address = 40"), "bus[0].drive[0].address: 40 is not 0..31"),
+        (("baud = 38400", "baud = 1234"), "bus[0].baud:"),
+        (('layout = "4,2"', 'layout = "5,2"'), "bus[0].layout:"),
+        (('name = "conveyor"', 'name = "con veyor"'), "bus[0].drive[0].name:"),
+        (("poll = 5.0", "poll = -1"), "bus[0].drive[0].parameters[2].poll:"),
+        (('"4.2"', '"4.x"'), "bus[0].drive[0].parameters[1]:"),
+        (("[[bus.drive]]", "[[bus.drives]]"), "bus[0].drives: unknown key"),
+        (('port = "bus://127.0.0.1:4000"', ""), "bus[0].port: missing"),
+    ],
+)
+def test_bad_configuration_names_the_key(change: tuple[str, str], message: str) -> None:
+    text = GOOD.replace(*change)
+    with pytest.raises(ConfigError) as error:
+        parse_config(tomllib.loads(text + "[modbus]\n"))
+    assert message in str(error.value)
+    assert "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        ('[modbus]\nlisten = "0.0.0.0:99999"\n', "modbus.listen:"),
+        ('[modbus]\nword_order = "middle"\n', "modbus.word_order:"),
+        ('[mqtt]\nbroker = "http://x"\n', "mqtt.broker:"),
+        ('[mqtt]\nprefix = "a/#"\n', "mqtt.prefix:"),
+        ('[mqtt]\nca = "/nonexistent.pem"\n', "mqtt.ca:"),
+        ('[opcua]\nsecurity = ["Basic256Sha256_Sign"]\n', "opcua.security:"),
+        ('[opcua]\nanonymous = "admin"\n', "opcua.anonymous:"),
+        ("[gateway]\n", "gateway: unknown key"),
+    ],
+)
+def test_bad_face_options_name_the_key(extra: str, message: str) -> None:
+    with pytest.raises(ConfigError) as error:
+        parse_config(tomllib.loads(GOOD + extra))
+    assert message in str(error.value)
+
+
+def test_what_the_points_cannot_show_is_refused_with_its_key() -> None:
+    with pytest.raises(ConfigError, match=r"parameters\[0\]: P90 .*numbers only"):
+        resolve(parse_plant([{"port": "x", "drive": [{"address": 1, "parameters": [90]}]}]))
+    with pytest.raises(ConfigError, match=r"parameters\[0\]: P4 .*name an element"):
+        resolve(parse_plant([{"port": "x", "drive": [{"address": 1, "parameters": [4]}]}]))
+    with pytest.raises(ConfigError, match="double word: layout 3,2"):
+        plant = parse_plant(
+            [{"port": "x", "layout": "3,2", "drive": [{"address": 1, "parameters": [107]}]}]
+        )
+        resolve(plant)
+    with pytest.raises(ConfigError, match=r"actual\[0\].pzd: PZD3"):
+        parse_plant([{"port": "x", "layout": "3,2", "drive": [{"address": 1, "actual": [3]}]}])
+
+
+def test_flags_name_the_flag() -> None:
+    with pytest.raises(ConfigError, match=r"^--address: 40 is not 0..31$"):
+        plant_from_flags(port="x", addresses=[40])
+    with pytest.raises(ConfigError, match=r"^--baud: "):
+        plant_from_flags(port="x", addresses=[5], baud=1234)
+    with pytest.raises(ConfigError, match=r"^--address: "):
+        plant_from_flags(port="x", addresses=[5, 5])
+    with pytest.raises(ConfigError, match=r"^--address: give at least one"):
+        plant_from_flags(port="x", addresses=[])
+
+
+@pytest.mark.parametrize(
+    ("text", "face", "url"),
+    [
+        ("5020", "modbus", "modbus://127.0.0.1:5020"),
+        (":5020", "modbus", "modbus://127.0.0.1:5020"),
+        ("0.0.0.0:502", "modbus", "modbus://0.0.0.0:502"),
+        ("mqtt://broker", "mqtt", "mqtt://broker:1883"),
+        ("mqtts://user:pw@broker", "mqtt", "mqtts://user@broker:8883"),
+        ("opc.tcp://127.0.0.1", "opcua", "opc.tcp://127.0.0.1:4840"),
+        ("opc.tcp://127.0.0.1:4841/uss", "opcua", "opc.tcp://127.0.0.1:4841/uss"),
+        ("localhost:8080", "web", "http://localhost:8080"),
+    ],
+)
+def test_endpoints_default_to_loopback_and_the_face_port(text: str, face: str, url: str) -> None:
+    endpoint = parse_endpoint(text, face)
+    assert endpoint.url == url
+    if text.startswith(("5020", ":")):
+        assert endpoint.loopback
+
+
+@pytest.mark.parametrize(
+    ("text", "face"),
+    [("", "modbus"), ("mqtt://x", "modbus"), ("host:99999", "modbus"), ("http://u:p@h", "web")],
+)
+def test_bad_endpoints_are_refused(text: str, face: str) -> None:
+    with pytest.raises(ConfigError):
+        parse_endpoint(text, face)
+
+
+@given(st.integers(min_value=800, max_value=60000))
+def test_a_scaled_parameter_converts_both_ways(raw: int) -> None:
+    meta = ParameterModel("generic").meta(352)  # 0.01 Hz
+    value = meta.physical(raw)
+    assert meta.raw(value) == raw
+
+
+def test_a_value_between_steps_or_beyond_the_limits_is_refused_before_sending() -> None:
+    meta = ParameterModel("generic").meta(352)
+    with pytest.raises(ConfigError, match=r"steps of 0\.01"):
+        meta.raw(50.005)
+    with pytest.raises(ConfigError, match="above the maximum"):
+        meta.raw(601.0)
