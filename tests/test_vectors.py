@@ -1,4 +1,4 @@
-"""The project's vectors (tests/vectors) carry the same data as ../shared/vectors where it exists.
+"""The project's vectors (tests/vectors) carry the same data as tests/vectors where it exists.
 
 Only the citation fields differ: the project's files cite documents by title and section
 ("section", "source"), the shared ones by file. Everything a test checks must be equal.

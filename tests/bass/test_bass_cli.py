@@ -147,7 +147,8 @@ def test_the_line_is_opened_8n1_at_9600(
     monkeypatch: pytest.MonkeyPatch,
     tmp_path: Path,
 ) -> None:
-    """Seed 004 1: 8 data bits, no parity, 1 stop bit, 9600 baud - not USS's 8E1. The drive is
+    """Baumueller manual 1: 8 data bits, no parity, 1 stop bit, 9600 baud - not USS's 8E1. The
+    drive is
     the far end of a pty; the line is opened through ``recording://``, which notes the frame
     (`bass.protocol_recording`: a pty cannot show it)."""
     monkeypatch.setattr(serial, "protocol_handler_packages", ["bass"])

@@ -1,4 +1,5 @@
-"""BASS line codec (seed 004 1.1, 1.2, 1.3; NOTES 12) against the shared vectors and properties."""
+"""BASS line codec (Baumueller manual 1.1, 1.2, 1.3; reading 12) against the shared vectors and
+properties."""
 
 from __future__ import annotations
 
@@ -89,8 +90,8 @@ def test_checksum_is_end_around_sum(body: bytes) -> None:
     assert (value == 0) == (sum(body) == 0)
 
 
-def test_answer_of_seed_example_2() -> None:
-    """Seed 004 1.2: the drive answers the read of ID 51 with 1D3E = 7486 (74.86 %)."""
+def test_answer_of_document_example_2() -> None:
+    """Baumueller manual 1.2: the drive answers the read of ID 51 with 1D3E = 7486 (74.86 %)."""
     answer = BassAnswer.value(0, 51, 0x1D3E)
     line = answer.encode()
     assert line.startswith(b"#0000000033" + b"1D3E")

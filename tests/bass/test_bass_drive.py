@@ -1,4 +1,5 @@
-"""One simulated drive on two interfaces: the USS drive model as a BASS station (seed 004 part 1
+"""One simulated drive on two interfaces: the USS drive model as a BASS station (Baumueller manual
+part 1
 and 2), in process - the ring's in-process port, the virtual bus for USS."""
 
 from __future__ import annotations
@@ -38,8 +39,9 @@ def line(text: str) -> bytes:
     return text.replace("\\r\\n", "\r\n").encode("ascii")
 
 
-def test_seed_examples_byte_for_byte_against_the_simulated_drive() -> None:
-    """seed 004 1.1 examples 1 and 2 on drive 00: the drive echoes each line unchanged, then
+def test_document_examples_byte_for_byte_against_the_simulated_drive() -> None:
+    """Baumueller manual 1.1 examples 1 and 2 on drive 00: the drive echoes each line unchanged,
+    then
     answers it from its parameters (ID 2 = 75.00 %, ID 51 = the actual speed)."""
     drive = baumueller()
     ring = drive_ring([(0, drive)])

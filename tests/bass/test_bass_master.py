@@ -1,4 +1,5 @@
-"""BassMaster against scripted drives: echo first, then answer (seed 004 1.2), errors of 1.3.
+"""BassMaster against scripted drives: echo first, then answer (Baumueller manual 1.2), errors of
+1.3.
 
 The scripted drive sits behind an in-process port: the byte pipe is not what is tested here, the
 master's handling of what comes back is.
@@ -90,7 +91,7 @@ async def test_answer_in_single_bytes_and_both_lines_in_one_chunk() -> None:
         assert await master.read(4, 9) == 0xFFFE
 
 
-async def test_write_sends_the_seed_line() -> None:
+async def test_write_sends_the_document_line() -> None:
     drive = ScriptedDrive(good(7500))
     async with drive.port:
         await BassMaster(drive.port).write(0, 2, 7500)
@@ -267,7 +268,8 @@ def text(request: BassRequest, raw: bytes, attempt: int) -> list[bytes]:
 
 
 async def test_read_text_with_a_device_command() -> None:
-    """Texts come with two length words (seed 004 1.1, 1.2); the command is the device's own."""
+    """Texts come with two length words (Baumueller manual 1.1, 1.2); the command is the device's
+    own."""
     drive = ScriptedDrive(text)
     async with drive.port:
         master = BassMaster(drive.port, timeout=0.5, retries=0)

@@ -1,4 +1,5 @@
-"""Simulated drives on a closed RS-232 loop (seed 004 1.4.2) with the IDs of seed 004 1.5."""
+"""Simulated drives on a closed RS-232 loop (Baumueller manual 1.4.2) with the IDs of Baumueller
+manual 1.5."""
 
 from __future__ import annotations
 
@@ -38,7 +39,7 @@ def ring_of_three() -> BassRing:
     return BassRing.with_addresses([5, 0x12, 200], elements=demo_elements())
 
 
-def test_echo_then_answer_exactly_as_the_seed_describes() -> None:
+def test_echo_then_answer_exactly_as_the_document_describes() -> None:
     ring = ring_of_three()
     request = BassRequest.read(0x12, ID_SV_STATE).encode()
     back = ring.inject(request)

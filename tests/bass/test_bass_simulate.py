@@ -74,7 +74,7 @@ def bass_json(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, dict
     return code, json.loads(out)
 
 
-def test_both_seed_vectors_byte_for_byte_and_the_uss_side_sees_them(
+def test_both_document_vectors_byte_for_byte_and_the_uss_side_sees_them(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     vectors = [v["line"].replace("\\r\\n", "\r\n").encode() for v in load_vectors("bass")["lines"]]
@@ -240,7 +240,8 @@ RECORDING_MAIN = (
 def test_the_simulators_bass_serial_line_is_8n1_at_9600(
     args: list[str], lines: int, tmp_path: Path
 ) -> None:
-    """Seed 004 1: the drives' side of the RS-232 line is 8N1 at 9600 baud too, whatever the
+    """Baumueller manual 1: the drives' side of the RS-232 line is 8N1 at 9600 baud too, whatever
+    the
     USS side uses. The PC is the far end of a pty; the simulator opens the device through
     ``recording://`` (`bass.protocol_recording`), which notes the frame a pty cannot show."""
     record = tmp_path / "settings"

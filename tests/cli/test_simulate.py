@@ -303,7 +303,7 @@ def test_serial_port_by_pyserial_url() -> None:
 
 
 def test_bass_ring_plugs_in_by_profile() -> None:
-    """``--profile bass``: a BASS ring; seed 004 1.1 example 2 reads ID 51 of drive 0."""
+    """``--profile bass``: a BASS ring; Baumueller manual 1.1 example 2 reads ID 51 of drive 0."""
     request = b"#00003C0033FD\r\n"
     with (
         simulate("--profile", "bass", "--pty", "--address", "0") as (path, _),

@@ -55,7 +55,7 @@ def test_generic_interface_parameters_are_arrays_over_three_interfaces() -> None
 
 
 def test_profile_specific_parameters() -> None:
-    assert load_profile("6se21").parameter(20).default == (3,)  # seed 002: P20 = 003
+    assert load_profile("6se21").parameter(20).default == (3,)  # SIMOVERT P 6SE21 manual: P20 = 003
     assert load_profile("6se21").interface["address"].pnu == 21
     baum = load_profile("baumueller")
     assert [p.pnu for p in baum if 180 <= p.pnu <= 186] == list(range(180, 187))

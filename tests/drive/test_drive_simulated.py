@@ -40,7 +40,7 @@ def test_c8_example_2_status_after_047e() -> None:
 
 def test_6se21_p20_switch_on_mode_cleared_by_047e() -> None:
     drive = SimulatedDrive.from_profile("6se21")
-    assert drive.value(20) == 3  # seed 002 7.5.1.1: P20 = 003 at power-up
+    assert drive.value(20) == 3  # SIMOVERT P 6SE21 manual 7.5.1.1: P20 = 003 at power-up
     assert drive.status_word() & StatusWord.SWITCH_ON_INHIBITED  # bit 6 in the answer
     init = vector_words("6se21_init")
     drive.exchange(init[3:], 0.0)  # PZD1 047Eh

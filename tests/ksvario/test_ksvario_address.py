@@ -1,4 +1,5 @@
-"""Address map (seed 003 9.2, NOTES 11): the vectors, the three views, user input."""
+"""Address map (KS VARIO interface description 9.2, reading 11): the vectors, the three views, user
+input."""
 
 from __future__ import annotations
 
@@ -34,7 +35,7 @@ def test_worked_examples_are_built_from_area_and_datum() -> None:
     assert Address.channel(2, 0x69, View.FLOAT).encode() == 0x8CD2
     # 4.5.3: integer, channel 30, td1 = 9Ah
     assert Address.channel(30, 0x9A, View.INTEGER).encode() == 0x3E9A
-    # 4.5.4: channel 30's float area starts at FC00h (NOTES 11: the text's 3C00h is an erratum)
+    # 4.5.4: channel 30's float area starts at FC00h (reading 11: the text's 3C00h is an erratum)
     assert Address.of(View.FLOAT, channel_area(30), 0).encode() == 0xFC00
     fd09 = Address.decode(0xFD09)
     assert (fd09.view, fd09.channel_number, fd09.offset, fd09.datum) == (

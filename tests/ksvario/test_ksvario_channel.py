@@ -1,4 +1,5 @@
-"""Parameter channel (seed 003 4): telegrams of the vectors, both sides, formats, results."""
+"""Parameter channel (KS VARIO interface description 4): telegrams of the vectors, both sides,
+formats, results."""
 
 from __future__ import annotations
 

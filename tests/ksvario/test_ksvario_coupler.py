@@ -1,4 +1,5 @@
-"""Simulated coupler and in-process master: the four worked examples of seed 003 4.5 end to
+"""Simulated coupler and in-process master: the four worked examples of KS VARIO interface
+description 4.5 end to
 end, the three views, caches per selection, multiplexers over the image, A.7, fail-safe."""
 
 from __future__ import annotations
@@ -238,7 +239,8 @@ def _pattern(text: str, data: bytes) -> bool:
     return all(p.lower() == "xx" or int(p, 16) == data[i] for i, p in enumerate(text.split()))
 
 
-#: The four worked examples of seed 003 4.5: datum, channel, values the coupler holds or gets.
+#: The four worked examples of KS VARIO interface description 4.5: datum, channel, values the
+#: coupler holds or gets.
 EXAMPLES: dict[str, dict[str, Any]] = {
     "4.5.1": {"channel": 1, "datum": 0x96, "held": [123.4], "read": [1234]},
     "4.5.2": {"channel": 2, "datum": 0x69, "held": [10.5, 950.0, 42.25, -7.0]},
@@ -249,7 +251,8 @@ EXAMPLES: dict[str, dict[str, Any]] = {
 
 @pytest.mark.parametrize("vec", VECTORS["start_telegrams"], ids=lambda v: v["section"])
 async def test_worked_example_end_to_end(vec: dict[str, str]) -> None:
-    """Seed 003 4.5.1 - 4.5.4 on the cyclic image of a simulated coupler (module A.1): the
+    """KS VARIO interface description 4.5.1 - 4.5.4 on the cyclic image of a simulated coupler
+    (module A.1): the
     start telegram of the vector and its answer, data telegrams with Count 1..n mirrored for
     flow control, the end telegram with result 0, and the data where the example puts them."""
     ex = EXAMPLES[vec["section"]]

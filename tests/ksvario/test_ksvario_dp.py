@@ -262,7 +262,8 @@ def test_new_diagnosis_is_announced_with_dh_until_read() -> None:
 
 
 def test_intel_byte_order_from_set_prm() -> None:
-    """The byte-order user parameter of Set_Prm (seed 6, byte 4 bit 0) orders the reals of the
+    """The byte-order user parameter of Set_Prm (interface description 6, byte 4 bit 0) orders the
+    reals of the
     parameter channel."""
     slave, coupler = bring_up("A.1", user=bytes((0, 0, 0, 1)))
     coupler.set(Address.channel(2, 0x69), 3.25)
@@ -274,7 +275,8 @@ def test_intel_byte_order_from_set_prm() -> None:
 @pytest.mark.parametrize("how", ["watchdog", "clear"])
 @pytest.mark.parametrize("fail_safe", [0, 4])
 def test_fail_safe_on_bus_failure_and_master_stop(how: str, fail_safe: int) -> None:
-    """Seed 2.4: on bus failure (the watchdog runs out) or master stop (Global_Control
+    """interface description 2.4: on bus failure (the watchdog runs out) or master stop
+    (Global_Control
     Clear_Data) forced analogue inputs go to FAIL; with fail-safe "zero" (user parameter byte 4
     bit 2) forced outputs go to 0, with "last value" they keep their value."""
     slave, coupler = bring_up(user=bytes((0, 0, 0, fail_safe)))

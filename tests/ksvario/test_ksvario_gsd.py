@@ -54,7 +54,8 @@ def test_the_documents_gsd_parses() -> None:
     assert len(gsd.modules) == 17
     assert gsd.module_by_ident(0xF3) is not None
     assert gsd.module_by_ident(0xF3).reference == 1  # type: ignore[union-attr]
-    # the seed writes Ext_user_prm_data_ref in lower case: keywords are case-insensitive
+    # the interface description writes Ext_user_prm_data_ref in lower case: keywords are
+    # case-insensitive
     assert [ref for _, ref in gsd.prm_refs] == [1, 2, 3]
     assert gsd.default_user_prm() == bytes(4)
     assert len(gsd.diag_bits) == 10

@@ -1,4 +1,5 @@
-"""Modules and configuration rules (seed 003 3.1, 3.5): one test per rule, Chk_Cfg bytes."""
+"""Modules and configuration rules (KS VARIO interface description 3.1, 3.5): one test per rule,
+Chk_Cfg bytes."""
 
 from __future__ import annotations
 
@@ -45,7 +46,7 @@ def test_identifier_bytes_of_the_vectors() -> None:
 
 
 @pytest.mark.parametrize("m", MODULES, ids=lambda m: m.key)
-def test_module_sizes_match_the_seed_table(m) -> None:  # type: ignore[no-untyped-def]
+def test_module_sizes_match_the_document_table(m) -> None:  # type: ignore[no-untyped-def]
     assert (m.inputs, m.outputs) == SIZES[m.key]
     assert ident_sizes(m.ident) == SIZES[m.key]
 

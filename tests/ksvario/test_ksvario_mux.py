@@ -1,4 +1,5 @@
-"""Multiplexer modules (seed 003 3.4, 3.5): handshake, out-of-range 0, whole-cache transfers."""
+"""Multiplexer modules (KS VARIO interface description 3.4, 3.5): handshake, out-of-range 0,
+whole-cache transfers."""
 
 from __future__ import annotations
 

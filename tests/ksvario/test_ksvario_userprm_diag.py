@@ -1,4 +1,5 @@
-"""User parameters (seed 003 6) and diagnosis (6.1): bytes, flags, round trips."""
+"""User parameters (KS VARIO interface description 6) and diagnosis (6.1): bytes, flags, round
+trips."""
 
 from __future__ import annotations
 

@@ -98,7 +98,7 @@ async def test_setpoints_raw_and_32_bit_and_jog_2() -> None:
 
 
 def test_response_limit_is_never_below_the_profiles_start_pause() -> None:
-    # Baumueller keeps 3 character times before every telegram (NOTES 2): a limit asked
+    # Baumueller keeps 3 character times before every telegram (reading 2): a limit asked
     # for below that would time out every answer (A 5.2.1.1).
     baumueller = get_profile("baumueller")
     assert response_limit(baumueller, 9600, 0.001) == pytest.approx(3 * char_time(9600))

@@ -130,7 +130,7 @@ async def test_receive_faults_are_classified(
     assert not any(Problem.NO_ANSWER in ex.problems for ex in exchanges)
 
 
-async def test_same_seed_same_faults() -> None:
+async def test_same_document_same_faults() -> None:
     plan = FaultPlan([Fault(FaultKind.FLIP, probability=0.02)])
     jobs = [request(5, Pkw(1, n)) for n in range(30, 40)]
     a = await _line(jobs, [Slave(5)], faults=plan, seed=3)

@@ -22,7 +22,8 @@ def refused(pkw: Pkw) -> int | None:
     return pkw.values[-1] if pkw.id == 7 else None
 
 
-# -- 6SE21 (seed 002 7.5) ----------------------------------------------------------------------
+# -- 6SE21 (SIMOVERT P 6SE21 manual 7.5)
+# ----------------------------------------------------------------------
 
 
 def test_6se21_uses_14_byte_telegrams_and_answers_ind_0() -> None:
@@ -36,7 +37,8 @@ def test_6se21_uses_14_byte_telegrams_and_answers_ind_0() -> None:
     assert (missing.id, missing.index) == (7, 0)
 
 
-# -- Baumueller (seed 004 part 2) ---------------------------------------------------------------
+# -- Baumueller (Baumueller manual part 2)
+# ---------------------------------------------------------------
 
 
 def _baumueller(addresses: Sequence[int], layout: Layout, *, setpoint_id: int | None = None):  # type: ignore[no-untyped-def]
@@ -152,7 +154,7 @@ def test_baumueller_16_bit_setpoint_in_pzd3_and_format_fault() -> None:
     assert state.values[0] & baumueller.SETPOINT_FORMAT_FAULT  # 32 bits do not fit PZD 2
 
 
-# -- NORD (seed 001) ---------------------------------------------------------------------------
+# -- NORD (NORD BU 0050) ---------------------------------------------------------------------------
 
 
 def test_nord_defaults_and_error_numbers() -> None:
@@ -197,7 +199,8 @@ def test_micromaster4_too_large_and_no_broadcasts() -> None:
 
 
 def test_baumueller_write_authority_follows_parameter_126() -> None:
-    """Seed 004 1.5: only with bit 0 of 126 set may the interfaces change drive parameters."""
+    """Baumueller manual 1.5: only with bit 0 of 126 set may the interfaces change drive
+    parameters."""
     with PtySim(_baumueller([2], L32)) as sim, sim.master() as master:
         ask = lambda job: master.ask(2, L32, job, (OFF1, 0)).pkw  # noqa: E731
         off = ask(Pkw(2, 126, values=(0,)))

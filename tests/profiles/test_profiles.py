@@ -67,14 +67,17 @@ def test_layouts_each_profile_accepts() -> None:
 def test_response_windows() -> None:
     ct9600 = char_time(9600)
     assert get_profile("generic").response_delay(9600) == (2 * ct9600, 0.020)
-    assert get_profile("6se21").response_delay(9600) == (0.0025, 0.0175)  # seed 002 7.5
+    assert get_profile("6se21").response_delay(9600) == (
+        0.0025,
+        0.0175,
+    )  # SIMOVERT P 6SE21 manual 7.5
     # Baumueller: 33 bit times before every telegram, answer within 2 ms (never below it)
     bm = get_profile("baumueller")
     assert bm.start_pause(9600) == pytest.approx(33 / 9600)
     assert bm.response_delay(9600) == (3 * ct9600, 3 * ct9600)
     assert bm.response_delay(19200) == (pytest.approx(33 / 19200), 0.002)
     assert bm.response_delay(19200, delayed=True)[1] == 0.020
-    # A 5.2.1.1 / NOTES 10: at 300 baud the start pause is longer than 20 ms
+    # A 5.2.1.1 / reading 10: at 300 baud the start pause is longer than 20 ms
     assert get_profile("nord").response_delay(300) == (2 * char_time(300), 2 * char_time(300))
 
 
@@ -125,7 +128,7 @@ def test_broadcast_address_coding_round_trip(addresses: frozenset[int]) -> None:
 
 
 def test_broadcast_address_coding_example() -> None:
-    """Seed 004 2.5 (181 bit 1): addresses 0, 9 and 23 react."""
+    """Baumueller manual 2.5 (181 bit 1): addresses 0, 9 and 23 react."""
     assert baumueller.address_mask([0, 9, 23]) == (0x0080, 0x0201)
     with pytest.raises(ConfigError):
         baumueller.address_mask([32])
@@ -145,7 +148,7 @@ def test_value_channel_formats() -> None:
     assert baumueller.value_words(1, 1, double=False) == ()
     assert baumueller.join_value((0, 0x8000), double=False, signed=True) == -0x8000
     assert baumueller.masked_control_pkw(0x0021).words() == (0, 0, 0x0021)
-    # With PKW 4 the mask must stay in PWE1, where the drives read it (NOTES 9).
+    # With PKW 4 the mask must stay in PWE1, where the drives read it (reading 9).
     four = Layout(4, 2).pack(baumueller.masked_control_pkw(0x0021, 4), [0x047F, 0])
     assert four[4:6] == b"\x00\x21" and four[6:8] == b"\x00\x00"
 

@@ -66,7 +66,7 @@ def test_per_minute_rates_cover_the_last_sixty_seconds() -> None:
     assert diag.good == 4  # the counters keep everything
 
 
-def test_snapshot_words_in_seed_order() -> None:
+def test_snapshot_words_in_document_order() -> None:
     diag = Diagnostics(hardware_version=3, software_version=0x0102)
     diag.record_received(1.0)
     diag.record_received(2.0)

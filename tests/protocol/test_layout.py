@@ -1,4 +1,4 @@
-"""Net data layout (C 3.1, C 4.1, C 7; NOTES 5, 6): validation, parsing, word placement,
+"""Net data layout (C 3.1, C 4.1, C 7; reading 5, 6): validation, parsing, word placement,
 round trips for every layout."""
 
 from __future__ import annotations

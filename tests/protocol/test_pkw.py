@@ -33,7 +33,7 @@ from pyuss.protocol.pkw import (
 
 R = ResponseId
 
-# C Table 4.3, request -> positive responses, written out from the seed.
+# C Table 4.3, request -> positive responses, written out from the USS specification.
 TABLE_4_3 = {
     0: {0},
     1: {1, 2},

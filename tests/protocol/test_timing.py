@@ -135,7 +135,7 @@ def test_bad_response_limit_is_refused() -> None:
 def test_residual_extra_chars_extend_the_deadline_and_bad_values_are_refused() -> None:
     plain, nord = LineTiming(19200), LineTiming(19200, residual_extra_chars=0.5)
     assert nord.residual_max(10) - plain.residual_max(10) == pytest.approx(0.5 * 11 / 19200)
-    # NORD (seed 001 1.3.5): 1.5 x (n + 4) characters from the start of STX = from its end + 1
+    # NORD (NORD BU 0050 1.3.5): 1.5 x (n + 4) characters from the start of STX = from its end + 1
     assert nord.residual_max(10) + nord.char_time == pytest.approx(1.5 * 14 * nord.char_time)
     for bad in (-1, float("nan"), float("inf"), True, "0.5"):
         with pytest.raises(ConfigError, match="residual_extra_chars"):

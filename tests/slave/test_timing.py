@@ -150,7 +150,7 @@ async def test_stx_without_a_start_pause_starts_no_telegram() -> None:
     ],
 )
 async def test_nord_residual_telegram_time(profile: str, gap: float, answered: bool) -> None:
-    """Seed 001 1.3.5: a request must be complete 1.5 x (n + 4) character times after the start
+    """NORD BU 0050 1.3.5: a request must be complete 1.5 x (n + 4) character times after the start
     of its STX, 21 for these 14 bytes; A 6.3 allows 1 + 1.5 x (n + 3) = 20.5. Gaps before
     characters 2..5 of 4 x 1.5 = 6 character times (20 in all) keep it for both; 4 x 1.7 = 6.8
     (20.8 in all) only for NORD; 4 x 1.9 = 7.6 (21.6 in all) for neither."""

@@ -33,7 +33,9 @@ def _hex(name: str) -> str:
         ("read_text_request", "read_text_response"),  # C 8.2 example 7
     ],
 )
-def test_seed_examples_are_answered_byte_for_byte(request_name: str, response_name: str) -> None:
+def test_document_examples_are_answered_byte_for_byte(
+    request_name: str, response_name: str
+) -> None:
     item = VECTORS[request_name]
     with PtySim(engine(item["adr"], "generic", _layout(item))) as sim, sim.master() as master:
         answer = master.exchange(item["hex"])
@@ -96,7 +98,8 @@ def test_special_telegram_is_discarded() -> None:
 
 
 def test_6se21_initialisation_clears_the_switch_on_inhibit() -> None:
-    """Seed 002 7.5.1.1: P20 = 003 after power-up; PZD1 047Eh clears it (status bit 6)."""
+    """SIMOVERT P 6SE21 manual 7.5.1.1: P20 = 003 after power-up; PZD1 047Eh clears it (status bit
+    6)."""
     item = VECTORS["6se21_init"]
     with PtySim(engine(1, "6se21"), baud=9600) as sim, sim.master() as master:
         before = sim.call(lambda: sim.drive.value(20))

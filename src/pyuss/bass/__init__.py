@@ -1,9 +1,9 @@
-"""BASS, Baumueller's ASCII service protocol over RS-232 (seed 004 part 1).
+"""BASS, Baumueller's ASCII service protocol over RS-232 (Baumueller manual part 1).
 
 - `pyuss.bass.codec`: the line codec (pure) and the streaming `BassLineReader`.
 - `pyuss.bass.errors`: `BassError` and its subclasses, the error numbers of table 1.3.
 - `pyuss.bass.master`: `BassMaster` (async) and `SyncBassMaster`: read/write one element.
-- `pyuss.bass.ring`: simulated drives on a closed RS-232 loop (seed 004 1.4.2).
+- `pyuss.bass.ring`: simulated drives on a closed RS-232 loop (Baumueller manual 1.4.2).
 """
 
 from pyuss.bass.codec import (

@@ -1,14 +1,15 @@
-"""Codec of the BASS service protocol (seed 004 1.1, 1.2; NOTES 12). Pure: no I/O, no clock.
+"""Codec of the BASS service protocol (Baumueller manual 1.1, 1.2; reading 12). Pure: no I/O, no
+clock.
 
 A BASS line is ASCII::
 
     '#'  address  word  ident  data  checksum  CR LF
          2 hex    4 hex 4 hex  0..n  2 hex
 
-- ``address``: the drive's DIP address 0..255 (seed 004 1.1).
+- ``address``: the drive's DIP address 0..255 (Baumueller manual 1.1).
 - ``word``: in a request the command (`BassCommand`: 003C reads, 003E writes one element of
   operating data on first transmission; bit 1 = write), in an answer the status (`BassStatus`:
-  bit 2 = error in the service channel, seed 004 1.2).
+  bit 2 = error in the service channel, Baumueller manual 1.2).
 - ``ident``: the parameter ID number.
 - ``data``: hex digits, high nibble first. A read request has none; an answer carries the
   element, or with status bit 2 the error number of table 1.3. Texts start with two length
@@ -16,7 +17,7 @@ A BASS line is ASCII::
 - ``checksum``: the sum of the ASCII codes from the first address digit to the last data digit;
   carries above 8 bits are added back in until the sum fits a byte (234h -> 36h).
 
-Readings this module takes where the seed is silent (also in ``docs/bass.md``):
+Readings this module takes where the Baumueller manual is silent (also in ``docs/bass.md``):
 
 - Element values travel as 4 hex digits (a word) or 8 (a double word); negative values as two's
   complement of that width. Error numbers travel as 4 hex digits.
@@ -45,15 +46,17 @@ CHECKSUM_DIGITS = 2
 HEADER_DIGITS = ADDRESS_DIGITS + WORD_DIGITS + IDENT_DIGITS
 MIN_BODY = HEADER_DIGITS + CHECKSUM_DIGITS
 MAX_LINE = 1024
-"""Default longest line the reader accepts, '#' and CR LF included (the seed gives no limit)."""
+"""Default longest line the reader accepts, '#' and CR LF included (the Baumueller manual gives no
+limit)."""
 SHOWN = 64
 """Bytes of a malformed line an error message shows (an overlong one is cut there)."""
 BAUD = 9600
-"""Seed 004 1: 8 data bits, no parity, 1 stop bit, 9600 baud, full duplex."""
+"""Baumueller manual 1: 8 data bits, no parity, 1 stop bit, 9600 baud, full duplex."""
 
 
 class BassCommand(enum.IntEnum):
-    """Commands the seed names (seed 004 1.1 examples; NOTES 12). Others: plain numbers."""
+    """Commands the Baumueller manual names (Baumueller manual 1.1 examples; reading 12). Others:
+    plain numbers."""
 
     READ_ELEMENT = 0x003C
     """Read operating data, one element, first transmission."""
@@ -62,18 +65,18 @@ class BassCommand(enum.IntEnum):
 
 
 COMMAND_WRITE_BIT = 0x0002
-"""Bit 1 of the command distinguishes write (1) from read (0) (NOTES 12)."""
+"""Bit 1 of the command distinguishes write (1) from read (0) (reading 12)."""
 
 
 class BassStatus(enum.IntFlag):
-    """The status word of an answer (seed 004 1.2). Only bit 2 is documented."""
+    """The status word of an answer (Baumueller manual 1.2). Only bit 2 is documented."""
 
     OK = 0
     SERVICE_CHANNEL_ERROR = 0x0004
 
 
 def checksum(body: bytes) -> int:
-    """Sum of the character codes with end-around carry (seed 004 1.1: 234h -> 36h)."""
+    """Sum of the character codes with end-around carry (Baumueller manual 1.1: 234h -> 36h)."""
     total = sum(body)
     while total > 0xFF:
         total = (total & 0xFF) + (total >> 8)
@@ -200,7 +203,7 @@ def _frame(address: int, word: int, ident: int, data: str) -> bytes:
 
 @dataclass(frozen=True, slots=True)
 class BassRequest:
-    """PC to drive (seed 004 1.1). ``data`` is upper-case hex digits (empty for a read)."""
+    """PC to drive (Baumueller manual 1.1). ``data`` is upper-case hex digits (empty for a read)."""
 
     address: int
     command: int
@@ -228,7 +231,8 @@ class BassRequest:
 
 @dataclass(frozen=True, slots=True)
 class BassAnswer:
-    """Drive to PC, after the echo (seed 004 1.2). ``status`` bit 2 set: ``data`` = error number."""
+    """Drive to PC, after the echo (Baumueller manual 1.2). ``status`` bit 2 set: ``data`` = error
+    number."""
 
     address: int
     status: int

@@ -2,7 +2,8 @@
 
 `DriveOperatingData` makes a `pyuss.drive.ParameterMemory` (normally the `SimulatedDrive` a
 `pyuss.slave.SlaveEngine` serves over USS) the `pyuss.bass.ring.OperatingData` of a station on
-the BASS ring (seed 004 1.4.2). Both interfaces work on the same parameter values, so a change
+the BASS ring (Baumueller manual 1.4.2). Both interfaces work on the same parameter values, so a
+change
 made over one is seen over the other at once, and a BASS write of an ACTIVE parameter is
 reported to the USS side, whose slave engine sends it as a spontaneous message (C 4.2.1.2).
 
@@ -12,8 +13,9 @@ reported to the USS side, whose slave engine sends it as a spontaneous message (
   values. Arrays and strings have no single-element form on BASS: error 9.
 - **Writes** go through every rule of the drive (`ParameterMemory.write_words`) under the
   interface name ``"bass"``; refusals (`ParameterFault`, C Table 4.3) become the error numbers
-  of seed 004 table 1.3 (`bass_error`, table below).
-- **Write authority** (seed 004 1.5): the service interface may change parameters only while
+  of Baumueller manual table 1.3 (`bass_error`, table below).
+- **Write authority** (Baumueller manual 1.5): the service interface may change parameters only
+  while
   bit 0 of parameter 126 ("source de communication M") is 1 - the drive's own ``write_enable``
   setting, so `ParameterMemory.has_write_authority` decides for both interfaces. While it is 0,
   every BASS write is refused with error 5, ID 126 included ("seule la lecture ... est
@@ -29,7 +31,7 @@ reported to the USS side, whose slave engine sends it as a spontaneous message (
   advanced to now before each BASS job, so a BASS read of the actual value is current even
   when no USS master is polling.
 
-Refusals of the drive and the BASS numbers they are answered with (seed 004 1.3):
+Refusals of the drive and the BASS numbers they are answered with (Baumueller manual 1.3):
 
 ====  ==========================================  ====================================
 C 4.3 meaning                                      BASS
@@ -94,7 +96,7 @@ FAULT_TO_BASS: Final[dict[int, BassErrorNumber]] = {
     DriveErrorNumber.NO_TEXT_ARRAY: E.ACCESS_NOT_VALID,
     DriveErrorNumber.WRONG_STATE: E.DATA_NOT_CHANGEABLE,
 }
-"""Error number of a `ParameterFault` (C Table 4.3) -> BASS error number (seed 004 1.3).
+"""Error number of a `ParameterFault` (C Table 4.3) -> BASS error number (Baumueller manual 1.3).
 Numbers not listed give `ACCESS_NOT_VALID`; limit faults are refined by `bass_error`."""
 
 
@@ -143,7 +145,8 @@ class DriveOperatingData:
             self._unsubscribe()
             self._unsubscribe = None
 
-    # -- the service interface's own IDs (seed 004 1.5) --------------------------------------
+    # -- the service interface's own IDs (Baumueller manual 1.5)
+    # --------------------------------------
 
     @property
     def dip_address(self) -> int:
@@ -239,7 +242,7 @@ def drive_ring(
     interface: str = INTERFACE,
 ) -> BassRing:
     """A closed RS-232 loop of ``drives`` - ``(DIP address, drive)`` - wired in address order
-    (seed 004 1.4.2: up to 16)."""
+    (Baumueller manual 1.4.2: up to 16)."""
     data = [
         DriveOperatingData(drive, address, interface=interface, clock=clock)
         for address, drive in sorted(drives, key=lambda item: item[0])

@@ -1,14 +1,16 @@
-"""Errors of the BASS service protocol (seed 004 part 1), all under `pyuss.errors.UssError`.
+"""Errors of the BASS service protocol (Baumueller manual part 1), all under
+`pyuss.errors.UssError`.
 
     UssError
     +-- BassError                 base of everything BASS raises
         +-- BassTelegramError     a line that cannot be decoded (also a TelegramError); .fault
         +-- BassProtocolError     a well-formed line that breaks the exchange (also ProtocolError)
-        |   +-- BassEchoError     the drive's echo is not the request line (seed 004 1.2)
+        |   +-- BassEchoError     the drive's echo is not the request line (Baumueller manual 1.2)
         +-- BassTimeout           no echo or no answer in time (also UssTimeout)
         +-- BassRefusal           status bit 2 set: error number of table 1.3 (also DriveRefusal)
 
-The error numbers of table 1.3 (seed 004 1.3) are `BassErrorNumber`; `BassRefusal` carries the
+The error numbers of table 1.3 (Baumueller manual 1.3) are `BassErrorNumber`; `BassRefusal` carries
+the
 number, its meaning, the drive address and the parameter ID.
 """
 
@@ -20,7 +22,7 @@ from pyuss.errors import DriveRefusal, ProtocolError, TelegramError, UssError, U
 
 
 class BassErrorNumber(enum.IntEnum):
-    """Error numbers of the service channel (seed 004 1.3 "Tableau des défauts")."""
+    """Error numbers of the service channel (Baumueller manual 1.3 "Tableau des défauts")."""
 
     NO_ERROR = 0
     ELEMENT_NOT_AVAILABLE = 1
@@ -89,7 +91,8 @@ class BassProtocolError(BassError, ProtocolError):
 
 
 class BassEchoError(BassProtocolError):
-    """The first line back was not the echo of the request (seed 004 1.2: echo before answer)."""
+    """The first line back was not the echo of the request (Baumueller manual 1.2: echo before
+    answer)."""
 
     def __init__(self, sent: bytes, received: bytes) -> None:
         self.sent = sent
@@ -102,7 +105,7 @@ class BassTimeout(BassError, UssTimeout):
 
 
 class BassRefusal(BassError, DriveRefusal):
-    """The drive answered with status bit 2 set: an error of table 1.3 (seed 004 1.2, 1.3).
+    """The drive answered with status bit 2 set: an error of table 1.3 (Baumueller manual 1.2, 1.3).
 
     Drive models raise it too (`pyuss.bass.ring.OperatingData`) to refuse a job with a number.
     """

@@ -1,11 +1,13 @@
-"""The PC side of BASS: read and write one element of operating data (seed 004 1.1, 1.2).
+"""The PC side of BASS: read and write one element of operating data (Baumueller manual 1.1, 1.2).
 
-An exchange, as the seed describes it: the PC sends a request line; the drive first sends the
-whole request back ("le télégramme est renvoyé en écho", seed 004 1.2), then its answer line.
+An exchange, as the Baumueller manual describes it: the PC sends a request line; the drive first
+sends the
+whole request back ("le télégramme est renvoyé en écho", Baumueller manual 1.2), then its answer
+line.
 `BassMaster` sends the request, consumes the echo and checks it byte for byte, then checks the
 answer's address and ID and its status (bit 2: `BassRefusal` with the number of table 1.3).
 
-Choices where the seed is silent (also in ``docs/bass.md``):
+Choices where the Baumueller manual is silent (also in ``docs/bass.md``):
 
 - Each attempt has ``timeout`` seconds for echo and answer together. Timeouts, malformed lines,
   a wrong echo and an answer that does not fit are retried ``retries`` more times; a refusal
@@ -57,7 +59,7 @@ class BassExchange:
 
 
 class BassMaster:
-    """Async BASS master on any `Transport` (8N1, 9600 baud on a real port, seed 004 1)."""
+    """Async BASS master on any `Transport` (8N1, 9600 baud on a real port, Baumueller manual 1)."""
 
     def __init__(
         self,

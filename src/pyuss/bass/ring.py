@@ -1,9 +1,10 @@
-"""Simulated Baumueller drives on a closed RS-232 loop (seed 004 1.4.2), answering BASS.
+"""Simulated Baumueller drives on a closed RS-232 loop (Baumueller manual 1.4.2), answering BASS.
 
-Topology (seed 004 1.4.2): up to 16 drives in a closed circuit. The PC's TX feeds the first
+Topology (Baumueller manual 1.4.2): up to 16 drives in a closed circuit. The PC's TX feeds the first
 drive's RX, each drive's TX the next drive's RX, the last drive's TX the PC's RX. Each drive has
-a DIP address (seed 004 1: bit 0 = switch 1). The model, as a user would expect it from that
-wiring and from the echo rule of seed 004 1.2:
+a DIP address (Baumueller manual 1: bit 0 = switch 1). The model, as a user would expect it from
+that
+wiring and from the echo rule of Baumueller manual 1.2:
 
 - Every station passes on every byte it receives, at once and unchanged: what is not addressed
   to it, and also what is (that is the echo the PC sees before the answer).
@@ -14,7 +15,7 @@ wiring and from the echo rule of seed 004 1.2:
 
 A station's data come from an `OperatingData`: a small interface that any drive model can
 implement (the USS drive simulator will, so that one drive is reachable over USS and BASS).
-`DictOperatingData` is a ready one with the service-interface IDs of seed 004 1.5:
+`DictOperatingData` is a ready one with the service-interface IDs of Baumueller manual 1.5:
 
 - 170 SV state (read-only): bits 0..3 module state, 1 = RUN (parameters may be written over the
   service interface), 0 = STOP (read only); bits 4..11 the DIP address; bits 12..15 zero.
@@ -23,7 +24,8 @@ implement (the USS drive simulator will, so that one drive is reachable over USS
 - 126 communication source M: bit 0 = write authority of the service interface. While it is 0,
   every BASS write is refused with error 5 (parameter write-protected), 126 included.
 
-Error numbers the station gives (table 1.3, seed 004 1.3): unknown ID 1; write data with fewer
+Error numbers the station gives (table 1.3, Baumueller manual 1.3): unknown ID 1; write data with
+fewer
 digits than the element 2, with more 3 (also a read carrying data: 3); read-only element 4;
 no write authority 5; below minimum 6; above maximum 7; value outside the element's allowed
 set 8; a command other than 003C/003E 9.
@@ -92,7 +94,7 @@ class OperatingData(Protocol):
         ...
 
     def write_authorized(self) -> bool:
-        """True while the service interface may write (ID 126 bit 0, seed 004 1.5)."""
+        """True while the service interface may write (ID 126 bit 0, Baumueller manual 1.5)."""
         ...
 
 
@@ -132,10 +134,10 @@ ChangeListener = Callable[[int, int, int], None]
 
 
 class DictOperatingData:
-    """Operating data held in a dict, with the service-interface IDs of seed 004 1.5.
+    """Operating data held in a dict, with the service-interface IDs of Baumueller manual 1.5.
 
     ``elements`` adds drive elements (for example ID 2, speed setpoint, and ID 51, actual speed,
-    of the seed's examples). `on_change` registers a listener for writes.
+    of the Baumueller manual's examples). `on_change` registers a listener for writes.
     """
 
     def __init__(
@@ -177,7 +179,7 @@ class DictOperatingData:
         return bool(self.elements[ID_COMM_SOURCE].value & 1)
 
     def sv_state(self) -> int:
-        """ID 170: module state in bits 0..3, DIP address in bits 4..11 (seed 004 1.5)."""
+        """ID 170: module state in bits 0..3, DIP address in bits 4..11 (Baumueller manual 1.5)."""
         state = SV_STATE_RUN if self.write_authorized() else SV_STATE_STOP
         return state | (self._address << 4)
 
@@ -227,9 +229,10 @@ class DictOperatingData:
 
 
 def demo_elements() -> dict[int, Element]:
-    """The elements of the seed's examples: ID 2 speed setpoint and ID 51 actual speed.
+    """The elements of the Baumueller manual's examples: ID 2 speed setpoint and ID 51 actual speed.
 
-    Both in 0.01 % (1D4Ch = 7500 = 75 %, seed 004 1.1), signed, setpoint limited to +-100 %.
+    Both in 0.01 % (1D4Ch = 7500 = 75 %, Baumueller manual 1.1), signed, setpoint limited to +-100
+    %.
     """
     return {
         2: Element(0, signed=True, minimum=-10000, maximum=10000),
@@ -290,7 +293,8 @@ class BassStation:
 
 
 class BassRing:
-    """Up to 16 stations on a closed RS-232 loop (seed 004 1.4.2), in the order of the wiring.
+    """Up to 16 stations on a closed RS-232 loop (Baumueller manual 1.4.2), in the order of the
+    wiring.
 
     `inject` is the PC's TX: it returns what reaches the PC's RX. One PC at a time: the ring
     is a single loop and the stations' line state is shared by whatever feeds it.

@@ -3,7 +3,7 @@
 - `pyuss.drive.database`: the declarative parameter file (TOML) and its validation
   (`load_profile`, `load_database`, `ParameterDatabase`, `Parameter`).
 - `pyuss.drive.datatypes`: data types and their PKW words (C 6).
-- `pyuss.drive.description`: the parameter description elements (C 4.2.2, C 6; seed 004).
+- `pyuss.drive.description`: the parameter description elements (C 4.2.2, C 6; Baumueller manual).
 - `pyuss.drive.memory`: values and the rules of reading and changing them (`ParameterMemory`).
 - `pyuss.drive.store`: the EEPROM store file (atomic, checksummed).
 - `pyuss.drive.states`, `pyuss.drive.ramp`: the drive profile's state machine (C 5.2.1) and

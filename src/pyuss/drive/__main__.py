@@ -58,8 +58,8 @@ def _detail(db: ParameterDatabase, pnu: int) -> list[str]:
     memory = ParameterMemory(db)
     p = db.parameter(pnu)
     lines = [f"P{p.pnu} {p.name!r}: {p.dtype.label}, {p.access.value}", f"  {p.doc}".rstrip()]
-    if p.seed:
-        lines.append(f"  seed: {p.seed}")
+    if p.follows:
+        lines.append(f"  follows: {p.follows}")
     for item in memory.description(pnu):
         words = " ".join(f"{w:04X}" for w in item.words)
         lines.append(f"  element {item.number:>2} {item.name:26} {words}")

@@ -80,11 +80,11 @@ class DescriptionStyle(enum.Enum):
     PROFIBUS = "profibus"
     """Elements 1..10 of C 6 (Bild 6.1), after the PROFIBUS profile the spec cites."""
     BAUMUELLER = "baumueller"
-    """Elements 1, 2, 5, 6: attribute, info, minimum, maximum (seed 004 2.2.1)."""
+    """Elements 1, 2, 5, 6: attribute, info, minimum, maximum (Baumueller manual 2.2.1)."""
 
 
 class DisplayFormat(enum.IntEnum):
-    """Display format code of the Baumueller attribute bits 8..11 (seed 004 2.2.1)."""
+    """Display format code of the Baumueller attribute bits 8..11 (Baumueller manual 2.2.1)."""
 
     BIN = 0
     DEC = 1
@@ -214,7 +214,8 @@ class Parameter:
     """When it can be changed: letters of ``CUT`` (`CHANGEABLE_LETTERS`); None: always, as far
     as access and ``stopped_only`` allow."""
     doc: str = ""
-    seed: str = ""
+    follows: str = ""
+    """Where the facts come from: a document and section (docs/references.md), or "project"."""
 
     @property
     def is_array(self) -> bool:
@@ -317,7 +318,8 @@ class ProfileInfo:
 
     name: str
     title: str = ""
-    seed: str = ""
+    follows: str = ""
+    """The document sections the file follows (docs/references.md)."""
     manual: str = ""
     """The manuals (title and edition) the file's facts come from."""
     source: str = ""
@@ -332,7 +334,7 @@ class ProfileInfo:
     protected_level: int = 1
     write_enable: ParamRef | None = None
     """A parameter whose bit ``write_enable_bit`` must be 1 for any interface but the drive's
-    own to change parameters (Baumueller 126 "source de communication", seed 004 1.5)."""
+    own to change parameters (Baumueller 126 "source de communication", Baumueller manual 1.5)."""
     write_enable_bit: int = 0
 
 
@@ -595,7 +597,8 @@ _TOP_KEYS = {
 _PROFILE_KEYS = {
     "name",
     "title",
-    "seed",
+    "follows",
+    "seed",  # the older name of "follows"
     "manual",
     "extends",
     "index_base",
@@ -634,7 +637,8 @@ _PARAM_KEYS = {
     "level",
     "changeable",
     "doc",
-    "seed",
+    "follows",
+    "seed",  # the older name of "follows"
 }
 
 
@@ -753,7 +757,7 @@ def _profile(data: dict[str, Any], source: str, sources: str) -> ProfileInfo:
     return ProfileInfo(
         name=name,
         title=_text(data.get("title", ""), where, "title"),
-        seed=_text(data.get("seed", ""), where, "seed"),
+        follows=_text(data.get("follows", data.get("seed", "")), where, "follows"),
         manual=_text(data.get("manual", ""), where, "manual"),
         source=sources,
         index_base=index_base,
@@ -1017,7 +1021,7 @@ def _parameter(entry: dict[str, Any], where: _Where, profile: ProfileInfo) -> Pa
         level=_level(entry.get("level"), where),
         changeable=_changeable(entry.get("changeable"), where, access),
         doc=_text(entry.get("doc", ""), where, "doc"),
-        seed=_text(entry.get("seed", ""), where, "seed"),
+        follows=_text(entry.get("follows", entry.get("seed", "")), where, "follows"),
     )
     defaults = _defaults(entry, param, where)
     return replace(param, default=defaults)

@@ -5,7 +5,7 @@ signed and unsigned, IEEE 754 single precision float, V2 (a 16-bit bit field), o
 visible string. Their numbers are the PROFIBUS data type codes that the parameter description
 carries in element 1 (C 6 cites the profile for them).
 
-Transfer rules (C 6 "Uebertragungsformat der Nutzdaten", NOTES 6 and 7):
+Transfer rules (C 6 "Uebertragungsformat der Nutzdaten", reading 6 and 7):
 
 - 8- and 16-bit types travel in one word; 8-bit values are widened to 16 bits (signed ones
   sign-extended), and a word that does not fit the 8-bit range is refused as out of limits.

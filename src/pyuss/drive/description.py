@@ -30,7 +30,8 @@ a word parameter with PKW_ANZ = 3, which a four-byte element would not fit. Stri
 limits; their limit elements are two zero words. An element number outside 1..10 is refused
 with error 3 (faulty IND).
 
-``baumueller`` - seed 004 2.2.1: element 1 attribute (bits 0-1 length 1/2/4/8 bytes, 2-3 type
+``baumueller`` - Baumueller manual 2.2.1: element 1 attribute (bits 0-1 length 1/2/4/8 bytes, 2-3
+type
 signed/unsigned/float, 4-5 fixed/variable number of elements, 6-7 data/command, 8-11 display
 format, 12-15 decimal places), element 2 info (32 bits, low 16 used: bits 0-2 write protection
 0 unprotected / 1 protected, bit 3 stored), element 5 minimum and 6 maximum value. Any other

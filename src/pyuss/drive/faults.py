@@ -7,7 +7,8 @@ with an error number in PWE (C 4.2.1.1). Inside the simulator such a refusal is 
 C Table 4.3 defines 0..7 and declares the numbers up to 100 identical with the PROFIBUS profile
 "variable-speed drives" it cites; numbers above 100 belong to the device. The table names 11, 12,
 15 and 17 from that profile because the simulator uses them (write authority, keyword, text
-array, operating state). 101..104 are Baumueller's device numbers (seed 004 2.2.1, "Liste des
+array, operating state). 101..104 are Baumueller's device numbers (Baumueller manual 2.2.1, "Liste
+des
 indicatifs de defauts"); other profiles may use them in the same sense.
 
 `NoWriteAuthority` (11) is special: on the USS parameter channel the lack of write authority is
@@ -46,7 +47,7 @@ MEANINGS: dict[int, str] = {
     DriveErrorNumber.TOO_LARGE_FOR_PKW: "format too large for the PKW area",
     DriveErrorNumber.NO_SUCH_ELEMENT: "description element does not exist",
 }
-"""Meanings of `DriveErrorNumber` (Baumueller's 101..104 after seed 004 2.2.1)."""
+"""Meanings of `DriveErrorNumber` (Baumueller's 101..104 after Baumueller manual 2.2.1)."""
 
 
 def meaning(number: int) -> str:

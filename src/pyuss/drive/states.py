@@ -6,7 +6,7 @@ States and what leads from one to the next (control bits of C Tables 5.2..5.4):
   profile's init time (0 by default, then the drive starts in the next state at once).
 - ``SWITCH_ON_INHIBIT`` ("Einschaltsperre", status bit 6): after power-up, OFF2, OFF3 and a
   fault acknowledgement. Left only by OFF1 with no OFF2/OFF3 (bits 0..2 = 0, 1, 1; for example
-  047Eh, seed 002) - "switching on again only by OFF1 and then ON" (C Table 5.5).
+  047Eh, SIMOVERT P 6SE21 manual) - "switching on again only by OFF1 and then ON" (C Table 5.5).
 - ``READY_TO_SWITCH_ON`` ("einschaltbereit", status bit 0).
 - ``READY`` ("betriebsbereit", status bit 1): ON (bit 0 = 1). Without "enable operation" within
   the wait time t_wart the drive falls back to switch-on inhibit (C Table 5.2; 20 min or more

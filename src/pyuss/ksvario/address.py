@@ -1,4 +1,4 @@
-"""KS VARIO address map (seed 003 9.2, NOTES item 11).
+"""KS VARIO address map (KS VARIO interface description 9.2, docs/references.md item 11).
 
 One 16-bit address names one datum of one area in one of three views:
 
@@ -10,10 +10,12 @@ One 16-bit address names one datum of one area in one of three views:
 Areas: 0 device data, 1 visualisation area (the main process data of all 30 channels),
 2..31 controller channels 1..30.
 
-The seed's example 4.5.4 addresses limit L of channel 30 as FD09h, an odd float offset (109h).
+The interface description's example 4.5.4 addresses limit L of channel 30 as FD09h, an odd float
+offset (109h).
 The word is kept as given (an `Address` stores the raw offset, so FD09h decodes and encodes to
 itself); the datum an odd float offset reaches is ``offset // 2``, the same datum as the even
-offset below it. This is the project's reading; the seed gives no rule for odd offsets.
+offset below it. This is the project's reading; the interface description gives no rule for odd
+offsets.
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""The KS VARIO parameter channel (module A.1, 8 bytes each way), both sides (seed 003 4).
+"""The KS VARIO parameter channel (module A.1, 8 bytes each way), both sides (KS VARIO interface
+description 4).
 
 A job is a start telegram, one data telegram per value and an end telegram (4.2). Everything
 travels in the cyclic process image, so both sides act on a *change* of the 8 bytes they see:
@@ -10,7 +11,8 @@ travels in the cyclic process image, so both sides act on a *change* of the 8 by
   coupler echoes the request's bytes 1..5 there;
 * data (4.3, 4.4): ``68 Count 00 00 Value`` with Count = 1..n; the side that does not carry the
   value echoes Count for flow control;
-* end: master ``16``, coupler ``16 00 Result``. The seed puts Result in byte 2 in one table and
+* end: master ``16``, coupler ``16 00 Result``. The interface description puts Result in byte 2 in
+  one table and
   in "bytes 2-3" in another; this coupler writes byte 2 (byte 3 = 0) and the master side reads
   whichever of bytes 2 and 3 is not 0, so both readings interoperate.
 
@@ -18,14 +20,15 @@ Value placement in bytes 4..7 (4.2 a-d): REAL (ID1 1 or 3) a 4-byte IEEE 754 flo
 4..7; INTEGER (0) 2 bytes in bytes 6..7; CHAR (2) one byte in byte 5 (where the flattened table
 puts it); COMPACT CHAR (4) four characters in bytes 4..7, unused places 00h. Real and integer
 values follow the byte order of the user parameters (Motorola = big-endian, the default, or
-Intel = little-endian, seed 6); characters are never swapped.
+Intel = little-endian, interface description 6); characters are never swapped.
 
 Counts in compact-char format count groups of four characters (one data telegram each); a group
 covers four consecutive data. Results (4.2): 0 OK, 2 bad address, 3 invalid value, 4 buffer
 overflow.
 
 The master side (`ChannelClient`) also keeps the display word ANZW of the S7 function blocks
-FB106/FB107 (seed 003 8.1, 7.1.1) as `DisplayWord`: bit 0 running, 1 done without error,
+FB106/FB107 (KS VARIO interface description 8.1, 7.1.1) as `DisplayWord`: bit 0 running, 1 done
+without error,
 2 done with error, 3 waiting for acknowledgement, 4 reset, 5 service (0 read, 1 write),
 6 waiting for the end telegram, bits 8..10 the result, 14 wrong service, 15 timeout.
 """
@@ -92,7 +95,7 @@ _RESULT_TEXT = {
 
 
 def result_meaning(number: int) -> str:
-    """The meaning of a result number, also for numbers the seed does not list."""
+    """The meaning of a result number, also for numbers the interface description does not list."""
     try:
         return Result(number).meaning
     except ValueError:
@@ -100,7 +103,8 @@ def result_meaning(number: int) -> str:
 
 
 class ByteOrder(enum.IntEnum):
-    """Byte order of real and integer values (user parameter byte 4 bit 0, seed 6)."""
+    """Byte order of real and integer values (user parameter byte 4 bit 0, interface description
+    6)."""
 
     MOTOROLA = 0
     INTEL = 1
@@ -435,7 +439,8 @@ class ChannelServer:
 
 
 class DisplayWord(enum.IntFlag):
-    """ANZW, the display word of the S7 blocks FB106/FB107 (seed 003 8.1); the result lives
+    """ANZW, the display word of the S7 blocks FB106/FB107 (KS VARIO interface description 8.1);
+    the result lives
     in bits 8..10 (`RESULT_SHIFT`)."""
 
     NONE = 0

@@ -1,7 +1,8 @@
 """A simulated KS VARIO bus coupler with up to 30 controller channels, pure (time is passed in).
 
 Data model. Every area (0 device, 1 visualisation, 2..31 channels 1..30) holds 512 data, each a
-number in engineering units (a float). The three address views of seed 003 9.2 see the same
+number in engineering units (a float). The three address views of KS VARIO interface description
+9.2 see the same
 datum: the integer view as a rounded signed 16-bit integer, FixPoint1 as tenths (value x 10,
 rounded), the float view as an IEEE 754 single. Areas of channels beyond ``channels`` do not
 exist: the parameter channel answers them with result 2 (bad address), as it does for a block
@@ -14,14 +15,16 @@ read-only datum ends with result 3 (invalid value).
 Caches (3.2, 3.3). `CacheSelection` is what BlueControl would load: up to 120 free entries
 (channel, datum) and up to 32 data per channel for every channel; read cache index 1.. holds
 the free entries, then the per-channel data of channel 1, 2, .... Entries are FixPoint1
-(cyclic process data travel as FixPoint1, seed 3). The write cache is laid out the same way
+(cyclic process data travel as FixPoint1, interface description 3). The write cache is laid out the
+same way
 from the write selection.
 
 Cyclic exchange (`exchange`): the output image (master -> coupler) of a `Configuration` goes
 in, the input image comes out. I/O modules that are not behind the variable multiplexer map to
 the caches from index 1 on, in order (3.1); the variable multiplexer serves the I/O modules
 behind it; fixed multiplexers carry their own data. Values from the write cache reach the
-controllers only when they change (seed 3: "Vorgabewerte werden vom Gerät nur bei einer
+controllers only when they change (interface description 3: "Vorgabewerte werden vom Gerät nur bei
+einer
 Wertänderung übernommen"), and, if module A.7 is configured, only while its byte is 1 or on
 its 0 -> 1 edge (3.1).
 
@@ -63,7 +66,7 @@ from pyuss.ksvario.userprm import FailSafe, UserParameters
 MAX_FREE = 120
 MAX_PER_CHANNEL = 32
 
-#: Data named in the seed's examples (4.5), by datum number in a channel area.
+#: Data named in the interface description's examples (4.5), by datum number in a channel area.
 KNOWN_DATA: dict[int, str] = {
     0x69: "SPLo",
     0x6A: "SPHi",
@@ -117,7 +120,8 @@ class CacheSelection:
 
     @classmethod
     def example(cls) -> CacheSelection:
-        """The selection shown in seed 003 3.2: X.Eff, Ypid, Pb1, Pb2, ti1, td1 of channels 1
+        """The selection shown in KS VARIO interface description 3.2: X.Eff, Ypid, Pb1, Pb2, ti1,
+        td1 of channels 1
         and 2 as free entries (datum numbers besides Pb1 and td1 are the simulator's)."""
         per = (0x01, 0x02, 0x96, 0x97, 0x98, 0x9A)
         free = tuple((ch, d) for ch in (1, 2) for d in per)

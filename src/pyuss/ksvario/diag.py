@@ -1,4 +1,5 @@
-"""KS VARIO diagnosis (seed 003 6.1): 6 standard bytes and 9 device-specific bytes.
+"""KS VARIO diagnosis (KS VARIO interface description 6.1): 6 standard bytes and 9 device-specific
+bytes.
 
 Standard (6.1.1): byte 1 and 2 station status flags (`Status1`, `Status2`), byte 3 bit 7
 ext_diag_overflow (`Status3`), byte 4 the master address (FFh before parameterisation),

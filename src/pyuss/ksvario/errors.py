@@ -10,7 +10,8 @@ class KsVarioError(UssError):
 
 
 class ChannelResultError(KsVarioError):
-    """The bus coupler ended a parameter-channel job with a result other than 0 (seed 003 4.2).
+    """The bus coupler ended a parameter-channel job with a result other than 0 (KS VARIO interface
+    description 4.2).
 
     ``result`` is the result number (2 bad address, 3 invalid value, 4 buffer overflow).
     """

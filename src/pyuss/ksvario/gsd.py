@@ -1,12 +1,14 @@
-"""The KS VARIO GSD file (seed 003 9.4): emit it, and parse GSD files of this kind back.
+"""The KS VARIO GSD file (KS VARIO interface description 9.4): emit it, and parse GSD files of this
+kind back.
 
-`emit_gsd()` writes the device database file of the seed with these deliberate differences,
+`emit_gsd()` writes the device database file of the interface description with these deliberate
+differences,
 all towards the GSD standard so that configuration tools read it without warnings:
 
-* ``MaxTsdr_*`` where the seed writes ``MaxTcdr_*`` (the standard keyword);
+* ``MaxTsdr_*`` where the interface description writes ``MaxTcdr_*`` (the standard keyword);
 * ``Max_Input_Len`` / ``Max_Output_Len`` spelt as the standard spells them;
 * ``Ext_User_Prm_Data_Const(0)`` carries all 4 user parameter bytes (00 00 00 00), not 3, so
-  a tool that applies only the constant still sends the full 4 bytes (seed 6);
+  a tool that applies only the constant still sends the full 4 bytes (interface description 6);
 * the A.7 module name is in English like the others; text is plain ASCII, lines end CR LF.
 
 `parse_gsd()` reads such files (keywords are case-insensitive, ``;`` starts a comment outside
@@ -34,14 +36,15 @@ FILE_NAME = "PMA_1030.gsd"
 _BAUDS = ("9.6", "19.2", "31.25", "45.45", "93.75", "187.5", "500", "1.5M", "3M", "6M", "12M")
 _TSDR = (60, 60, 60, 60, 60, 60, 100, 150, 250, 450, 800)
 
-#: (reference, name, bit, texts) of the user parameters (seed 6, 9.4).
+#: (reference, name, bit, texts) of the user parameters (interface description 6, 9.4).
 USER_PRM_TEXTS: tuple[tuple[int, str, int, tuple[str, str]], ...] = (
     (1, "Motorola/Intel format", 0, ("IEEE(Motorola)", "Intel")),
     (2, "Diagnosis format", 1, ("extended", "standard")),
     (3, "Fail-safe", 2, ("last value", "zero")),
 )
 
-#: Unit_Diag_Bit texts of the seed's GSD (bit numbers counted from diagnosis byte 9).
+#: Unit_Diag_Bit texts of the interface description's GSD (bit numbers counted from diagnosis byte
+#: 9).
 DIAG_BIT_TEXTS: dict[int, str] = {
     32: "E.1 Internal error",
     33: "E.2 Internal error/temporary",

@@ -1,4 +1,5 @@
-"""Process data modules of the KS VARIO and their configuration rules (seed 003 3.1).
+"""Process data modules of the KS VARIO and their configuration rules (KS VARIO interface
+description 3.1).
 
 17 modules, each with its identifier byte (the byte a DP master sends in Chk_Cfg):
 A.1 parameter channel (8/8 bytes), A.2 variable multiplexer (4/4), A.3..A.6 fixed multiplexers
@@ -80,7 +81,7 @@ def _m(key: str, number: int, ident: int, name: str) -> Module:
     return Module(key, number, ident, name, i, o)
 
 
-#: All modules, in the order of the seed's table (3.1) and the GSD file (9.4).
+#: All modules, in the order of the interface description's table (3.1) and the GSD file (9.4).
 MODULES: tuple[Module, ...] = (
     _m("A.1", 1, 0xF3, "General-Parameter channel"),
     _m("A.2", 2, 0x71, "Variable Multiplexfunc."),
@@ -161,7 +162,7 @@ class Configuration:
 
 
 def validate(modules: Sequence[Module]) -> None:
-    """Check a module list against the seed's rules (see module docstring)."""
+    """Check a module list against the interface description's rules (see module docstring)."""
     keys = [m.key for m in modules]
     if not modules:
         raise ConfigError("a configuration needs at least one module")

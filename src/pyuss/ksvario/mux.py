@@ -1,4 +1,5 @@
-"""Multiplexer modules and the data caches of the bus coupler (seed 003 3.3 - 3.5).
+"""Multiplexer modules and the data caches of the bus coupler (KS VARIO interface description 3.3 -
+3.5).
 
 The coupler keeps a read cache and a write cache of up to 1080 16-bit data each, filled per
 the selection made in BlueControl (3.2, 3.3). A multiplexer module moves a window of them:
@@ -7,7 +8,8 @@ the selection made in BlueControl (3.2, 3.3). A multiplexer module moves a windo
   the master, IndexIN = the same two words mirrored by the coupler; the data travel in the
   I/O modules after it (input words carry read data, output words write data);
 * fixed multiplexers A.3..A.6 (3.5): Index_Read, Index_Write and 1, 4, 8 or 14 data words in
-  one consistent module each way. The seed's table lists "Read Value" under IndexOUT and
+  one consistent module each way. The interface description's table lists "Read Value" under
+  IndexOUT and
   "Write value" under IndexIN; the data flow makes the master's words the values to write and
   the coupler's words the values read, which is how they are used here.
 
@@ -190,7 +192,8 @@ def _block_starts(first: int, last: int, per: int) -> list[int]:
 
 
 class MuxClient:
-    """The master's side of a multiplexer (like FB108, seed 003 8.2), pure and one-shot:
+    """The master's side of a multiplexer (like FB108, KS VARIO interface description 8.2), pure
+    and one-shot:
     read the read-cache range ``read_range`` and write ``write_words`` into the write cache from
     ``write_first`` on, ``read_per``/``write_per`` words per message.
 

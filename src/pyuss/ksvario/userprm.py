@@ -1,4 +1,5 @@
-"""User parameters of the KS VARIO (seed 003 6): 4 bytes in Set_Prm after the 7 standard bytes.
+"""User parameters of the KS VARIO (KS VARIO interface description 6): 4 bytes in Set_Prm after the
+7 standard bytes.
 
 Bytes 1..3 are reserved for DP-V1 and 0 in DP-V0 operation. Byte 4: bit 0 byte order of
 values (0 Motorola / IEEE, 1 Intel), bit 1 diagnosis format (0 extended, 1 standard),

@@ -1,12 +1,12 @@
 """Broadcast telegrams a master sends (A 3: ADR bit 5, address bits not evaluated, no answer).
 
-Two forms exist and a profile says which its drives understand (NOTES 9,
+Two forms exist and a profile says which its drives understand (reading 9,
 `pyuss.profiles.BroadcastForm`):
 
 - `enable_array_data`: the appendix's mechanism (C 5.2.3) - the 4-word PKW area carries a
   Broadcast Enable Array that selects the PZD words and the single bits of PZD words 1, 4 and 5
   the drives take; everything else keeps the value of their last individual telegram.
-- `masked_control_data`: Baumueller's (seed 004 2.2) - PZD1 is merged into each drive's
+- `masked_control_data`: Baumueller's (Baumueller manual 2.2) - PZD1 is merged into each drive's
   control word through the mask in PWE1 (request ID 0; PKW 3 or 4, PZD 2 or 3); setpoints are
   not taken. With ``addresses`` the broadcast coding selects the drives that react: PZD2 (high
   word) and PZD3 (low word) hold a 32-bit mask, bit n = address n (the drives must have the
@@ -52,12 +52,14 @@ def masked_control_data(
     layout: Layout,
     addresses: Iterable[int] | None = None,
 ) -> bytes:
-    """Net data of Baumueller's masked control-word broadcast (seed 004 2.2, NOTES 9)."""
+    """Net data of Baumueller's masked control-word broadcast (Baumueller manual 2.2, reading 9)."""
     for name, word in (("control word", control), ("mask", mask)):
         if isinstance(word, bool) or not isinstance(word, int) or not 0 <= word <= 0xFFFF:
             raise ConfigError(f"{name} must be 0..FFFFh, got {word!r}")
     if layout.variable:
-        raise ConfigError("the masked control-word broadcast needs a fixed layout (seed 004 2)")
+        raise ConfigError(
+            "the masked control-word broadcast needs a fixed layout (Baumueller manual 2)"
+        )
     pzd = [0] * layout.pzd
     if not pzd:
         raise ConfigError(f"layout {layout} has no PZD area for the control word")
@@ -67,9 +69,9 @@ def masked_control_data(
             raise ConfigError("with PKW 0 the control word is taken whole: no mask, no addresses")
         return layout.pack(None, pzd)
     if layout.pzd < 2:
-        raise ConfigError("the masked broadcast needs at least 2 PZD words (seed 004 2.2)")
+        raise ConfigError("the masked broadcast needs at least 2 PZD words (Baumueller manual 2.2)")
     if addresses is not None:
         if layout.pzd < 3:
-            raise ConfigError("broadcast address coding needs 3 PZD words (seed 004 2.2)")
+            raise ConfigError("broadcast address coding needs 3 PZD words (Baumueller manual 2.2)")
         pzd[1], pzd[2] = address_mask(addresses)
     return layout.pack(masked_control_pkw(mask, layout.pkw), pzd)

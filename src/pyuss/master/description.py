@@ -23,7 +23,8 @@ project's drive simulator sends them (docs/drive.md):
  10   identifier extension          1
 ====  ============================  ======================================================
 
-Baumueller drives (seed 004 2.2.1) have elements 1 (attribute), 2 (info, 32 bits), 5 (minimum)
+Baumueller drives (Baumueller manual 2.2.1) have elements 1 (attribute), 2 (info, 32 bits), 5
+(minimum)
 and 6 (maximum) only; the attribute says the value's size and type.
 
 `decode_description` splits the words of a whole description (IND 255, variable length only,

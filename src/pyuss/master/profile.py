@@ -3,16 +3,16 @@
 A profile tells the master:
 
 - how a parameter number travels: `Profile.encode_pnu` / `Profile.decode_pnu` (PKE bits 0..10
-  and, for MICROMASTER 4, a page number in IND bits 12..15; NOTES 8);
+  and, for MICROMASTER 4, a page number in IND bits 12..15; reading 8);
 - which answer belongs to which job: `answers` - `Pkw.is_answer_to` (C 4.2.1.1: response ID of
   C Table 4.3, PNU, IND for indexed jobs), the same page, and no IND comparison for drives
-  that answer IND 0 always (6SE21, seed 002 7.5);
+  that answer IND 0 always (6SE21, SIMOVERT P 6SE21 manual 7.5);
 - how long to wait for an answer: `response_limit` - the latest answer the profile allows,
   with the device's response-delay mode counted in (Baumueller answers within 2 ms, or within
-  20 ms in that mode, seed 004 2.5), never below the start pause (A 5.2.1.1);
-- the start pause it needs (`Profile.start_pause_chars`, NOTES 2), its layouts
+  20 ms in that mode, Baumueller manual 2.5), never below the start pause (A 5.2.1.1);
+- the start pause it needs (`Profile.start_pause_chars`, reading 2), its layouts
   (`Profile.check_layout`, `Profile.default_layout`), its error numbers
-  (`Profile.error_meaning`) and broadcast form (`Profile.broadcast`, NOTES 9);
+  (`Profile.error_meaning`) and broadcast form (`Profile.broadcast`, reading 9);
 - from its parameter file: where arrays start counting (`index_base`) and the layout of its
   parameter descriptions (`description_style`).
 """
@@ -59,7 +59,7 @@ def response_limit(profile: Profile, baud: int, limit: float | None = None) -> f
     """How long the master waits for the start of an answer: ``limit`` if given, else the
     latest answer ``profile`` allows (its response-delay mode included); never below the start
     pause (A 5.2.1.1) - the profile's, where it asks for a longer one (Baumueller: 3 character
-    times, NOTES 2), since the slave keeps it before its answer too."""
+    times, reading 2), since the slave keeps it before its answer too."""
     if limit is None:
         limit = max(profile.response_delay(baud, delayed=True)[1], profile.response_delay(baud)[1])
     return max(response_delay_limit(baud, limit), profile.start_pause(baud))
@@ -71,5 +71,5 @@ def index_base(profile: Profile) -> int:
 
 
 def description_style(profile: Profile) -> DescriptionStyle:
-    """The parameter description layout of the profile's drives (C 6; seed 004 2.2.1)."""
+    """The parameter description layout of the profile's drives (C 6; Baumueller manual 2.2.1)."""
     return profile.database().profile.description

@@ -18,7 +18,7 @@ Telegram traffic (A 2, A 5.1)
 Timing (A 5.1.2, A 5.2.1)
     - Before every telegram the master keeps a start pause after the end of the last byte on
       the line, its own or received (chunk timestamps): 2 character times, or more where the
-      slave's profile asks for more (NOTES 2).
+      slave's profile asks for more (reading 2).
     - The answer must begin within the slave's response delay limit (20 ms by default, never
       below the start pause; a profile or the caller may set another) after the end of the
       request, and the core `Receiver` checks its residual time and BCC. Otherwise the master
@@ -690,7 +690,8 @@ class Master:
         layout: Layout,
         addresses: Iterable[int] | None = None,
     ) -> int:
-        """Baumueller's broadcast (seed 004 2.2, NOTES 9): ``control`` merged into the control
+        """Baumueller's broadcast (Baumueller manual 2.2, reading 9): ``control`` merged into the
+        control
         word of every drive (or of ``addresses`` with broadcast coding) through ``mask``; see
         `pyuss.master.broadcast.masked_control_data`. Returns as `broadcast`."""
         from pyuss.master.broadcast import masked_control_data

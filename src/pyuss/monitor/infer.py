@@ -12,7 +12,7 @@ scored:
   10, responses 13 and 14) counts against a layout, as do IND bits 0..9 set for a job that
   takes no index (C 4.2.2) and a "no job" with values (C 4.2.1.1: unused fields are 0).
 - The PWE count must fit the ID: a double word needs PKW 4 or the variable layout; with PKW 4 a
-  word travels in PWE2 with PWE1 = 0 (NOTES 6); with the variable layout the number of PWE
+  word travels in PWE2 with PWE1 = 0 (reading 6); with the variable layout the number of PWE
   words must match a word or a double word.
 - A master sets bit 10 of the control word ("control by PLC", C Table 5.4) to make its process
   data count, so a PZD1 with bit 10 set counts for a layout.

@@ -4,17 +4,19 @@ device family, shared by the slave and the master.
 =================  =====================================================  ===================
 name               device                                                 follows
 =================  =====================================================  ===================
-``generic``        the drive profile of the USS specification             seed 000 A, C, app.
-``6se21``          SIMOVERT P 6SE21 / early MICROMASTER                   seed 002 7.5
-``baumueller``     Baumueller drives (fixed length, masked broadcast)     seed 004 part 2
-``nord``           NORD frequency inverters                               seed 001 1.3.5/1.3.6
+``generic``        the drive profile of the USS specification             USS specification A, C,
+app.
+``6se21``          SIMOVERT P 6SE21 / early MICROMASTER                   SIMOVERT P 6SE21 manual
+7.5
+``baumueller``     Baumueller drives (fixed length, masked broadcast)     Baumueller manual part 2
+``nord``           NORD frequency inverters                               NORD BU 0050 1.3.5/1.3.6
 ``micromaster4``   MICROMASTER 4 / SINAMICS (P2000 and up via IND page)   public MM4 manuals
 ``micromaster420`` MICROMASTER 420                                        its manuals
 ``micromaster440`` MICROMASTER 440                                        its manuals
 ``sinamics-g110``  SINAMICS G110                                          its manuals
 ``sinamics-g120``  SINAMICS G120 with CU240S control unit                 its manuals
 ``sinamics-v20``   SINAMICS V20                                           its manuals
-``nord-sk500e``    NORD SK 500E series                                    seed 001, BU 0050/0500
+``nord-sk500e``    NORD SK 500E series                                    NORD BU 0050, BU 0050/0500
 =================  =====================================================  ===================
 
 The family profiles (`pyuss.profiles.siemens`, `pyuss.profiles.nord_sk500e`) add what the

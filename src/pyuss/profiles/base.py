@@ -9,8 +9,8 @@ texts) lives in the TOML file of the same name under ``pyuss/profiles/data`` and
 - the timing it keeps: start pause and the window in which it answers (`Profile.start_pause`,
   `Profile.response_delay`);
 - how parameter numbers above the 11 bits of PKE travel (`Profile.encode_pnu`,
-  `Profile.decode_pnu`; NOTES 8: device-specific IND bits);
-- the broadcast form it understands (`BroadcastForm`, NOTES 9), whether it sends spontaneous
+  `Profile.decode_pnu`; reading 8: device-specific IND bits);
+- the broadcast form it understands (`BroadcastForm`, reading 9), whether it sends spontaneous
   messages (C 4.2.1.2) and which request IDs it knows;
 - the error numbers above the specification's (`Profile.error_meanings`,
   `Profile.error_meaning`) and which ones it answers when a job does not fit the PKW area
@@ -46,7 +46,7 @@ _PAGE_MASK = 0xF000
 
 
 class BroadcastForm(enum.Enum):
-    """How a device takes process data from a broadcast telegram (A 3, NOTES 9).
+    """How a device takes process data from a broadcast telegram (A 3, reading 9).
 
     A broadcast is never answered whatever the form (A 3, A 5.2.2).
     """
@@ -58,8 +58,9 @@ class BroadcastForm(enum.Enum):
     PZD words and control bits (appendix, C 5.2.3, `pyuss.protocol.broadcast`)."""
     MASKED_CONTROL = "masked-control"
     """Baumueller: PZD1 is merged into the control word through the mask in PWE1; setpoints
-    and PKW jobs are not taken; optionally PZD2/PZD3 name the addresses that react (seed 004
-    2.2, NOTES 9)."""
+    and PKW jobs are not taken; optionally PZD2/PZD3 name the addresses that react (Baumueller
+    manual
+    2.2, reading 9)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -110,8 +111,8 @@ class Profile:
 
     name: str
     title: str
-    seed: str
-    """The seed section(s) the profile follows."""
+    follows: str
+    """The document sections the profile follows (docs/references.md)."""
     default_layout: Layout
     """The layout used when neither the user nor the parameter file sets one."""
     fixed_layout: Layout | None = None
@@ -132,7 +133,7 @@ class Profile:
     pnu_page_size: int | None = None
     """Parameter numbers per page in IND bits 12..15 (MICROMASTER 4: 2000); None: PKE only."""
     answer_index_zero: bool = False
-    """Answers always carry IND = 0 (6SE21, seed 002 7.5)."""
+    """Answers always carry IND = 0 (6SE21, SIMOVERT P 6SE21 manual 7.5)."""
     broadcast: BroadcastForm = BroadcastForm.NONE
     spontaneous: bool = False
     """The device reports changes of active parameters spontaneously (C 4.2.1.2)."""
@@ -219,7 +220,7 @@ class Profile:
 
     def response_delay(self, baud: int, *, delayed: bool = False) -> tuple[float, float]:
         """``(earliest, latest)`` start of an answer after the request's end, in seconds. Both
-        are at least the start pause (A 5.2.1.1, NOTES 10); ``delayed``: the response-delay mode
+        are at least the start pause (A 5.2.1.1, reading 10); ``delayed``: the response-delay mode
         of the device is on."""
         pause = self.start_pause(baud)
         high = self.delayed_response_max if delayed else self.response_delay_max
@@ -236,7 +237,7 @@ class Profile:
 
     def encode_pnu(self, pnu: int) -> tuple[int, int]:
         """``(PKE bits 0..10, IND bits)`` that address parameter ``pnu``; the IND bits are to
-        be or-ed into the index word (NOTES 8)."""
+        be or-ed into the index word (reading 8)."""
         if isinstance(pnu, bool) or not isinstance(pnu, int) or not 0 <= pnu <= self.max_pnu:
             raise ConfigError(
                 f"parameter number must be 0..{self.max_pnu} for profile {self.name}, got {pnu!r}"

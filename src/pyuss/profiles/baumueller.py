@@ -1,4 +1,4 @@
-"""``baumueller``: USS as Baumueller drives implement it (seed 004 part 2).
+"""``baumueller``: USS as Baumueller drives implement it (Baumueller manual part 2).
 
 - Fixed telegram length only (2, 2.4): PKW 0, 3 or 4 words (parameter 183), PZD 0..3 words
   (parameter 184, 2.2.2); a double-word parameter needs PKW 4 (2.4).
@@ -9,17 +9,19 @@
   is the one prepared after the previous request ("une imbrication des reponses"): the slave
   engine implements that pipeline.
 - Request IDs 0..4 only (2.2.1: no job, read value, write word, write double word, read
-  description element); the others are answered with 102 "service not implemented". The seed
+  description element); the others are answered with 102 "service not implemented". The Baumueller
+  manual
   lists no spontaneous messages: none are sent.
 - Parameter description elements 1 (attribute), 2 (info), 5 (minimum) and 6 (maximum) with the
   bit layouts of 2.2.1 (the drive's ``baumueller`` description style); other elements: 104.
 - Error numbers 101 unspecified fault, 102 service not implemented, 103 format too large for the
   PKW area, 104 description element does not exist (2.2.1 "Liste des indicatifs de defauts").
-- Broadcast (2.2, NOTES 9): the control word in PZD1 is merged through the mask in PWE1, only
+- Broadcast (2.2, reading 9): the control word in PZD1 is merged through the mask in PWE1, only
   with PKW >= 3, PZD >= 2 and request ID 0; with PKW 0 it is taken unmasked; setpoints and PKW
   jobs are not taken. With "broadcast coding" (181 bit 1, PKW >= 3, PZD >= 3) PZD2 (high word)
   and PZD3 (low word) hold a 32-bit mask of the addresses that react: bit n = address n (the
-  figure of the seed's example with addresses 0, 9 and 23 was lost; the project numbers the
+  figure of the Baumueller manual's example with addresses 0, 9 and 23 was lost; the project
+  numbers the
   bits from the least significant one). `address_mask` and `masked_control_pkw` build these
   for a master.
 - Setpoint and actual value channel (185, 186, 2.5): with PZD count 2 a 16-bit value travels in
@@ -74,7 +76,7 @@ SETPOINT_FORMAT_FAULT = 1 << 9
 PROFILE = Profile(
     name="baumueller",
     title="Baumueller drive (USS with fixed telegram length)",
-    seed="004 part 2",
+    follows="Baumueller manual part 2",
     default_layout=Layout(3, 2),
     pkw_choices=(0, 3, 4),
     max_pzd=3,
@@ -115,7 +117,7 @@ def masked_control_pkw(mask: int, pkw_count: int = 3) -> Pkw:
     """The PKW area of a masked control-word broadcast: request ID 0, PWE1 = ``mask``.
 
     With a PKW area of 4 words a single value would travel in PWE2 (C 4.2.3), so PWE2 is given
-    explicitly as 0 and the mask stays in PWE1, where the drives read it (NOTES 9)."""
+    explicitly as 0 and the mask stays in PWE1, where the drives read it (reading 9)."""
     if isinstance(mask, bool) or not isinstance(mask, int) or not 0 <= mask <= 0xFFFF:
         raise ConfigError(f"control word mask must be 0..FFFFh, got {mask!r}")
     if pkw_count not in (3, 4):

@@ -32,7 +32,7 @@ PAGE_SIZE = 2000
 PROFILE = Profile(
     name="micromaster4",
     title="MICROMASTER 4 / SINAMICS (parameters >= 2000 through IND page bits)",
-    seed="none; MICROMASTER 420 operating instructions, USS parameter number",
+    follows="none; MICROMASTER 420 operating instructions, USS parameter number",
     default_layout=Layout(PKW_VARIABLE, 2),
     max_pzd=8,
     pnu_page_size=PAGE_SIZE,

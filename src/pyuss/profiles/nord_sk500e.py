@@ -89,7 +89,7 @@ PROFILE = replace(
     nord.PROFILE,
     name="nord-sk500e",
     title="NORD SK 500E series",
-    seed="NORD BU 0050 1.3.5, 1.3.6, 1.5; NORD BU 0500",
+    follows="NORD BU 0050 1.3.5, 1.3.6, 1.5; NORD BU 0500",
     default_layout=Layout(4, 2),
     pkw_choices=(0, 4),
     max_pzd=6,

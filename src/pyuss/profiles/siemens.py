@@ -153,7 +153,7 @@ WARNINGS: dict[int, str] = {
 
 _BASE = replace(
     micromaster4.PROFILE,
-    seed="the manuals named in the parameter file",
+    follows="the manuals named in the parameter file",
     default_layout=Layout(PKW_VARIABLE, 2),
     baud_codes={code: rate for code, rate in BAUD_CODES.items() if code <= 9},
     control_bits={**CONTROL_BITS, 15: "local / remote"},

@@ -1,6 +1,7 @@
-"""``6se21``: SIMOVERT P 6SE21 / early MICROMASTER (seed 002, manual section 7.5).
+"""``6se21``: SIMOVERT P 6SE21 / early MICROMASTER (SIMOVERT P 6SE21 manual, manual section 7.5).
 
-- Every telegram is 14 bytes: LGE fixed at 12, PKW 3 + PZD 2 (seed 002 7.5); other layouts are
+- Every telegram is 14 bytes: LGE fixed at 12, PKW 3 + PZD 2 (SIMOVERT P 6SE21 manual 7.5); other
+  layouts are
   refused.
 - "IND: unused on the 6SE21, answer telegrams always set IND to 0" (7.5).
 - The answer comes about 2 characters after the request: between 2.5 and 17.5 ms at 9600 baud
@@ -9,7 +10,8 @@
   PLC) clears it (7.5.1.1). That is the drive's state machine and its parameter file
   (``6se21.toml``).
 
-The device knows no broadcast processing (seed 002 names none). Error numbers beyond C Table 4.3
+The device knows no broadcast processing (SIMOVERT P 6SE21 manual names none). Error numbers beyond
+C Table 4.3
 are not documented for the device; jobs that do not fit PKW 3 get 103, the reserved request ID
 102, as in the generic profile. No spontaneous messages. Diagnostic parameters of the slave:
 P980..P997.
@@ -24,7 +26,7 @@ from pyuss.protocol.layout import Layout
 PROFILE = Profile(
     name="6se21",
     title="SIMOVERT P 6SE21 / early MICROMASTER",
-    seed="002 7.5",
+    follows="SIMOVERT P 6SE21 manual 7.5",
     default_layout=Layout(3, 2),
     fixed_layout=Layout(3, 2),
     pkw_choices=(3,),

@@ -2,7 +2,7 @@
 
 A broadcast telegram (ADR bit 5) carries the same net data layout as the individual ones; its
 4-word PKW area holds the Broadcast Enable Array instead of a parameter job (C 5.2.3,
-appendix, NOTES 9):
+appendix, reading 9):
 
 - word a: bit 0 is the broadcast flag, bit k (1..15) enables PZD word k;
 - words b, c, d: enable single bits of PZD words 1, 4 and 5 (which may be command words).
@@ -25,7 +25,7 @@ image given to `apply_broadcast` must be the PZD of the last *non-broadcast* tel
 keeps that image and applies each broadcast to it). An array whose flag (word a bit 0) is not
 set enables nothing: `apply_broadcast` then returns ``previous`` unchanged.
 
-Baumueller's masked control word (NOTES 9) is a different mechanism and belongs to its profile.
+Baumueller's masked control word (reading 9) is a different mechanism and belongs to its profile.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ A 5.2.3 suggests 16 diagnostic parameters of 16 bits each; `Counters` holds them
 (a slave can show them as one indexed parameter, `Counters.words`):
 
 ====  ==========================================  ==========================================
- no.  seed (A 5.2.3)                              `Counters` field
+  no. (A 5.2.3)                                  `Counters` field
 ====  ==========================================  ==========================================
   1   Hardwareausführungsstand der Schnittstelle  ``hardware_version``
   2   Softwarestand der Schnittstellensoftware    ``software_version``
@@ -120,7 +120,7 @@ _KIND_FIELD = {
 
 @dataclass(frozen=True, slots=True)
 class Counters:
-    """A snapshot of the 16 diagnostic parameters of A 5.2.3, in the seed's order."""
+    """A snapshot of the 16 diagnostic parameters of A 5.2.3, in the USS specification's order."""
 
     hardware_version: int = 0
     software_version: int = 0

@@ -3,14 +3,14 @@
 A layout is the pair of interface parameters PKW_ANZ and PZD_ANZ (C 3.1):
 
 - PKW 0 (no parameter channel), 3 (PKE, IND, PWE1), 4 (PKE, IND, PWE1, PWE2) or 127 =
-  `PKW_VARIABLE` (PKE, IND and m PWE words, 1 <= m <= 124 - PZD; C 4.1.2, NOTES 5).
+  `PKW_VARIABLE` (PKE, IND and m PWE words, 1 <= m <= 124 - PZD; C 4.1.2, reading 5).
 - PZD 0..16 words (C 2).
 - At most 126 words of net data (252 bytes, A 4.2).
 
 Fixed layouts have the same length in both directions (C 7); with the variable layout the PZD
 count stays fixed and the PKW area grows with the job.
 
-Packing places PWE words by the rules of C 4.2.3 and NOTES 6: with PKW 4 a single word goes to
+Packing places PWE words by the rules of C 4.2.3 and reading 6: with PKW 4 a single word goes to
 PWE2 and PWE1 is 0; with PKW 3 and the variable layout it goes to PWE1; a double word is
 PWE1 = high, PWE2 = low; a PKW area without values is filled with zeros up to its minimum
 (3 or 4 words; 3 for the variable layout). Unpacking returns the PWE words exactly as received,

@@ -2,12 +2,12 @@
 
 The PKW area is ``PKE, IND, PWE1 .. PWEm`` (C 4.1):
 
-- PKE (C 4.2.1, NOTES 8): bits 15..12 request or response ID, bit 11 the spontaneous-message
+- PKE (C 4.2.1, reading 8): bits 15..12 request or response ID, bit 11 the spontaneous-message
   toggle (C 4.2.1.2), bits 10..0 the parameter number PNU (0..2047).
 - IND (C 4.2.2): low byte the subindex (array element or description element; 255 = the whole
   array or description), bits 8 and 9 select the text field and reading or writing for request
   15 (Tables 4.5, 4.6), bits 10..15 are device-specific (Table 4.7) and left to profiles.
-- PWE (C 4.2.3, C 6, NOTES 6/7): words, high byte first; a double word as PWE1 = high word,
+- PWE (C 4.2.3, C 6, reading 6/7): words, high byte first; a double word as PWE1 = high word,
   PWE2 = low word; byte strings and text characters in storage order, the first displayed
   character first.
 
@@ -55,7 +55,7 @@ __all__ = [
 ]
 
 MAX_PNU = 0x7FF
-"""PNU is 11 bits: 0..2047 (C 4.2.1.3, NOTES 8)."""
+"""PNU is 11 bits: 0..2047 (C 4.2.1.3, reading 8)."""
 INDEX_ALL = 255
 """IND low byte 255: the whole array or the whole parameter description (C 4.2.2)."""
 
@@ -438,7 +438,7 @@ def words_to_bytes(words: Sequence[int]) -> bytes:
 
 
 def pwe_text(text: str, length: int | None = None) -> tuple[int, ...]:
-    """Text as PWE words, the first displayed character first (C 6, NOTES 7), padded with
+    """Text as PWE words, the first displayed character first (C 6, reading 7), padded with
     blanks to ``length`` characters (default: to an even number). Characters must be Latin-1."""
     try:
         data = text.encode("latin-1")

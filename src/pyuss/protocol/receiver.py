@@ -15,7 +15,7 @@ Time model
 
 Framing rules
     - A telegram starts only with an STX after a start pause: an idle gap of at least
-      ``start_pause`` (default 2 character times, A 5.1.2, NOTES 2). Before the first byte the
+      ``start_pause`` (default 2 character times, A 5.1.2, reading 2). Before the first byte the
       line counts as idle.
     - On STX the residual-time deadline is loaded for n = 252 net bytes, after LGE for the
       announced n: ``1.5 (n + 3)`` character times from the end of STX (A 5.2.1.2, A 6.3).
@@ -23,7 +23,7 @@ Framing rules
       fixed-length operation, A 4.2.2, A 5.2) a normal or mirror telegram to a listed address
       whose LGE differs is `FaultKind.BAD_LGE` as well; other addresses, broadcasts and special
       telegrams are framed by their LGE.
-    - Any idle gap of a start pause ends whatever is being received (NOTES 2): an incomplete
+    - Any idle gap of a start pause ends whatever is being received (reading 2): an incomplete
       telegram is `FaultKind.RESIDUAL_TIME` (it cannot complete any more), as is one that is
       not complete by its deadline.
     - A complete telegram (LGE + 2 bytes) is checked: a character flagged by the transport

@@ -6,9 +6,9 @@ A telegram on the wire is::
 
 - ``STX`` is 02h (A 4.1).
 - ``LGE`` counts ADR, the n net bytes and BCC: ``LGE = n + 2``, 2..254, so a telegram has
-  ``LGE + 2`` bytes in all and at most 252 net bytes (A 4.2, NOTES 4).
+  ``LGE + 2`` bytes in all and at most 252 net bytes (A 4.2, reading 4).
 - ``ADR`` holds the slave address (bits 0..4, 0..31) and the telegram type in bits 5..7
-  (A 4.3 Table 4.1, A 5.4 Table 5.2, NOTES 1)::
+  (A 4.3 Table 4.1, A 5.4 Table 5.2, reading 1)::
 
       bit 7 6 5
           0 0 0   normal telegram
@@ -54,7 +54,7 @@ __all__ = [
 STX = 0x02
 """Start of text, the first byte of every telegram (A 4.1)."""
 MIN_LGE = 2
-"""Smallest LGE: ADR and BCC without net data (A 4.2, NOTES 4)."""
+"""Smallest LGE: ADR and BCC without net data (A 4.2, reading 4)."""
 MAX_LGE = 254
 """Largest LGE: 252 net bytes (A 4.2)."""
 MAX_NET_BYTES = MAX_LGE - 2

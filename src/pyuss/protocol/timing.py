@@ -5,17 +5,17 @@ All times are in seconds (floats); nothing here reads a clock.
 - Character time: one character is 11 bits (start, 8 data, even parity, stop), so
   ``char_time = 11 / baud`` (A 6.1, B 3.2).
 - Start pause: at least 2 character times of silence before every STX; only an STX after a
-  start pause starts a telegram (A 5.1.2, Table 5.1, NOTES 2). Profiles may demand more
+  start pause starts a telegram (A 5.1.2, Table 5.1, reading 2). Profiles may demand more
   (Baumueller: 3 characters); the receiver takes any gap of at least the start pause as a start.
 - Flush residual time: LGE, ADR, n net bytes and BCC sent back to back: ``(n + 3)`` character
   times (A 6.2).
 - Maximum residual time: 1.5 times the flush residual time, counted from the end of STX
-  (A 6.3, NOTES 3). Before LGE is known a receiver uses n = 252 (A 5.2.1.2). NORD (seed 001
+  (A 6.3, reading 3). Before LGE is known a receiver uses n = 252 (A 5.2.1.2). NORD (NORD BU 0050
   1.3.5) writes ``1.5 x (n + 4)`` counted from the start of STX: half a character more than
   A 6.3 (``1 + 1.5 x (n + 3)`` from the start of STX). A device profile that counts that way
   gives the half character as ``LineTiming(residual_extra_chars=0.5)``.
 - Response delay: from the end of the request's BCC to the start of the answer's STX; at most
-  20 ms, and never less than the start pause (A 5.2.1.1, NOTES 10). At low baud rates the start
+  20 ms, and never less than the start pause (A 5.2.1.1, reading 10). At low baud rates the start
   pause is longer than 20 ms (300 baud: 73.3 ms), so the limit is the larger of the two.
 """
 
@@ -108,13 +108,13 @@ def residual_time_flush(baud: float, n: int) -> float:
 
 def residual_time_max(baud: float, n: int) -> float:
     """Deadline for the rest of a telegram after the end of STX: ``1.5 (n + 3)`` characters
-    (A 6.3, NOTES 3)."""
+    (A 6.3, reading 3)."""
     return 1.5 * residual_time_flush(baud, n)
 
 
 def response_delay_limit(baud: float, limit: float = MAX_RESPONSE_DELAY) -> float:
     """How long a master waits for the start of an answer: ``limit`` (20 ms by A 5.2.1.1), but
-    never less than the start pause (A 5.2.1.1, NOTES 10).
+    never less than the start pause (A 5.2.1.1, reading 10).
 
     A larger ``limit`` is accepted for devices that document a slower answer (the spec's 20 ms
     is then exceeded on purpose, by the caller's choice).

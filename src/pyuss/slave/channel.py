@@ -42,7 +42,7 @@ as a warning, and the slave goes on serving (the project's choice; a real drive 
 fails answers a refusal too).
 
 Word placement: with PKW 4 a word travels in PWE2, with PKW 3 and the variable length in PWE1
-(C 4.2.3 "Hinweis", NOTES 6) - for the answer `pyuss.protocol.layout.Layout.pack` does it, for
+(C 4.2.3 "Hinweis", reading 6) - for the answer `pyuss.protocol.layout.Layout.pack` does it, for
 the request `request_word` reads it.
 
 IND of the answers: the request's IND (subindex, text bits, device bits such as the
@@ -111,7 +111,7 @@ class TooLarge(Exception):
 
 
 def request_word(job: Pkw, layout: Layout) -> int:
-    """The 16-bit value of a write job: PWE2 with PKW 4, else PWE1 (C 4.2.3, NOTES 6)."""
+    """The 16-bit value of a write job: PWE2 with PKW 4, else PWE1 (C 4.2.3, reading 6)."""
     if not job.values:
         raise ParameterFault(ErrorNumber.WRONG_TYPE, "the job carries no value")
     return job.values[1] if layout.pkw == 4 and len(job.values) > 1 else job.values[0]

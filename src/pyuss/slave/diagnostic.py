@@ -113,7 +113,7 @@ def _parameter(
         display=DisplayFormat.HEX if dtype is DataType.V2 else DisplayFormat.DEC,
         bit_texts=bit_texts or {},
         doc=doc,
-        seed="000 A 5.2.3",
+        follows="USS specification A 5.2.3",
     )
 
 

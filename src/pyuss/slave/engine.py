@@ -9,7 +9,7 @@ out.
 - A mirror telegram (ADR bit 6) for its address is sent back unchanged (A 5.3); nothing in it
   is processed.
 - A broadcast (ADR bit 5) is never answered (A 3); its process data are taken in the profile's
-  form (`pyuss.slave.process`, appendix, NOTES 9); parameter jobs in it are never executed.
+  form (`pyuss.slave.process`, appendix, reading 9); parameter jobs in it are never executed.
 - A special telegram (ADR bit 7) is discarded unless a handler is registered (A 5.4); with one,
   the handler's answer is sent (never for a special broadcast).
 - Undefined ADR combinations lead to no reaction: `Telegram` cannot even hold them, and
@@ -49,7 +49,8 @@ and scaling; 0 = off) unless given; the time in force is shown there. `SlaveEngi
 checks it; a server calls it when `SlaveEngine.next_deadline` has come.
 
 Baumueller drives without response-delay mode (P181 bit 2 = 0) answer with the telegram prepared
-after the previous request (seed 004 2.5): the engine then returns that one and prepares the
+after the previous request (Baumueller manual 2.5): the engine then returns that one and prepares
+the
 next; the first request is answered with its own process data and "no response".
 
 Layout: given, or read from the drive's interface parameters ``pkw``/``pzd`` (C 3), or the

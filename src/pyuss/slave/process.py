@@ -1,9 +1,10 @@
-"""Process data between the telegram and the drive (C 5), and broadcasts (A 3, appendix, NOTES 9).
+"""Process data between the telegram and the drive (C 5), and broadcasts (A 3, appendix, reading 9).
 
 `StandardProcess`: PZD1 control word / status word, PZD2 main setpoint / actual value, PZD3 ..
 the parameters of the file's ``[process]`` table (`pyuss.drive.SimulatedDrive.exchange`).
 
-`BaumuellerProcess` (seed 004 2.5, parameters 185 and 186): PZD1 control word / status word;
+`BaumuellerProcess` (Baumueller manual 2.5, parameters 185 and 186): PZD1 control word / status
+word;
 the setpoint is written to the parameter whose number parameter 185 holds and the actual value
 read from the one parameter 186 names. PZD count 2 carries a 16-bit value in PZD2; count 3 a
 16-bit value in PZD3 or a 32-bit value in PZD2 (high) and PZD3 (low); a 32-bit value with count
@@ -19,7 +20,7 @@ Broadcasts are applied with `apply_broadcast` in the profile's form (`BroadcastF
 - ``MASKED_CONTROL``: PZD1 merges into the control word in force through the mask in PWE1
   (PKW >= 3, PZD >= 2, request ID 0); with PKW 0 the control word is taken whole; setpoints and
   parameter jobs are not taken; with broadcast coding on (PKW >= 3, PZD >= 3) only the addresses
-  selected in PZD2/PZD3 react (NOTES 9).
+  selected in PZD2/PZD3 react (reading 9).
 - ``NONE``: nothing is taken.
 """
 
@@ -77,7 +78,7 @@ class StandardProcess:
 
 
 class BaumuellerProcess:
-    """The setpoint and actual value channel of seed 004 2.5 (parameters 180, 185, 186)."""
+    """The setpoint and actual value channel of Baumueller manual 2.5 (parameters 180, 185, 186)."""
 
     def exchange(self, drive: SimulatedDrive, words: Sequence[int], now: float) -> tuple[int, ...]:
         count = len(words)
@@ -185,7 +186,7 @@ def broadcast_action(
         if net.pkw is None:
             return BroadcastAction(control=net.pzd[0])
         if len(net.pzd) < 2 or net.pkw.id != 0:
-            return BroadcastAction(reason="needs PZD >= 2 and request ID 0 (seed 004 2.2)")
+            return BroadcastAction(reason="needs PZD >= 2 and request ID 0 (Baumueller manual 2.2)")
         selected = baumueller.addresses_in_mask(*net.pzd[1:3]) if len(net.pzd) >= 3 else None
         if coding and selected is not None and address not in selected:
             return BroadcastAction(reason="address not selected by the broadcast coding")

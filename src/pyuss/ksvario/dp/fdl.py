@@ -27,7 +27,8 @@ from pyuss.errors import ConfigError
 from pyuss.ksvario.errors import FdlError
 from pyuss.protocol.timing import BAUD_RATES as USS_BAUD_RATES
 
-#: The PROFIBUS-DP baud rates the KS VARIO recognises by itself (seed 003 1, "Automatische
+#: The PROFIBUS-DP baud rates the KS VARIO recognises by itself (KS VARIO interface description 1,
+#: "Automatische
 #: Baudratenerkennung"): 9.6, 19.2, 31.25, 45.45, 93.75, 187.5, 500 kbit/s, 1.5, 3, 6, 12 Mbit/s.
 BAUD_RATES: tuple[int, ...] = (
     9600,

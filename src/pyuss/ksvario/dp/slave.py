@@ -6,8 +6,10 @@ bytes to send back (or None). The services a DP master uses at start-up and in o
 * FDL status (FC 49h)             -> SD1 with FC 00h (slave, ready);
 * Slave_Diag (DSAP 60)            -> the diagnosis of `pyuss.ksvario.diag` (6 or 15 bytes);
 * Set_Prm (DSAP 61)               -> E5; checks ident number 1030h and the 4 user parameter
-                                     bytes (seed 6); a fault is reported in the diagnosis;
-* Chk_Cfg (DSAP 62)               -> E5; validates the modules by the seed's rules (3.1);
+                                     bytes (interface description 6); a fault is reported in the
+                                     diagnosis;
+* Chk_Cfg (DSAP 62)               -> E5; validates the modules by the interface description's rules
+  (3.1);
 * Get_Cfg (DSAP 59)               -> the configuration bytes;
 * Global_Control (DSAP 58, SDN)   -> no answer; Clear_Data applies the fail-safe, freeze and
                                      sync are reflected in the diagnosis;
@@ -24,7 +26,8 @@ the previous one from the same master is a repetition: the stored answer is sent
 acting twice. A repetition repeats the telegram, so a request with the same FCB but other
 content is taken as new (some masters, pyprofibus among them, do not toggle FCB after a short
 acknowledgement). The watchdog (Set_Prm WD_On, 10 ms x factor 1 x factor 2) drops a slave that
-hears nothing from its master back to WAIT_PRM and applies the fail-safe (seed 2.4).
+hears nothing from its master back to WAIT_PRM and applies the fail-safe (interface description
+2.4).
 """
 
 from __future__ import annotations
