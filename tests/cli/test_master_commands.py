@@ -15,6 +15,7 @@ from collections.abc import Iterator
 
 import pytest
 
+from conftest import simulator_pty
 from master.conftest import SimulatorThread
 from pyuss.cli.main import main
 from pyuss.protocol.layout import Layout
@@ -25,26 +26,10 @@ BAUD = "38400"
 @pytest.fixture(scope="module")
 def sim() -> Iterator[str]:
     """A generic drive at address 5 (PKW 3, PZD 2) behind a pty; yields the device path."""
-    process = subprocess.Popen(
-        [
-            *(sys.executable, "-m", "pyuss.cli.main", "simulate", "--profile", "generic"),
-            *("--address", "5", "--layout", "3,2", "--baud", BAUD, "--pty"),
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    assert process.stdout is not None
-    path = process.stdout.readline().strip()
-    assert path.startswith("/dev/"), process.stderr.read() if process.stderr else path
-    try:
+    with simulator_pty(
+        *("--profile", "generic", "--address", "5", "--layout", "3,2", "--baud", BAUD)
+    ) as path:
         yield path
-    finally:
-        process.send_signal(signal.SIGINT)
-        try:
-            process.wait(10)
-        except subprocess.TimeoutExpired:  # pragma: no cover
-            process.kill()
 
 
 def uss(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:

@@ -8,13 +8,14 @@ import os
 import pty
 import re
 import select
-import signal
 import subprocess
 import sys
 import time
 from collections.abc import Iterator
 
 import pytest
+
+from conftest import simulator_pty
 
 BAUD = "38400"
 """The rate scanned; a pty has none, so the simulator's own does not matter."""
@@ -24,23 +25,8 @@ USS = [sys.executable, "-m", "pyuss.cli.main"]
 @pytest.fixture(scope="module")
 def sim() -> Iterator[str]:
     """Generic drives at addresses 2 and 9 (PKW 3, PZD 2) behind a pty; its device path."""
-    process = subprocess.Popen(
-        [*USS, "simulate", "--address", "2", "--address", "9", "--layout", "3,2", "--pty"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    assert process.stdout is not None
-    path = process.stdout.readline().strip()
-    assert path.startswith("/dev/"), process.stderr.read() if process.stderr else path
-    try:
+    with simulator_pty("--address", "2", "--address", "9", "--layout", "3,2") as path:
         yield path
-    finally:
-        process.send_signal(signal.SIGINT)
-        try:
-            process.wait(10)
-        except subprocess.TimeoutExpired:  # pragma: no cover
-            process.kill()
 
 
 def _in_a_terminal(argv: list[str]) -> tuple[int, int]:

@@ -4,9 +4,6 @@ simulated MICROMASTER 4 behind a pty, printing what the page shows."""
 from __future__ import annotations
 
 import io
-import signal
-import subprocess
-import sys
 from collections.abc import Iterator
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
@@ -14,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from commission.session import matches, run_step, steps
-from conftest import ROOT
+from conftest import ROOT, simulator_pty
 from pyuss.cli.main import main
 
 PAGE = ROOT / "docs" / "commissioning.md"
@@ -22,26 +19,8 @@ PAGE = ROOT / "docs" / "commissioning.md"
 
 @pytest.fixture
 def micromaster() -> Iterator[str]:
-    process = subprocess.Popen(
-        [
-            *(sys.executable, "-m", "pyuss.cli.main", "simulate", "--profile", "micromaster4"),
-            *("--address", "3", "--pty"),
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    assert process.stdout is not None
-    path = process.stdout.readline().strip()
-    assert path.startswith("/dev/"), process.stderr.read() if process.stderr else path
-    try:
+    with simulator_pty("--profile", "micromaster4", "--address", "3") as path:
         yield path
-    finally:
-        process.send_signal(signal.SIGINT)
-        try:
-            process.wait(10)
-        except subprocess.TimeoutExpired:  # pragma: no cover
-            process.kill()
 
 
 def uss(argv: list[str]) -> tuple[int, str]:

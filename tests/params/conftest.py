@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-import signal
 import subprocess
-import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+
+from conftest import start_simulator, stop_simulator
 
 TYPES_TOML = """\
 [profile]
@@ -118,27 +118,14 @@ class Simulator:
 
 
 def start(params: Path, *options: str) -> Simulator:
-    process = subprocess.Popen(
-        [
-            *(sys.executable, "-m", "pyuss.cli.main", "simulate", "--params", str(params)),
-            *("--address", "5", "--baud", "38400", "--pty", *options),
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
+    process, path = start_simulator(
+        "--params", str(params), "--address", "5", "--baud", "38400", *options
     )
-    assert process.stdout is not None
-    path = process.stdout.readline().strip()
-    assert path.startswith("/dev/"), process.stderr.read() if process.stderr else path
     return Simulator(path, params, process)
 
 
 def stop(sim: Simulator) -> None:
-    sim.process.send_signal(signal.SIGINT)
-    try:
-        sim.process.wait(10)
-    except subprocess.TimeoutExpired:  # pragma: no cover
-        sim.process.kill()
+    stop_simulator(sim.process)
 
 
 @pytest.fixture(scope="module")
