@@ -18,13 +18,13 @@ gap (the rest of the sender's queued characters) are handed over together, all b
 `RUN_LEAD` a little before the run ends and those when it ends, none more than `RUN_HOLD` after
 its own end. A station waiting for an answer sees it begin at once and digests most of it while
 its last characters are on the line: three hand-overs per telegram instead of one per character
-or two. On a loop with fine timers (`pyuss.loop`) the bus wakes up `FINE_MARGIN` before a hand-
-over and yields until it is due: a process that slept wakes up late. The chunk timestamps are
-the *ideal* end times, not the moment of delivery: receivers measure exact gaps, start pauses
-(A 5.1.2) and residual times (A 6.3). Contiguous characters (no idle time between them) handed
-over together form one chunk; an idle gap, however short, starts a new chunk. The bus uses
-``time.monotonic()``, the clock of every pyuss transport, so stations in other processes on the
-same machine (``bus://``) read the same time base.
+or two. On a loop with fine timers (`pyuss.loop`) the bus wakes up `FINE_MARGIN` before the
+hand- over that ends a run and yields until it is due: a process that slept wakes up late. The
+chunk timestamps are the *ideal* end times, not the moment of delivery: receivers measure exact
+gaps, start pauses (A 5.1.2) and residual times (A 6.3). Contiguous characters (no idle time
+between them) handed over together form one chunk; an idle gap, however short, starts a new
+chunk. The bus uses ``time.monotonic()``, the clock of every pyuss transport, so stations in
+other processes on the same machine (``bus://``) read the same time base.
 
 Stations: `VirtualBus.attach` gives an in-process station (a `Transport`). Listen-only
 stations (monitors) cannot send. With ``echo=True`` a station hears its own characters, as a
@@ -445,7 +445,10 @@ class VirtualBus:
         if self._early is None:
             self._early = FINE_MARGIN if fine_timers(loop) else 0.0
         self._timer_at = due
-        self._timer = loop.call_at(due - self._early, self._tick)
+        # Where a run ends a receiver reacts (a slave answers, the master sends the next
+        # request): wake up a little early there, and only there.
+        ends_run = head.owner is not None and due >= head.owner.tx_free - _EPS
+        self._timer = loop.call_at(due - self._early if ends_run else due, self._tick)
 
     # -- the line ---------------------------------------------------------------------------
     def _tick(self) -> None:
