@@ -206,6 +206,11 @@ class FaultEngine:
             f for f in self.plan.faults if f.kind in (FaultKind.DEAF, FaultKind.DEAD)
         ]
 
+    @property
+    def character_faults(self) -> bool:
+        """Whether the plan has faults that act on single characters (`character` matters)."""
+        return bool(self._char_rules)
+
     def _selected(self, index: int, rule: Fault, occurrence: int, t: float) -> bool:
         if not rule.active(t):
             return False
