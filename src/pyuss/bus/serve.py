@@ -27,7 +27,7 @@ import itertools
 import json
 import logging
 import time
-from collections.abc import Collection
+from collections.abc import Callable, Collection
 from typing import Any
 
 from pyuss.bus.core import Station, VirtualBus
@@ -46,6 +46,20 @@ _HELLO_TIMEOUT = 5.0
 
 Echo = bool | Collection[str]
 """Which stations hear their own characters: all (True), none (False) or those named."""
+
+
+class _Reader(asyncio.StreamReader):
+    """A stream reader that hands what arrives straight to `direct` once that is set (no task
+    to wake up in between: a telegram reaches the line one turn of the event loop sooner).
+    Reading it then returns what had arrived before, and b"" at the end of the connection."""
+
+    direct: Callable[[bytes], None] | None = None
+
+    def feed_data(self, data: Any) -> None:
+        if self.direct is None:
+            super().feed_data(data)
+        elif data:
+            self.direct(bytes(data))
 
 
 def _hears_own(echo: Echo, name: str) -> bool:
@@ -132,8 +146,11 @@ async def serve_tcp(
             writers.discard(writer)
             await close_writer(writer)
 
+    def connection() -> asyncio.StreamReaderProtocol:  # as asyncio.start_server makes them
+        return asyncio.StreamReaderProtocol(_Reader(), handle)
+
     try:
-        server = await asyncio.start_server(handle, host, port)
+        server = await asyncio.get_running_loop().create_server(connection, host, port)
     except OSError as exc:
         raise TransportError(f"cannot listen on {host}:{port}: {exc}") from None
     bound = server.sockets[0].getsockname()[1]
@@ -194,19 +211,19 @@ async def _pump_in(
     reader: asyncio.StreamReader,
     frames: SendDecoder | None = None,
 ) -> None:
-    """Put what a station sends on the line: raw bytes, or send frames (`pyuss.bus.wire`)."""
+    """Put what a station sends on the line: raw bytes, or send frames (`pyuss.bus.wire`), as
+    it arrives (`_Reader`); returns when the connection ends or breaks the frame rules."""
     name = station.name
-    try:
-        while True:
-            data = await reader.read(65536)
-            if not data:
-                break
-            if bus.stations.get(name) is not station or station.listen_only:
-                continue
-            if frames is None:
-                bus.send(name, data)
-                continue
-            now = time.monotonic()
+    failed: list[Exception] = []
+
+    def put(data: bytes) -> None:
+        if failed or bus.stations.get(name) is not station or station.listen_only:
+            return
+        if frames is None:
+            bus.send(name, data)
+            return
+        now = time.monotonic()
+        try:
             for start, part in frames.feed(data):
                 if start > now + MAX_AHEAD:
                     raise ProtocolError(
@@ -214,6 +231,20 @@ async def _pump_in(
                         f"(at most {MAX_AHEAD:g} s)"
                     )
                 bus.send(name, part, at=start)
+        except ProtocolError as exc:
+            failed.append(exc)
+            if isinstance(reader, _Reader):
+                reader.direct = None
+            reader.feed_eof()  # ends the reading below
+
+    try:
+        if isinstance(reader, _Reader):
+            reader.direct = put
+        # What came before (or, without a `_Reader`, everything), then the end.
+        while data := await reader.read(65536):
+            put(data)
+        if failed:
+            raise failed[0]
     except (OSError, ProtocolError) as exc:
         log.info("bus: station %s lost: %s", name, exc)
     finally:
