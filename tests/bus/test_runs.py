@@ -72,9 +72,9 @@ async def test_a_station_that_attaches_hears_nothing_that_ended_before() -> None
             await master.write(bytes(200))  # 11.7 ms
             while bus.queued() > 150:
                 await master.read(0.001)
+            joined_at = time.monotonic()
             late = bus.attach("late")
             await late.open()
-            joined_at = time.monotonic()
             await bus.drain(timeout=WAIT)
         heard_early = b""
         while (chunk := await early.read(0.05)) is not None:

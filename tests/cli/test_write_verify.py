@@ -20,9 +20,10 @@ from pyuss.protocol.layout import Layout
 GAP = 1.5  # character times: a longer idle gap starts a new telegram
 
 
-def _on_write_telegram(sim: SimulatorThread, act: Callable[[], None]) -> None:
+def _on_write_telegram(sim: SimulatorThread, act: Callable[[float], None]) -> None:
     """Call ``act`` (on the bus's loop) once, when the PKE of the master's first "write word"
-    telegram to address 5 goes over the line (its fourth character)."""
+    telegram to address 5 goes over the line (its fourth character), with that character's
+    end: what is done takes effect from there on the line's time."""
     state = {"position": 0, "end": 0.0, "address": -1, "done": False}
 
     def watch(char: WireChar) -> None:
@@ -38,7 +39,7 @@ def _on_write_telegram(sim: SimulatorThread, act: Callable[[], None]) -> None:
             state["address"] = char.byte
         elif position == 3 and state["address"] == 5 and char.byte >> 4 == 2:
             state["done"] = True
-            act()
+            act(char.end)
 
     sim.call(lambda s: s.bus.on_char.append(watch))
 
@@ -57,7 +58,7 @@ def test_a_lost_answer_is_an_unknown_outcome_and_verify_finds_it_applied(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
-        _on_write_telegram(sim, lambda: sim.bus.make_deaf("pty1", 0.5))  # type: ignore[union-attr]
+        _on_write_telegram(sim, lambda at: sim.bus.make_deaf("pty1", 0.5, start=at))  # type: ignore[union-attr]
         code, out, err = _uss(capsys, "write", "5", "18", "0x7000", "--timeout", "0.3", *_port(sim))
         assert code == 1 and not out
         assert "may have carried it out" in err and "--verify" in err
@@ -65,7 +66,7 @@ def test_a_lost_answer_is_an_unknown_outcome_and_verify_finds_it_applied(
         assert sim.call(lambda s: s.engines[5].drive.value(18)) == 0x7000  # it did
 
     with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
-        _on_write_telegram(sim, lambda: sim.bus.make_deaf("pty1", 0.5))  # type: ignore[union-attr]
+        _on_write_telegram(sim, lambda at: sim.bus.make_deaf("pty1", 0.5, start=at))  # type: ignore[union-attr]
         argv = ["write", "5", "18", "0x7000", "--verify", "--timeout", "0.4", *_port(sim)]
         code, out, err = _uss(capsys, *argv)
         assert code == 0, err
@@ -75,7 +76,7 @@ def test_a_lost_answer_is_an_unknown_outcome_and_verify_finds_it_applied(
 
 def test_verify_tells_a_write_the_drive_never_got(capsys: pytest.CaptureFixture[str]) -> None:
     with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
-        _on_write_telegram(sim, lambda: sim.bus.make_deaf("drive5", 0.5))  # type: ignore[union-attr]
+        _on_write_telegram(sim, lambda at: sim.bus.make_deaf("drive5", 0.5, start=at))  # type: ignore[union-attr]
         argv = ["write", "5", "18", "0x7000", "--verify", "--timeout", "0.4", *_port(sim), "--json"]
         code, out, err = _uss(capsys, *argv)
         assert code == 1 and not err
@@ -95,7 +96,7 @@ def test_json_says_how_the_value_is_known(capsys: pytest.CaptureFixture[str]) ->
         data = json.loads(out)
         assert (data["address"], data["pnu"], data["value"]) == (5, 18, 5)
         assert data["outcome"] == "answered"
-        _on_write_telegram(sim, lambda: sim.bus.make_deaf("pty1", 0.5))  # type: ignore[union-attr]
+        _on_write_telegram(sim, lambda at: sim.bus.make_deaf("pty1", 0.5, start=at))  # type: ignore[union-attr]
         argv = ["write", "5", "18", "7", "--timeout", "0.3", *_port(sim), "--json"]
         code, out, _ = _uss(capsys, *argv)
         error = json.loads(out)["error"]

@@ -336,19 +336,23 @@ class VirtualBus:
         self.stats.evicted += 1
         return True
 
-    def make_deaf(self, name: str, duration: float) -> None:
-        """From now on, ``name`` hears nothing for ``duration`` seconds."""
-        self._add_window("deaf", name, duration)
+    def make_deaf(self, name: str, duration: float, *, start: float | None = None) -> None:
+        """From now on (or from monotonic time ``start``), ``name`` hears no character that
+        ends in the next ``duration`` seconds."""
+        self._add_window("deaf", name, duration, start)
 
-    def make_dead(self, name: str, duration: float) -> None:
-        """From now on, ``name`` neither hears nor sends for ``duration`` seconds."""
-        self._add_window("dead", name, duration)
+    def make_dead(self, name: str, duration: float, *, start: float | None = None) -> None:
+        """From now on (or from ``start``), ``name`` neither hears nor sends for ``duration``
+        seconds."""
+        self._add_window("dead", name, duration, start)
 
-    def _add_window(self, kind: str, name: str, duration: float) -> None:
+    def _add_window(self, kind: str, name: str, duration: float, start: float | None) -> None:
         if duration <= 0:
             raise ConfigError(f"{kind} duration must be > 0 seconds, not {duration!r}")
         now = time.monotonic()
-        self._windows.append((kind, name, now, now + duration))
+        begin = now if start is None else start
+        self._windows = [w for w in self._windows if w[3] > now]  # the past ones are done
+        self._windows.append((kind, name, begin, begin + duration))
 
     def _deaf(self, name: str, now: float) -> bool:
         if any(n == name and a <= now < b for _, n, a, b in self._windows):  # deaf or dead
@@ -484,7 +488,7 @@ class VirtualBus:
         for char in out:
             self._record(char)
         if out:
-            self._hand_over(out, now)
+            self._hand_over(out)
         self._schedule()
 
     def _resolve(self, group: list[_Pending], end: float) -> WireChar:
@@ -516,9 +520,12 @@ class VirtualBus:
         for listener in self.on_char:
             listener(char)
 
-    def _hand_over(self, chars: list[WireChar], now: float) -> None:
+    def _hand_over(self, chars: list[WireChar]) -> None:
+        # A deaf (or dead) station misses the characters that end in its window: judged by
+        # the line's time, not by when the bus hands them over.
+        windows = bool(self._windows) or self._engine.windows
         for station in list(self.stations.values()):
-            if not station.listening or self._deaf(station.name, now):
+            if not station.listening:
                 continue
             name = station.name
             buf = bytearray()
@@ -528,6 +535,8 @@ class VirtualBus:
                 if not station.hears_own and name in char.sender.split("+"):
                     continue
                 if char.end <= station.attached_at:  # handed over late: it was not there yet
+                    continue
+                if windows and self._deaf(name, char.end):
                     continue
                 if buf and char.start > last_end + _EPS:
                     station.receive(bytes(buf), last_end, tuple(errors))

@@ -207,6 +207,11 @@ class FaultEngine:
         ]
 
     @property
+    def windows(self) -> bool:
+        """Whether the plan makes stations deaf or dead for a while (`deaf`, `dead`)."""
+        return bool(self._window_rules)
+
+    @property
     def character_faults(self) -> bool:
         """Whether the plan has faults that act on single characters (`character` matters)."""
         return bool(self._char_rules)
