@@ -7,7 +7,7 @@ from __future__ import annotations
 import time
 
 from pyuss.bus import VirtualBus
-from pyuss.bus.core import RUN_HOLD
+from pyuss.bus.core import RUN_HOLD, WireChar
 from pyuss.loop import run
 from pyuss.transport.base import LineError
 from transport.helpers import WAIT
@@ -86,3 +86,24 @@ async def test_a_station_that_attaches_hears_nothing_that_ended_before() -> None
         assert stamps and all(first_end > joined_at for first_end in stamps)
     finally:
         await bus.close()
+
+
+async def test_a_station_made_deaf_in_the_middle_of_a_run_misses_the_rest_of_it() -> None:
+    # A fault window is judged by the line's time: made deaf from the end of the fourth
+    # character, the drive hears four characters, whenever the bus hands the rest over.
+    bus = VirtualBus(187500)
+    got: list[bytes] = []
+    bus.attach("drive", sink=lambda data, _ts, _errors: got.append(data))
+
+    def on_char(char: WireChar) -> None:
+        if char.sender == "master" and bus.stats.chars == 4:
+            bus.make_deaf("drive", 0.5, start=char.end)
+
+    bus.on_char.append(on_char)
+    try:
+        async with bus.attach("master") as master:
+            await master.write(bytes(range(1, 15)))
+            await bus.drain(timeout=WAIT)
+    finally:
+        await bus.close()
+    assert b"".join(got) == bytes([1, 2, 3, 4])

@@ -338,7 +338,7 @@ class VirtualBus:
 
     def make_deaf(self, name: str, duration: float, *, start: float | None = None) -> None:
         """From now on (or from monotonic time ``start``), ``name`` hears no character that
-        ends in the next ``duration`` seconds."""
+        ends in the next ``duration`` seconds (one that ends right then is still heard)."""
         self._add_window("deaf", name, duration, start)
 
     def make_dead(self, name: str, duration: float, *, start: float | None = None) -> None:
@@ -354,10 +354,12 @@ class VirtualBus:
         self._windows = [w for w in self._windows if w[3] > now]  # the past ones are done
         self._windows.append((kind, name, begin, begin + duration))
 
-    def _deaf(self, name: str, now: float) -> bool:
-        if any(n == name and a <= now < b for _, n, a, b in self._windows):  # deaf or dead
+    def _deaf(self, name: str, end: float) -> bool:
+        """Whether ``name`` misses a character that ends at ``end`` (deaf or dead then): one
+        that ends as a window opens is still heard."""
+        if any(n == name and a < end <= b for _, n, a, b in self._windows):
             return True
-        return self._engine.deaf(name, now - self.epoch)
+        return self._engine.deaf(name, end - self.epoch)
 
     def _dead(self, name: str, now: float) -> bool:
         if any(k == "dead" and n == name and a <= now < b for k, n, a, b in self._windows):
