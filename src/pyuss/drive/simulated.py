@@ -12,8 +12,9 @@ answer; ``exchange(words, now)`` does all of it for the usual mapping (PZD1 cont
 PZD2 main setpoint/actual, PZD3.. from ``[process]``). Time is always passed in.
 
 The displays named in ``[drive]`` (state code, fault and warning numbers, control and status
-word, ramp input and actual value) are updated by the drive at every step; an active display
-is reported to subscribers like any other change of an active parameter.
+word, ramp input and actual value) are updated by the drive at every step (a display is
+written when its value changes); an active display is reported to subscribers like any other
+change of an active parameter.
 
 Family rules read from the parameter file (docs/drive.md):
 
