@@ -51,6 +51,13 @@ def _words(count: int) -> struct.Struct:
     return struct.Struct(f">{count}H")
 
 
+def _check_pzd(pzd: Sequence[int]) -> None:
+    """Refuse PZD words that are not 16-bit words, naming the first one."""
+    for i, word in enumerate(pzd, 1):
+        if isinstance(word, bool) or not isinstance(word, int) or not 0 <= word <= 0xFFFF:
+            raise ConfigError(f"PZD{i} must be a 16-bit word 0..65535, got {word!r}")
+
+
 @dataclass(frozen=True, slots=True)
 class NetData:
     """The unpacked net data: the PKW area (None for PKW 0) and the PZD words."""
@@ -154,10 +161,11 @@ class Layout:
             words += (job.pke, job.index, *self._pwe(job))
         elif pkw is not None:
             raise ConfigError(f"layout {self} has no PKW area, but a parameter job was given")
-        for i, word in enumerate(pzd, 1):
-            if isinstance(word, bool) or not isinstance(word, int) or not 0 <= word <= 0xFFFF:
-                raise ConfigError(f"PZD{i} must be a 16-bit word 0..65535, got {word!r}")
-            words.append(word)
+        for word in pzd:
+            if type(word) is not int or not 0 <= word <= 0xFFFF:
+                _check_pzd(pzd)  # not a plain word: an IntFlag is one, anything else is refused
+                break
+        words += pzd
         return _words(len(words)).pack(*words)
 
     def unpack(self, data: bytes | bytearray | memoryview) -> NetData:

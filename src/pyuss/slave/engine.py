@@ -94,6 +94,8 @@ TELEGRAM_FAILURE_FAULT = 65
 """Fault code tripped when the telegram failure time expires and the parameter file's
 ``[faults]`` table names no ``telegram_failure`` (the generic profile's number)."""
 
+_CONTROL_BY_PLC = int(ControlWord.CONTROL_BY_PLC)  # a plain int: IntFlag arithmetic is slow
+
 _MAX_SPONTANEOUS = 64
 """Changes waiting to be reported; beyond that the oldest are dropped (and logged)."""
 
@@ -408,7 +410,7 @@ class SlaveEngine:
             return None
         self._good(telegram, now)
         pipelined = self.profile.delay_mode is not None and not self.delay_mode
-        if not net.pzd or net.pzd[0] & ControlWord.CONTROL_BY_PLC:
+        if not net.pzd or net.pzd[0] & _CONTROL_BY_PLC:
             # the process data in force; with control bit 10 = 0 the telegram's are ignored
             # and the old ones stay (C Table 5.4), also as the base of the next broadcast
             self._last_pzd = net.pzd
