@@ -7,6 +7,8 @@ For 9600, 38400 and 187500 baud and 1 or 31 simulated drives (generic profile, P
   loop (`pyuss.loop.run`), as `uss demo` and the tests run them;
 - ``bus://``: ``uss bus --bus-tcp``, ``uss simulate --bus`` and the master in three processes,
   as a user runs them;
+- ``sim-bus``: ``uss simulate --bus-tcp`` (the drives on a bus of the simulator's own) and the
+  master over ``bus://`` in two processes;
 - ``pty``: ``uss simulate --pty`` and the master on its pty in two processes.
 
 Exchanges per second in cyclic operation are compared with the wire limit of the
@@ -37,7 +39,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
 
-from common import Figure, best_of, bus_and_drives, percentile, pty_drives
+from common import Figure, best_of, bus_and_drives, percentile, pty_drives, simulator_bus
 
 from pyuss.bus import VirtualBus
 from pyuss.drive import SimulatedDrive
@@ -134,6 +136,7 @@ def _setups() -> Iterator[tuple[str, Setup]]:
 
     yield "in-process", none
     yield "bus://", bus_and_drives
+    yield "sim-bus", simulator_bus
     yield "pty", pty_drives
 
 
@@ -203,20 +206,21 @@ def main() -> list[Figure]:
                             unit="cycles",
                         )
                     )
-                if setup == "bus://" and baud == 187500 and drives == 1:
+                simulator = {"bus://": "uss simulate bus://", "sim-bus": "uss simulate --bus-tcp"}
+                if setup in simulator and baud == 187500 and drives == 1:
                     figures.append(
                         Figure(
-                            "uss simulate bus:// 187500 baud: turnaround median",
+                            f"{simulator[setup]} 187500 baud: turnaround median",
                             r["turnaround"] / ct,
                             3.0,
                             at_least=False,
                             unit="chars",
                         )
                     )
-                if setup == "bus://" and baud == 187500 and drives == 31:
+                if setup in simulator and baud == 187500 and drives == 31:
                     figures.append(
                         Figure(
-                            "uss simulate bus:// 187500 baud 31 drives: share of the line",
+                            f"{simulator[setup]} 187500 baud 31 drives: share of the line",
                             r["rate"] / limit,
                             0.95,
                         )

@@ -181,6 +181,16 @@ def bus_and_drives(
 
 
 @contextlib.contextmanager
+def simulator_bus(baud: int, drives: int, *, layout: str = "3,2") -> Iterator[str]:
+    """``uss simulate --bus-tcp`` with ``drives`` drives (addresses 1..N) on a bus of its own,
+    in one process; yields the ``bus://`` URL the master joins."""
+    addresses = [w for a in range(1, drives + 1) for w in ("--address", str(a))]
+    args = ["simulate", "--bus-tcp", "127.0.0.1:0", "--baud", str(baud), "--layout", layout]
+    with processes(([*args, "--failure-time", "0", *addresses], 1)) as (sim,):
+        yield sim.lines[0]
+
+
+@contextlib.contextmanager
 def pty_drives(baud: int, drives: int, *, layout: str = "3,2") -> Iterator[str]:
     """``uss simulate --pty`` with ``drives`` drives; yields the pty's device path."""
     addresses = [w for a in range(1, drives + 1) for w in ("--address", str(a))]

@@ -144,6 +144,47 @@ def test_station_of_a_virtual_bus() -> None:
         bus.communicate(timeout=TIMEOUT)
 
 
+def test_a_simulator_that_runs_the_bus_itself_serves_masters_and_monitors() -> None:
+    """--bus-tcp: the drives sit on a bus of the simulator's own; a master and a monitor in
+    other processes join it over bus:// and see the same exchange."""
+    with simulate(
+        "--bus-tcp", "127.0.0.1:0", "--baud", "187500", "--address", "3", "--address", "17"
+    ) as (
+        url,
+        _,
+    ):
+        assert url.startswith("bus://127.0.0.1:") and not url.endswith(":0")
+        monitor = _start("monitor", "--port", url, "--baud", "187500", "--json")
+        try:
+            time.sleep(1.0)  # the monitor joins the bus
+            for address in ("3", "17"):
+                read = subprocess.run(
+                    [
+                        sys.executable,
+                        "-m",
+                        "pyuss.cli.main",
+                        "read",
+                        "--port",
+                        url,
+                        "--baud",
+                        "187500",
+                        address,
+                        "52",
+                        "--json",
+                    ],
+                    capture_output=True,
+                    text=True,
+                    timeout=TIMEOUT,
+                )
+                assert read.returncode == 0, read.stderr
+                assert json.loads(read.stdout)["parameters"][0]["value"] == 0x4000
+        finally:
+            monitor.send_signal(signal.SIGINT)
+            out, _ = monitor.communicate(timeout=TIMEOUT)
+        seen = [json.loads(line) for line in out.splitlines()]
+        assert {e.get("address") for e in seen} >= {3, 17}
+
+
 def test_several_simulators_join_one_bus_each_under_its_own_name(tmp_path: Path) -> None:
     """Station names default to simulate-ADDRESSES, so a second simulator process is not
     refused; --name chooses one. The recording shows who answered."""
@@ -248,7 +289,11 @@ def test_a_damaged_store_is_refused(tmp_path: Path, capsys: pytest.CaptureFixtur
         (["--pty", "--baud", "115200"], "a generic drive does not run at 115200 baud (P684.1:"),
         (["--pty", "--failure-time", "7"], "takes 0..6.5 s (P687.1)"),
         (["--pty", "--profile", "nord", "--failure-time", "0.25"], "steps of 0.1 s (P513)"),
-        (["--pty", "--name", "x"], "--name: a station name is for --bus only"),
+        (["--pty", "--name", "x"], "--name: a station name is for --bus and --bus-tcp only"),
+        (["--bus-tcp", "localhost"], "--bus-tcp 'localhost': expected HOST:PORT"),
+        (["--bus-tcp", "192.0.2.1:0"], "--bus-tcp: cannot listen on 192.0.2.1:0"),
+        (["--bus-tcp", ":0", "--profile", "bass"], "a BASS ring is RS-232"),
+        (["--bus-tcp", ":0", "--profile", "ksvario"], "start uss bus --bus-tcp and use --bus"),
         (["--bus", "127.0.0.1:1", "--name", "a+b"], "--name 'a+b': give a non-empty name"),
         (
             ["--pty", "--profile", "bass", "--params", "x.toml", "--read-only"],

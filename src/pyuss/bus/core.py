@@ -11,14 +11,20 @@ with the framing and parity errors the sampling yields (the tail of a character 
 way still drives the line during the next one). Each such garbled character is part of a
 collision (`BusStats.collisions` counts the episodes, `BusStats.garbled` the characters).
 
-Delivery: a character is handed to the receivers when its end time has come, in the event
-loop's real time, as close to that moment as the loop allows (the lag is measured by
-``bench/bench_bus.py``). The chunk timestamps are the *ideal* end times, not the moment of
-delivery: receivers measure exact gaps, start pauses (A 5.1.2) and residual times (A 6.3).
-Contiguous characters (no idle time between them) handed over together form one chunk; an
-idle gap, however short, starts a new chunk. The bus uses ``time.monotonic()``, the clock of
-every pyuss transport, so stations in other processes on the same machine (``bus://``) read
-the same time base.
+Delivery: never before a character's end time, in the event loop's real time, as close to the
+chosen moment as the loop allows (the lag is measured by ``bench/bench_bus.py``). The first
+character after idle time is handed over when it ends; the characters that follow it without a
+gap (the rest of the sender's queued characters) are handed over together, all but the last
+`RUN_LEAD` a little before the run ends and those when it ends, none more than `RUN_HOLD` after
+its own end. A station waiting for an answer sees it begin at once and digests most of it while
+its last characters are on the line: three hand-overs per telegram instead of one per character
+or two. On a loop with fine timers (`pyuss.loop`) the bus wakes up `FINE_MARGIN` before the
+hand- over that ends a run and yields until it is due: a process that slept wakes up late. The
+chunk timestamps are the *ideal* end times, not the moment of delivery: receivers measure exact
+gaps, start pauses (A 5.1.2) and residual times (A 6.3). Contiguous characters (no idle time
+between them) handed over together form one chunk; an idle gap, however short, starts a new
+chunk. The bus uses ``time.monotonic()``, the clock of every pyuss transport, so stations in
+other processes on the same machine (``bus://``) read the same time base.
 
 Stations: `VirtualBus.attach` gives an in-process station (a `Transport`). Listen-only
 stations (monitors) cannot send. With ``echo=True`` a station hears its own characters, as a
@@ -49,6 +55,7 @@ from dataclasses import dataclass, field
 
 from pyuss.bus.faults import FaultEngine, FaultPlan, frame_bits
 from pyuss.errors import ConfigError, TransportError
+from pyuss.loop import FINE_MARGIN, fine_timers
 from pyuss.transport.base import LineError
 from pyuss.transport.queued import QueuedTransport, char_time, check_baud
 
@@ -60,6 +67,10 @@ MAX_SENDERS = 32
 MAX_QUEUE = 4096
 #: Seconds an evictable station must have been silent to give its place to a new station.
 EVICT_IDLE = 1.0
+#: Seconds a character that continues a run may wait to be handed over with the rest of it.
+RUN_HOLD = 0.002
+#: Characters at the end of a run handed over when it ends; the rest of the run comes before.
+RUN_LEAD = 3
 _EPS = 1e-9
 
 Sink = Callable[[bytes, float, tuple[tuple[int, LineError], ...]], None]
@@ -159,7 +170,9 @@ class Station(QueuedTransport):
         """Characters of this station waiting for or on the line (at most `MAX_QUEUE`)."""
         self.overflow = 0
         """Characters this station sent beyond `MAX_QUEUE`: dropped."""
-        self.last_active = time.monotonic()
+        self.attached_at = time.monotonic()
+        """When it attached (monotonic): it hears no character that ended before."""
+        self.last_active = self.attached_at
         """When it attached or last sent something (monotonic)."""
         self.evict: Callable[[], None] | None = None
         """Set by whoever may take the station off the bus for a new one (raw TCP stations):
@@ -235,9 +248,14 @@ class VirtualBus:
         self.stats = BusStats(faults=self._engine.applied)
         self._heap: list[_Pending] = []
         self._seq = itertools.count()
-        self._timer: asyncio.TimerHandle | None = None
+        self._timer: asyncio.Handle | None = None
+        self._early: float | None = None
+        """How long before a delivery the bus wakes up and then yields until it is due (the
+        `pyuss.loop.margin` of a loop with fine timers, 0 on others); set on first use."""
         self._timer_at = 0.0
         self._last_garbled_end = -1.0
+        self._last_end = -1.0
+        """End of the last character resolved (a character starting then continues a run)."""
         self._on_line: list[_Pending] = []
         self._windows: list[tuple[str, str, float, float]] = []
         self.on_char: list[Callable[[WireChar], None]] = []
@@ -410,19 +428,35 @@ class VirtualBus:
     def _schedule(self) -> None:
         if not self._heap:
             return
-        due = self._heap[0].start + self.char_time
+        head = self._heap[0]
+        due = head.start + self.char_time
+        if head.owner is not None and head.start <= self._last_end + _EPS:
+            # It continues a run: hand it over with the rest of the run, all but the last
+            # `RUN_LEAD` characters a little before the end (a receiver digests them while
+            # the last are on the line), those last ones when the run ends.
+            end = head.owner.tx_free
+            bulk = end - RUN_LEAD * self.char_time
+            due = min(bulk if due < bulk - _EPS else end, due + RUN_HOLD)
         if self._timer is not None:
             if self._timer_at <= due:
                 return
             self._timer.cancel()
         loop = asyncio.get_running_loop()
+        if self._early is None:
+            self._early = FINE_MARGIN if fine_timers(loop) else 0.0
         self._timer_at = due
-        self._timer = loop.call_later(max(0.0, due - time.monotonic()), self._tick)
+        # Where a run ends a receiver reacts (a slave answers, the master sends the next
+        # request): wake up a little early there, and only there.
+        ends_run = head.owner is not None and due >= head.owner.tx_free - _EPS
+        self._timer = loop.call_at(due - self._early if ends_run else due, self._tick)
 
     # -- the line ---------------------------------------------------------------------------
     def _tick(self) -> None:
-        self._timer = None
         now = time.monotonic()
+        if now < self._timer_at - _EPS:  # woke up early on purpose: yield until it is due
+            self._timer = asyncio.get_running_loop().call_soon(self._tick)
+            return
+        self._timer = None
         tc = self.char_time
         out: list[WireChar] = []
         heap = self._heap
@@ -436,6 +470,8 @@ class VirtualBus:
                 if pending.owner is not None:
                     pending.owner.queued -= 1
             out.append(self._resolve(group, end))
+            if end > self._last_end:
+                self._last_end = end
         for char in out:
             self._record(char)
         if out:
@@ -481,6 +517,8 @@ class VirtualBus:
             last_end = 0.0
             for char in chars:
                 if not station.hears_own and name in char.sender.split("+"):
+                    continue
+                if char.end <= station.attached_at:  # handed over late: it was not there yet
                     continue
                 if buf and char.start > last_end + _EPS:
                     station.receive(bytes(buf), last_end, tuple(errors))
