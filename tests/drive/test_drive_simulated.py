@@ -12,6 +12,7 @@ from pyuss.drive.faults import DriveErrorNumber, ParameterFault
 from pyuss.drive.memory import ParameterChange
 from pyuss.drive.simulated import SimulatedDrive
 from pyuss.drive.states import DriveState
+from pyuss.drive.store import ParameterStore
 from pyuss.protocol.pzd import ControlWord, StatusWord, join_dword, split_dword
 
 
@@ -189,3 +190,65 @@ def test_power_cycle_of_a_simulated_drive(tmp_path: Path) -> None:
     drive.exchange([0x047F, 0x4000], 100.0)
     drive.step(101.0)
     assert drive.actual_value() == 0x2000  # the stored ramp time is in force
+
+
+def _running_at_half_speed() -> SimulatedDrive:
+    """A generic drive at 50 % of its 50.00 Hz reference (25.00 Hz, P2 and P3 = 2500)."""
+    drive = SimulatedDrive.from_profile("generic")
+    drive.exchange([0x047E, 0], 0.0)
+    drive.exchange([0x047F, 0x2000], 0.0)
+    drive.step(20.0)
+    assert drive.value(2) == drive.value(3) == 2500
+    return drive
+
+
+def test_a_display_changed_elsewhere_is_shown_again_at_the_next_step() -> None:
+    # the drive writes its displays only when they change: one overwritten by another path
+    # (here the drive's own update) must not keep the foreign value while nothing moves
+    drive = _running_at_half_speed()
+    for pnu in (1, 2, 3, 550, 552):
+        held = drive.value(pnu)
+        drive.update(pnu, 1234)
+        drive.step(20.0)  # same time: the machine's values are the same as before
+        assert drive.value(pnu) == held
+        drive.update(pnu, 4321)
+        drive.exchange([0x047F, 0x2000], 20.5)  # same control word and setpoint
+        assert drive.value(pnu) == held
+
+
+def test_level_displays_follow_a_changed_reference() -> None:
+    drive = _running_at_half_speed()
+    drive.update(352, 4000)  # reference 40.00 Hz: 50 % is now 20.00 Hz
+    drive.step(20.0)
+    assert drive.value(2) == drive.value(3) == 2000
+    drive.restore_factory()  # back to 50.00 Hz
+    assert drive.value(352) == 5000
+    drive.step(20.1)
+    assert drive.value(2) == drive.value(3) == 2500
+
+
+def test_level_displays_use_the_stored_reference_from_power_up(tmp_path: Path) -> None:
+    store = tmp_path / "d.store"
+    ParameterStore(store, "generic").save({(352, None): (4000,)})
+    drive = SimulatedDrive.from_profile("generic", store=store)
+    drive.exchange([0x047E, 0], 0.0)
+    drive.exchange([0x047F, 0x2000], 0.0)
+    drive.step(20.0)
+    assert drive.value(2) == drive.value(3) == 2000
+
+
+def test_unchanged_displays_are_not_reported_again() -> None:
+    drive = SimulatedDrive.from_profile("generic")
+    seen: list[ParameterChange] = []
+    drive.subscribe("uss", seen.append)
+    for t in (0.0, 0.1, 0.2):
+        drive.exchange([0x047E, 0], t)
+    code = drive.db.faults["telegram_failure"]
+    drive.raise_fault(code, 1.0)
+    for t in (1.1, 1.2):
+        drive.exchange([0x047E, 0], t)
+    assert seen == [ParameterChange(947, None, (code,), False, "local")]  # P947 is active
+    drive.update(947, 0)  # the display changed elsewhere: shown and reported again
+    drive.step(1.3)
+    assert drive.value(947) == code
+    assert seen[-1] == ParameterChange(947, None, (code,), False, "local")

@@ -95,3 +95,29 @@ def test_bad_settings_are_refused() -> None:
         SlaveEngine(5, drive, profile, diagnostic_pnu=40)
     with pytest.raises(ConfigError, match="do not fit"):
         SlaveEngine(5, drive, profile, diagnostic_pnu=2040)
+
+
+def test_a_repeated_request_is_answered_with_the_values_of_now() -> None:
+    # the engine keeps the last request and answer: the same bytes again must still be
+    # answered from the drive as it is now, not from the kept answer
+    prof = get_profile("generic")
+    layout = Layout(3, 2)
+    engine = SlaveEngine(5, SimulatedDrive(prof.database()), prof, layout=layout)
+    engine.handle(Telegram(5, AddressMode.NORMAL, layout.pack(None, (0x047E, 0))), 0.0)
+    data = layout.pack(Pkw(1, 2), (0x047F, 0x2000))  # read P2, the actual frequency
+    seen = []
+    for t in (0.0, 0.0, 1.0, 1.0, 2.0, 30.0, 30.0):
+        answer = engine.handle(Telegram.decode(Telegram(5, AddressMode.NORMAL, data).encode()), t)
+        assert answer is not None
+        net = layout.unpack(answer.data)
+        assert net.pkw == Pkw(1, 2, 0, False, (engine.drive.value(2),))
+        assert net.pzd == (engine.drive.status_word(), engine.drive.actual_value())
+        seen.append(net.pkw.values[0])
+    assert seen == [0, 0, 500, 500, 1000, 2500, 2500]  # 10 s ramp to 25.00 Hz
+    # a value changed by another interface while the process data stay the same
+    read = Telegram(5, AddressMode.NORMAL, layout.pack(Pkw(1, 18), (0x047F, 0x2000)))
+    for value in (7, 7, 9):
+        engine.drive.write(18, value)
+        answer = engine.handle(read, 31.0)
+        assert answer is not None
+        assert layout.unpack(answer.data).pkw == Pkw(1, 18, 0, False, (value,))

@@ -74,7 +74,7 @@ class DataType(enum.IntEnum):
 
     @property
     def is_string(self) -> bool:
-        return self in (DataType.VISIBLE_STRING, DataType.OCTET_STRING)
+        return self in _STRING_TYPES
 
     @property
     def byte_size(self) -> int:
@@ -92,9 +92,9 @@ class DataType(enum.IntEnum):
 
     def word_count(self, length: int = 0) -> int:
         """How many 16-bit words one value occupies in the PKW area (C 6)."""
-        if self.is_string:
+        if self in _STRING_TYPES:
             return (length + 1) // 2
-        return 2 if self.byte_size == 4 else 1
+        return 2 if _BYTE_SIZES[self] == 4 else 1
 
 
 _LABELS: dict[DataType, str] = {
@@ -122,6 +122,8 @@ _BYTE_SIZES: dict[DataType, int] = {
     DataType.OCTET_STRING: 0,
     DataType.V2: 2,
 }
+
+_STRING_TYPES = frozenset({DataType.VISIBLE_STRING, DataType.OCTET_STRING})
 
 _INT_RANGES: dict[DataType, tuple[int, int]] = {
     DataType.INT8: (-0x80, 0x7F),

@@ -105,7 +105,7 @@ class ParameterMemory:
         self._values: dict[int, list[Value]] = {p.pnu: list(p.default) for p in db}
         self._texts: dict[tuple[int, bool, int], str] = {}
         self._listeners: dict[str, list[Listener]] = {}
-        self._rules: dict[ParamRef, list[WriteRule]] = {}
+        self._rules: dict[tuple[int, int | None], list[WriteRule]] = {}  # by (PNU, IND)
         self._watchers: dict[int, list[Watcher]] = {}
         self._denied: set[str] = set()
         self._running = running
@@ -167,10 +167,10 @@ class ParameterMemory:
     def add_write_rule(self, ref: ParamRef, rule: WriteRule) -> Callable[[], None]:
         """Apply ``rule`` to every write of the element ``ref`` through an interface (not to
         the drive's own `update`). Returns a function that removes it."""
-        self._rules.setdefault(ref, []).append(rule)
+        self._rules.setdefault((ref.pnu, ref.index), []).append(rule)
 
         def remove() -> None:
-            rules = self._rules.get(ref, [])
+            rules = self._rules.get((ref.pnu, ref.index), [])
             if rule in rules:
                 rules.remove(rule)
 
@@ -567,7 +567,7 @@ class ParameterMemory:
     def _apply_rules(
         self, param: ParameterSpec, index: int | None, value: Value, eeprom: bool
     ) -> None:
-        for rule in self._rules.get(ParamRef(param.pnu, index), ()):
+        for rule in self._rules.get((param.pnu, index), ()):
             try:
                 rule(value, eeprom)
             except ParameterFault as exc:

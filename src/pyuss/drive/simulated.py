@@ -12,8 +12,9 @@ answer; ``exchange(words, now)`` does all of it for the usual mapping (PZD1 cont
 PZD2 main setpoint/actual, PZD3.. from ``[process]``). Time is always passed in.
 
 The displays named in ``[drive]`` (state code, fault and warning numbers, control and status
-word, ramp input and actual value) are updated by the drive at every step; an active display
-is reported to subscribers like any other change of an active parameter.
+word, ramp input and actual value) are updated by the drive at every step (a display is
+written when its value changes); an active display is reported to subscribers like any other
+change of an active parameter.
 
 Family rules read from the parameter file (docs/drive.md):
 
@@ -29,7 +30,9 @@ Family rules read from the parameter file (docs/drive.md):
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 from pyuss.drive.database import (
@@ -40,13 +43,40 @@ from pyuss.drive.database import (
     ParamRef,
     load_profile,
 )
-from pyuss.drive.datatypes import DataType
+from pyuss.drive.datatypes import DataType, Value, round_float
 from pyuss.drive.faults import ParameterFault
 from pyuss.drive.memory import ParameterMemory
 from pyuss.drive.states import WAIT_FOREVER, DriveState, DriveStateMachine, Motion
 from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32
 
 _DEFAULTS = Motion()
+
+_PLAIN_DISPLAYS = ("state", "fault", "warning", "control_word", "status_word")
+_LEVEL_DISPLAYS = ("setpoint", "actual")
+
+
+@dataclass(frozen=True, slots=True)
+class _Display:
+    """Where a display role is shown and how: the element, its type's range, and for a level
+    (setpoint, actual value) the physical value of 100 % and the parameter's scaling."""
+
+    pnu: int
+    index: int | None
+    position: int
+    is_float: bool
+    low: float
+    high: float
+    factor: float = 1.0
+    divisor: float = 1.0
+
+
+@dataclass(frozen=True, slots=True)
+class _Displays:
+    """The displays of `_PLAIN_DISPLAYS` and `_LEVEL_DISPLAYS` in that order (None where the
+    parameter file names none)."""
+
+    plain: tuple[_Display | None, ...]
+    levels: tuple[_Display | None, ...]
 
 
 class SimulatedDrive(ParameterMemory):
@@ -69,6 +99,11 @@ class SimulatedDrive(ParameterMemory):
             if name in (*TIME_ROLES, *LEVEL_ROLES, "reference")
         }
         self._motion_cache: Motion | None = None
+        self._displays_cache: _Displays | None = None
+        self._display_pnus = {
+            ref.pnu for name, ref in db.roles.items() if name in _PLAIN_DISPLAYS + _LEVEL_DISPLAYS
+        }
+        self._published: tuple[object, ...] | None = None
         self._setpoint: float | None = None
         super().__init__(db, store=store, running=lambda: self.machine.running)
         self.machine = DriveStateMachine(now, self._motion())
@@ -263,8 +298,12 @@ class SimulatedDrive(ParameterMemory):
         return value / self._level_factor(ref)
 
     def _changed(self, pnu: int) -> None:
-        if pnu in self._motion_pnus:
+        if pnu in self._motion_pnus:  # the reference among them: the level displays' factor
             self._motion_cache = None
+            self._displays_cache = None
+            self._published = None
+        if pnu in self._display_pnus:  # a display changed: it is shown again at the next step
+            self._published = None
 
     def _motion(self) -> Motion:
         """The motion settings from the role parameters (cached until one of them changes)."""
@@ -292,38 +331,73 @@ class SimulatedDrive(ParameterMemory):
             init=pick(self._seconds("init_time"), _DEFAULTS.init),
         )
 
+    def _displays(self) -> _Displays:
+        """Where the displays go (cached until a role parameter, such as the reference,
+        changes: the database itself does not change)."""
+        if self._displays_cache is None:
+            self._displays_cache = _Displays(
+                tuple(self._display(name, level=False) for name in _PLAIN_DISPLAYS),
+                tuple(self._display(name, level=True) for name in _LEVEL_DISPLAYS),
+            )
+        return self._displays_cache
+
+    def _display(self, name: str, *, level: bool) -> _Display | None:
+        ref = self.db.roles.get(name)
+        if ref is None:
+            return None
+        param = self.db.parameter(ref.pnu)
+        low, high = param.dtype.type_range
+        return _Display(
+            ref.pnu,
+            ref.index,
+            self.db.position(param, ref.index),
+            param.dtype is DataType.FLOAT,
+            low,
+            high,
+            self._level_factor(ref) if level else 1.0,
+            1.0 if param.scaling is None else param.scaling,
+        )
+
     def _publish(self) -> None:
         """Write the displays the profile names."""
         machine = self.machine
-        roles = self.db.roles
+        displays = self._displays()
         code = self.db.state_codes.get(machine.state.value)
         if self.commissioning_active() and "commissioning" in self.db.state_codes:
             code = self.db.state_codes["commissioning"]
-        plain = {
-            "state": code,
-            "fault": machine.fault_code,
-            "warning": machine.warning_code,
-            "control_word": machine.control,
-            "status_word": self.status_word(),
-        }
-        for name, value in plain.items():
-            ref = roles.get(name)
-            if ref is not None and value is not None:
-                self._show(ref, value)
-        for name, fraction in (("setpoint", machine.ramp_input), ("actual", machine.actual)):
-            ref = roles.get(name)
-            if ref is not None:
-                param = self.db.parameter(ref.pnu)
-                physical = fraction * self._level_factor(ref)
-                self._show(ref, physical / (1.0 if param.scaling is None else param.scaling))
+        plain = (
+            code,
+            machine.fault_code,
+            machine.warning_code,
+            machine.control,
+            self.status_word(),
+        )
+        levels = (machine.ramp_input, machine.actual)
+        published = (plain, levels)
+        if published == self._published:
+            return  # the displays show these values already (`_changed` forgets them)
+        for display, value in zip(displays.plain, plain, strict=True):
+            if display is not None and value is not None:
+                self._show(display, value)
+        for display, fraction in zip(displays.levels, levels, strict=True):
+            if display is not None:
+                self._show(display, fraction * display.factor / display.divisor)
+        self._published = published
 
-    def _show(self, ref: ParamRef, value: float) -> None:
-        param = self.db.parameter(ref.pnu)
-        if param.dtype is DataType.FLOAT:
-            self.update(ref.pnu, float(value), ref.index)
-            return
-        low, high = param.dtype.type_range
-        self.update(ref.pnu, int(min(max(round(value), low), high)), ref.index)
+    def _show(self, display: _Display, value: float) -> None:
+        """Show ``value`` in a display, rounded to what its type holds; a value the display
+        holds already changes nothing and is not written again."""
+        held: Value
+        if display.is_float:
+            number = float(value)
+            if not (math.isfinite(number) and abs(number) <= display.high):
+                self.update(display.pnu, number, display.index)  # refused as `update` says
+                return
+            held = round_float(number)
+        else:
+            held = int(min(max(round(value), display.low), display.high))
+        if self._values[display.pnu][display.position] != held:
+            self.update(display.pnu, held, display.index)
 
 
 def _fraction_of_raw(raw: int, bits: int) -> float:

@@ -188,7 +188,10 @@ class DriveStateMachine:
             if mode is None:
                 break
             target, up, down = mode
-            need = ramp.duration(self.actual, target, ramp.rate_of(up), ramp.rate_of(down))
+            if self.actual == target:
+                need = 0.0
+            else:
+                need = ramp.duration(self.actual, target, ramp.rate_of(up), ramp.rate_of(down))
             if need > remaining + TIME_EPSILON:
                 self.actual = ramp.advance(
                     self.actual, target, remaining, ramp.rate_of(up), ramp.rate_of(down)

@@ -26,6 +26,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cache
 
 from pyuss.errors import ConfigError, TelegramError
 from pyuss.protocol.pkw import Pkw
@@ -41,6 +42,20 @@ MAX_WORDS = 126
 
 _PKW_CHOICES = (0, 3, 4, PKW_VARIABLE)
 _VARIABLE_WORDS = ("v", "var", "variable", "127")
+_NO_JOB = Pkw(0)
+
+
+@cache
+def _words(count: int) -> struct.Struct:
+    """The struct of ``count`` big-endian words (compiled once per count)."""
+    return struct.Struct(f">{count}H")
+
+
+def _check_pzd(pzd: Sequence[int]) -> None:
+    """Refuse PZD words that are not 16-bit words, naming the first one."""
+    for i, word in enumerate(pzd, 1):
+        if isinstance(word, bool) or not isinstance(word, int) or not 0 <= word <= 0xFFFF:
+            raise ConfigError(f"PZD{i} must be a 16-bit word 0..65535, got {word!r}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -142,15 +157,16 @@ class Layout:
             raise ConfigError(f"layout {self} carries {self.pzd} PZD words, got {len(pzd)}")
         words: list[int] = []
         if self.pkw:
-            job = pkw if pkw is not None else Pkw(0)
+            job = pkw if pkw is not None else _NO_JOB
             words += (job.pke, job.index, *self._pwe(job))
         elif pkw is not None:
             raise ConfigError(f"layout {self} has no PKW area, but a parameter job was given")
-        for i, word in enumerate(pzd, 1):
-            if isinstance(word, bool) or not isinstance(word, int) or not 0 <= word <= 0xFFFF:
-                raise ConfigError(f"PZD{i} must be a 16-bit word 0..65535, got {word!r}")
-            words.append(word)
-        return struct.pack(f">{len(words)}H", *words)
+        for word in pzd:
+            if type(word) is not int or not 0 <= word <= 0xFFFF:
+                _check_pzd(pzd)  # not a plain word: an IntFlag is one, anything else is refused
+                break
+        words += pzd
+        return _words(len(words)).pack(*words)
 
     def unpack(self, data: bytes | bytearray | memoryview) -> NetData:
         """Split net data bytes into the PKW area and the PZD words."""
@@ -174,6 +190,6 @@ class Layout:
                     f"{2 * (self.pkw + self.pzd)})"
                 )
             pkw_words = self.pkw
-        words = struct.unpack(f">{count}H", data)
+        words = _words(count).unpack(data)
         pkw = Pkw.from_words(words[:pkw_words]) if pkw_words else None
         return NetData(pkw, tuple(words[pkw_words:]))

@@ -472,14 +472,25 @@ class Pkw:
     values: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
-        _check_range(self.id, 0, 15, "request/response ID")
-        object.__setattr__(self, "id", int(self.id))  # a RequestId/ResponseId is kept as int
-        _check_range(self.pnu, 0, MAX_PNU, "PNU")
-        _check_range(self.index, 0, 0xFFFF, "IND")
-        if not isinstance(self.values, tuple):
-            object.__setattr__(self, "values", tuple(self.values))
-        for word in self.values:
-            _check_range(word, 0, 0xFFFF, "PWE word")
+        # Every PKW area of every telegram passes here: the usual case (plain integers in
+        # range, a tuple of words) is recognised first; anything else is checked one by one.
+        id_, pnu, index, values = self.id, self.pnu, self.index, self.values
+        if not (
+            type(id_) is type(pnu) is type(index) is int
+            and 0 <= id_ <= 15
+            and 0 <= pnu <= MAX_PNU
+            and 0 <= index <= 0xFFFF
+        ):
+            _check_range(id_, 0, 15, "request/response ID")
+            object.__setattr__(self, "id", int(id_))  # a RequestId/ResponseId is kept as int
+            _check_range(pnu, 0, MAX_PNU, "PNU")
+            _check_range(index, 0, 0xFFFF, "IND")
+        if not isinstance(values, tuple):
+            values = tuple(values)
+            object.__setattr__(self, "values", values)
+        for word in values:
+            if type(word) is not int or not 0 <= word <= 0xFFFF:
+                _check_range(word, 0, 0xFFFF, "PWE word")
 
     # -- words ----------------------------------------------------------------------------
 

@@ -80,6 +80,7 @@ _DWORD_WRITES = frozenset(
 _WORD_WRITES = frozenset(
     {R.WRITE_WORD, R.WRITE_WORD_EEPROM, R.WRITE_ARRAY_WORD, R.WRITE_ARRAY_WORD_EEPROM}
 )
+_WRITES = _WORD_WRITES | _DWORD_WRITES
 _ARRAY_WRITES = frozenset(
     {R.WRITE_ARRAY_WORD, R.WRITE_ARRAY_DWORD, R.WRITE_ARRAY_WORD_EEPROM, R.WRITE_ARRAY_DWORD_EEPROM}
 )
@@ -117,11 +118,13 @@ def request_word(job: Pkw, layout: Layout) -> int:
     return job.values[1] if layout.pkw == 4 and len(job.values) > 1 else job.values[0]
 
 
+_CHANGES = frozenset(r for r in RequestId if r.is_change)
+
+
 def _changes(job: Pkw) -> bool:
-    req = RequestId(job.id)
-    if req is RequestId.TEXT:
+    if job.id == RequestId.TEXT:
         return bool(job.index & TextIndex.WRITE)
-    return req.is_change
+    return job.id in _CHANGES
 
 
 class ParameterChannel:
@@ -199,7 +202,7 @@ class ParameterChannel:
         if answer.id not in _VALUE_ANSWERS or job.id == RequestId.NO_JOB:
             return answer
         req = RequestId(job.id)
-        if req in _WORD_WRITES | _DWORD_WRITES:
+        if req in _WRITES:
             read = RequestId.READ_ARRAY if req in _ARRAY_WRITES else RequestId.READ_VALUE
             job = replace(job, id=read)
         elif req is RequestId.TEXT:
@@ -209,7 +212,7 @@ class ParameterChannel:
             fresh = self._run(job, pnu, self._memory(pnu, now))
         except (ParameterFault, TooLarge):
             return answer
-        return replace(fresh, index=answer.index)
+        return fresh if fresh.index == answer.index else replace(fresh, index=answer.index)
 
     def _may_change(self, pnu: int) -> bool:
         """Write authority for a change job: the drive's, also for the slave's diagnostic

@@ -47,6 +47,7 @@ from pyuss.drive.faults import ParameterFault
 from pyuss.drive.memory import ParameterMemory
 from pyuss.errors import ConfigError
 from pyuss.protocol.diagnostics import Diagnostics
+from pyuss.protocol.telegram import Telegram
 
 __all__ = ["COUNT", "TELEGRAM_WORDS", "DiagnosticParameters", "software_version"]
 
@@ -140,7 +141,7 @@ class DiagnosticParameters:
             )
         self.base = base
         self.diagnostics = diagnostics
-        self.telegram = b""
+        self._last: Telegram | bytes = b""
         params = {}
         for offset, name in enumerate(_NAMES):
             if offset == 3:
@@ -174,9 +175,16 @@ class DiagnosticParameters:
     def __contains__(self, pnu: object) -> bool:
         return isinstance(pnu, int) and self.base <= pnu < self.base + COUNT
 
-    def note_telegram(self, raw: bytes) -> None:
-        """Remember the last telegram received for this slave."""
-        self.telegram = bytes(raw)
+    def note_telegram(self, telegram: Telegram | bytes) -> None:
+        """Remember the last telegram received for this slave (its bytes are built only when
+        they are read)."""
+        self._last = telegram if isinstance(telegram, Telegram) else bytes(telegram)
+
+    @property
+    def telegram(self) -> bytes:
+        """The bytes of the last telegram received for this slave (empty before the first)."""
+        last = self._last
+        return last.encode() if isinstance(last, Telegram) else last
 
     def refresh(self, now: float) -> ParameterMemory:
         """Bring the values up to date (time ``now`` for the per-minute rates); the memory."""
@@ -184,12 +192,13 @@ class DiagnosticParameters:
         update = self.memory.update
         for offset, word in enumerate(words):
             update(self.base + offset, word)
-        data = self.telegram.ljust(2 * TELEGRAM_WORDS, b"\0")[: 2 * TELEGRAM_WORDS]
+        telegram = self.telegram
+        data = telegram.ljust(2 * TELEGRAM_WORDS, b"\0")[: 2 * TELEGRAM_WORDS]
         index_base = self.memory.db.profile.index_base
         for i in range(TELEGRAM_WORDS):
             try:
                 update(self.base + 16, data[2 * i] << 8 | data[2 * i + 1], index_base + i)
             except ParameterFault:  # pragma: no cover - the array covers exactly these
                 break
-        update(self.base + 17, len(self.telegram))
+        update(self.base + 17, len(telegram))
         return self.memory

@@ -74,7 +74,7 @@ from pyuss.drive.simulated import SimulatedDrive
 from pyuss.errors import ConfigError, TelegramError
 from pyuss.profiles.base import Profile
 from pyuss.protocol.diagnostics import Diagnostics, FaultKind
-from pyuss.protocol.layout import PKW_VARIABLE, Layout
+from pyuss.protocol.layout import PKW_VARIABLE, Layout, NetData
 from pyuss.protocol.pkw import Pkw, ResponseId
 from pyuss.protocol.pzd import ControlWord
 from pyuss.protocol.telegram import MAX_ADDRESS, AddressMode, Telegram
@@ -93,6 +93,8 @@ SpecialHandler = Callable[[Telegram, float], Telegram | None]
 TELEGRAM_FAILURE_FAULT = 65
 """Fault code tripped when the telegram failure time expires and the parameter file's
 ``[faults]`` table names no ``telegram_failure`` (the generic profile's number)."""
+
+_CONTROL_BY_PLC = int(ControlWord.CONTROL_BY_PLC)  # a plain int: IntFlag arithmetic is slow
 
 _MAX_SPONTANEOUS = 64
 """Changes waiting to be reported; beyond that the oldest are dropped (and logged)."""
@@ -200,6 +202,8 @@ class SlaveEngine:
         # process data and monitoring
         self._last_pzd: tuple[int, ...] = (0,) * self.layout.pzd
         self._prepared: Telegram | None = None
+        self._request: tuple[bytes, NetData] | None = None
+        self._last_answer: tuple[Pkw | None, tuple[int, ...], Telegram] | None = None
         self._last_good: float | None = None
         self._monitoring = False
         self.timeouts = 0
@@ -394,25 +398,25 @@ class SlaveEngine:
     def _good(self, telegram: Telegram, now: float) -> None:
         self._last_good = now
         self._monitoring = True
-        self.diagnostic_parameters.note_telegram(telegram.encode())
+        self.diagnostic_parameters.note_telegram(telegram)
 
     def _exchange(self, telegram: Telegram, now: float) -> Telegram | None:
         layout = self.layout
         try:
-            net = layout.unpack(telegram.data)
+            net = self._unpack(telegram.data)
         except TelegramError as exc:
             self.diagnostics.record_fault(FaultKind.BAD_LGE, now)
             log.debug("address %d: telegram discarded: %s", self.address, exc)
             return None
         self._good(telegram, now)
         pipelined = self.profile.delay_mode is not None and not self.delay_mode
-        if not net.pzd or net.pzd[0] & ControlWord.CONTROL_BY_PLC:
+        if not net.pzd or net.pzd[0] & _CONTROL_BY_PLC:
             # the process data in force; with control bit 10 = 0 the telegram's are ignored
             # and the old ones stay (C Table 5.4), also as the base of the next broadcast
             self._last_pzd = net.pzd
         pzd = self.process.exchange(self.drive, net.pzd, now)
         pkw = None if net.pkw is None else self._parameter(net.pkw, now)
-        answer = Telegram(self.address, AddressMode.NORMAL, layout.pack(pkw, pzd))
+        answer = self._answer(pkw, pzd)
         if not pipelined:
             self._prepared = None
             return answer
@@ -420,6 +424,22 @@ class SlaveEngine:
         if prepared is None:
             return Telegram(self.address, AddressMode.NORMAL, layout.pack(None, pzd))
         return prepared
+
+    def _unpack(self, data: bytes) -> NetData:
+        """``layout.unpack(data)``; a master repeats its telegrams, so the last one is kept."""
+        last = self._request
+        if last is None or last[0] != data:
+            last = self._request = (data, self.layout.unpack(data))
+        return last[1]
+
+    def _answer(self, pkw: Pkw | None, pzd: tuple[int, ...]) -> Telegram:
+        """The answer telegram with ``pkw`` and ``pzd``; the last one is kept, as answers
+        repeat as long as the requests do."""
+        last = self._last_answer
+        if last is None or last[0] != pkw or last[1] != pzd:
+            answer = Telegram(self.address, AddressMode.NORMAL, self.layout.pack(pkw, pzd))
+            last = self._last_answer = (pkw, pzd, answer)
+        return last[2]
 
     def _broadcast(self, telegram: Telegram, now: float) -> None:
         try:
@@ -445,7 +465,7 @@ class SlaveEngine:
     def _parameter(self, request: Pkw, now: float) -> Pkw:
         if self._shown is not None and request.spm_toggle == self._toggle:
             self._shown = None  # the master acknowledged the spontaneous message
-        job = replace(request, spm_toggle=False)
+        job = replace(request, spm_toggle=False) if request.spm_toggle else request
         if job != self._job:
             self._job = job
             self._job_since = now
@@ -472,6 +492,8 @@ class SlaveEngine:
             self._shown = self._spontaneous(change)
         if self._shown is not None:
             answer = self._shown
+        if answer.spm_toggle == self._toggle:
+            return answer
         return replace(answer, spm_toggle=self._toggle)
 
     def _on_change(self, change: ParameterChange) -> None:
