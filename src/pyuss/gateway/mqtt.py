@@ -352,7 +352,7 @@ class MqttBusFace:
         self._runner = asyncio.create_task(self.run(), name=f"mqtt {self.bus.name}")
 
     async def close(self) -> None:
-        """Stop publishing, publish ``offline``, disconnect."""
+        """Stop publishing, publish each drive's last state and ``offline``, disconnect."""
         for task in self._tasks:
             task.cancel()
         if self._tasks:
@@ -365,6 +365,11 @@ class MqttBusFace:
         if client is not None and self.connected.is_set():
             with contextlib.suppress(aiomqtt.MqttError, asyncio.TimeoutError):
                 async with asyncio.timeout(2):
+                    # the retained state is the drive's last one, even when a change came
+                    # after the last state the publishing task got out
+                    for worker in self.workers.values():
+                        state = state_payload(worker.drive.snapshot())
+                        await client.publish(worker.topics.state, state, qos=1, retain=True)
                     await client.publish(self.availability, "offline", qos=1, retain=True)
                     for worker in self.workers.values():
                         await client.publish(
