@@ -14,7 +14,6 @@ between minor releases, so the supported range is narrow (`pyuss.gateway.extras`
 
 from __future__ import annotations
 
-import asyncio
 import logging
 from collections.abc import Sequence
 
@@ -30,9 +29,6 @@ from pyuss.points.plant import Plant
 __all__ = ["ModbusFace"]
 
 log = logging.getLogger("pyuss.gateway.modbus")
-
-CLOSE_TIME = 5.0
-"""Seconds the Modbus server gets to shut down when the gateway stops."""
 
 _INPUT = frozenset({4})
 _HOLDING_READ = frozenset({3, 6, 16, 22, 23})
@@ -138,8 +134,4 @@ class ModbusFace:
     async def close(self) -> None:
         server, self._server = self._server, None
         if server is not None:
-            try:  # bounded: a client connection that does not go away must not hold the stop
-                async with asyncio.timeout(CLOSE_TIME):
-                    await server.shutdown()  # type: ignore[no-untyped-call]
-            except TimeoutError:
-                log.warning("Modbus TCP server did not shut down in %g s: left", CLOSE_TIME)
+            await server.shutdown()  # type: ignore[no-untyped-call]
