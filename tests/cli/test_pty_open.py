@@ -5,32 +5,21 @@ process of its own: a port that cannot be opened is one line on stderr and exit 
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
-import signal
 import subprocess
 import sys
-import termios
 from collections.abc import Iterator
 
 import pytest
-import serial
 
 from conftest import simulator_pty
 from pyuss.master.sync import Master
+from transport.helpers import even_8e1, killed_holder, plain_8n1
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux ptys")
 
 BAUD = "9600"
 WAIT = 60.0
-
-_HOLDER = """
-import sys, time, serial
-port = serial.Serial(sys.argv[1], 9600, xonxoff=True)
-print("holding", flush=True)
-time.sleep(60)
-"""
 
 
 @pytest.fixture(scope="module")
@@ -56,29 +45,6 @@ def common(path: str) -> list[str]:
     return ["--port", path, "--baud", BAUD, "--layout", "3,2"]
 
 
-def other_8n1(path: str) -> None:
-    serial.Serial(path, 9600).close()
-
-
-def other_8e1(path: str) -> None:
-    with contextlib.suppress(serial.SerialException, termios.error):  # its own business
-        serial.Serial(path, 9600, parity="E").close()
-
-
-def other_killed(path: str) -> None:
-    holder = subprocess.Popen(
-        [sys.executable, "-c", _HOLDER, path], stdout=subprocess.PIPE, text=True
-    )
-    try:
-        assert holder.stdout is not None
-        assert holder.stdout.readline() == "holding\n"
-    finally:
-        os.kill(holder.pid, signal.SIGKILL)
-        holder.wait(WAIT)
-        if holder.stdout is not None:
-            holder.stdout.close()
-
-
 def cannot_open(path: str, *argv: str) -> None:
     """``?rs485=kernel`` on a pty: the port truly cannot be opened. One line, exit code 1."""
     done = uss(*argv, "--port", f"{path}?rs485=kernel", "--baud", BAUD)
@@ -96,30 +62,30 @@ def read_52(path: str, *extra: str) -> subprocess.CompletedProcess[str]:
 
 
 def test_commands_open_the_pty_whatever_other_programs_did(sim: str) -> None:
-    other_8n1(sim)  # as the README's pyserial example does
+    plain_8n1(sim)  # as the README's pyserial example does
     assert "P52 = 16384" in read_52(sim).stdout
-    other_8e1(sim)
+    even_8e1(sim)
     assert json.loads(read_52(sim, "--json").stdout)["parameters"][0]["value"] == 0x4000
     cannot_open(sim, "read", "5", "52", "--layout", "3,2")
     done = uss("mirror", "5", *common(sim))
     assert done.returncode == 0, done.stderr
-    other_killed(sim)
+    killed_holder(sim)
     done = uss("scan", "--address", "5", "--port", sim, "--baud", BAUD, "--json")
     assert done.returncode == 0, done.stderr
     assert "Traceback" not in done.stderr
     cannot_open(sim, "mirror", "5")
-    other_8n1(sim)
+    plain_8n1(sim)
     done = uss("monitor", "--port", sim, "--baud", BAUD, "--duration", "0.3")
     assert done.returncode == 0, done.stderr
     assert "listening on" in done.stderr
     cannot_open(sim, "monitor", "--duration", "0.3")
-    other_killed(sim)
-    other_8e1(sim)
+    killed_holder(sim)
+    even_8e1(sim)
     assert "P52 = 16384" in read_52(sim).stdout
 
 
 def test_the_sync_api_opens_the_pty_whatever_other_programs_did(sim: str) -> None:
-    for other in (other_8n1, other_8e1, other_killed, other_8e1):
+    for other in (plain_8n1, even_8e1, killed_holder, even_8e1):
         other(sim)
         with Master(sim, baud=int(BAUD)) as bus:
             assert bus.drive(5, layout="3,2").read(52) == 0x4000

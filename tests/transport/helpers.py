@@ -1,12 +1,19 @@
-"""Helpers for transport tests: collect what a transport delivers until a condition holds; an
-RFC 2217 server."""
+"""Helpers for transport tests: collect what a transport delivers until a condition holds;
+what other programs do to a serial device before pyuss opens it; an RFC 2217 server."""
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
 import socket
+import subprocess
+import sys
+import termios
 import threading
 from typing import Any, cast
 
+import serial
 from serial import rfc2217
 
 from pyuss.transport.base import Chunk, LineError, Transport
@@ -50,6 +57,41 @@ def byte_ends(chunks: list[Chunk], baud: int) -> list[float]:
         n = len(chunk.data)
         out += [chunk.timestamp - (n - 1 - i) * tc for i in range(n)]
     return out
+
+
+_HOLDER = """
+import sys, time, serial
+port = serial.Serial(sys.argv[1], 9600, xonxoff=True)
+print("holding", flush=True)
+time.sleep(60)
+"""
+
+
+def plain_8n1(path: str) -> None:
+    """Another program opens the device at 9600 8N1 and closes it."""
+    serial.Serial(path, 9600).close()
+
+
+def even_8e1(path: str) -> None:
+    """Another program opens the device at 9600 8E1 and closes it. Its C library may refuse
+    that open (that is its business); what it leaves on the device must not keep pyuss out."""
+    with contextlib.suppress(serial.SerialException, termios.error):
+        serial.Serial(path, 9600, parity="E").close()
+
+
+def killed_holder(path: str) -> None:
+    """A program that opened the device (9600 8N1, XON/XOFF) and is killed while it holds it."""
+    holder = subprocess.Popen(
+        [sys.executable, "-c", _HOLDER, path], stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert holder.stdout is not None
+        assert holder.stdout.readline() == "holding\n"
+    finally:
+        os.kill(holder.pid, signal.SIGKILL)
+        holder.wait(WAIT)
+        if holder.stdout is not None:
+            holder.stdout.close()
 
 
 class Rfc2217Server:

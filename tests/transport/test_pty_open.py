@@ -9,13 +9,9 @@ program that opened the device at 9600 8N1 or 8E1 (or a pyuss port that failed h
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import itertools
 import os
-import signal
-import subprocess
 import sys
-import termios
 from collections.abc import Callable
 
 import pytest
@@ -25,27 +21,9 @@ from pyuss.errors import TransportError
 from pyuss.transport.pty import PtyPort
 from pyuss.transport.serialport import SerialTransport, is_pty
 from pyuss.transport.url import open_transport
-from transport.helpers import WAIT, joined, read_bytes
+from transport.helpers import even_8e1, joined, killed_holder, plain_8n1, read_bytes
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux ptys")
-
-_HOLDER = """
-import sys, time, serial
-port = serial.Serial(sys.argv[1], 9600, xonxoff=True)
-print("holding", flush=True)
-time.sleep(60)
-"""
-
-
-def plain_8n1(path: str) -> None:
-    serial.Serial(path, 9600).close()
-
-
-def even_8e1(path: str) -> None:
-    # Another program's own 8E1 open may be refused by its C library (that is its business);
-    # what it leaves on the device must not keep pyuss out.
-    with contextlib.suppress(serial.SerialException, termios.error):
-        serial.Serial(path, 9600, parity="E").close()
 
 
 def kernel_rs485(path: str) -> None:
@@ -57,21 +35,6 @@ def kernel_rs485(path: str) -> None:
             await port.open()
 
     asyncio.run(attempt())
-
-
-def killed_holder(path: str) -> None:
-    """A program that opened the device (9600 8N1, XON/XOFF) and is killed while it holds it."""
-    holder = subprocess.Popen(
-        [sys.executable, "-c", _HOLDER, path], stdout=subprocess.PIPE, text=True
-    )
-    try:
-        assert holder.stdout is not None
-        assert holder.stdout.readline() == "holding\n"
-    finally:
-        os.kill(holder.pid, signal.SIGKILL)
-        holder.wait(WAIT)
-        if holder.stdout is not None:
-            holder.stdout.close()
 
 
 OTHERS: dict[str, Callable[[str], None]] = {
