@@ -37,6 +37,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from pyuss.drive.database import ParamRef
 from pyuss.errors import ConfigError
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import MAX_ADDRESS
@@ -58,17 +59,6 @@ NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 """Bus and drive names: they are parts of MQTT topics and OPC UA node ids."""
 
 DEFAULT_BUS = "bus"
-
-
-@dataclass(frozen=True, slots=True)
-class ParamRef:
-    """A parameter (element) named as a reference source, ``"P352"`` or ``"P2000.0"``."""
-
-    pnu: int
-    index: int | None = None
-
-    def __str__(self) -> str:
-        return f"P{self.pnu}" if self.index is None else f"P{self.pnu}.{self.index}"
 
 
 @dataclass(frozen=True, slots=True)

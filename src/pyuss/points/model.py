@@ -20,8 +20,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from pyuss.drive.database import ParamRef
 from pyuss.errors import ConfigError
-from pyuss.points.config import BusConfig, DriveConfig, ParamRef, PlantConfig, ProcessConfig, Where
+from pyuss.points.config import BusConfig, DriveConfig, PlantConfig, ProcessConfig, Where
 from pyuss.points.parameters import ParameterModel, ParamMeta
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
