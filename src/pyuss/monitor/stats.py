@@ -128,20 +128,7 @@ class AddressStats:
             "error_rate": round(self.error_rate, 6),
             "no_answer_rate": round(self.no_answer_rate, 6),
             "error_status": int(counters.error_status),
-            "counters": {
-                "good_per_minute": counters.good_per_minute,
-                "discarded_per_minute": counters.discarded_per_minute,
-                "good": counters.good,
-                "discarded": counters.discarded,
-                "framing": counters.framing,
-                "overrun": counters.overrun,
-                "parity": counters.parity,
-                "no_stx": counters.no_stx,
-                "residual_time": counters.residual_time,
-                "bcc": counters.bcc,
-                "bad_lge": counters.bad_lge,
-                "timeout": counters.timeout,
-            },
+            "counters": counters.counts(),
             "response_time": self.delays.as_dict(),
         }
 

@@ -139,6 +139,24 @@ class Counters:
     bad_lge: int = 0
     timeout: int = 0
 
+    def counts(self) -> dict[str, int]:
+        """The telegram counters and rates by name (A 5.2.3 order, from good per minute to
+        timeouts), as the monitor's and the web page's JSON give them."""
+        return {
+            "good_per_minute": self.good_per_minute,
+            "discarded_per_minute": self.discarded_per_minute,
+            "good": self.good,
+            "discarded": self.discarded,
+            "framing": self.framing,
+            "overrun": self.overrun,
+            "parity": self.parity,
+            "no_stx": self.no_stx,
+            "residual_time": self.residual_time,
+            "bcc": self.bcc,
+            "bad_lge": self.bad_lge,
+            "timeout": self.timeout,
+        }
+
     def words(self) -> tuple[int, ...]:
         """The 16 parameters as 16-bit words (counters modulo 65536), in A 5.2.3 order."""
         return (
