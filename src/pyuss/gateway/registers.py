@@ -59,15 +59,16 @@ from __future__ import annotations
 import enum
 import math
 import struct
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from pyuss.errors import ConfigError, DriveRefusal, UssError
 from pyuss.master.errors import NoWriteAuthority
+from pyuss.points.config import ProcessConfig
 from pyuss.points.errors import Failure, classify
 from pyuss.points.parameters import ParamMeta
 from pyuss.points.plant import DrivePoints
-from pyuss.points.state import DriveState
+from pyuss.points.state import DriveState, ProcessValue
 
 __all__ = [
     "EXCEPTIONS",
@@ -247,6 +248,30 @@ class DriveRegisters:
     def _pair(self, value: float | int | None, kind: str) -> tuple[int, int]:
         return to_registers(value, kind, self.word_order)
 
+    def _put_process(
+        self,
+        regs: list[int],
+        items: Sequence[ProcessConfig],
+        values: Mapping[str, ProcessValue],
+    ) -> None:
+        """Each process value as a float pair and its percent as another, from `PROCESS_BASE`."""
+        for k, item in enumerate(items):
+            value = values.get(item.key)
+            base = PROCESS_BASE + 4 * k
+            regs[base : base + 2] = self._pair(None if value is None else value.value, "float")
+            regs[base + 2 : base + 4] = self._pair(
+                None if value is None else value.percent, "float"
+            )
+
+    def _put_parameters(self, regs: list[int], state: DriveState) -> None:
+        """Each configured parameter as last read, a register pair each from `PARAM_BASE`."""
+        for k, point in enumerate(state.model.parameters):
+            reading = state.parameters.get(point.key)
+            base = PARAM_BASE + 2 * k
+            regs[base : base + 2] = self._pair(
+                None if reading is None else reading.value, param_kind(point.meta)
+            )
+
     def input_image(self) -> list[int]:
         """Every input register, as the drive's state is now."""
         state = self.drive.snapshot()
@@ -263,23 +288,12 @@ class DriveRegisters:
             regs[7] = int(refusal.get("pnu", 0)) & 0xFFFF
         for i, word in enumerate(state.actual_words[:15]):
             regs[8 + i] = word & 0xFFFF
-        for k, item in enumerate(state.model.actual):
-            value = state.actual.get(item.key)
-            base = PROCESS_BASE + 4 * k
-            regs[base : base + 2] = self._pair(None if value is None else value.value, "float")
-            regs[base + 2 : base + 4] = self._pair(
-                None if value is None else value.percent, "float"
-            )
+        self._put_process(regs, state.model.actual, state.actual)
         for i, word in enumerate(state.health.counters.words()):
             regs[COUNTERS_BASE + i] = word
         regs[56:58] = self._pair(state.health.answers & 0xFFFF_FFFF, "int")
         regs[58:60] = self._pair(state.health.timeouts & 0xFFFF_FFFF, "int")
-        for k, point in enumerate(state.model.parameters):
-            reading = state.parameters.get(point.key)
-            base = PARAM_BASE + 2 * k
-            regs[base : base + 2] = self._pair(
-                None if reading is None else reading.value, param_kind(point.meta)
-            )
+        self._put_parameters(regs, state)
         return regs
 
     def read_input(self, address: int, count: int) -> list[int]:
@@ -292,19 +306,8 @@ class DriveRegisters:
         regs[0] = state.control_word & 0xFFFF
         for i, word in enumerate(state.setpoint_words[:15]):
             regs[2 + i] = word & 0xFFFF
-        for k, item in enumerate(state.model.setpoints):
-            value = state.setpoints.get(item.key)
-            base = PROCESS_BASE + 4 * k
-            regs[base : base + 2] = self._pair(None if value is None else value.value, "float")
-            regs[base + 2 : base + 4] = self._pair(
-                None if value is None else value.percent, "float"
-            )
-        for k, point in enumerate(state.model.parameters):
-            reading = state.parameters.get(point.key)
-            base = PARAM_BASE + 2 * k
-            regs[base : base + 2] = self._pair(
-                None if reading is None else reading.value, param_kind(point.meta)
-            )
+        self._put_process(regs, state.model.setpoints, state.setpoints)
+        self._put_parameters(regs, state)
         box = self.mailbox
         regs[MAILBOX : MAILBOX + 11] = [
             box.pnu,
