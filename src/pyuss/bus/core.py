@@ -19,7 +19,7 @@ gap (the rest of the sender's queued characters) are handed over together, all b
 its own end. A station waiting for an answer sees it begin at once and digests most of it while
 its last characters are on the line: three hand-overs per telegram instead of one per character
 or two. On a loop with fine timers (`pyuss.loop`) the bus wakes up `FINE_MARGIN` before the
-hand- over that ends a run and yields until it is due: a process that slept wakes up late. The
+hand-over that ends a run and yields until it is due: a process that slept wakes up late. The
 chunk timestamps are the *ideal* end times, not the moment of delivery: receivers measure exact
 gaps, start pauses (A 5.1.2) and residual times (A 6.3). Contiguous characters (no idle time
 between them) handed over together form one chunk; an idle gap, however short, starts a new
@@ -254,8 +254,9 @@ class VirtualBus:
         self._seq = itertools.count()
         self._timer: asyncio.Handle | None = None
         self._early: float | None = None
-        """How long before a delivery the bus wakes up and then yields until it is due (the
-        `pyuss.loop.margin` of a loop with fine timers, 0 on others); set on first use."""
+        """How long before the hand-over that ends a run the bus wakes up and then yields until
+        it is due (`pyuss.loop.FINE_MARGIN` on a loop with fine timers, 0 on others); set on
+        first use, when the loop is known."""
         self._timer_at = 0.0
         self._last_garbled_end = -1.0
         self._last_end = -1.0
@@ -397,11 +398,20 @@ class VirtualBus:
         begin = now if at is None or at <= now else at
         if t <= begin:
             t = begin + self._engine.answer_delay(sender, now - self.epoch)
-        if not self._engine.character_faults:  # the usual case: every character as sent
+        if self._engine.character_faults:
+            t = self._put_faulted(station, data, t)
+        else:  # the usual case: every character as sent
             for byte in data:
                 self._put(sender, t, _FRAMES[byte], (), station)
                 t += tc
-            data = b""
+        station.tx_free = t
+        self._schedule()
+
+    def _put_faulted(self, station: Station, data: bytes, t: float) -> float:
+        """Put ``data`` on the line from ``t`` as the fault plan has each character; returns
+        when the last one ends."""
+        tc = self.char_time
+        sender = station.name
         for byte in data:
             plan = self._engine.character(sender, byte, t - self.epoch)
             t += plan.gap_before * tc
@@ -412,8 +422,7 @@ class VirtualBus:
             for extra in plan.insert_after:
                 self._put(sender, t, frame_bits(extra), ("insert",), station)
                 t += tc
-        station.tx_free = t
-        self._schedule()
+        return t
 
     def inject(
         self, sender: str, start: float, byte: int, flags: LineError = LineError.NONE
