@@ -136,6 +136,7 @@ async def serve_tcp(
     writers: set[asyncio.StreamWriter] = set()
 
     async def handle(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        assert isinstance(reader, _Reader)  # made by `connection` below
         writers.add(writer)
         try:
             if framed:
@@ -186,7 +187,7 @@ def _socket_sink(writer: asyncio.StreamWriter, *, framed: bool, station: list[St
 
 
 async def _raw_station(
-    bus: VirtualBus, reader: asyncio.StreamReader, writer: asyncio.StreamWriter, echo: Echo
+    bus: VirtualBus, reader: _Reader, writer: asyncio.StreamWriter, echo: Echo
 ) -> None:
     name = _free_name(bus, "tcp")
     holder: list[Station] = []
@@ -208,7 +209,7 @@ async def _raw_station(
 async def _pump_in(
     bus: VirtualBus,
     station: Station,
-    reader: asyncio.StreamReader,
+    reader: _Reader,
     frames: SendDecoder | None = None,
 ) -> None:
     """Put what a station sends on the line: raw bytes, or send frames (`pyuss.bus.wire`), as
@@ -233,14 +234,12 @@ async def _pump_in(
                 bus.send(name, part, at=start)
         except ProtocolError as exc:
             failed.append(exc)
-            if isinstance(reader, _Reader):
-                reader.direct = None
+            reader.direct = None
             reader.feed_eof()  # ends the reading below
 
     try:
-        if isinstance(reader, _Reader):
-            reader.direct = put
-        # What came before (or, without a `_Reader`, everything), then the end.
+        reader.direct = put
+        # What came before, then the end of the connection.
         while data := await reader.read(65536):
             put(data)
         if failed:
@@ -252,9 +251,7 @@ async def _pump_in(
         log.info("bus: station %s left", name)
 
 
-async def _framed_station(
-    bus: VirtualBus, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
-) -> None:
+async def _framed_station(bus: VirtualBus, reader: _Reader, writer: asyncio.StreamWriter) -> None:
     def answer(item: dict[str, Any]) -> None:
         writer.write(json.dumps(item).encode() + b"\n")
 
