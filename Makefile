@@ -25,7 +25,7 @@ typecheck: $(STAMP)
 	$(VENV)/bin/mypy --strict src
 
 pytest: $(STAMP)
-	bash .ci/system-deps tshark chromium mosquitto
+	bash .ci/system-deps tshark chromium mosquitto mosquitto-clients mbpoll
 	$(PY) -m pytest
 
 test: lint typecheck pytest
