@@ -190,6 +190,21 @@ def test_parameter_text_extends_a_builtin_profile() -> None:
         parse_database('[profile]\nname = "x"\nextends = "base.toml"\n')
 
 
+def test_fault_and_warning_texts_extend_and_drop() -> None:
+    db = parse_database(
+        '[profile]\nname = "mine"\nextends = "sinamics-v20"\n\n'
+        '[fault_texts]\n1 = "my overcurrent"\n2 = ""\n900 = "my own fault"\n\n'
+        '[warning_texts]\n501 = "my current limit"\n'
+    )
+    assert db.fault_texts[1] == "my overcurrent" and db.fault_texts[900] == "my own fault"
+    assert 2 not in db.fault_texts and 70 not in db.fault_texts  # dropped here and by the V20
+    assert db.fault_texts[72].startswith("USS/MODBUS")  # the V20's own text over _siemens
+    assert db.warning_texts[501] == "my current limit" and 502 in db.warning_texts
+    for bad, words in (('x = "t"', "must be a number"), ("5 = 7", "must be a text")):
+        with pytest.raises(ConfigError, match=rf"\[fault_texts\] field .*{words}"):
+            parse_database(f'[profile]\nname = "x"\n\n[fault_texts]\n{bad}\n')
+
+
 def test_extends_an_unknown_profile_names_the_file(tmp_path: Path) -> None:
     path = _write(tmp_path, '[profile]\nname = "x"\nextends = "genric"\n')
     with pytest.raises(ConfigError, match=r"\.toml: \[profile\] field 'extends': unknown profile"):

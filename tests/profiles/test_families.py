@@ -6,6 +6,7 @@ rules (commissioning, control and status word bits) and its identification."""
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import select
 import signal
 import subprocess
@@ -25,7 +26,8 @@ from pyuss.master.drive import Drive
 from pyuss.master.identify import identify_on
 from pyuss.master.scheduler import ACYCLIC
 from pyuss.master.testing import simulated_drives
-from pyuss.profiles import get_profile
+from pyuss.profiles import get_profile, profile_names
+from pyuss.profiles.base import Profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw, RequestId
 from pyuss.protocol.telegram import AddressMode, Telegram
@@ -267,6 +269,20 @@ async def test_identification(name: str) -> None:
         "generic": (None, None),
     }[name]
     assert (identity.family, identity.profile) == expected
+
+
+def test_a_familys_facts_live_in_its_parameter_file_alone() -> None:
+    # The reference parameter, the baud codes and the fault and warning texts cannot be given
+    # in Python: the profile reads them from the family's file.
+    fields = {f.name for f in dataclasses.fields(Profile)}
+    assert not fields & {"reference", "baud_codes", "faults", "warnings"}
+    for name in profile_names():
+        profile = get_profile(name)
+        db = profile.database()
+        ref = db.roles.get("reference")
+        assert profile.reference == (None if ref is None else ref.pnu)
+        assert profile.baud_codes == (db.baud_codes() or {})
+        assert profile.faults == db.fault_texts and profile.warnings == db.warning_texts
 
 
 def test_family_facts() -> None:

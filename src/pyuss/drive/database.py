@@ -394,6 +394,8 @@ class ParameterDatabase:
         interface: Mapping[str, ParamRef] | None = None,
         state_codes: Mapping[str, int] | None = None,
         faults: Mapping[str, int] | None = None,
+        fault_texts: Mapping[int, str] | None = None,
+        warning_texts: Mapping[int, str] | None = None,
         process_setpoints: Sequence[int] = (),
         process_actuals: Sequence[int] = (),
         commissioning: Commissioning | None = None,
@@ -407,6 +409,10 @@ class ParameterDatabase:
         self.interface: Mapping[str, ParamRef] = dict(interface or {})
         self.state_codes: Mapping[str, int] = dict(state_codes or {})
         self.faults: Mapping[str, int] = dict(faults or {})
+        self.fault_texts: Mapping[int, str] = dict(fault_texts or {})
+        """The family's fault numbers, as its fault display shows them, and short texts."""
+        self.warning_texts: Mapping[int, str] = dict(warning_texts or {})
+        """The family's warning numbers and short texts."""
         self.process_setpoints = tuple(process_setpoints)
         self.process_actuals = tuple(process_actuals)
 
@@ -590,6 +596,8 @@ _TOP_KEYS = {
     "interface",
     "state_codes",
     "faults",
+    "fault_texts",
+    "warning_texts",
     "process",
     "commissioning",
     "words",
@@ -662,6 +670,8 @@ def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
         "interface": {},
         "state_codes": {},
         "faults": {},
+        "fault_texts": {},
+        "warning_texts": {},
         "process": {},
         "commissioning": {},
         "words": {},
@@ -711,6 +721,8 @@ def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
         interface=_refs(tables["interface"], "interface", INTERFACE_ROLES, sources),
         state_codes=_codes(tables["state_codes"], "state_codes", STATE_CODE_NAMES, sources),
         faults=_codes(tables["faults"], "faults", None, sources),
+        fault_texts=_number_texts(tables["fault_texts"], "fault_texts", sources),
+        warning_texts=_number_texts(tables["warning_texts"], "warning_texts", sources),
         process_setpoints=_process(tables["process"], "setpoints", sources, parameters),
         process_actuals=_process(tables["process"], "actuals", sources, parameters),
         commissioning=_commissioning(tables["commissioning"], sources, parameters),
@@ -865,6 +877,21 @@ def _codes(
             raise where.error(key, "must be an integer 0..65535")
         result[key] = value
     return result
+
+
+def _number_texts(table: dict[str, Any], table_name: str, source: str) -> dict[int, str]:
+    """A table of numbers and their texts (``[fault_texts]``: ``72 = "..."``); an empty text
+    drops a number an extended file gave."""
+    where = _Where(source, f"[{table_name}]")
+    result = {}
+    for key, value in table.items():
+        if not key.isdigit() or not 0 <= int(key) <= 0xFFFF:
+            raise where.error(key, "must be a number 0..65535")
+        if not isinstance(value, str):
+            raise where.error(key, "must be a text")
+        if value:
+            result[int(key)] = value
+    return dict(sorted(result.items()))
 
 
 def _process(

@@ -153,9 +153,6 @@ class Profile:
     """The bit that switches broadcast address coding on (Baumueller P181 bit 1)."""
     data: str = ""
     """Name of the built-in parameter file (default: the profile's name)."""
-    baud_codes: Mapping[int, int] = field(default_factory=dict)
-    """Values of the device's baud rate parameter and the rates they select (Siemens P2010:
-    6 = 9600); empty where the rate is set in baud or not by a parameter."""
     addresses: tuple[int, int] = (0, 31)
     """Lowest and highest bus address the device can be given (A 2.1: 0..31)."""
     control_bits: Mapping[int, str] = field(default_factory=dict)
@@ -163,13 +160,6 @@ class Profile:
     status_bits: Mapping[int, str] = field(default_factory=dict)
     """Status word bits (PZD1 of an answer) and what they show on this family; a text ending
     in "(0 = active)" marks a low-active bit."""
-    faults: Mapping[int, str] = field(default_factory=dict)
-    """The family's fault numbers (as its fault display shows them) and short texts."""
-    warnings: Mapping[int, str] = field(default_factory=dict)
-    """The family's warning numbers and short texts."""
-    reference: int | None = None
-    """The parameter that scales setpoints and actual values: its value is 100 %, 4000h in a
-    16-bit PZD word (Siemens P2000, NORD P105)."""
     identity: tuple[IdentityRule, ...] = ()
     """How a drive of this family shows its identity in its parameters (empty: it cannot be
     told from the others); see `pyuss.profiles.identify`."""
@@ -189,6 +179,34 @@ class Profile:
     def database(self) -> ParameterDatabase:
         """The profile's built-in parameter database (read once, then shared: it is immutable)."""
         return _database(self.data or self.name)
+
+    # The family's facts below live in its parameter file alone (docs/drive.md); these views
+    # read them from there.
+
+    @property
+    def baud_codes(self) -> Mapping[int, int]:
+        """Values of the device's baud rate parameter and the rates they select (Siemens P2010:
+        6 = 9600), from the parameter's value texts; empty where the rate is set in baud or not
+        by a parameter."""
+        return self.database().baud_codes() or {}
+
+    @property
+    def faults(self) -> Mapping[int, str]:
+        """The family's fault numbers (as its fault display shows them) and short texts: the
+        file's ``[fault_texts]``."""
+        return self.database().fault_texts
+
+    @property
+    def warnings(self) -> Mapping[int, str]:
+        """The family's warning numbers and short texts: the file's ``[warning_texts]``."""
+        return self.database().warning_texts
+
+    @property
+    def reference(self) -> int | None:
+        """The parameter that scales setpoints and actual values: its value is 100 %, 4000h in
+        a 16-bit PZD word (Siemens P2000, NORD P105): the file's ``[drive] reference``."""
+        ref = self.database().roles.get("reference")
+        return None if ref is None else ref.pnu
 
     # -- layouts ----------------------------------------------------------------------------
 

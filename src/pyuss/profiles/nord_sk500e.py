@@ -7,8 +7,9 @@ The USS side is the ``nord`` profile's (NORD BU 0050 1.3.5: start pause 2 charac
 - Fixed telegram length only, as PPO types (P507): PPO 1 = PKW 4 + PZD 2, PPO 2 = PKW 4 +
   PZD 6, PPO 3 = PKW 0 + PZD 2, PPO 4 = PKW 0 + PZD 6 (BU 0050 1.5.4: "the parameter area is
   only used with PPO type 1 and 2").
-- P511 baud rate code (0 = 4800 .. 3 = 38400, `BAUD_CODES`), P512 address 0..30, P513
-  telegram failure time in 0.1 s (0 = off); the time-out trips fault E010 (bus time-out).
+- P511 baud rate code (0 = 4800 .. 3 = 38400: its value texts in the parameter file), P512
+  address 0..30, P513 telegram failure time in 0.1 s (0 = off); the time-out trips fault E010
+  (bus time-out).
 - Parameter numbers 0..999 in PKE alone; the parameter set of a set-dependent parameter is
   IND 0..3 (BU 0050 1.6.5: parameter set 2 is IND 1).
 - Values are integers in the parameter's resolution: P102 ramp time in 0.01 s (1000 = 10 s,
@@ -29,10 +30,8 @@ from pyuss.profiles import nord
 from pyuss.profiles.base import BroadcastForm, IdentityRule
 from pyuss.protocol.layout import Layout
 
-__all__ = ["BAUD_CODES", "CONTROL_BITS", "FAULTS", "PROFILE", "STATUS_BITS"]
+__all__ = ["CONTROL_BITS", "PROFILE", "STATUS_BITS"]
 
-BAUD_CODES: dict[int, int] = {0: 4800, 1: 9600, 2: 19200, 3: 38400}
-"""P511 values and the baud rates they select."""
 
 CONTROL_BITS: dict[int, str] = {
     0: "ready to switch on (ON / OFF1)",
@@ -72,18 +71,6 @@ STATUS_BITS: dict[int, str] = {
 }
 """Status word bits of the SK 500E (NORD BU 0050 1.5.3.4)."""
 
-FAULTS: dict[int, str] = {
-    10: "E001 inverter overtemperature",
-    20: "E002 motor overtemperature (PTC)",
-    30: "E003 inverter overcurrent (I2t limit)",
-    40: "E004 overcurrent module",
-    50: "E005 DC link overvoltage",
-    60: "E006 DC link undervoltage / charging",
-    70: "E007 mains phase missing",
-    80: "E008 parameter loss (EEPROM)",
-    100: "E010 bus time-out (P513)",
-}
-"""Fault numbers as P700 shows them in 0.1 units: 100 = E010.0."""
 
 PROFILE = replace(
     nord.PROFILE,
@@ -94,12 +81,9 @@ PROFILE = replace(
     pkw_choices=(0, 4),
     max_pzd=6,
     broadcast=BroadcastForm.NONE,
-    baud_codes=BAUD_CODES,
     addresses=(0, 30),
     control_bits=CONTROL_BITS,
     status_bits=STATUS_BITS,
-    faults=FAULTS,
-    reference=105,
     identity=(
         IdentityRule(743),
         IdentityRule(707, 0),

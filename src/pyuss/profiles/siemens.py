@@ -5,17 +5,18 @@ What they share (their manuals, named in each parameter file's ``manual``):
 
 - Parameter numbers of 2000 and above travel with a page number in IND bits 12..15 (bit 15 = 1,
   bit 12 = 2, bit 13 = 4, bit 14 = 8; ``micromaster4``); arrays count from index 0.
-- The USS interface is set by P2010 (baud rate code, `BAUD_CODES`), P2011 (address), P2012 (PZD
-  length), P2013 (PKW length 0, 3, 4 or 127 = variable) and P2014 (telegram off time in ms, 0 =
-  off): arrays over the drive's two USS interfaces. The simulator serves the RS-485 one, index 0
-  on every family (the "COM link" of the MICROMASTER 4, whose index 1 is the BOP link; the RS-485
-  terminals of the G110, G120 CU240S and V20).
+- The USS interface is set by P2010 (baud rate code; the rates are its value texts in the parameter
+  file), P2011 (address), P2012 (PZD length), P2013 (PKW length 0, 3, 4 or 127 = variable) and P2014
+  (telegram off time in ms, 0 = off): arrays over the drive's two USS interfaces. The simulator
+  serves the RS-485 one, index 0 on every family (the "COM link" of the MICROMASTER 4, whose index 1
+  is the BOP link; the RS-485 terminals of the G110, G120 CU240S and V20).
 - Control word 1 (r0054) and status word 1 (r0052) extend C Tables 5.4/5.5: reverse in control
   bit 11, the motor potentiometer in bits 13/14; low-active warnings in status bits 11, 13, 15,
   the holding brake in bit 12 and the direction in bit 14 (`CONTROL_BITS`, `STATUS_BITS`).
 - Setpoints and actual values are scaled by P2000 (reference frequency): 4000h = 100 %.
-- Fault numbers F0001.. in r0947, warning numbers A0501.. in r2110 (`FAULTS`, `WARNINGS`);
-  the telegram off time trips F0072 (USS on the RS-485 interface).
+- Fault numbers F0001.. in r0947, warning numbers A0501.. in r2110 (their texts are the parameter
+  files' ``[fault_texts]`` and ``[warning_texts]``); the telegram off time trips F0072 (USS on the
+  RS-485 interface).
 - Error numbers of response ID 7 as in ``micromaster4`` (101, 102, ...).
 - Identification: r0964 index 0 is the manufacturer (42 = Siemens), index 1 the product type
   (1 = MICROMASTER 420, 2 = MICROMASTER 440: the MICROMASTER 4 parameter lists); the V20 is
@@ -33,9 +34,7 @@ from pyuss.profiles.base import IdentityRule
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 
 __all__ = [
-    "BAUD_CODES",
     "CONTROL_BITS",
-    "FAULTS",
     "MICROMASTER420",
     "MICROMASTER440",
     "PROFILES",
@@ -44,25 +43,11 @@ __all__ = [
     "SINAMICS_G120",
     "SINAMICS_V20",
     "STATUS_BITS",
-    "WARNINGS",
 ]
 
 SIEMENS = 42
 """r0964 index 0: the manufacturer number of Siemens."""
 
-BAUD_CODES: dict[int, int] = {
-    3: 1200,
-    4: 2400,
-    5: 4800,
-    6: 9600,
-    7: 19200,
-    8: 38400,
-    9: 57600,
-    10: 76800,
-    11: 93750,
-    12: 115200,
-}
-"""P2010 values and the baud rates they select."""
 
 CONTROL_BITS: dict[int, str] = {
     0: "ON (1) / OFF1 ramp stop (0)",
@@ -102,65 +87,13 @@ STATUS_BITS: dict[int, str] = {
 }
 """Status word 1 (r0052)."""
 
-FAULTS: dict[int, str] = {
-    1: "overcurrent",
-    2: "overvoltage",
-    3: "undervoltage",
-    4: "inverter overtemperature",
-    5: "inverter I2t",
-    11: "motor overtemperature (I2t)",
-    12: "inverter temperature signal lost",
-    20: "mains phase missing",
-    21: "earth fault",
-    22: "power stack fault",
-    30: "fan failed",
-    35: "automatic restart failed",
-    40: "automatic calibration failed",
-    41: "motor data identification failed",
-    51: "parameter EEPROM fault",
-    52: "power stack fault",
-    60: "ASIC timeout",
-    70: "fieldbus setpoint fault",
-    71: "USS (BOP link) setpoint fault",
-    72: "USS (COM link) setpoint fault",
-    80: "analog input signal lost",
-    85: "external fault",
-    101: "stack overflow",
-    221: "PI feedback below minimum",
-    222: "PI feedback above maximum",
-    450: "built-in self test failed",
-}
-"""Fault numbers F0001 .. as r0947 shows them."""
-
-WARNINGS: dict[int, str] = {
-    501: "current limit",
-    502: "overvoltage limit",
-    503: "undervoltage limit",
-    504: "inverter overtemperature",
-    505: "inverter I2t",
-    506: "inverter duty cycle",
-    511: "motor overtemperature (I2t)",
-    541: "motor data identification active",
-    600: "RTOS overrun",
-    910: "Vdc-max controller deactivated",
-    911: "Vdc-max controller active",
-    920: "analog input parameters not set properly",
-    921: "analog output parameters not set properly",
-    922: "no load applied to inverter",
-    923: "jog left and right requested together",
-}
-"""Warning numbers A0501 .. as r2110 shows them."""
 
 _BASE = replace(
     micromaster4.PROFILE,
     follows="the manuals named in the parameter file",
     default_layout=Layout(PKW_VARIABLE, 2),
-    baud_codes={code: rate for code, rate in BAUD_CODES.items() if code <= 9},
     control_bits={**CONTROL_BITS, 15: "local / remote"},
     status_bits=STATUS_BITS,
-    faults=FAULTS,
-    warnings=WARNINGS,
-    reference=2000,
 )
 
 MICROMASTER420 = replace(
@@ -178,7 +111,6 @@ MICROMASTER440 = replace(
     _BASE,
     name="micromaster440",
     title="MICROMASTER 440",
-    baud_codes=dict(BAUD_CODES),
     control_bits={**CONTROL_BITS, 15: "command data set bit 0 (local / remote)"},
     identity=(
         IdentityRule(964, 0, frozenset({SIEMENS})),
@@ -192,27 +124,19 @@ SINAMICS_G110 = replace(
     title="SINAMICS G110",
     max_pzd=4,
     control_bits=CONTROL_BITS,
-    faults={**{k: v for k, v in FAULTS.items() if k not in (70, 71, 72)}, 72: "USS setpoint fault"},
 )
 SINAMICS_G120 = replace(
     _BASE,
     name="sinamics-g120",
     title="SINAMICS G120 with CU240S control unit",
-    baud_codes={code: rate for code, rate in BAUD_CODES.items() if code >= 4},
     addresses=(0, 30),
     control_bits={**CONTROL_BITS, 15: "command data set bit 0"},
-    faults={**FAULTS, 71: "USS (RS-232) setpoint fault", 72: "USS (RS-485) setpoint fault"},
 )
 SINAMICS_V20 = replace(
     _BASE,
     name="sinamics-v20",
     title="SINAMICS V20",
-    baud_codes={code: rate for code, rate in BAUD_CODES.items() if code >= 6},
     control_bits=CONTROL_BITS,
-    faults={
-        **{k: v for k, v in FAULTS.items() if k not in (70, 71, 72)},
-        72: "USS/MODBUS setpoint fault (telegram off time)",
-    },
     identity=(
         IdentityRule(964, 0, frozenset({SIEMENS})),
         IdentityRule(2023),
