@@ -29,6 +29,7 @@ from pyuss.bus import FaultKind, FaultPlan, Recorder, VirtualBus
 from pyuss.bus.core import MAX_SENDERS
 from pyuss.cli._help import plain
 from pyuss.errors import ConfigError
+from pyuss.transport.address import parse_host_port
 from pyuss.transport.queued import BAUD_RATES
 
 EXIT_OK = 0
@@ -103,10 +104,8 @@ def register(subparsers: Any) -> None:
 
 
 def _endpoint(text: str, option: str) -> tuple[str, int]:
-    host, sep, port = text.rpartition(":")
-    if not sep or not host or not port.isdigit() or int(port) > 65535:
-        raise ConfigError(f"{option} {text!r}: expected HOST:PORT with PORT 0..65535")
-    return host.strip("[]"), int(port)
+    where = parse_host_port(text, f"{option} {text!r}")
+    return where.host, where.port
 
 
 def run(args: argparse.Namespace) -> int:

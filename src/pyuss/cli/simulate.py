@@ -72,6 +72,7 @@ from pyuss.protocol.layout import Layout
 from pyuss.slave.engine import JobLatency, SlaveEngine
 from pyuss.slave.interface import InterfaceParameters
 from pyuss.slave.server import SlaveServer
+from pyuss.transport.address import HostPort, parse_host_port
 from pyuss.transport.base import Transport
 from pyuss.transport.pty import PtyPort
 from pyuss.transport.queued import BAUD_RATES, check_baud
@@ -275,11 +276,8 @@ def _int(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
 
 
-def _endpoint(text: str, option: str, *, default_host: str = "127.0.0.1") -> tuple[str, int]:
-    host, sep, port = text.rpartition(":")
-    if not sep or not port.isdigit() or int(port) > 65535:
-        raise ConfigError(f"{option} {text!r}: expected HOST:PORT with PORT 0..65535")
-    return (host.strip("[]") or default_host), int(port)
+def _endpoint(text: str, option: str) -> HostPort:
+    return parse_host_port(text, f"{option} {text!r}")
 
 
 def _chosen_line(
@@ -290,8 +288,7 @@ def _chosen_line(
     if pty:
         return "pty", ""
     if tcp is not None:
-        host, port = _endpoint(tcp, f"{prefix}tcp")
-        return "tcp", f"{host}:{port}"
+        return "tcp", str(_endpoint(tcp, f"{prefix}tcp"))
     if serial is not None:
         if not serial.strip():
             raise ConfigError(f"{prefix}serial: give a device")
@@ -314,13 +311,12 @@ def options(args: argparse.Namespace) -> Options:
     if chosen is not None:
         line, where = chosen
     elif args.bus_tcp is not None:
-        host, port = _endpoint(args.bus_tcp, "--bus-tcp")
-        line, where = "bus-tcp", f"{host}:{port}"
+        line, where = "bus-tcp", str(_endpoint(args.bus_tcp, "--bus-tcp"))
     else:
-        host, port = _endpoint(args.bus, "--bus")
-        if port == 0:
+        bus = _endpoint(args.bus, "--bus")
+        if bus.port == 0:
             raise ConfigError(f"--bus {args.bus!r}: give the port the bus listens on")
-        line, where = "bus", f"{host}:{port}"
+        line, where = "bus", str(bus)
     if args.name is not None:
         if line not in ("bus", "bus-tcp"):
             raise ConfigError("--name: a station name is for --bus and --bus-tcp only")
@@ -472,9 +468,9 @@ def _open_line(
         pty = PtyPort(baud=baud)
         return pty, lambda: pty.device_path
     if line == "tcp":
-        host, port = _endpoint(where, "--tcp")
-        server = TcpServerTransport(host, port, baud=baud)
-        return server, lambda: f"tcp://{host}:{server.port}"
+        listen = _endpoint(where, "--tcp")
+        server = TcpServerTransport(listen.host, listen.port, baud=baud)
+        return server, lambda: f"tcp://{HostPort(listen.host, server.port)}"
     if line == "bus":
         url = f"bus://{where}?{urllib.parse.urlencode({'name': name})}"
         bus = open_transport(url, baud=baud)
@@ -517,14 +513,14 @@ async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> 
         from pyuss.bus.core import VirtualBus
 
         hosted = VirtualBus(baud)
-        host, port = _endpoint(opts.where, "--bus-tcp")
+        listen = _endpoint(opts.where, "--bus-tcp")
         try:
-            host, port = await hosted.serve_tcp(host, port, framed=True)
+            host, port = await hosted.serve_tcp(listen.host, listen.port, framed=True)
         except UssError as exc:
             await hosted.close()
             raise ConfigError(f"--bus-tcp: {exc}") from None
         transport: Transport = hosted.attach(_station_name(opts))
-        url = f"bus://{host}:{port}"
+        url = f"bus://{HostPort(host, port)}"
         first_line: Callable[[], str] = lambda: url  # noqa: E731
     else:
         transport, first_line = _line(opts, baud=baud)

@@ -33,6 +33,7 @@ from pyuss.cli._master import address, integer
 from pyuss.errors import ConfigError
 from pyuss.profiles import profile_names
 from pyuss.protocol.layout import Layout
+from pyuss.transport.address import parse_host_port
 
 __all__ = ["parse_listen", "register", "run"]
 
@@ -110,21 +111,10 @@ def register(subparsers: Any) -> None:
 
 def parse_listen(text: str) -> tuple[str, int]:
     """``HOST:PORT`` (``[::1]:8420``, ``:8420`` for 127.0.0.1) as host and port."""
-    raw = text.strip()
-    if raw.startswith("["):
-        host, bracket, rest = raw[1:].partition("]")
-        port_text = rest[1:] if bracket and rest.startswith(":") else ""
-    else:
-        host, colon, port_text = raw.rpartition(":")
-        if not colon:
-            raise ConfigError(f"--listen {text!r}: give HOST:PORT, for example 127.0.0.1:8420")
-    try:
-        port = int(port_text)
-    except ValueError:
-        raise ConfigError(f"--listen {text!r}: the port must be a number 0..65535") from None
-    if not 0 <= port <= 65535:
-        raise ConfigError(f"--listen {text!r}: the port must be 0..65535")
-    return host or "127.0.0.1", port
+    where = parse_host_port(
+        text, f"--listen {text!r}", form="HOST:PORT, for example 127.0.0.1:8420"
+    )
+    return where.host, where.port
 
 
 def run(args: argparse.Namespace) -> int:

@@ -27,6 +27,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from pyuss.errors import ConfigError
+from pyuss.transport.address import LOOPBACK, parse_host_port
 
 __all__ = ["DEFAULT_PORTS", "Endpoint", "parse_endpoint"]
 
@@ -44,8 +45,6 @@ _FACE_SCHEMES: Mapping[str, tuple[str, ...]] = {
     "opcua": ("opc.tcp",),
     "web": ("http",),
 }
-
-LOOPBACK = "127.0.0.1"
 
 
 @dataclass(frozen=True, slots=True)
@@ -106,15 +105,14 @@ def parse_endpoint(text: object, face: str) -> Endpoint:
         raise ConfigError(
             f"{text!r}: a {face} address starts with {' or '.join(s + '://' for s in schemes)}"
         )
-    try:
-        port = parts.port
-    except ValueError:
-        raise ConfigError(f"{text!r}: the port is not a number 0..65535") from None
-    host = parts.hostname
-    if not host:
-        raise ConfigError(f"{text!r}: no host (expected {scheme}://HOST:PORT)")
-    if port is None:
-        port = DEFAULT_PORTS[scheme]
+    where = parse_host_port(
+        parts.netloc.rpartition("@")[2],
+        repr(text),
+        form=f"{scheme}://HOST:PORT",
+        default_host=None,
+        default_port=DEFAULT_PORTS[scheme],
+    )
+    host, port = where.host, where.port
     if port == 0 and face == "mqtt":
         raise ConfigError(f"{text!r}: a broker's port cannot be 0")
     path = parts.path

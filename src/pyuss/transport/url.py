@@ -33,6 +33,7 @@ from __future__ import annotations
 import urllib.parse
 
 from pyuss.errors import ConfigError
+from pyuss.transport.address import parse_host_port
 from pyuss.transport.base import Transport
 from pyuss.transport.reconnect import ReconnectingTransport
 from pyuss.transport.serialport import RS485Mode, SerialTransport
@@ -45,15 +46,12 @@ _FALSE = {"0", "false", "no", "off"}
 def split_endpoint(url: str) -> tuple[str, int]:
     """``scheme://host:port`` -> (host, port); `ConfigError` naming what is missing."""
     parts = urllib.parse.urlsplit(url)
-    try:
-        port = parts.port
-    except ValueError:
-        raise ConfigError(f"{url!r}: the port is not a number 0..65535") from None
-    if not parts.hostname or port is None:
-        raise ConfigError(f"{url!r}: expected {parts.scheme}://HOST:PORT")
     if parts.path not in ("", "/"):
         raise ConfigError(f"{url!r}: unexpected path {parts.path!r}")
-    return parts.hostname, port
+    where = parse_host_port(
+        parts.netloc, repr(url), form=f"{parts.scheme}://HOST:PORT", default_host=None
+    )
+    return where.host, where.port
 
 
 def query_flags(url: str, allowed: tuple[str, ...]) -> dict[str, str]:
