@@ -1,11 +1,28 @@
-"""Gateway figures (`make bench`): simulated drives on a virtual bus, the gateway in the same
-event loop, real clients over loopback sockets and a real mosquitto.
+"""Gateway figures (`make bench`), in two set-ups.
+
+In one process: simulated drives on a virtual bus (one station answering every address, as
+``uss simulate`` does), the gateway in the same event loop, real clients over loopback sockets
+and a real mosquitto:
 
 - latency of a Modbus write and of an MQTT command until the drive answered the telegram
   carrying it (the write returns then), against the bus cycle;
 - the state publish rate per drive while the drives ramp, against the bus cycle;
-- CPU time per second of the whole process (bus, 31 simulated drives, master, gateway) with
+- CPU time per second of the whole process (bus, simulated drives, master, gateway) with
   and without the three faces, so the faces' share shows.
+
+As deployed: the drives in other processes (``uss simulate --bus-tcp``, one per bus of at most
+31 drives), ``uss gateway --config`` in a process of its own with all three faces on (Modbus
+TCP with a port per bus, MQTT to a real mosquitto with Home Assistant discovery, OPC UA), for
+1, 31 and 124 drives (four buses). The drives ramp, so every answer changes what the faces
+show. Measured over a window:
+
+- the gateway process's CPU time (``/proc/PID/stat``) per drive update (an answer of a drive
+  to the gateway's master, counted by the gateway's own "answers received" registers): goal at
+  most 0.2 ms;
+- each bus's exchanges per second against the wire's limit for the layout (request, answer and
+  the two start pauses of A 5.1.2 and A 5.2.1.1: 2 x 16 + 4 character times with PKW 4 + PZD 2):
+  goal at least 0.95 on the slowest bus;
+- state messages per drive per second on the broker (no goal: shown beside the bus cycle).
 """
 
 from __future__ import annotations
@@ -13,6 +30,8 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import os
+import select
 import shutil
 import socket
 import statistics
@@ -20,7 +39,11 @@ import struct
 import subprocess
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
+
+from common import USS, Figure, simulator_bus, table
 
 from pyuss.bus import VirtualBus
 from pyuss.gateway.config import GatewayConfig, ModbusOptions, MqttOptions, OpcuaOptions
@@ -29,8 +52,16 @@ from pyuss.master.testing import simulated_drives
 from pyuss.points.config import plant_from_flags
 from pyuss.points.endpoint import parse_endpoint
 from pyuss.protocol.layout import Layout
+from pyuss.protocol.timing import char_time
 
 BAUD = 38400
+TELEGRAM = 16
+"""Characters of a telegram with PKW 4 + PZD 2: STX, LGE, ADR, 12 bytes of net data, BCC."""
+DEPLOYED_COUNTS = (1, 31, 124)
+BUS_SIZE = 31
+WINDOW = 5.0
+GOAL_CPU_MS = 0.2
+GOAL_SHARE = 0.95
 
 
 def free_port() -> int:
@@ -84,7 +115,7 @@ async def run(count: int, faces: bool, mqtt_port: int | None, seconds: float) ->
     bus = VirtualBus(BAUD)
     drives = [(a, "generic", Layout(4, 2)) for a in range(1, count + 1)]
     figures: dict[str, float] = {}
-    async with simulated_drives(bus, drives):
+    async with simulated_drives(bus, drives, one_station=True):
         gateway = Gateway(config(count, faces, mqtt_port), transports={"bus": bus.attach("gw")})
         async with gateway:
             plant = gateway.plant
@@ -155,7 +186,7 @@ async def run(count: int, faces: bool, mqtt_port: int | None, seconds: float) ->
     return figures
 
 
-def main() -> None:
+def in_process() -> None:
     with mosquitto() as port:
         mqtt_port = port if isinstance(port, int) else None
         print(
@@ -179,5 +210,189 @@ def main() -> None:
                 )
 
 
+# -- as deployed ------------------------------------------------------------------------------
+
+
+def _cpu_seconds(pid: int) -> float:
+    """User and system CPU time of process ``pid`` so far."""
+    with open(f"/proc/{pid}/stat", encoding="ascii") as stat:
+        fields = stat.read().rpartition(")")[2].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _sizes(count: int) -> list[int]:
+    return [min(BUS_SIZE, count - start) for start in range(0, count, BUS_SIZE)]
+
+
+def _plant_file(directory: Path, urls: list[str], sizes: list[int], mqtt_port: int) -> Path:
+    lines = []
+    for number, (url, size) in enumerate(zip(urls, sizes, strict=True), start=1):
+        lines += [
+            "[[bus]]",
+            f'name = "line{number}"',
+            f'port = "{url}"',
+            f"baud = {BAUD}",
+            'layout = "4,2"',
+            f'modbus = "127.0.0.1:{free_port()}"',
+        ]
+        for address in range(1, size + 1):
+            lines += ["[[bus.drive]]", f"address = {address}"]
+    lines += [
+        "[modbus]",
+        f'listen = "127.0.0.1:{free_port()}"',
+        "[mqtt]",
+        f'broker = "mqtt://127.0.0.1:{mqtt_port}"',
+        "discovery = true",
+        "[opcua]",
+        f'listen = "opc.tcp://127.0.0.1:{free_port()}"',
+    ]
+    path = directory / "plant.toml"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def _modbus_ports(path: Path) -> list[int]:
+    import tomllib
+
+    data = tomllib.loads(path.read_text(encoding="utf-8"))
+    return [int(bus["modbus"].rpartition(":")[2]) for bus in data["bus"]]
+
+
+@contextlib.contextmanager
+def _gateway(config: Path) -> Iterator[subprocess.Popen[str]]:
+    log = config.with_suffix(".log")
+    with log.open("w", encoding="utf-8") as stderr:
+        process = subprocess.Popen(
+            [*USS, "gateway", "--config", str(config)],
+            stdout=subprocess.PIPE,
+            stderr=stderr,
+            text=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        )
+    try:
+        assert process.stdout is not None
+        deadline = time.monotonic() + 120
+        while True:
+            left = deadline - time.monotonic()
+            ready, _, _ = select.select([process.stdout], [], [], max(0.0, left))
+            line = process.stdout.readline() if ready else ""
+            if not line:
+                process.kill()
+                process.wait()
+                tail = log.read_text(encoding="utf-8").splitlines()[-5:]
+                raise RuntimeError("uss gateway did not start: " + "\n".join(tail))
+            if line.strip() == "ready":
+                break
+        yield process
+    finally:
+        if process.poll() is None:
+            process.terminate()
+        try:
+            process.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
+def _answers(clients: list[Any], sizes: list[int]) -> list[int]:
+    """Answers received so far per bus (input registers 56..57 of every drive)."""
+    totals = []
+    for client, size in zip(clients, sizes, strict=True):
+        total = 0
+        for address in range(1, size + 1):
+            regs = client.read_input_registers(56, count=2, device_id=address).registers
+            total += regs[0] << 16 | regs[1]
+        totals.append(total)
+    return totals
+
+
+async def _count_states(mqtt_port: int, seconds: float) -> int:
+    import aiomqtt
+
+    count = 0
+    async with aiomqtt.Client("127.0.0.1", mqtt_port) as mqtt:
+        await mqtt.subscribe("uss/+/+/state")
+        await asyncio.sleep(0.5)  # the retained states arrive first
+        with contextlib.suppress(TimeoutError):
+            async with asyncio.timeout(seconds):
+                async for _message in mqtt.messages:
+                    count += 1
+    return count
+
+
+def deployed(count: int, mqtt_port: int) -> dict[str, float]:
+    from pymodbus.client import ModbusTcpClient
+
+    sizes = _sizes(count)
+    with contextlib.ExitStack() as stack:
+        urls = [stack.enter_context(simulator_bus(BAUD, n, layout="4,2")) for n in sizes]
+        directory = Path(stack.enter_context(tempfile.TemporaryDirectory()))
+        config = _plant_file(directory, urls, sizes, mqtt_port)
+        gateway = stack.enter_context(_gateway(config))
+        clients = [ModbusTcpClient("127.0.0.1", port=p) for p in _modbus_ports(config)]
+        for client in clients:
+            client.connect()
+            stack.callback(client.close)
+        deadline = time.monotonic() + 30
+        while not all(_answers(clients, sizes)) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        for client, size in zip(clients, sizes, strict=True):
+            for address in range(1, size + 1):
+                client.write_register(1, 1, device_id=address)  # ON
+                words = list(struct.unpack(">HH", struct.pack(">f", 100.0)))
+                client.write_registers(26, words, device_id=address)  # 100 %: ramp up
+        time.sleep(0.5)
+        before = _answers(clients, sizes)
+        cpu = _cpu_seconds(gateway.pid)
+        wall = time.perf_counter()
+        states = asyncio.run(_count_states(mqtt_port, WINDOW))
+        wall = time.perf_counter() - wall
+        cpu = _cpu_seconds(gateway.pid) - cpu
+        after = _answers(clients, sizes)
+    updates = [b - a for a, b in zip(before, after, strict=True)]
+    limit = 1 / ((2 * TELEGRAM + 4) * char_time(BAUD))
+    return {
+        "buses": len(sizes),
+        "updates_per_s": sum(updates) / wall,
+        "cpu_ms": cpu / max(1, sum(updates)) * 1000,
+        "cpu_share": cpu / wall,
+        "share": min(u / wall for u in updates) / limit,
+        "states_per_drive_s": states / (wall - 0.5) / count,
+    }
+
+
+def as_deployed() -> list[Figure]:
+    figures: list[Figure] = []
+    with mosquitto() as port:
+        if not isinstance(port, int):
+            print("as deployed: skipped (no mosquitto; .ci/system-deps mosquitto)")
+            return figures
+        print(
+            f"{'drives':>6} {'buses':>5} {'updates/s':>9} {'CPU/update':>10} {'CPU':>5} "
+            f"{'bus share':>9} {'states/drive/s':>14}"
+        )
+        for count in DEPLOYED_COUNTS:
+            r = deployed(count, port)
+            print(
+                f"{count:>6} {int(r['buses']):>5} {r['updates_per_s']:>9.0f} "
+                f"{r['cpu_ms']:>8.3f}ms {r['cpu_share'] * 100:>4.0f}% {r['share']:>9.2f} "
+                f"{r['states_per_drive_s']:>14.1f}"
+            )
+            where = f"gateway as deployed, {count} drive{'s' if count > 1 else ''}, all faces"
+            figures.append(
+                Figure(f"{where}: CPU per drive update", r["cpu_ms"], GOAL_CPU_MS, False, "ms", 3)
+            )
+            figures.append(Figure(f"{where}: bus exchanges / wire limit", r["share"], GOAL_SHARE))
+    return figures
+
+
+def main() -> list[Figure]:
+    print("in one process (drives, bus, master and gateway on one event loop):")
+    in_process()
+    print()
+    print("as deployed (drives in uss simulate --bus-tcp, uss gateway in its own process):")
+    return as_deployed()
+
+
 if __name__ == "__main__":
-    main()
+    print(table(main()))

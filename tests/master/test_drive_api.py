@@ -177,3 +177,22 @@ def test_the_sync_drive_offers_every_call_of_the_async_one_with_the_same_argumen
             mine = list(inspect.signature(getattr(sync_master.Drive, name)).parameters)
             assert mine == list(inspect.signature(call).parameters), name
     assert isinstance(sync_master.Drive.params, property)  # the async drive's book, shared
+
+
+async def test_simulated_drives_from_one_station_answer_every_address() -> None:
+    from pyuss.master.testing import simulated_drives
+
+    bus = VirtualBus(38400)
+    layout = Layout(3, 2)
+    drives = [(3, "generic", layout), (17, "generic", layout)]
+    try:
+        async with (
+            simulated_drives(bus, drives, one_station=True) as engines,
+            Master(bus.attach("master"), layout=layout) as master,
+        ):
+            assert set(bus.stations) == {"drives", "master"}
+            engines[17].drive.write(462, 77)  # ramp-up time, set on the drive's panel
+            assert await master.drive(17).read_raw(462) == (77,)
+            assert await master.drive(3).read_raw(462) != (77,)
+    finally:
+        await bus.close()

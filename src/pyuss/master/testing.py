@@ -2,8 +2,10 @@
 
 `simulated_drives` puts simulated drives (`pyuss.drive.SimulatedDrive` served by
 `pyuss.slave.SlaveEngine`) on a `pyuss.bus.VirtualBus`, each from a station of its own as real
-devices are; a `pyuss.master.Master` on another station of the same bus then talks to them
-with the line timing of the specification::
+devices are, or all from one station that answers every address (``one_station=True``, as
+``uss simulate`` serves them: one receiver of the line instead of one per drive, for demos and
+benchmarks with many drives); a `pyuss.master.Master` on another station of the same bus then
+talks to them with the line timing of the specification::
 
     bus = VirtualBus(38400)
     async with simulated_drives(bus, [(5, "generic", Layout(3, 2))]) as engines:
@@ -37,10 +39,12 @@ async def simulated_drives(
     *,
     latency: JobLatency | None = None,
     failure_time: float = 0.0,
+    one_station: bool = False,
 ) -> AsyncIterator[dict[int, SlaveEngine]]:
     """Serve ``drives`` - ``(address, profile name, layout or None for the profile's)`` - on
     ``bus`` until the block ends. ``latency``: how late the drives answer new parameter jobs;
-    ``failure_time``: their telegram failure time in seconds (0: not watched)."""
+    ``failure_time``: their telegram failure time in seconds (0: not watched); ``one_station``:
+    one station (named ``drives``) answers every address."""
     stop = asyncio.Event()
     engines: dict[int, SlaveEngine] = {}
     tasks = []
@@ -55,7 +59,11 @@ async def simulated_drives(
                 failure_time=failure_time,
             )
             engines[address] = engine
-            server = SlaveServer(bus.attach(f"drive{address}"), engine)
+            if not one_station:
+                server = SlaveServer(bus.attach(f"drive{address}"), engine)
+                tasks.append(asyncio.create_task(server.run(stop)))
+        if one_station and engines:
+            server = SlaveServer(bus.attach("drives"), *engines.values())
             tasks.append(asyncio.create_task(server.run(stop)))
         yield engines
     finally:
