@@ -8,13 +8,18 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import re
+import shlex
 import shutil
 import struct
 from collections.abc import AsyncIterator, Sequence
 
 import pytest
 
+from conftest import ROOT
 from gateway.harness import ModbusClient, eventually, simulated_gateway
+from pyuss.errors import ConfigError
+from pyuss.gateway.modbus import ModbusFace
 from pyuss.gateway.run import Gateway
 from pyuss.slave import SlaveEngine
 
@@ -91,31 +96,22 @@ async def raw(gateway: Gateway) -> AsyncIterator[Raw]:
             await writer.wait_closed()
 
 
-async def mbpoll(gateway: Gateway, *args: str) -> tuple[int, str]:
-    """Run libmodbus's mbpoll once against the face (PDU addressing from 0, unit 5)."""
+async def run_mbpoll(*args: str) -> tuple[int, str]:
     if shutil.which("mbpoll") is None:
         pytest.skip("mbpoll is not installed (apt-get install mbpoll)")
-    face = gateway.modbus[0]
     process = await asyncio.create_subprocess_exec(
-        "mbpoll",
-        "-m",
-        "tcp",
-        "-p",
-        str(face.endpoint.port),
-        "-a",
-        str(UNIT),
-        "-0",
-        "-1",
-        "-o",
-        "5",
-        *args,
-        stdout=asyncio.subprocess.PIPE,
-        stderr=asyncio.subprocess.STDOUT,
+        "mbpoll", *args, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.STDOUT
     )
     async with asyncio.timeout(30):
         out, _ = await process.communicate()
     assert process.returncode is not None
     return process.returncode, out.decode(errors="replace")
+
+
+async def mbpoll(gateway: Gateway, *args: str) -> tuple[int, str]:
+    """Run libmodbus's mbpoll once against the face (PDU addressing from 0, unit 5)."""
+    port = str(gateway.modbus[0].endpoint.port)
+    return await run_mbpoll("-m", "tcp", "-p", port, "-a", str(UNIT), "-0", "-1", "-o", "5", *args)
 
 
 async def served(gateway: Gateway) -> None:
@@ -337,6 +333,11 @@ async def test_silent_peers_do_not_lock_out_a_client() -> None:
     async with simulated_gateway(modbus=True, addresses=(5,)) as (gateway, _):
         face = gateway.modbus[0]
         silent = []
+        # a client of another host, connected before the flood, keeps its connection
+        reader, writer = await asyncio.open_connection(
+            face.endpoint.host, face.endpoint.port, local_addr=("127.0.0.2", 0)
+        )
+        other = Raw(reader, writer)
         try:
             for _ in range(3 * face.max_connections):
                 silent.append(await asyncio.open_connection(face.endpoint.host, face.endpoint.port))
@@ -344,11 +345,14 @@ async def test_silent_peers_do_not_lock_out_a_client() -> None:
             silent[-1][1].write(struct.pack(">HHHB", 1, 0, 6, UNIT) + b"\x04")
             await served(gateway)
             assert len(face.connections) <= face.max_connections
-            # the oldest were closed to make room
+            # the oldest of the flooding host were closed to make room
             assert await silent[0][0].read() == b""
+            await other.send(mbap(1, UNIT, struct.pack(">BHH", 4, 1, 1)))
+            assert await other.answer() == (1, UNIT, struct.pack(">BBH", 4, 2, 2))
         finally:
-            for _, writer in silent:
-                writer.close()
+            other.writer.close()
+            for _, flooding in silent:
+                flooding.close()
 
 
 async def test_a_connection_quiet_for_the_idle_timeout_is_closed() -> None:
@@ -360,6 +364,15 @@ async def test_a_connection_quiet_for_the_idle_timeout_is_closed() -> None:
             assert await peer.closed()
         await eventually(lambda: not face.connections)
         await served(gateway)
+
+
+async def test_limits_of_no_connection_or_no_time_are_refused() -> None:
+    async with simulated_gateway(modbus=True, addresses=(5,)) as (gateway, _):
+        endpoint = gateway.modbus[0].endpoint
+        with pytest.raises(ConfigError, match="max_connections must be 1 or more"):
+            ModbusFace(gateway.plant, endpoint, max_connections=0)
+        with pytest.raises(ConfigError, match="idle_timeout must be more than 0 s"):
+            ModbusFace(gateway.plant, endpoint, idle_timeout=0)
 
 
 # -- a read-only face ------------------------------------------------------------------------
@@ -406,3 +419,13 @@ async def test_mbpoll_on_a_read_only_face_is_refused_and_reads() -> None:
         assert taken.controls() == before
         code, out = await mbpoll(gateway, "-r", "1", "-t", "3", "127.0.0.1")
         assert code == 0 and "[1]: \t2" in out, out  # switch-on inhibited
+
+
+async def test_the_mbpoll_line_of_the_docs_reads_status_and_state() -> None:
+    text = (ROOT / "docs" / "gateway.md").read_text(encoding="utf-8")
+    (line,) = re.findall(r"^`(mbpoll [^`]+)`$", text, re.M)
+    async with simulated_gateway(modbus=True) as (gateway, _):
+        port = str(gateway.modbus[0].endpoint.port)
+        code, out = await run_mbpoll(*shlex.split(line.replace("5020", port))[1:])
+    assert code == 0, out
+    assert "[1]: \t2" in out  # switch-on inhibited

@@ -17,7 +17,8 @@ answered with its exception and sends nothing. A frame whose MBAP header cannot 
 request (protocol id not 0, length beyond 254) leaves nothing to resynchronise on in a TCP
 stream: the connection is closed. A connection that completes no request for
 ``idle_timeout`` seconds is closed, and beyond ``max_connections`` the connection that has
-been quiet longest makes room for a new one, so silent peers cannot lock others out.
+been quiet longest, of the host holding the most, makes room for a new one, so silent peers
+cannot lock others out.
 
 Why a server of its own and not pymodbus's: the gateway must answer every request of a
 connection in order, refuse unknown function codes instead of serving the library's own
@@ -31,6 +32,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import struct
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -70,6 +72,10 @@ class _Connection:
     last_active: float = 0.0
     busy: bool = False
     peer: object = field(default=None)
+
+    @property
+    def host(self) -> object:
+        return self.peer[0] if isinstance(self.peer, tuple) else self.peer
 
 
 def _exception(function: int, code: int) -> bytes:
@@ -207,15 +213,22 @@ class ModbusFace:
         connection.writer.close()
 
     def _make_room(self) -> bool:
-        """Close the connection quiet longest (not one being answered) if the face is full;
-        False if every connection is being answered."""
+        """If the face is full, close the connection quiet longest (never one being
+        answered) of the peer host holding the most connections, so that one host opening
+        connections closes its own first; False if every connection is being answered."""
         if len(self.connections) < self.max_connections:
             return True
         quiet = [c for c in self.connections if not c.busy]
         if not quiet:
             return False
-        oldest = min(quiet, key=lambda c: c.last_active)
-        log.info("Modbus: %d connections, closing the quietest (%s)", len(quiet), oldest.peer)
+        held = Counter(c.host for c in self.connections)
+        oldest = min(quiet, key=lambda c: (-held[c.host], c.last_active))
+        log.info(
+            "Modbus: %d connections, closing the quietest of %s (%s)",
+            len(self.connections),
+            oldest.host,
+            oldest.peer,
+        )
         self._drop(oldest)  # its reader sees the end and its task ends
         return True
 

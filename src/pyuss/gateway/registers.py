@@ -39,19 +39,43 @@ Holding registers (functions 3, 6, 16, 23), what the master sends::
     100+2k   configured parameter k: a read sends a parameter job (unless the parameter is
              polled: then its last value), a write sends one
     200..210 the parameter mailbox, for any parameter:
-             200 PNU, 201 index (FFFFh: none), 202 format (0 as the parameter model says,
-             1 unsigned 16, 2 signed 16, 3 unsigned 32, 4 signed 32, 5 float),
-             203..204 the value to write (32 bits; formats 1 and 2 use its low 16), 205 command
-             (write 1 read, 2 write, 3 write and store in EEPROM), 206 status (0 idle,
-             1 done, 2 refused, 3 failed), 207 response ID (7 or 8 when refused), 208 the
-             drive's error number, 209..210 the value read or answered
+             200 PNU, 201 index (FFFFh: none), 202 format (`MailboxFormat`), 203..204
+             the value to write (32 bits), 205 command (write 1 read, 2 write, 3 write and
+             store in EEPROM), 206 status (0 idle, 1 done, 2 refused, 3 failed), 207
+             response ID (7 or 8 when refused), 208 the drive's error number, 209..210 the
+             value read or answered
+
+Mailbox formats (register 202) say what 203..204 and 209..210 carry::
+
+    0        the value in the parameter's unit: 32-bit integer for integer parameters,
+             float for float and scaled ones
+    1, 2     the drive's word as on the line (no scaling), unsigned / signed 16 bits, in
+             the low register (refused for double-word and float parameters)
+    3, 4     the drive's double word as on the line, unsigned / signed 32 bits (a float
+             parameter's IEEE 754 bits)
+    5        the value in the parameter's unit, float
+    6, 7, 8  the value in the parameter's unit times 10, 100, 1000, signed 32 bits
+
+P448 = 7.5 Hz (a word in steps of 0.01 Hz) is 750 in format 2, 7.5 in formats 0 and 5, 75 in
+format 6.
+
+A write is checked whole before anything is sent: `DriveRegisters.plan_write` turns the
+request into a `WritePlan` or refuses it (`RegisterError`) without sending anything or
+changing the mailbox, and only a whole plan is carried out (`DriveRegisters.carry_out`): a
+refused request changes nothing. The plan's parts go out in this order: process data (the
+control word, PZD words and setpoints in one telegram), the configured parameters' jobs, the
+mailbox's job, the command. What the gateway cannot check beforehand is the drive's own
+answer: a parameter job the drive refuses stops the parts after it, the ones before it were
+answered.
 
 A write returns once the telegram carrying it was answered (process data) or the parameter job
 was answered, so a client that writes a setpoint sees it on the bus in the next cycle, and a
 refusal comes back as the Modbus exception of `EXCEPTIONS`. The drive's error number is in
 the mailbox (208) and in input registers 5..7.
 
-Values of two registers must be written whole, in one request (function 16 or 23).
+Values of two registers must be written whole, in one request (function 16 or 23). A face
+configured read-only refuses every write (exception 01) except a mailbox read job (command 1
+and the mailbox's registers 200..205 alone), which changes no drive.
 """
 
 from __future__ import annotations
