@@ -201,6 +201,18 @@ async def test_a_multi_register_write_is_all_or_nothing(
         await served(gateway)
 
 
+async def test_a_read_write_request_whose_read_is_refused_writes_nothing() -> None:
+    async with simulated_gateway(modbus=True) as (gateway, engines):
+        taken = await standing(gateway, engines)
+        async with ModbusClient(gateway) as client:
+            refused = await client.client.readwrite_registers(
+                read_address=210, read_count=2, write_address=0, values=[RUNNING, 1], device_id=5
+            )
+            assert refused.isError() and refused.exception_code == 0x02
+        await taken.next_telegrams()
+        assert_unmoved(gateway, engines, taken)
+
+
 async def test_a_refused_mailbox_request_changes_neither_drive_nor_mailbox() -> None:
     async with simulated_gateway(modbus=True) as (gateway, engines):
         drive = engines[UNIT].drive

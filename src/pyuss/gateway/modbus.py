@@ -128,7 +128,7 @@ async def respond(registers: DriveRegisters, pdu: bytes) -> bytes:
         _quantity(read_count, _MAX_READ)
         _quantity(write_count, _MAX_READ_WRITE)
         plan = registers.plan_write(write_at, _registers(pdu, 10, write_count))
-        registers.check_holding(read_at, read_count)
+        registers.plan_read(read_at, read_count)  # refused before the write goes out
         await registers.carry_out(plan)
         values = await registers.read_holding(read_at, read_count)
         return bytes((function, 2 * read_count)) + struct.pack(f">{read_count}H", *values)

@@ -394,14 +394,24 @@ class DriveRegisters:
         ]
         return regs
 
+    def plan_read(self, address: int, count: int) -> tuple[ParamMeta, ...]:
+        """The configured parameters a read of holding registers ``address`` .. ``address +
+        count - 1`` reads from the drive first (those not polled; pure), or `RegisterError`
+        02 for registers outside the map."""
+        self._check_range(address, count, HOLDING_SIZE)
+        return tuple(
+            point.meta
+            for k, point in enumerate(self.drive.model.parameters)
+            if point.poll is None
+            and address < PARAM_BASE + 2 * k + 2
+            and PARAM_BASE + 2 * k < address + count
+        )
+
     async def read_holding(self, address: int, count: int) -> list[int]:
         """Holding registers; configured parameters that are not polled are read from the
-        drive first (one job each)."""
-        self._check_range(address, count, HOLDING_SIZE)
-        for k, point in enumerate(self.drive.model.parameters):
-            base = PARAM_BASE + 2 * k
-            if point.poll is None and address < base + 2 and base < address + count:
-                await self._guard(self.drive.read_parameter(point.meta.pnu, point.meta.index))
+        drive first (one job each, `plan_read`)."""
+        for meta in self.plan_read(address, count):
+            await self._guard(self.drive.read_parameter(meta.pnu, meta.index))
         return self.holding_image()[address : address + count]
 
     @staticmethod
@@ -411,10 +421,6 @@ class DriveRegisters:
                 ModbusException.ILLEGAL_DATA_ADDRESS,
                 f"registers {address}..{address + count - 1} are outside the map (0..{size - 1})",
             )
-
-    def check_holding(self, address: int, count: int) -> None:
-        """Refuse (02) a read of holding registers outside the map, before anything is done."""
-        self._check_range(address, count, HOLDING_SIZE)
 
     # -- writing: a request becomes a checked plan; only a whole plan is carried out ---------
     async def _guard(self, operation: object) -> object:
