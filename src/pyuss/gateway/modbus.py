@@ -1,8 +1,8 @@
 """The Modbus TCP face: a Modbus TCP server whose unit ids are the drives' addresses.
 
 The register map is `pyuss.gateway.registers` (pure, tested without sockets); this module
-frames the requests (Modbus Messaging on TCP/IP Implementation Guide: the MBAP header,
-protocol id 0, at most 253 bytes of PDU) and answers them. It serves function codes 3
+frames the requests (Modbus TCP: the MBAP header with protocol id 0, at most 253 bytes of
+PDU) and answers them. It serves function codes 3
 (read holding registers), 4 (read input registers), 6 (write single register), 16 (write
 multiple registers) and 23 (read/write multiple registers); every other function code is
 answered with exception 01 (illegal function), a request of a served function code that is
@@ -121,7 +121,7 @@ async def respond(registers: DriveRegisters, pdu: bytes) -> bytes:
             _quantity(count, _MAX_WRITE)
             await registers.write_holding(address, _registers(pdu, 6, count))
             return struct.pack(">BHH", function, address, count)
-        # 23: the write is carried out before the read (Modbus Application Protocol 6.17)
+        # 23: the write is carried out before the read, as Modbus defines the function
         if len(pdu) < 10:
             raise _Malformed
         read_at, read_count, write_at, write_count = struct.unpack_from(">HHHH", pdu, 1)
