@@ -74,8 +74,8 @@ refusal comes back as the Modbus exception of `EXCEPTIONS`. The drive's error nu
 the mailbox (208) and in input registers 5..7.
 
 Values of two registers must be written whole, in one request (function 16 or 23). A face
-configured read-only refuses every write (exception 01) except a mailbox read job (command 1
-and the mailbox's registers 200..205 alone), which changes no drive.
+configured read-only refuses every write (exception 01) except one to the mailbox's registers
+200..205 alone with command 0 or 1 (a read job), which changes no drive.
 """
 
 from __future__ import annotations
