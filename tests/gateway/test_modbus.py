@@ -116,3 +116,46 @@ async def test_the_mailbox_reads_and_writes_any_parameter_in_one_request() -> No
         assert box.registers == [2, 7, 0]  # refused, response 7, error number 0
         health = await client.client.read_input_registers(5, count=3, device_id=5)
         assert health.registers == [7, 0, 999]
+
+
+async def test_the_mailbox_carries_the_drives_word_or_the_value_times_a_stated_factor() -> None:
+    # P448 (jog setpoint 1) is a signed word of 0.01 Hz: 7.5 Hz is the word 750
+    async with (
+        simulated_gateway(modbus=True) as (gateway, engines),
+        ModbusClient(gateway) as client,
+    ):
+
+        async def job(fmt: int, value: tuple[int, int], command: int) -> list[int]:
+            response = await client.client.readwrite_registers(
+                read_address=206,
+                read_count=5,
+                write_address=200,
+                values=[448, 0xFFFF, fmt, *value, command],
+                device_id=5,
+            )
+            assert not response.isError(), response
+            assert response.registers[0] == 1  # done
+            return list(response.registers[3:])
+
+        assert await job(2, (0, 750), 2) == [0, 750]  # the drive's word, signed 16
+        assert engines[5].drive.value(448) == 750
+        assert await job(5, (0, 0), 1) == ModbusClient.floats(7.5)  # float, in Hz
+        assert await job(0, (0, 0), 1) == ModbusClient.floats(7.5)  # scaled: a float
+        assert await job(6, (0, 0), 1) == [0, 75]  # Hz x 10
+        assert await job(7, (0, 0), 1) == [0, 750]  # Hz x 100
+        assert await job(8, (0, 0), 1) == [0, 7500]  # Hz x 1000
+        assert await job(6, (0xFFFF, 0xFFEC), 2) == [0xFFFF, 0xFFEC]  # -2.0 Hz as -20
+        assert engines[5].drive.value(448) == -200
+        assert await job(2, (0, 0), 1) == [0xFFFF, 0xFF38]  # the word -200, sign-extended
+        assert await job(1, (0, 0), 1) == [0, 0xFF38]  # the word as it is on the line
+        # a float parameter's word is its IEEE 754 double word: no 16-bit format
+        refused = await client.client.write_registers(200, [107, 0xFFFF, 1, 0, 1, 1], device_id=5)
+        assert refused.isError() and refused.exception_code == 0x03
+        box = await client.client.readwrite_registers(
+            read_address=209,
+            read_count=2,
+            write_address=200,
+            values=[107, 0xFFFF, 3, 0, 0, 1],
+            device_id=5,
+        )
+        assert box.registers == ModbusClient.floats(50.0)

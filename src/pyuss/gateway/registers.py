@@ -39,19 +39,43 @@ Holding registers (functions 3, 6, 16, 23), what the master sends::
     100+2k   configured parameter k: a read sends a parameter job (unless the parameter is
              polled: then its last value), a write sends one
     200..210 the parameter mailbox, for any parameter:
-             200 PNU, 201 index (FFFFh: none), 202 format (0 as the parameter model says,
-             1 unsigned 16, 2 signed 16, 3 unsigned 32, 4 signed 32, 5 float),
-             203..204 the value to write (32 bits; formats 1 and 2 use its low 16), 205 command
-             (write 1 read, 2 write, 3 write and store in EEPROM), 206 status (0 idle,
-             1 done, 2 refused, 3 failed), 207 response ID (7 or 8 when refused), 208 the
-             drive's error number, 209..210 the value read or answered
+             200 PNU, 201 index (FFFFh: none), 202 format (`MailboxFormat`), 203..204
+             the value to write (32 bits), 205 command (write 1 read, 2 write, 3 write and
+             store in EEPROM), 206 status (0 idle, 1 done, 2 refused, 3 failed), 207
+             response ID (7 or 8 when refused), 208 the drive's error number, 209..210 the
+             value read or answered
+
+Mailbox formats (register 202) say what 203..204 and 209..210 carry::
+
+    0        the value in the parameter's unit: 32-bit integer for integer parameters,
+             float for float and scaled ones
+    1, 2     the drive's word as on the line (no scaling), unsigned / signed 16 bits, in
+             the low register (refused for double-word and float parameters)
+    3, 4     the drive's double word as on the line, unsigned / signed 32 bits (a float
+             parameter's IEEE 754 bits)
+    5        the value in the parameter's unit, float
+    6, 7, 8  the value in the parameter's unit times 10, 100, 1000, signed 32 bits
+
+P448 = 7.5 Hz (a word in steps of 0.01 Hz) is 750 in format 2, 7.5 in formats 0 and 5, 75 in
+format 6.
+
+A write is checked whole before anything is sent: `DriveRegisters.plan_write` turns the
+request into a `WritePlan` or refuses it (`RegisterError`) without sending anything or
+changing the mailbox, and only a whole plan is carried out (`DriveRegisters.carry_out`): a
+refused request changes nothing. The plan's parts go out in this order: process data (the
+control word, PZD words and setpoints in one telegram), the configured parameters' jobs, the
+mailbox's job, the command. What the gateway cannot check beforehand is the drive's own
+answer: a parameter job the drive refuses stops the parts after it, the ones before it were
+answered.
 
 A write returns once the telegram carrying it was answered (process data) or the parameter job
 was answered, so a client that writes a setpoint sees it on the bus in the next cycle, and a
 refusal comes back as the Modbus exception of `EXCEPTIONS`. The drive's error number is in
 the mailbox (208) and in input registers 5..7.
 
-Values of two registers must be written whole, in one request (function 16 or 23).
+Values of two registers must be written whole, in one request (function 16 or 23). A face
+configured read-only refuses every write (exception 01) except one to the mailbox's registers
+200..205 alone with command 0 or 1 (a read job), which changes no drive.
 """
 
 from __future__ import annotations
@@ -60,7 +84,7 @@ import enum
 import math
 import struct
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from pyuss.errors import ConfigError, DriveRefusal, UssError
 from pyuss.master.errors import NoWriteAuthority
@@ -75,9 +99,12 @@ __all__ = [
     "HOLDING_SIZE",
     "INPUT_SIZE",
     "DriveRegisters",
+    "MailboxFormat",
+    "MailboxJob",
     "ModbusException",
     "RegisterError",
     "WordOrder",
+    "WritePlan",
     "from_registers",
     "to_registers",
 ]
@@ -170,12 +197,30 @@ COMMAND_CODES = {1: "on", 2: "off1", 3: "off2", 4: "off3", 5: "acknowledge"}
 
 
 class MailboxFormat(enum.IntEnum):
+    """How the mailbox's value registers (203..204, 209..210) carry a parameter's value."""
+
     AUTO = 0
+    """The value in the parameter's unit: a 32-bit integer for integer parameters, a float
+    for float and scaled ones."""
     UINT16 = 1
+    """The drive's word as it is on the line (no scaling), unsigned, in the low register."""
     INT16 = 2
+    """The drive's word, signed."""
     UINT32 = 3
+    """The drive's double word (a float parameter's IEEE 754 bits), unsigned."""
     INT32 = 4
+    """The drive's double word, signed."""
     FLOAT = 5
+    """The value in the parameter's unit as a float."""
+    TIMES_10 = 6
+    """The value in the parameter's unit times 10, a signed 32-bit integer."""
+    TIMES_100 = 7
+    """Times 100."""
+    TIMES_1000 = 8
+    """Times 1000."""
+
+
+_SCALED = {MailboxFormat.TIMES_10: 10, MailboxFormat.TIMES_100: 100, MailboxFormat.TIMES_1000: 1000}
 
 
 class MailboxStatus(enum.IntEnum):
@@ -188,6 +233,33 @@ class MailboxStatus(enum.IntEnum):
 def param_kind(meta: ParamMeta) -> str:
     """How a parameter sits in two registers: "float" or "int"."""
     return "int" if meta.is_integer else "float"
+
+
+@dataclass(frozen=True, slots=True)
+class MailboxJob:
+    """A checked mailbox job: read (command 1) or write ``value`` (in the parameter's unit;
+    command 3 also to EEPROM)."""
+
+    command: int
+    meta: ParamMeta
+    fmt: MailboxFormat
+    value: float | int | None
+
+
+@dataclass(frozen=True, slots=True)
+class WritePlan:
+    """What a checked write request does, in the order `DriveRegisters.carry_out` does it."""
+
+    control: int | None = None
+    pzd: Mapping[int, int] = field(default_factory=dict)
+    """Raw PZD words by number (2..16), sent with the control word in one telegram."""
+    parameters: tuple[tuple[ParamMeta, float | int], ...] = ()
+    """Configured parameters to write, values in their units."""
+    mailbox: tuple[int, int, int, tuple[int, int]] | None = None
+    """The mailbox's PNU, index, format and value registers after the request."""
+    job: MailboxJob | None = None
+    command: str | None = None
+    """A `COMMAND_CODES` name."""
 
 
 @dataclass(slots=True)
@@ -322,14 +394,24 @@ class DriveRegisters:
         ]
         return regs
 
+    def plan_read(self, address: int, count: int) -> tuple[ParamMeta, ...]:
+        """The configured parameters a read of holding registers ``address`` .. ``address +
+        count - 1`` reads from the drive first (those not polled; pure), or `RegisterError`
+        02 for registers outside the map."""
+        self._check_range(address, count, HOLDING_SIZE)
+        return tuple(
+            point.meta
+            for k, point in enumerate(self.drive.model.parameters)
+            if point.poll is None
+            and address < PARAM_BASE + 2 * k + 2
+            and PARAM_BASE + 2 * k < address + count
+        )
+
     async def read_holding(self, address: int, count: int) -> list[int]:
         """Holding registers; configured parameters that are not polled are read from the
-        drive first (one job each)."""
-        self._check_range(address, count, HOLDING_SIZE)
-        for k, point in enumerate(self.drive.model.parameters):
-            base = PARAM_BASE + 2 * k
-            if point.poll is None and address < base + 2 and base < address + count:
-                await self._guard(self.drive.read_parameter(point.meta.pnu, point.meta.index))
+        drive first (one job each, `plan_read`)."""
+        for meta in self.plan_read(address, count):
+            await self._guard(self.drive.read_parameter(meta.pnu, meta.index))
         return self.holding_image()[address : address + count]
 
     @staticmethod
@@ -340,7 +422,7 @@ class DriveRegisters:
                 f"registers {address}..{address + count - 1} are outside the map (0..{size - 1})",
             )
 
-    # -- writing -----------------------------------------------------------------------------
+    # -- writing: a request becomes a checked plan; only a whole plan is carried out ---------
     async def _guard(self, operation: object) -> object:
         """Await ``operation``; failures become `RegisterError` with the class's code."""
         try:
@@ -350,29 +432,7 @@ class DriveRegisters:
         except (UssError, ValueError) as exc:
             raise RegisterError(EXCEPTIONS[classify(exc)], str(exc)) from exc
 
-    def _refuse_write(self) -> None:
-        if self.read_only:
-            raise RegisterError(ModbusException.ILLEGAL_FUNCTION, "this Modbus face is read-only")
-
-    async def write_holding(self, address: int, values: Sequence[int]) -> None:
-        """Write ``values`` from ``address`` on; returns when the drive answered. The parts of
-        one request are applied in this order: process data (one telegram), parameters,
-        the mailbox, the command."""
-        count = len(values)
-        self._check_range(address, count, HOLDING_SIZE)
-        words = {address + i: v & 0xFFFF for i, v in enumerate(values)}
-
-        def whole(base: int, what: str) -> tuple[int, int] | None:
-            inside = [a in words for a in (base, base + 1)]
-            if not any(inside):
-                return None
-            if not all(inside):
-                raise RegisterError(
-                    ModbusException.ILLEGAL_DATA_VALUE,
-                    f"{what} at {base}..{base + 1} is 32 bits: write both registers at once",
-                )
-            return words[base], words[base + 1]
-
+    def _writable(self) -> frozenset[int]:
         model = self.drive.model
         writable = {0, 1, *range(2, 2 + max(model.layout.pzd - 1, 0))}
         for k in range(len(model.setpoints)):
@@ -380,24 +440,36 @@ class DriveRegisters:
         for k in range(len(model.parameters)):
             writable.update((PARAM_BASE + 2 * k, PARAM_BASE + 2 * k + 1))
         writable.update(range(MAILBOX, MAILBOX + 6))
+        return frozenset(writable)
+
+    def plan_write(self, address: int, values: Sequence[int]) -> WritePlan:
+        """The checked plan of writing ``values`` from ``address`` on, or `RegisterError`.
+
+        Pure: nothing is sent and nothing of the face changes; the drive's state is only read
+        (its reference, for setpoints in the unit). Every part of the request is checked
+        here: addresses, read-only, both halves of 32-bit values, setpoints against 16/32 bits,
+        parameter values against the parameter's type and limits, the command, the mailbox's
+        command, format, parameter and value."""
+        self._check_range(address, len(values), HOLDING_SIZE)
+        words = {address + i: v & 0xFFFF for i, v in enumerate(values)}
+        writable = self._writable()
         for reg in words:
             if reg not in writable:
                 raise RegisterError(
                     ModbusException.ILLEGAL_DATA_ADDRESS,
                     f"register {reg} cannot be written (see the register map)",
                 )
-        mailbox_only = all(MAILBOX <= reg < MAILBOX + 6 for reg in words)
-        if not mailbox_only:
-            self._refuse_write()
+        job_command = words.get(MAILBOX + 5, 0)
+        mailbox_read = all(MAILBOX <= reg < MAILBOX + 6 for reg in words) and job_command in (0, 1)
+        if self.read_only and not mailbox_read:
+            raise RegisterError(ModbusException.ILLEGAL_FUNCTION, "this Modbus face is read-only")
+        model = self.drive.model
         # process data: raw PZD words, setpoints as floats, the control word: one telegram
-        pzd: dict[int, int] = {}
-        for reg in range(2, 17):
-            if reg in words:
-                pzd[reg] = words[reg]
+        pzd = {reg: words[reg] for reg in range(2, 17) if reg in words}
         for k, item in enumerate(model.setpoints):
             base = PROCESS_BASE + 4 * k
             for offset, unit in ((0, "value"), (2, "percent")):
-                pair = whole(base + offset, f"setpoint {item.key}")
+                pair = _whole(words, base + offset, f"setpoint {item.key}")
                 if pair is None:
                     continue
                 number = from_registers(pair, "float", self.word_order)
@@ -410,64 +482,106 @@ class DriveRegisters:
                     pzd[item.pzd + 1] = raw & 0xFFFF
                 else:
                     pzd[item.pzd] = raw & 0xFFFF
-        control = words.get(0)
-        if pzd or control is not None:
-            await self._guard(self.drive.set_process(control=control, words=pzd))
+        parameters: list[tuple[ParamMeta, float | int]] = []
         for k, point in enumerate(model.parameters):
-            pair = whole(PARAM_BASE + 2 * k, point.key)
-            if pair is None:
-                continue
-            kind = param_kind(point.meta)
-            value = from_registers(pair, kind, self.word_order)
-            await self._guard(self.drive.write_parameter(point.meta.pnu, value, point.meta.index))
-        if any(MAILBOX <= reg < MAILBOX + 6 for reg in words):
-            await self._mailbox(words, whole)
+            pair = _whole(words, PARAM_BASE + 2 * k, point.key)
+            if pair is not None:
+                value = from_registers(pair, param_kind(point.meta), self.word_order)
+                parameters.append((point.meta, _checked_value(point.meta, value)))
+        command = None
         if 1 in words:
-            name = COMMAND_CODES.get(words[1])
-            if name is None:
+            command = COMMAND_CODES.get(words[1])
+            if command is None:
                 raise RegisterError(
                     ModbusException.ILLEGAL_DATA_VALUE,
                     f"command {words[1]} is not 1..5 (ON, OFF1, OFF2, OFF3, acknowledge)",
                 )
-            await self._guard(self.drive.command(name))
+        mailbox, job = self._plan_mailbox(words)
+        return WritePlan(
+            control=words.get(0),
+            pzd=pzd,
+            parameters=tuple(parameters),
+            mailbox=mailbox,
+            job=job,
+            command=command,
+        )
 
-    async def _mailbox(self, words: dict[int, int], whole: object) -> None:
+    def _plan_mailbox(
+        self, words: Mapping[int, int]
+    ) -> tuple[tuple[int, int, int, tuple[int, int]] | None, MailboxJob | None]:
+        """The mailbox's registers 200..204 after the request, and its job (if 205 asks for
+        one), checked."""
+        if not any(MAILBOX <= reg < MAILBOX + 6 for reg in words):
+            return None, None
         box = self.mailbox
-        if MAILBOX in words:
-            box.pnu = words[MAILBOX]
-        if MAILBOX + 1 in words:
-            box.index = words[MAILBOX + 1]
-        if MAILBOX + 2 in words:
-            box.fmt = words[MAILBOX + 2]
-        pair = whole(MAILBOX + 3, "the mailbox value")  # type: ignore[operator]
-        if pair is not None:
-            box.value = pair
-        command = words.get(MAILBOX + 5)
-        if command is None or command == 0:
-            return
+        pnu = words.get(MAILBOX, box.pnu)
+        index = words.get(MAILBOX + 1, box.index)
+        fmt_code = words.get(MAILBOX + 2, box.fmt)
+        pair = _whole(words, MAILBOX + 3, "the mailbox value") or box.value
+        registers = (pnu, index, fmt_code, pair)
+        command = words.get(MAILBOX + 5, 0)
+        if command == 0:
+            return registers, None
         if command not in (1, 2, 3):
             raise RegisterError(
                 ModbusException.ILLEGAL_DATA_VALUE,
                 f"mailbox command {command} is not 1 (read), 2 (write) or 3 (write, EEPROM)",
             )
-        if command != 1:
-            self._refuse_write()
         try:
-            fmt = MailboxFormat(box.fmt)
+            fmt = MailboxFormat(fmt_code)
         except ValueError:
+            known = ", ".join(str(int(f)) for f in MailboxFormat)
             raise RegisterError(
-                ModbusException.ILLEGAL_DATA_VALUE, f"mailbox format {box.fmt} is not 0..5"
+                ModbusException.ILLEGAL_DATA_VALUE,
+                f"mailbox format {fmt_code} is not one of {known}",
             ) from None
-        index = None if box.index == 0xFFFF else box.index
+        param_index = None if index == 0xFFFF else index
+        try:
+            meta = self.drive.meta(pnu, param_index)
+        except ConfigError as exc:
+            raise RegisterError(EXCEPTIONS[classify(exc)], str(exc)) from exc
+        if fmt in (MailboxFormat.UINT16, MailboxFormat.INT16) and (meta.is_float or meta.dword):
+            raise RegisterError(
+                ModbusException.ILLEGAL_DATA_VALUE,
+                f"{meta.key} is a double word: use mailbox format 3 or 4 for its raw value",
+            )
+        value = None
+        if command != 1:
+            value = _checked_value(meta, self._mailbox_value(pair, fmt, meta))
+        return registers, MailboxJob(command, meta, fmt, value)
+
+    async def carry_out(self, plan: WritePlan) -> None:
+        """Carry out a checked plan; returns when the drive answered. The parts go in this
+        order: the mailbox's registers, process data (one telegram), parameter jobs, the
+        mailbox's job, the command. A part the drive refuses or does not answer stops the
+        parts after it (`RegisterError`)."""
+        if plan.mailbox is not None:
+            box = self.mailbox
+            box.pnu, box.index, box.fmt, box.value = plan.mailbox
+        if plan.control is not None or plan.pzd:
+            await self._guard(self.drive.set_process(control=plan.control, words=plan.pzd))
+        for meta, value in plan.parameters:
+            await self._guard(self.drive.write_parameter(meta.pnu, value, meta.index))
+        if plan.job is not None:
+            await self._run_job(plan.job)
+        if plan.command is not None:
+            await self._guard(self.drive.command(plan.command))
+
+    async def write_holding(self, address: int, values: Sequence[int]) -> None:
+        """Write ``values`` from ``address`` on: `plan_write`, then `carry_out`. A request
+        refused by the check sends nothing and changes nothing."""
+        await self.carry_out(self.plan_write(address, values))
+
+    async def _run_job(self, job: MailboxJob) -> None:
+        box = self.mailbox
+        meta = job.meta
         box.status, box.response, box.error = MailboxStatus.IDLE, 0, 0
         try:
-            meta = self.drive.meta(box.pnu, index)
-            if command == 1:
-                reading = await self.drive.read_parameter(box.pnu, index)
+            if job.value is None:
+                reading = await self.drive.read_parameter(meta.pnu, meta.index)
             else:
-                value = self._mailbox_value(box.value, fmt, meta)
                 reading = await self.drive.write_parameter(
-                    box.pnu, value, index, eeprom=command == 3
+                    meta.pnu, job.value, meta.index, eeprom=job.command == 3
                 )
         except (DriveRefusal, NoWriteAuthority) as exc:
             box.status = MailboxStatus.REFUSED
@@ -480,29 +594,78 @@ class DriveRegisters:
             box.result = (0, 0)
             raise RegisterError(EXCEPTIONS[classify(exc)], str(exc)) from exc
         box.status = MailboxStatus.DONE
-        box.result = self._mailbox_result(reading.value, fmt, meta)
+        box.result = self._mailbox_result(reading.value, job.fmt, meta)
 
-    def _mailbox_value(self, pair: tuple[int, int], fmt: MailboxFormat, meta: ParamMeta) -> float:
+    def _mailbox_value(
+        self, pair: tuple[int, int], fmt: MailboxFormat, meta: ParamMeta
+    ) -> float | int:
+        """The value in the parameter's unit that registers 203..204 carry in ``fmt``."""
         if fmt is MailboxFormat.AUTO:
             fmt = MailboxFormat.INT32 if meta.is_integer else MailboxFormat.FLOAT
+            if fmt is MailboxFormat.INT32:
+                return from_registers(pair, "int", self.word_order)
         if fmt is MailboxFormat.FLOAT:
             return from_registers(pair, "float", self.word_order)
-        if fmt is MailboxFormat.UINT32:
-            return from_registers(pair, "uint", self.word_order)
-        if fmt is MailboxFormat.INT32:
-            return from_registers(pair, "int", self.word_order)
-        low = int(from_registers(pair, "uint", self.word_order)) & 0xFFFF
-        if fmt is MailboxFormat.INT16 and low & 0x8000:
-            return low - 0x10000
-        return low
+        if fmt in _SCALED:
+            return from_registers(pair, "int", self.word_order) / _SCALED[fmt]
+        raw = int(from_registers(pair, "uint", self.word_order))
+        if fmt in (MailboxFormat.UINT16, MailboxFormat.INT16):
+            raw &= 0xFFFF
+            if fmt is MailboxFormat.INT16 and raw & 0x8000:
+                raw -= 0x10000
+        elif fmt is MailboxFormat.INT32 and raw & 0x8000_0000:
+            raw -= 1 << 32
+        if meta.is_float:
+            value: float = struct.unpack(">f", struct.pack(">I", raw & 0xFFFF_FFFF))[0]
+            return value
+        return meta.physical(raw)
 
     def _mailbox_result(
         self, value: float | int | None, fmt: MailboxFormat, meta: ParamMeta
     ) -> tuple[int, int]:
+        """Registers 209..210: ``value`` (in the parameter's unit) in ``fmt``."""
         if fmt is MailboxFormat.AUTO:
             fmt = MailboxFormat.INT32 if meta.is_integer else MailboxFormat.FLOAT
+            if fmt is MailboxFormat.INT32:
+                return self._pair(None if value is None else round(value), "int")
         if fmt is MailboxFormat.FLOAT:
             return self._pair(value, "float")
         if value is None:
             return self._pair(None, "int")
-        return self._pair(round(value), "int")
+        if fmt in _SCALED:
+            return self._pair(round(value * _SCALED[fmt]), "int")
+        if meta.is_float:
+            return self._pair(struct.unpack(">I", struct.pack(">f", value))[0], "int")
+        raw = round(value / meta.scaling) if meta.scaling is not None else round(value)
+        if fmt in (MailboxFormat.UINT16, MailboxFormat.UINT32):
+            raw &= 0xFFFF if fmt is MailboxFormat.UINT16 else 0xFFFF_FFFF
+        return self._pair(raw, "int")
+
+
+def _whole(words: Mapping[int, int], base: int, what: str) -> tuple[int, int] | None:
+    """The two registers of a 32-bit value at ``base`` if the request writes them, None if it
+    writes neither; a request writing one of them is refused (03)."""
+    inside = [a in words for a in (base, base + 1)]
+    if not any(inside):
+        return None
+    if not all(inside):
+        raise RegisterError(
+            ModbusException.ILLEGAL_DATA_VALUE,
+            f"{what} at {base}..{base + 1} is 32 bits: write both registers at once",
+        )
+    return words[base], words[base + 1]
+
+
+def _checked_value(meta: ParamMeta, value: float | int) -> float | int:
+    """``value`` if P``meta`` may be written with it (writable, a number of its type, within
+    its limits), else `RegisterError` 03: the check the write would make, made before
+    anything of the request is sent."""
+    if not meta.writable:
+        raise RegisterError(
+            ModbusException.ILLEGAL_DATA_VALUE, f"{meta.key} ({meta.name}) is read-only"
+        )
+    try:
+        meta.raw(value)
+    except ConfigError as exc:
+        raise RegisterError(ModbusException.ILLEGAL_DATA_VALUE, str(exc)) from exc
+    return value
