@@ -191,11 +191,11 @@ def test_a_bad_key_in_the_file_is_named_before_any_port_opens(tmp_path: Path) ->
 
 def test_a_face_without_its_library_names_the_pip_install() -> None:
     code = (
-        "import sys; sys.modules['pymodbus'] = None\n"
+        "import sys; sys.modules['asyncua'] = None\n"
         "from pyuss.gateway.extras import require\n"
-        "try:\n    require('modbus')\nexcept Exception as exc:\n    print(exc)\n"
+        "try:\n    require('opcua')\nexcept Exception as exc:\n    print(exc)\n"
     )
     result = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, timeout=60
     )
-    assert "pip install 'pyuss[modbus]'" in result.stdout
+    assert "pip install 'pyuss[opcua]'" in result.stdout

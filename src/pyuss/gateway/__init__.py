@@ -2,7 +2,7 @@
 
 - `pyuss.gateway.config`: the configuration file (buses, drives, faces).
 - `pyuss.gateway.run`: `Gateway`, the plant and its faces started and stopped together.
-- `pyuss.gateway.registers` (pure) and `pyuss.gateway.modbus` (pymodbus): Modbus TCP.
+- `pyuss.gateway.registers` (pure) and `pyuss.gateway.modbus` (a server of its own): Modbus TCP.
 - `pyuss.gateway.topics` (pure) and `pyuss.gateway.mqtt` (aiomqtt): MQTT, Home Assistant.
 - `pyuss.gateway.opcua` (asyncua): OPC UA.
 

@@ -17,7 +17,6 @@ __all__ = ["FACES", "MissingExtra", "require"]
 
 FACES: dict[str, tuple[str, str, tuple[int, int] | None, tuple[int, int] | None]] = {
     # face: (module, distribution, lowest version, first version not supported)
-    "modbus": ("pymodbus", "pymodbus", (3, 15), (3, 17)),
     "mqtt": ("aiomqtt", "aiomqtt", (2, 3), (3, 0)),
     "opcua": ("asyncua", "asyncua", (2, 0), (3, 0)),
 }
@@ -38,7 +37,10 @@ def _version(text: str) -> tuple[int, int]:
 
 
 def require(face: str) -> None:
-    """Check that the library of ``face`` can be imported in a supported version."""
+    """Check that the library of ``face`` can be imported in a supported version (a face
+    without a library, Modbus, needs nothing)."""
+    if face not in FACES:
+        return
     module, dist, low, high = FACES[face]
     install = f"pip install 'pyuss[{face}]'"
     try:
