@@ -299,5 +299,12 @@ def test_descriptions_kept_in_a_cache_file_for_the_next_run(tmp_path: Path) -> N
         never = ["--describe", "never"]
         assert uss(["read", "5", "805", *port, *never]) == (0, "P805 = 1153142784 (44BB9000h)\n")
         assert uss(["read", "5", "805", *port, *never, "--params-cache", cache]) == (0, typed)
+        for bad, message in bad_files(tmp_path, "the description cache", json_too=True):
+            # a missing cache is an empty one; dotted keys and bare numbers are no JSON
+            if bad.name not in ("missing.toml", "dotted.toml", "long.toml"):
+                code, out = uss(["read", "5", "805", *port, "--params-cache", str(bad)])
+                line, *more = out.splitlines()
+                assert code == 2 and not more, out
+                assert refuses(line.removeprefix("uss read: "), bad, message), line
     finally:
         stop(sim)

@@ -92,13 +92,16 @@ class CsvLog:
     def _check_existing(self) -> None:
         try:
             with open(self.path, "rb") as file:
-                first = file.readline()
+                first = file.readline(65536)  # a header, not a device without end
         except OSError as exc:
             raise ConfigError(f"cannot read {self.path}: {exc.strerror or exc}") from None
-        try:
-            found = next(csv.reader([first.decode("utf-8").rstrip("\r\n")]), [])
-        except UnicodeDecodeError:
-            raise ConfigError(f"{self.path} is not a CSV log of uss log") from None
+        text = None
+        if b"\0" not in first and first.endswith(b"\n"):  # else binary, or no header line
+            with contextlib.suppress(UnicodeDecodeError):
+                text = first.decode("utf-8")
+        if text is None:
+            raise ConfigError(f"{self.path} is not a CSV log of uss log")
+        found = next(csv.reader([text.rstrip("\r\n")]), [])
         if found != self.header:
             raise ConfigError(
                 f"{self.path} has other columns ({', '.join(found) or 'none'}) than this log "
