@@ -15,6 +15,8 @@ import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
+import pytest
+
 from pyuss.bus import VirtualBus
 from pyuss.datalog import NO_ANSWER, CsvLog, DataLogger, parse_values
 from pyuss.master import Master
@@ -170,25 +172,59 @@ def _small_files(limit: int) -> Callable[[], None]:
     return setup
 
 
-def test_a_log_the_disk_cannot_take_ends_in_one_line_with_whole_rows(tmp_path: Path) -> None:
-    path = tmp_path / "run.csv"
+def _log_until_the_file_fails(
+    path: Path, setup: Callable[[], None] | None = None
+) -> subprocess.CompletedProcess[str]:
     values = ["status", "P52", "--rate", "50", "--count", "1000", "-o", str(path)]
     with tcp_simulator() as (_, url):
-        done = subprocess.run(
+        return subprocess.run(
             [*UV, "log", "5", *values, "--port", url, "--baud", "19200", "--timeout", "0.3"],
             capture_output=True,
             text=True,
             timeout=120,
-            preexec_fn=_small_files(700),
+            preexec_fn=setup,
         )
+
+
+def _one_line_and_whole_rows(done: subprocess.CompletedProcess[str], path: Path, why: str) -> None:
     assert done.returncode == 1, done.stderr
     *_, last = done.stderr.splitlines()
-    assert last == f"uss log: cannot write {path}: file too large", done.stderr
+    assert last == f"uss log: cannot write {path}: {why}", done.stderr
     assert "Traceback" not in done.stderr
-    data = path.read_bytes()
-    assert len(data) > 600 and data.endswith(b"\r\n")  # the rows before, each one whole
+    assert path.read_bytes().endswith(b"\r\n")  # no half row
     table = rows(path)
     assert len(table) > 5 and all(r["comm"] == "ok" and r["P52 Load display"] for r in table)
+
+
+def test_a_log_the_system_refuses_to_grow_ends_in_one_line_with_whole_rows(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "run.csv"
+    done = _log_until_the_file_fails(path, _small_files(700))
+    _one_line_and_whole_rows(done, path, "file too large")
+    assert path.stat().st_size > 600
+
+
+@pytest.fixture
+def full_disk(tmp_path: Path) -> Iterator[Path]:
+    """A folder on a tmpfs of 64 kB with one page (4 kB) left free; root only."""
+    folder = tmp_path / "disk"
+    folder.mkdir()
+    mount = ["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(folder)]
+    if os.geteuid() != 0 or subprocess.run(mount, capture_output=True).returncode != 0:
+        pytest.skip("a small tmpfs needs root (the RLIMIT_FSIZE test runs everywhere)")
+    try:
+        stat = os.statvfs(folder)
+        (folder / "filler").write_bytes(bytes(stat.f_bavail * stat.f_frsize - 4096))
+        yield folder
+    finally:
+        subprocess.run(["umount", str(folder)], check=True)
+
+
+def test_a_log_on_a_full_disk_ends_in_one_line_with_whole_rows(full_disk: Path) -> None:
+    path = full_disk / "run.csv"
+    done = _log_until_the_file_fails(path)
+    _one_line_and_whole_rows(done, path, "no space left on device")
 
 
 def test_bad_values_are_bad_input(tmp_path: Path) -> None:
