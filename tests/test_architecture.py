@@ -14,7 +14,7 @@ _BELOW_FACES = {"protocol", "transport", "bus", "drive", "profiles", "params", "
 _BELOW_FACES |= {"commission"}
 
 # What each package may import from pyuss (besides itself and the shared root modules
-# errors, log, atomicfile and _lazy, and loop for all but the protocol layer).
+# errors, log, atomicfile, userfile and _lazy, and loop for all but the protocol layer).
 ALLOWED: dict[str, set[str]] = {
     "protocol": set(),
     "transport": {"protocol", "bus"},  # bus:// URLs open the virtual bus client (lazily)
@@ -60,7 +60,7 @@ def test_no_layer_reaches_up(package: str) -> None:
         for name in _imports(package)
         if name.startswith("pyuss.") and name.count(".") >= 1
     }
-    used -= {package, "errors", "log", "atomicfile", "_lazy"}
+    used -= {package, "errors", "log", "atomicfile", "userfile", "_lazy"}
     if package != "protocol":  # the event loop helpers are shared by every layer doing I/O
         used -= {"loop"}
     assert used <= ALLOWED[package], f"pyuss.{package} imports {sorted(used - ALLOWED[package])}"

@@ -20,6 +20,7 @@ import serial
 
 from pyuss.cli.main import main
 from slave.harness import frame
+from test_userfile import bad_files, refuses
 
 TIMEOUT = 20
 READ_P52 = frame(5, "1034 0000 0000 047E 0000")  # C 8.1 example 2
@@ -308,6 +309,16 @@ def test_bad_input_is_one_line_and_exit_2(
     err = capsys.readouterr().err
     assert err.count("\n") == 1, err
     assert message in err
+
+
+def test_a_parameter_file_that_is_none_is_one_line_naming_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for params, message in bad_files(tmp_path, "parameter file"):
+        for command in (["simulate", "--pty", "--duration", "5"], ["params"]):
+            assert main([*command, "--params", str(params)]) == 2
+            line, *more = capsys.readouterr().err.splitlines()
+            assert not more and refuses(line.removeprefix(f"uss {command[0]}: "), params, message)
 
 
 def test_a_layout_from_the_parameter_file_the_profile_refuses_is_named(

@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+import tomllib
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -21,6 +22,9 @@ from commission.test_docs import uss
 from params.conftest import Simulator, start, stop
 from pyuss.commission.backup import Backup, Entry, dumps, load, loads
 from pyuss.errors import ConfigError
+from test_userfile import bad_files, refuses
+
+USS = [sys.executable, "-m", "pyuss.cli.main"]
 
 
 @pytest.fixture
@@ -49,6 +53,17 @@ def test_a_backup_restored_diffs_back_to_empty(mm4: Simulator, tmp_path: Path) -
     assert code == 0 and [r["label"] for r in result["results"]] == ["P1120"]
     assert uss(["diff", "3", file, *opts(mm4)]) == (0, f"drive 3 and {file} agree\n")
     assert uss(["diff", file, file])[0] == 0
+
+
+def test_a_backup_replaces_a_file_only_with_force(mm4: Simulator, tmp_path: Path) -> None:
+    file = tmp_path / "set.json"
+    file.write_text("the backup of yesterday\n", encoding="utf-8")
+    code, out = uss(["backup", "3", "-o", str(file), *opts(mm4)])
+    assert code == 2
+    assert out == f"uss backup: {file} exists: --force replaces it, or give another file name\n"
+    assert file.read_text(encoding="utf-8") == "the backup of yesterday\n"
+    assert uss(["backup", "3", "-o", str(file), "--force", *opts(mm4)])[0] == 0
+    assert load(file).find(1120) is not None
 
 
 def test_a_failing_parameter_is_recorded_and_the_backup_goes_on(
@@ -130,7 +145,7 @@ def test_a_backup_killed_half_way_leaves_the_old_file(tmp_path: Path) -> None:
         file = tmp_path / "set.toml"
         file.write_text("the old backup\n", encoding="utf-8")
         process = subprocess.Popen(
-            [sys.executable, "-m", "pyuss.cli.main", "backup", "3", "-o", str(file), *opts(slow)],
+            [*USS, "backup", "3", "-o", str(file), "--force", *opts(slow)],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
         )
@@ -224,6 +239,52 @@ def test_two_files_compare_without_a_drive(mm4: Simulator, tmp_path: Path) -> No
     assert code == 2 and "cannot read" in out
 
 
+def test_a_file_that_is_no_backup_is_one_line_naming_it(tmp_path: Path) -> None:
+    good = tmp_path / "good.toml"
+    good.write_text(dumps(Backup(3, "micromaster4", [Entry(1120, value=10.0)]), "toml"), "utf-8")
+    nowhere = ["--port", str(tmp_path / "no-port"), "--profile", "micromaster4"]
+    for bad, message in bad_files(tmp_path, "the backup", json_too=True):
+        for command, argv in (
+            ("diff", ["diff", str(good), str(bad)]),
+            ("diff", ["diff", str(bad), str(good)]),
+            ("restore", ["restore", "3", str(bad), "--yes", *nowhere]),
+        ):
+            code, out = uss(argv)
+            line, *more = out.splitlines()
+            assert code == 2 and not more, out
+            assert refuses(line.removeprefix(f"uss {command}: "), bad, message), line
+
+
+@pytest.mark.parametrize(
+    ("value", "shown"),
+    [
+        ("inf", "inf is not a finite number"),
+        ("-inf", "-inf is not a finite number"),
+        ("nan", "nan is not a finite number"),
+        ("[1.0, nan]", "nan is not a finite number"),
+        (f"1{'0' * 400}", "100000... (401 digits) is beyond the range of any parameter"),
+    ],
+)
+def test_a_number_no_parameter_holds_is_refused_naming_the_parameter(
+    tmp_path: Path, value: str, shown: str
+) -> None:
+    good = tmp_path / "good.toml"
+    text = dumps(Backup(3, "micromaster4", [Entry(1120, value=10.0)]), "toml")
+    good.write_text(text, encoding="utf-8")
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace("value = 10.0", f"value = {value}"), encoding="utf-8")
+    code, out = uss(["diff", str(good), str(bad)])
+    assert (code, out) == (2, f"uss diff: {bad}: parameter 1 (P1120): field 'value': {shown}\n")
+    if not value.startswith("1"):  # JSON has no such numbers but Python writes them
+        json_file = tmp_path / "bad.json"
+        json_file.write_text(json.dumps(tomllib.loads(bad.read_text(encoding="utf-8"))), "utf-8")
+        code, out = uss(["diff", str(json_file), str(good)])
+        assert (code, out) == (
+            2,
+            f"uss diff: {json_file}: parameter 1 (P1120): field 'value': {shown}\n",
+        )
+
+
 def test_descriptions_kept_in_a_cache_file_for_the_next_run(tmp_path: Path) -> None:
     from params.conftest import TYPES_TOML
 
@@ -238,5 +299,12 @@ def test_descriptions_kept_in_a_cache_file_for_the_next_run(tmp_path: Path) -> N
         never = ["--describe", "never"]
         assert uss(["read", "5", "805", *port, *never]) == (0, "P805 = 1153142784 (44BB9000h)\n")
         assert uss(["read", "5", "805", *port, *never, "--params-cache", cache]) == (0, typed)
+        for bad, message in bad_files(tmp_path, "the description cache", json_too=True):
+            # a missing cache is an empty one; dotted keys and bare numbers are no JSON
+            if bad.name not in ("missing.toml", "dotted.toml", "long.toml"):
+                code, out = uss(["read", "5", "805", *port, "--params-cache", str(bad)])
+                line, *more = out.splitlines()
+                assert code == 2 and not more, out
+                assert refuses(line.removeprefix("uss read: "), bad, message), line
     finally:
         stop(sim)

@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from gateway.harness import Broker, free_port
+from test_userfile import bad_files, refuses
 
 USS = [sys.executable, "-m", "pyuss.cli.main"]
 
@@ -163,7 +164,7 @@ def test_bus_simulator_and_gateway_as_separate_processes(broker: Broker) -> None
         (["--port", "/dev/null", "--address", "5"], "no face"),
         (["--port", "/dev/null", "--address", "5", "--modbus", "host:99999"], "--modbus:"),
         (["--port", "/dev/null", "--address", "5", "--mqtt", "ftp://x"], "--mqtt:"),
-        (["--config", "/nonexistent.toml"], "cannot read it"),
+        (["--config", "/nonexistent.toml"], "cannot read the configuration"),
     ],
 )
 def test_bad_configuration_is_one_line_and_exit_code_2(args: list[str], message: str) -> None:
@@ -171,6 +172,17 @@ def test_bad_configuration_is_one_line_and_exit_code_2(args: list[str], message:
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and message in lines[0], result.stderr
+
+
+def test_a_file_that_is_no_configuration_is_one_line_naming_it(tmp_path: Path) -> None:
+    # missing, a folder, no UTF-8, binary, empty, nested 5000 deep: one line, at once
+    for config, message in bad_files(tmp_path, "the configuration"):
+        result = subprocess.run(
+            [*USS, "gateway", "--config", str(config)], capture_output=True, text=True, timeout=60
+        )
+        assert result.returncode == 2, result.stderr
+        line, *more = result.stderr.splitlines()
+        assert not more and refuses(line.removeprefix("uss gateway: "), config, message), line
 
 
 def test_a_bad_key_in_the_file_is_named_before_any_port_opens(tmp_path: Path) -> None:

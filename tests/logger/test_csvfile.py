@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import re
 from pathlib import Path
 
 import pytest
@@ -51,6 +52,20 @@ def test_append_needs_the_same_columns(tmp_path: Path) -> None:
     again.write(["t2", "3", "4", "ok"])
     again.close()
     assert rows(path) == [HEADER, ["t1", "1", "2", "ok"], ["t2", "3", "4", "ok"]]
+
+
+@pytest.mark.parametrize("content", [b"", b"\x00\x01PK\n", "Zeit;Drehzahl\n".encode("utf-16")])
+def test_append_to_a_file_that_is_no_log_is_refused(tmp_path: Path, content: bytes) -> None:
+    path = tmp_path / "run.csv"
+    path.write_bytes(content)
+    with pytest.raises(ConfigError, match=f"^{re.escape(str(path))} is not a CSV log of uss"):
+        CsvLog(path, HEADER, append=True)
+    assert path.read_bytes() == content
+
+
+def test_append_to_an_endless_device_is_refused_at_once() -> None:
+    with pytest.raises(ConfigError, match=r"^/dev/zero is not a CSV log of uss log$"):
+        CsvLog("/dev/zero", HEADER, append=True)
 
 
 def test_append_removes_a_row_cut_short_by_a_crash(tmp_path: Path) -> None:

@@ -6,9 +6,11 @@ file knows by asking the drive for their descriptions over that range (C 6). The
 ``.toml``, JSON for ``.json``, a CSV export for ``.csv``; ``--format`` to choose) starts with a
 header: address, profile, date, the drive's identity parameters where it has them. A parameter
 that cannot be read is recorded with its error and the backup goes on; a drive that stops
-answering ends it (nothing written). A progress bar with the time left shows on a terminal. The
-file is written atomically: a backup killed half way leaves no half-written file. Exit code 0
-when every parameter was read, 1 when some were not (the file says which).
+answering ends it (nothing written). An existing FILE is refused before the drive is read
+(exit code 2) unless ``--force``, which replaces it. A progress bar with the time left shows
+on a terminal. The file is written atomically: a backup killed half way leaves no
+half-written file. Exit code 0 when every parameter was read, 1 when some were not (the file
+says which).
 """
 
 from __future__ import annotations
@@ -35,6 +37,9 @@ def register(subparsers: Any) -> None:
         metavar="FROM-TO",
         help="also find the parameters no file knows, by asking for descriptions (C 6)",
     )
+    parser.add_argument(
+        "--force", action="store_true", help="replace FILE if it exists (else it is refused)"
+    )
     _params.add_options(parser)
     finish(parser, main)
 
@@ -44,9 +49,7 @@ def main(args: argparse.Namespace) -> int:
         fmt = backups.file_format(args.output, args.format)
         if fmt == "toml":
             backups.dumps(backups.Backup(0, "check"), "toml")  # tomli-w there? say so now
-        from pyuss.atomicfile import check_target
-
-        check_target(args.output, "the backup")
+        backups.check_new(args.output, overwrite=args.force)  # before the drive is read
         span = pnu_range(args.scan) if args.scan else None
         async with open_master(args) as bus:
             drive = bus.drive(args.address)
@@ -61,7 +64,7 @@ def main(args: argparse.Namespace) -> int:
             finally:
                 progress.close()
             _params.save(args, drive)
-        backups.save(taken, args.output, fmt)
+        backups.save(taken, args.output, fmt, overwrite=args.force)
         failed = taken.failed
         if not args.json:
             for entry in failed:

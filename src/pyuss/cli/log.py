@@ -13,7 +13,9 @@ the drive's refusal of a parameter. Units stand in the header.
 An existing file is never overwritten: ``--append`` adds rows to it when it has the same
 columns; ``--rotate SIZE`` starts a new file when the current one would grow past SIZE (the
 full one is renamed NAME-YYYYMMDD-HHMMSS.csv). Ctrl+C or SIGTERM ends the log cleanly, as do
-``--count`` and ``--duration``. See docs/web.md.
+``--count`` and ``--duration``. A file the disk cannot take more of ends it with one line
+(``cannot write FILE: no space left on device``, exit code 1), the rows before kept whole.
+See docs/web.md.
 """
 
 from __future__ import annotations

@@ -9,9 +9,12 @@ the error instead of a value.
 Files (`save`, `load`): TOML (``.toml``, written with tomli-w, extra ``pyuss[toml]``), JSON
 (``.json``), and a CSV export (``.csv``, for a spreadsheet; not read back). They are written
 atomically (`pyuss.atomicfile`): a backup that is killed leaves the old file or none, never
-half of one. `load` refuses - before anything is written to a drive - a file that is not a
-backup, whose parameter count does not match the header (cut short), or whose entries are
-broken (a missing or wrongly typed field).
+half of one; an existing file is replaced only when asked (``overwrite``). `load` refuses -
+before anything is written to a drive - a file that is not a backup (read through
+`pyuss.userfile`: missing, no text, empty, not TOML or JSON, nested too deep), whose
+parameter count does not match the header (cut short), whose entries are broken (a missing
+or wrongly typed field), or that holds a number no parameter can (infinity, NaN, an integer
+beyond 64 bits), naming the parameter and the value.
 """
 
 from __future__ import annotations
@@ -19,8 +22,8 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import time
-import tomllib
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
@@ -32,6 +35,7 @@ from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
 from pyuss.master.drive import Drive
 from pyuss.params.model import ParamInfo, Reading, param_label
 from pyuss.params.values import format_value, json_value
+from pyuss.userfile import parse_json, parse_toml, read_text
 
 __all__ = [
     "FORMAT_VERSION",
@@ -53,6 +57,9 @@ none itself)."""
 
 MAX_TIMEOUTS = 3
 """A drive that answers this many jobs in a row with nothing is gone: the backup stops."""
+
+MAX_INTEGER = 2**64
+"""Integers of a backup stay below this in magnitude."""
 
 Progress = Callable[[int, int, str], object]
 
@@ -157,6 +164,9 @@ class Entry:
             value = data["value"]
             if not _plain_value(value):
                 raise ConfigError(f"{where}: field 'value' must be a number, text or list")
+            problem = _number_problem(value)
+            if problem is not None:
+                raise ConfigError(f"{where}: field 'value': {problem}")
             raw = raw_words(data.get("raw", ""), where)
         return cls(
             pnu,
@@ -187,6 +197,18 @@ def raw_words(text: Any, where: str) -> tuple[int, ...]:
     if any(not 0 <= w <= 0xFFFF for w in words):
         raise ConfigError(f"{where}: field 'raw' has a word beyond FFFF")
     return words
+
+
+def _number_problem(value: Any) -> str | None:
+    """Why ``value`` (or an element of it) is a number no parameter holds, or None: infinity,
+    NaN, or an integer beyond 64 bits (the words of a parameter carry 32)."""
+    for number in value if isinstance(value, list) else [value]:
+        if isinstance(number, float) and not math.isfinite(number):
+            return f"{number} is not a finite number"
+        if isinstance(number, int) and abs(number) >= MAX_INTEGER:
+            digits = str(abs(number))
+            return f"{digits[:6]}... ({len(digits)} digits) is beyond the range of any parameter"
+    return None
 
 
 def _plain_value(value: Any) -> bool:
@@ -442,37 +464,35 @@ def dumps(backup: Backup, fmt: str) -> str:
     return head + tomli_w.dumps(backup.to_dict())
 
 
-def save(backup: Backup, path: str | Path, fmt: str | None = None) -> None:
-    """Write ``backup`` to ``path`` atomically (format from the ending or ``fmt``)."""
+def check_new(path: str | Path, *, overwrite: bool = False) -> None:
+    """`ConfigError` naming ``path`` when a backup cannot be written there: a folder, a folder
+    missing, or (unless ``overwrite``) a file that is there already."""
+    target = check_target(path, "the backup")
+    if not overwrite and (target.exists() or target.is_symlink()):
+        raise ConfigError(f"{target} exists: --force replaces it, or give another file name")
+
+
+def save(
+    backup: Backup, path: str | Path, fmt: str | None = None, *, overwrite: bool = True
+) -> None:
+    """Write ``backup`` to ``path`` atomically (format from the ending or ``fmt``); an
+    existing file is replaced only with ``overwrite``."""
     fmt = file_format(path, fmt)
-    check_target(path, "the backup")
+    check_new(path, overwrite=overwrite)
     write_atomically(path, dumps(backup, fmt).encode("utf-8"), "the backup")
 
 
 def load(path: str | Path) -> Backup:
     """Read and check a backup file (TOML or JSON); `ConfigError` naming what is wrong."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not a text file") from None
-    return loads(text, str(path))
+    return loads(read_text(path, "the backup"), str(path))
 
 
 def loads(text: str, where: str = "<backup>") -> Backup:
-    stripped = text.lstrip()
-    if stripped.startswith("{"):
-        try:
-            data = json.loads(text)
-        except ValueError as exc:
-            raise ConfigError(f"{where}: broken JSON: {exc}") from None
+    if text.lstrip().startswith("{"):
+        data = parse_json(text, where, problem="broken JSON")
     else:
-        try:
-            data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise ConfigError(f"{where}: not a TOML or JSON backup: {exc}") from None
+        data = parse_toml(text, where, problem="not a TOML or JSON backup")
     return Backup.from_dict(data, where)
 
 

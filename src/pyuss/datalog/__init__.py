@@ -6,7 +6,7 @@
   stops answering is written as such, never with stale values.
 """
 
-from pyuss.datalog.csvfile import CsvLog, parse_size
+from pyuss.datalog.csvfile import CsvLog, LogWriteError, parse_size
 from pyuss.datalog.logger import COMM_OK, NO_ANSWER, DataLogger, LogResult
 from pyuss.datalog.values import Kind, Quantity, parse_values
 
@@ -17,6 +17,7 @@ __all__ = [
     "DataLogger",
     "Kind",
     "LogResult",
+    "LogWriteError",
     "Quantity",
     "parse_size",
     "parse_values",

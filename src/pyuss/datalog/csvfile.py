@@ -10,10 +10,14 @@
 - ``rotate=SIZE``: before a row would make the file larger than SIZE bytes, the file is
   renamed to ``NAME-YYYYMMDD-HHMMSS.csv`` (the time of the rename, local) and a new one with
   the header is begun under the original name, so ``NAME.csv`` is always the current file.
+- A row the file cannot take (the disk is full, the file too large for the system) ends the
+  log with `LogWriteError` (``cannot write NAME.csv: no space left on device``); the part of
+  the row that was written is cut off again, so the file ends with the last whole row.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import os
@@ -22,9 +26,9 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from pyuss.atomicfile import check_target, write_atomically
-from pyuss.errors import ConfigError
+from pyuss.errors import ConfigError, UssError
 
-__all__ = ["CsvLog", "parse_size"]
+__all__ = ["CsvLog", "LogWriteError", "parse_size"]
 
 SYNC_EVERY = 1.0
 """Seconds between two syncs of the file to the disk."""
@@ -68,6 +72,8 @@ class CsvLog:
         self.rotate = rotate
         self.repaired = 0
         self.rotated: list[Path] = []
+        self.failed: LogWriteError | None = None
+        """Why the file could not be written, once it could not: no row is written after."""
         self._header = _line(self.header)
         if rotate is not None and rotate < 2 * len(self._header):
             raise ConfigError(f"--rotate {rotate}: too small for the header and one row")
@@ -86,13 +92,16 @@ class CsvLog:
     def _check_existing(self) -> None:
         try:
             with open(self.path, "rb") as file:
-                first = file.readline()
+                first = file.readline(65536)  # a header, not a device without end
         except OSError as exc:
             raise ConfigError(f"cannot read {self.path}: {exc.strerror or exc}") from None
-        try:
-            found = next(csv.reader([first.decode("utf-8").rstrip("\r\n")]), [])
-        except UnicodeDecodeError:
-            raise ConfigError(f"{self.path} is not a CSV log of uss log") from None
+        text = None
+        if b"\0" not in first and first.endswith(b"\n"):  # else binary, or no header line
+            with contextlib.suppress(UnicodeDecodeError):
+                text = first.decode("utf-8")
+        if text is None:
+            raise ConfigError(f"{self.path} is not a CSV log of uss log")
+        found = next(csv.reader([text.rstrip("\r\n")]), [])
         if found != self.header:
             raise ConfigError(
                 f"{self.path} has other columns ({', '.join(found) or 'none'}) than this log "
@@ -125,16 +134,36 @@ class CsvLog:
         """Append one row (as many cells as the header)."""
         if len(cells) != len(self.header):
             raise ValueError(f"{len(cells)} cells for {len(self.header)} columns")
+        if self.failed is not None:
+            raise self.failed
         line = _line(cells)
-        if self.rotate is not None:
-            size = os.fstat(self._fd).st_size
-            if size > len(self._header) and size + len(line) > self.rotate:
-                self._rotate()
-        os.write(self._fd, line)
-        now = time.monotonic()
-        if now - self._synced >= SYNC_EVERY:
-            os.fsync(self._fd)
-            self._synced = now
+        try:
+            if self.rotate is not None:
+                size = os.fstat(self._fd).st_size
+                if size > len(self._header) and size + len(line) > self.rotate:
+                    self._rotate()
+            self._append(line)
+            now = time.monotonic()
+            if now - self._synced >= SYNC_EVERY:
+                os.fsync(self._fd)
+                self._synced = now
+        except OSError as exc:
+            self.failed = LogWriteError(f"cannot write {self.path}: {_reason(exc)}")
+            raise self.failed from None
+
+    def _append(self, line: bytes) -> None:
+        """Write the whole ``line`` or nothing: a row the disk took only part of is cut off
+        again, so the file ends with the last whole row."""
+        start = os.fstat(self._fd).st_size
+        done = 0
+        try:
+            while done < len(line):
+                done += os.write(self._fd, line[done:])
+        except OSError:
+            if done:
+                with contextlib.suppress(OSError):
+                    os.ftruncate(self._fd, start)
+            raise
 
     def _rotate(self) -> None:
         os.fsync(self._fd)
@@ -145,16 +174,37 @@ class CsvLog:
         while target.exists():
             target = self.path.with_name(f"{self.path.stem}-{stamp}-{number}{self.path.suffix}")
             number += 1
+        self._fd = -1
         os.replace(self.path, target)
         self.rotated.append(target)
-        write_atomically(self.path, self._header, "the log")
+        try:
+            write_atomically(self.path, self._header, "the log")
+        except ConfigError as exc:  # the folder or the disk failed the new file
+            self.failed = LogWriteError(str(exc))
+            raise self.failed from None
         self._fd = self._open()
 
     def close(self) -> None:
+        """Sync and close the file (once the log failed, without a second error)."""
         if self._fd < 0:
             return
+        fd, self._fd = self._fd, -1
         try:
-            os.fsync(self._fd)
+            os.fsync(fd)
+        except OSError as exc:
+            if self.failed is None:
+                self.failed = LogWriteError(f"cannot write {self.path}: {_reason(exc)}")
+                raise self.failed from None
         finally:
-            os.close(self._fd)
-            self._fd = -1
+            os.close(fd)
+
+
+class LogWriteError(UssError):
+    """The log file cannot be written any more (the disk is full, ...); the rows before stay
+    whole in it."""
+
+
+def _reason(exc: OSError) -> str:
+    """The system's reason in the middle of a sentence: ``no space left on device``."""
+    reason = exc.strerror or str(exc)
+    return reason[:1].lower() + reason[1:]

@@ -45,6 +45,7 @@ from pyuss.drive.datatypes import (
 from pyuss.drive.faults import ParameterFault
 from pyuss.errors import ConfigError
 from pyuss.protocol.pkw import ErrorNumber
+from pyuss.userfile import parse_toml, read_text
 
 TEXT_LENGTH = 16
 """A text element is always 16 characters (C 8 example 7, after the PROFIBUS profile)."""
@@ -524,16 +525,7 @@ def load_database(path: str | Path) -> ParameterDatabase:
 
 def parse_database(text: str, source: str = "<text>") -> ParameterDatabase:
     """Validate parameter-file text (``extends`` may name built-in profiles only)."""
-    return _build(_with_bases(None, source, _parse_toml(text, source), ()))
-
-
-def _parse_toml(text: str, source: str) -> dict[str, Any]:
-    import tomllib  # here: a command that reads no file starts sooner
-
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{source}: not valid TOML: {exc}") from None
+    return _build(_with_bases(None, source, parse_toml(text, source), ()))
 
 
 def _read_source(ref: str) -> tuple[str, str]:
@@ -546,12 +538,7 @@ def _read_source(ref: str) -> tuple[str, str]:
 
         res = resources.files(BUILTIN_PACKAGE).joinpath("data", f"{name}.toml")
         return f"profile {name} ({name}.toml)", res.read_text(encoding="utf-8")
-    try:
-        return ref, Path(ref).read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"{ref}: cannot read parameter file: {exc.strerror or exc}") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{ref}: parameter file is not UTF-8 text") from None
+    return ref, read_text(ref, "parameter file")
 
 
 def _read_layers(ref: str, seen: tuple[str, ...]) -> list[tuple[str, dict[str, Any]]]:
@@ -559,7 +546,7 @@ def _read_layers(ref: str, seen: tuple[str, ...]) -> list[tuple[str, dict[str, A
     if ref in seen:
         raise ConfigError(f"{ref}: 'extends' forms a cycle: {' -> '.join((*seen, ref))}")
     name, text = _read_source(ref)
-    return _with_bases(ref, name, _parse_toml(text, name), seen)
+    return _with_bases(ref, name, parse_toml(text, name), seen)
 
 
 def _with_bases(

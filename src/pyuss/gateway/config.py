@@ -36,7 +36,6 @@ before anything is opened.
 
 from __future__ import annotations
 
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,6 +46,7 @@ from pyuss.gateway.registers import WordOrder
 from pyuss.points.config import PlantConfig, Where, parse_plant
 from pyuss.points.endpoint import Endpoint, parse_endpoint
 from pyuss.points.model import resolve
+from pyuss.userfile import parse_toml, read_text
 
 __all__ = [
     "GatewayConfig",
@@ -296,16 +296,7 @@ def parse_config(data: Mapping[str, Any], base: Path | None = None) -> GatewayCo
 def load_config(path: str | Path) -> GatewayConfig:
     """Read and check a configuration file; `ConfigError` names the file and the key."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read it ({exc.strerror or exc})") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not UTF-8 text") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    data = parse_toml(read_text(path, "the configuration"), str(path))
     try:
         config = parse_config(data, path.parent)
         resolve(config.plant)  # what the points cannot show is bad configuration too

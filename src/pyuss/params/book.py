@@ -30,6 +30,7 @@ from pyuss.drive.database import ParameterDatabase, load_database
 from pyuss.errors import ConfigError
 from pyuss.params.model import DescriptionLike, ParamInfo, Source, from_description, from_parameter
 from pyuss.profiles import Profile
+from pyuss.userfile import parse_json, read_text
 
 __all__ = ["CACHE_VERSION", "Describe", "ParamBook"]
 
@@ -193,12 +194,9 @@ class ParamBook:
         """Take the descriptions kept for drive ``key`` in the cache file ``path`` (a missing
         file is an empty cache)."""
         path = Path(path)
-        try:
-            text = path.read_text(encoding="utf-8")
-        except FileNotFoundError:
+        if not path.exists():
             return
-        except OSError as exc:
-            raise ConfigError(f"{path}: cannot read the cache: {exc.strerror or exc}") from None
+        text = read_text(path, "the description cache")
         data = _cache_file(text, path)
         entry = data["drives"].get(key)
         if entry is not None:
@@ -208,12 +206,10 @@ class ParamBook:
         """Keep this book's descriptions for drive ``key`` in ``path`` (other drives' entries in
         the file stay), written atomically."""
         path = Path(path)
-        try:
-            data = _cache_file(path.read_text(encoding="utf-8"), path)
-        except FileNotFoundError:
+        if path.exists():
+            data = _cache_file(read_text(path, "the description cache"), path)
+        else:
             data = {"version": CACHE_VERSION, "drives": {}}
-        except OSError as exc:
-            raise ConfigError(f"{path}: cannot read the cache: {exc.strerror or exc}") from None
         data["drives"][key] = self.cache_data()
         write_atomically(
             path, (json.dumps(data, indent=1) + "\n").encode(), "the description cache"
@@ -221,10 +217,7 @@ class ParamBook:
 
 
 def _cache_file(text: str, path: Path) -> dict[str, Any]:
-    try:
-        data = json.loads(text)
-    except ValueError as exc:
-        raise ConfigError(f"{path}: not a description cache (JSON): {exc}") from None
+    data = parse_json(text, str(path), problem="not a description cache (JSON)")
     if (
         not isinstance(data, dict)
         or data.get("version") != CACHE_VERSION

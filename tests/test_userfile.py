@@ -1,0 +1,74 @@
+"""Files a user hands to pyuss: every reader refuses a bad one in one line naming it (the
+commands' tests run `bad_files` through ``uss gateway --config``, ``uss diff``, ``uss restore``
+and ``--params``); brackets in strings and comments are no nesting."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from pyuss.errors import ConfigError
+from pyuss.userfile import MAX_DEPTH, parse_json, parse_toml, read_text
+
+DEEP = 5000
+"""Far deeper than Python's recursion limit."""
+
+
+def bad_files(folder: Path, what: str, *, json_too: bool = False) -> list[tuple[Path, str]]:
+    """Files in ``folder`` that no reader takes, each with what the message refusing it says
+    after ``FILE: `` (``what``: how the reader names such a file)."""
+    nested = f"lists or tables nested more than {MAX_DEPTH} deep"
+    contents: dict[str, tuple[bytes | None, str]] = {
+        "missing.toml": (None, f"cannot read {what}: No such file or directory"),
+        "latin1.toml": ('name = "Drehzahl für"\n'.encode("latin-1"), f"{what} is not UTF-8"),
+        "binary.toml": (b"\x00\x01\x02\x03PK", f"{what} is not a text file"),
+        "empty.toml": (b"\n", f"{what} is empty"),
+        "lists.toml": (f"a = {'[' * DEEP}{']' * DEEP}\n".encode(), f"line 1: {nested}"),
+        "tables.toml": (f"\na = {'{b = ' * DEEP}1{'}' * DEEP}\n".encode(), f"line 2: {nested}"),
+        "dotted.toml": (f"[{'.'.join(['a'] * DEEP)}]\n".encode(), nested),
+        "long.toml": (f"a = 1{'0' * DEEP}\n".encode(), "a number of thousands of digits"),
+    }
+    if json_too:
+        contents["lists.json"] = (f'{{"a": {"[" * DEEP}{"]" * DEEP}}}'.encode(), nested)
+    cases = []
+    for name, (data, message) in contents.items():
+        path = folder / name
+        if data is not None:
+            path.write_bytes(data)
+        cases.append((path, message))
+    folder_case = folder / "folder.toml"
+    folder_case.mkdir()
+    cases.append((folder_case, f"cannot read {what}: it is a folder"))
+    return cases
+
+
+def test_every_bad_file_is_one_clear_error(tmp_path: Path) -> None:
+    for path, message in bad_files(tmp_path, "the file", json_too=True):
+        with pytest.raises(ConfigError) as caught:
+            text = read_text(path, "the file")
+            (parse_json if path.suffix == ".json" else parse_toml)(text, str(path))
+        assert refuses(str(caught.value), path, message)
+
+
+def refuses(line: str, path: Path, message: str) -> bool:
+    """Whether ``line`` is the refusal of ``path`` that `bad_files` expects."""
+    return line.startswith(f"{path}: ") and message in line
+
+
+def test_brackets_in_strings_and_comments_are_no_nesting() -> None:
+    many = "[{" * 100
+    text = (
+        f"a = \"{many}\"\nb = '{many}'\nc = \"\"\"\n{many}\n\"\"\"\nd = '''{many}'''\n"
+        f"# {many}\ne = [[[1]]]\n"
+    )
+    assert parse_toml(text, "t.toml")["e"] == [[[1]]]
+    assert parse_json(json.dumps({"a": many, "b": [[1]]}), "t.json")["a"] == many
+
+
+def test_the_deepest_nesting_allowed_is_read() -> None:
+    inner = MAX_DEPTH - 1  # the document itself is a table: one level
+    assert parse_toml(f"a = {'[' * inner}{']' * inner}", "t.toml")
+    with pytest.raises(ConfigError, match="nested more than"):
+        parse_toml(f"a = {'[' * (inner + 1)}{']' * (inner + 1)}", "t.toml")
