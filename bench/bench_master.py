@@ -17,7 +17,9 @@ A 5.2.1.1) + answer + start pause (before the next request, A 5.1.2) = 14 + 2 + 
 character times. The limit "with the turnaround" puts the simulator's measured turnaround (end
 of request to start of answer, from the master's response time statistics) in place of the
 first start pause: the master's own share. A pty carries no timing (the master stamps bytes
-when it reads them): there the simulator paces the line and the figure is its pacing.
+when it reads them): there the simulator paces the requests it reads and writes each answer at
+once when it starts (docs/slave.md), so the master may send its next request while a wire
+would still carry the answer, and the figure may exceed the wire limit.
 
 A set-up that misses the goal is measured again, up to three times in all, and the best run
 counts (`common.best_of`): the machine's other load only ever makes it worse.

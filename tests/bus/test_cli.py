@@ -7,6 +7,7 @@ import signal
 import socket
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -17,9 +18,9 @@ from pyuss.cli.main import main
 TIMEOUT = 20
 
 
-def _start(*args: str) -> subprocess.Popen[str]:
+def _start(*args: str, command: str = "bus") -> subprocess.Popen[str]:
     return subprocess.Popen(
-        [sys.executable, "-m", "pyuss.cli.main", "bus", *args],
+        [sys.executable, "-m", "pyuss.cli.main", command, *args],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -81,6 +82,54 @@ def test_tcp_and_bus_endpoints_are_printed() -> None:
         proc.send_signal(signal.SIGTERM)
         proc.communicate(timeout=TIMEOUT)
     assert proc.returncode == 0
+
+
+def _connected(sock: socket.socket) -> bool:
+    """Whether the bus still holds ``sock`` (it has sent nothing, so nothing is to be read)."""
+    sock.setblocking(False)
+    try:
+        return sock.recv(1) != b""
+    except BlockingIOError:
+        return True
+    except OSError:
+        return False
+
+
+def test_silent_raw_connections_never_lock_out_a_simulator_or_a_bus_master() -> None:
+    """40 raw TCP connections that connect and stay silent: 32 take every sending place (B 1),
+    the others are turned away. 2 s later a ``uss simulate --bus`` joins and a ``bus://``
+    master (``uss read``) is answered, each in the place of the raw station silent longest;
+    the other silent raw stations stay connected."""
+    proc = _start("--tcp", "127.0.0.1:0", "--bus-tcp", "127.0.0.1:0", "--duration", "120")
+    idle: list[socket.socket] = []
+    sim: subprocess.Popen[str] | None = None
+    try:
+        tcp, bus = _lines(proc, 2)
+        host, port = tcp.removeprefix("tcp://").rsplit(":", 1)
+        idle = [socket.create_connection((host, int(port)), timeout=TIMEOUT) for _ in range(40)]
+        time.sleep(2)
+        sim = _start("--bus", bus.removeprefix("bus://"), "--address", "5", command="simulate")
+        assert sim.stdout is not None
+        assert sim.stdout.readline().strip() == bus  # printed once it is on the bus
+        read = subprocess.run(
+            [sys.executable, "-m", "pyuss.cli.main", "read", "--port", bus, "5", "52"],
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT,
+        )
+        assert read.returncode == 0, read.stderr
+        assert read.stdout.startswith("P52 = 16384")
+        assert sum(_connected(sock) for sock in idle) == 32 - 2
+    finally:
+        if sim is not None:
+            sim.send_signal(signal.SIGTERM)
+            sim.communicate(timeout=TIMEOUT)
+        for sock in idle:
+            sock.close()
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=TIMEOUT)
+    assert proc.returncode == 0, err
+    assert sim.returncode == 0
 
 
 def test_echo_for_the_named_station_only() -> None:

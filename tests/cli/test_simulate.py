@@ -124,6 +124,27 @@ def test_tcp_server() -> None:
     assert data.hex(" ").upper() == ANSWER_P52
 
 
+def test_a_peer_that_floods_the_line_and_leaves_costs_later_masters_at_most_a_telegram() -> None:
+    """100 KiB take 117 s on a 9600-baud wire. A peer that writes them and leaves: one
+    telegram's worth waits on the simulated line, the rest is dropped (and said so), and the
+    next master, ``uss read`` in a process of its own, is answered within its normal timeout."""
+    args = ("--tcp", "127.0.0.1:0", "--baud", "9600", "--address", "5", "--layout", "3,2")
+    with simulate(*args) as (url, err):
+        host, port = url.removeprefix("tcp://").rsplit(":", 1)
+        with socket.create_connection((host, int(port)), timeout=TIMEOUT) as sock:
+            sock.sendall(bytes(100 * 1024))
+        command = ("read", "--port", url, "--baud", "9600", "5", "52")
+        read = subprocess.run(
+            [sys.executable, "-m", "pyuss.cli.main", *command],
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT,
+        )
+    assert read.returncode == 0, read.stderr
+    assert read.stdout.startswith("P52 = 16384")
+    assert "bytes dropped" in err[0]
+
+
 def test_station_of_a_virtual_bus() -> None:
     bus = _start("bus", "--baud", "19200", "--pty", "1", "--bus-tcp", "127.0.0.1:0")
     try:

@@ -16,12 +16,22 @@ sends the answer:
 Times are the transport's. On the virtual bus (in-process or ``bus://``) and on serial ports a
 chunk's timestamp is when its last character ended, and the delay is measured from there. A
 pty or a TCP socket carries no timing: bytes arrive at once, a whole telegram in one read. The
-server then places each read on a line of its own at the baud rate: it starts when it arrived
-(or when the previous read would have ended on the line) and takes one character time per byte.
-Start pauses are measured on that line, and the answer starts the response delay after the
-request would have ended, as it would on a real line of that baud rate. ``timed`` overrides the
-choice (default: timed unless the transport is a pty or a raw TCP one). Short waits are
-finished by polling the clock, as the event loop's timers are only as fine as a millisecond.
+server then keeps a line of its own at the baud rate (`PacedLine`, sans-io): each read starts
+on it when it arrived (or when the characters before it would have left it) and takes one
+character time per byte, so start pauses and residual times (A 5.1.2, A 6.3) are measured on
+that line. When bytes arrive is up to the writing program and the machine, not a UART: inside
+a telegram, a read held up by a start pause or more, but at most `STAMP_TOLERANCE`, follows
+the one before back to back, so a program that writes a telegram byte by byte and is held up
+for a few milliseconds does not end its own telegram; between telegrams every pause counts as
+it came. At most one telegram's worth (`MAX_TELEGRAM_BYTES` characters) waits on the line:
+what a peer writes faster than the line carries beyond that is dropped (`ServerStats.dropped`),
+so a peer that floods the line and leaves costs the peers after it at most one telegram time.
+The answer starts the response delay after the request's last character ended on that line
+(A 5.2.1.1) and is written then, all at once, as a pty or a socket carries it: the master has
+the whole answer within the response delay at any baud rate (on a wire its characters would
+still be coming for a telegram time). ``timed`` overrides the choice (default: timed unless
+the transport is a pty or a raw TCP one). Short waits are finished by polling the clock, as
+the event loop's timers are only as fine as a millisecond.
 A pty or TCP line with one drive on it follows that drive's baud rate parameter (C 3): a
 change written to it is answered at the old rate, then the line runs at the new one (pacing,
 start pause, response window). Other lines keep their rate while they run.
@@ -51,23 +61,21 @@ from pyuss.log import log_frame
 from pyuss.loop import sleep_until
 from pyuss.protocol.diagnostics import Diagnostics
 from pyuss.protocol.layout import Layout
-from pyuss.protocol.receiver import Received, ReceiveFault, Receiver
-from pyuss.protocol.telegram import AddressMode, Telegram
+from pyuss.protocol.receiver import Event, Received, ReceiveFault, Receiver
+from pyuss.protocol.telegram import MAX_TELEGRAM_BYTES, AddressMode, Telegram
 from pyuss.slave.diagnostic import software_version
 from pyuss.slave.engine import SlaveEngine
-from pyuss.transport.base import Transport
+from pyuss.transport.base import STAMP_TOLERANCE, LineError, Transport
 from pyuss.transport.pty import PtyPort
 from pyuss.transport.queued import EchoError
 from pyuss.transport.tcp import TcpServerTransport, TcpTransport
 
-__all__ = ["ServerStats", "SlaveServer", "describe", "serve"]
+__all__ = ["PacedLine", "ServerStats", "SlaveServer", "describe", "serve"]
 
 log = logging.getLogger("pyuss.slave")
 
 _IDLE_READ = 0.1
 """Longest single wait for the line, so that a stop request is seen soon."""
-_MAX_BACKLOG = 1.0
-"""On an untimed line, reads are not placed more than this many seconds behind their arrival."""
 _GUARD = 1e-9
 """Answers aim this much past their moment, so that rounding never puts them a hair early."""
 LATE_MARGIN = 0.001
@@ -91,6 +99,76 @@ class ServerStats:
     """Answers the line did not take (nobody reads a pty): dropped, the server goes on."""
     late: int = 0
     """Answers that started after the latest moment the profile allows."""
+    dropped: int = 0
+    """Bytes a peer wrote on a pty or TCP line beyond the one telegram's worth that may wait
+    on it (`PacedLine`): dropped before the receiver sees them."""
+
+
+class PacedLine:
+    """The line a server keeps for a transport without timing (a pty, a TCP socket), sans-io.
+
+    ``char_time``: one character (11 bits, A 6.1). Times are seconds on the transport's clock;
+    nothing here reads a clock.
+
+    - `take` puts a read on the line: it starts when it arrived, or when the characters before
+      it have left the line, and its bytes follow back to back.
+    - While a telegram is being received (``going_on``), a read that comes at least a start
+      pause (2 characters, A 5.1.2) but no more than ``hold`` after the one before would have
+      ended, had that started when it arrived, follows it back to back: the writing program
+      was held up (the scheduler, the network), and that is no pause of the line. A shorter
+      gap is kept as it came, so a writer that paces its characters like a UART is measured
+      against the residual time (A 6.3) as on a wire; a longer one ends the telegram. The line
+      then runs `lag` behind the arrivals until the next telegram.
+    - At most `MAX_TELEGRAM_BYTES` characters' time may be pending behind an arrival; the bytes
+      of a read beyond that are not taken (a serial device server's full buffer).
+    - `answer` gives the moment an answer starts.
+    """
+
+    __slots__ = ("char_time", "free", "heard", "hold")
+
+    def __init__(self, char_time: float, *, hold: float = STAMP_TOLERANCE) -> None:
+        self.char_time = char_time
+        self.hold = hold
+        self.free = -math.inf
+        """When the last character taken ends on the line (``-inf``: nothing yet)."""
+        self.heard = -math.inf
+        """When the last read taken would have ended, had it started when it arrived."""
+
+    @property
+    def most(self) -> float:
+        """The longest time characters may wait on the line: one longest telegram."""
+        return MAX_TELEGRAM_BYTES * self.char_time
+
+    @property
+    def lag(self) -> float:
+        """How far the line runs behind the arrivals (the hold-ups it took out)."""
+        return max(0.0, self.heard - self.free)
+
+    def take(self, size: int, arrival: float, *, going_on: bool = False) -> int:
+        """Put ``size`` bytes read at ``arrival`` on the line; return how many of them (the
+        first ones) it took. The last one taken ends at `free`. ``going_on``: a telegram (or a
+        run of bytes) is being received."""
+        if not going_on:  # a new telegram: the line catches up with the arrivals
+            start = max(arrival, self.free)
+        elif 2 * self.char_time <= arrival - self.heard <= self.hold:  # a hold-up
+            start = self.free
+        else:
+            start = max(arrival - self.lag, self.free)
+        room = math.floor((arrival + self.most - start) / self.char_time + 1e-6)
+        taken = min(size, max(0, room))
+        if taken:
+            self.free = start + taken * self.char_time
+            self.heard = arrival + taken * self.char_time
+        return taken
+
+    def answer(self, request_end: float, delay: float) -> float:
+        """When an answer starts: ``delay`` after the request ended (``request_end``, as the
+        receiver saw it), after the last character taken and after the last read would have
+        ended, whichever is latest. The answer is written at once then; the line is free from
+        then on for what the peer sends next, which has the whole answer in hand."""
+        start = max(request_end, self.free, self.heard) + delay
+        self.free = max(self.free, start)
+        return start
 
 
 def describe(telegram: Telegram, layout: Layout | None = None) -> str:
@@ -154,8 +232,9 @@ class SlaveServer:
         self.receiver = self._receiver()
         self.stats = ServerStats()
         self.latency = latency
-        self._char_time = 11 / self.baud
-        self._line_free = -math.inf
+        self.line = PacedLine(11 / self.baud)
+        """The line of an untimed transport (see the module docstring)."""
+        self._flooded = False
         self._due: float | None = None
         self._write_at = timed_writer(transport)
 
@@ -179,7 +258,7 @@ class SlaveServer:
                 continue
             log.info("address %d: the line runs at %d baud from now on", engine.address, baud)
             self.baud = baud
-            self._char_time = 11 / baud
+            self.line.char_time = 11 / baud
             self.receiver = self._receiver()
             engine.set_line_baud(baud, follows=True)
 
@@ -205,8 +284,10 @@ class SlaveServer:
         now = transport.clock()
         wait = _IDLE_READ
         poll = self.receiver.next_poll()
+        # the receiver's times are the untimed line's, which may run behind the clock
+        behind = self.latency + (0.0 if self.timed else self.line.lag)
         if poll is not None:
-            wait = min(wait, max(0.0, poll + self.latency - now))
+            wait = min(wait, max(0.0, poll + behind - now))
         if self._due is not None:
             wait = min(wait, max(0.0, self._due - now))
         try:
@@ -215,15 +296,11 @@ class SlaveServer:
             log.warning("line: %s", exc)
             return
         if chunk is None:
-            events = self.receiver.poll(transport.clock() - self.latency)
+            events = self.receiver.poll(transport.clock() - behind)
         elif self.timed:
             events = self.receiver.feed(chunk.data, chunk.timestamp, chunk.errors)
         else:
-            start = max(chunk.timestamp, self._line_free)
-            if start - chunk.timestamp > _MAX_BACKLOG:
-                start = chunk.timestamp  # a peer far faster than the line: do not fall behind
-            self._line_free = start + len(chunk.data) * self._char_time
-            events = self.receiver.feed(chunk.data, self._line_free, chunk.errors)
+            events = self._paced(chunk.data, chunk.timestamp, chunk.errors)
         for event in events:
             if isinstance(event, Received):
                 await self._received(event)
@@ -241,6 +318,28 @@ class SlaveServer:
                 self._due = self._next_due()
         if events:  # a telegram may have set a drive's baud rate parameter
             self._follow_baud()
+
+    def _paced(
+        self, data: bytes, arrival: float, errors: tuple[tuple[int, LineError], ...]
+    ) -> list[Event]:
+        """Put a read of an untimed line on `line` and feed what it took to the receiver."""
+        taken = self.line.take(len(data), arrival, going_on=self.receiver.busy)
+        if taken < len(data):
+            self.stats.dropped += len(data) - taken
+            if not self._flooded:
+                log.warning(
+                    "line: a peer writes faster than %d baud carries: %d bytes dropped (at most "
+                    "one telegram's worth waits on the line)",
+                    self.baud,
+                    len(data) - taken,
+                )
+            self._flooded = True
+        else:
+            self._flooded = False
+        if not taken:
+            return []
+        kept = [(pos, flag) for pos, flag in errors if pos < taken]
+        return self.receiver.feed(data[:taken], self.line.free, kept)
 
     def _next_due(self) -> float | None:
         """The first moment an engine's `SlaveEngine.tick` has something to do."""
@@ -282,22 +381,22 @@ class SlaveServer:
             return
         low, high = engine.response_window(self.baud)
         delay = low if self.response_delay is None else min(max(self.response_delay, low), high)
-        target = event.end + delay + _GUARD
+        end = event.end
+        if not self.timed:
+            # the request's end on the untimed line (the receiver may have taken a writer's
+            # short hold-ups as back to back, `PacedLine.answer`)
+            target = self.line.answer(end, delay + _GUARD)
+            end = target - delay - _GUARD
+        else:
+            target = end + delay + _GUARD
         data = answer.encode()
         try:
             if self._write_at is not None:  # the bus starts it at ``target`` exactly
                 await self._write_at(data, target)
                 start = max(self.transport.clock(), target)
-            elif self.timed:
+            else:  # an untimed line's answer too: written at once when it starts
                 await self._wait_until(target)
                 start = self.transport.clock()
-                await self.transport.write(data)
-            else:
-                # No timing on the line: the answer goes out when its last character would
-                # have ended on a real line, so the master reads it as a real line brings it.
-                start = max(target, self._line_free)
-                self._line_free = start + len(data) * self._char_time
-                await self._wait_until(self._line_free)
                 await self.transport.write(data)
         except TransportError as exc:  # a line that is really lost ends `run` at the next read
             self.stats.unsent += 1
@@ -307,13 +406,13 @@ class SlaveServer:
         log_frame("tx", data, start)
         if log.isEnabledFor(logging.DEBUG):
             log.debug("%s -> %s", describe(telegram, layout), describe(answer, layout))
-        if start - event.end > high + LATE_MARGIN:
+        if start - end > high + LATE_MARGIN:
             self.stats.late += 1
             log.warning(
                 "address %d: answer started %.3f ms after the request, later than the %.3f ms "
                 "the profile allows",
                 engine.address,
-                (start - event.end) * 1000,
+                (start - end) * 1000,
                 high * 1000,
             )
 
