@@ -13,28 +13,15 @@ from typing import Any
 import aiomqtt
 
 from gateway import ha_schema
-from gateway.harness import Broker, MqttClient, eventually, simulated_gateway
+from gateway.harness import Broker, MqttClient, eventually, simulated_gateway, subscribed
 
 
 @contextlib.asynccontextmanager
 async def watcher(broker: Broker, *topics: str) -> AsyncIterator[dict[str, bytes]]:
     """A client that keeps the last payload of every topic it sees."""
     seen: dict[str, bytes] = {}
-    async with aiomqtt.Client("127.0.0.1", broker.port) as client:
-        for topic in topics:
-            await client.subscribe(topic, qos=1)
-
-        async def listen() -> None:
-            async for message in client.messages:
-                seen[message.topic.value] = bytes(message.payload)  # type: ignore[arg-type]
-
-        task = asyncio.create_task(listen())
-        try:
-            yield seen
-        finally:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+    async with subscribed(broker, *topics, on=seen.__setitem__):
+        yield seen
 
 
 async def test_home_assistant_discovery_validates_against_the_documented_schema(
@@ -90,7 +77,9 @@ def test_the_schema_check_finds_what_home_assistant_refuses() -> None:
     )
     assert ha_schema.check("homeassistant/sensor/n/o/config", {**good, "default_entity_id": "u"})
     assert (
-        ha_schema.check("homeassistant/sensor/n/o/config", {**good, "default_entity_id": "sensor.u"})
+        ha_schema.check(
+            "homeassistant/sensor/n/o/config", {**good, "default_entity_id": "sensor.u"}
+        )
         == []
     )
 

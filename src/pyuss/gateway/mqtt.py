@@ -171,9 +171,17 @@ class _DriveWorker:
                 raise ReadOnly("this MQTT face is read-only: only read commands are taken")
             result = await self._run(command)
         except (UssError, ValueError) as exc:
-            return reply_payload(command, error=error_dict(exc))
+            error = error_dict(exc)
+            _refused(self.drive.model.bus, f"{command.name} for {command.drive}", error["message"])
+            return reply_payload(command, error=error)
         except Exception as exc:  # one command's failure ends nothing
-            log.error("%s: %s failed: %s", self.drive.key, command.name, show(exc, 200))
+            log.error(
+                "%s: %s for %s failed: %s",
+                self.face.bus.name,
+                command.name,
+                command.drive,
+                show(exc, 200),
+            )
             return reply_payload(command, error=error_dict(exc))
         return reply_payload(command, result=result)
 
@@ -267,15 +275,11 @@ class MqttBusFace:
             self._done.popitem(last=False)
 
     # -- receiving -----------------------------------------------------------------------------
-    async def _refuse(self, command: Command, error: dict[str, Any], topic: str) -> None:
+    async def _refuse(
+        self, command: Command, error: dict[str, Any], topic: str, what: str | None = None
+    ) -> None:
         """Refuse ``command`` (one log line) with an error reply to ``topic``."""
-        log.warning(
-            "%s: refused %s for %s: %s",
-            self.bus.name,
-            command.name,
-            command.drive,
-            error["message"],
-        )
+        _refused(self.bus.name, what or f"{command.name} for {command.drive}", error["message"])
         await self.reply(command, reply_payload(command, error=error), topic)
 
     async def _message(self, topic: str, payload: bytes, *, retained: bool = False) -> None:
@@ -289,7 +293,10 @@ class MqttBusFace:
                 log.info("%s: ignored %s: %s", self.bus.name, show(topic, 200), exc)
                 return
             bad = Command(drive=drive_name, name="?")
-            await self._refuse(bad, error_dict(exc), self.workers[drive_name].topics.reply)
+            reply_topic = self.workers[drive_name].topics.reply
+            await self._refuse(
+                bad, error_dict(exc), reply_topic, f"a message on {show(topic, 120)}"
+            )
             return
         worker = self.workers.get(command.drive)
         if worker is None:
@@ -429,10 +436,10 @@ class MqttBusFace:
                 if not self._lost:
                     self._lost = True
                     log.warning(
-                        "%s: MQTT broker %s lost: %s; trying again after %g s, then up to "
-                        "every %g s",
+                        "%s: MQTT broker %s %s: %s; trying again after %g s, then up to every %g s",
                         self.bus.name,
                         self.options.endpoint,
+                        "lost" if self.connections else "unreachable",
                         show(exc, 200),
                         wait,
                         RECONNECT_MAX,
@@ -483,6 +490,13 @@ class MqttBusFace:
                     await runner
             except (TimeoutError, aiomqtt.MqttError):
                 runner.cancel()
+
+
+def _refused(bus: str, what: str, message: str) -> None:
+    """The one log line of a refused command."""
+    log.warning(
+        "%s: refused %s: %s", bus, what, message if len(message) < 300 else show(message, 300)
+    )
 
 
 def _retrieve(task: asyncio.Task[None]) -> None:

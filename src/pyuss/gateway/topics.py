@@ -11,9 +11,13 @@ Topics (``uss`` is the configurable prefix, ``BUS`` and ``DRIVE`` the configured
     uss/BUS/DRIVE/param/P107/get      read it now (any parameter, P4.2 for an element)
     uss/BUS/DRIVE/cmd/NAME            a command (`COMMAND_NAMES`)
     uss/BUS/DRIVE/reply               the result or the refusal of every command
+    uss/BUS/DRIVE/reply/...           the reply namespace: other reply topics of the drive
 
 A command's payload is a JSON object - ``{"id": "42", "value": 25.0}``, with ``reply_to``
-for another reply topic - or a plain value (``25``, ``ON``, ``PRESS``, nothing). A command with
+for another reply topic (`check_reply_to`: never one where a reply could act) - or a plain
+value (``25``, ``ON``, ``PRESS``, nothing). Every payload is parsed within bounds
+(`MAX_PAYLOAD` bytes, `MAX_DEPTH` levels of JSON, numbers of `MAX_NUMBER` characters below
+`LIMIT`, texts of `MAX_TEXT`); what breaks them is a `ConfigError` naming it. A command with
 an ``id`` is carried out once: a repeated id (an MQTT QoS 1 duplicate, a client's retry) is
 answered with the first result again and not applied twice. Commands without an id (Home
 Assistant's) are all applied; those it sends are the same whether applied once or twice.
@@ -21,11 +25,15 @@ Assistant's) are all applied; those it sends are the same whether applied once o
 Replies: ``{"id", "command", "drive", "ok": true, "result": {...}}`` or ``{"ok": false,
 "error": {"type", "message", "class", "number", "meaning"}}`` (`pyuss.points.errors`).
 
+States, parameters and results carry values rounded to their resolution (`state_dict`,
+`reading_dict`).
+
 Home Assistant discovery (`discovery`): per drive one device with sensors for the state text,
 the status word, every actual value and configured parameter (with unit and, where the unit
 has one, the device class), binary sensors for fault, warning and operation enabled, a number
 for the main setpoint, a switch for ON/OFF1 and buttons for acknowledge, OFF2 and OFF3; all
-available while the gateway and the drive are.
+available while the gateway and the drive are; each names its entity id as
+``default_entity_id`` (``sensor.pyuss_line1_conveyor_state``) and its display precision.
 """
 
 from __future__ import annotations
@@ -164,7 +172,7 @@ MAX_NUMBER = 24
 MAX_TEXT = 256
 """Characters of an id, a key or a reply topic."""
 LIMIT = 1 << 63
-"""Integers are smaller in magnitude than this (what a drive carries has 32 bits)."""
+"""Numbers are smaller in magnitude than this (what a drive carries has 32 bits)."""
 
 
 def show(value: object, width: int = 40) -> str:
@@ -335,10 +343,10 @@ def number(value: Any, what: str) -> int | float:
                 raise ConfigError(f"{what}: {show(value)} is not a number") from None
     else:
         raise ConfigError(f"{what}: expected a number, not {show(value)}")
-    if isinstance(result, int) and not -LIMIT < result < LIMIT:
-        raise ConfigError(f"{what}: {show(value)} is out of range")
     if isinstance(result, float) and not math.isfinite(result):
         raise ConfigError(f"{what}: {show(value)} is not a finite number")
+    if not -LIMIT < result < LIMIT:
+        raise ConfigError(f"{what}: {show(value)} is out of range")
     return result
 
 
