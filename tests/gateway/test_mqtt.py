@@ -49,6 +49,8 @@ async def test_home_assistant_discovery_validates_against_the_documented_schema(
     setpoint = configs["homeassistant/number/pyuss_bus_drive5/setpoint/config"]
     assert setpoint["min"] == -100.0  # -200 % of the 50 Hz reference
     assert setpoint["command_topic"] == "uss/bus/drive5/cmd/setpoint"
+    commands = [config for config in configs.values() if "command_topic" in config]
+    assert commands and all(config["retain"] is False for config in commands)
     parameter = configs["homeassistant/sensor/pyuss_bus_drive5/param_P107/config"]
     assert parameter["unit_of_measurement"] == "Hz"
     assert parameter["state_topic"] == "uss/bus/drive5/param/P107"

@@ -586,6 +586,7 @@ def discovery(
         low, high = -2 * full, round(2 * full * (0x7FFF / 0x8000), 2)
         config = {
             "command_topic": topics.command("setpoint"),
+            "retain": False,  # a retained command never acts
             "state_topic": topics.state,
             "value_template": f"{{{{ value_json.setpoint.{item.key}.value }}}}",
             "min": low,
@@ -604,6 +605,7 @@ def discovery(
             "Run (ON / OFF1)",
             {
                 "command_topic": topics.command("run"),
+                "retain": False,
                 "state_topic": topics.state,
                 "value_template": "{{ 'ON' if value_json.bits.operation_enabled else 'OFF' }}",
                 "payload_on": "ON",
@@ -621,6 +623,10 @@ def discovery(
                 "button",
                 command,
                 name,
-                {"command_topic": topics.command(command), "payload_press": "PRESS"},
+                {
+                    "command_topic": topics.command(command),
+                    "payload_press": "PRESS",
+                    "retain": False,
+                },
             )
     return messages
