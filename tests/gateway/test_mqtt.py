@@ -1,6 +1,6 @@
-"""The MQTT face against a real mosquitto: discovery, availability, commands carried out once,
-nothing applied twice over a broker restart, two gateways on one broker (what the face
-refuses: test_mqtt_attacks.py)."""
+"""The MQTT face against a real mosquitto: discovery, availability, values rounded to their
+resolution, commands carried out once, nothing applied twice over a broker restart, two
+gateways on one broker (what the face refuses: test_mqtt_attacks.py)."""
 
 from __future__ import annotations
 
@@ -14,6 +14,8 @@ import aiomqtt
 
 from gateway import ha_schema
 from gateway.harness import Broker, MqttClient, eventually, simulated_gateway, subscribed
+from pyuss.gateway.topics import decimals, param_value
+from pyuss.points.parameters import ParamMeta
 
 
 @contextlib.asynccontextmanager
@@ -129,6 +131,15 @@ async def test_values_are_published_to_their_resolution(broker: Broker) -> None:
         await eventually(lambda: setpoint() == 20.0)
     assert result["setpoint"]["main"]["value"] == 20.0
     assert result["setpoint"]["main"]["percent"] == 40.0
+
+
+def test_parameters_are_rounded_to_their_resolution() -> None:
+    scaled = ParamMeta(18, None, "scaled", unit="s", scaling=0.01)
+    single = ParamMeta(107, None, "float", unit="Hz", is_float=True)
+    assert param_value(scaled, 12.340000000001) == 12.34
+    assert param_value(single, 0.10000000149011612) == 0.1  # 0.1 as a 32-bit float
+    assert param_value(ParamMeta(5, None, "integer"), 1234567) == 1234567
+    assert [decimals(step) for step in (50 / 0x4000, 0.01, 0.1, 1.0, 5.0)] == [2, 2, 1, 0, 0]
 
 
 async def test_a_command_repeated_with_its_id_is_carried_out_once(broker: Broker) -> None:
