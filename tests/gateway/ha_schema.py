@@ -1,7 +1,9 @@
 """Home Assistant's MQTT discovery schema, as far as the gateway uses it, written from Home
 Assistant's documentation of MQTT discovery and of the MQTT sensor, binary sensor, number,
 switch and button integrations: the topic structure, the required and the known options of
-each component, the device classes and the units each sensor device class accepts.
+each component, the device classes and the units each sensor device class accepts, and the
+entity id a discovery message may suggest (``default_entity_id``, ``DOMAIN.slug``; the
+deprecated ``object_id`` is ignored from Home Assistant Core 2026.4).
 
 `check(topic, config)` returns the list of what breaks the schema (empty: valid)."""
 
@@ -18,7 +20,6 @@ TOPIC = re.compile(
 COMMON = {
     "name",
     "unique_id",
-    "object_id",
     "default_entity_id",
     "device",
     "origin",
@@ -129,6 +130,10 @@ SWITCH_CLASSES = {"outlet", "switch"}
 STATE_CLASSES = {"measurement", "measurement_angle", "total", "total_increasing"}
 ENTITY_CATEGORIES = {"config", "diagnostic"}
 WILDCARDS = re.compile(r"[#+]")
+ENTITY_ID = re.compile(r"^(?P<domain>[a-z_]+)\.[a-z0-9_]+$")
+DEPRECATED = {
+    "object_id": "object_id is ignored from Home Assistant Core 2026.4: use default_entity_id",
+}
 
 
 def check(topic: str, config: dict[str, Any]) -> list[str]:
@@ -142,8 +147,17 @@ def check(topic: str, config: dict[str, Any]) -> list[str]:
     required, known = COMPONENTS[component]
     for key in sorted(required - config.keys()):
         problems.append(f"{topic}: {key} is required")
-    for key in sorted(config.keys() - required - known - COMMON):
+    for key in sorted(config.keys() & DEPRECATED.keys()):
+        problems.append(f"{topic}: {DEPRECATED[key]}")
+    for key in sorted(config.keys() - required - known - COMMON - DEPRECATED.keys()):
         problems.append(f"{topic}: {key} is not an option of {component}")
+    if "default_entity_id" in config:
+        entity = ENTITY_ID.match(str(config["default_entity_id"]))
+        if entity is None or entity["domain"] != component:
+            problems.append(f"{topic}: default_entity_id must be {component}.<lower-case slug>")
+    precision = config.get("suggested_display_precision", 0)
+    if isinstance(precision, bool) or not isinstance(precision, int) or precision < 0:
+        problems.append(f"{topic}: suggested_display_precision must be a whole number >= 0")
     for key, value in config.items():
         if key.endswith("_topic") and (not isinstance(value, str) or WILDCARDS.search(value)):
             problems.append(f"{topic}: {key} must be a topic without wildcards")

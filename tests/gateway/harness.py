@@ -15,7 +15,7 @@ import socket
 import struct
 import subprocess
 import time
-from collections.abc import AsyncIterator, Sequence
+from collections.abc import AsyncIterator, Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -340,6 +340,30 @@ class OpcuaClient:
         )
         result: float = answered[0] if isinstance(answered, list) else answered
         return result
+
+
+@contextlib.asynccontextmanager
+async def subscribed(
+    broker: Broker, *topics: str, on: Callable[[str, bytes], object]
+) -> AsyncIterator[None]:
+    """A client on ``broker`` subscribed to ``topics`` (QoS 1), handing every message to
+    ``on(topic, payload)`` until the block ends."""
+    import aiomqtt
+
+    async with aiomqtt.Client("127.0.0.1", broker.port) as client:
+        for topic in topics:
+            await client.subscribe(topic, qos=1)
+
+        async def listen() -> None:
+            async for message in client.messages:
+                on(message.topic.value, bytes(message.payload))  # type: ignore[arg-type]
+
+        task = asyncio.create_task(listen())
+        try:
+            yield
+        finally:
+            task.cancel()
+            await asyncio.gather(task, return_exceptions=True)
 
 
 async def eventually(check: Any, timeout: float = 10.0) -> None:

@@ -1,5 +1,6 @@
-"""The MQTT face against a real mosquitto: discovery, availability, commands carried out once,
-nothing lost over a broker restart, two gateways on one broker."""
+"""The MQTT face against a real mosquitto: discovery, availability, values rounded to their
+resolution, commands carried out once, nothing applied twice over a broker restart, two
+gateways on one broker (what the face refuses: test_mqtt_attacks.py)."""
 
 from __future__ import annotations
 
@@ -12,28 +13,17 @@ from typing import Any
 import aiomqtt
 
 from gateway import ha_schema
-from gateway.harness import Broker, MqttClient, eventually, simulated_gateway
+from gateway.harness import Broker, MqttClient, eventually, simulated_gateway, subscribed
+from pyuss.gateway.topics import decimals, param_value
+from pyuss.points.parameters import ParamMeta
 
 
 @contextlib.asynccontextmanager
 async def watcher(broker: Broker, *topics: str) -> AsyncIterator[dict[str, bytes]]:
     """A client that keeps the last payload of every topic it sees."""
     seen: dict[str, bytes] = {}
-    async with aiomqtt.Client("127.0.0.1", broker.port) as client:
-        for topic in topics:
-            await client.subscribe(topic, qos=1)
-
-        async def listen() -> None:
-            async for message in client.messages:
-                seen[message.topic.value] = bytes(message.payload)  # type: ignore[arg-type]
-
-        task = asyncio.create_task(listen())
-        try:
-            yield seen
-        finally:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+    async with subscribed(broker, *topics, on=seen.__setitem__):
+        yield seen
 
 
 async def test_home_assistant_discovery_validates_against_the_documented_schema(
@@ -55,9 +45,14 @@ async def test_home_assistant_discovery_validates_against_the_documented_schema(
     frequency = configs["homeassistant/sensor/pyuss_bus_drive5/actual_main/config"]
     assert frequency["unit_of_measurement"] == "Hz"
     assert frequency["device_class"] == "frequency"
+    assert frequency["default_entity_id"] == "sensor.pyuss_bus_drive5_actual_main"
+    assert frequency["suggested_display_precision"] == 2  # steps of 0.003 Hz
+    assert "object_id" not in frequency
     setpoint = configs["homeassistant/number/pyuss_bus_drive5/setpoint/config"]
     assert setpoint["min"] == -100.0  # -200 % of the 50 Hz reference
     assert setpoint["command_topic"] == "uss/bus/drive5/cmd/setpoint"
+    commands = [config for config in configs.values() if "command_topic" in config]
+    assert commands and all(config["retain"] is False for config in commands)
     parameter = configs["homeassistant/sensor/pyuss_bus_drive5/param_P107/config"]
     assert parameter["unit_of_measurement"] == "Hz"
     assert parameter["state_topic"] == "uss/bus/drive5/param/P107"
@@ -80,6 +75,17 @@ def test_the_schema_check_finds_what_home_assistant_refuses() -> None:
     assert ha_schema.check("homeassistant/sensor/n/o/config", {**good, "state_topic": "a/#"})
     assert ha_schema.check("homeassistant/number/n/o/config", {**good, "min": 5, "max": 1})
     assert ha_schema.check("homeassistant/button/n/o/config", {"name": "x", "unique_id": "u"})
+    assert ha_schema.check("homeassistant/sensor/n/o/config", {**good, "object_id": "u"})
+    assert ha_schema.check(
+        "homeassistant/sensor/n/o/config", {**good, "default_entity_id": "switch.u"}
+    )
+    assert ha_schema.check("homeassistant/sensor/n/o/config", {**good, "default_entity_id": "u"})
+    assert (
+        ha_schema.check(
+            "homeassistant/sensor/n/o/config", {**good, "default_entity_id": "sensor.u"}
+        )
+        == []
+    )
 
 
 async def test_home_assistant_commands_switch_and_set_the_drive(broker: Broker) -> None:
@@ -107,6 +113,33 @@ async def test_state_is_retained_json_with_units(broker: Broker) -> None:
     assert state["actual"]["main"]["unit"] == "Hz"
     assert state["reference"] == {"value": 50.0, "unit": "Hz"}
     assert state["bits"]["switch_on_inhibited"] is True
+
+
+async def test_values_are_published_to_their_resolution(broker: Broker) -> None:
+    async with (
+        simulated_gateway(mqtt=broker.url) as (gateway, engines),
+        MqttClient(gateway) as client,
+        watcher(broker, "uss/bus/drive5/state") as seen,
+    ):
+        result = await client.command(5, "setpoint", value=20.0)
+        assert engines[5].drive.machine.setpoint * 50 != 20.0  # 199Ah: 20.001221 Hz
+
+        def setpoint() -> Any:
+            state = json.loads(seen.get("uss/bus/drive5/state", b"{}"))
+            return state.get("setpoint", {}).get("main", {}).get("value")
+
+        await eventually(lambda: setpoint() == 20.0)
+    assert result["setpoint"]["main"]["value"] == 20.0
+    assert result["setpoint"]["main"]["percent"] == 40.0
+
+
+def test_parameters_are_rounded_to_their_resolution() -> None:
+    scaled = ParamMeta(18, None, "scaled", unit="s", scaling=0.01)
+    single = ParamMeta(107, None, "float", unit="Hz", is_float=True)
+    assert param_value(scaled, 12.340000000001) == 12.34
+    assert param_value(single, 0.10000000149011612) == 0.1  # 0.1 as a 32-bit float
+    assert param_value(ParamMeta(5, None, "integer"), 1234567) == 1234567
+    assert [decimals(step) for step in (50 / 0x4000, 0.01, 0.1, 1.0, 5.0)] == [2, 2, 1, 0, 0]
 
 
 async def test_a_command_repeated_with_its_id_is_carried_out_once(broker: Broker) -> None:
@@ -146,7 +179,7 @@ async def test_a_bad_command_gets_a_reply_naming_what_was_wrong(broker: Broker) 
     assert "unknown command 'jump'" in client.replies["None"]["error"]["message"]
 
 
-async def test_no_command_is_lost_or_applied_twice_over_a_broker_restart(broker: Broker) -> None:
+async def test_no_command_is_applied_twice_over_a_broker_restart(broker: Broker) -> None:
     async with simulated_gateway(mqtt=broker.url) as (gateway, engines):
         face = gateway.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
         sent: list[str] = []
@@ -173,10 +206,10 @@ async def test_no_command_is_lost_or_applied_twice_over_a_broker_restart(broker:
         broker.stop()
         await eventually(lambda: not face.connected.is_set())
         broker.start()
-        # commands sent at once, whether the gateway is back yet or not: the broker keeps
-        # them for its session
-        await client_session(range(6, 11))
+        # commands sent while the gateway is away never act (tests/gateway/test_mqtt_attacks.py);
+        # once it is back, each is carried out once
         await eventually(lambda: face.connections >= 2)
+        await client_session(range(6, 11))
     assert sorted(replies) == sorted(sent)
     assert all(len(r) == 1 and r[0]["ok"] for r in replies.values())
     assert engines[5].drive.value(18) == 10

@@ -3,12 +3,20 @@
 Topics, payloads and discovery are `pyuss.gateway.topics` (pure, tested without a broker);
 this module is the client around them:
 
-- It connects with a persistent session (``clean_session`` off, a fixed client id per bus,
-  ``pyuss-BUS``) and a last will that sets ``uss/BUS/availability`` to ``offline``; it
-  subscribes to the command topics with QoS 1. While it is away the broker keeps the commands
-  sent to it (a broker that keeps its sessions over a restart keeps them over that, too).
+- It speaks MQTT 5 and connects with a clean start and no session kept (a fixed client id per
+  bus, ``pyuss-BUS``) and a last will that sets ``uss/BUS/availability`` to ``offline``; it
+  subscribes to the command topics with QoS 1, "no local" (what it publishes itself never
+  comes back to it) and "retain as published" (a command published retained is seen as
+  such however it arrives). So only commands sent while it is connected reach it: the broker
+  keeps none for it while it is away, and none is delivered again after a reconnection.
+- A retained command never acts, nor one whose reply topic could act (`check_reply_to`);
+  every message is parsed within bounds (`pyuss.gateway.topics.MAX_PAYLOAD` and the rest).
+  Such a message gets an error reply and one log line; nothing a message holds ends the
+  message loop or a drive's task.
 - After every (re)connection it subscribes again, publishes ``online``, the discovery
-  messages, every drive's state and availability, and the replies it could not send.
+  messages, every drive's state and availability, and the replies it could not send. An
+  unreachable broker is tried again after 1 s, then twice as long each time up to
+  `RECONNECT_MAX`; losing it and getting it back are one log line each.
 - States go out retained whenever a drive's state changes (at most once per bus cycle per
   drive, the newest one), parameters when they were read.
 - Commands of one drive are carried out one after the other, in order, by a task of that
@@ -24,6 +32,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import json
 import logging
 import ssl
@@ -31,17 +40,23 @@ from collections import OrderedDict, deque
 from typing import Any
 
 import aiomqtt
+from paho.mqtt.reasoncodes import ReasonCode
+from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from pyuss.errors import ConfigError, UssError
 from pyuss.gateway.config import MqttOptions
 from pyuss.gateway.topics import (
     Command,
     DriveTopics,
+    check_reply_to,
     discovery,
     number,
     param_payload,
     parse_command,
+    reading_dict,
     reply_payload,
+    show,
+    state_dict,
     state_payload,
     subscriptions,
     switch_value,
@@ -64,6 +79,16 @@ OUTBOX = 1000
 """Replies kept while the broker cannot be reached (the oldest are dropped first)."""
 QUEUE = 100
 """Commands waiting per drive; more are answered with a refusal."""
+SUBSCRIBE = SubscribeOptions(qos=1, noLocal=True, retainAsPublished=True)
+"""Command subscriptions: QoS 1; what the face publishes never comes back to it; a retained
+command keeps its retain flag whenever it is delivered."""
+RECONNECT_MAX = 60.0
+"""The longest wait between two tries to reach the broker (seconds)."""
+
+
+def _error(kind: str, message: str, failure: str = "refused") -> dict[str, Any]:
+    """An error of a reply that no exception stands for (same keys as `error_dict`)."""
+    return {"type": kind, "message": message, "class": failure}
 
 
 def _tls(options: MqttOptions) -> ssl.SSLContext | None:
@@ -135,7 +160,10 @@ class _DriveWorker:
             command = await self.queue.get()
             reply = await self.carry_out(command)
             self.face.remember(command, reply)
-            await self.face.reply(command, reply, self.topics.reply)
+            try:
+                await self.face.reply(command, reply, self.topics.reply)
+            except Exception as exc:  # the drive's next command is served
+                log.error("%s: reply to %s failed: %r", self.drive.key, command.name, exc)
 
     async def carry_out(self, command: Command) -> dict[str, Any]:
         try:
@@ -143,6 +171,17 @@ class _DriveWorker:
                 raise ReadOnly("this MQTT face is read-only: only read commands are taken")
             result = await self._run(command)
         except (UssError, ValueError) as exc:
+            error = error_dict(exc)
+            _refused(self.drive.model.bus, f"{command.name} for {command.drive}", error["message"])
+            return reply_payload(command, error=error)
+        except Exception as exc:  # one command's failure ends nothing
+            log.error(
+                "%s: %s for %s failed: %s",
+                self.face.bus.name,
+                command.name,
+                command.drive,
+                show(exc, 200),
+            )
             return reply_payload(command, error=error_dict(exc))
         return reply_payload(command, result=result)
 
@@ -160,25 +199,25 @@ class _DriveWorker:
         elif name == "control_word":
             word = number(command.value, name)
             if not isinstance(word, int):
-                raise ConfigError(f"control word must be a whole number, not {command.value!r}")
+                raise ConfigError(f"control word must be a whole number, not {show(word)}")
             state = await drive.set_control_word(word)
         elif name == "read":
             assert command.pnu is not None
-            return (await drive.read_parameter(command.pnu, command.index)).to_dict()
+            return reading_dict(await drive.read_parameter(command.pnu, command.index))
         elif name == "write":
             assert command.pnu is not None
             value = number(command.value, f"write P{command.pnu}")
             reading = await drive.write_parameter(
                 command.pnu, value, command.index, eeprom=command.eeprom
             )
-            return reading.to_dict()
+            return reading_dict(reading)
         else:  # pragma: no cover - parse_command knows the names
             raise UnknownPoint(f"unknown command {name!r}")
         return {
             "status_word": state.status_word,
             "state": state.state,
             "control_word": state.control_word,
-            "setpoint": {k: v.to_dict() for k, v in state.setpoints.items()},
+            "setpoint": state_dict(state)["setpoint"],
         }
 
 
@@ -201,6 +240,9 @@ class MqttBusFace:
         self._runner: asyncio.Task[None] | None = None
         self.connections = 0
         """How many times the client connected (1 + reconnections)."""
+        self.attempts = 0
+        """Failed tries to reach the broker since it was last connected."""
+        self._lost = False
 
     # -- publishing ----------------------------------------------------------------------------
     async def publish(
@@ -233,22 +275,43 @@ class MqttBusFace:
             self._done.popitem(last=False)
 
     # -- receiving -----------------------------------------------------------------------------
-    async def _message(self, topic: str, payload: bytes) -> None:
-        log.debug("%s: %s %r", self.bus.name, topic, payload[:200])
+    async def _refuse(
+        self, command: Command, error: dict[str, Any], topic: str, what: str | None = None
+    ) -> None:
+        """Refuse ``command`` (one log line) with an error reply to ``topic``."""
+        _refused(self.bus.name, what or f"{command.name} for {command.drive}", error["message"])
+        await self.reply(command, reply_payload(command, error=error), topic)
+
+    async def _message(self, topic: str, payload: bytes, *, retained: bool = False) -> None:
+        log.debug("%s: %s %r", self.bus.name, show(topic, 200), payload[:200])
         options = self.options
         try:
             command = parse_command(topic, payload, options.prefix, self.bus.name)
-        except (ConfigError, ValueError) as exc:
-            log.info("%s: ignored %s: %s", self.bus.name, topic, exc)
+        except ConfigError as exc:
             drive_name = _drive_of(topic, options.prefix, self.bus.name)
-            if drive_name in self.workers:
-                bad = Command(drive=drive_name, name="?")
-                reply = reply_payload(bad, error=error_dict(exc))
-                await self.reply(bad, reply, self.workers[drive_name].topics.reply)
+            if drive_name not in self.workers:
+                log.info("%s: ignored %s: %s", self.bus.name, show(topic, 200), exc)
+                return
+            bad = Command(drive=drive_name, name="?")
+            reply_topic = self.workers[drive_name].topics.reply
+            await self._refuse(
+                bad, error_dict(exc), reply_topic, f"a message on {show(topic, 120)}"
+            )
             return
         worker = self.workers.get(command.drive)
         if worker is None:
-            log.info("%s: command for unknown drive %r", self.bus.name, command.drive)
+            log.info("%s: command for unknown drive %s", self.bus.name, show(command.drive))
+            return
+        if command.reply_to is not None:
+            try:
+                check_reply_to(command.reply_to, worker.topics, options.discovery_prefix)
+            except ConfigError as exc:
+                bare = dataclasses.replace(command, reply_to=None)
+                await self._refuse(bare, error_dict(exc), worker.topics.reply)
+                return
+        if retained:
+            message = "a retained message never acts: publish commands without the retain flag"
+            await self._refuse(command, _error("Retained", message), worker.topics.reply)
             return
         if command.id is not None:
             key = (command.drive, command.id)
@@ -264,8 +327,8 @@ class MqttBusFace:
         except asyncio.QueueFull:
             if command.id is not None:
                 self._pending.discard((command.drive, command.id))
-            error = {"type": "Busy", "message": f"{QUEUE} commands wait already", "class": "busy"}
-            await self.reply(command, reply_payload(command, error=error), worker.topics.reply)
+            busy = _error("Busy", f"{QUEUE} commands wait already", "busy")
+            await self._refuse(command, busy, worker.topics.reply)
 
     # -- the connection ------------------------------------------------------------------------
     def _make_client(self) -> aiomqtt.Client:
@@ -276,7 +339,8 @@ class MqttBusFace:
             username=options.username,
             password=options.password,
             identifier=self.client_id,
-            clean_session=False,
+            protocol=aiomqtt.ProtocolVersion.V5,
+            clean_start=True,  # and no session expiry: nothing is kept while away
             keepalive=options.keepalive,
             will=aiomqtt.Will(self.availability, "offline", qos=1, retain=True),
             tls_context=_tls(options),
@@ -287,7 +351,9 @@ class MqttBusFace:
     async def _connected(self, client: aiomqtt.Client) -> None:
         self._client = client
         for topic in subscriptions(self.options.prefix, self.bus.name):
-            await client.subscribe(topic, qos=1)
+            granted = await client.subscribe(topic, options=SUBSCRIBE)
+            if any(_failed(code) for code in granted):
+                raise aiomqtt.MqttError(f"the broker refused the subscription to {topic}")
         await client.publish(self.availability, "online", qos=1, retain=True)
         self.connected.set()
         self.connections += 1
@@ -299,51 +365,92 @@ class MqttBusFace:
             topic, payload = self._outbox[0]
             await client.publish(topic, payload, qos=1)
             self._outbox.popleft()
-        log.info("%s: connected to MQTT broker %s", self.bus.name, self.options.endpoint)
 
     async def _consume(self, client: aiomqtt.Client) -> None:
         async for message in client.messages:
-            payload = message.payload
-            data = payload if isinstance(payload, bytes) else str(payload).encode()
-            await self._message(message.topic.value, data)
+            try:
+                payload = message.payload
+                data = payload if isinstance(payload, bytes) else str(payload).encode()
+                await self._message(message.topic.value, data, retained=bool(message.retain))
+            except aiomqtt.MqttError:
+                raise  # the connection is lost: `run` reconnects
+            except Exception as exc:  # one message never ends the face
+                log.error(
+                    "%s: message on %s: %s",
+                    self.bus.name,
+                    show(message.topic.value, 200),
+                    show(exc, 200),
+                )
+
+    async def _session(self) -> None:
+        """One connection, from connecting until it is lost (`aiomqtt.MqttError`) or `close`."""
+        client = self._make_client()  # a fresh client per connection
+        consume: asyncio.Task[None] | None = None
+        try:
+            async with client:
+                await self._connected(client)
+                if self._lost:
+                    log.warning(
+                        "%s: MQTT broker %s is back (after %d tries)",
+                        self.bus.name,
+                        self.options.endpoint,
+                        self.attempts,
+                    )
+                else:
+                    log.info(
+                        "%s: connected to MQTT broker %s", self.bus.name, self.options.endpoint
+                    )
+                self._lost = False
+                self.attempts = 0
+                consume = asyncio.create_task(self._consume(client))
+                consume.add_done_callback(_retrieve)
+                stop = asyncio.create_task(self._stop.wait())
+                try:
+                    await asyncio.wait({consume, stop}, return_when=asyncio.FIRST_COMPLETED)
+                finally:
+                    stop.cancel()
+                if consume.done():
+                    consume.result()  # the connection was lost: MqttError
+                # stopping: leaving the block disconnects cleanly
+        finally:
+            self.connected.clear()
+            self._client = None
+            if consume is not None and not consume.done():
+                consume.cancel()
 
     async def run(self) -> None:
-        """Stay connected (reconnect after losses) until `close`."""
+        """Stay connected until `close`: after a loss, try again after `MqttOptions.reconnect`
+        seconds, doubling the wait up to `RECONNECT_MAX`; one log line when the broker is lost,
+        one when it is back."""
+        wait = self.options.reconnect
         while not self._stop.is_set():
-            client = self._make_client()  # a fresh client per connection
-            consume: asyncio.Task[None] | None = None
+            connections = self.connections
             try:
-                async with client:
-                    await self._connected(client)
-                    consume = asyncio.create_task(self._consume(client))
-                    consume.add_done_callback(_retrieve)
-                    stop = asyncio.create_task(self._stop.wait())
-                    try:
-                        await asyncio.wait({consume, stop}, return_when=asyncio.FIRST_COMPLETED)
-                    finally:
-                        stop.cancel()
-                    if consume.done():
-                        consume.result()  # the connection was lost: MqttError
-                    # stopping: leaving the block disconnects cleanly
-            except aiomqtt.MqttError as exc:
+                await self._session()
+            except Exception as exc:  # MqttError, or a broker speaking nonsense
                 if self._stop.is_set():
                     break
-                log.warning(
-                    "%s: MQTT broker %s: %s; again in %g s",
-                    self.bus.name,
-                    self.options.endpoint,
-                    exc,
-                    self.options.reconnect,
-                )
-            finally:
-                self.connected.clear()
-                self._client = None
-                if consume is not None and not consume.done():
-                    consume.cancel()
+                if self.connections != connections:
+                    wait = self.options.reconnect  # it was connected: start again at 1 s
+                self.attempts += 1
+                if not self._lost:
+                    self._lost = True
+                    log.warning(
+                        "%s: MQTT broker %s %s: %s; trying again after %g s, then up to every %g s",
+                        self.bus.name,
+                        self.options.endpoint,
+                        "lost" if self.connections else "unreachable",
+                        show(exc, 200),
+                        wait,
+                        RECONNECT_MAX,
+                    )
+                else:
+                    log.debug("%s: MQTT broker still unreachable: %s", self.bus.name, exc)
             if not self._stop.is_set():
                 with contextlib.suppress(TimeoutError):
-                    async with asyncio.timeout(self.options.reconnect):
+                    async with asyncio.timeout(wait):
                         await self._stop.wait()
+                wait = min(wait * 2, RECONNECT_MAX)
 
     async def start(self) -> None:
         for worker in self.workers.values():
@@ -385,10 +492,22 @@ class MqttBusFace:
                 runner.cancel()
 
 
+def _refused(bus: str, what: str, message: str) -> None:
+    """The one log line of a refused command."""
+    log.warning(
+        "%s: refused %s: %s", bus, what, message if len(message) < 300 else show(message, 300)
+    )
+
+
 def _retrieve(task: asyncio.Task[None]) -> None:
     """Mark the outcome of a finished task as seen (a lost connection is handled by `run`)."""
     if not task.cancelled():
         task.exception()
+
+
+def _failed(code: int | ReasonCode) -> bool:
+    """A subscription the broker did not grant (MQTT 5 reason code 80h and above)."""
+    return (code.value if isinstance(code, ReasonCode) else code) >= 0x80
 
 
 def _drive_of(topic: str, prefix: str, bus: str) -> str | None:

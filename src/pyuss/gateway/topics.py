@@ -11,9 +11,13 @@ Topics (``uss`` is the configurable prefix, ``BUS`` and ``DRIVE`` the configured
     uss/BUS/DRIVE/param/P107/get      read it now (any parameter, P4.2 for an element)
     uss/BUS/DRIVE/cmd/NAME            a command (`COMMAND_NAMES`)
     uss/BUS/DRIVE/reply               the result or the refusal of every command
+    uss/BUS/DRIVE/reply/...           the reply namespace: other reply topics of the drive
 
 A command's payload is a JSON object - ``{"id": "42", "value": 25.0}``, with ``reply_to``
-for another reply topic - or a plain value (``25``, ``ON``, ``PRESS``, nothing). A command with
+for another reply topic (`check_reply_to`: never one where a reply could act) - or a plain
+value (``25``, ``ON``, ``PRESS``, nothing). Every payload is parsed within bounds
+(`MAX_PAYLOAD` bytes, `MAX_DEPTH` levels of JSON, numbers of `MAX_NUMBER` characters below
+`LIMIT`, texts of `MAX_TEXT`); what breaks them is a `ConfigError` naming it. A command with
 an ``id`` is carried out once: a repeated id (an MQTT QoS 1 duplicate, a client's retry) is
 answered with the first result again and not applied twice. Commands without an id (Home
 Assistant's) are all applied; those it sends are the same whether applied once or twice.
@@ -21,11 +25,15 @@ Assistant's) are all applied; those it sends are the same whether applied once o
 Replies: ``{"id", "command", "drive", "ok": true, "result": {...}}`` or ``{"ok": false,
 "error": {"type", "message", "class", "number", "meaning"}}`` (`pyuss.points.errors`).
 
+States, parameters and results carry values rounded to their resolution (`state_dict`,
+`reading_dict`).
+
 Home Assistant discovery (`discovery`): per drive one device with sensors for the state text,
 the status word, every actual value and configured parameter (with unit and, where the unit
 has one, the device class), binary sensors for fault, warning and operation enabled, a number
 for the main setpoint, a switch for ON/OFF1 and buttons for acknowledge, OFF2 and OFF3; all
-available while the gateway and the drive are.
+available while the gateway and the drive are; each names its entity id as
+``default_entity_id`` (``sensor.pyuss_line1_conveyor_state``) and its display precision.
 """
 
 from __future__ import annotations
@@ -37,17 +45,21 @@ from typing import Any
 
 from pyuss import __version__
 from pyuss.errors import ConfigError
-from pyuss.points.config import parse_parameter_spec
+from pyuss.points.config import ProcessConfig, parse_parameter_spec
 from pyuss.points.model import DriveModel
+from pyuss.points.parameters import ParamMeta
 from pyuss.points.state import DriveState, ParamValue
+from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32
 
 __all__ = [
     "COMMAND_NAMES",
     "Command",
     "DriveTopics",
+    "check_reply_to",
     "discovery",
     "parse_command",
     "reply_payload",
+    "state_dict",
     "state_payload",
 ]
 
@@ -151,26 +163,113 @@ class Command:
         return self.name in WRITES
 
 
+MAX_PAYLOAD = 4096
+"""Bytes a command's payload may have (a command is a few dozen)."""
+MAX_DEPTH = 4
+"""JSON nesting a command's payload may have (a command is one flat object)."""
+MAX_NUMBER = 24
+"""Characters a number may have, in JSON or as plain text (a 64-bit integer has 20)."""
+MAX_TEXT = 256
+"""Characters of an id, a key or a reply topic."""
+LIMIT = 1 << 63
+"""Numbers are smaller in magnitude than this (what a drive carries has 32 bits)."""
+
+
+def show(value: object, width: int = 40) -> str:
+    """``repr(value)``, cut to ``width`` characters for error messages and log lines."""
+    text = repr(value)
+    return text if len(text) <= width else f"{text[: width - 5]}...{text[-2:]}"
+
+
+def _depth(text: str) -> int:
+    """The deepest nesting of JSON arrays and objects in ``text`` (strings skipped)."""
+    depth = deepest = 0
+    quoted = escaped = False
+    for char in text:
+        if quoted:
+            if escaped:
+                escaped = False
+            elif char == "\\":
+                escaped = True
+            elif char == '"':
+                quoted = False
+        elif char == '"':
+            quoted = True
+        elif char in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif char in "]}":
+            depth -= 1
+    return deepest
+
+
+class _Bad(Exception):
+    """A number or constant the JSON parser hands over that a command never holds."""
+
+
+def _json_int(text: str) -> int:
+    if len(text) > MAX_NUMBER:
+        raise _Bad(f"a number has at most {MAX_NUMBER} characters, not {len(text)}")
+    return int(text)
+
+
+def _json_float(text: str) -> float:
+    if len(text) > MAX_NUMBER:
+        raise _Bad(f"a number has at most {MAX_NUMBER} characters, not {len(text)}")
+    return float(text)
+
+
+def _json_constant(text: str) -> float:
+    raise _Bad(f"{text} is not a finite number")
+
+
 def _payload(raw: bytes) -> tuple[dict[str, Any], Any]:
-    """(JSON object fields, plain value)."""
-    text = raw.decode("utf-8", errors="strict").strip() if raw else ""
+    """(JSON object fields, plain value); `ConfigError` if the payload is too long, nested
+    too deep, holds too long a number or is not UTF-8 text."""
+    if len(raw) > MAX_PAYLOAD:
+        raise ConfigError(f"the payload has {len(raw)} bytes; a command has at most {MAX_PAYLOAD}")
+    try:
+        text = raw.decode("utf-8", errors="strict").strip() if raw else ""
+    except UnicodeDecodeError:
+        raise ConfigError("the payload is not UTF-8 text") from None
     if not text:
         return {}, None
+    if _depth(text) > MAX_DEPTH:
+        raise ConfigError(f"the payload is nested deeper than {MAX_DEPTH} levels")
     try:
-        data = json.loads(text)
-    except ValueError:
+        data = json.loads(
+            text, parse_int=_json_int, parse_float=_json_float, parse_constant=_json_constant
+        )
+    except _Bad as exc:
+        raise ConfigError(f"the payload: {exc}") from None
+    except json.JSONDecodeError:
         return {}, text
     if isinstance(data, dict):
         return data, data.get("value")
     return {}, data
 
 
+def _text(fields: dict[str, Any], key: str) -> str | None:
+    """The optional text field ``key``: a string (or, for ``id``, a number) of at most
+    `MAX_TEXT` characters."""
+    value = fields.get(key)
+    if value is None:
+        return None
+    if key == "id" and isinstance(value, int) and not isinstance(value, bool):
+        value = str(value)
+    if not isinstance(value, str) or not value:
+        raise ConfigError(f"{key} must be a non-empty string, not {show(value)}")
+    if len(value) > MAX_TEXT:
+        raise ConfigError(f"{key} has at most {MAX_TEXT} characters, not {len(value)}")
+    return value
+
+
 def _param(value: object) -> tuple[int, int | None]:
     if isinstance(value, int) and not isinstance(value, bool):
         return value, None
-    if isinstance(value, str):
+    if isinstance(value, str) and len(value) <= MAX_NUMBER:
         return parse_parameter_spec(value)
-    raise ConfigError(f"a parameter is a PNU or 'PNU.INDEX', not {value!r}")
+    raise ConfigError(f"a parameter is a PNU or 'PNU.INDEX', not {show(value)}")
 
 
 def parse_command(topic: str, payload: bytes, prefix: str, bus: str) -> Command:
@@ -179,36 +278,31 @@ def parse_command(topic: str, payload: bytes, prefix: str, bus: str) -> Command:
     parts = topic.split("/")
     head = [*prefix.split("/"), bus]
     if parts[: len(head)] != head or len(parts) < len(head) + 3:
-        raise ConfigError(f"topic {topic!r} is not a command topic of bus {bus}")
+        raise ConfigError(f"topic {show(topic)} is not a command topic of bus {bus}")
     drive = parts[len(head)]
     rest = parts[len(head) + 1 :]
-    try:
-        fields, value = _payload(payload)
-    except UnicodeDecodeError:
-        raise ConfigError("the payload is not UTF-8 text") from None
-    ident = fields.get("id")
-    if ident is not None and not isinstance(ident, str | int):
-        raise ConfigError(f"id must be a string or a number, not {ident!r}")
-    reply_to = fields.get("reply_to")
-    if reply_to is not None and (
-        not isinstance(reply_to, str) or not reply_to or any(c in reply_to for c in "+#")
-    ):
-        raise ConfigError(f"reply_to must be a topic without wildcards, not {reply_to!r}")
+    fields, value = _payload(payload)
+    reply_to = _text(fields, "reply_to")
+    if reply_to is not None and any(c in reply_to for c in "+#\0"):
+        raise ConfigError(f"reply_to must be a topic without wildcards, not {show(reply_to)}")
+    eeprom = fields.get("eeprom", False)
+    if not isinstance(eeprom, bool):
+        raise ConfigError(f"eeprom must be true or false, not {show(eeprom)}")
     common: dict[str, Any] = {
         "drive": drive,
-        "id": None if ident is None else str(ident),
+        "id": _text(fields, "id"),
         "reply_to": reply_to,
-        "eeprom": bool(fields.get("eeprom", False)),
+        "eeprom": eeprom,
     }
     if rest[0] == "param" and len(rest) == 3 and rest[2] in ("set", "get"):
         param = _param(rest[1])
         name = "write" if rest[2] == "set" else "read"
         return Command(name=name, value=value, pnu=param[0], index=param[1], **common)
     if rest[0] != "cmd" or len(rest) != 2:
-        raise ConfigError(f"topic {topic!r} is not a command topic")
+        raise ConfigError(f"topic {show(topic)} is not a command topic")
     name = rest[1]
     if name not in COMMAND_NAMES:
-        raise ConfigError(f"unknown command {name!r} (known: {', '.join(COMMAND_NAMES)})")
+        raise ConfigError(f"unknown command {show(name)} (known: {', '.join(COMMAND_NAMES)})")
     pnu: int | None = None
     index: int | None = None
     if name in ("read", "write"):
@@ -221,33 +315,38 @@ def parse_command(topic: str, payload: bytes, prefix: str, bus: str) -> Command:
         if "index" in fields:
             index = fields["index"]
             if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= 254:
-                raise ConfigError(f"index must be 0..254, not {index!r}")
+                raise ConfigError(f"index must be 0..254, not {show(index)}")
         if name == "read":
             value = None
-    key = fields.get("key", "main")
-    if not isinstance(key, str):
-        raise ConfigError(f"key must be a string, not {key!r}")
+    key = _text(fields, "key") or "main"
     return Command(name=name, value=value, pnu=pnu, index=index, key=key, **common)
 
 
-def number(value: Any, what: str) -> float:
-    """A number from a payload value (JSON number or text such as ``25``, ``0x047F``)."""
+def number(value: Any, what: str) -> int | float:
+    """A number from a payload value (JSON number or text such as ``25``, ``0x047F``):
+    finite, integers below `LIMIT` in magnitude, text of at most `MAX_NUMBER` characters;
+    else `ConfigError`."""
     if isinstance(value, bool) or value is None:
-        raise ConfigError(f"{what}: expected a number, not {value!r}")
+        raise ConfigError(f"{what}: expected a number, not {show(value)}")
+    result: int | float
     if isinstance(value, int | float):
-        result = float(value) if isinstance(value, float) else value
+        result = value
     elif isinstance(value, str):
+        if len(value) > MAX_NUMBER:
+            raise ConfigError(f"{what}: a number has at most {MAX_NUMBER} characters")
         try:
             result = int(value, 0)
         except ValueError:
             try:
                 result = float(value)
             except ValueError:
-                raise ConfigError(f"{what}: {value!r} is not a number") from None
+                raise ConfigError(f"{what}: {show(value)} is not a number") from None
     else:
-        raise ConfigError(f"{what}: expected a number, not {value!r}")
+        raise ConfigError(f"{what}: expected a number, not {show(value)}")
     if isinstance(result, float) and not math.isfinite(result):
-        raise ConfigError(f"{what}: {value!r} is not a finite number")
+        raise ConfigError(f"{what}: {show(value)} is not a finite number")
+    if not -LIMIT < result < LIMIT:
+        raise ConfigError(f"{what}: {show(value)} is out of range")
     return result
 
 
@@ -258,15 +357,99 @@ def switch_value(value: Any) -> bool:
         return bool(value)
     if isinstance(value, str) and value.strip().upper() in ("ON", "OFF", "1", "0", "TRUE", "FALSE"):
         return value.strip().upper() in ("ON", "1", "TRUE")
-    raise ConfigError(f"run: expected ON or OFF, not {value!r}")
+    raise ConfigError(f"run: expected ON or OFF, not {show(value)}")
+
+
+def _under(topic: str, prefix: str) -> bool:
+    return topic == prefix or topic.startswith(f"{prefix}/")
+
+
+def check_reply_to(topic: str, topics: DriveTopics, discovery_prefix: str) -> None:
+    """`ConfigError` unless ``topic`` may carry the replies of a command to ``topics``' drive.
+
+    A reply never lands where something acts on it: not on a ``$`` topic of the broker, not
+    under the gateway's prefix except the drive's own reply topic and the topics below it
+    (``uss/BUS/DRIVE/reply/...``, the reply namespace), not under the discovery prefix, not
+    on a topic shaped like a command topic of any gateway (``.../cmd/NAME``,
+    ``.../param/KEY/set``, ``.../param/KEY/get``) nor on any topic ending in ``/set``.
+    Wildcards are refused by `parse_command`."""
+    levels = topic.split("/")
+    if topic.startswith("$"):
+        raise ConfigError(f"reply_to {show(topic)}: $ topics belong to the broker")
+    if _under(topic, topics.prefix) and not _under(topic, topics.reply):
+        raise ConfigError(
+            f"reply_to {show(topic)} is under the gateway's prefix {topics.prefix!r}: "
+            f"replies go to {topics.reply} or a topic below it"
+        )
+    if _under(topic, discovery_prefix):
+        raise ConfigError(f"reply_to {show(topic)} is under the discovery prefix")
+    if (
+        levels[-1] == "set"
+        or (len(levels) >= 2 and levels[-2] == "cmd")
+        or (len(levels) >= 3 and levels[-3] == "param" and levels[-1] == "get")
+    ):
+        raise ConfigError(f"reply_to {show(topic)} has the shape of a command topic")
+
+
+def decimals(step: float) -> int:
+    """The decimals a value that moves in steps of ``step`` is shown with: the first decimal
+    place at or above the step (steps of 0.003 Hz: 2)."""
+    if not math.isfinite(step) or step <= 0:
+        return 6
+    return max(0, math.floor(-math.log10(step) + 1e-9))
+
+
+def process_decimals(item: ProcessConfig, unit: str, reference: float | None) -> tuple[int, int]:
+    """(decimals of the value in its unit, decimals of the percent) of a process value: one
+    raw step is 100 % / 4000h (16 bits) or / 4000 0000h (32 bits) of the reference."""
+    step = 100.0 / (FULL_SCALE_32 if item.dword else FULL_SCALE_16)
+    value_step = step if reference is None or unit == "%" else step * abs(reference) / 100.0
+    return decimals(value_step), decimals(step)
+
+
+def param_value(meta: ParamMeta, value: int | float | None) -> int | float | None:
+    """A parameter's value rounded to its resolution: the decimals of its scaling, or the
+    7 significant digits of a 32-bit float; integers as they are."""
+    if not isinstance(value, float) or not math.isfinite(value):
+        return value
+    if meta.scaling is not None and not meta.is_float:
+        return round(value, decimals(abs(meta.scaling)))
+    return float(f"{value:.7g}")
+
+
+def reading_dict(reading: ParamValue) -> dict[str, Any]:
+    """`ParamValue.to_dict` with the value rounded to its resolution (`param_value`)."""
+    item = reading.to_dict()
+    item["value"] = param_value(reading.meta, reading.value)
+    return item
+
+
+def state_dict(state: DriveState) -> dict[str, Any]:
+    """`DriveState.to_dict` with the process values and parameters rounded to their
+    resolution (`process_decimals`, `param_value`): a 20 Hz setpoint of a 50 Hz reference
+    is 20.0, not the 20.001221 its raw word 199Ah stands for."""
+    data = state.to_dict()
+    model = state.model
+    for group, items in (("actual", model.actual), ("setpoint", model.setpoints)):
+        for item in items:
+            entry = data[group].get(item.key)
+            if entry is None:
+                continue
+            places, percent_places = process_decimals(item, model.unit, state.reference)
+            if entry["value"] is not None:
+                entry["value"] = round(entry["value"], places)
+            entry["percent"] = round(entry["percent"], percent_places)
+    for key, reading in state.parameters.items():
+        data["parameters"][key] = reading_dict(reading)
+    return data
 
 
 def state_payload(state: DriveState) -> bytes:
-    return json.dumps(state.to_dict(), separators=(",", ":")).encode()
+    return json.dumps(state_dict(state), separators=(",", ":")).encode()
 
 
 def param_payload(reading: ParamValue) -> bytes:
-    return json.dumps(reading.to_dict(), separators=(",", ":")).encode()
+    return json.dumps(reading_dict(reading), separators=(",", ":")).encode()
 
 
 def reply_payload(
@@ -322,7 +505,7 @@ def discovery(
         config = {
             "name": name,
             "unique_id": unique,
-            "object_id": unique,
+            "default_entity_id": f"{component}.{unique.lower().replace('-', '_')}",
             "device": device,
             "origin": origin,
             "availability": availability,
@@ -353,6 +536,7 @@ def discovery(
             "state_topic": topics.state,
             "value_template": f"{{{{ value_json.actual.{item.key}.value }}}}",
             "state_class": "measurement",
+            "suggested_display_precision": process_decimals(item, unit, state.reference)[0],
         }
         if unit:
             config["unit_of_measurement"] = unit
@@ -366,6 +550,10 @@ def discovery(
             "value_template": "{{ value_json.value }}",
             "entity_category": "diagnostic",
         }
+        if meta.is_integer:
+            config["suggested_display_precision"] = 0
+        elif meta.scaling is not None and not meta.is_float:
+            config["suggested_display_precision"] = decimals(abs(meta.scaling))
         if meta.unit:
             config["unit_of_measurement"] = meta.unit
             config["state_class"] = "measurement"
@@ -398,11 +586,12 @@ def discovery(
         low, high = -2 * full, round(2 * full * (0x7FFF / 0x8000), 2)
         config = {
             "command_topic": topics.command("setpoint"),
+            "retain": False,  # a retained command never acts
             "state_topic": topics.state,
             "value_template": f"{{{{ value_json.setpoint.{item.key}.value }}}}",
             "min": low,
             "max": high,
-            "step": 0.01,
+            "step": 10.0 ** -process_decimals(item, unit, state.reference)[0],
             "mode": "box",
         }
         if unit:
@@ -416,6 +605,7 @@ def discovery(
             "Run (ON / OFF1)",
             {
                 "command_topic": topics.command("run"),
+                "retain": False,
                 "state_topic": topics.state,
                 "value_template": "{{ 'ON' if value_json.bits.operation_enabled else 'OFF' }}",
                 "payload_on": "ON",
@@ -433,6 +623,10 @@ def discovery(
                 "button",
                 command,
                 name,
-                {"command_topic": topics.command(command), "payload_press": "PRESS"},
+                {
+                    "command_topic": topics.command(command),
+                    "payload_press": "PRESS",
+                    "retain": False,
+                },
             )
     return messages
