@@ -259,14 +259,15 @@ def _modbus_ports(path: Path) -> list[int]:
 
 
 @contextlib.contextmanager
-def _gateway(config: Path) -> Iterator[subprocess.Popen[str]]:
+def _gateway(config: Path) -> Iterator[subprocess.Popen[bytes]]:
     log = config.with_suffix(".log")
     with log.open("w", encoding="utf-8") as stderr:
+        # unbuffered: a line read is the line, nothing more waits in a buffer unseen by select
         process = subprocess.Popen(
             [*USS, "gateway", "--config", str(config)],
             stdout=subprocess.PIPE,
             stderr=stderr,
-            text=True,
+            bufsize=0,
             env={**os.environ, "PYTHONUNBUFFERED": "1"},
         )
     try:
@@ -281,7 +282,7 @@ def _gateway(config: Path) -> Iterator[subprocess.Popen[str]]:
                 process.wait()
                 tail = log.read_text(encoding="utf-8").splitlines()[-5:]
                 raise RuntimeError("uss gateway did not start: " + "\n".join(tail))
-            if line.strip() == "ready":
+            if line.strip() == b"ready":
                 break
         yield process
     finally:
@@ -342,6 +343,11 @@ def deployed(count: int, mqtt_port: int) -> dict[str, float]:
                 words = list(struct.unpack(">HH", struct.pack(">f", 100.0)))
                 client.write_registers(26, words, device_id=address)  # 100 %: ramp up
         time.sleep(0.5)
+        running = sum(
+            client.read_input_registers(1, count=1, device_id=address).registers[0] == 5
+            for client, size in zip(clients, sizes, strict=True)
+            for address in range(1, size + 1)
+        )
         before = _answers(clients, sizes)
         cpu = _cpu_seconds(gateway.pid)
         wall = time.perf_counter()
@@ -353,6 +359,7 @@ def deployed(count: int, mqtt_port: int) -> dict[str, float]:
     limit = 1 / ((2 * TELEGRAM + 4) * char_time(BAUD))
     return {
         "buses": len(sizes),
+        "running": running,
         "updates_per_s": sum(updates) / wall,
         "cpu_ms": cpu / max(1, sum(updates)) * 1000,
         "cpu_share": cpu / wall,
@@ -368,15 +375,15 @@ def as_deployed() -> list[Figure]:
             print("as deployed: skipped (no mosquitto; .ci/system-deps mosquitto)")
             return figures
         print(
-            f"{'drives':>6} {'buses':>5} {'updates/s':>9} {'CPU/update':>10} {'CPU':>5} "
-            f"{'bus share':>9} {'states/drive/s':>14}"
+            f"{'drives':>6} {'running':>7} {'buses':>5} {'updates/s':>9} {'CPU/update':>10} "
+            f"{'CPU':>5} {'bus share':>9} {'states/drive/s':>14}"
         )
         for count in DEPLOYED_COUNTS:
             r = deployed(count, port)
             print(
-                f"{count:>6} {int(r['buses']):>5} {r['updates_per_s']:>9.0f} "
-                f"{r['cpu_ms']:>8.3f}ms {r['cpu_share'] * 100:>4.0f}% {r['share']:>9.2f} "
-                f"{r['states_per_drive_s']:>14.1f}"
+                f"{count:>6} {int(r['running']):>7} {int(r['buses']):>5} "
+                f"{r['updates_per_s']:>9.0f} {r['cpu_ms']:>8.3f}ms {r['cpu_share'] * 100:>4.0f}% "
+                f"{r['share']:>9.2f} {r['states_per_drive_s']:>14.1f}"
             )
             where = f"gateway as deployed, {count} drive{'s' if count > 1 else ''}, all faces"
             figures.append(
