@@ -35,7 +35,7 @@ def register(subparsers: Any) -> None:
         help="read element N only, 1..254, or 255 for the whole description in one telegram "
         "(USS specification C 6)",
     )
-    finish(parser, main)
+    finish(parser, main, unnamed=True)
 
 
 def render(description: Description) -> str:

@@ -81,7 +81,7 @@ def register(subparsers: Any) -> None:
         "drive took it",
     )
     _params.add_options(parser)
-    finish(parser, main)
+    finish(parser, main, unnamed=True)
 
 
 def raw_words(text: str, size: int | None, dword: bool) -> tuple[int, ...]:
