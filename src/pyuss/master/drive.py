@@ -307,15 +307,28 @@ class Drive:
     ) -> Reading:
         """``pnu`` read and converted by what is known of it (`info`): the words, the typed
         value and the `ParamInfo`. An array parameter without ``index`` is read whole
-        (`read_array`; ``progress(done, total)`` is called per element read one by one)."""
+        (`read_array`; ``progress(done, total)`` is called per element read one by one), and
+        so is a parameter nothing is known of that the drive will only read with an index
+        (error 3, C Table 4.3)."""
         info = await self.info(pnu, timeout=timeout)
         self._check_index(info, pnu, index)
         if info is not None and info.array is not None and index is None:
             words, values = await self._array(pnu, info, progress, timeout)
             return Reading(pnu, None, info, words, values)
-        words = await self.read_raw(pnu, index, timeout=timeout)
         if info is None:
+            try:
+                words = await self.read_raw(pnu, index, timeout=timeout)
+            except DriveRefusal as refusal:
+                if index is not None or refusal.number != ErrorNumber.BAD_INDEX:
+                    raise
+                # it wants an index: an array nothing is known of, read whole
+                try:
+                    words, values = await self._array(pnu, None, progress, timeout)
+                except DriveRefusal:
+                    raise refusal from None
+                return Reading(pnu, None, None, words, values)
             return Reading(pnu, index, None, words, _untyped(words))
+        words = await self.read_raw(pnu, index, timeout=timeout)
         return Reading(pnu, index, info, words, decode(info, words, index))
 
     async def read(
