@@ -21,6 +21,7 @@ from pyuss.bus import VirtualBus
 from pyuss.cli.main import main
 from pyuss.drive.database import parse_database
 from pyuss.drive.simulated import SimulatedDrive
+from pyuss.master import sync
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import RequestId
@@ -237,3 +238,20 @@ def test_a_drive_that_does_not_answer_is_named_as_such(
         "P1120: slave 7 does not answer (no reply within 0.3 s): check address, baud rate and "
         "wiring"
     )
+
+
+def test_a_named_profile_that_has_descriptions_asks_once_then_reads_words(
+    pump: PumpBus,
+) -> None:
+    # What the web page and the gateway's mailbox do: they read through `Drive` with the
+    # profile configured (generic by default), whose drives have descriptions.
+    before = pump.described
+    with sync.Master(
+        pump.paths[0], baud=BAUD, profile="generic", layout="4,6", job_timeout=0.5
+    ) as master:
+        drive = master.drive(0)
+        assert drive.read(150) == 1200  # no file knows it: a description is asked, in vain
+        assert drive.read(151) == 100000
+        assert drive.read(160, 2) == 7
+        assert drive.params.without_descriptions
+    assert pump.described - before == 1
