@@ -3,7 +3,9 @@
 
 With the variable layout the whole description comes in one telegram (IND 255); with a fixed
 layout element by element, leaving out the elements the drive refuses as too long for its PKW
-area (USS specification C 7). ``--element N`` reads one element only.
+area (USS specification C 7). ``--element N`` reads one element only. Descriptions are
+optional: a drive that has none refuses the request (exit 1 with its error number) or does not
+answer it, and the command then says that the drive gives no description (exit 1).
 """
 
 from __future__ import annotations
