@@ -39,7 +39,7 @@ def uss(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
 
 
 def common(path: str) -> list[str]:
-    return ["--port", path, "--baud", BAUD, "--layout", "3,2"]
+    return ["--port", path, "--baud", BAUD, "--layout", "3,2", "--profile", "generic"]
 
 
 def test_read_values_and_a_refused_one(sim: str, capsys: pytest.CaptureFixture[str]) -> None:

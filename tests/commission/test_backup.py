@@ -172,7 +172,8 @@ def test_scan_finds_the_parameters_no_file_knows(tmp_path: Path) -> None:
         assert code == 0 and {800, 805, 811} <= set(found)
         assert found[805]["source"] == "drive" and found[805]["value_text"] == "1500.50"
         file = tmp_path / "set.json"
-        code, out = uss(["backup", "5", "-o", str(file), "--scan", "800-812", *port])
+        asked = ["--describe", "always"]  # no --profile: the drive's descriptions on request
+        code, out = uss(["backup", "5", "-o", str(file), "--scan", "800-812", *port, *asked])
         assert code == 0
         assert load(file).find(804).value == -123.456  # type: ignore[union-attr]
     finally:
@@ -295,7 +296,8 @@ def test_descriptions_kept_in_a_cache_file_for_the_next_run(tmp_path: Path) -> N
     try:
         port = ["--port", sim.path, "--baud", "38400", "--layout", "v,2"]
         typed = "P805 = 1500.50 (Speed limit)\n"  # the type and name from the drive (no unit)
-        assert uss(["read", "5", "805", *port, "--params-cache", cache]) == (0, typed)
+        asked = ["--describe", "always"]  # no --profile: the drive's descriptions on request
+        assert uss(["read", "5", "805", *port, *asked, "--params-cache", cache]) == (0, typed)
         never = ["--describe", "never"]
         assert uss(["read", "5", "805", *port, *never]) == (0, "P805 = 1153142784 (44BB9000h)\n")
         assert uss(["read", "5", "805", *port, *never, "--params-cache", cache]) == (0, typed)

@@ -99,7 +99,11 @@ async def simulated_bus(
     **master_options: Any,
 ) -> AsyncIterator[SimSetup]:
     """A virtual bus with simulated drives ``(address, profile, layout)`` and a started
-    master."""
+    master; the master knows the drives' profile when they share one (else each handle is
+    given its own)."""
+    profiles = {profile for _, profile, _ in drives}
+    if len(profiles) == 1:
+        master_options.setdefault("profile", profiles.pop())
     bus = VirtualBus(baud, faults=faults)
     recorder = Recorder().attach(bus) if record else None
     try:

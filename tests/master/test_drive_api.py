@@ -13,10 +13,11 @@ import pytest
 
 from master.conftest import SimulatorThread, line_telegrams, simulated_bus
 from pyuss.bus import VirtualBus
-from pyuss.errors import ConfigError
+from pyuss.errors import ConfigError, DriveRefusal
 from pyuss.master import Drive, Master
 from pyuss.master import sync as sync_master
 from pyuss.master.profile import response_limit
+from pyuss.params.values import ValueRefused
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.pkw import Pkw, RequestId, ResponseId
@@ -45,6 +46,23 @@ async def test_eeprom_writes_use_the_eeprom_requests() -> None:
         RequestId.WRITE_ARRAY_WORD_EEPROM,  # 12
         RequestId.READ_ARRAY,
     ]
+
+
+async def test_a_master_without_a_profile_applies_no_familys_facts() -> None:
+    async with simulated_bus([(5, "generic", Layout(4, 2))], profile=None, record=True) as env:
+        unknown = env.master.drive(5, layout=Layout(4, 2))
+        assert len(unknown.params) == 0
+        with pytest.raises(DriveRefusal) as refused:  # the drive says so, not the generic file
+            await unknown.write(3, 5)
+        assert refused.value.number == 1
+        assert await unknown.read(52) == 0x4000  # a word, as it travels
+    assert env.recorder is not None
+    sent = [Layout(4, 2).unpack(r.telegram.data).pkw for r in line_telegrams(env.recorder, 38400)]
+    assert RequestId.READ_PBE_ELEMENT not in {p.id for p in sent if p is not None}
+    async with simulated_bus([(5, "generic", Layout(4, 2))]) as env:
+        named = env.master.drive(5, layout=Layout(4, 2))
+        with pytest.raises(ValueRefused, match="read-only"):  # the generic profile's fact
+            await named.write(3, 5)
 
 
 async def test_whole_description_array_and_texts_with_the_variable_layout() -> None:

@@ -246,10 +246,21 @@ async def test_a_job_for_a_silent_slave_times_out() -> None:
     async with scripted_bus((5,)) as env:
         env.slaves[5].silent = True
         drive = env.master.drive(5)
-        with pytest.raises(JobTimeout, match="does not send"):
+        with pytest.raises(JobTimeout) as silence:
             await drive.read(52, timeout=0.3)
+        assert str(silence.value) == (
+            "slave 5 does not answer (no reply within 0.3 s): check address, baud rate and "
+            "wiring (USS specification A 5.2.1.1: the slave does not send)"
+        )
         env.slaves[5].silent = False
         assert await drive.read(52) == 0x4000
+        env.slaves[5].silent = True  # it answered before: the job may be what it ignores
+        with pytest.raises(JobTimeout) as silence:
+            await drive.read(53, timeout=0.3)  # sent at once: no answer to take for its own
+        assert str(silence.value).startswith(
+            "slave 5 has stopped answering: no reply to read parameter value P53 within 0.3 s"
+        )
+        assert "check the wiring, and whether the drive knows this request" in str(silence.value)
 
 
 async def test_reading_parameters_never_changes_the_control_word() -> None:

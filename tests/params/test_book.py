@@ -111,6 +111,36 @@ def test_the_cache_file_keeps_drives_apart_and_refuses_a_foreign_file(tmp_path: 
         ParamBook().load_cache(cache, "a")
 
 
+def test_descriptions_are_asked_only_where_the_profile_says_the_drive_has_them() -> None:
+    unknown = ParamBook()  # a drive of no named profile
+    assert unknown.describe is Describe.AUTO and not unknown.needs_description(150)
+    unknown.describe = Describe.MISSING
+    assert unknown.needs_description(150)
+    unknown.describe = Describe.ALWAYS
+    assert unknown.needs_description(150)
+    generic = ParamBook.for_profile(get_profile("generic"))  # its drives answer request 4
+    assert generic.needs_description(1999) and not generic.needs_description(3)
+    generic.no_descriptions()  # it refused one, or did not answer: asked no more
+    generic.describe = Describe.ALWAYS
+    assert not generic.needs_description(1999) and not generic.needs_description(3)
+
+
+def test_a_drive_without_descriptions_is_kept_so_in_the_cache_file(tmp_path: Path) -> None:
+    cache = tmp_path / "cache.json"
+    book = ParamBook(describe=Describe.ALWAYS)
+    book.no_descriptions()
+    book.save_cache(cache, "pump")
+    ParamBook(describe=Describe.ALWAYS).save_cache(cache, "other")
+    again = ParamBook(describe=Describe.ALWAYS)
+    again.load_cache(cache, "pump")
+    assert again.without_descriptions and not again.needs_description(150)
+    other = ParamBook(describe=Describe.ALWAYS)
+    other.load_cache(cache, "other")
+    assert not other.without_descriptions and other.needs_description(150)
+    with pytest.raises(ConfigError, match="'descriptions' must be true or false"):
+        ParamBook().load_cache_data({"descriptions": "no"})
+
+
 def test_the_values_example_of_the_master_docs_runs(capsys: pytest.CaptureFixture[str]) -> None:
     text = (ROOT / "docs" / "master.md").read_text(encoding="utf-8")
     section = text.split("### Values", 1)[1].split("\n### ", 1)[0]

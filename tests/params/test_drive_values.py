@@ -30,7 +30,8 @@ EXPECTED = {
 
 
 def bus(sim: Simulator) -> sync.Master:
-    return sync.Master(sim.path, baud=38400, layout="v,2")
+    """A master for the typed drive, a generic one (which has descriptions, C 6)."""
+    return sync.Master(sim.path, baud=38400, profile="generic", layout="v,2")
 
 
 def test_every_type_reads_as_its_value_with_the_users_file(typed_sim: Simulator) -> None:

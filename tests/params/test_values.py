@@ -114,7 +114,10 @@ def test_visible_strings_go_to_words_and_back(text: str) -> None:
     words = encode(param, text)
     assert len(words) == 8
     assert decode(param, words) == text.rstrip()
-    assert parse(param, text) == text.strip() or text.strip() != text
+    typed = text.strip()
+    if len(typed) >= 2 and typed[0] == typed[-1] and typed[0] in "\"'":
+        typed = typed[1:-1]  # a quoted text is taken without its quotes
+    assert parse(param, text) == typed
 
 
 @given(st.binary(max_size=6))

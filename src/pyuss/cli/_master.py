@@ -5,7 +5,10 @@ Options of every master command: ``--port URL`` (a serial port such as ``/dev/tt
 pty, ``tcp://HOST:PORT``, ``bus://HOST:PORT``; any URL `pyuss.transport.open_transport`
 takes), ``--baud B``, ``--profile NAME``, ``--layout PKW,PZD``, ``--timeout S`` (per
 parameter job), ``--response-delay MS``, ``--tolerance MS`` (receive tolerance for ports with
-coarse timestamps) and ``--json``.
+coarse timestamps) and ``--json``. Without ``--profile`` the commands that read and write
+parameter values (read, write, describe, backup) take the drive as one of unknown kind: the
+telegrams follow the USS specification, but no family's parameter facts are applied to it
+(`pyuss.master.scheduler.Master` without a profile); the others take ``generic``.
 
 Exit codes: 0 done; 1 the operation failed (no answer, drive refused, mirror changed, port
 failed); 2 bad input (arguments, values, a request the layout cannot carry); 130 interrupted.
@@ -47,9 +50,12 @@ def integer(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
 
 
-def add_options(parser: argparse.ArgumentParser, *, lists: bool = False) -> None:
+def add_options(
+    parser: argparse.ArgumentParser, *, lists: bool = False, unnamed: bool = False
+) -> None:
     """The options every master command takes; ``lists``: ``--baud`` takes a list and
-    ``--layout`` may be repeated (``uss scan``)."""
+    ``--layout`` may be repeated (``uss scan``); ``unnamed``: without ``--profile`` the drive
+    is of unknown kind (``args.profile`` None; `UNNAMED_HELP`), else ``generic``."""
     parser.add_argument(
         "--port",
         required=True,
@@ -76,11 +82,17 @@ def add_options(parser: argparse.ArgumentParser, *, lists: bool = False) -> None
         )
     parser.add_argument(
         "--profile",
-        default="generic",
+        default=None if unnamed else "generic",
         metavar="NAME",
         help="the drive family, which sets parameter numbering, response delay, error texts "
         f"and default layout: {', '.join(profile_names())}; auto: ask the drive which family "
-        "it is (docs/drives.md; default generic, the drive profile of the USS specification)",
+        "it is (docs/drives.md; "
+        + (
+            UNNAMED_HELP
+            if unnamed
+            else "default generic, the drive profile of the USS specification"
+        )
+        + ")",
     )
     parser.add_argument(
         "--layout",
@@ -122,6 +134,12 @@ def add_options(parser: argparse.ArgumentParser, *, lists: bool = False) -> None
     )
 
 
+UNNAMED_HELP = (
+    "default: none, a drive of unknown kind - telegrams by the USS specification, no family's "
+    "parameter facts, no descriptions asked for, values as words"
+)
+
+
 def command(subparsers: Any, name: str, summary: str, doc: str | None) -> argparse.ArgumentParser:
     """The parser of master command ``name`` with its ``ADDRESS`` argument (all but scan);
     the caller adds its own arguments, then `finish`."""
@@ -150,9 +168,15 @@ exit codes:
   130  interrupted (uss run: after switching the drive off)"""
 
 
-def finish(parser: argparse.ArgumentParser, func: Callable[[argparse.Namespace], int]) -> None:
-    """Add the shared options, the exit codes and the function that runs the command."""
-    add_options(parser, lists=parser.prog.endswith(" scan"))
+def finish(
+    parser: argparse.ArgumentParser,
+    func: Callable[[argparse.Namespace], int],
+    *,
+    unnamed: bool = False,
+) -> None:
+    """Add the shared options, the exit codes and the function that runs the command
+    (``unnamed``: see `add_options`)."""
+    add_options(parser, lists=parser.prog.endswith(" scan"), unnamed=unnamed)
     parser.epilog = EPILOG
     parser.set_defaults(func=func)
 
@@ -186,7 +210,8 @@ def label(pnu: int, index: int | None) -> str:
 
 
 def master_options(args: argparse.Namespace) -> dict[str, Any]:
-    """Keyword arguments for `Master` from the shared options (`ConfigError` if bad)."""
+    """Keyword arguments for `Master` from the shared options (`ConfigError` if bad); no
+    ``--profile`` where the command allows it: ``profile`` None, a drive of unknown kind."""
     options: dict[str, Any] = {"profile": args.profile, "job_timeout": args.timeout}
     if not args.timeout > 0:
         raise ConfigError(f"--timeout {args.timeout}: must be > 0 seconds")

@@ -1,7 +1,8 @@
 """What the commands that speak of parameter values share: ``--params FILE`` (the user's
-parameter file, the simulator's TOML format), ``--describe never|missing|always`` (when to ask
-the drive for its parameter descriptions, C 6), ``--params-cache FILE`` (keep the descriptions
-read), and a progress line on stderr for long jobs."""
+parameter file, the simulator's TOML format), ``--describe auto|always|never|missing`` (when to
+ask the drive for its parameter descriptions, C 6; `pyuss.params.Describe`), ``--params-cache
+FILE`` (keep the descriptions read, and which drives have none), and a progress line on stderr
+for long jobs."""
 
 from __future__ import annotations
 
@@ -26,9 +27,12 @@ def add_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--describe",
         choices=[d.value for d in Describe],
-        default=Describe.MISSING.value,
+        default=Describe.AUTO.value,
         help="when to read the drive's own parameter descriptions (USS specification C 6): "
-        "never, for parameters no file knows (missing, default), or always",
+        "auto (default): for parameters no file knows where --profile says the drive has "
+        "descriptions, never without --profile; always: before every parameter; never; "
+        "missing: for parameters no file knows, whatever the profile. A drive that refuses "
+        "or does not answer one is asked no more",
     )
     group.add_argument(
         "--params-cache",
@@ -38,13 +42,13 @@ def add_options(parser: argparse.ArgumentParser) -> None:
 
 
 def cache_key(args: argparse.Namespace, drive: Drive) -> str:
-    return f"{args.profile}@{args.port}#{drive.address}"
+    return f"{args.profile or 'unknown'}@{args.port}#{drive.address}"
 
 
 def setup(args: argparse.Namespace, drive: Drive) -> None:
     """Apply the options to ``drive``'s parameter book (`ConfigError` for a bad file)."""
     book = drive.params
-    book.describe = Describe(getattr(args, "describe", Describe.MISSING.value))
+    book.describe = Describe(getattr(args, "describe", Describe.AUTO.value))
     if getattr(args, "params", None):
         drive.use_params(args.params)
     if getattr(args, "params_cache", None):

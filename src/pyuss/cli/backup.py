@@ -2,7 +2,10 @@
 
 Every parameter pyuss knows of the drive (``--profile``'s parameter file, ``--params FILE``, the
 drive's descriptions) is read, arrays whole; ``--scan FROM-TO`` first finds the parameters no
-file knows by asking the drive for their descriptions over that range (C 6). The file (TOML for
+file knows over that range: by asking for their descriptions (C 6) where ``--describe`` says
+the drive has them, else, and for a drive that refuses or does not answer a description, by
+reading their values (a drive of unknown kind, without ``--profile``, has no file and gives
+what the scan finds, as words). The file (TOML for
 ``.toml``, JSON for ``.json``, a CSV export for ``.csv``; ``--format`` to choose) starts with a
 header: address, profile, date, the drive's identity parameters where it has them. A parameter
 that cannot be read is recorded with its error and the backup goes on; a drive that stops
@@ -35,13 +38,14 @@ def register(subparsers: Any) -> None:
     parser.add_argument(
         "--scan",
         metavar="FROM-TO",
-        help="also find the parameters no file knows, by asking for descriptions (C 6)",
+        help="also find the parameters no file knows, by their descriptions where the drive "
+        "has them (C 6), else by reading their values",
     )
     parser.add_argument(
         "--force", action="store_true", help="replace FILE if it exists (else it is refused)"
     )
     _params.add_options(parser)
-    finish(parser, main)
+    finish(parser, main, unnamed=True)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -56,11 +60,13 @@ def main(args: argparse.Namespace) -> int:
             _params.setup(args, drive)
             progress = _params.Progress("backup", enabled=None if not args.json else False)
             try:
+                pnus = None
                 if span is not None:
-                    await backups.scan(drive, span, progress=progress)
+                    found = await backups.scan(drive, span, progress=progress)
+                    pnus = sorted({*drive.params.pnus(), *found})
                     progress.close()
                     progress = _params.Progress("backup", enabled=None if not args.json else False)
-                taken = await backups.take(drive, port=args.port, progress=progress)
+                taken = await backups.take(drive, pnus=pnus, port=args.port, progress=progress)
             finally:
                 progress.close()
             _params.save(args, drive)

@@ -3,7 +3,9 @@
 
 With the variable layout the whole description comes in one telegram (IND 255); with a fixed
 layout element by element, leaving out the elements the drive refuses as too long for its PKW
-area (USS specification C 7). ``--element N`` reads one element only.
+area (USS specification C 7). ``--element N`` reads one element only. Descriptions are
+optional: a drive that has none refuses the request (exit 1 with its error number) or does not
+answer it, and the command then says that the drive gives no description (exit 1).
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ def register(subparsers: Any) -> None:
         help="read element N only, 1..254, or 255 for the whole description in one telegram "
         "(USS specification C 6)",
     )
-    finish(parser, main)
+    finish(parser, main, unnamed=True)
 
 
 def render(description: Description) -> str:

@@ -9,6 +9,11 @@ are (``P2010.1``): the profile puts them into the IND page bits. ``--raw`` print
 they travelled; ``--json`` gives value, raw words, unit, name and type of each. A parameter the
 drive refuses prints its error number and meaning and the others are still read; the exit code
 is then 1.
+
+Without ``--profile`` the drive is taken as one of unknown kind: no family's parameter file
+applies, a value prints as the word or double word it travelled as (``P150 = 1200 (04B0h)``)
+unless ``--params FILE`` knows more, and descriptions are asked for only with
+``--describe always`` (a drive that refuses one or does not answer it is asked no more).
 """
 
 from __future__ import annotations
@@ -49,7 +54,7 @@ def register(subparsers: Any) -> None:
         help="print the words as the drive sent them (PWE, USS specification C 4.2.3)",
     )
     _params.add_options(parser)
-    finish(parser, main)
+    finish(parser, main, unnamed=True)
 
 
 def main(args: argparse.Namespace) -> int:

@@ -8,9 +8,10 @@ parameter, outside the limits, or for a read-only parameter is refused before an
 (one line, exit 2). Bit fields (V2) and bit patterns go through ``--raw``: VALUE is then the
 word (or, for a 32-bit parameter or with ``--dword``, the double word) sent as it is. A
 parameter nothing is known of takes an integer (a word if it fits -32768..65535, else a double
-word) or a float. Requests 2/3 (array element: 7/8, C 4.2.2); ``--eeprom`` stores the value in
-the drive's non-volatile memory as well (14/13, 12/11). Prints the value the drive answered
-with.
+word) or a float: so does every parameter of a drive of unknown kind (without ``--profile``)
+that ``--params FILE`` does not know, and what the drive does not take the drive refuses (exit
+1). Requests 2/3 (array element: 7/8, C 4.2.2); ``--eeprom`` stores the value in the drive's
+non-volatile memory as well (14/13, 12/11). Prints the value the drive answered with.
 
 When no answer to the write comes in time (``--timeout``) the drive may still have carried it
 out: only its answer may have been lost on the line. ``uss write`` then says so and exits 1;
@@ -81,7 +82,7 @@ def register(subparsers: Any) -> None:
         "drive took it",
     )
     _params.add_options(parser)
-    finish(parser, main)
+    finish(parser, main, unnamed=True)
 
 
 def raw_words(text: str, size: int | None, dword: bool) -> tuple[int, ...]:

@@ -33,8 +33,10 @@ from typing import Any
 from pyuss.atomicfile import check_target, write_atomically
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
 from pyuss.master.drive import Drive
+from pyuss.master.errors import JobTimeout
 from pyuss.params.model import ParamInfo, Reading, param_label
 from pyuss.params.values import format_value, json_value
+from pyuss.protocol.pkw import ErrorNumber
 from pyuss.userfile import parse_json, parse_toml, read_text
 
 __all__ = [
@@ -372,8 +374,13 @@ async def read_parameters(
 
 
 async def scan(drive: Drive, pnus: Iterable[int], *, progress: Progress | None = None) -> list[int]:
-    """The parameters of ``pnus`` the drive has, found by asking for their descriptions (C 6);
-    they are learnt into the drive's book. Known ones are not asked for."""
+    """The parameters of ``pnus`` the drive has. Known ones are not asked for. The others are
+    found as `Drive.info` finds what is known of a parameter: by their descriptions (C 6),
+    learnt into the drive's book, where the book's policy asks for them; for a drive without
+    descriptions (none expected of its profile, or one refused or not answered) by reading the
+    value (request 1): a parameter is there unless the drive refuses it with error 0
+    ("illegal parameter number", C Table 4.3). A drive that answers nothing at all ends the
+    scan with its `UssTimeout`."""
     candidates = list(pnus)
     found = []
     for done, pnu in enumerate(candidates):
@@ -383,15 +390,21 @@ async def scan(drive: Drive, pnus: Iterable[int], *, progress: Progress | None =
             found.append(pnu)
             continue
         try:
-            description = await drive.read_description(pnu)
-        except DriveRefusal:
+            if await drive.info(pnu) is None:
+                await drive.read_raw(pnu)
+        except DriveRefusal as refusal:
+            if refusal.number != ErrorNumber.ILLEGAL_PNU:
+                found.append(pnu)  # there, though not to be read as asked
+            continue
+        except JobTimeout as silence:
+            if not silence.sent:
+                raise  # the drive answers nothing at all
             continue
         except ConfigError:
             raise
         except UssError:
             continue
-        if drive.params.learn(description) is not None:
-            found.append(pnu)
+        found.append(pnu)
     if progress is not None:
         progress(len(candidates), len(candidates), "")
     return found

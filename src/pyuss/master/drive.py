@@ -12,7 +12,15 @@ is one or more jobs, queued behind the jobs of other tasks; errors are typed: `D
   the drive's parameters (`params`, a `pyuss.params.ParamBook`: the user's parameter file, the
   drive's own descriptions, the profile's file): a float is a float, a signed type signed, a
   scaled value comes out scaled, an array without index is read whole. A written value is
-  checked against the parameter's type and limits before anything is sent. `read_param` /
+  checked against the parameter's type and limits before anything is sent. A drive of no named
+  profile (`Master` without one) starts with an empty book: no family's facts are applied to
+  it, a parameter no file of the user's knows travels as words, and the drive alone refuses
+  what it does not take.
+- Descriptions (request 4, C 6) are asked for where the book's policy says
+  (`pyuss.params.Describe`: by default only where the profile says the drive has them). A
+  drive that refuses one (other than with error 0, "no such parameter") or does not answer it
+  though it answers other telegrams is a drive without descriptions: the value travels as
+  words at once and no description is asked of it again. `read_param` /
   `write_param` return a `pyuss.params.Reading` (words, value and what is known); `read_raw` /
   `write_raw` take and give the PWE words as they travel.
 - `info` (what is known of a parameter, reading its description where needed),
@@ -65,6 +73,7 @@ from pyuss.params.values import ValueRefused, decode, encode
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import (
     INDEX_ALL,
+    ErrorNumber,
     Pkw,
     RequestId,
     ResponseId,
@@ -143,8 +152,13 @@ class Drive:
     def __init__(self, master: Master, link: _Link) -> None:
         self._master = master
         self._link = link
-        self.params = ParamBook.for_profile(link.profile)
-        """What is known of this drive's parameters (`pyuss.params.ParamBook`)."""
+        self.params = (
+            ParamBook.for_profile(link.profile)
+            if link.named
+            else ParamBook(index_base=index_base(link.profile))
+        )
+        """What is known of this drive's parameters (`pyuss.params.ParamBook`): the named
+        profile's file, or nothing for a drive of unknown kind."""
 
     def __repr__(self) -> str:
         return f"<Drive {self.address} layout {self.layout} profile {self.profile.name}>"
@@ -211,13 +225,25 @@ class Drive:
     async def info(self, pnu: int, *, timeout: float | None = None) -> ParamInfo | None:
         """What is known of ``pnu`` (`pyuss.params.ParamInfo`), or None. Reads the drive's
         description of it first where the book's policy says so (`ParamBook.describe`): by
-        default only for a parameter no file knows. A drive that refuses is not asked again."""
+        default only for a parameter no file knows, of a drive whose profile says it has
+        descriptions. A drive that refuses the description or does not answer it is noted as
+        one without descriptions (`ParamBook.no_descriptions`) and not asked again; a drive
+        that answers nothing at all raises the `JobTimeout`."""
         self.profile.encode_pnu(pnu)
         book = self.params
         if book.needs_description(pnu):
             try:
                 description = await self.read_description(pnu, timeout=timeout)
-            except (DriveRefusal, TelegramError):
+            except DriveRefusal as refusal:
+                if refusal.number == ErrorNumber.ILLEGAL_PNU:
+                    book.no_description(pnu)  # no such parameter: reading its value says so
+                else:
+                    book.no_descriptions()
+            except JobTimeout as silence:
+                if not silence.sent:
+                    raise  # it answers nothing at all: the value would wait in vain too
+                book.no_descriptions()
+            except TelegramError:
                 book.no_description(pnu)
             else:
                 book.learn(description)
@@ -281,15 +307,28 @@ class Drive:
     ) -> Reading:
         """``pnu`` read and converted by what is known of it (`info`): the words, the typed
         value and the `ParamInfo`. An array parameter without ``index`` is read whole
-        (`read_array`; ``progress(done, total)`` is called per element read one by one)."""
+        (`read_array`; ``progress(done, total)`` is called per element read one by one), and
+        so is a parameter nothing is known of that the drive will only read with an index
+        (error 3, C Table 4.3)."""
         info = await self.info(pnu, timeout=timeout)
         self._check_index(info, pnu, index)
         if info is not None and info.array is not None and index is None:
             words, values = await self._array(pnu, info, progress, timeout)
             return Reading(pnu, None, info, words, values)
-        words = await self.read_raw(pnu, index, timeout=timeout)
         if info is None:
+            try:
+                words = await self.read_raw(pnu, index, timeout=timeout)
+            except DriveRefusal as refusal:
+                if index is not None or refusal.number != ErrorNumber.BAD_INDEX:
+                    raise
+                # it wants an index: an array nothing is known of, read whole
+                try:
+                    words, values = await self._array(pnu, None, progress, timeout)
+                except DriveRefusal:
+                    raise refusal from None
+                return Reading(pnu, None, None, words, values)
             return Reading(pnu, index, None, words, _untyped(words))
+        words = await self.read_raw(pnu, index, timeout=timeout)
         return Reading(pnu, index, info, words, decode(info, words, index))
 
     async def read(
@@ -519,10 +558,28 @@ class Drive:
 
         A whole description travels in one telegram (IND 255) with the variable layout only
         (C 4.2.2): so without ``element`` a fixed layout reads the elements one by one and
-        leaves out those the drive refuses (too long for the PKW area, C 7). ``element=255``
-        asks for the whole description in one telegram whatever the layout (a fixed-length
-        drive refuses it, C 8 example 3).
+        leaves out those the drive refuses (too long for the PKW area, C 7) - but not the
+        first, the data type, without which there is no description. ``element=255`` asks for
+        the whole description in one telegram whatever the layout (a fixed-length drive
+        refuses it, C 8 example 3). A drive that answers other telegrams but not this request
+        has no descriptions: the `JobTimeout` says so.
         """
+        try:
+            return await self._description(pnu, element, timeout)
+        except JobTimeout as silence:
+            if silence.sent:
+                within = "" if silence.timeout is None else f" within {silence.timeout:g} s"
+                silence.args = (
+                    f"slave {self.address} gives no description of P{pnu}: it does not answer "
+                    f"request 4 (no reply{within} to {silence.sent} telegrams, though it "
+                    "answers others): it has no parameter descriptions, as most USS slaves "
+                    "(USS specification C 6)",
+                )
+            raise
+
+    async def _description(
+        self, pnu: int, element: int | None, timeout: float | None
+    ) -> Description:
         style = description_style(self.profile)
         if element is not None and element != INDEX_ALL:
             if isinstance(element, bool) or not isinstance(element, int) or not 1 <= element <= 254:
@@ -545,6 +602,8 @@ class Drive:
             try:
                 words = await self._element_words(pnu, number, timeout)
             except DriveRefusal:
+                if not elements and number == 1:
+                    raise  # no data type: no description
                 continue
             size = element_size(number, style, type_code=type_code, attribute=attribute)
             if size is not None and len(words) > size:

@@ -212,16 +212,21 @@ class ParameterChannel:
                 self.current = None
                 self.last_answer = None
                 self._timed_out += 1
-                state = "; the slave does not send" if self.not_sending else ""
-                self._finish(
-                    job,
-                    error=self._timeout(
-                        job,
-                        now,
-                        f"no answer to {job.text} within {job.timeout:g} s ({job.sent} "
-                        f"telegrams sent{state}; C 4.2.1.1)",
-                    ),
-                )
+                if not self.not_sending:
+                    what = (
+                        f"slave {self.address}: no answer to {job.text} within {job.timeout:g} s "
+                        f"({job.sent} telegrams sent; C 4.2.1.1)"
+                    )
+                elif not self.synced:
+                    what = self._silent(job)
+                else:
+                    what = (
+                        f"slave {self.address} has stopped answering: no reply to {job.text} "
+                        f"within {job.timeout:g} s ({job.sent} telegrams sent): check the "
+                        "wiring, and whether the drive knows this request (USS specification "
+                        "A 5.2.1.1: the slave does not send; C 4.2.1.1)"
+                    )
+                self._finish(job, error=self._timeout(job, now, what))
                 self._next_due(now)
         if self.current is None and self.queue:
             head = self.queue[0]
@@ -230,25 +235,25 @@ class ParameterChannel:
                 self.queue.popleft()
                 self._timed_out += 1
                 if self.not_sending:
-                    why = "the slave does not send"
+                    what = self._silent(head)
                 else:
-                    why = (
-                        "the slave kept repeating an answer that could be taken for the "
-                        "answer to it and did not answer 'no job' with 'no response'"
+                    what = (
+                        f"slave {self.address}: {head.text} not sent within {head.timeout:g} s: "
+                        "the slave kept repeating an answer that could be taken for the answer "
+                        "to it and did not answer 'no job' with 'no response' (C 4.2.1.1)"
                     )
-                self._finish(
-                    head,
-                    error=self._timeout(
-                        head,
-                        now,
-                        f"{head.text} not sent within {head.timeout:g} s: {why} (C 4.2.1.1)",
-                    ),
-                )
+                self._finish(head, error=self._timeout(head, now, what))
                 self._next_due(now)
 
-    def _timeout(self, job: Job, now: float, what: str) -> JobTimeout:
+    def _silent(self, job: Job) -> str:
+        """What a job's end says of a slave that does not answer at all."""
+        return (
+            f"slave {self.address} does not answer (no reply within {job.timeout:g} s): check "
+            "address, baud rate and wiring (USS specification A 5.2.1.1: the slave does not send)"
+        )
+
+    def _timeout(self, job: Job, now: float, message: str) -> JobTimeout:
         outcome = JobOutcome.NOT_SENT if job.sent == 0 else JobOutcome.UNKNOWN
-        message = f"slave {self.address}: {what}"
         if job_changes(job.request):
             if outcome is JobOutcome.NOT_SENT:
                 message += "; the drive did not get it"

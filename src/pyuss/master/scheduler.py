@@ -193,10 +193,13 @@ class _Link:
         layout: Layout,
         profile: Profile,
         response_delay: float,
+        named: bool = True,
     ) -> None:
         self.address = address
         self.layout = layout
         self.profile = profile
+        self.named = named
+        """The profile was named (by the caller or the drive): its parameter facts apply."""
         self.response_delay = response_delay
         self.channel = ParameterChannel(address, profile)
         self.control = 0
@@ -264,8 +267,9 @@ class Master:
     ``transport``: a `Transport` or a URL for `pyuss.transport.open_transport`; ``baud`` is
     taken from the transport when not given (and must match it when given), 9600 for a URL
     by default. ``profile``: the default profile of the drives (a name or a
-    `pyuss.profiles.Profile`); ``layout``: their default layout, a `Layout` or ``"PKW,PZD"``
-    (else the profile's).
+    `pyuss.profiles.Profile`; None: drives of unknown kind, spoken to by the USS
+    specification's rules with no family's parameter facts); ``layout``: their default
+    layout, a `Layout` or ``"PKW,PZD"`` (else the profile's).
     ``cycle_time``: a fixed cycle time in seconds (A 5.1.1), None to cycle as fast as the line
     allows. ``mode``: `CYCLIC` or `ACYCLIC`. ``response_delay``: the default response delay limit in
     seconds (else the profile's, 20 ms). ``job_timeout``: seconds a parameter job may take
@@ -324,6 +328,10 @@ class Master:
         self.baud = transport.baud
         self.timing = LineTiming(self.baud)
         self.profile = resolve_profile(profile)
+        self.profile_named = profile is not None
+        """A profile was given; without one the drives are of unknown kind: the telegrams
+        follow the USS specification (the ``generic`` profile's rules), but no family's
+        parameter facts are applied to them (`pyuss.master.drive.Drive.params`)."""
         if isinstance(layout, str):
             layout = Layout.parse(layout)
         self.default_layout = self.profile.check_layout(layout or self.profile.default_layout)
@@ -480,6 +488,7 @@ class Master:
                     f"slave {address} has response delay limit {link.response_delay:g} s"
                 )
         else:
+            named = prof is not None or self.profile_named
             prof = prof or self.profile
             if layout is None:
                 layout = self.default_layout if prof is self.profile else prof.default_layout
@@ -489,7 +498,7 @@ class Master:
             ):
                 raise ConfigError(f"response delay must be > 0 seconds, not {response_delay!r}")
             limit = response_limit(prof, self.baud, response_delay or self.response_delay)
-            link = _Link(address, layout, prof, limit)
+            link = _Link(address, layout, prof, limit, named)
             link.drive = Drive(self, link)
             self._links[address] = link
             if layout.lge is not None:

@@ -11,10 +11,16 @@
    atomically), so a later run needs not ask again.
 3. The parameter file shipped with the drive's profile (``pyuss/profiles/data/NAME.toml``).
 
-When the master reads a description is the book's `describe` policy: `Describe.MISSING`
-(default) asks the drive only for parameters no file knows, `Describe.ALWAYS` for every
-parameter before its first use, `Describe.NEVER` never. A drive that refuses a description is
-remembered as such and not asked again.
+When the master reads a description is the book's `describe` policy: `Describe.AUTO`
+(default) as the drive's profile says - a drive whose profile says it has descriptions
+(`ParamBook.drive_describes`) is asked for the parameters no file knows, a drive of no named
+profile never -, `Describe.MISSING` for the parameters no file knows whatever the profile says,
+`Describe.ALWAYS` for every parameter before its first use, `Describe.NEVER` never. Most USS
+slaves in the field know no descriptions (request 4 is optional, C 6): a drive that refuses a
+description (any error number but 0, "illegal parameter number": that parameter is not there)
+or does not answer the request although it answers others is remembered as one without
+descriptions (`ParamBook.without_descriptions`, kept in the cache file too) and not asked
+again, whatever the policy.
 """
 
 from __future__ import annotations
@@ -30,6 +36,7 @@ from pyuss.drive.database import ParameterDatabase, load_database
 from pyuss.errors import ConfigError
 from pyuss.params.model import DescriptionLike, ParamInfo, Source, from_description, from_parameter
 from pyuss.profiles import Profile
+from pyuss.protocol.pkw import RequestId
 from pyuss.userfile import parse_json, read_text
 
 __all__ = ["CACHE_VERSION", "Describe", "ParamBook"]
@@ -40,6 +47,8 @@ CACHE_VERSION = 1
 class Describe(enum.Enum):
     """When the master asks a drive for a parameter's description (C 6)."""
 
+    AUTO = "auto"
+    """As the profile says: `MISSING` where it says the drive has descriptions, else `NEVER`."""
     NEVER = "never"
     MISSING = "missing"
     """Only for parameters neither the user's file nor the profile's knows."""
@@ -56,13 +65,18 @@ class ParamBook:
         *,
         index_base: int = 1,
         profile: str = "",
-        describe: Describe = Describe.MISSING,
+        describe: Describe = Describe.AUTO,
+        drive_describes: bool = False,
     ) -> None:
         self.profile = profile
         """Name of the profile whose file the book started from ('' for none)."""
         self.index_base = index_base
         """The first array index of the drive (C 3.2 counts from 1; MICROMASTER 4 from 0)."""
         self.describe = describe
+        self.drive_describes = drive_describes
+        """The profile says the drive answers description requests (request 4, C 6)."""
+        self.without_descriptions = False
+        """The drive showed it has no descriptions: it refused one or did not answer."""
         self._shipped: dict[int, ParamInfo] = {p.pnu: p for p in shipped}
         self._live: dict[int, ParamInfo] = {}
         self._user: dict[int, ParamInfo] = {}
@@ -71,8 +85,12 @@ class ParamBook:
 
     @classmethod
     def for_profile(cls, profile: Profile, **options: Any) -> ParamBook:
-        """The book a drive of ``profile`` starts with: the profile's shipped parameter file."""
+        """The book a drive of ``profile`` starts with: the profile's shipped parameter file;
+        descriptions are expected where the profile's drives answer request 4."""
         db = profile.database()
+        options.setdefault(
+            "drive_describes", int(RequestId.READ_PBE_ELEMENT) in profile.request_ids
+        )
         return cls(
             (from_parameter(p) for p in db),
             index_base=db.profile.index_base,
@@ -115,11 +133,17 @@ class ParamBook:
         """Note that the drive gives no description of ``pnu`` (not asked again)."""
         self._refused.add(pnu)
 
+    def no_descriptions(self) -> None:
+        """Note that the drive has no descriptions at all (none is asked for again)."""
+        self.without_descriptions = True
+
     def needs_description(self, pnu: int) -> bool:
         """Whether the master should read ``pnu``'s description before using it."""
-        if self.describe is Describe.NEVER or pnu in self._live or pnu in self._refused:
+        if self.describe is Describe.NEVER or self.without_descriptions:
             return False
-        if pnu in self._user:
+        if pnu in self._live or pnu in self._refused or pnu in self._user:
+            return False
+        if self.describe is Describe.AUTO and not self.drive_describes:
             return False
         if self.describe is Describe.ALWAYS:
             return True
@@ -171,11 +195,15 @@ class ParamBook:
 
     # -- cache file --------------------------------------------------------------------------
     def cache_data(self) -> dict[str, Any]:
-        """The descriptions learnt from the drive (and the refusals), as JSON-ready data."""
-        return {
+        """The descriptions learnt from the drive (and the refusals, and whether it has none
+        at all: ``"descriptions": false``), as JSON-ready data."""
+        data: dict[str, Any] = {
             "parameters": [info.to_dict() for _, info in sorted(self._live.items())],
             "no_description": sorted(self._refused),
         }
+        if self.without_descriptions:
+            data["descriptions"] = False
+        return data
 
     def load_cache_data(self, data: Any, where: str = "cache") -> None:
         """Take descriptions a `cache_data` call returned (`ConfigError` if broken)."""
@@ -185,10 +213,15 @@ class ParamBook:
                 info = ParamInfo.from_dict({**item, "source": "drive"})
                 live[info.pnu] = info
             refused = {int(p) for p in data.get("no_description", [])}
+            described = data.get("descriptions", True)
         except (AttributeError, TypeError, ValueError) as exc:
             raise ConfigError(f"{where}: not a description cache: {exc}") from None
+        if not isinstance(described, bool):
+            raise ConfigError(f"{where}: 'descriptions' must be true or false, not {described!r}")
         self._live.update(live)
         self._refused.update(refused - set(live))
+        if not described:
+            self.no_descriptions()
 
     def load_cache(self, path: str | Path, key: str) -> None:
         """Take the descriptions kept for drive ``key`` in the cache file ``path`` (a missing

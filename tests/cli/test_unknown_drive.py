@@ -1,0 +1,257 @@
+"""A drive of unknown kind that knows no parameter descriptions (most USS slaves in the field):
+a vacuum-pump controller at address 0 with PKW 4, PZD 6, whose slave ignores request 4 (no
+answer at all) or, as a variant, refuses it (error 102). It is served on a virtual bus in a
+thread of its own and reached over a pty and over ``bus://``; the commands run without
+``--profile``. Every command works with it, no description is asked where none was wanted, at
+most one per drive where one was (a description job, repeated in every telegram until its
+time is up, C 4.2.1.1, counts once), and the device itself refuses what it does not take."""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import json
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from master.conftest import SimulatorThread
+from pyuss.bus import VirtualBus
+from pyuss.cli.main import main
+from pyuss.drive.database import parse_database
+from pyuss.drive.simulated import SimulatedDrive
+from pyuss.master import sync
+from pyuss.profiles import get_profile
+from pyuss.protocol.layout import Layout
+from pyuss.protocol.pkw import RequestId
+from pyuss.protocol.telegram import AddressMode, Telegram
+from pyuss.slave import SlaveEngine, SlaveServer
+
+BAUD = 38400
+LAYOUT = Layout(4, 6)
+
+PUMP = """\
+[profile]
+name = "vacuum-pump"
+title = "vacuum-pump controller"
+follows = "its manual"
+index_base = 1
+max_pnu = 2047
+
+[[parameter]]
+pnu = 3
+name = "Pump type"
+type = "uint16"
+access = "ro"
+default = 4711
+
+[[parameter]]
+pnu = 150
+name = "Rotation speed"
+type = "uint16"
+default = 1200
+
+[[parameter]]
+pnu = 151
+name = "Operating hours"
+type = "uint32"
+default = 100000
+
+[[parameter]]
+pnu = 160
+name = "Setpoints"
+type = "uint16"
+array = 3
+default = 7
+"""
+
+
+class PumpEngine(SlaveEngine):
+    """The pump's slave: the simulator's engine with the pump's parameters, on the USS
+    specification's telegram rules, knowing no descriptions. ``silent``: request 4 gets no
+    answer at all; else the profile leaves request 4 out and the engine refuses it (error 102,
+    "service not implemented"). ``described`` counts the description jobs it got."""
+
+    def __init__(self, *, silent: bool) -> None:
+        generic = get_profile("generic")
+        profile = dataclasses.replace(
+            generic, request_ids=generic.request_ids - {int(RequestId.READ_PBE_ELEMENT)}
+        )
+        super().__init__(0, SimulatedDrive(parse_database(PUMP)), profile, layout=LAYOUT)
+        self.silent = silent
+        self.described = 0
+        self._asked: tuple[int, int] | None = None
+
+    def handle(self, telegram: Telegram, now: float) -> Telegram | None:
+        if telegram.mode is AddressMode.NORMAL and telegram.address == self.address:
+            pkw = self.layout.unpack(telegram.data).pkw
+            if pkw is not None and pkw.id == RequestId.READ_PBE_ELEMENT:
+                if self._asked != (pkw.pnu, pkw.index):
+                    self.described += 1
+                self._asked = (pkw.pnu, pkw.index)
+                if self.silent:
+                    return None
+            else:
+                self._asked = None
+        return super().handle(telegram, now)
+
+
+class PumpBus(SimulatorThread):
+    """The pump on a virtual bus in a thread of its own, with a pty station (``paths[0]``)
+    and ``bus://`` (``url``) for the commands."""
+
+    def __init__(self, *, silent: bool) -> None:
+        super().__init__([], baud=BAUD)
+        self.engine = PumpEngine(silent=silent)
+        self.url = ""
+
+    async def _serve(self) -> None:
+        self._loop = asyncio.get_running_loop()
+        self._stop = asyncio.Event()
+        bus = self.bus = VirtualBus(self.baud)
+        try:
+            task = asyncio.create_task(SlaveServer(bus.attach("pump"), self.engine).run(self._stop))
+            self.paths = await bus.serve_pty(1)
+            host, port = await bus.serve_tcp(framed=True)
+            self.url = f"bus://{host}:{port}"
+            self._ready.set()
+            await self._stop.wait()
+            await task
+        except BaseException as exc:
+            self._error = exc
+            self._ready.set()
+        finally:
+            await bus.close()
+
+    def port(self, kind: str) -> list[str]:
+        return ["--port", self.paths[0] if kind == "pty" else self.url, "--baud", str(BAUD)]
+
+    @property
+    def described(self) -> int:
+        return int(self.call(lambda _: self.engine.described))
+
+
+@pytest.fixture(scope="module", params=["silent", "refusing"])
+def pump(request: pytest.FixtureRequest) -> Iterator[PumpBus]:
+    with PumpBus(silent=request.param == "silent") as running:
+        yield running
+
+
+@pytest.fixture(params=["pty", "bus"])
+def line(request: pytest.FixtureRequest) -> str:
+    return str(request.param)
+
+
+def uss(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_values_words_and_double_words_array_elements_read_and_written(
+    pump: PumpBus, line: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    at = [*pump.port(line), "--layout", "4,6"]
+    before = pump.described
+    code, out, err = uss(capsys, "read", "0", "150", "151", "160.2", *at)
+    assert (code, err) == (0, "")
+    assert out.splitlines() == [
+        "P150 = 1200 (04B0h)",
+        "P151 = 100000 (000186A0h)",
+        "P160.2 = 7 (0007h)",
+    ]
+    code, out, err = uss(capsys, "write", "0", "150", "1500", *at)
+    assert (code, out.strip(), err) == (0, "P150 = 1500 (05DCh)", "")
+    code, out, _ = uss(capsys, "write", "0", "160.3", "9", *at)
+    assert (code, out.strip()) == (0, "P160.3 = 9 (0009h)")
+    code, out, _ = uss(capsys, "read", "0", "150", "160.3", *at, "--json")
+    values = [(p["label"], p["value"], p["raw"]) for p in json.loads(out)["parameters"]]
+    assert (code, values) == (0, [("P150", 1500, [1500]), ("P160.3", 9, [9])])
+    for pnu, value in (("150", "1200"), ("160.3", "7")):  # as it was, for the next test
+        assert uss(capsys, "write", "0", pnu, value, *at)[0] == 0
+    assert pump.described == before  # nothing said the drive has descriptions: none asked
+
+
+def test_the_device_refuses_a_write_to_its_read_only_parameter(
+    pump: PumpBus, line: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # The generic profile calls P3 read-only too; the refusal must be the device's.
+    code, out, err = uss(capsys, "write", "0", "3", "5", *pump.port(line), "--layout", "4,6")
+    assert (code, out) == (1, "")
+    assert "error 1: " in err and len(err.splitlines()) == 1
+    code, out, _ = uss(capsys, "read", "0", "3", *pump.port(line), "--layout", "4,6")
+    assert (code, out) == (0, "P3 = 4711 (1267h)\n")
+
+
+def test_asked_for_descriptions_it_is_asked_once_then_read_as_words(
+    pump: PumpBus, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    cache = str(tmp_path / "descriptions.json")
+    at = [*pump.port("pty"), "--layout", "4,6", "--timeout", "0.5", "--params-cache", cache]
+    before = pump.described
+    code, out, err = uss(capsys, "read", "0", "150", "151", "160.1", *at, "--describe", "always")
+    assert (code, err) == (0, "")
+    assert out.splitlines()[1:] == ["P151 = 100000 (000186A0h)", "P160.1 = 7 (0007h)"]
+    assert pump.described - before == 1  # one per drive, not one per parameter
+    drives = json.loads(Path(cache).read_text(encoding="utf-8"))["drives"]
+    assert [entry["descriptions"] for entry in drives.values()] == [False]
+    # The next run knows it from the cache file: nothing asked, even with --describe always.
+    code, out, _ = uss(capsys, "write", "0", "151", "100000", *at, "--describe", "always")
+    assert (code, out.strip()) == (0, "P151 = 100000 (000186A0h)")
+    assert pump.described - before == 1
+
+
+def test_describe_says_the_drive_has_none(
+    pump: PumpBus, capsys: pytest.CaptureFixture[str]
+) -> None:
+    at = [*pump.port("bus"), "--layout", "4,6", "--timeout", "0.5"]
+    code, out, err = uss(capsys, "describe", "0", "150", *at)
+    assert (code, out) == (1, "")
+    if pump.engine.silent:
+        assert "slave 0 gives no description of P150: it does not answer request 4" in err
+        assert "it has no parameter descriptions" in err
+    else:
+        assert "error 102: service not implemented" in err
+
+
+def test_backup_scan_finds_the_parameters_by_their_values(
+    pump: PumpBus, line: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    file = tmp_path / "pump.json"
+    before = pump.described
+    at = [*pump.port(line), "--layout", "4,6"]
+    code, out, err = uss(capsys, "backup", "0", "-o", str(file), "--scan", "148-161", *at)
+    data = json.loads(file.read_text(encoding="utf-8"))
+    read = {p["pnu"]: p.get("raw") for p in data["parameter"]}
+    assert read == {150: "04B0", 151: "0001 86A0", 160: "0007 0007 0007"}, (out, err)
+    assert code == 0 and data["profile"]
+    assert pump.described == before
+
+
+def test_a_drive_that_does_not_answer_is_named_as_such(
+    pump: PumpBus, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, out, err = uss(capsys, "read", "7", "1120", *pump.port("pty"), "--timeout", "0.3")
+    assert (code, out) == (1, "")
+    assert err.startswith(
+        "P1120: slave 7 does not answer (no reply within 0.3 s): check address, baud rate and "
+        "wiring"
+    )
+
+
+def test_a_named_profile_that_has_descriptions_asks_once_then_reads_words(
+    pump: PumpBus,
+) -> None:
+    # What the web page and the gateway's mailbox do: they read through `Drive` with the
+    # profile configured (generic by default), whose drives have descriptions.
+    before = pump.described
+    with sync.Master(
+        pump.paths[0], baud=BAUD, profile="generic", layout="4,6", job_timeout=0.5
+    ) as master:
+        drive = master.drive(0)
+        assert drive.read(150) == 1200  # no file knows it: a description is asked, in vain
+        assert drive.read(151) == 100000
+        assert drive.read(160, 2) == 7
+        assert drive.params.without_descriptions
+    assert pump.described - before == 1
