@@ -58,9 +58,21 @@ def test_the_trend_moves_and_on_off_switch_the_drive_after_asking(page: Any, dem
     page.click("#confirm-no")
     assert page.locator("#drive-message").inner_text() == "Not sent."
     assert demo.run(lambda: demo.backend.points(1).drive.control) == 0
-    # Setpoint 40 % and ON: the simulated drive runs and the trend follows its ramp.
+    # A setpoint the drive's word cannot carry is refused before the page asks anything: the
+    # question never promises what would be refused.
+    page.fill("#setpoint-value", "500")
+    page.click("#setpoint-form button[type=submit]")
+    page.wait_for_function(
+        "document.querySelector('#drive-message').textContent.includes('outside')"
+    )
+    assert not page.locator("#confirm").is_visible()
+    assert demo.run(lambda: demo.backend.points(1).drive.setpoints) == (0,)
+    # Setpoint 40 % and ON: the simulated drive runs and the trend follows its ramp. The page
+    # asks with the setpoint as checked (what will be sent).
     page.fill("#setpoint-value", "40")
     page.click("#setpoint-form button[type=submit]")
+    page.locator("#confirm").wait_for()
+    assert "set the setpoint to 40 % (20 Hz)?" in page.locator("#confirm-text").inner_text()
     page.click("#confirm-yes")
     page.wait_for_function("document.querySelector('#drive-message').textContent.includes('sent')")
     page.click("[data-cmd=on]")

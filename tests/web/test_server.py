@@ -8,7 +8,6 @@ import base64
 import json
 import os
 import socket
-from collections.abc import AsyncIterator
 from typing import Any
 
 import aiohttp
@@ -17,24 +16,9 @@ import pytest
 from pyuss.errors import ConfigError
 from pyuss.web.backend import Backend
 from pyuss.web.server import WebServer
+from web.conftest import serve
 
 WRITE = {"X-Pyuss": "1"}
-
-
-@pytest.fixture
-async def backend() -> AsyncIterator[Backend]:
-    backend = Backend(demo=True)
-    await backend.start()
-    try:
-        yield backend
-    finally:
-        await backend.close()
-
-
-async def serve(backend: Backend, **options: Any) -> WebServer:
-    server = WebServer(backend, port=0, **options)
-    await server.start()
-    return server
 
 
 def base(server: WebServer) -> str:

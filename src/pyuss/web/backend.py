@@ -368,7 +368,7 @@ class Backend:
             return {
                 "name": name,
                 "setpoint": checked.to_dict(),
-                "text": f"set the setpoint to {_setpoint_text(checked)}",
+                "text": f"set the setpoint to {_setpoint_text(checked, _unit_given(value))}",
             }
         if not isinstance(name, str) or name not in COMMAND_TABLE:
             raise ConfigError(f"unknown command {_shown(name)}: one of {', '.join(self.COMMANDS)}")
@@ -721,12 +721,20 @@ def _shown(value: object) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-def _setpoint_text(checked: ProcessValue) -> str:
-    """A checked setpoint as a page asks about it: ``10 Hz (20 % of the reference)``."""
+def _unit_given(value: object) -> object:
+    return value.get("unit", "%") if isinstance(value, dict) else "%"
+
+
+def _setpoint_text(checked: ProcessValue, given: object) -> str:
+    """A checked setpoint as a page asks about it, first in the unit it was ``given`` in:
+    ``10 Hz (20 % of the reference)``, ``40 % (20 Hz)``."""
     percent = f"{round(checked.percent, 2):g} %"
     if checked.unit == "%" or checked.value is None:
         return percent
-    return f"{round(checked.value, 2):g} {checked.unit} ({percent} of the reference)"
+    value = f"{round(checked.value, 2):g} {checked.unit}"
+    if given == checked.unit:
+        return f"{value} ({percent} of the reference)"
+    return f"{percent} ({value})"
 
 
 def _id(pnu: int, index: int | None) -> str:

@@ -155,6 +155,8 @@ def parse_json(body: bytes) -> Any:
             depth -= 1
     try:
         return json.loads(text, parse_constant=_no_constant)
+    except ConfigError:
+        raise
     except ValueError as exc:
         raise ConfigError(f"the request body is not JSON: {_cut(str(exc))}") from None
 
@@ -212,6 +214,7 @@ class WebServer:
         read_only: bool = False,
         queue_size: int = QUEUE_SIZE,
         send_timeout: float = SEND_TIMEOUT,
+        confirm_age: float = CONFIRM_AGE,
     ) -> None:
         if not is_loopback(host) and not token:
             raise ConfigError(
@@ -229,7 +232,7 @@ class WebServer:
         self._runner: web.AppRunner | None = None
         self._ticker: asyncio.Task[None] | None = None
         self._sent_exchange = 0
-        self._confirms = Confirmations()
+        self._confirms = Confirmations(confirm_age)
 
     # -- life cycle ---------------------------------------------------------------------------
     @property
@@ -317,6 +320,13 @@ class WebServer:
             return _error(403, "a change needs the X-Pyuss header (sent by the page)")
         try:
             response = await handler(request)
+        except web.HTTPException as exc:
+            if exc.status < 400 or exc.content_type == "application/json":
+                raise
+            # aiohttp's own refusals (too large a body, no such route) as JSON too
+            if exc.status == 413:
+                return _error(413, f"the request body is larger than {MAX_BODY} bytes")
+            return _error(exc.status, exc.reason)
         except ConfigError as exc:
             return _error(400, str(exc))
         except DriveRefusal as exc:
