@@ -37,10 +37,8 @@ ALLOWED: dict[str, set[str]] = {
     # (the web page and the data logger know nothing of each other)
     "web": {"protocol", "transport", "bus", "profiles", "params"}
     | {"points", "commission", "monitor"},
-    # the data logger still samples a drive of the master itself (see FACES_ON_THE_MASTER);
-    # its entry stays as it was until it reads its values through the drive model
-    "datalog": {"protocol", "transport", "bus", "drive", "profiles", "params", "master"}
-    | {"commission"},
+    # the data logger: a drive's process data and parameters through the drive model
+    "datalog": {"protocol", "drive", "params", "points"},
     # the gateway's faces over the drive model (see FACES_ON_THE_MASTER)
     "gateway": {"protocol", "transport", "bus", "drive", "profiles", "params", "master"}
     | {"points"},
@@ -53,7 +51,6 @@ ALLOWED: dict[str, set[str]] = {
 FACES = ("web", "datalog", "gateway")
 FACES_ON_THE_MASTER: dict[str, set[str]] = {
     # not yet moved onto the drive model; the master modules they may still import
-    "datalog": {"pyuss.master", "pyuss.master.errors"},
     "gateway": {"pyuss.master.errors"},  # NoWriteAuthority, also pyuss.points.NoWriteAuthority
 }
 """Faces that still import parts of the master, and which: no more may be added."""

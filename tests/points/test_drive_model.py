@@ -25,7 +25,7 @@ async def plant() -> AsyncIterator[Plant]:
     bus = VirtualBus(BAUD)
     try:
         async with simulated_drives(bus, DRIVES):
-            model = line_model("line", BAUD, DRIVES, job_timeout=2.0)
+            model = line_model("line", DRIVES, baud=BAUD)
             plant = Plant(model, transports={"line": bus.attach("master")})
             async with plant:
                 await eventually(lambda: all(d.state.answered for d in plant.drives))

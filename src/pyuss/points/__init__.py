@@ -32,7 +32,7 @@ from pyuss.points.errors import (
     classify,
     error_dict,
 )
-from pyuss.points.line import Drive, Found, scan, simulated_drives
+from pyuss.points.line import Drive, DriveStatus, Found, scan, simulated_drives
 from pyuss.points.model import (
     COMMAND_TABLE,
     COMMANDS,
@@ -61,6 +61,7 @@ __all__ = [
     "DriveModel",
     "DrivePoints",
     "DriveState",
+    "DriveStatus",
     "Endpoint",
     "Failure",
     "Found",

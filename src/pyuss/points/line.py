@@ -2,7 +2,7 @@
 the master: find the drives on it (`scan`, the probe of ``uss scan``), put the demo's
 simulated drives on a virtual bus (`simulated_drives`), and the drive handle's type
 (`Drive`), which `pyuss.commission`'s backups, comparisons and restores take
-(`pyuss.points.DrivePoints.drive`).
+(`pyuss.points.DrivePoints.drive`), with the type of its process data (`DriveStatus`).
 """
 
 from __future__ import annotations
@@ -12,13 +12,14 @@ from contextlib import AbstractAsyncContextManager
 from typing import TYPE_CHECKING, Any
 
 from pyuss.master.drive import Drive
+from pyuss.master.process import DriveStatus
 from pyuss.master.scan import Found, scan
 from pyuss.protocol.layout import Layout
 
 if TYPE_CHECKING:
     from pyuss.bus import VirtualBus
 
-__all__ = ["Drive", "Found", "scan", "simulated_drives"]
+__all__ = ["Drive", "DriveStatus", "Found", "scan", "simulated_drives"]
 
 
 def simulated_drives(

@@ -223,7 +223,11 @@ def _drive(bus: BusConfig, config: DriveConfig, where: Where) -> DriveModel:
 
 
 def line_model(
-    name: str, baud: int, drives: Sequence[tuple[int, str, Layout | None]], *, job_timeout: float
+    name: str,
+    drives: Sequence[tuple[int, str, Layout | None]],
+    *,
+    baud: int = 9600,
+    job_timeout: float = 2.0,
 ) -> PlantModel:
     """The model of one line of drives given by address, profile and layout (the web page's):
     the main setpoint and actual value in PZD2 where the layout has one, every other word of

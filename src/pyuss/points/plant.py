@@ -45,10 +45,11 @@ import logging
 import math
 import time
 from collections import deque
-from collections.abc import AsyncIterator, Callable, Mapping
+from collections.abc import AsyncIterator, Callable, Mapping, Sequence
 from types import TracebackType
 from typing import Any
 
+from pyuss.drive.datatypes import Value
 from pyuss.errors import ConfigError, DriveRefusal, UssError
 from pyuss.master.drive import Drive
 from pyuss.master.errors import NoWriteAuthority
@@ -58,7 +59,7 @@ from pyuss.params import ParamInfo, ValueRefused, decode, parse
 from pyuss.params.model import Reading, param_label
 from pyuss.points.config import ProcessConfig
 from pyuss.points.errors import UnknownPoint, error_dict
-from pyuss.points.model import COMMAND_TABLE, BusModel, DriveModel, PlantModel
+from pyuss.points.model import COMMAND_TABLE, BusModel, DriveModel, PlantModel, line_model
 from pyuss.points.parameters import ParameterModel, ParamMeta
 from pyuss.points.state import (
     DriveState,
@@ -129,6 +130,14 @@ class DrivePoints:
 
     def __repr__(self) -> str:
         return f"<DrivePoints {self.model.key} address {self.model.address}>"
+
+    @classmethod
+    def around(cls, drive: Drive, *, bus: str = "line") -> DrivePoints:
+        """The points of a drive handle of a master run elsewhere (`uss log`): its profile's
+        reference (`read_reference`), every word of the answer an actual value
+        (`pyuss.points.model.line_model`); the line's settings are the master's."""
+        model = line_model(bus, [(drive.address, drive.profile.name, drive.layout)])
+        return cls(model.drives[0], drive)
 
     # -- what it is --------------------------------------------------------------------------
     @property
@@ -456,22 +465,36 @@ class DrivePoints:
                 columns.append({"pzd": number, "name": f"PZD{number}", "unit": ""})
         return columns
 
-    def actual_row(self, words: tuple[int, ...]) -> tuple[float, ...]:
-        """The actual values of an answer's PZD2... in the units `actual_columns` names."""
-        out: list[float] = []
+    def actual_items(self, words: Sequence[int]) -> list[tuple[Value, ParamInfo | None]]:
+        """The actual values of an answer's PZD2... as values, each with the parameter that
+        types it: PZD2 in the reference's unit (or %, no parameter), PZD3... decoded by the
+        parameters the profile maps them to (the word as it came, without a parameter, where
+        none is known or it does not decode)."""
+        out: list[tuple[Value, ParamInfo | None]] = []
         for number, word in enumerate(words, start=2):
             if number == 2:
-                main = process_value("main", 2, False, words, self._reference, self.model.unit)
+                main = process_value(
+                    "main", 2, False, tuple(words), self._reference, self.model.unit
+                )
                 assert main is not None
-                out.append(main.percent if main.value is None else main.value)
+                out.append((main.percent if main.value is None else main.value, None))
                 continue
             info = self.process_parameter(number)
-            value: object = word
+            value: Value = word
+            typed: ParamInfo | None = None
             if info is not None and info.words == 1:
                 with contextlib.suppress(UssError):
-                    value = decode(info, (word,))
-            out.append(float(value) if isinstance(value, int | float) else float(word))
-        return tuple(out)
+                    value, typed = decode(info, (word,)), info
+            out.append((value, typed))
+        return out
+
+    def actual_row(self, words: Sequence[int]) -> tuple[float, ...]:
+        """The actual values of an answer's PZD2... as numbers, in the units
+        `actual_columns` names (`actual_items`)."""
+        return tuple(
+            float(value) if isinstance(value, int | float) else float(word)
+            for (value, _), word in zip(self.actual_items(words), words, strict=True)
+        )
 
     def setpoint_value(self) -> float | None:
         """The main setpoint as sent (PZD2), in the unit of the main actual value."""

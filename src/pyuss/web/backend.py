@@ -212,8 +212,8 @@ class Backend:
         self._epoch = time.time() - transport.clock()
         model = line_model(
             LINE,
-            transport.baud,
             [(s.address, s.profile, s.layout) for s in self._specs],
+            baud=transport.baud,
             job_timeout=self.job_timeout,
         )
         plant = Plant(
