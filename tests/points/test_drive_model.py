@@ -13,7 +13,15 @@ import pytest
 from gateway.harness import eventually
 from pyuss.bus import VirtualBus
 from pyuss.errors import ConfigError
-from pyuss.points import COMMAND_TABLE, MOVES, DrivePoints, Plant, line_model, simulated_drives
+from pyuss.points import (
+    COMMAND_TABLE,
+    MOVES,
+    DrivePoints,
+    Plant,
+    checked_setpoint,
+    line_model,
+    simulated_drives,
+)
 from pyuss.protocol.layout import Layout
 
 BAUD = 38400
@@ -135,3 +143,14 @@ async def test_the_reference_is_read_anew_when_a_face_writes_it(plant: Plant) ->
         await drive.write_value(462, None, "1" * 400)
     jobs = drive.drive.diagnostics().jobs
     assert jobs.completed + jobs.refused == done
+
+
+def test_the_one_check_of_a_setpoint_serves_every_face_alike() -> None:
+    # uss run --setpoint and the faces share it: a double word, an unknown reference
+    wide = checked_setpoint("150", "percent", reference=None, unit="%", dword=True)
+    assert (wide.raw, wide.percent) == (0x6000_0000, 150.0)
+    with pytest.raises(ConfigError, match=r"outside -200 % \.\. 199\.9999999 % .*32 bits"):
+        checked_setpoint(200, "percent", reference=None, unit="%", dword=True)
+    with pytest.raises(ConfigError, match="reference is not known yet"):
+        checked_setpoint(25, "value", reference=None, unit="Hz", where="line/drive1")
+    assert checked_setpoint(25, "value", reference=50.0, unit="Hz").raw == 0x2000

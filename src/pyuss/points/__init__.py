@@ -45,7 +45,7 @@ from pyuss.points.model import (
     resolve,
 )
 from pyuss.points.parameters import ParameterModel, ParamMeta
-from pyuss.points.plant import BusPoints, DrivePoints, Plant
+from pyuss.points.plant import BusPoints, DrivePoints, Plant, checked_setpoint
 from pyuss.points.state import DriveState, Health, ParamValue, ProcessValue, Sample, state_name
 
 __all__ = [
@@ -79,6 +79,7 @@ __all__ = [
     "ReadOnly",
     "Sample",
     "UnknownPoint",
+    "checked_setpoint",
     "classify",
     "error_dict",
     "line_model",

@@ -81,7 +81,7 @@ from pyuss.protocol.pzd import (
 )
 from pyuss.transport.base import Transport
 
-__all__ = ["BusPoints", "DrivePoints", "Plant"]
+__all__ = ["BusPoints", "DrivePoints", "Plant", "checked_setpoint"]
 
 log = logging.getLogger("pyuss.points")
 
@@ -354,50 +354,15 @@ class DrivePoints:
         word's range bounds it (16 bits: -200 % .. +199.99 %, C 5.2.2); `ConfigError` names
         what is wrong. Nothing is sent."""
         pzd, dword = self.setpoint_point(key)
-        bits = 32 if dword else 16
-        number = _number(value, "setpoint")
-        kind = self._unit_kind(unit)
-        if kind == "raw":
-            if number != int(number):
-                raise ConfigError(f"a raw setpoint is a whole number, not {number!r}")
-            raw = int(number)
-            low, high = -(1 << (bits - 1)), (1 << (bits - 1)) - 1
-            if not low <= raw <= high:
-                raise ConfigError(
-                    f"raw setpoint {_shown(raw)} does not fit {bits} bits ({low}..{high})"
-                )
-            word = raw & ((1 << bits) - 1)
-        else:
-            try:
-                if kind == "value" and self.model.unit != "%":
-                    if self._reference is None:
-                        raise ConfigError(
-                            f"{self.key}: the reference is not known yet: "
-                            "give the setpoint in percent"
-                        )
-                    percent = number * 100.0 / self._reference
-                else:
-                    percent = float(number)
-                word = percent_to_raw32(percent) if dword else percent_to_raw16(percent)
-            except (ConfigError, OverflowError):
-                if self._reference is None and kind == "value" and self.model.unit != "%":
-                    raise
-                span = (-200.0, 100.0 * ((1 << (bits - 1)) - 1) / (1 << (bits - 2)))
-                shown = "%" if kind == "percent" or self.model.unit == "%" else self.model.unit
-                raise ConfigError(
-                    f"setpoint {_shown(number)} {shown} is outside {span[0]:g} % .. "
-                    f"{span[1]:.2f} % of the reference ({bits} bits, C 5.2.2)"
-                ) from None
-        percent = raw32_to_percent(word) if dword else raw16_to_percent(word)
-        return ProcessValue(
-            key,
-            pzd,
-            signed(word, bits),
-            round(percent, 6),
-            None
-            if self._reference is None and self.model.unit != "%"
-            else round(percent * (self._reference or 100.0) / 100.0, 6),
-            self.model.unit,
+        return checked_setpoint(
+            value,
+            self._unit_kind(unit),
+            reference=self._reference,
+            unit=self.model.unit,
+            key=key,
+            pzd=pzd,
+            dword=dword,
+            where=self.key,
         )
 
     def _unit_kind(self, unit: object) -> str:
@@ -815,6 +780,63 @@ def words_of(raw: int, dword: bool) -> tuple[int, ...]:
     if dword:
         return split_dword(raw & 0xFFFF_FFFF)
     return (raw & 0xFFFF,)
+
+
+def checked_setpoint(
+    value: object,
+    kind: str,
+    *,
+    reference: float | None,
+    unit: str,
+    key: str = "main",
+    pzd: int = 2,
+    dword: bool = False,
+    where: str = "the drive",
+) -> ProcessValue:
+    """The one check of a setpoint (`DrivePoints.check_setpoint`, ``uss run --setpoint``):
+    ``value`` a finite number or a number as text; ``kind`` ``value`` (in ``unit``, through
+    ``reference``, the physical value of 100 %; percent where ``unit`` is ``%``),
+    ``percent`` or ``raw``; the word's range bounds it (16 bits: -200 % .. +199.99 %, 32
+    bits with ``dword``; C 5.2.2). Returns the setpoint as it would be sent; `ConfigError`
+    names what is wrong."""
+    bits = 32 if dword else 16
+    number = _number(value, "setpoint")
+    if kind == "raw":
+        if number != int(number):
+            raise ConfigError(f"a raw setpoint is a whole number, not {number!r}")
+        raw = int(number)
+        low, high = -(1 << (bits - 1)), (1 << (bits - 1)) - 1
+        if not low <= raw <= high:
+            raise ConfigError(
+                f"raw setpoint {_shown(raw)} does not fit {bits} bits ({low}..{high})"
+            )
+        word = raw & ((1 << bits) - 1)
+    else:
+        in_unit = kind == "value" and unit != "%"
+        if in_unit and (reference is None or not reference > 0):
+            raise ConfigError(
+                f"{where}: the reference is not known yet: give the setpoint in percent"
+            )
+        try:
+            percent = number * 100.0 / reference if in_unit and reference else float(number)
+            word = percent_to_raw32(percent) if dword else percent_to_raw16(percent)
+        except (ConfigError, OverflowError):
+            span = (-200.0, 100.0 * ((1 << (bits - 1)) - 1) / (1 << (bits - 2)))
+            raise ConfigError(
+                f"setpoint {_shown(number)} {unit if in_unit else '%'} is outside "
+                f"{span[0]:g} % .. {span[1]:.{2 if bits == 16 else 7}f} % of the reference "
+                f"({bits} bits, C 5.2.2)"
+            ) from None
+    percent = raw32_to_percent(word) if dword else raw16_to_percent(word)
+    known = reference is not None or unit == "%"
+    return ProcessValue(
+        key,
+        pzd,
+        signed(word, bits),
+        round(percent, 6),
+        round(percent * (reference or 100.0) / 100.0, 6) if known else None,
+        unit,
+    )
 
 
 def _shown(value: object) -> str:
