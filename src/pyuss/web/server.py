@@ -10,7 +10,9 @@ Routes (all under the token when there is one):
   with a backup file as the body: the differences, what a restore would write.
 - ``POST /api/drive/N/command``, ``/api/drive/N/params/write``, ``/api/scan``,
   ``/api/drive/N/restore?name=FILE[&force=1][&eeprom=1]``: changes (refused with
-  ``--read-only``).
+  ``--read-only``). A command with ``"check": true`` is checked whole and not sent: the
+  answer has the question for a person and a ``confirm``, which the yes carries; it acts
+  once, within `CONFIRM_AGE` seconds, for exactly the command checked (`Confirmations`).
 - ``GET /api/monitor.pcapng``: the telegrams of the monitor view as a capture.
 - ``GET /ws``: live updates (`pyuss.web.hub`): ``tick`` messages with every drive's new
   process-data samples 20 times a second, ``bus`` messages with state and communication
@@ -24,7 +26,9 @@ required (`WebServer` refuses to start without one) and every request must carry
 a loopback host (a web site cannot reach the page through a DNS name of its own). Requests
 that change something must carry the ``X-Pyuss`` header (a web site's form cannot add it) and
 no ``Origin`` of another site; a WebSocket from another origin is refused. ``read_only``
-refuses every change and the page hides its controls.
+refuses every change and the page hides its controls. Every JSON body is read and parsed
+within bounds (`MAX_JSON` bytes, nesting `MAX_DEPTH`, no NaN or Infinity), every key and
+type checked; a bad request gets one JSON error with a 4xx status and never reaches a drive.
 """
 
 from __future__ import annotations
