@@ -114,7 +114,9 @@ def _error(status: int, message: str, **extra: Any) -> web.Response:
 def _ref(text: object) -> tuple[int, int | None]:
     """``52`` or ``4.2`` (also ``P4.2``, or the number 52) as PNU and index."""
     if isinstance(text, int) and not isinstance(text, bool):
-        text = str(text) if 0 <= text <= MAX_PNU else "-"
+        if not 0 <= text <= MAX_PNU:
+            raise ConfigError(f"{_cut(text)} is not a parameter: a number is 0..{MAX_PNU}")
+        text = str(text)
     if not isinstance(text, str) or len(text) > 16:
         raise ConfigError(f"{_cut(text)} is not a parameter (52 or 4.2)")
     body = text.strip().lstrip("Pp").replace("[", ".").rstrip("]")
