@@ -10,11 +10,9 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "pyuss"
 
-_BELOW_FACES = {"protocol", "transport", "bus", "drive", "profiles", "params", "master"}
-_BELOW_FACES |= {"commission"}
-
 # What each package may import from pyuss (besides itself and the shared root modules
-# errors, log, atomicfile, userfile and _lazy, and loop for all but the protocol layer).
+# errors, log, atomicfile, userfile and _lazy, and loop for all but the protocol layer). Every
+# package of pyuss has its entry (`test_every_package_has_its_rule`).
 ALLOWED: dict[str, set[str]] = {
     "protocol": set(),
     "transport": {"protocol", "bus"},  # bus:// URLs open the virtual bus client (lazily)
@@ -25,21 +23,41 @@ ALLOWED: dict[str, set[str]] = {
     "monitor": {"protocol", "transport", "bus"},
     # parameter knowledge sits below the master, which converts values through it
     "params": {"protocol", "drive", "profiles"},
+    # the master; its testing module assembles simulated drives (slave) on a virtual bus
+    "master": {"protocol", "transport", "bus", "drive", "profiles", "params", "slave"},
+    # the companions: BASS serves a drive model of pyuss.drive; KS VARIO stands alone
+    "bass": {"protocol", "transport", "drive"},
+    "ksvario": {"protocol", "transport"},
     # commissioning (backup, compare, restore, status) builds on the master
     "commission": {"protocol", "drive", "profiles", "params", "master"},
-    # faces above the master: the data logger and the web page know nothing of each other
-    # (both type parameter values through params; the page's backups are commission's)
-    "datalog": _BELOW_FACES,
-    "web": _BELOW_FACES | {"monitor"},
-    # the plant's data points and the faces above them sit on the master
+    # the live-drive model: the one place where a face's wish becomes process data or a
+    # parameter job, on the master
     "points": {"protocol", "transport", "bus", "drive", "profiles", "params", "master"},
-    "gateway": {"protocol", "transport", "bus", "drive", "profiles", "params", "master", "points"},
-}
+    # the faces: the drive model, commission and the monitor, never the master
+    # (the web page and the data logger know nothing of each other)
+    "web": {"protocol", "transport", "bus", "profiles", "params"}
+    | {"points", "commission", "monitor"},
+    # the data logger: a drive's process data and parameters through the drive model
+    "datalog": {"protocol", "drive", "params", "points"},
+    # the gateway's faces over the drive model
+    "gateway": {"protocol", "transport", "bus", "drive", "profiles", "params", "points"},
+    # the uss command wires every part to the command line
+    "cli": {
+        "protocol", "transport", "bus", "drive", "profiles", "slave", "monitor", "params",
+        "master", "bass", "ksvario", "commission", "points", "web", "datalog", "gateway",
+    },
+}  # fmt: skip
+FACES = ("web", "datalog", "gateway")
 # Each gateway face imports its own library only; the pure modules none of them.
 FACE_LIBRARIES = {"pymodbus", "aiomqtt", "paho", "asyncua"}
 FACE_OWN = {"modbus.py": set(), "mqtt.py": {"aiomqtt", "paho"}, "opcua.py": {"asyncua"}}
 # Pure means no I/O and no clock: none of these in the protocol layer.
 IMPURE = {"asyncio", "socket", "serial", "time", "os", "threading", "subprocess", "select"}
+
+
+def test_every_package_has_its_rule() -> None:
+    packages = {p.name for p in SRC.iterdir() if (p / "__init__.py").is_file()}
+    assert packages == set(ALLOWED), f"without a rule: {sorted(packages - set(ALLOWED))}"
 
 
 def _imports(package: str) -> set[str]:
@@ -64,6 +82,17 @@ def test_no_layer_reaches_up(package: str) -> None:
     if package != "protocol":  # the event loop helpers are shared by every layer doing I/O
         used -= {"loop"}
     assert used <= ALLOWED[package], f"pyuss.{package} imports {sorted(used - ALLOWED[package])}"
+
+
+@pytest.mark.parametrize("face", FACES)
+def test_faces_go_through_the_drive_model_not_the_master(face: str) -> None:
+    used = {
+        name
+        for name in _imports(face)
+        if name == "pyuss.master" or name.startswith("pyuss.master.")
+    }
+    assert not used, f"pyuss.{face} imports {sorted(used)}: use pyuss.points"
+    assert "master" not in ALLOWED[face]
 
 
 @pytest.mark.parametrize("module", sorted(p.name for p in (SRC / "gateway").glob("*.py")))

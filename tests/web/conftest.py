@@ -10,7 +10,7 @@ from __future__ import annotations
 import asyncio
 import shutil
 import threading
-from collections.abc import Coroutine, Iterator
+from collections.abc import AsyncIterator, Coroutine, Iterator
 from concurrent.futures import Future
 from pathlib import Path
 from typing import Any, TypeVar
@@ -73,6 +73,24 @@ class Running:
         finally:
             self.loop.call_soon_threadsafe(self.loop.stop)
             self.thread.join(10)
+
+
+@pytest.fixture
+async def backend() -> AsyncIterator[Backend]:
+    """The demo's backend in the test's own event loop."""
+    backend = Backend(demo=True)
+    await backend.start()
+    try:
+        yield backend
+    finally:
+        await backend.close()
+
+
+async def serve(backend: Backend, **options: Any) -> WebServer:
+    """A server for ``backend`` on a free port of 127.0.0.1, started."""
+    server = WebServer(backend, port=0, **options)
+    await server.start()
+    return server
 
 
 @pytest.fixture(scope="module")

@@ -70,11 +70,15 @@ async def test_setpoints_in_the_reference_unit() -> None:
     await backend.start()
     try:
         assert backend.drive_info(1)["reference"] == {"value": 50.0, "unit": "Hz"}
-        assert backend.setpoint_percent(1, {"value": "25", "unit": "Hz"}) == 50.0
-        assert backend.setpoint_percent(1, 30) == 30.0
+        points = backend.points(1)
+        assert points.check_setpoint("25", unit="Hz").percent == 50.0
+        assert points.check_setpoint(30, unit="%").raw == round(0x4000 * 0.3)
+        checked = backend.check(1, "setpoint", {"value": "10", "unit": "Hz"})
+        assert checked["text"] == "set the setpoint to 10 Hz (20 % of the reference)"
+        assert points.drive.setpoints == (0,)  # a check sends nothing
         await backend.command(1, "setpoint", {"value": "10", "unit": "Hz"})
-        assert backend.master.drive(1).setpoints == (round(0x4000 * 0.2),)
-        assert abs((backend.setpoint_value(1) or 0) - 10.0) < 0.01
+        assert points.drive.setpoints == (round(0x4000 * 0.2),)
+        assert abs((points.setpoint_value() or 0) - 10.0) < 0.01
     finally:
         await backend.close()
 
@@ -96,7 +100,7 @@ async def test_the_expert_list_and_edits_go_through_the_parameter_model() -> Non
         assert (await backend.read(7, [(2010, 1)]))[0]["input"] == "7"
         await backend.write(7, 2010, 1, "9600 BAUD")
         # refused before anything is sent: no job reaches the drive
-        jobs = backend.master.drive(7).diagnostics().jobs
+        jobs = backend.points(7).drive.diagnostics().jobs
         before = jobs.completed + jobs.refused
         for pnu, index, text, words in [
             (1120, None, "700", "outside 0.00..650.00 s"),
@@ -112,7 +116,7 @@ async def test_the_expert_list_and_edits_go_through_the_parameter_model() -> Non
                 assert words in str(exc), (text, str(exc))
             else:
                 raise AssertionError(f"{text!r} for P{pnu} was not refused")
-        jobs = backend.master.drive(7).diagnostics().jobs
+        jobs = backend.points(7).drive.diagnostics().jobs
         assert jobs.completed + jobs.refused == before
     finally:
         await backend.close()

@@ -57,10 +57,22 @@ def test_the_trend_moves_and_on_off_switch_the_drive_after_asking(page: Any, dem
     assert "ON" in page.locator("#confirm-text").inner_text()
     page.click("#confirm-no")
     assert page.locator("#drive-message").inner_text() == "Not sent."
-    assert demo.run(lambda: demo.backend.master.drive(1).control) == 0
-    # Setpoint 40 % and ON: the simulated drive runs and the trend follows its ramp.
+    assert demo.run(lambda: demo.backend.points(1).drive.control) == 0
+    # A setpoint the drive's word cannot carry is refused before the page asks anything: the
+    # question never promises what would be refused.
+    page.fill("#setpoint-value", "500")
+    page.click("#setpoint-form button[type=submit]")
+    page.wait_for_function(
+        "document.querySelector('#drive-message').textContent.includes('outside')"
+    )
+    assert not page.locator("#confirm").is_visible()
+    assert demo.run(lambda: demo.backend.points(1).drive.setpoints) == (0,)
+    # Setpoint 40 % and ON: the simulated drive runs and the trend follows its ramp. The page
+    # asks with the setpoint as checked (what will be sent).
     page.fill("#setpoint-value", "40")
     page.click("#setpoint-form button[type=submit]")
+    page.locator("#confirm").wait_for()
+    assert "set the setpoint to 40 % (20 Hz)?" in page.locator("#confirm-text").inner_text()
     page.click("#confirm-yes")
     page.wait_for_function("document.querySelector('#drive-message').textContent.includes('sent')")
     page.click("[data-cmd=on]")
@@ -94,10 +106,10 @@ def test_every_answer_reaches_the_trend(page: Any, demo: Running) -> None:
         " const m = JSON.parse(e.data); if (m.type === 'tick' && m.drives['4'])"
         " window.samples += m.drives['4'].samples.length; })"
     )
-    start = demo.run(lambda: demo.backend.master.drive(4).diagnostics().answers)
+    start = demo.run(lambda: demo.backend.points(4).drive.diagnostics().answers)
     page.wait_for_function("window.samples >= 30")
     # every sample the master got is sent on (none dropped or thinned out)
-    end = demo.run(lambda: demo.backend.master.drive(4).diagnostics().answers)
+    end = demo.run(lambda: demo.backend.points(4).drive.diagnostics().answers)
     got = page.evaluate("window.samples")
     assert got <= end - start + 2
     page.wait_for_timeout(300)

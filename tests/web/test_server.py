@@ -8,7 +8,6 @@ import base64
 import json
 import os
 import socket
-from collections.abc import AsyncIterator
 from typing import Any
 
 import aiohttp
@@ -17,24 +16,9 @@ import pytest
 from pyuss.errors import ConfigError
 from pyuss.web.backend import Backend
 from pyuss.web.server import WebServer
+from web.conftest import serve
 
 WRITE = {"X-Pyuss": "1"}
-
-
-@pytest.fixture
-async def backend() -> AsyncIterator[Backend]:
-    backend = Backend(demo=True)
-    await backend.start()
-    try:
-        yield backend
-    finally:
-        await backend.close()
-
-
-async def serve(backend: Backend, **options: Any) -> WebServer:
-    server = WebServer(backend, port=0, **options)
-    await server.start()
-    return server
 
 
 def base(server: WebServer) -> str:
@@ -94,7 +78,7 @@ async def test_a_web_site_cannot_reach_the_page_on_loopback(backend: Backend) ->
                 assert reply.status == 403
             with pytest.raises(aiohttp.WSServerHandshakeError):
                 await http.ws_connect(base(server) + "/ws", origin="http://evil.example")
-            assert backend.master.drive(1).control == 0  # nothing reached the drive
+            assert backend.points(1).drive.control == 0  # nothing reached the drive
             own = {**WRITE, "Origin": base(server)}
             async with http.post(command, json={"name": "off1"}, headers=own) as reply:
                 assert reply.status == 200
@@ -121,7 +105,7 @@ async def test_read_only_refuses_every_change(backend: Backend) -> None:
                 assert (await r.json())[0]["value"] == "10.0 s"
             async with http.get(url + "/api/config") as reply:
                 assert (await reply.json())["read_only"] is True
-        assert backend.master.drive(1).control == 0
+        assert backend.points(1).drive.control == 0
     finally:
         await server.close()
 

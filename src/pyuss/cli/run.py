@@ -51,7 +51,7 @@ from pyuss.master.drive import Drive
 from pyuss.master.errors import DriveFault
 from pyuss.master.process import DriveStatus
 from pyuss.master.scheduler import CYCLIC
-from pyuss.protocol.pzd import percent_to_raw16
+from pyuss.points import checked_setpoint
 
 
 def register(subparsers: Any) -> None:
@@ -105,26 +105,29 @@ Reference = tuple[float, str] | None
 
 def setpoint_percent(text: str, reference: Reference, profile: str) -> float:
     """A ``--setpoint`` in percent: ``50`` / ``50 %`` as they are, ``25 Hz`` through the
-    reference parameter."""
+    reference parameter; checked by the drive model's one check of a setpoint
+    (`pyuss.points.checked_setpoint`: finite, within the word's range), as sent."""
     match = re.fullmatch(r"\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(\S*)\s*", text)
-    if match is None:
-        raise ConfigError(f"--setpoint {text!r}: give a number, with % or the reference's unit")
-    value, unit = float(match.group(1)), match.group(2)
-    if unit in ("", "%"):
-        percent = value
-    elif reference is not None and unit.casefold() == reference[1].casefold():
-        if not reference[0]:
-            raise ConfigError(f"--setpoint {text!r}: the drive's reference is 0 {reference[1]}")
-        percent = value / reference[0] * 100.0
-    else:
+    # anything else (inf, nan, a word) is the model's to refuse, in percent
+    value, unit = (match.group(1), match.group(2) or "%") if match else (text, "%")
+    if unit != "%" and (reference is None or unit.casefold() != reference[1].casefold()):
         where = (
             f"the reference parameter is in {reference[1]}"
             if reference is not None
             else f"profile {profile} names no reference parameter with a unit"
         )
         raise ConfigError(f"--setpoint {text!r}: {where}; give percent or that unit")
-    percent_to_raw16(percent)  # out of range: bad input
-    return percent
+    try:
+        checked = checked_setpoint(
+            value,
+            "percent" if unit == "%" else "value",
+            reference=None if reference is None else reference[0],
+            unit="%" if reference is None else reference[1],
+            where="the drive",
+        )
+    except ConfigError as exc:
+        raise ConfigError(f"--setpoint {text[:40]!r}: {exc}") from None
+    return checked.percent
 
 
 def line(status: DriveStatus | None, setpoint: float | str, reference: Reference = None) -> str:

@@ -1,6 +1,7 @@
 """Sampling a drive into a CSV log.
 
-`DataLogger` takes one row per sample from a drive on a cyclic `pyuss.master.Master`:
+`DataLogger` takes one row per sample from a drive on a cyclic `pyuss.master.Master` (the
+handle comes from the command; the logger itself imports the drive model, not the master):
 
 - samples are due at fixed times, ``1 / rate`` seconds apart from the start (a slot that is
   missed because the line is slower is skipped, the timetable does not drift);
@@ -8,9 +9,10 @@
   first answer of the drive after the slot began, so every row holds fresh data; the row's
   time is when that answer came (wall clock, ISO 8601 with the UTC offset, milliseconds);
 - parameters are read with a parameter job for every row, typed through the drive's parameter
-  book (`pyuss.params`, ``Drive.read_param``); actual values PZD3 and up are converted by the
-  parameters the profile maps them to, PZD2 in the unit of the reference parameter
-  (`pyuss.commission.status.reference_value`);
+  book (`pyuss.params`, ``Drive.read_param``); the actual values are those of the live-drive
+  model (`pyuss.points.DrivePoints.actual_items`, the one scaling of process data the web
+  page uses too): PZD2 in the unit of the profile's reference parameter, PZD3 and up
+  converted by the parameters the profile maps them to;
 - a drive that does not answer (no answer within ``max(1 / rate, 0.5 s)``, "slave does not
   send" of A 5.2.1.1, or a parameter job that timed out) gives a row with every value empty
   and ``no answer`` in the ``comm`` column: never the last values again. A parameter the
@@ -27,15 +29,13 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from pyuss.commission.status import reference_value
 from pyuss.datalog.csvfile import CsvLog
 from pyuss.datalog.values import Kind, Quantity
 from pyuss.drive.datatypes import Value
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
-from pyuss.master import Drive, DriveStatus
-from pyuss.master.errors import NoWriteAuthority
-from pyuss.params import ParamInfo, decode, format_value
-from pyuss.protocol.pzd import STATUS_BITS, raw16_to_percent
+from pyuss.params import ParamInfo, format_value
+from pyuss.points import Drive, DrivePoints, DriveStatus, NoWriteAuthority
+from pyuss.protocol.pzd import STATUS_BITS
 
 __all__ = ["COMM_OK", "NO_ANSWER", "DataLogger", "LogResult", "iso_now"]
 
@@ -104,21 +104,26 @@ class DataLogger:
         self.quantities = list(quantities)
         self.rate = float(rate)
         self.job_timeout = job_timeout
-        self.reference: tuple[float, str] | None = None
+        self.points = DrivePoints.around(drive)
+        """The drive's live points: its reference and the values of its process data."""
 
     async def prepare(self) -> None:
         """Read the reference (for actual values in units) and every parameter once (which
         also learns what the drive says of parameters no file knows, for the header): a
         parameter the drive refuses ends the log before it starts (`DriveRefusal`)."""
         if any(q.kind is Kind.ACTUAL for q in self.quantities):
-            try:
-                self.reference = await reference_value(self.drive)
-            except UssError:
-                self.reference = None
+            with contextlib.suppress(UssError):  # without it: PZD2 in percent
+                await self.points.read_reference()
         for quantity in self.quantities:
             if quantity.kind is Kind.PARAMETER:
                 with contextlib.suppress(UssTimeout):  # no answer now: the rows say so
                     await read_parameter(self.drive, quantity.pnu, quantity.index, self.job_timeout)
+
+    @property
+    def reference(self) -> tuple[float, str] | None:
+        """The reference (100 % of PZD2) and its unit, once `prepare` read it."""
+        value = self.points.reference
+        return None if value is None else (value, self.points.model.unit)
 
     def _actual_columns(self) -> list[str]:
         names = []
@@ -127,19 +132,13 @@ class DataLogger:
                 unit = self.reference[1] if self.reference else "%"
                 names.append(f"actual PZD2 [{unit}]")
                 continue
-            param = self._process_parameter(number)
+            param = self.points.process_parameter(number)
             if param is None:
                 names.append(f"actual PZD{number}")
             else:
                 unit = f" [{param.unit}]" if param.unit else ""
                 names.append(f"actual PZD{number} {param.name}{unit}")
         return names
-
-    def _process_parameter(self, number: int) -> ParamInfo | None:
-        """The parameter the profile maps to actual value PZD``number`` (3 and up)."""
-        pnus = self.drive.profile.database().process_actuals
-        pnu = pnus[number - 3] if 0 <= number - 3 < len(pnus) else 0
-        return self.drive.params.get(pnu) if pnu else None
 
     def header(self) -> list[str]:
         """The CSV header: time, one column per value (units in brackets), comm."""
@@ -166,21 +165,14 @@ class DataLogger:
 
     def _actual_cells(self, status: DriveStatus) -> list[str]:
         cells = []
-        words = list(status.actual) + [None] * (self.drive.layout.pzd - 1 - len(status.actual))
-        for number, raw in enumerate(words, start=2):
-            if raw is None:
-                cells.append("")
-            elif number == 2:
-                percent = raw16_to_percent(raw)
-                value = percent * self.reference[0] / 100 if self.reference else percent
+        for number, (value, info) in enumerate(self.points.actual_items(status.actual), start=2):
+            if number == 2 and isinstance(value, int | float):
                 cells.append(f"{value:.3f}")
+            elif info is not None:
+                cells.append(cell(info, value))
             else:
-                param = self._process_parameter(number)
-                text = str(raw)  # the word as it came where nothing is known of it
-                if param is not None and param.words == 1:
-                    with contextlib.suppress(UssError):
-                        text = cell(param, decode(param, (raw,)))
-                cells.append(text)
+                cells.append(str(value))  # the word as it came where nothing is known of it
+        cells += [""] * (self.drive.layout.pzd - 1 - len(status.actual))
         return cells
 
     def _process_cells(self, quantity: Quantity, status: DriveStatus) -> list[str]:

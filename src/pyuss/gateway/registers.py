@@ -87,7 +87,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from pyuss.errors import ConfigError, DriveRefusal, UssError
-from pyuss.master.errors import NoWriteAuthority
+from pyuss.points import NoWriteAuthority
 from pyuss.points.config import ProcessConfig
 from pyuss.points.errors import Failure, classify
 from pyuss.points.parameters import ParamMeta

@@ -4,11 +4,14 @@
 - `pyuss.points.model`: the configuration resolved against the parameter model (`resolve`).
 - `pyuss.points.state`: `DriveState`, a drive's points at one moment (JSON with units).
 - `pyuss.points.plant`: `Plant`: one master per bus, `DrivePoints` per drive, live, with
-  change notification and the writes the faces ask for.
+  change notification and the writes the faces ask for - the one place where a face's wish
+  becomes process data or a parameter job, checked whole first (its docstring has the rules).
+- `pyuss.points.line`: the scan, the demo's simulated drives, the drive handle's type.
 - `pyuss.points.errors`: what went wrong, in classes every face maps to its own errors.
 - `pyuss.points.endpoint`: the addresses faces listen on or connect to.
 
-The faces (`pyuss.gateway`, `pyuss.web`) sit on top. See docs/gateway.md.
+The faces (`pyuss.gateway`, `pyuss.web`) sit on top and never import the master.
+See docs/architecture.md and docs/gateway.md.
 """
 
 from pyuss.points.config import (
@@ -21,24 +24,49 @@ from pyuss.points.config import (
     plant_from_flags,
 )
 from pyuss.points.endpoint import Endpoint, parse_endpoint
-from pyuss.points.errors import Failure, ReadOnly, UnknownPoint, classify, error_dict
-from pyuss.points.model import COMMANDS, STATUS_BIT_NAMES, DriveModel, PlantModel, resolve
+from pyuss.points.errors import (
+    Failure,
+    NoWriteAuthority,
+    ReadOnly,
+    UnknownPoint,
+    classify,
+    error_dict,
+)
+from pyuss.points.line import Drive, DriveStatus, Found, scan, simulated_drives
+from pyuss.points.model import (
+    COMMAND_TABLE,
+    COMMANDS,
+    MOVES,
+    STATUS_BIT_NAMES,
+    Command,
+    DriveModel,
+    PlantModel,
+    line_model,
+    resolve,
+)
 from pyuss.points.parameters import ParameterModel, ParamMeta
-from pyuss.points.plant import BusPoints, DrivePoints, Plant
-from pyuss.points.state import DriveState, Health, ParamValue, ProcessValue
+from pyuss.points.plant import BusPoints, DrivePoints, Plant, checked_setpoint
+from pyuss.points.state import DriveState, Health, ParamValue, ProcessValue, Sample, state_name
 
 __all__ = [
     "COMMANDS",
+    "COMMAND_TABLE",
+    "MOVES",
     "STATUS_BIT_NAMES",
     "BusConfig",
     "BusPoints",
+    "Command",
+    "Drive",
     "DriveConfig",
     "DriveModel",
     "DrivePoints",
     "DriveState",
+    "DriveStatus",
     "Endpoint",
     "Failure",
+    "Found",
     "Health",
+    "NoWriteAuthority",
     "ParamMeta",
     "ParamValue",
     "ParameterConfig",
@@ -49,11 +77,17 @@ __all__ = [
     "ProcessConfig",
     "ProcessValue",
     "ReadOnly",
+    "Sample",
     "UnknownPoint",
+    "checked_setpoint",
     "classify",
     "error_dict",
+    "line_model",
     "parse_endpoint",
     "parse_plant",
     "plant_from_flags",
     "resolve",
+    "scan",
+    "simulated_drives",
+    "state_name",
 ]

@@ -31,7 +31,7 @@ from typing import Any
 from pyuss.errors import ConfigError, DriveRefusal, TransportError, UssError, UssTimeout
 from pyuss.master.errors import NoWriteAuthority
 
-__all__ = ["Failure", "ReadOnly", "UnknownPoint", "classify", "error_dict"]
+__all__ = ["Failure", "NoWriteAuthority", "ReadOnly", "UnknownPoint", "classify", "error_dict"]
 
 
 class ReadOnly(UssError, PermissionError):

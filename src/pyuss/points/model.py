@@ -18,7 +18,8 @@ Per drive the points are the same for every face:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 
 from pyuss.drive.database import ParamRef
 from pyuss.errors import ConfigError
@@ -30,11 +31,15 @@ from pyuss.protocol.pzd import StatusWord
 
 __all__ = [
     "COMMANDS",
+    "COMMAND_TABLE",
+    "MOVES",
     "STATUS_BIT_NAMES",
     "BusModel",
+    "Command",
     "DriveModel",
     "ParameterPoint",
     "PlantModel",
+    "line_model",
     "resolve",
 ]
 
@@ -45,8 +50,39 @@ STATUS_BIT_NAMES: dict[int, str] = {
 }
 """Status bits 0..10 by the names the faces use (``ready_to_switch_on`` ... ``target_reached``)."""
 
+
+@dataclass(frozen=True, slots=True)
+class Command:
+    """One drive command: the control word sequence of `pyuss.master.Drive` that carries
+    it (``method`` with ``args``), and whether it can set a motor turning."""
+
+    name: str
+    method: str
+    args: tuple[int | None, ...] = ()
+    moves: bool = False
+    """It can set a motor turning: a face that asks a person asks before it sends it."""
+
+
+COMMAND_TABLE: dict[str, Command] = {
+    command.name: command
+    for command in (
+        Command("on", "on", moves=True),  # 047Eh, then 047Fh (C Tables 5.2..5.5)
+        Command("off1", "off1"),  # ramp down, control bit 0 = 0
+        Command("off2", "off2"),  # pulses off, the motor coasts: bit 1 = 0
+        Command("off3", "off3"),  # quick stop: bit 2 = 0
+        Command("acknowledge", "acknowledge"),  # a rising edge of bit 7
+        Command("jog1", "jog", (1,), moves=True),  # bit 8
+        Command("jog2", "jog", (2,), moves=True),  # bit 9
+        Command("jog_off", "jog", (None,)),
+    )
+}
+"""Every drive command of the points, by name: the one table the faces' commands come from."""
+
 COMMANDS = ("on", "off1", "off2", "off3", "acknowledge")
-"""The drive commands every face offers (control word sequences of `pyuss.master.Drive`)."""
+"""The drive commands every face offers (the gateway's; the page adds the jog commands)."""
+
+MOVES = frozenset(name for name, command in COMMAND_TABLE.items() if command.moves)
+"""The commands that can set a motor turning (a new setpoint can too)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,6 +112,9 @@ class DriveModel:
     fault: ParamMeta | None
     """The parameter holding the fault number, read when the fault bit rises."""
     config: DriveConfig
+    every_word: bool = False
+    """Every PZD word of the answer is an actual value (`DrivePoints.actual_row`): PZD2 the
+    main one, PZD3... the parameters the profile maps to them (the page's trend)."""
 
     @property
     def key(self) -> str:
@@ -181,6 +220,32 @@ def _drive(bus: BusConfig, config: DriveConfig, where: Where) -> DriveModel:
         fault=fault,
         config=config,
     )
+
+
+def line_model(
+    name: str,
+    drives: Sequence[tuple[int, str, Layout | None]],
+    *,
+    baud: int = 9600,
+    job_timeout: float = 2.0,
+) -> PlantModel:
+    """The model of one line of drives given by address, profile and layout (the web page's):
+    the main setpoint and actual value in PZD2 where the layout has one, every other word of
+    the answer an actual value too, the profile's reference, no configured parameters."""
+    configs = []
+    for address, profile, layout in drives:
+        words = (layout or get_profile(profile).default_layout).pzd
+        main = (ProcessConfig(),) if words >= 2 else ()
+        configs.append(
+            DriveConfig(address, f"drive{address}", layout, profile, actual=main, setpoints=main)
+        )
+    bus = BusConfig(name, name, baud, job_timeout=job_timeout, drives=tuple(configs))
+    model = resolve(PlantConfig((bus,)))
+    buses = tuple(
+        BusModel(b.config, tuple(replace(d, every_word=True) for d in b.drives))
+        for b in model.buses
+    )
+    return PlantModel(buses, model.config)
 
 
 def resolve(plant: PlantConfig, where: Where | None = None) -> PlantModel:

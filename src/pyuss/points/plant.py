@@ -1,5 +1,21 @@
 """The running plant: one `Master` per bus, and per drive its points, live.
 
+Everything that turns a face's wish into process data or a parameter job lives here; nothing
+reaches the line that was not checked here first. The rules every face relies on:
+
+- A request is checked whole before anything goes out, and a refused request changes
+  nothing: a setpoint (`DrivePoints.check_setpoint`: in percent, in the reference's unit or
+  raw, finite, within the word's range, 4000h = 100 % of C 5.2.2), a command (one table,
+  `pyuss.points.model.COMMAND_TABLE`), a control word, raw process words, a parameter value
+  (its type, limits and access, `write_value` / `write_parameter`) - each raises
+  `ConfigError` (or `UnknownPoint`) before the master is told anything.
+- Process data become values in one place: `pyuss.points.state.process_value` on the
+  `pyuss.protocol.pzd` helpers (a double word joined and split once), the other words of an
+  answer through the parameters the profile maps them to (`actual_row`); the status bits and
+  the state they spell come from `pyuss.points.state`.
+- What goes out goes through the drive handle, so everything queues in the master and
+  nothing interleaves on the line.
+
 `Plant` opens one master per bus (`BusPoints`), takes a `Drive` handle per configured drive and
 keeps a `DrivePoints` per drive, which
 
@@ -27,23 +43,45 @@ import contextlib
 import datetime
 import logging
 import math
-from collections.abc import AsyncIterator, Callable, Mapping
+import time
+from collections import deque
+from collections.abc import AsyncIterator, Callable, Mapping, Sequence
 from types import TracebackType
+from typing import Any
 
+from pyuss.drive.datatypes import Value
 from pyuss.errors import ConfigError, DriveRefusal, UssError
 from pyuss.master.drive import Drive
 from pyuss.master.errors import NoWriteAuthority
 from pyuss.master.process import DriveStatus
 from pyuss.master.scheduler import Master
+from pyuss.params import ParamInfo, ValueRefused, decode, parse
+from pyuss.params.model import Reading, param_label
 from pyuss.points.config import ProcessConfig
 from pyuss.points.errors import UnknownPoint, error_dict
-from pyuss.points.model import COMMANDS, BusModel, DriveModel, PlantModel
+from pyuss.points.model import COMMAND_TABLE, BusModel, DriveModel, PlantModel, line_model
 from pyuss.points.parameters import ParameterModel, ParamMeta
-from pyuss.points.state import DriveState, Health, ParamValue, ProcessValue, now, process_value
-from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32, StatusWord, split_dword
+from pyuss.points.state import (
+    DriveState,
+    Health,
+    ParamValue,
+    ProcessValue,
+    Sample,
+    now,
+    process_value,
+    signed,
+)
+from pyuss.protocol.pzd import (
+    StatusWord,
+    percent_to_raw16,
+    percent_to_raw32,
+    raw16_to_percent,
+    raw32_to_percent,
+    split_dword,
+)
 from pyuss.transport.base import Transport
 
-__all__ = ["BusPoints", "DrivePoints", "Plant"]
+__all__ = ["BusPoints", "DrivePoints", "Plant", "checked_setpoint"]
 
 log = logging.getLogger("pyuss.points")
 
@@ -51,6 +89,8 @@ HEALTH_PERIOD = 0.2
 """How often "does not send" is looked at (seconds)."""
 RETRY_PERIOD = 5.0
 """How long to wait before reading the reference again after a failure (seconds)."""
+MAX_TEXT = 64
+"""The longest number a face may give as text (a setpoint typed on the page)."""
 
 
 class _Watch:
@@ -83,12 +123,21 @@ class DrivePoints:
         self._watches: list[_Watch] = []
         self._quick: tuple[object, ...] | None = None
         self._fault_task: asyncio.Task[None] | None = None
+        self._samples: deque[Sample] | None = None
         self._state = self._build()
         self._signature = self._state.signature()
         self._remove = drive.on_update(self._on_update)
 
     def __repr__(self) -> str:
         return f"<DrivePoints {self.model.key} address {self.model.address}>"
+
+    @classmethod
+    def around(cls, drive: Drive, *, bus: str = "line") -> DrivePoints:
+        """The points of a drive handle of a master run elsewhere (`uss log`): its profile's
+        reference (`read_reference`), every word of the answer an actual value
+        (`pyuss.points.model.line_model`); the line's settings are the master's."""
+        model = line_model(bus, [(drive.address, drive.profile.name, drive.layout)])
+        return cls(model.drives[0], drive)
 
     # -- what it is --------------------------------------------------------------------------
     @property
@@ -174,6 +223,8 @@ class DrivePoints:
             watch.put(state)
 
     def _on_update(self, status: DriveStatus) -> None:
+        if self._samples is not None:
+            self._samples.append(Sample(time.time(), status.word, self.actual_row(status.actual)))
         quick = (status.word, status.actual, self.drive.control, self.drive.setpoints)
         previous = self._state.status_word
         if quick == self._quick and not self._state.health.not_sending:
@@ -245,19 +296,16 @@ class DrivePoints:
             self._last_refusal = error_dict(exc)
             self._changed()
 
-    async def command(self, name: str) -> DriveState:
-        """One of `COMMANDS`: ``on``, ``off1``, ``off2``, ``off3``, ``acknowledge``. Returns
-        once a telegram carrying it was answered."""
-        if name not in COMMANDS:
-            raise UnknownPoint(f"unknown command {name!r} (known: {', '.join(COMMANDS)})")
-        method = {
-            "on": self.drive.on,
-            "off1": self.drive.off1,
-            "off2": self.drive.off2,
-            "off3": self.drive.off3,
-            "acknowledge": self.drive.acknowledge,
-        }[name]
-        await method()
+    async def command(self, name: str, *, timeout: float | None = None) -> DriveState:
+        """One of `pyuss.points.model.COMMAND_TABLE`: ``on``, ``off1``, ``off2``, ``off3``,
+        ``acknowledge``, ``jog1``, ``jog2``, ``jog_off``. Returns once a telegram carrying it
+        was answered."""
+        command = COMMAND_TABLE.get(name) if isinstance(name, str) else None
+        if command is None:
+            raise UnknownPoint(
+                f"unknown command {_shown(name)} (known: {', '.join(COMMAND_TABLE)})"
+            )
+        await getattr(self.drive, command.method)(*command.args, timeout=timeout)
         self._changed()
         return self._state
 
@@ -289,52 +337,136 @@ class DrivePoints:
         for item in self.model.setpoints:
             if item.key == key:
                 return item.pzd, item.dword
-        raise UnknownPoint(f"{self.key}: no setpoint {key!r}")
+        raise UnknownPoint(f"{self.key}: no setpoint {_shown(key)}")
+
+    def setpoint_units(self) -> tuple[str, ...]:
+        """The units a setpoint may be given in: ``%`` and, where the reference is known,
+        its unit (``raw`` besides, for the word itself)."""
+        unit = self.model.unit
+        return ("%",) if unit == "%" or self._reference is None else ("%", unit)
+
+    def check_setpoint(
+        self, value: object, key: str = "main", *, unit: str = "value"
+    ) -> ProcessValue:
+        """The setpoint ``value`` checked whole, as it would be sent: ``unit`` is ``value``
+        (the point's unit; percent when no reference is known), ``percent`` (or ``%``), the
+        reference's unit by name (``Hz``) or ``raw``; a number, or a number as text. The
+        word's range bounds it (16 bits: -200 % .. +199.99 %, C 5.2.2); `ConfigError` names
+        what is wrong. Nothing is sent."""
+        pzd, dword = self.setpoint_point(key)
+        return checked_setpoint(
+            value,
+            self._unit_kind(unit),
+            reference=self._reference,
+            unit=self.model.unit,
+            key=key,
+            pzd=pzd,
+            dword=dword,
+            where=self.key,
+        )
+
+    def _unit_kind(self, unit: object) -> str:
+        if unit in ("value", "raw"):
+            return str(unit)
+        if unit in ("percent", "%"):
+            return "percent"
+        if isinstance(unit, str) and unit == self.model.unit and unit:
+            return "value"
+        takes = " or ".join(repr(u) for u in (*self.setpoint_units(), "raw"))
+        raise ConfigError(f"setpoint unit {_shown(unit)}: {self.key} takes {takes}")
 
     def setpoint_raw(self, value: float, key: str = "main", *, unit: str = "value") -> int:
-        """The raw word(s) for a setpoint ``value`` in the point's unit (``unit="value"``;
-        percent when no reference is known), ``"percent"`` or ``"raw"``; `ConfigError` if
-        it does not fit (16 bits: -200 % .. +199.99 %)."""
-        _, dword = self.setpoint_point(key)
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise ConfigError(f"setpoint must be a finite number, not {value!r}")
-        if not math.isfinite(value):
-            raise ConfigError(f"setpoint must be a finite number, not {value!r}")
-        full = FULL_SCALE_32 if dword else FULL_SCALE_16
-        bits = 32 if dword else 16
-        if unit == "raw":
-            raw = value
-            if raw != int(raw):
-                raise ConfigError(f"a raw setpoint is a whole number, not {value!r}")
-            raw = int(raw)
-        else:
-            if unit == "value" and self.model.unit != "%":
-                if self._reference is None:
-                    raise ConfigError(
-                        f"{self.key}: the reference is not known yet: give the setpoint in percent"
-                    )
-                percent = value * 100.0 / self._reference
-            elif unit in ("value", "percent"):
-                percent = float(value)
-            else:
-                raise ConfigError(f"unit must be value, percent or raw, not {unit!r}")
-            raw = round(percent * full / 100)
-        low, high = -(1 << (bits - 1)), (1 << (bits - 1)) - 1
-        if not low <= raw <= high:
-            span = f"{low * 100 / full:g} .. {high * 100 / full:.2f} %"
-            raise ConfigError(f"setpoint {value!r} does not fit {bits} bits ({span})")
-        return raw
+        """The signed raw value of `check_setpoint` (the word, or the double word)."""
+        return self.check_setpoint(value, key, unit=unit).raw
 
     async def set_setpoint(
-        self, value: float, key: str = "main", *, unit: str = "value"
+        self,
+        value: object,
+        key: str = "main",
+        *,
+        unit: str = "value",
+        timeout: float | None = None,
     ) -> DriveState:
-        """Set a setpoint (see `setpoint_raw`); returns once a telegram carrying it was
-        answered."""
-        raw = self.setpoint_raw(value, key, unit=unit)
-        pzd, dword = self.setpoint_point(key)
-        await self.drive.setpoint(raw=raw, pzd=pzd, dword=dword)
+        """Set a setpoint (checked by `check_setpoint` first); returns once a telegram
+        carrying it was answered."""
+        checked = self.check_setpoint(value, key, unit=unit)
+        _, dword = self.setpoint_point(key)
+        await self.drive.setpoint(raw=checked.raw, pzd=checked.pzd, dword=dword, timeout=timeout)
         self._changed()
         return self._state
+
+    # -- process data as values --------------------------------------------------------------
+    def keep_samples(self, size: int) -> None:
+        """Keep the process data of the latest ``size`` answers (`take_samples`)."""
+        self._samples = deque(maxlen=size)
+
+    def take_samples(self) -> list[Sample]:
+        """The samples kept since the last call (oldest first), see `keep_samples`."""
+        if not self._samples:
+            return []
+        taken = list(self._samples)
+        self._samples.clear()
+        return taken
+
+    def process_parameter(self, number: int) -> ParamInfo | None:
+        """The parameter the profile maps to actual value PZD``number`` (3 and up)."""
+        pnus = self.drive.profile.database().process_actuals
+        pnu = pnus[number - 3] if 0 <= number - 3 < len(pnus) else 0
+        return self.drive.params.get(pnu) if pnu else None
+
+    def actual_columns(self) -> list[dict[str, Any]]:
+        """Name and unit of every actual value of `actual_row`: PZD2 the main one (in the
+        reference's unit or %), PZD3... as the profile's parameters for them."""
+        columns: list[dict[str, Any]] = []
+        for number in range(2, self.model.layout.pzd + 1):
+            if number == 2:
+                unit = self.model.unit if self._reference is not None else "%"
+                columns.append({"pzd": 2, "name": "Main actual value", "unit": unit})
+                continue
+            info = self.process_parameter(number)
+            if info is not None:
+                columns.append({"pzd": number, "name": info.name, "unit": info.unit})
+            else:
+                columns.append({"pzd": number, "name": f"PZD{number}", "unit": ""})
+        return columns
+
+    def actual_items(self, words: Sequence[int]) -> list[tuple[Value, ParamInfo | None]]:
+        """The actual values of an answer's PZD2... as values, each with the parameter that
+        types it: PZD2 in the reference's unit (or %, no parameter), PZD3... decoded by the
+        parameters the profile maps them to (the word as it came, without a parameter, where
+        none is known or it does not decode)."""
+        out: list[tuple[Value, ParamInfo | None]] = []
+        for number, word in enumerate(words, start=2):
+            if number == 2:
+                main = process_value(
+                    "main", 2, False, tuple(words), self._reference, self.model.unit
+                )
+                assert main is not None
+                out.append((main.percent if main.value is None else main.value, None))
+                continue
+            info = self.process_parameter(number)
+            value: Value = word
+            typed: ParamInfo | None = None
+            if info is not None and info.words == 1:
+                with contextlib.suppress(UssError):
+                    value, typed = decode(info, (word,)), info
+            out.append((value, typed))
+        return out
+
+    def actual_row(self, words: Sequence[int]) -> tuple[float, ...]:
+        """The actual values of an answer's PZD2... as numbers, in the units
+        `actual_columns` names (`actual_items`)."""
+        return tuple(
+            float(value) if isinstance(value, int | float) else float(word)
+            for (value, _), word in zip(self.actual_items(words), words, strict=True)
+        )
+
+    def setpoint_value(self) -> float | None:
+        """The main setpoint as sent (PZD2), in the unit of the main actual value."""
+        main = process_value("main", 2, False, self.drive.setpoints, self._reference, "")
+        if main is None:
+            return None
+        return main.percent if main.value is None else main.value
 
     def meta(self, pnu: int, index: int | None = None) -> ParamMeta:
         """What is known of P``pnu`` (the configured point's, else the parameter model's)."""
@@ -374,7 +506,88 @@ class DrivePoints:
         if meta.key in self._params:
             self._params[meta.key] = reading
             self._changed()
+        if self.is_reference(pnu, index):
+            self._take_reference(answered)
         return reading
+
+    async def read_value(
+        self, pnu: int, index: int | None = None, *, timeout: float | None = None
+    ) -> Reading:
+        """Read any parameter, typed by the drive's parameter book (`pyuss.params`): numbers,
+        texts, value texts, array elements - what the page's expert list shows."""
+        try:
+            return await self.drive.read_param(pnu, index, timeout=timeout)
+        except (DriveRefusal, NoWriteAuthority) as exc:
+            self._refused(exc)
+            raise
+
+    async def write_value(
+        self,
+        pnu: int,
+        index: int | None,
+        text: str,
+        *,
+        eeprom: bool = False,
+        timeout: float | None = None,
+    ) -> Reading:
+        """Write a value as a person types it (``2.5``, ``2.5 s``, ``0x7000``, a value text):
+        parsed and checked against the parameter's type, limits and access before anything
+        is sent (`pyuss.params.parse`; refusals as `ValueRefused`); the drive's refusal
+        raises `DriveRefusal`. A write of the reference parameter reads the reference anew."""
+        if not isinstance(text, str) or len(text) > 4 * MAX_TEXT:
+            raise ConfigError(f"{param_label(pnu, index)}: the value must be a short text")
+        info = await self.drive.info(pnu, timeout=timeout)
+        if info is None:
+            raise ConfigError(
+                f"{param_label(pnu, index)}: nothing is known of it (no parameter file has "
+                "it, the drive gives no description), so its value cannot be checked: write "
+                "its words with uss write --raw"
+            )
+        if info.read_only:
+            raise ValueRefused(f"{param_label(pnu, index)} ({info.name}) is read-only")
+        value = parse(info, text, index)
+        try:
+            reading = await self.drive.write_param(
+                pnu, value, index, eeprom=eeprom, timeout=timeout
+            )
+        except (DriveRefusal, NoWriteAuthority) as exc:
+            self._refused(exc)
+            raise
+        if self.is_reference(pnu, index):
+            with contextlib.suppress(UssError):
+                await self.read_reference()
+        return reading
+
+    # -- the reference -----------------------------------------------------------------------
+    def is_reference(self, pnu: int, index: int | None = None) -> bool:
+        """Whether P``pnu`` (element ``index``) is the parameter the reference is read from."""
+        reference = self.model.reference
+        return isinstance(reference, ParamMeta) and (reference.pnu, reference.index) == (
+            pnu,
+            index if reference.index is not None else None,
+        )
+
+    def _take_reference(self, value: object) -> bool:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            return False
+        if not math.isfinite(value) or value <= 0:
+            return False
+        if float(value) != self._reference:
+            self._reference = float(value)
+            self._changed()
+        return True
+
+    async def read_reference(self) -> float | None:
+        """Read the reference parameter now (the physical value of 100 %); returns the
+        reference (None: the drive has no reference parameter, or its value is no positive
+        number). A fixed reference of the configuration is returned as it is."""
+        reference = self.model.reference
+        if not isinstance(reference, ParamMeta):
+            return self._reference
+        value = await self.parameter_model.read(self.drive, reference)
+        if not self._take_reference(value):
+            log.warning("%s: reference %s is %r", self.key, reference.key, value)
+        return self._reference
 
     # -- background reads --------------------------------------------------------------------
     async def run(self) -> None:
@@ -383,16 +596,10 @@ class DrivePoints:
         if isinstance(reference, ParamMeta):
             while self._reference is None:
                 try:
-                    value = await self.parameter_model.read(self.drive, reference)
+                    await self.read_reference()
                 except UssError as exc:
                     log.info("%s: reference %s not read: %s", self.key, reference.key, exc)
-                    await asyncio.sleep(RETRY_PERIOD)
-                    continue
-                if value and float(value) > 0:
-                    self._reference = float(value)
-                    self._changed()
-                else:
-                    log.warning("%s: reference %s is %r", self.key, reference.key, value)
+                if self._reference is None:
                     await asyncio.sleep(RETRY_PERIOD)
         polled = [p for p in self.model.parameters if p.poll is not None]
         if not polled:
@@ -422,7 +629,14 @@ class DrivePoints:
 class BusPoints:
     """One bus: its `Master` and the `DrivePoints` of its drives."""
 
-    def __init__(self, model: BusModel, transport: Transport | None = None) -> None:
+    def __init__(
+        self,
+        model: BusModel,
+        transport: Transport | None = None,
+        *,
+        close_transport: bool = True,
+        rx_tolerance: float | None = None,
+    ) -> None:
         config = model.config
         self.model = model
         self.master = Master(
@@ -432,6 +646,8 @@ class BusPoints:
             layout=config.layout,
             cycle_time=config.cycle_time,
             job_timeout=config.job_timeout,
+            rx_tolerance=rx_tolerance,
+            close_transport=close_transport,
         )
         self.drives: dict[int, DrivePoints] = {}
         for drive in model.drives:
@@ -478,15 +694,28 @@ class BusPoints:
 
 class Plant:
     """Every bus of a `PlantModel`, live. ``transports``: a `Transport` per bus name to use
-    instead of the bus's port URL (tests, the simulated plant)."""
+    instead of the bus's port URL (tests, the simulated plant, the web page's tapped line);
+    ``close_transports=False`` leaves them open when the plant closes; ``rx_tolerance``: see
+    `pyuss.master.Master`."""
 
     def __init__(
-        self, model: PlantModel, *, transports: Mapping[str, Transport] | None = None
+        self,
+        model: PlantModel,
+        *,
+        transports: Mapping[str, Transport] | None = None,
+        close_transports: bool = True,
+        rx_tolerance: float | None = None,
     ) -> None:
         transports = transports or {}
         self.model = model
         self.buses: dict[str, BusPoints] = {
-            bus.name: BusPoints(bus, transports.get(bus.name)) for bus in model.buses
+            bus.name: BusPoints(
+                bus,
+                transports.get(bus.name),
+                close_transport=close_transports,
+                rx_tolerance=rx_tolerance,
+            )
+            for bus in model.buses
         }
         self._started: list[BusPoints] = []
 
@@ -551,3 +780,87 @@ def words_of(raw: int, dword: bool) -> tuple[int, ...]:
     if dword:
         return split_dword(raw & 0xFFFF_FFFF)
     return (raw & 0xFFFF,)
+
+
+def checked_setpoint(
+    value: object,
+    kind: str,
+    *,
+    reference: float | None,
+    unit: str,
+    key: str = "main",
+    pzd: int = 2,
+    dword: bool = False,
+    where: str = "the drive",
+) -> ProcessValue:
+    """The one check of a setpoint (`DrivePoints.check_setpoint`, ``uss run --setpoint``):
+    ``value`` a finite number or a number as text; ``kind`` ``value`` (in ``unit``, through
+    ``reference``, the physical value of 100 %; percent where ``unit`` is ``%``),
+    ``percent`` or ``raw``; the word's range bounds it (16 bits: -200 % .. +199.99 %, 32
+    bits with ``dword``; C 5.2.2). Returns the setpoint as it would be sent; `ConfigError`
+    names what is wrong."""
+    bits = 32 if dword else 16
+    number = _number(value, "setpoint")
+    if kind == "raw":
+        if number != int(number):
+            raise ConfigError(f"a raw setpoint is a whole number, not {number!r}")
+        raw = int(number)
+        low, high = -(1 << (bits - 1)), (1 << (bits - 1)) - 1
+        if not low <= raw <= high:
+            raise ConfigError(
+                f"raw setpoint {_shown(raw)} does not fit {bits} bits ({low}..{high})"
+            )
+        word = raw & ((1 << bits) - 1)
+    else:
+        in_unit = kind == "value" and unit != "%"
+        if in_unit and (reference is None or not reference > 0):
+            raise ConfigError(
+                f"{where}: the reference is not known yet: give the setpoint in percent"
+            )
+        try:
+            percent = number * 100.0 / reference if in_unit and reference else float(number)
+            word = percent_to_raw32(percent) if dword else percent_to_raw16(percent)
+        except (ConfigError, OverflowError):
+            span = (-200.0, 100.0 * ((1 << (bits - 1)) - 1) / (1 << (bits - 2)))
+            raise ConfigError(
+                f"setpoint {_shown(number)} {unit if in_unit else '%'} is outside "
+                f"{span[0]:g} % .. {span[1]:.{2 if bits == 16 else 7}f} % of the reference "
+                f"({bits} bits, C 5.2.2)"
+            ) from None
+    percent = raw32_to_percent(word) if dword else raw16_to_percent(word)
+    known = reference is not None or unit == "%"
+    return ProcessValue(
+        key,
+        pzd,
+        signed(word, bits),
+        round(percent, 6),
+        round(percent * (reference or 100.0) / 100.0, 6) if known else None,
+        unit,
+    )
+
+
+def _shown(value: object) -> str:
+    """A client's value in an error message, cut short (a 400-digit number, a long text)."""
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _number(value: object, what: str) -> int | float:
+    """A finite number, or a number as text (at most `MAX_TEXT` characters: ``25``,
+    ``-12.5``, ``0x2000``)."""
+    if isinstance(value, str):
+        value = _parse_number(value.strip(), what)
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ConfigError(f"{what} must be a finite number, not {_shown(value)}")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(f"{what} must be a finite number, not {value!r}")
+    return value
+
+
+def _parse_number(text: str, what: str) -> int | float:
+    if len(text) <= MAX_TEXT:
+        for parse in (lambda t: int(t, 0), float):
+            with contextlib.suppress(ValueError):
+                number: int | float = parse(text)
+                return number
+    raise ConfigError(f"{what} {_shown(text)} is not a number")

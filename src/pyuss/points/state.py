@@ -16,14 +16,20 @@ from pyuss.master.process import state_of
 from pyuss.points.model import STATUS_BIT_NAMES, DriveModel
 from pyuss.points.parameters import ParamMeta
 from pyuss.protocol.diagnostics import Counters
-from pyuss.protocol.pzd import (
-    FULL_SCALE_16,
-    FULL_SCALE_32,
-    StatusWord,
-    join_dword,
-)
+from pyuss.protocol.pzd import StatusWord, join_dword, raw16_to_percent, raw32_to_percent
 
-__all__ = ["STATE_CODES", "DriveState", "Health", "ParamValue", "ProcessValue", "iso"]
+__all__ = [
+    "STATE_CODES",
+    "DriveState",
+    "Health",
+    "ParamValue",
+    "ProcessValue",
+    "Sample",
+    "iso",
+    "process_value",
+    "signed",
+    "state_name",
+]
 
 STATE_CODES: dict[str, int] = {
     "no answer": 0,
@@ -37,6 +43,11 @@ STATE_CODES: dict[str, int] = {
     "OFF3 (quick stop)": 8,
 }
 """The drive state as a number, for faces that carry numbers only (Modbus)."""
+
+
+def state_name(word: int | None) -> str:
+    """The drive state a status word spells (C Tables 5.5, 5.6); ``no answer`` for None."""
+    return "no answer" if word is None else state_of(word)
 
 
 def iso(when: datetime.datetime | None) -> str | None:
@@ -70,20 +81,41 @@ class ProcessValue:
         }
 
 
+@dataclass(frozen=True, slots=True)
+class Sample:
+    """The process data of one answer, for a trend: wall-clock time (Unix seconds), the
+    status word and every actual value in its unit (`DrivePoints.actual_row`)."""
+
+    time: float
+    status: int
+    values: tuple[float, ...]
+
+
+def signed(word: int, bits: int = 16) -> int:
+    """A PZD word (or a joined double word) as the signed number it carries."""
+    return word - (1 << bits) if word >> (bits - 1) & 1 else word
+
+
 def process_value(
     key: str, pzd: int, dword: bool, words: tuple[int, ...], reference: float | None, unit: str
 ) -> ProcessValue | None:
-    """``words`` are PZD2... (setpoints or actual values)."""
+    """``words`` are PZD2... (setpoints or actual values); the one scaling of process data:
+    4000h = 100 % (4000 0000h for a double word, high word first, C 5.2.2), and the value in
+    ``unit`` where the reference is known (percent is its own unit)."""
     at = pzd - 2
     if len(words) < at + (2 if dword else 1):
         return None
     if dword:
-        raw = join_dword(words[at], words[at + 1])
-        raw = raw - (1 << 32) if raw & 0x8000_0000 else raw
-        percent = raw * 100.0 / FULL_SCALE_32
+        word = join_dword(words[at], words[at + 1])
+        raw, percent = signed(word, 32), raw32_to_percent(word)
     else:
-        raw = words[at] - 0x10000 if words[at] & 0x8000 else words[at]
-        percent = raw * 100.0 / FULL_SCALE_16
+        raw, percent = signed(words[at]), raw16_to_percent(words[at])
+    return _process(key, pzd, raw, percent, reference, unit)
+
+
+def _process(
+    key: str, pzd: int, raw: int, percent: float, reference: float | None, unit: str
+) -> ProcessValue:
     value = percent * reference / 100.0 if reference is not None else None
     if reference is None and unit == "%":
         value = percent
@@ -190,7 +222,7 @@ class DriveState:
 
     @property
     def state(self) -> str:
-        return "no answer" if self.status_word is None else state_of(self.status_word)
+        return state_name(self.status_word)
 
     @property
     def state_code(self) -> int:

@@ -1,6 +1,7 @@
 """The web commissioning page: ``uss web`` (see docs/web.md).
 
-- `pyuss.web.backend`: the one module that talks to the drives (the master, the monitor).
+- `pyuss.web.backend`: the one module that talks to the drives, through the live-drive
+  model `pyuss.points` (never the master), and the monitor.
 - `pyuss.web.server`: the HTTP and WebSocket server (aiohttp) and its security rules.
 - `pyuss.web.hub`: live updates with a bounded queue per client.
 - `pyuss.web.tap`: the master's own traffic for the monitor view.

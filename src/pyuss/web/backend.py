@@ -1,50 +1,60 @@
 """The page's one door to the drives: everything `pyuss.web` reads from or sends to a drive
-goes through `Backend`, and nothing else in the package touches the master.
+goes through `Backend`, and the drives themselves through the live-drive model `pyuss.points`.
 
-A `Backend` owns one `pyuss.master.Master` in cyclic operation on the port given (or, for
-``uss web --demo``, on a virtual bus with simulated drives of `pyuss.master.testing`), the
-drive handles, a bounded buffer of process-data samples per drive for the live view and the
-trend, and a `pyuss.monitor.Monitor` that decodes the telegrams on the line: the master's own
-traffic seen through `pyuss.web.tap.TapTransport`, or, in the demo, a listen-only station of
-the virtual bus.
+A `Backend` runs one line in cyclic operation on the port given (or, for ``uss web --demo``,
+on a virtual bus with the simulated drives of `pyuss.points.simulated_drives`) as a
+`pyuss.points.Plant` of one bus: drive states, the samples of every answer for the trend,
+commands, setpoints and parameter reads and writes are the points' (`DrivePoints`), checked
+there whole before anything goes on the line. What is not live-drive logic stays here: a
+`pyuss.monitor.Monitor` that decodes the telegrams on the line (the master's own traffic seen
+through `pyuss.web.tap.TapTransport`, or, in the demo, a listen-only station of the virtual
+bus), its pcapng capture, the scan (`pyuss.points.scan`), and backups, comparisons and
+restores, which are those of ``uss backup``, ``uss diff`` and ``uss restore``
+(`pyuss.commission`): one file format, one comparison.
 
 Parameter knowledge (names, units, types, limits, value texts) is each drive's parameter book
-(`pyuss.params.ParamBook`, ``Drive.params``); values are read, parsed, checked, written and
-shown through `pyuss.params`. Backups, comparisons and restores are those of ``uss backup``,
-``uss diff`` and ``uss restore`` (`pyuss.commission`): one file format, one comparison.
+(`pyuss.params.ParamBook`); values are parsed, checked and shown through `pyuss.params`.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-import math
+import logging
 import tempfile
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from pyuss.commission import backup as backups
 from pyuss.commission.compare import Write, another_drive, compare, plan, restore
-from pyuss.commission.status import reference_value
-from pyuss.drive.database import ParameterDatabase
-from pyuss.drive.datatypes import Value
 from pyuss.errors import ConfigError, UssError
-from pyuss.master import Drive, DriveStatus, Master
-from pyuss.master.scan import Found, scan
 from pyuss.monitor.core import Monitor, default_gap
 from pyuss.monitor.infer import LayoutBook
 from pyuss.monitor.model import Exchange
 from pyuss.monitor.render import exchange_line
-from pyuss.params import ParamInfo, ValueRefused, decode, format_value, parse
-from pyuss.params.model import Reading, param_label
+from pyuss.params import ParamInfo, format_value
+from pyuss.params.model import Reading
 from pyuss.params.values import physical
+from pyuss.points import (
+    COMMAND_TABLE,
+    MOVES,
+    Drive,
+    DrivePoints,
+    Found,
+    Plant,
+    ProcessValue,
+    Sample,
+    line_model,
+    scan,
+    simulated_drives,
+)
 from pyuss.profiles import get_profile, profile_names
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
-from pyuss.protocol.pzd import STATUS_BITS, raw16_to_percent
+from pyuss.protocol.pzd import STATUS_BITS
 from pyuss.protocol.telegram import MAX_ADDRESS
 from pyuss.transport.base import Chunk, Transport, stamp_tolerance
 from pyuss.web.tap import TapTransport
@@ -62,6 +72,8 @@ SAMPLE_BUFFER = 2000
 """Process-data samples kept per drive between two takes (older ones are dropped)."""
 EXCHANGE_BUFFER = 5000
 """Decoded telegrams kept for the monitor view and its pcapng download."""
+LINE = "page"
+"""The name of the page's one bus in its `pyuss.points.Plant`."""
 
 Progress = Callable[[int, int, str], object]
 """``progress(done, total, label)`` of a backup, compare or restore."""
@@ -92,38 +104,17 @@ DEMO_DRIVES: tuple[DriveSpec, ...] = (
 """The simulated drives of ``uss web --demo`` (the same bus as ``uss demo``)."""
 
 
-@dataclass(frozen=True, slots=True)
-class Sample:
-    """The process data of one answer: wall-clock time (Unix seconds), status, actual values."""
-
-    time: float
-    status: int
-    actual: tuple[int, ...]
-
-
-@dataclass(slots=True)
-class _Unit:
-    """How PZD2 (the main actual value, 4000h = 100 %) reads in physical units."""
-
-    reference: float
-    unit: str
-
-
-@dataclass(slots=True)
-class _DriveState:
-    spec: DriveSpec
-    drive: Drive
-    database: ParameterDatabase
-    samples: deque[Sample] = field(default_factory=lambda: deque(maxlen=SAMPLE_BUFFER))
-    reference: _Unit | None = None
-
-
 class Backend:
     """The drives of one line for the page (see the module text).
 
     ``port``: a URL for `pyuss.transport.open_transport`, or None with ``demo=True``.
     ``drives``: the drives to work with (the demo's own when empty in the demo).
     """
+
+    COMMANDS = (*COMMAND_TABLE, "setpoint")
+    """The page's commands: the points' table and a new main setpoint."""
+    MOVES = MOVES | {"setpoint"}
+    """Commands that can set a motor turning: the page asks before it sends them."""
 
     def __init__(
         self,
@@ -144,8 +135,8 @@ class Backend:
         self._specs: list[DriveSpec] = list(drives or (DEMO_DRIVES if demo else ()))
         self._transport = transport
         self._url = port
-        self._drives: dict[int, _DriveState] = {}
-        self._master: Master | None = None
+        self._drives: dict[int, DrivePoints] = {}
+        self._plant: Plant | None = None
         self._stack = contextlib.AsyncExitStack()
         self._bus: Any = None
         self.engines: dict[int, Any] = {}
@@ -169,10 +160,7 @@ class Backend:
 
     async def _open(self) -> None:
         if self.demo:
-            import logging
-
             from pyuss.bus import VirtualBus
-            from pyuss.master.testing import simulated_drives
 
             # The simulated drives share the event loop with the page; a busy moment makes
             # them complain about their own answer times, which is not the point here.
@@ -184,22 +172,21 @@ class Backend:
             )
         await self._start_master()
 
-    def _new_transport(self, tap: bool) -> Transport:
+    def _new_transport(self) -> Transport:
         if self.demo:
             station: Transport = self._bus.attach("master")
             return station
         if self._transport is not None:
-            inner = self._transport
-        else:
-            from pyuss.transport.url import open_transport
+            return self._transport
+        from pyuss.transport.url import open_transport
 
-            assert self._url is not None
-            inner = open_transport(self._url, baud=self.baud)
-        return TapTransport(inner, self._feed) if tap else inner
+        assert self._url is not None
+        return open_transport(self._url, baud=self.baud)
 
     async def _start_master(self) -> None:
         self._stop = asyncio.Event()
         layouts = {s.address: s.layout for s in self._specs if s.layout is not None}
+        rx_tolerance: float | None = None
         if self.demo:
             self._monitor = Monitor(
                 self.baud,
@@ -209,11 +196,9 @@ class Backend:
             listener = self._bus.attach("page-monitor", listen_only=True)
             await listener.open()
             self._monitor_task = asyncio.create_task(self._watch(listener))
-            transport = self._new_transport(tap=False)
-            options: dict[str, Any] = {}
+            transport = self._new_transport()
         else:
-            inner = self._new_transport(tap=False)
-            exact = inner.exact_timestamps
+            inner = self._new_transport()
             self._monitor = Monitor(
                 self.baud,
                 four_wire=True,
@@ -222,31 +207,36 @@ class Backend:
                 tolerance=stamp_tolerance(inner),
             )
             transport = TapTransport(inner, self._feed)
-            options = {"rx_tolerance": 0.0} if exact else {}
+            rx_tolerance = 0.0 if inner.exact_timestamps else None
             self._monitor_task = asyncio.create_task(self._tick_monitor(transport))
         self._epoch = time.time() - transport.clock()
-        master = Master(
-            transport,
+        model = line_model(
+            LINE,
+            [(s.address, s.profile, s.layout) for s in self._specs],
+            baud=transport.baud,
             job_timeout=self.job_timeout,
-            close_transport=not (self._transport is not None and not self.demo),
-            **options,
         )
-        self._drives = {}
-        for spec in self._specs:
-            drive = master.drive(spec.address, layout=spec.layout, profile=spec.profile)
-            state = _DriveState(spec, drive, drive.profile.database())
-            drive.on_update(self._sampler(state))
-            self._drives[spec.address] = state
-        await master.start()
-        self._master = master
-        for state in self._drives.values():
-            await self._read_reference(state)
+        plant = Plant(
+            model,
+            transports={LINE: transport},
+            close_transports=not (self._transport is not None and not self.demo),
+            rx_tolerance=rx_tolerance,
+        )
+        for points in plant.drives:
+            points.keep_samples(SAMPLE_BUFFER)
+        await plant.start()
+        self._plant = plant
+        self._drives = {points.address: points for points in plant.drives}
+        for points in self._drives.values():
+            # the reference (100 % of PZD2) for values in units, before the page asks
+            with contextlib.suppress(UssError):
+                await points.read_reference()
 
     async def _stop_master(self) -> None:
         self._stop.set()
-        if self._master is not None:
-            await self._master.close()
-            self._master = None
+        if self._plant is not None:
+            await self._plant.close()
+            self._plant = None
         if self._monitor_task is not None:
             self._monitor_task.cancel()
             with contextlib.suppress(asyncio.CancelledError, UssError):
@@ -261,50 +251,29 @@ class Backend:
         await self._stop_master()
         await self._stack.aclose()
 
-    @property
-    def master(self) -> Master:
-        if self._master is None:
+    def _line(self) -> Plant:
+        if self._plant is None:
             raise ConfigError("the line is busy (a scan is running)")
-        return self._master
+        return self._plant
 
-    # -- process data -------------------------------------------------------------------------
-    def _sampler(self, state: _DriveState) -> Callable[[DriveStatus], None]:
-        samples = state.samples
-
-        def take(status: DriveStatus) -> None:
-            samples.append(Sample(time.time(), status.word, status.actual))
-
-        return take
-
-    def take_samples(self) -> dict[int, list[Sample]]:
-        """The samples of every drive since the last call (at most `SAMPLE_BUFFER` each)."""
-        out = {}
-        for address, state in self._drives.items():
-            if state.samples:
-                out[address] = list(state.samples)
-                state.samples.clear()
-        return out
-
-    async def _read_reference(self, state: _DriveState) -> None:
-        """Read the drive's reference value (100 % of PZD2) once, for actual values in units."""
-        try:
-            found = await reference_value(state.drive)
-        except UssError:
-            return
-        if found is not None:
-            state.reference = _Unit(*found)
-
-    def _process_info(self, state: _DriveState, number: int) -> ParamInfo | None:
-        """The parameter the profile maps to actual value PZD``number`` (3 and up)."""
-        pnus = state.database.process_actuals
-        pnu = pnus[number - 3] if 0 <= number - 3 < len(pnus) else 0
-        return state.drive.params.get(pnu) if pnu else None
-
-    def _state(self, address: int) -> _DriveState:
+    # -- the drives' points -------------------------------------------------------------------
+    def points(self, address: int) -> DrivePoints:
+        """The live points of drive ``address`` (`pyuss.points.DrivePoints`)."""
+        self._line()
         try:
             return self._drives[address]
         except KeyError:
-            raise ConfigError(f"drive {address} is not on the page") from None
+            raise ConfigError(f"drive {_shown(address)} is not on the page") from None
+
+    def take_samples(self) -> dict[int, list[Sample]]:
+        """The samples of every drive since the last call (at most `SAMPLE_BUFFER` each):
+        the process data of every answer, actual values in the units `drive_info` names."""
+        out = {}
+        for address, points in self._drives.items():
+            taken = points.take_samples()
+            if taken:
+                out[address] = taken
+        return out
 
     def addresses(self) -> list[int]:
         return sorted(self._drives)
@@ -312,87 +281,45 @@ class Backend:
     def drive_info(self, address: int) -> dict[str, Any]:
         """What does not change: profile, layout, the status bits' meanings, the actual
         values' names and units."""
-        state = self._state(address)
-        profile = get_profile(state.spec.profile)
-        drive = state.drive
-        actuals = []
-        for number in range(2, drive.layout.pzd + 1):
-            if number == 2:
-                unit = state.reference.unit if state.reference else "%"
-                actuals.append({"pzd": 2, "name": "Main actual value", "unit": unit})
-                continue
-            info = self._process_info(state, number)
-            if info is not None:
-                actuals.append({"pzd": number, "name": info.name, "unit": info.unit})
-            else:
-                actuals.append({"pzd": number, "name": f"PZD{number}", "unit": ""})
+        points = self.points(address)
+        profile = get_profile(points.model.profile)
+        layout = points.model.layout
+        reference = points.reference
         return {
             "address": address,
             "profile": profile.name,
             "title": profile.title,
-            "layout": str(drive.layout),
-            "pzd": drive.layout.pzd,
+            "layout": str(layout),
+            "pzd": layout.pzd,
             "reference": (
-                {"value": state.reference.reference, "unit": state.reference.unit}
-                if state.reference
-                else None
+                {"value": reference, "unit": points.model.unit} if reference is not None else None
             ),
-            "actuals": actuals,
+            "actuals": points.actual_columns(),
             "status_bits": [
                 {"bit": bit, "set": texts[0], "clear": texts[1]}
                 for bit, texts in sorted(STATUS_BITS.items())
             ],
         }
 
-    def actual_values(self, address: int, actual: Sequence[int]) -> list[float]:
-        """The actual values in the units `drive_info` names (PZD2 in % or the reference's
-        unit, PZD3... scaled by their parameters)."""
-        state = self._state(address)
-        out: list[float] = []
-        for number, raw in enumerate(actual, start=2):
-            if number == 2:
-                percent = raw16_to_percent(raw)
-                out.append(
-                    percent * state.reference.reference / 100 if state.reference else percent
-                )
-                continue
-            info = self._process_info(state, number)
-            value: Value = raw
-            if info is not None and info.words == 1:
-                with contextlib.suppress(UssError):
-                    value = decode(info, (raw,))
-            out.append(float(value) if isinstance(value, int | float) else float(raw))
-        return out
-
-    def setpoint_value(self, address: int) -> float | None:
-        """The main setpoint sent (PZD2) in the unit of the main actual value."""
-        state = self._state(address)
-        setpoints = state.drive.setpoints
-        if not setpoints:
-            return None
-        percent = raw16_to_percent(setpoints[0])
-        return percent * state.reference.reference / 100 if state.reference else percent
-
     def summary(self, address: int) -> dict[str, Any]:
         """State, fault, communication health of one drive (A 5.2.3 counters included)."""
-        state = self._state(address)
-        drive = state.drive
-        status = drive.status
-        diagnostics = drive.diagnostics()
+        points = self.points(address)
+        state = points.snapshot()
+        diagnostics = points.drive.diagnostics()
         counters = diagnostics.counters
-        out: dict[str, Any] = {
+        return {
             "address": address,
-            "profile": state.spec.profile,
-            "layout": str(drive.layout),
-            "not_sending": drive.not_sending,
-            "control": drive.control,
-            "setpoints": list(drive.setpoints),
-            "status": None if status is None else status.word,
-            "state": "no answer yet" if status is None else status.state,
-            "fault": bool(status and status.fault),
-            "warning": bool(status and status.warning),
-            "actual": [] if status is None else self.actual_values(address, status.actual),
-            "actual_unit": state.reference.unit if state.reference else "%",
+            "profile": points.model.profile,
+            "layout": str(points.model.layout),
+            "not_sending": state.health.not_sending,
+            "control": state.control_word,
+            "setpoints": list(state.setpoint_words),
+            "status": state.status_word,
+            "state": state.state if state.answered else "no answer yet",
+            "fault": state.fault,
+            "warning": state.warning,
+            "actual": list(points.actual_row(state.actual_words)) if state.answered else [],
+            "actual_unit": points.model.unit if points.reference is not None else "%",
             "health": {
                 "exchanges": diagnostics.exchanges,
                 "answers": diagnostics.answers,
@@ -407,14 +334,13 @@ class Backend:
                 },
             },
         }
-        return out
 
     def bus(self) -> dict[str, Any]:
         """The line: port, baud rate, the drives and the line's own counters."""
         line: dict[str, Any] = {}
         cycle_ms = 0.0
-        if self._master is not None:
-            diag = self._master.diagnostics()
+        if self._plant is not None:
+            diag = self._plant.bus(LINE).master.diagnostics()
             line = {
                 "good": diag.line.good,
                 "discarded": diag.line.discarded,
@@ -429,72 +355,57 @@ class Backend:
             "cycle_ms": cycle_ms,
             "line": line,
             "scanning": self.scan_progress is not None,
-            "drives": [self.summary(a) for a in self.addresses()] if self._master else [],
+            "drives": [self.summary(a) for a in self.addresses()] if self._plant else [],
         }
 
     # -- commands -----------------------------------------------------------------------------
-    COMMANDS = ("on", "off1", "off2", "off3", "acknowledge", "jog1", "jog2", "jog_off", "setpoint")
-    MOVES = frozenset({"on", "jog1", "jog2", "setpoint"})
-    """Commands that can set a motor turning: the page asks before it sends them."""
+    def check(self, address: int, name: object, value: object = None) -> dict[str, Any]:
+        """Command ``name`` checked whole as `command` would send it, with the words a page
+        asks a person with (``text``); nothing is sent. `ConfigError` if it would be refused."""
+        points = self.points(address)
+        if name == "setpoint":
+            checked = self._setpoint(points, value)
+            return {
+                "name": name,
+                "setpoint": checked.to_dict(),
+                "text": f"set the setpoint to {_setpoint_text(checked, _unit_given(value))}",
+            }
+        if not isinstance(name, str) or name not in COMMAND_TABLE:
+            raise ConfigError(f"unknown command {_shown(name)}: one of {', '.join(self.COMMANDS)}")
+        return {"name": name, "text": name}
 
-    async def command(self, address: int, name: str, value: Any = None) -> dict[str, Any]:
-        """Send control command ``name`` (see `COMMANDS`); ``setpoint`` takes ``value`` in
-        percent or, as ``{"value": v, "unit": u}``, in the reference's unit."""
-        drive = self._state(address).drive
-        timeout = self.job_timeout
-        if name == "on":
-            status = await drive.on(timeout=timeout)
-        elif name == "off1":
-            status = await drive.off1(timeout=timeout)
-        elif name == "off2":
-            status = await drive.off2(timeout=timeout)
-        elif name == "off3":
-            status = await drive.off3(timeout=timeout)
-        elif name == "acknowledge":
-            status = await drive.acknowledge(timeout=timeout)
-        elif name in ("jog1", "jog2"):
-            status = await drive.jog(int(name[-1]), timeout=timeout)
-        elif name == "jog_off":
-            status = await drive.jog(None, timeout=timeout)
-        elif name == "setpoint":
-            percent = self.setpoint_percent(address, value)
-            status = await drive.setpoint(percent, timeout=timeout)
-        else:
-            raise ConfigError(f"unknown command {name!r}: one of {', '.join(self.COMMANDS)}")
-        return {"status": status.word, "state": status.state}
-
-    def setpoint_percent(self, address: int, value: Any) -> float:
-        """A setpoint the page sends, in percent of the reference (4000h = 100 %, C 5.2.2)."""
-        state = self._state(address)
-        unit = "%"
+    @staticmethod
+    def _setpoint(points: DrivePoints, value: object) -> ProcessValue:
+        """A setpoint the page sends: a number in percent, or ``{"value": v, "unit": u}``
+        with ``u`` ``%`` or the reference's unit; checked by the points."""
+        unit: object = "%"
         if isinstance(value, dict):
-            unit = str(value.get("unit", "%"))
+            if set(value) - {"value", "unit"}:
+                raise ConfigError('a setpoint is a number or {"value": v, "unit": u}')
+            unit = value.get("unit", "%")
             value = value.get("value")
-        if isinstance(value, str):
-            try:
-                value = float(value.strip())
-            except ValueError:
-                raise ConfigError(f"setpoint {value!r} is not a number") from None
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, int | float)
-            or not math.isfinite(value)
-        ):
-            raise ConfigError(f"setpoint {value!r} is not a number")
-        if unit != "%":
-            if state.reference is None or unit != state.reference.unit:
-                raise ConfigError(f"setpoint unit {unit!r}: this drive takes % only")
-            value = value / state.reference.reference * 100
-        if not -200.0 <= value < 200.0:
-            raise ConfigError(f"setpoint {value:g} % is outside -200..200 % (C 5.2.2)")
-        return float(value)
+        return points.check_setpoint(value, unit=unit if isinstance(unit, str) else repr(unit))
+
+    async def command(self, address: int, name: object, value: object = None) -> dict[str, Any]:
+        """Send control command ``name`` (see `COMMANDS`); ``setpoint`` takes ``value`` in
+        percent or, as ``{"value": v, "unit": u}``, in the reference's unit. Checked whole
+        first (`check`): a refused command sends nothing."""
+        points = self.points(address)
+        self.check(address, name, value)
+        if name == "setpoint":
+            checked = self._setpoint(points, value)
+            state = await points.set_setpoint(checked.raw, unit="raw", timeout=self.job_timeout)
+        else:
+            assert isinstance(name, str)
+            state = await points.command(name, timeout=self.job_timeout)
+        return {"status": state.status_word, "state": state.state}
 
     # -- parameters ---------------------------------------------------------------------------
     def parameters(self, address: int) -> list[dict[str, Any]]:
         """The expert list: every parameter (every element of an array) the drive's parameter
         book knows (`pyuss.params.ParamBook`: the user's file, the drive's descriptions, the
         profile's file), with its name, unit, type, limits and texts; values come from `read`."""
-        book = self._state(address).drive.params
+        book = self.points(address).drive.params
         rows = []
         for info in book:
             indexes: list[int | None] = [None] if info.array is None else list(book.indices(info))
@@ -508,16 +419,16 @@ class Backend:
         """Read parameters, typed by the drive's book; each result has ``value`` (the value as
         printed: ``10.00 s``, ``1 [READY]``) and ``input`` (as a user types it), or
         ``error``."""
-        drive = self._state(address).drive
+        points = self.points(address)
         out: list[dict[str, Any]] = []
         for pnu, index in refs:
             item: dict[str, Any] = {"id": _id(pnu, index)}
             try:
-                reading = await drive.read_param(pnu, index, timeout=self.job_timeout)
+                reading = await points.read_value(pnu, index, timeout=self.job_timeout)
             except UssError as exc:
-                item["error"] = _words(exc)
+                item["error"] = str(exc)
             else:
-                item.update(_shown(reading))
+                item.update(_shown_reading(reading))
             out.append(item)
         return out
 
@@ -525,28 +436,13 @@ class Backend:
         self, address: int, pnu: int, index: int | None, text: str, *, eeprom: bool = False
     ) -> dict[str, Any]:
         """Write a value as the user typed it (``2.5``, ``2.5 s``, ``0x7000``, a value text):
-        parsed and checked against the parameter's type and limits before anything is sent
-        (`pyuss.params.parse`, refusals as `ValueRefused`); the drive's refusal raises
-        `DriveRefusal`. Returns the value the drive answered with, as `read` does."""
-        state = self._state(address)
-        drive = state.drive
-        info = await drive.info(pnu, timeout=self.job_timeout)
-        if info is None:
-            raise ConfigError(
-                f"{param_label(pnu, index)}: nothing is known of it (no parameter file has "
-                "it, the drive gives no description), so its value cannot be checked: write "
-                "its words with uss write --raw"
-            )
-        if info.read_only:
-            raise ValueRefused(f"{param_label(pnu, index)} ({info.name}) is read-only")
-        value = parse(info, text, index)
-        reading = await drive.write_param(
-            pnu, value, index, eeprom=eeprom, timeout=self.job_timeout
+        checked by the points against the parameter's type, limits and access before anything
+        is sent (`DrivePoints.write_value`); the drive's refusal raises `DriveRefusal`.
+        Returns the value the drive answered with, as `read` does."""
+        reading = await self.points(address).write_value(
+            pnu, index, text, eeprom=eeprom, timeout=self.job_timeout
         )
-        ref = state.database.roles.get("reference")
-        if ref is not None and ref.pnu == pnu:
-            await self._read_reference(state)
-        return {"id": _id(pnu, index), **_shown(reading)}
+        return {"id": _id(pnu, index), **_shown_reading(reading)}
 
     # -- backup, compare, restore -------------------------------------------------------------
     async def backup(
@@ -555,7 +451,7 @@ class Backend:
         """A backup of the drive's parameter set (`pyuss.commission.take`) as the text of a
         backup file (TOML, JSON or the CSV export, `pyuss.commission.backup.dumps`) and the
         file's name: ``drive1-generic-20250314-092653.toml``."""
-        drive = self._state(address).drive
+        drive = self.points(address).drive
         if fmt not in backups.FORMATS:
             raise ConfigError(f"backup format {fmt!r}: one of {', '.join(backups.FORMATS)}")
         taken = await backups.take(drive, port=self.port, progress=progress)
@@ -566,7 +462,7 @@ class Backend:
     async def _wanted_and_now(
         self, address: int, data: bytes, name: str, progress: Progress | None
     ) -> tuple[Drive, backups.Backup, backups.Backup]:
-        drive = self._state(address).drive
+        drive = self.points(address).drive
         try:
             text = data.decode("utf-8")
         except UnicodeDecodeError:
@@ -648,10 +544,10 @@ class Backend:
             raise ConfigError(stranger)
         writes, skips = plan(wanted, now, drive.params, drive.profile)
         outcomes = await restore(drive, writes, eeprom=eeprom, progress=progress)
-        state = self._state(address)
-        ref = state.database.roles.get("reference")
-        if ref is not None and any(o.ok and o.write.pnu == ref.pnu for o in outcomes):
-            await self._read_reference(state)
+        points = self.points(address)
+        if any(o.ok and points.is_reference(o.write.pnu, o.write.index) for o in outcomes):
+            with contextlib.suppress(UssError):
+                await points.read_reference()
         failed = [o for o in outcomes if not o.ok]
         stored = " and stored in EEPROM" if eeprom else ""
         message = (
@@ -819,9 +715,26 @@ class Backend:
             return path.read_bytes()
 
 
-def _words(exc: UssError) -> str:
-    """An error in words for the page."""
-    return str(exc)
+def _shown(value: object) -> str:
+    """A client's value in an error message, cut short (a 400-digit number, a long text)."""
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _unit_given(value: object) -> object:
+    return value.get("unit", "%") if isinstance(value, dict) else "%"
+
+
+def _setpoint_text(checked: ProcessValue, given: object) -> str:
+    """A checked setpoint as a page asks about it, first in the unit it was ``given`` in:
+    ``10 Hz (20 % of the reference)``, ``40 % (20 Hz)``."""
+    percent = f"{round(checked.percent, 2):g} %"
+    if checked.unit == "%" or checked.value is None:
+        return percent
+    value = f"{round(checked.value, 2):g} {checked.unit}"
+    if given == checked.unit:
+        return f"{value} ({percent} of the reference)"
+    return f"{percent} ({value})"
 
 
 def _id(pnu: int, index: int | None) -> str:
@@ -875,8 +788,9 @@ def _row(info: ParamInfo, index: int | None) -> dict[str, Any]:
     }
 
 
-def _input(info: ParamInfo | None, value: Value | list[Value]) -> str | None:
+def _input(reading: Reading) -> str | None:
     """A value as a user types it to write it again (None: not editable on the page)."""
+    info, value = reading.info, reading.value
     if info is None or info.is_bit_field or isinstance(value, list):
         return None
     if isinstance(value, bytes):
@@ -886,11 +800,11 @@ def _input(info: ParamInfo | None, value: Value | list[Value]) -> str | None:
     return format_value(info, value, unit=False, texts=False)
 
 
-def _shown(reading: Reading) -> dict[str, Any]:
+def _shown_reading(reading: Reading) -> dict[str, Any]:
     """``value`` as printed (``10.00 s``, ``1 [READY]``) and ``input`` (see `_input`)."""
     return {
         "value": format_value(reading.info, reading.value),
-        "input": _input(reading.info, reading.value),
+        "input": _input(reading),
     }
 
 

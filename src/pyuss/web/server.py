@@ -10,7 +10,9 @@ Routes (all under the token when there is one):
   with a backup file as the body: the differences, what a restore would write.
 - ``POST /api/drive/N/command``, ``/api/drive/N/params/write``, ``/api/scan``,
   ``/api/drive/N/restore?name=FILE[&force=1][&eeprom=1]``: changes (refused with
-  ``--read-only``).
+  ``--read-only``). A command with ``"check": true`` is checked whole and not sent: the
+  answer has the question for a person and a ``confirm``, which the yes carries; it acts
+  once, within `CONFIRM_AGE` seconds, for exactly the command checked (`Confirmations`).
 - ``GET /api/monitor.pcapng``: the telegrams of the monitor view as a capture.
 - ``GET /ws``: live updates (`pyuss.web.hub`): ``tick`` messages with every drive's new
   process-data samples 20 times a second, ``bus`` messages with state and communication
@@ -24,7 +26,9 @@ required (`WebServer` refuses to start without one) and every request must carry
 a loopback host (a web site cannot reach the page through a DNS name of its own). Requests
 that change something must carry the ``X-Pyuss`` header (a web site's form cannot add it) and
 no ``Origin`` of another site; a WebSocket from another origin is refused. ``read_only``
-refuses every change and the page hides its controls.
+refuses every change and the page hides its controls. Every JSON body is read and parsed
+within bounds (`MAX_JSON` bytes, nesting `MAX_DEPTH`, no NaN or Infinity), every key and
+type checked; a bad request gets one JSON error with a 4xx status and never reaches a drive.
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ import hmac
 import ipaddress
 import json
 import logging
+import secrets
 import time
 from collections.abc import Awaitable, Callable
 from importlib import resources
@@ -53,8 +58,7 @@ except ImportError:  # pragma: no cover - the extra is installed for the tests
     ) from None
 
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
-from pyuss.master.errors import NoWriteAuthority
-from pyuss.master.process import state_of
+from pyuss.points import NoWriteAuthority, state_name
 from pyuss.profiles import profile_names
 from pyuss.web.backend import Backend
 from pyuss.web.hub import QUEUE_SIZE, SEND_TIMEOUT, Hub
@@ -77,6 +81,16 @@ MAX_CLIENTS = 32
 """WebSocket clients at once; more are refused with 503."""
 MAX_BODY = 4 * 1024 * 1024
 """Largest request body (a backup file to compare or restore)."""
+MAX_JSON = 64 * 1024
+"""Largest JSON request body (a command, parameter ids, a value, a scan)."""
+MAX_DEPTH = 8
+"""Deepest nesting of arrays and objects in a JSON request body."""
+MAX_PNU = 0xFFFF
+"""The highest parameter number a request may name (a profile's paged numbers included)."""
+CONFIRM_AGE = 60.0
+"""Seconds a checked command may wait for the person's yes before it is stale."""
+MAX_CONFIRMS = 64
+"""Checked commands waiting for a yes at most (the oldest are forgotten)."""
 COOKIE = "pyuss_token"
 STATIC = Path(str(resources.files("pyuss.web").joinpath("static")))
 
@@ -97,14 +111,100 @@ def _error(status: int, message: str, **extra: Any) -> web.Response:
     return web.json_response({"error": message, **extra}, status=status)
 
 
-def _ref(text: str) -> tuple[int, int | None]:
-    """``52`` or ``4.2`` (also ``P4.2``) as PNU and index."""
-    body = str(text).strip().lstrip("Pp").replace("[", ".").rstrip("]")
+def _ref(text: object) -> tuple[int, int | None]:
+    """``52`` or ``4.2`` (also ``P4.2``, or the number 52) as PNU and index."""
+    if isinstance(text, int) and not isinstance(text, bool):
+        if not 0 <= text <= MAX_PNU:
+            raise ConfigError(f"{_cut(text)} is not a parameter: a number is 0..{MAX_PNU}")
+        text = str(text)
+    if not isinstance(text, str) or len(text) > 16:
+        raise ConfigError(f"{_cut(text)} is not a parameter (52 or 4.2)")
+    body = text.strip().lstrip("Pp").replace("[", ".").rstrip("]")
     pnu, dot, index = body.partition(".")
+    if not pnu.isdigit() or (dot and not index.isdigit()):
+        raise ConfigError(f"{_cut(text)} is not a parameter (52 or 4.2)")
+    if int(pnu) > MAX_PNU or (dot and int(index) > 255):
+        raise ConfigError(f"{_cut(text)}: a parameter number is 0..{MAX_PNU}, an index 0..255")
+    return int(pnu), (int(index) if dot else None)
+
+
+def _cut(value: object) -> str:
+    """A client's value in an error message, cut short."""
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def parse_json(body: bytes) -> Any:
+    """A JSON request body, parsed only if its nesting is within `MAX_DEPTH` (the parser of
+    the standard library recurses: deep nesting must never reach it)."""
     try:
-        return int(pnu), (int(index) if dot else None)
-    except ValueError:
-        raise ConfigError(f"{text!r} is not a parameter (52 or 4.2)") from None
+        text = body.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError("the request body is not JSON (not UTF-8 text)") from None
+    depth = 0
+    in_string = escaped = False
+    for char in text:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif char == "\\":
+                escaped = True
+            elif char == '"':
+                in_string = False
+        elif char == '"':
+            in_string = True
+        elif char in "[{":
+            depth += 1
+            if depth > MAX_DEPTH:
+                raise ConfigError(f"the request body nests deeper than {MAX_DEPTH} levels")
+        elif char in "]}":
+            depth -= 1
+    try:
+        return json.loads(text, parse_constant=_no_constant)
+    except ConfigError:
+        raise
+    except ValueError as exc:
+        raise ConfigError(f"the request body is not JSON: {_cut(str(exc))}") from None
+
+
+def _no_constant(name: str) -> Any:
+    raise ConfigError(f"the request body is not JSON: {name} is no JSON number")
+
+
+class Confirmations:
+    """Commands a page checked and asks a person about: each yes carries the ``confirm``
+    of its check, which is good once, for `CONFIRM_AGE` seconds, and for exactly the command
+    checked (the same drive, name and words): a replayed, stale or changed request is refused
+    before anything is sent."""
+
+    def __init__(self, age: float = CONFIRM_AGE) -> None:
+        self.age = age
+        self._open: dict[str, tuple[float, str]] = {}
+
+    @staticmethod
+    def _what(checked: dict[str, Any]) -> str:
+        return json.dumps(checked, sort_keys=True)
+
+    def issue(self, checked: dict[str, Any]) -> str:
+        token = secrets.token_urlsafe(18)
+        self._open[token] = (time.monotonic(), self._what(checked))
+        while len(self._open) > MAX_CONFIRMS:
+            del self._open[next(iter(self._open))]
+        return token
+
+    def redeem(self, token: object, checked: dict[str, Any]) -> None:
+        entry = self._open.pop(token, None) if isinstance(token, str) else None
+        if entry is None:
+            raise _conflict("this command was confirmed before or never checked: check it again")
+        when, what = entry
+        if time.monotonic() - when > self.age:
+            raise _conflict(f"the confirmation is older than {self.age:g} s: check it again")
+        if what != self._what(checked):
+            raise _conflict("the command is not the one confirmed (or means another setpoint now)")
+
+
+def _conflict(message: str) -> web.HTTPConflict:
+    return web.HTTPConflict(text=json.dumps({"error": message}), content_type="application/json")
 
 
 class WebServer:
@@ -120,6 +220,7 @@ class WebServer:
         read_only: bool = False,
         queue_size: int = QUEUE_SIZE,
         send_timeout: float = SEND_TIMEOUT,
+        confirm_age: float = CONFIRM_AGE,
     ) -> None:
         if not is_loopback(host) and not token:
             raise ConfigError(
@@ -137,6 +238,7 @@ class WebServer:
         self._runner: web.AppRunner | None = None
         self._ticker: asyncio.Task[None] | None = None
         self._sent_exchange = 0
+        self._confirms = Confirmations(confirm_age)
 
     # -- life cycle ---------------------------------------------------------------------------
     @property
@@ -224,6 +326,13 @@ class WebServer:
             return _error(403, "a change needs the X-Pyuss header (sent by the page)")
         try:
             response = await handler(request)
+        except web.HTTPException as exc:
+            if exc.status < 400 or exc.content_type == "application/json":
+                raise
+            # aiohttp's own refusals (too large a body, no such route) as JSON too
+            if exc.status == 413:
+                return _error(413, f"the request body is larger than {MAX_BODY} bytes")
+            return _error(exc.status, exc.reason)
         except ConfigError as exc:
             return _error(400, str(exc))
         except DriveRefusal as exc:
@@ -247,16 +356,31 @@ class WebServer:
 
     @staticmethod
     def _address(request: web.Request) -> int:
-        return int(request.match_info["address"])
+        text = request.match_info["address"]
+        if len(text) > 3:  # no drive has such an address; a huge number is never parsed
+            raise ConfigError(f"drive {_cut(text)} is not on the page")
+        return int(text)
 
     @staticmethod
-    async def _json(request: web.Request) -> dict[str, Any]:
-        try:
-            data = await request.json()
-        except (ValueError, UnicodeDecodeError):
-            raise ConfigError("the request body is not JSON") from None
+    async def _json(request: web.Request, keys: tuple[str, ...] = ()) -> dict[str, Any]:
+        """The request's JSON object, read and parsed within bounds (`MAX_JSON` bytes, nesting
+        `MAX_DEPTH`); with ``keys``, no other key may be in it."""
+        if request.content_length is not None and request.content_length > MAX_JSON:
+            raise ConfigError(f"the request body is larger than {MAX_JSON} bytes")
+        body = bytearray()
+        while len(body) <= MAX_JSON:
+            part = await request.content.read(MAX_JSON + 1 - len(body))
+            if not part:
+                break
+            body += part
+        if len(body) > MAX_JSON:
+            raise ConfigError(f"the request body is larger than {MAX_JSON} bytes")
+        data = parse_json(bytes(body))
         if not isinstance(data, dict):
             raise ConfigError("the request body must be a JSON object")
+        unknown = sorted(set(data) - set(keys)) if keys else []
+        if unknown:
+            raise ConfigError(f"unknown key {unknown[0][:40]!r}: the keys are {', '.join(keys)}")
         return data
 
     # -- pages and data -----------------------------------------------------------------------
@@ -283,33 +407,44 @@ class WebServer:
 
     async def _command(self, request: web.Request) -> web.Response:
         self._writable()
-        data = await self._json(request)
-        result = await self.backend.command(
-            self._address(request), str(data.get("name", "")), data.get("value")
-        )
-        return web.json_response(result)
+        data = await self._json(request, keys=("name", "value", "check", "confirm"))
+        address = self._address(request)
+        name, value = data.get("name"), data.get("value")
+        if not isinstance(name, str):
+            raise ConfigError('"name" must be a command name: ' + ", ".join(Backend.COMMANDS))
+        check = data.get("check", False)
+        if not isinstance(check, bool):
+            raise ConfigError('"check" must be true or false')
+        checked = self.backend.check(address, name, value)  # refused here: nothing is sent
+        if check:
+            return web.json_response({**checked, "confirm": self._confirms.issue(checked)})
+        if "confirm" in data:
+            self._confirms.redeem(data["confirm"], checked)
+        return web.json_response(await self.backend.command(address, name, value))
 
     async def _params(self, request: web.Request) -> web.Response:
         return web.json_response(self.backend.parameters(self._address(request)))
 
     async def _params_read(self, request: web.Request) -> web.Response:
-        data = await self._json(request)
+        data = await self._json(request, keys=("ids",))
         ids = data.get("ids")
         if not isinstance(ids, list) or len(ids) > 256:
             raise ConfigError("ids must be a list of at most 256 parameters")
-        refs = [_ref(str(i)) for i in ids]
+        refs = [_ref(i) for i in ids]
         return web.json_response(await self.backend.read(self._address(request), refs))
 
     async def _params_write(self, request: web.Request) -> web.Response:
         self._writable()
-        data = await self._json(request)
-        pnu, index = _ref(str(data.get("id", "")))
+        data = await self._json(request, keys=("id", "value", "eeprom"))
+        pnu, index = _ref(data.get("id", ""))
+        value = data.get("value", "")
+        if isinstance(value, bool) or not isinstance(value, str | int | float):
+            raise ConfigError(f"value must be the value as text (or a number), not {_cut(value)}")
+        eeprom = data.get("eeprom", False)
+        if not isinstance(eeprom, bool):
+            raise ConfigError(f"eeprom must be true or false, not {_cut(eeprom)}")
         result = await self.backend.write(
-            self._address(request),
-            pnu,
-            index,
-            str(data.get("value", "")),
-            eeprom=bool(data.get("eeprom", False)),
+            self._address(request), pnu, index, str(value), eeprom=eeprom
         )
         return web.json_response(result)
 
@@ -370,9 +505,13 @@ class WebServer:
 
     async def _scan(self, request: web.Request) -> web.Response:
         self._writable()
-        data = await self._json(request)
-        addresses = _addresses(str(data.get("addresses", "0-31")))
-        profile = str(data.get("profile", "generic"))
+        data = await self._json(request, keys=("addresses", "profile"))
+        addresses, profile = data.get("addresses", "0-31"), data.get("profile", "generic")
+        if not isinstance(addresses, str) or len(addresses) > 200:
+            raise ConfigError("addresses must be a short text: 0-31, 1,4,7 or 1-5,9")
+        if profile not in profile_names():
+            raise ConfigError(f"profile {_cut(profile)} is not one of {', '.join(profile_names())}")
+        addresses = _addresses(addresses)
 
         def progress(done: int, total: int) -> None:
             self.hub.send(json.dumps({"type": "scan", "done": done, "total": total}))
@@ -410,8 +549,8 @@ class WebServer:
                 if message.type != WSMsgType.TEXT:
                     continue
                 try:
-                    data = json.loads(message.data)
-                except ValueError:
+                    data = parse_json(message.data.encode())
+                except ConfigError:
                     continue
                 if isinstance(data, dict) and "monitor" in data:
                     client.monitor = bool(data["monitor"])
@@ -441,13 +580,10 @@ class WebServer:
         for address, taken in samples.items():
             last = taken[-1]
             drives[str(address)] = {
-                "samples": [
-                    [round(s.time, 4), s.status, backend.actual_values(address, s.actual)]
-                    for s in taken
-                ],
+                "samples": [[round(s.time, 4), s.status, list(s.values)] for s in taken],
                 "status": last.status,
-                "state": state_of(last.status),
-                "setpoint": backend.setpoint_value(address),
+                "state": state_name(last.status),
+                "setpoint": backend.points(address).setpoint_value(),
             }
         if self.hub.clients:
             self.hub.send(json.dumps({"type": "tick", "drives": drives}))

@@ -240,15 +240,33 @@ export class DriveView {
     this.message_.className = bad ? "error" : "note";
   }
 
+  // The server checks the whole command first (nothing is sent); a refused one is shown and
+  // never asked about, so the question only promises what will be sent. The yes carries the
+  // check's "confirm", good once for exactly that command.
+  async checked(address, request, label) {
+    try {
+      return await post(`/api/drive/${address}/command`, { ...request, check: true });
+    } catch (error) {
+      this.say(`${label}: ${error.message}`, true);
+      return null;
+    }
+  }
+
   async command(name) {
     const address = this.state.address;
     if (address == null) return;
-    if (CONFIRM[name] && !(await confirmMove(`Drive ${address}: ${CONFIRM[name]}`))) {
-      this.say("Not sent.");
-      return;
+    const request = { name };
+    if (CONFIRM[name]) {
+      const check = await this.checked(address, request, name);
+      if (!check) return;
+      if (!(await confirmMove(`Drive ${address}: ${CONFIRM[name]}`))) {
+        this.say("Not sent.");
+        return;
+      }
+      request.confirm = check.confirm;
     }
     try {
-      const reply = await post(`/api/drive/${address}/command`, { name });
+      const reply = await post(`/api/drive/${address}/command`, request);
       this.say(`${name}: sent, drive reports ${reply.state} (${hex4(reply.status)}).`);
     } catch (error) {
       this.say(`${name}: ${error.message}`, true);
@@ -259,12 +277,15 @@ export class DriveView {
     const address = this.state.address;
     const value = document.getElementById("setpoint-value").value;
     const unit = document.getElementById("setpoint-unit").value;
-    if (!(await confirmMove(`Drive ${address}: set the setpoint to ${value} ${unit}? A running motor follows it.`))) {
+    const request = { name: "setpoint", value: { value, unit } };
+    const check = await this.checked(address, request, "Setpoint");
+    if (!check) return;
+    if (!(await confirmMove(`Drive ${address}: ${check.text}? A running motor follows it.`))) {
       this.say("Not sent.");
       return;
     }
     try {
-      await post(`/api/drive/${address}/command`, { name: "setpoint", value: { value, unit } });
+      await post(`/api/drive/${address}/command`, { ...request, confirm: check.confirm });
       this.say(`Setpoint ${value} ${unit} sent.`);
     } catch (error) {
       this.say(`Setpoint: ${error.message}`, true);

@@ -1,0 +1,156 @@
+"""The live-drive model on a virtual bus with simulated drives: a setpoint is checked once,
+whole, before anything is sent (a refused one changes nothing), the commands come from one
+table, process data become values in one place, and the reference is read anew when a face
+writes it."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import AsyncIterator
+
+import pytest
+
+from gateway.harness import eventually
+from pyuss.bus import VirtualBus
+from pyuss.errors import ConfigError
+from pyuss.points import (
+    COMMAND_TABLE,
+    MOVES,
+    DrivePoints,
+    Plant,
+    checked_setpoint,
+    line_model,
+    simulated_drives,
+)
+from pyuss.protocol.layout import Layout
+
+BAUD = 38400
+DRIVES = [(1, "generic", Layout(4, 2)), (4, "baumueller", Layout(3, 2))]
+
+
+@pytest.fixture
+async def plant() -> AsyncIterator[Plant]:
+    bus = VirtualBus(BAUD)
+    try:
+        async with simulated_drives(bus, DRIVES):
+            model = line_model("line", DRIVES, baud=BAUD)
+            plant = Plant(model, transports={"line": bus.attach("master")})
+            async with plant:
+                await eventually(lambda: all(d.state.answered for d in plant.drives))
+                await eventually(lambda: plant.drive("line", 1).reference is not None)
+                yield plant
+    finally:
+        await bus.close()
+
+
+def sent(points: DrivePoints) -> tuple[int, tuple[int, ...]]:
+    return points.drive.control, points.drive.setpoints
+
+
+async def test_a_setpoint_is_checked_whole_and_a_refused_one_changes_nothing(
+    plant: Plant,
+) -> None:
+    drive = plant.drive("line", 1)
+    assert (drive.reference, drive.model.unit) == (50.0, "Hz")
+    assert drive.setpoint_units() == ("%", "Hz")
+    # the same setpoint three ways: in the reference's unit, in percent, raw
+    for value, unit in ((25, "Hz"), ("25", "value"), (50.0, "%"), ("0x2000", "raw")):
+        checked = drive.check_setpoint(value, unit=unit)
+        assert (checked.raw, checked.percent, checked.value) == (0x2000, 50.0, 25.0)
+    before = sent(drive)
+    for value, unit, words in [
+        (500, "%", "500 % is outside -200 % .. 199.99 % of the reference (16 bits, C 5.2.2)"),
+        (100, "Hz", "100 Hz is outside"),  # 200 % of 50 Hz: one step beyond the word
+        (10**400, "Hz", "is outside"),
+        (10**400, "raw", "does not fit 16 bits"),
+        (1.5, "raw", "whole number"),
+        (math.nan, "%", "finite number"),
+        (math.inf, "Hz", "finite number"),
+        ("-inf", "%", "finite number"),
+        ("fast", "%", "'fast' is not a number"),
+        ("1" * 65, "%", "is not a number"),
+        (True, "%", "finite number"),
+        (None, "%", "finite number"),
+        ([25], "%", "finite number"),
+        (25, "rpm", "setpoint unit 'rpm': line/drive1 takes '%' or 'Hz' or 'raw'"),
+    ]:
+        with pytest.raises(ConfigError, match=words.replace("(", r"\(").replace(")", r"\)")):
+            await drive.set_setpoint(value, unit=unit)
+    assert sent(drive) == before  # nothing reached the line
+    await drive.set_setpoint("20", unit="Hz")
+    assert drive.drive.setpoints == (round(0x4000 * 0.4),)
+    assert drive.setpoint_value() == pytest.approx(20.0, abs=0.01)
+
+
+async def test_the_commands_come_from_one_table(plant: Plant) -> None:
+    drive = plant.drive("line", 1)
+    assert set(COMMAND_TABLE) == {"on", "off1", "off2", "off3", "acknowledge", "jog1", "jog2",
+                                  "jog_off"}  # fmt: skip
+    assert {"on", "jog1", "jog2"} == MOVES
+    before = sent(drive)
+    for name in ("reverse", "", 5, None):
+        with pytest.raises(ConfigError, match="unknown command"):
+            await drive.command(name)  # type: ignore[arg-type]
+    assert sent(drive) == before
+    await drive.command("jog1")
+    assert drive.drive.control & 0x0100
+    await drive.command("jog_off")
+    assert not drive.drive.control & 0x0300
+    state = await drive.command("off1")
+    assert state.state in ("ready to switch on", "switch-on inhibited")
+
+
+async def test_process_data_become_values_in_one_place(plant: Plant) -> None:
+    drive = plant.drive("line", 1)
+    drive.keep_samples(100)
+    await drive.set_setpoint(30, unit="Hz")
+    await drive.command("on")
+    await eventually(lambda: (drive.state.actual["main"].value or 0) > 5)
+    state = drive.state
+    main = state.actual["main"]
+    assert main.value == pytest.approx(main.percent * 50.0 / 100, abs=1e-6)
+    assert drive.actual_row(state.actual_words)[0] == pytest.approx(main.value, abs=1e-6)
+    assert [c["unit"] for c in drive.actual_columns()][:1] == ["Hz"]
+    samples = drive.take_samples()
+    assert samples and all(len(s.values) == len(state.actual_words) for s in samples)
+    await drive.command("off1")
+    # a drive without a reference parameter shows percent
+    other = plant.drive("line", 4)
+    assert other.reference is None and other.model.unit == "%"
+    assert other.check_setpoint(12.5, unit="value").value == 12.5
+
+
+async def test_the_reference_is_read_anew_when_a_face_writes_it(plant: Plant) -> None:
+    drive = plant.drive("line", 1)
+    checked = drive.check_setpoint(10, unit="Hz")
+    await drive.write_value(51, None, "EXPERT")
+    await drive.write_value(352, None, "100")
+    try:
+        assert drive.reference == 100.0
+        # 10 Hz is 10 % now, where it was 20 %
+        assert checked.percent == pytest.approx(20.0, abs=0.01)
+        assert drive.check_setpoint(10, unit="Hz").percent == pytest.approx(10.0, abs=0.01)
+    finally:
+        await drive.write_value(352, None, "50")
+        await drive.write_value(51, None, "STANDARD")
+    assert drive.reference == 50.0
+    # a typed write is checked before anything is sent
+    jobs = drive.drive.diagnostics().jobs
+    done = jobs.completed + jobs.refused
+    with pytest.raises(ConfigError, match="outside"):
+        await drive.write_value(462, None, "1000")
+    with pytest.raises(ConfigError, match="short text"):
+        await drive.write_value(462, None, "1" * 400)
+    jobs = drive.drive.diagnostics().jobs
+    assert jobs.completed + jobs.refused == done
+
+
+def test_the_one_check_of_a_setpoint_serves_every_face_alike() -> None:
+    # uss run --setpoint and the faces share it: a double word, an unknown reference
+    wide = checked_setpoint("150", "percent", reference=None, unit="%", dword=True)
+    assert (wide.raw, wide.percent) == (0x6000_0000, 150.0)
+    with pytest.raises(ConfigError, match=r"outside -200 % \.\. 199\.9999999 % .*32 bits"):
+        checked_setpoint(200, "percent", reference=None, unit="%", dword=True)
+    with pytest.raises(ConfigError, match="reference is not known yet"):
+        checked_setpoint(25, "value", reference=None, unit="Hz", where="line/drive1")
+    assert checked_setpoint(25, "value", reference=50.0, unit="Hz").raw == 0x2000
