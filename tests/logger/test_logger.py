@@ -37,7 +37,7 @@ async def test_a_drive_that_stops_answering_is_logged_as_silent(tmp_path: Path) 
     try:
         async with (
             simulated_drives(bus, [(5, "generic", Layout(4, 2))]),
-            Master(bus.attach("master")) as master,
+            Master(bus.attach("master"), profile="generic") as master,
         ):
             drive = master.drive(5, layout=Layout(4, 2))
             await drive.setpoint(25.0)
