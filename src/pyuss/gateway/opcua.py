@@ -51,12 +51,15 @@ import contextvars
 import hmac
 import logging
 import math
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from asyncua import Server, ua
 from asyncua.crypto.permission_rules import USER_TYPES, PermissionRuleset, User, UserRole
 from asyncua.server.address_space import AttributeService
+from asyncua.server.binary_server_asyncio import BinaryServer, OPCUAProtocol
+from asyncua.server.uaprocessor import UaProcessor
 from asyncua.server.user_managers import UserManager
 
 from pyuss import __version__
@@ -64,8 +67,10 @@ from pyuss.errors import ConfigError, DriveRefusal, UssError
 from pyuss.gateway.config import OpcuaOptions
 from pyuss.points.errors import Failure, classify
 from pyuss.points.model import STATUS_BIT_NAMES
+from pyuss.points.parameters import ParamMeta
 from pyuss.points.plant import DrivePoints, Plant
 from pyuss.points.state import DriveState
+from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32
 
 __all__ = ["STATUS_CODES", "OpcuaFace", "engineering_units"]
 
@@ -104,9 +109,13 @@ _UNECE = {
 }
 """UNECE Recommendation 20 codes of the units drives use (OPC UA EngineeringUnits)."""
 
+FLOAT32_MAX = 3.4028234663852886e38
+"""The largest IEEE 754 single: the range of a float parameter without limits."""
+
 _current_user: contextvars.ContextVar[User | None] = contextvars.ContextVar(
     "pyuss_opcua_user", default=None
 )
+"""The user of the session whose request is being served (None: no activated session)."""
 
 
 def engineering_units(unit: str) -> ua.EUInformation:
@@ -125,10 +134,51 @@ def engineering_units(unit: str) -> ua.EUInformation:
     )
 
 
+def percent_range(dword: bool) -> tuple[float, float]:
+    """What a process word carries, in percent (16 bits: -200 % .. +199.99 %)."""
+    full, bits = (FULL_SCALE_32, 32) if dword else (FULL_SCALE_16, 16)
+    return -(1 << (bits - 1)) * 100.0 / full, ((1 << (bits - 1)) - 1) * 100.0 / full
+
+
+def parameter_range(meta: ParamMeta) -> tuple[float, float]:
+    """The EURange of a parameter: its limits where the parameter file gives them, else what
+    its word(s) can carry."""
+    if meta.minimum is not None and meta.maximum is not None:
+        return float(meta.minimum), float(meta.maximum)
+    if meta.is_float:
+        return -FLOAT32_MAX, FLOAT32_MAX
+    bits = 32 if meta.dword else 16
+    low, high = (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if meta.signed else (0, (1 << bits) - 1)
+    return float(meta.physical(low)), float(meta.physical(high))
+
+
 def status_of(exc: BaseException) -> ua.StatusCode:
     if isinstance(exc, DriveRefusal) and exc.number == 1:
         return ua.StatusCode(ua.StatusCodes.BadNotWritable)
     return ua.StatusCode(STATUS_CODES[classify(exc)])
+
+
+def _status(code: int) -> ua.StatusCode:
+    return ua.StatusCode(code)
+
+
+def check_value(variant: Any, vtype: ua.VariantType) -> int | None:
+    """Why a written or passed value cannot be taken (a status code), else None: it must be
+    a scalar of the node's or argument's own type (Part 4: BadTypeMismatch otherwise, no
+    conversion), and a Double a finite number (BadOutOfRange)."""
+    if (
+        not isinstance(variant, ua.Variant)
+        or variant.VariantType != vtype
+        or variant.is_array
+        or variant.Dimensions
+        or variant.Value is None
+    ):
+        mismatch: int = ua.StatusCodes.BadTypeMismatch
+        return mismatch
+    if vtype is ua.VariantType.Double and not math.isfinite(variant.Value):
+        out_of_range: int = ua.StatusCodes.BadOutOfRange
+        return out_of_range
+    return None
 
 
 class _Users(UserManager):  # type: ignore[misc]
@@ -155,49 +205,202 @@ class _Users(UserManager):  # type: ignore[misc]
 
 
 class _Rules(PermissionRuleset):  # type: ignore[misc]
-    """Lets every signed-in client use the services; remembers who asks, for the methods."""
+    """Lets every signed-in client use the services (the face checks writes and calls)."""
 
     def __init__(self) -> None:
         self._allowed = {ua.NodeId(t) for t in USER_TYPES}
 
     def check_validity(self, user: User, action_type_id: ua.NodeId, body: Any) -> bool:
-        _current_user.set(user)
         return user.role is UserRole.Admin or action_type_id in self._allowed
+
+
+_NO_SESSION = {
+    ua.NodeId(code)
+    for code in (
+        ua.ObjectIds.CreateSessionRequest_Encoding_DefaultBinary,
+        ua.ObjectIds.FindServersRequest_Encoding_DefaultBinary,
+        ua.ObjectIds.GetEndpointsRequest_Encoding_DefaultBinary,
+        ua.ObjectIds.RegisterServerRequest_Encoding_DefaultBinary,
+        ua.ObjectIds.RegisterServer2Request_Encoding_DefaultBinary,
+        ua.ObjectIds.CloseSecureChannelRequest_Encoding_DefaultBinary,
+    )
+}
+_CREATE = ua.NodeId(ua.ObjectIds.CreateSessionRequest_Encoding_DefaultBinary)
+_CLOSE = ua.NodeId(ua.ObjectIds.CloseSessionRequest_Encoding_DefaultBinary)
+
+
+class _SessionProcessor(UaProcessor):  # type: ignore[misc]
+    """asyncua's processor of one connection, with each request served by the session its
+    authentication token names (Part 4 5.6): asyncua's own keeps one session per connection,
+    so a second session on the same secure channel (as node-opcua opens them) would lend its
+    user to the first. A token of no session of this channel is served by none (refused),
+    except ActivateSession, which may move a live session here (Part 4 5.6.3)."""
+
+    def __init__(self, *args: Any) -> None:
+        super().__init__(*args)
+        self.sessions: dict[ua.NodeId, Any] = {}
+
+    async def _process_message(self, typeid: Any, requesthdr: Any, seqhdr: Any, body: Any) -> Any:
+        if typeid not in _NO_SESSION:
+            self.session = self.sessions.get(requesthdr.AuthenticationToken)
+        session: Any = self.session if typeid != _CREATE else None
+        active = session is not None and session.is_activated()
+        _current_user.set(session.user if active else None)
+        try:
+            return await super()._process_message(typeid, requesthdr, seqhdr, body)
+        finally:
+            if self.session is not None:
+                if typeid == _CLOSE:
+                    self.sessions.pop(self.session.auth_token, None)
+                else:
+                    self.sessions[self.session.auth_token] = self.session
+            _current_user.set(None)
+
+    async def close(self) -> None:
+        others = [s for s in self.sessions.values() if s is not self.session]
+        await super().close()
+        for session in others:
+            self.session = session
+            if self._should_close_session_on_transport_loss():
+                await session.close_session(True)
+
+
+class _Protocol(OPCUAProtocol):  # type: ignore[misc]
+    processor: Any
+
+    def connection_made(self, transport: Any) -> None:
+        super().connection_made(transport)
+        if self.processor is not None:
+            processor = _SessionProcessor(self.iserver, self.transport, self.limits)
+            processor.set_policies(self.policies)
+            self.processor = processor
+
+
+class _Listener(BinaryServer):  # type: ignore[misc]
+    def _make_protocol(self) -> _Protocol:
+        return _Protocol(
+            iserver=self.iserver,
+            policies=self._policies,
+            clients=self.clients,
+            closing_tasks=self.closing_tasks,
+            limits=self.limits,
+        )
+
+
+class _Server(Server):  # type: ignore[misc]
+    """asyncua's server listening with `_SessionProcessor` (as ``Server.start`` does)."""
+
+    async def start(self) -> None:
+        await self._setup_server_nodes()
+        await self.iserver.start()
+        host, port = self._get_bind_socket_info()
+        self.bserver = _Listener(self.iserver, host, port, self.limits)
+        self.bserver.set_policies(self._policies)
+        try:
+            await self.bserver.start()
+        except Exception:
+            await self.iserver.stop()
+            raise
 
 
 WriteHandler = Callable[[Any], Awaitable[None]]
 
 
+@dataclass(frozen=True, slots=True)
+class _Writable:
+    """A variable whose writes go to the drive: the handler and the type it takes."""
+
+    handler: WriteHandler
+    vtype: ua.VariantType
+
+
 _ADMIN = User(role=UserRole.Admin)
+_READ = ua.AccessLevel.CurrentRead.mask
+_READ_WRITE = ua.AccessLevel.CurrentRead.mask | ua.AccessLevel.CurrentWrite.mask
 
 
-class _Writes(AttributeService):  # type: ignore[misc]
-    """Client writes to the drives' variables go to the drive first."""
+class _Attributes(AttributeService):  # type: ignore[misc]
+    """Client writes to the drives' variables go to the drive first, once checked; the
+    UserAccessLevel and UserExecutable a session reads say what that session may do."""
 
     def __init__(self, aspace: Any, face: OpcuaFace) -> None:
         super().__init__(aspace)
         self.face = face
 
+    def read(self, params: ua.ReadParameters) -> list[ua.DataValue]:
+        results: list[ua.DataValue] = super().read(params)
+        may = self.face.may_write(_current_user.get())
+        for number, item in enumerate(params.NodesToRead):
+            attribute, node = item.AttributeId, item.NodeId
+            if attribute == ua.AttributeIds.UserAccessLevel and node in self.face.writables:
+                level = _READ_WRITE if may else _READ
+                results[number] = ua.DataValue(ua.Variant(level, ua.VariantType.Byte))
+            elif attribute == ua.AttributeIds.UserExecutable and node in self.face.commands:
+                results[number] = ua.DataValue(ua.Variant(may, ua.VariantType.Boolean))
+        return results
+
     async def write(self, params: ua.WriteParameters, user: User = _ADMIN) -> list[ua.StatusCode]:
         results: list[ua.StatusCode] = []
         for item in params.NodesToWrite:
-            handler = self.face.write_handlers.get(item.NodeId)
-            if handler is None or item.AttributeId != ua.AttributeIds.Value:
+            writable = self.face.writables.get(item.NodeId)
+            if writable is None or item.AttributeId != ua.AttributeIds.Value:
                 one = ua.WriteParameters(NodesToWrite=[item])
                 results.extend(await super().write(one, user))
                 continue
-            if not self.face.may_write(user):
-                results.append(ua.StatusCode(ua.StatusCodes.BadUserAccessDenied))
-                continue
-            value = item.Value.Value.Value if item.Value and item.Value.Value else None
-            try:
-                await handler(value)
-            except (UssError, ValueError, TypeError) as exc:
-                log.info("write to %s refused: %s", item.NodeId.to_string(), exc)
-                results.append(status_of(exc))
-                continue
-            results.append(ua.StatusCode())
+            results.append(await self._write(item, writable, user))
         return results
+
+    async def _write(self, item: ua.WriteValue, writable: _Writable, user: User) -> ua.StatusCode:
+        where = item.NodeId.to_string()
+        if not self.face.may_write(user):
+            return _status(ua.StatusCodes.BadUserAccessDenied)
+        if item.IndexRange:
+            return _status(ua.StatusCodes.BadWriteNotSupported)  # a scalar, written whole
+        value = item.Value
+        if value is None or (value.StatusCode is not None and not value.StatusCode.is_good()):
+            return _status(ua.StatusCodes.BadWriteNotSupported)  # only good values act
+        wrong = check_value(value.Value, writable.vtype)
+        if wrong is not None:
+            log.info("write to %s refused: %r is not a %s", where, value.Value, writable.vtype)
+            return _status(wrong)
+        try:
+            await writable.handler(value.Value.Value)
+        except (UssError, ValueError, TypeError) as exc:
+            log.info("write to %s refused: %s", where, exc)
+            return status_of(exc)
+        return ua.StatusCode()
+
+
+@dataclass(frozen=True, slots=True)
+class _Method:
+    """A drive's method: the object it belongs to, the types of its input arguments, whether
+    it changes the drive (a write right needed) and what it does with checked values."""
+
+    face: OpcuaFace
+    parent: ua.NodeId
+    inputs: tuple[ua.VariantType, ...]
+    changes: bool
+    body: Callable[..., Awaitable[Any]]
+
+    async def call(self, parent: ua.NodeId, *args: Any) -> Any:
+        if parent != self.parent:
+            return _status(ua.StatusCodes.BadMethodInvalid)  # another object's method
+        if self.changes and not self.face.may_write(_current_user.get()):
+            return _status(ua.StatusCodes.BadUserAccessDenied)
+        if len(args) < len(self.inputs):
+            return _status(ua.StatusCodes.BadArgumentsMissing)
+        if len(args) > len(self.inputs):
+            return _status(ua.StatusCodes.BadTooManyArguments)
+        checks = [check_value(a, t) for a, t in zip(args, self.inputs, strict=True)]
+        if any(code is not None for code in checks):
+            return ua.CallMethodResult(
+                StatusCode=_status(ua.StatusCodes.BadInvalidArgument),
+                InputArgumentResults=[ua.StatusCode(code or 0) for code in checks],
+            )
+        try:
+            return await self.body(*(a.Value for a in args))
+        except (UssError, ValueError) as exc:
+            return status_of(exc)
 
 
 class _DriveNodes:
@@ -208,43 +411,105 @@ class _DriveNodes:
         self.drive = drive
         self.nodes: dict[str, tuple[ua.NodeId, ua.VariantType]] = {}
         self.last: dict[str, Any] = {}
+        self.reference: float | None = None
+        self.ranges: dict[str, tuple[ua.NodeId, float, float]] = {}
+        """The EURange of each process value in the drive's unit: its node and the percent
+        range it is the reference's share of (set once the reference is known)."""
 
     def nid(self, name: str) -> ua.NodeId:
         return ua.NodeId(f"{self.drive.model.bus}.{self.drive.name}{name}", self.face.ns)
+
+    @property
+    def obj(self) -> ua.NodeId:
+        """The drive's object."""
+        return self.nid("")
+
+    async def var(
+        self,
+        where: Any,
+        name: str,
+        key: str,
+        value: Any,
+        vtype: ua.VariantType,
+        *,
+        unit: str | None = None,
+        span: tuple[float, float] | None = None,
+        writer: WriteHandler | None = None,
+    ) -> None:
+        """A variable; with a ``unit`` an AnalogItemType (Part 8 5.3.2) with EngineeringUnits
+        and EURange ``span`` (None: not known yet, BadWaitingForInitialData)."""
+        face = self.face
+        ns = face.ns
+        nodeid = self.nid(key)
+        item = ua.AddNodesItem(
+            RequestedNewNodeId=nodeid,
+            BrowseName=ua.QualifiedName(name, ns),
+            NodeClass=ua.NodeClass.Variable,
+            ParentNodeId=where.nodeid,
+            ReferenceTypeId=ua.NodeId(ua.ObjectIds.HasComponent),
+            TypeDefinition=ua.NodeId(
+                ua.ObjectIds.BaseDataVariableType if unit is None else ua.ObjectIds.AnalogItemType
+            ),
+        )
+        attrs = ua.VariableAttributes(
+            DisplayName=ua.LocalizedText(name),
+            Description=ua.LocalizedText(name),
+            DataType=ua.NodeId(vtype.value),
+            Value=ua.Variant(value, vtype),
+            AccessLevel=_READ,
+            UserAccessLevel=_READ,
+        )
+        if isinstance(value, list):
+            attrs.ValueRank = ua.ValueRank.OneDimension
+            attrs.ArrayDimensions = [len(value)]
+        else:
+            attrs.ValueRank = ua.ValueRank.Scalar
+        item.NodeAttributes = attrs
+        (result,) = await face.server.iserver.isession.add_nodes([item])
+        result.StatusCode.check()
+        node = face.server.get_node(nodeid)
+        if unit is not None:
+            await node.add_property(
+                ua.NodeId(f"{nodeid.Identifier}.EngineeringUnits", ns),
+                ua.QualifiedName("EngineeringUnits", 0),
+                engineering_units(unit),
+            )
+            eu_range = await node.add_property(
+                ua.NodeId(f"{nodeid.Identifier}.EURange", ns),
+                ua.QualifiedName("EURange", 0),
+                ua.Range(Low=0.0, High=0.0),
+            )
+            if span is None:
+                await eu_range.write_value(
+                    ua.DataValue(StatusCode=_status(ua.StatusCodes.BadWaitingForInitialData))
+                )
+            else:
+                await eu_range.write_value(ua.Range(Low=span[0], High=span[1]))
+        if writer is not None and not face.options.read_only:
+            await node.set_writable(True)
+            face.writables[nodeid] = _Writable(writer, vtype)
+        self.nodes[key] = (nodeid, vtype)
+        self.last[key] = value
 
     async def build(self, parent: Any) -> None:
         face = self.face
         ns = face.ns
         model = self.drive.model
-        obj = await parent.add_object(self.nid(""), ua.QualifiedName(self.drive.name, ns))
-
-        async def var(
-            where: Any,
-            name: str,
-            key: str,
-            value: Any,
-            vtype: ua.VariantType,
-            *,
-            unit: str | None = None,
-            writer: WriteHandler | None = None,
-        ) -> None:
-            node = await where.add_variable(
-                self.nid(key), ua.QualifiedName(name, ns), ua.Variant(value, vtype)
-            )
-            if unit is not None:
-                await node.add_property(
-                    ua.NodeId(f"{self.nid(key).Identifier}.EngineeringUnits", ns),
-                    ua.QualifiedName("EngineeringUnits", 0),
-                    engineering_units(unit),
-                )
-            if writer is not None and not face.options.read_only:
-                await node.set_writable(True)
-                face.write_handlers[node.nodeid] = writer
-            self.nodes[key] = (node.nodeid, vtype)
-            self.last[key] = value
+        obj = await parent.add_object(self.obj, ua.QualifiedName(self.drive.name, ns))
+        var = self.var
 
         async def folder(name: str) -> Any:
             return await obj.add_folder(self.nid(f".{name}"), ua.QualifiedName(name, ns))
+
+        def scaled(key: str, percent: tuple[float, float]) -> tuple[float, float] | None:
+            """The range in the drive's unit: known at once for a reference in the table,
+            else once it was read; remembered so that `update` sets it then."""
+            self.ranges[key] = (self.nid(f"{key}.EURange"), *percent)
+            if model.unit == "%":
+                return percent
+            if isinstance(model.reference, float):
+                return percent[0] * model.reference / 100, percent[1] * model.reference / 100
+            return None
 
         await var(obj, "Address", ".Address", model.address, ua.VariantType.UInt16)
         await var(obj, "StatusWord", ".StatusWord", 0, ua.VariantType.UInt16)
@@ -255,23 +520,14 @@ class _DriveNodes:
         drive = self.drive
         actual = await folder("Actual")
         actual_pc = await folder("ActualPercent")
+        double = ua.VariantType.Double
         for item in model.actual:
-            await var(
-                actual,
-                item.key,
-                f".Actual.{item.key}",
-                math.nan,
-                ua.VariantType.Double,
-                unit=model.unit,
-            )
-            await var(
-                actual_pc,
-                item.key,
-                f".ActualPercent.{item.key}",
-                math.nan,
-                ua.VariantType.Double,
-                unit="%",
-            )
+            percent = percent_range(item.dword)
+            key = f".Actual.{item.key}"
+            span = scaled(key, percent)
+            await var(actual, item.key, key, math.nan, double, unit=model.unit, span=span)
+            key = f".ActualPercent.{item.key}"
+            await var(actual_pc, item.key, key, math.nan, double, unit="%", span=percent)
 
         async def control(value: Any) -> None:
             await drive.set_control_word(int(value))
@@ -287,13 +543,16 @@ class _DriveNodes:
 
                 return write
 
+            percent = percent_range(item.dword)
+            key = f".Setpoint.{item.key}"
             await var(
                 setpoint,
                 item.key,
-                f".Setpoint.{item.key}",
+                key,
                 0.0,
-                ua.VariantType.Double,
+                double,
                 unit=model.unit,
+                span=scaled(key, percent),
                 writer=writer(item.key, "value"),
             )
             await var(
@@ -301,8 +560,9 @@ class _DriveNodes:
                 item.key,
                 f".SetpointPercent.{item.key}",
                 0.0,
-                ua.VariantType.Double,
+                double,
                 unit="%",
+                span=percent,
                 writer=writer(item.key, "percent"),
             )
         params = await folder("Parameters")
@@ -320,8 +580,9 @@ class _DriveNodes:
                 meta.key,
                 f".Parameters.{meta.key}",
                 math.nan,
-                ua.VariantType.Double,
+                double,
                 unit=meta.unit or None,
+                span=parameter_range(meta),
                 writer=param_writer(meta.pnu, meta.index) if meta.writable else None,
             )
         health = await folder("Health")
@@ -334,27 +595,45 @@ class _DriveNodes:
         await var(health, "LastErrorPnu", ".Health.LastErrorPnu", -1, ua.VariantType.Int32)
         await self._methods(obj)
 
+    async def _method(
+        self,
+        obj: Any,
+        name: str,
+        body: Callable[..., Awaitable[Any]],
+        inputs: Sequence[ua.Argument],
+        outputs: Sequence[ua.Argument],
+        *,
+        changes: bool,
+    ) -> None:
+        face = self.face
+        types = tuple(ua.VariantType(a.DataType.Identifier) for a in inputs)
+        method = _Method(face, self.obj, types, changes, body)
+        node = await obj.add_method(
+            self.nid(f".{name}"),
+            ua.QualifiedName(name, face.ns),
+            method.call,
+            list(inputs),
+            outputs,
+        )
+        if changes:
+            face.commands.add(node.nodeid)
+            if face.options.read_only:
+                await node.write_attribute(
+                    ua.AttributeIds.Executable, ua.DataValue(ua.Variant(False))
+                )
+
     async def _methods(self, obj: Any) -> None:
-        ns = self.face.ns
         drive = self.drive
         for name in ("On", "Off1", "Off2", "Off3", "Acknowledge"):
 
-            def command(which: str) -> Callable[..., Awaitable[Any]]:
-                async def call(parent: ua.NodeId) -> Any:
-                    denied = self.face.denied()
-                    if denied is not None:
-                        return denied
-                    try:
-                        await drive.command(which)
-                    except (UssError, ValueError) as exc:
-                        return status_of(exc)
+            def command(which: str) -> Callable[[], Awaitable[Any]]:
+                async def call() -> Any:
+                    await drive.command(which)
                     return []
 
                 return call
 
-            await obj.add_method(
-                self.nid(f".{name}"), ua.QualifiedName(name, ns), command(name.lower()), [], []
-            )
+            await self._method(obj, name, command(name.lower()), [], [], changes=True)
 
         def argument(name: str, dtype: int, text: str) -> ua.Argument:
             return ua.Argument(
@@ -369,47 +648,36 @@ class _DriveNodes:
         value_arg = argument("Value", ua.ObjectIds.Double, "value in the parameter's unit")
         unit_arg = argument("Unit", ua.ObjectIds.String, "the parameter's unit")
 
-        def index_of(variant: Any) -> int | None:
-            value = int(variant.Value if isinstance(variant, ua.Variant) else variant)
+        def index_of(value: int) -> int | None:
+            if value < -1:
+                raise ConfigError(
+                    f"Index is an element 0.. or -1 for a simple parameter, not {value}"
+                )
             return None if value < 0 else value
 
-        async def read(parent: ua.NodeId, pnu: Any, index: Any) -> Any:
-            try:
-                reading = await drive.read_parameter(int(pnu.Value), index_of(index))
-            except (UssError, ValueError) as exc:
-                return status_of(exc)
+        async def read(pnu: int, index: int) -> Any:
+            reading = await drive.read_parameter(pnu, index_of(index))
             value = math.nan if reading.value is None else float(reading.value)
             return [
                 ua.Variant(value, ua.VariantType.Double),
                 ua.Variant(reading.meta.unit, ua.VariantType.String),
             ]
 
-        async def write(parent: ua.NodeId, pnu: Any, index: Any, value: Any) -> Any:
-            denied = self.face.denied()
-            if denied is not None:
-                return denied
-            try:
-                reading = await drive.write_parameter(
-                    int(pnu.Value), float(value.Value), index_of(index)
-                )
-            except (UssError, ValueError) as exc:
-                return status_of(exc)
+        async def write(pnu: int, index: int, value: float) -> Any:
+            reading = await drive.write_parameter(pnu, value, index_of(index))
             answered = math.nan if reading.value is None else float(reading.value)
             return [ua.Variant(answered, ua.VariantType.Double)]
 
-        await obj.add_method(
-            self.nid(".ReadParameter"),
-            ua.QualifiedName("ReadParameter", ns),
-            read,
-            [pnu_arg, index_arg],
-            [value_arg, unit_arg],
+        await self._method(
+            obj, "ReadParameter", read, [pnu_arg, index_arg], [value_arg, unit_arg], changes=False
         )
-        await obj.add_method(
-            self.nid(".WriteParameter"),
-            ua.QualifiedName("WriteParameter", ns),
+        await self._method(
+            obj,
+            "WriteParameter",
             write,
             [pnu_arg, index_arg, value_arg],
             [value_arg],
+            changes=True,
         )
 
     def values(self, state: DriveState) -> dict[str, Any]:
@@ -458,6 +726,12 @@ class _DriveNodes:
             nodeid, vtype = self.nodes[key]
             self.last[key] = value
             await server.write_attribute_value(nodeid, ua.DataValue(ua.Variant(value, vtype)))
+        reference = state.reference
+        if reference is not None and reference != self.reference and self.drive.model.unit != "%":
+            self.reference = reference
+            for nodeid, low, high in self.ranges.values():
+                span = ua.Range(Low=low * reference / 100, High=high * reference / 100)
+                await server.write_attribute_value(nodeid, ua.DataValue(ua.Variant(span)))
 
 
 class OpcuaFace:
@@ -466,27 +740,23 @@ class OpcuaFace:
     def __init__(self, plant: Plant, options: OpcuaOptions) -> None:
         self.plant = plant
         self.options = options
-        self.server = Server(user_manager=_Users(options))
+        self.server = _Server(user_manager=_Users(options))
         self.ns = 0
-        self.write_handlers: dict[ua.NodeId, WriteHandler] = {}
+        self.writables: dict[ua.NodeId, _Writable] = {}
+        self.commands: set[ua.NodeId] = set()
+        """The methods that change a drive (all but ReadParameter)."""
         self.drives = [_DriveNodes(self, drive) for drive in plant.drives]
         self._removers: list[Callable[[], None]] = []
         self._started = False
 
     def may_write(self, user: User | None) -> bool:
-        if self.options.read_only:
+        """Whether ``user`` (None: no activated session) may write and call the methods that
+        change a drive."""
+        if self.options.read_only or user is None:
             return False
-        if user is None or user.role is UserRole.Admin:
-            return True
         if user.role is UserRole.Anonymous:
             return self.options.anonymous == "write"
         return True
-
-    def denied(self) -> ua.StatusCode | None:
-        """The status code for a method call the calling user may not make, else None."""
-        if self.may_write(_current_user.get()):
-            return None
-        return ua.StatusCode(ua.StatusCodes.BadUserAccessDenied)
 
     async def start(self) -> None:
         server = self.server
@@ -512,7 +782,7 @@ class OpcuaFace:
         if self.options.certificate is not None and self.options.private_key is not None:
             await server.load_certificate(self.options.certificate)
             await server.load_private_key(self.options.private_key)
-        server.iserver.attribute_service = _Writes(server.iserver.aspace, self)
+        server.iserver.attribute_service = _Attributes(server.iserver.aspace, self)
         self.ns = await server.register_namespace(self.options.namespace)
         root = await server.nodes.objects.add_folder(
             ua.NodeId("USS", self.ns), ua.QualifiedName("USS", self.ns)
