@@ -60,12 +60,14 @@ def node(client: Client, ns: int, path: str, address: int = 5) -> Any:
     return client.get_node(ua.NodeId(f"bus.drive{address}{path}", ns))
 
 
-async def write_status(target: Any, variant: ua.Variant, index_range: str | None = None) -> int:
-    """The status code of one Write of ``variant`` to ``target``'s value."""
+async def write_status(
+    target: Any, variant: ua.Variant, index_range: str | None = None, status: int = 0
+) -> int:
+    """The status code of one Write of ``variant`` (with ``status``) to ``target``'s value."""
     item = ua.WriteValue(
         NodeId=target.nodeid,
         AttributeId=ua.AttributeIds.Value,
-        Value=ua.DataValue(variant),
+        Value=ua.DataValue(variant, StatusCode=ua.StatusCode(status)),
         IndexRange=index_range,
     )
     (result,) = await target.session.write(ua.WriteParameters(NodesToWrite=[item]))
@@ -180,6 +182,9 @@ async def test_wrong_types_and_argument_counts_get_part_4_status_codes_and_chang
         assert await write_status(control, ua.Variant(0x047F, ua.VariantType.Int64)) == mismatch
         index_range = await write_status(setpoint, SETPOINT_25, index_range="0")
         assert index_range == ua.StatusCodes.BadWriteNotSupported
+        # a value its writer marks bad is no request to act on
+        stale = await write_status(setpoint, SETPOINT_25, status=ua.StatusCodes.BadNoCommunication)
+        assert stale == ua.StatusCodes.BadWriteNotSupported
 
         pnu = ua.Variant(107, ua.VariantType.UInt16)
         index = ua.Variant(-1, ua.VariantType.Int16)
@@ -221,10 +226,14 @@ async def test_malformed_values_are_refused_and_a_good_client_is_served_afterwar
                     assert await write_status(target, variant) == out_of_range, (path, bad)
             pnu = ua.Variant(107, ua.VariantType.UInt16)
             index = ua.Variant(-1, ua.VariantType.Int16)
-            for bad in (math.nan, math.inf, 1e300):
+            for bad in (math.nan, math.inf, -math.inf):
                 value = ua.Variant(bad, ua.VariantType.Double)
                 result = await call_result(client, ns, "WriteParameter", pnu, index, value)
-                assert result.StatusCode.value in (ua.StatusCodes.BadInvalidArgument, out_of_range)
+                assert result.StatusCode.value == ua.StatusCodes.BadInvalidArgument
+                assert [r.value for r in result.InputArgumentResults] == [0, 0, out_of_range]
+            huge = ua.Variant(1e300, ua.VariantType.Double)  # beyond P107's 8..600 Hz
+            result = await call_result(client, ns, "WriteParameter", pnu, index, huge)
+            assert result.StatusCode.value == out_of_range
             # an element number below -1 is no element, not "the simple parameter"
             below = ua.Variant(-5, ua.VariantType.Int16)
             value = ua.Variant(60.0, ua.VariantType.Double)

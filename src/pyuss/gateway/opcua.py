@@ -28,17 +28,39 @@ configured names)::
           ReadParameter(Pnu UInt16, Index Int16 = -1) -> (Value Double, Unit String)
           WriteParameter(Pnu UInt16, Index Int16, Value Double) -> Value Double
 
+Variables with a unit (Actual, ActualPercent, Setpoint, SetpointPercent, parameters with a
+unit) are AnalogItemType (OPC UA Part 8 5.3.2) with the properties EngineeringUnits (UNECE
+code) and EURange: -200 % .. +199.99 % of a 16-bit process word (the reference's share of it
+in the drive's unit, set once the reference is known; BadWaitingForInitialData until then),
+a parameter's limits from the parameter file, else what its word(s) can carry.
+
 Variables change when the drive's state changes (`pyuss.points.plant`), so subscriptions get
 changes at the bus cycle. Writes to ControlWord and Setpoint return once the telegram
 carrying them was answered; writes to parameters and WriteParameter once the job was
 answered; a refusal is the status code of `STATUS_CODES`, with the drive's number in
 Health/LastErrorNumber.
 
-Access: anonymous clients may read, browse, subscribe and call ReadParameter; writing and
-the other methods need a user of ``users`` (``anonymous = "write"`` lets anonymous clients
-write too, ``"none"`` refuses them); ``read_only`` refuses every write. Security policies
-``None`` (default), ``Basic256Sha256_Sign`` and ``Basic256Sha256_SignAndEncrypt`` (the last
-two with the server's certificate and private key).
+Every request is checked whole before anything goes on the line (OPC UA Part 4):
+
+- a written value must be a scalar of the variable's own type (no conversion), else
+  BadTypeMismatch; a Double must be finite, else BadOutOfRange; an IndexRange or a value
+  whose status is not Good is BadWriteNotSupported;
+- a method call needs its exact number of arguments (BadArgumentsMissing,
+  BadTooManyArguments); an argument of another type or a non-finite Double is
+  BadInvalidArgument with the argument's own code (BadTypeMismatch, BadOutOfRange) in
+  InputArgumentResults; Index below -1 is BadOutOfRange; a drive's method called on another
+  object is BadMethodInvalid.
+
+Access is per session (Part 4 5.6): every request is served by the session its
+authentication token names, so several sessions on one secure channel (as node-opcua opens
+them) keep their own users. Anonymous sessions may read, browse, subscribe and call
+ReadParameter; writing and the other methods need a user of ``users`` (``anonymous =
+"write"`` lets anonymous clients write too, ``"none"`` refuses them): BadUserAccessDenied
+otherwise. The UserAccessLevel and UserExecutable a session reads say what that session may
+do (Part 3 5.6.2). ``read_only`` refuses every write and every method but ReadParameter;
+AccessLevel then says read-only and Executable is false. Security policies ``None``
+(default), ``Basic256Sha256_Sign`` and ``Basic256Sha256_SignAndEncrypt`` (the last two with
+the server's certificate and private key).
 
 Why asyncua: the maintained asyncio OPC UA stack for Python (server, client, subscriptions,
 security policies).
