@@ -1,4 +1,5 @@
-"""The OPC UA face: an asyncua server with one object per drive.
+"""The OPC UA face: an asyncua server with one object per drive (what it shows and allows,
+without a server, is `pyuss.gateway.uanodes`).
 
 Address space (namespace ``urn:pyuss:gateway``; string node ids, ``BUS`` and ``DRIVE`` the
 configured names)::
@@ -87,12 +88,18 @@ from asyncua.server.user_managers import UserManager
 from pyuss import __version__
 from pyuss.errors import ConfigError, DriveRefusal, UssError
 from pyuss.gateway.config import OpcuaOptions
+from pyuss.gateway.uanodes import (
+    argument_fault,
+    drive_values,
+    may_change,
+    parameter_range,
+    percent_range,
+    unit_id,
+)
 from pyuss.points.errors import Failure, classify
 from pyuss.points.model import STATUS_BIT_NAMES
-from pyuss.points.parameters import ParamMeta
 from pyuss.points.plant import DrivePoints, Plant
 from pyuss.points.state import DriveState
-from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32
 
 __all__ = ["STATUS_CODES", "OpcuaFace", "engineering_units"]
 
@@ -110,30 +117,6 @@ STATUS_CODES: dict[Failure, int] = {
 """The status code of each class of failure; a refusal with error 1 ("parameter cannot be
 changed") is BadNotWritable."""
 
-_UNECE = {
-    "Hz": "HTZ",
-    "kHz": "KHZ",
-    "A": "AMP",
-    "mA": "4K",
-    "V": "VLT",
-    "W": "WTT",
-    "kW": "KWT",
-    "s": "SEC",
-    "ms": "C26",
-    "min": "MIN",
-    "h": "HUR",
-    "%": "P1",
-    "°C": "CEL",
-    "K": "KEL",
-    "rpm": "RPM",
-    "1/min": "RPM",
-    "Nm": "NU",
-}
-"""UNECE Recommendation 20 codes of the units drives use (OPC UA EngineeringUnits)."""
-
-FLOAT32_MAX = 3.4028234663852886e38
-"""The largest IEEE 754 single: the range of a float parameter without limits."""
-
 _current_user: contextvars.ContextVar[User | None] = contextvars.ContextVar(
     "pyuss_opcua_user", default=None
 )
@@ -142,36 +125,12 @@ _current_user: contextvars.ContextVar[User | None] = contextvars.ContextVar(
 
 def engineering_units(unit: str) -> ua.EUInformation:
     """The EUInformation of ``unit`` (UnitId -1 for a unit without a UNECE code)."""
-    code = _UNECE.get(unit)
-    unit_id = -1
-    if code is not None:
-        unit_id = 0
-        for char in code:
-            unit_id = unit_id << 8 | ord(char)
     return ua.EUInformation(
         NamespaceUri="http://www.opcfoundation.org/UA/units/un/cefact",
-        UnitId=unit_id,
+        UnitId=unit_id(unit),
         DisplayName=ua.LocalizedText(unit),
         Description=ua.LocalizedText(unit),
     )
-
-
-def percent_range(dword: bool) -> tuple[float, float]:
-    """What a process word carries, in percent (16 bits: -200 % .. +199.99 %)."""
-    full, bits = (FULL_SCALE_32, 32) if dword else (FULL_SCALE_16, 16)
-    return -(1 << (bits - 1)) * 100.0 / full, ((1 << (bits - 1)) - 1) * 100.0 / full
-
-
-def parameter_range(meta: ParamMeta) -> tuple[float, float]:
-    """The EURange of a parameter: its limits where the parameter file gives them, else what
-    its word(s) can carry."""
-    if meta.minimum is not None and meta.maximum is not None:
-        return float(meta.minimum), float(meta.maximum)
-    if meta.is_float:
-        return -FLOAT32_MAX, FLOAT32_MAX
-    bits = 32 if meta.dword else 16
-    low, high = (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if meta.signed else (0, (1 << bits) - 1)
-    return float(meta.physical(low)), float(meta.physical(high))
 
 
 def status_of(exc: BaseException) -> ua.StatusCode:
@@ -337,6 +296,8 @@ class _Writable:
 
 
 _ADMIN = User(role=UserRole.Admin)
+_ROLES = {UserRole.Anonymous: "anonymous", UserRole.User: "user"}
+"""The users `pyuss.gateway.uanodes.may_change` knows (none an admin: clients never are)."""
 _READ = ua.AccessLevel.CurrentRead.mask
 _READ_WRITE = ua.AccessLevel.CurrentRead.mask | ua.AccessLevel.CurrentWrite.mask
 
@@ -409,10 +370,9 @@ class _Method:
             return _status(ua.StatusCodes.BadMethodInvalid)  # another object's method
         if self.changes and not self.face.may_write(_current_user.get()):
             return _status(ua.StatusCodes.BadUserAccessDenied)
-        if len(args) < len(self.inputs):
-            return _status(ua.StatusCodes.BadArgumentsMissing)
-        if len(args) > len(self.inputs):
-            return _status(ua.StatusCodes.BadTooManyArguments)
+        wrong_count = argument_fault(len(args), len(self.inputs))
+        if wrong_count is not None:
+            return _status(getattr(ua.StatusCodes, wrong_count))
         checks = [check_value(a, t) for a, t in zip(args, self.inputs, strict=True)]
         if any(code is not None for code in checks):
             return ua.CallMethodResult(
@@ -702,39 +662,9 @@ class _DriveNodes:
             changes=True,
         )
 
-    def values(self, state: DriveState) -> dict[str, Any]:
-        found: dict[str, Any] = {
-            ".StatusWord": state.status_word or 0,
-            ".State": state.state,
-            ".ControlWord": state.control_word & 0xFFFF,
-            ".Health.NotSending": state.health.not_sending,
-            ".Health.Counters": list(state.health.counters.words()),
-            ".Health.Answers": state.health.answers & 0xFFFF_FFFF,
-            ".Health.Timeouts": state.health.timeouts & 0xFFFF_FFFF,
-            ".Health.LastFault": (state.health.last_fault or 0) & 0xFFFF_FFFF,
-        }
-        for name, on in state.bits.items():
-            found[f".Status.{name}"] = on
-        for key, value in state.actual.items():
-            found[f".Actual.{key}"] = math.nan if value.value is None else value.value
-            found[f".ActualPercent.{key}"] = value.percent
-        for key, value in state.setpoints.items():
-            found[f".Setpoint.{key}"] = math.nan if value.value is None else value.value
-            found[f".SetpointPercent.{key}"] = value.percent
-        for key, reading in state.parameters.items():
-            found[f".Parameters.{key}"] = (
-                math.nan if reading.value is None else float(reading.value)
-            )
-        refusal = state.health.last_refusal
-        if refusal is not None:
-            number = 8 if refusal.get("response_id") == 8 else int(refusal.get("number", -1))
-            found[".Health.LastErrorNumber"] = number
-            found[".Health.LastErrorPnu"] = int(refusal.get("pnu", -1))
-        return found
-
     async def update(self, state: DriveState) -> None:
         server = self.face.server
-        for key, value in self.values(state).items():
+        for key, value in drive_values(state).items():
             if key not in self.nodes:
                 continue
             old = self.last.get(key)
@@ -774,11 +704,9 @@ class OpcuaFace:
     def may_write(self, user: User | None) -> bool:
         """Whether ``user`` (None: no activated session) may write and call the methods that
         change a drive."""
-        if self.options.read_only or user is None:
-            return False
-        if user.role is UserRole.Anonymous:
-            return self.options.anonymous == "write"
-        return True
+        role = None if user is None else _ROLES.get(user.role)
+        options = self.options
+        return may_change(role, anonymous=options.anonymous, read_only=options.read_only)
 
     async def start(self) -> None:
         server = self.server
