@@ -150,6 +150,33 @@ async def test_an_anonymous_session_keeps_its_rights_beside_an_operator_one_on_i
             await client.disconnect()
 
 
+def next_token(token: ua.NodeId) -> ua.NodeId:
+    """The token after ``token`` if tokens were counted (as asyncua counts them)."""
+    if isinstance(token.Identifier, bytes):
+        number = int.from_bytes(token.Identifier, "big") + 1
+        return ua.NodeId(number.to_bytes(len(token.Identifier), "big"), token.NamespaceIndex)
+    return ua.NodeId(token.Identifier + 1, token.NamespaceIndex)
+
+
+async def test_a_client_cannot_take_over_the_next_clients_session_by_guessing_its_token() -> None:
+    async with simulated_gateway(opcua=True) as (gateway, engines):
+        attacker = Client(url(gateway), timeout=10)
+        await attacker.connect()  # anonymous, on its own channel
+        try:
+            mine = attacker.uaclient.session.authentication_token
+            async with OpcuaClient(gateway) as operator:  # the next session
+                attacker.uaclient.session.restore_authentication_token(next_token(mine))
+                with pytest.raises(ua.UaStatusCodeError):
+                    await attacker.activate_session()  # anonymous, on the guessed session
+                # the operator's session is still the operator's
+                await operator.switch_on(5)
+                await operator.set_setpoint(5, 25.0)
+                assert engines[5].drive.value(3) == 2500
+            attacker.uaclient.session.restore_authentication_token(mine)
+        finally:
+            await attacker.disconnect()
+
+
 async def test_the_access_levels_an_anonymous_session_reads_say_it_may_only_read() -> None:
     async with simulated_gateway(opcua=True) as (gateway, _engines):
         async with OpcuaClient(gateway, user=None) as anonymous:

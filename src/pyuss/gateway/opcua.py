@@ -54,14 +54,15 @@ Every request is checked whole before anything goes on the line (OPC UA Part 4):
 
 Access is per session (Part 4 5.6): every request is served by the session its
 authentication token names, so several sessions on one secure channel (as node-opcua opens
-them) keep their own users. Anonymous sessions may read, browse, subscribe and call
-ReadParameter; writing and the other methods need a user of ``users`` (``anonymous =
-"write"`` lets anonymous clients write too, ``"none"`` refuses them): BadUserAccessDenied
-otherwise. The UserAccessLevel and UserExecutable a session reads say what that session may
-do (Part 3 5.6.2). ``read_only`` refuses every write and every method but ReadParameter;
-AccessLevel then says read-only and Executable is false. Security policies ``None``
-(default), ``Basic256Sha256_Sign`` and ``Basic256Sha256_SignAndEncrypt`` (the last two with
-the server's certificate and private key).
+them) keep their own users; the tokens are random, so no client can name another's session.
+Anonymous sessions may read, browse, subscribe and call ReadParameter; writing and the other
+methods need a user of ``users`` (``anonymous = "write"`` lets anonymous clients write too,
+``"none"`` refuses them): BadUserAccessDenied otherwise. The UserAccessLevel and
+UserExecutable a session reads say what that session may do (Part 3 5.6.2). ``read_only``
+refuses every write and every method but ReadParameter; AccessLevel then says read-only and
+Executable is false. Security policies ``None`` (default), ``Basic256Sha256_Sign`` and
+``Basic256Sha256_SignAndEncrypt`` (the last two with the server's certificate and private
+key).
 
 Why asyncua: the maintained asyncio OPC UA stack for Python (server, client, subscriptions,
 security policies).
@@ -74,6 +75,7 @@ import contextvars
 import hmac
 import logging
 import math
+import secrets
 from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -185,6 +187,9 @@ class _Users(UserManager):  # type: ignore[misc]
         return User(role=UserRole.User, name=username)
 
 
+_ANONYMOUS = User(role=UserRole.Anonymous)
+
+
 class _Rules(PermissionRuleset):  # type: ignore[misc]
     """Lets every signed-in client use the services (the face checks writes and calls)."""
 
@@ -269,9 +274,24 @@ class _Listener(BinaryServer):  # type: ignore[misc]
 
 
 class _Server(Server):  # type: ignore[misc]
-    """asyncua's server listening with `_SessionProcessor` (as ``Server.start`` does)."""
+    """asyncua's server listening with `_SessionProcessor` (as ``Server.start`` does), its
+    clients' sessions named by random authentication tokens: asyncua numbers them one after
+    the other, so a client could name the next client's session in an ActivateSession on its
+    own channel and take it over (Part 4 5.6.2: the token is a secret)."""
 
     async def start(self) -> None:
+        iserver = self.iserver
+        create = iserver.create_session
+
+        def create_session(name: str, user: User = _ANONYMOUS, external: bool = False) -> Any:
+            session = create(name, user=user, external=external)
+            if external:
+                iserver.unregister_external_session(session)
+                session.auth_token = ua.NodeId(secrets.token_bytes(32), 0, ua.NodeIdType.ByteString)
+                iserver.register_external_session(session)
+            return session
+
+        iserver.create_session = create_session
         await self._setup_server_nodes()
         await self.iserver.start()
         host, port = self._get_bind_socket_info()
