@@ -371,12 +371,19 @@ const {OPCUAClient, UserTokenType, DataType, AttributeIds, MessageSecurityMode, 
 
 
 @pytest.fixture(scope="session")
-def node_opcua(request: pytest.FixtureRequest) -> Iterator[Path]:
+def node_opcua(
+    request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[Path]:
     """A folder with node-opcua-client installed from the npm registry (kept in pytest's
-    cache between runs); the test is skipped without node/npm or the registry."""
+    cache between runs where there is one); the test is skipped without node/npm or the
+    registry."""
     if shutil.which("node") is None or shutil.which("npm") is None:
         pytest.skip("node and npm are needed for the node-opcua client")
-    folder = Path(request.config.cache.mkdir("node-opcua"))
+    cache = getattr(request.config, "cache", None)
+    if cache is not None:
+        folder = Path(cache.mkdir("node-opcua"))
+    else:
+        folder = tmp_path_factory.mktemp("node-opcua")
     if not (folder / "node_modules" / "node-opcua-client").is_dir():
         result = subprocess.run(
             ["npm", "install", "--no-audit", "--no-fund", "--prefix", str(folder), NODE_OPCUA],
