@@ -8,6 +8,7 @@ is served afterwards."""
 
 from __future__ import annotations
 
+import asyncio
 import json
 import math
 import shutil
@@ -175,6 +176,41 @@ async def test_a_client_cannot_take_over_the_next_clients_session_by_guessing_it
             attacker.uaclient.session.restore_authentication_token(mine)
         finally:
             await attacker.disconnect()
+
+
+async def test_a_write_that_waited_longer_than_its_client_waits_is_not_carried_out() -> None:
+    async with (
+        simulated_gateway(opcua=True) as (gateway, engines),
+        OpcuaClient(gateway) as operator,
+    ):
+        protocol = operator.client.uaclient.protocol
+
+        def write(address: int, timeout: float) -> Any:
+            request = ua.WriteRequest()
+            request.Parameters.NodesToWrite = [
+                ua.WriteValue(
+                    NodeId=operator.node(address, ".Setpoint.main").nodeid,
+                    AttributeId=ua.AttributeIds.Value,
+                    Value=ua.DataValue(SETPOINT_25),
+                )
+            ]
+            # TimeoutHint: how long the client waits (in ms)
+            return asyncio.ensure_future(protocol.send_request(request, timeout=timeout))
+
+        watch = LineWatch(engines[5])
+        first = write(6, 10.0)  # served at the next bus cycle
+        await asyncio.sleep(0)
+        behind = write(5, 0.001)  # queued behind it, its client gone after 1 ms
+        with pytest.raises(asyncio.TimeoutError):
+            await behind
+        await first
+        assert await operator.node(5, ".Address").read_value() == 5  # served after both
+        await watch.nothing_moved()
+        assert engines[5].drive.value(3) == 0
+        # a request that did not wait longer than its client is carried out
+        await operator.switch_on(5)
+        await operator.set_setpoint(5, 25.0)
+        assert engines[5].drive.value(3) == 2500
 
 
 async def test_the_access_levels_an_anonymous_session_reads_say_it_may_only_read() -> None:
@@ -423,8 +459,6 @@ async def test_node_opcua_sessions_on_one_channel_keep_their_own_rights(
 async def asyncio_run(command: list[str], cwd: Path) -> dict[str, Any]:
     """Run ``command`` without blocking the loop (the gateway serves it meanwhile); the JSON
     of its standard output's line ``RESULT ...``."""
-    import asyncio
-
     process = await asyncio.create_subprocess_exec(
         *command,
         cwd=cwd,

@@ -50,7 +50,9 @@ Every request is checked whole before anything goes on the line (OPC UA Part 4):
   BadTooManyArguments); an argument of another type or a non-finite Double is
   BadInvalidArgument with the argument's own code (BadTypeMismatch, BadOutOfRange) in
   InputArgumentResults; Index below -1 is BadOutOfRange; a drive's method called on another
-  object is BadMethodInvalid.
+  object is BadMethodInvalid;
+- a Write or Call that waited in the connection's queue longer than its TimeoutHint is not
+  carried out (BadTimeout): its client has given up on it.
 
 Access is per session (Part 4 5.6): every request is served by the session its
 authentication token names, so several sessions on one secure channel (as node-opcua opens
@@ -76,11 +78,14 @@ import hmac
 import logging
 import math
 import secrets
+import time
+from collections import deque
 from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from asyncua import Server, ua
+from asyncua.common.utils import ServiceError
 from asyncua.crypto.permission_rules import USER_TYPES, PermissionRuleset, User, UserRole
 from asyncua.server.address_space import AttributeService
 from asyncua.server.binary_server_asyncio import BinaryServer, OPCUAProtocol
@@ -213,6 +218,11 @@ _NO_SESSION = {
 }
 _CREATE = ua.NodeId(ua.ObjectIds.CreateSessionRequest_Encoding_DefaultBinary)
 _CLOSE = ua.NodeId(ua.ObjectIds.CloseSessionRequest_Encoding_DefaultBinary)
+_ACTING = {
+    ua.NodeId(ua.ObjectIds.WriteRequest_Encoding_DefaultBinary),
+    ua.NodeId(ua.ObjectIds.CallRequest_Encoding_DefaultBinary),
+}
+"""The services that may change a drive."""
 
 
 class _SessionProcessor(UaProcessor):  # type: ignore[misc]
@@ -220,13 +230,26 @@ class _SessionProcessor(UaProcessor):  # type: ignore[misc]
     authentication token names (Part 4 5.6): asyncua's own keeps one session per connection,
     so a second session on the same secure channel (as node-opcua opens them) would lend its
     user to the first. A token of no session of this channel is served by none (refused),
-    except ActivateSession, which may move a live session here (Part 4 5.6.3)."""
+    except ActivateSession, which may move a live session here (Part 4 5.6.3).
+
+    A Write or Call that waited in the connection's queue longer than its TimeoutHint is
+    not carried out (BadTimeout, Part 4 7.28): its client has given up on it."""
 
     def __init__(self, *args: Any) -> None:
         super().__init__(*args)
         self.sessions: dict[ua.NodeId, Any] = {}
+        self.arrived: float | None = None
+        """When the message being served arrived (`_Protocol`)."""
+
+    def stale(self, requesthdr: Any) -> bool:
+        hint = requesthdr.TimeoutHint
+        waited = 0.0 if self.arrived is None else time.monotonic() - self.arrived
+        return bool(hint) and waited > hint / 1000
 
     async def _process_message(self, typeid: Any, requesthdr: Any, seqhdr: Any, body: Any) -> Any:
+        if typeid in _ACTING and self.stale(requesthdr):
+            log.info("a request waited longer than its client waits for it: not carried out")
+            raise ServiceError(ua.StatusCodes.BadTimeout)
         if typeid not in _NO_SESSION:
             self.session = self.sessions.get(requesthdr.AuthenticationToken)
         session: Any = self.session if typeid != _CREATE else None
@@ -252,7 +275,26 @@ class _SessionProcessor(UaProcessor):  # type: ignore[misc]
 
 
 class _Protocol(OPCUAProtocol):  # type: ignore[misc]
+    """asyncua's connection, serving with `_SessionProcessor` and telling it when each
+    message arrived."""
+
     processor: Any
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.arrivals: deque[float] = deque()
+
+    def data_received(self, data: bytes) -> None:
+        now = time.monotonic()
+        queued = self.messages.qsize()
+        super().data_received(data)
+        self.arrivals.extend([now] * (self.messages.qsize() - queued))
+
+    async def _process_one_msg(self, header: Any, buf: Any) -> bool:
+        if self.arrivals and self.processor is not None:
+            self.processor.arrived = self.arrivals.popleft()
+        done: bool = await super()._process_one_msg(header, buf)
+        return done
 
     def connection_made(self, transport: Any) -> None:
         super().connection_made(transport)
