@@ -245,6 +245,9 @@ async def test_wrong_types_and_argument_counts_get_part_4_status_codes_and_chang
         assert await write_status(control, ua.Variant(0x047F, ua.VariantType.Int64)) == mismatch
         index_range = await write_status(setpoint, SETPOINT_25, index_range="0")
         assert index_range == ua.StatusCodes.BadWriteNotSupported
+        status_word = operator.node(5, ".StatusWord")
+        not_writable = ua.StatusCodes.BadNotWritable
+        assert await write_status(status_word, ua.Variant(0, ua.VariantType.UInt16)) == not_writable
         # a value its writer marks bad is no request to act on
         stale = await write_status(setpoint, SETPOINT_25, status=ua.StatusCodes.BadNoCommunication)
         assert stale == ua.StatusCodes.BadWriteNotSupported

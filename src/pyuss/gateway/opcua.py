@@ -45,7 +45,8 @@ Every request is checked whole before anything goes on the line (OPC UA Part 4):
 
 - a written value must be a scalar of the variable's own type (no conversion), else
   BadTypeMismatch; a Double must be finite, else BadOutOfRange; an IndexRange or a value
-  whose status is not Good is BadWriteNotSupported;
+  whose status is not Good is BadWriteNotSupported; a variable no one writes (StatusWord,
+  Actual, a read-only parameter) is BadNotWritable;
 - a method call needs its exact number of arguments (BadArgumentsMissing,
   BadTooManyArguments); an argument of another type or a non-finite Double is
   BadInvalidArgument with the argument's own code (BadTypeMismatch, BadOutOfRange) in
@@ -388,12 +389,25 @@ class _Attributes(AttributeService):  # type: ignore[misc]
         results: list[ua.StatusCode] = []
         for item in params.NodesToWrite:
             writable = self.face.writables.get(item.NodeId)
-            if writable is None or item.AttributeId != ua.AttributeIds.Value:
+            value = item.AttributeId == ua.AttributeIds.Value
+            client = user.role is not UserRole.Admin  # the server itself writes as admin
+            if client and value and writable is None and self._read_only_here(item.NodeId):
+                results.append(_status(ua.StatusCodes.BadNotWritable))
+                continue
+            if writable is None or not value:
                 one = ua.WriteParameters(NodesToWrite=[item])
                 results.extend(await super().write(one, user))
                 continue
             results.append(await self._write(item, writable, user))
         return results
+
+    def _read_only_here(self, node: ua.NodeId) -> bool:
+        """A variable of the face's own that no one may write (the whole face read-only
+        is BadUserAccessDenied instead, as on the other faces)."""
+        face = self.face
+        return (
+            not face.options.read_only and node.NamespaceIndex == face.ns and node in self._aspace
+        )
 
     async def _write(self, item: ua.WriteValue, writable: _Writable, user: User) -> ua.StatusCode:
         where = item.NodeId.to_string()
