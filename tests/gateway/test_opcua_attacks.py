@@ -409,6 +409,38 @@ const {OPCUAClient, UserTokenType, DataType, AttributeIds, MessageSecurityMode, 
 """
 
 
+SUBSCRIPTIONS = r"""
+const {OPCUAClient, UserTokenType, AttributeIds, MessageSecurityMode, SecurityPolicy,
+       ClientSubscription, ClientMonitoredItem, TimestampsToReturn} = require("node-opcua-client");
+(async () => {
+  const [url, ns] = [process.argv[2], Number(process.argv[3])];
+  const client = OPCUAClient.create({endpointMustExist: false, connectionStrategy: {maxRetry: 0},
+    securityMode: MessageSecurityMode.None, securityPolicy: SecurityPolicy.None});
+  await client.connect(url);
+  const sessions = {
+    anonymous: [await client.createSession(), 5],
+    operator: [await client.createSession(
+      {type: UserTokenType.UserName, userName: "operator", password: "secret"}), 6],
+  };
+  const seen = {anonymous: [], operator: []};
+  for (const [name, [session, address]] of Object.entries(sessions)) {
+    const subscription = ClientSubscription.create(session, {requestedPublishingInterval: 50,
+      requestedMaxKeepAliveCount: 10, publishingEnabled: true});
+    const item = ClientMonitoredItem.create(subscription,
+      {nodeId: `ns=${ns};s=bus.drive${address}.Address`, attributeId: AttributeIds.Value},
+      {samplingInterval: 50, queueSize: 1, discardOldest: true}, TimestampsToReturn.Both);
+    item.on("changed", (value) => seen[name].push(value.value.value));
+  }
+  for (let i = 0; i < 400 && (!seen.anonymous.length || !seen.operator.length); i++) {
+    await new Promise((r) => setTimeout(r, 25));  // until each has its first notification
+  }
+  for (const [session] of Object.values(sessions)) { await session.close(); }
+  await client.disconnect();
+  console.log("RESULT " + JSON.stringify(seen));
+})().catch((e) => { console.error(e); process.exit(1); });
+"""
+
+
 @pytest.fixture(scope="session")
 def node_opcua(
     request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
@@ -436,16 +468,34 @@ def node_opcua(
     yield folder
 
 
+async def run_node(gateway: Gateway, folder: Path, name: str, script: str) -> dict[str, Any]:
+    """Run the node-opcua ``script`` (its arguments: the endpoint and the gateway's namespace
+    index) without blocking the loop, the gateway serving it meanwhile; the JSON of its
+    standard output's line ``RESULT ...``."""
+    async with OpcuaClient(gateway, user=None) as probe:
+        ns = probe.ns
+    path = folder / name
+    path.write_text(script, encoding="utf-8")
+    process = await asyncio.create_subprocess_exec(
+        *["node", str(path), url(gateway), str(ns)],
+        cwd=folder,
+        stdout=asyncio.subprocess.PIPE,
+        stderr=asyncio.subprocess.PIPE,
+    )
+    async with asyncio.timeout(60):
+        out, err = await process.communicate()
+    assert process.returncode == 0, err.decode(errors="replace")[-2000:]
+    (line,) = [x for x in out.decode().splitlines() if x.startswith("RESULT ")]
+    result: dict[str, Any] = json.loads(line.removeprefix("RESULT "))
+    return result
+
+
 async def test_node_opcua_sessions_on_one_channel_keep_their_own_rights(
     node_opcua: Path,
 ) -> None:
     async with simulated_gateway(opcua=True) as (gateway, engines):
-        async with OpcuaClient(gateway, user=None) as probe:
-            ns = probe.ns
         watch = LineWatch(engines[5])
-        script = node_opcua / "sessions.js"
-        script.write_text(SCRIPT, encoding="utf-8")
-        process = await asyncio_run(["node", str(script), url(gateway), str(ns)], node_opcua)
+        process = await run_node(gateway, node_opcua, "sessions.js", SCRIPT)
         assert process["anonymous"] == {
             "write": "BadUserAccessDenied",
             "call": "BadUserAccessDenied",
@@ -459,18 +509,10 @@ async def test_node_opcua_sessions_on_one_channel_keep_their_own_rights(
         assert not engines[5].drive.status_word() & 4
 
 
-async def asyncio_run(command: list[str], cwd: Path) -> dict[str, Any]:
-    """Run ``command`` without blocking the loop (the gateway serves it meanwhile); the JSON
-    of its standard output's line ``RESULT ...``."""
-    process = await asyncio.create_subprocess_exec(
-        *command,
-        cwd=cwd,
-        stdout=asyncio.subprocess.PIPE,
-        stderr=asyncio.subprocess.PIPE,
-    )
-    async with asyncio.timeout(60):
-        out, err = await process.communicate()
-    assert process.returncode == 0, err.decode(errors="replace")[-2000:]
-    (line,) = [x for x in out.decode().splitlines() if x.startswith("RESULT ")]
-    result: dict[str, Any] = json.loads(line.removeprefix("RESULT "))
-    return result
+async def test_node_opcua_sessions_on_one_channel_get_their_own_subscriptions(
+    node_opcua: Path,
+) -> None:
+    async with simulated_gateway(opcua=True) as (gateway, _engines):
+        seen = await run_node(gateway, node_opcua, "subscriptions.js", SUBSCRIPTIONS)
+        # each session's notification answered that session's Publish, none the other's
+        assert seen == {"anonymous": [5], "operator": [6]}

@@ -57,7 +57,8 @@ Every request is checked whole before anything goes on the line (OPC UA Part 4):
 
 Access is per session (Part 4 5.6): every request is served by the session its
 authentication token names, so several sessions on one secure channel (as node-opcua opens
-them) keep their own users; the tokens are random, so no client can name another's session.
+them) keep their own users and subscriptions; the tokens are random, so no client can name
+another's session.
 Anonymous sessions may read, browse, subscribe and call ReadParameter; writing and the other
 methods need a user of ``users`` (``anonymous = "write"`` lets anonymous clients write too,
 ``"none"`` refuses them): BadUserAccessDenied otherwise. The UserAccessLevel and
@@ -90,8 +91,9 @@ from asyncua.common.utils import ServiceError
 from asyncua.crypto.permission_rules import USER_TYPES, PermissionRuleset, User, UserRole
 from asyncua.server.address_space import AttributeService
 from asyncua.server.binary_server_asyncio import BinaryServer, OPCUAProtocol
-from asyncua.server.uaprocessor import UaProcessor
+from asyncua.server.uaprocessor import PublishRequestData, UaProcessor
 from asyncua.server.user_managers import UserManager
+from asyncua.ua.ua_binary import struct_from_binary
 
 from pyuss import __version__
 from pyuss.errors import ConfigError, DriveRefusal, UssError
@@ -224,6 +226,7 @@ _ACTING = {
     ua.NodeId(ua.ObjectIds.CallRequest_Encoding_DefaultBinary),
 }
 """The services that may change a drive."""
+_PUBLISH = ua.NodeId(ua.ObjectIds.PublishRequest_Encoding_DefaultBinary)
 
 
 class _SessionProcessor(UaProcessor):  # type: ignore[misc]
@@ -234,7 +237,11 @@ class _SessionProcessor(UaProcessor):  # type: ignore[misc]
     except ActivateSession, which may move a live session here (Part 4 5.6.3).
 
     A Write or Call that waited in the connection's queue longer than its TimeoutHint is
-    not carried out (BadTimeout, Part 4 7.28): its client has given up on it."""
+    not carried out (BadTimeout, Part 4 7.28): its client has given up on it.
+
+    Publish requests are kept per session too: a subscription's notifications answer a
+    Publish of the session that owns it (Part 4 5.13.5), where asyncua's would answer any
+    session's on the channel, which the other session's client drops."""
 
     def __init__(self, *args: Any) -> None:
         super().__init__(*args)
@@ -257,6 +264,9 @@ class _SessionProcessor(UaProcessor):  # type: ignore[misc]
         active = session is not None and session.is_activated()
         _current_user.set(session.user if active else None)
         try:
+            if typeid == _PUBLISH and active:
+                await self._publish(session, requesthdr, seqhdr, body)
+                return True
             return await super()._process_message(typeid, requesthdr, seqhdr, body)
         finally:
             if self.session is not None:
@@ -265,6 +275,67 @@ class _SessionProcessor(UaProcessor):  # type: ignore[misc]
                 else:
                     self.sessions[self.session.auth_token] = self.session
             _current_user.set(None)
+
+    def _owned(self, session: Any) -> dict[int, Any]:
+        """The subscriptions of ``session`` by id."""
+        subscriptions = self.iserver.subscription_service.subscriptions
+        return {i: s for i, s in subscriptions.items() if s.session_id == session.session_id}
+
+    def _owner(self, subscription_id: int) -> ua.NodeId | None:
+        """The token of the session of this channel that owns the subscription."""
+        sub = self.iserver.subscription_service.subscriptions.get(subscription_id)
+        for token, session in self.sessions.items():
+            if sub is not None and session.session_id == sub.session_id:
+                return token
+        return None
+
+    async def _publish(self, session: Any, requesthdr: Any, seqhdr: Any, body: Any) -> None:
+        """A Publish request of ``session``, as asyncua serves one, for its own subscriptions
+        only."""
+        self.session_last_activity = time.monotonic()
+        session.touch()
+        params = struct_from_binary(ua.PublishParameters, body)
+        owned = self._owned(session)
+        if not owned:
+            raise ServiceError(ua.StatusCodes.BadNoSubscription)
+        results: list[ua.StatusCode] = []
+        for ack in params.SubscriptionAcknowledgements or []:
+            sub = owned.get(ack.SubscriptionId)
+            if sub is None:
+                results.append(ua.StatusCode(ua.StatusCodes.BadSubscriptionIdInvalid))
+            else:
+                sub.publish([ack.SequenceNumber])
+                results.append(ua.StatusCode())
+        data = PublishRequestData(requesthdr=requesthdr, seqhdr=seqhdr, results=results)
+        token = requesthdr.AuthenticationToken
+        for subscription_id in [i for i in self._publish_results_subs if i in owned]:
+            del self._publish_results_subs[subscription_id]
+            if await owned[subscription_id].publish_results(data):
+                return  # answered at once with what was waiting
+        mine = [d for d in self._publish_requests if d.requesthdr.AuthenticationToken == token]
+        if len(mine) >= self.publish_request_limit(len(owned)):
+            self._publish_requests.remove(mine[0])
+            fault = ua.ServiceFault()
+            fault.ResponseHeader.ServiceResult = ua.StatusCode(
+                ua.StatusCodes.BadTooManyPublishRequests
+            )
+            self.send_response(mine[0].requesthdr.RequestHandle, mine[0].seqhdr, fault)
+        self._publish_requests.append(data)
+
+    def get_publish_request(self, subscription_id: int) -> Any:
+        """The oldest Publish request of the subscription's session still waited for; None
+        (the subscription waits for the next) without one."""
+        owner = self._owner(subscription_id)
+        now = time.monotonic()
+        for data in list(self._publish_requests):
+            if data.requesthdr.AuthenticationToken != owner:
+                continue
+            self._publish_requests.remove(data)
+            if not data.has_timed_out(now):
+                return data
+            self._send_publish_request_timeout(data)
+        self._publish_results_subs[subscription_id] = True
+        return None
 
     async def close(self) -> None:
         others = [s for s in self.sessions.values() if s is not self.session]
