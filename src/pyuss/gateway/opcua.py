@@ -1,4 +1,5 @@
-"""The OPC UA face: an asyncua server with one object per drive.
+"""The OPC UA face: an asyncua server with one object per drive (what it shows and allows,
+without a server, is `pyuss.gateway.uanodes`).
 
 Address space (namespace ``urn:pyuss:gateway``; string node ids, ``BUS`` and ``DRIVE`` the
 configured names)::
@@ -28,17 +29,44 @@ configured names)::
           ReadParameter(Pnu UInt16, Index Int16 = -1) -> (Value Double, Unit String)
           WriteParameter(Pnu UInt16, Index Int16, Value Double) -> Value Double
 
+Variables with a unit (Actual, ActualPercent, Setpoint, SetpointPercent, parameters with a
+unit) are AnalogItemType (OPC UA Part 8 5.3.2) with the properties EngineeringUnits (UNECE
+code) and EURange: -200 % .. +199.99 % of a 16-bit process word (the reference's share of it
+in the drive's unit, set once the reference is known; BadWaitingForInitialData until then),
+a parameter's limits from the parameter file, else what its word(s) can carry.
+
 Variables change when the drive's state changes (`pyuss.points.plant`), so subscriptions get
 changes at the bus cycle. Writes to ControlWord and Setpoint return once the telegram
 carrying them was answered; writes to parameters and WriteParameter once the job was
 answered; a refusal is the status code of `STATUS_CODES`, with the drive's number in
 Health/LastErrorNumber.
 
-Access: anonymous clients may read, browse, subscribe and call ReadParameter; writing and
-the other methods need a user of ``users`` (``anonymous = "write"`` lets anonymous clients
-write too, ``"none"`` refuses them); ``read_only`` refuses every write. Security policies
-``None`` (default), ``Basic256Sha256_Sign`` and ``Basic256Sha256_SignAndEncrypt`` (the last
-two with the server's certificate and private key).
+Every request is checked whole before anything goes on the line (OPC UA Part 4):
+
+- a written value must be a scalar of the variable's own type (no conversion), else
+  BadTypeMismatch; a Double must be finite, else BadOutOfRange; an IndexRange or a value
+  whose status is not Good is BadWriteNotSupported; a variable no one writes (StatusWord,
+  Actual, a read-only parameter) is BadNotWritable;
+- a method call needs its exact number of arguments (BadArgumentsMissing,
+  BadTooManyArguments); an argument of another type or a non-finite Double is
+  BadInvalidArgument with the argument's own code (BadTypeMismatch, BadOutOfRange) in
+  InputArgumentResults; Index below -1 is BadOutOfRange; a drive's method called on another
+  object is BadMethodInvalid;
+- a Write or Call that waited in the connection's queue longer than its TimeoutHint is not
+  carried out (BadTimeout): its client has given up on it.
+
+Access is per session (Part 4 5.6): every request is served by the session its
+authentication token names, so several sessions on one secure channel (as node-opcua opens
+them) keep their own users and subscriptions; the tokens are random, so no client can name
+another's session.
+Anonymous sessions may read, browse, subscribe and call ReadParameter; writing and the other
+methods need a user of ``users`` (``anonymous = "write"`` lets anonymous clients write too,
+``"none"`` refuses them): BadUserAccessDenied otherwise. The UserAccessLevel and
+UserExecutable a session reads say what that session may do (Part 3 5.6.2). ``read_only``
+refuses every write and every method but ReadParameter; AccessLevel then says read-only and
+Executable is false. Security policies ``None`` (default), ``Basic256Sha256_Sign`` and
+``Basic256Sha256_SignAndEncrypt`` (the last two with the server's certificate and private
+key).
 
 Why asyncua: the maintained asyncio OPC UA stack for Python (server, client, subscriptions,
 security policies).
@@ -51,17 +79,33 @@ import contextvars
 import hmac
 import logging
 import math
-from collections.abc import Awaitable, Callable
+import secrets
+import time
+from collections import deque
+from collections.abc import Awaitable, Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from asyncua import Server, ua
+from asyncua.common.utils import ServiceError
 from asyncua.crypto.permission_rules import USER_TYPES, PermissionRuleset, User, UserRole
 from asyncua.server.address_space import AttributeService
+from asyncua.server.binary_server_asyncio import BinaryServer, OPCUAProtocol
+from asyncua.server.uaprocessor import PublishRequestData, UaProcessor
 from asyncua.server.user_managers import UserManager
+from asyncua.ua.ua_binary import struct_from_binary
 
 from pyuss import __version__
 from pyuss.errors import ConfigError, DriveRefusal, UssError
 from pyuss.gateway.config import OpcuaOptions
+from pyuss.gateway.uanodes import (
+    argument_fault,
+    drive_values,
+    may_change,
+    parameter_range,
+    percent_range,
+    unit_id,
+)
 from pyuss.points.errors import Failure, classify
 from pyuss.points.model import STATUS_BIT_NAMES
 from pyuss.points.plant import DrivePoints, Plant
@@ -83,43 +127,17 @@ STATUS_CODES: dict[Failure, int] = {
 """The status code of each class of failure; a refusal with error 1 ("parameter cannot be
 changed") is BadNotWritable."""
 
-_UNECE = {
-    "Hz": "HTZ",
-    "kHz": "KHZ",
-    "A": "AMP",
-    "mA": "4K",
-    "V": "VLT",
-    "W": "WTT",
-    "kW": "KWT",
-    "s": "SEC",
-    "ms": "C26",
-    "min": "MIN",
-    "h": "HUR",
-    "%": "P1",
-    "°C": "CEL",
-    "K": "KEL",
-    "rpm": "RPM",
-    "1/min": "RPM",
-    "Nm": "NU",
-}
-"""UNECE Recommendation 20 codes of the units drives use (OPC UA EngineeringUnits)."""
-
 _current_user: contextvars.ContextVar[User | None] = contextvars.ContextVar(
     "pyuss_opcua_user", default=None
 )
+"""The user of the session whose request is being served (None: no activated session)."""
 
 
 def engineering_units(unit: str) -> ua.EUInformation:
     """The EUInformation of ``unit`` (UnitId -1 for a unit without a UNECE code)."""
-    code = _UNECE.get(unit)
-    unit_id = -1
-    if code is not None:
-        unit_id = 0
-        for char in code:
-            unit_id = unit_id << 8 | ord(char)
     return ua.EUInformation(
         NamespaceUri="http://www.opcfoundation.org/UA/units/un/cefact",
-        UnitId=unit_id,
+        UnitId=unit_id(unit),
         DisplayName=ua.LocalizedText(unit),
         Description=ua.LocalizedText(unit),
     )
@@ -129,6 +147,29 @@ def status_of(exc: BaseException) -> ua.StatusCode:
     if isinstance(exc, DriveRefusal) and exc.number == 1:
         return ua.StatusCode(ua.StatusCodes.BadNotWritable)
     return ua.StatusCode(STATUS_CODES[classify(exc)])
+
+
+def _status(code: int) -> ua.StatusCode:
+    return ua.StatusCode(code)
+
+
+def check_value(variant: Any, vtype: ua.VariantType) -> int | None:
+    """Why a written or passed value cannot be taken (a status code), else None: it must be
+    a scalar of the node's or argument's own type (Part 4: BadTypeMismatch otherwise, no
+    conversion), and a Double a finite number (BadOutOfRange)."""
+    if (
+        not isinstance(variant, ua.Variant)
+        or variant.VariantType != vtype
+        or variant.is_array
+        or variant.Dimensions
+        or variant.Value is None
+    ):
+        mismatch: int = ua.StatusCodes.BadTypeMismatch
+        return mismatch
+    if vtype is ua.VariantType.Double and not math.isfinite(variant.Value):
+        out_of_range: int = ua.StatusCodes.BadOutOfRange
+        return out_of_range
+    return None
 
 
 class _Users(UserManager):  # type: ignore[misc]
@@ -154,50 +195,341 @@ class _Users(UserManager):  # type: ignore[misc]
         return User(role=UserRole.User, name=username)
 
 
+_ANONYMOUS = User(role=UserRole.Anonymous)
+
+
 class _Rules(PermissionRuleset):  # type: ignore[misc]
-    """Lets every signed-in client use the services; remembers who asks, for the methods."""
+    """Lets every signed-in client use the services (the face checks writes and calls)."""
 
     def __init__(self) -> None:
         self._allowed = {ua.NodeId(t) for t in USER_TYPES}
 
     def check_validity(self, user: User, action_type_id: ua.NodeId, body: Any) -> bool:
-        _current_user.set(user)
         return user.role is UserRole.Admin or action_type_id in self._allowed
+
+
+_NO_SESSION = {
+    ua.NodeId(code)
+    for code in (
+        ua.ObjectIds.CreateSessionRequest_Encoding_DefaultBinary,
+        ua.ObjectIds.FindServersRequest_Encoding_DefaultBinary,
+        ua.ObjectIds.GetEndpointsRequest_Encoding_DefaultBinary,
+        ua.ObjectIds.RegisterServerRequest_Encoding_DefaultBinary,
+        ua.ObjectIds.RegisterServer2Request_Encoding_DefaultBinary,
+        ua.ObjectIds.CloseSecureChannelRequest_Encoding_DefaultBinary,
+    )
+}
+_CREATE = ua.NodeId(ua.ObjectIds.CreateSessionRequest_Encoding_DefaultBinary)
+_CLOSE = ua.NodeId(ua.ObjectIds.CloseSessionRequest_Encoding_DefaultBinary)
+_ACTING = {
+    ua.NodeId(ua.ObjectIds.WriteRequest_Encoding_DefaultBinary),
+    ua.NodeId(ua.ObjectIds.CallRequest_Encoding_DefaultBinary),
+}
+"""The services that may change a drive."""
+_PUBLISH = ua.NodeId(ua.ObjectIds.PublishRequest_Encoding_DefaultBinary)
+
+
+class _SessionProcessor(UaProcessor):  # type: ignore[misc]
+    """asyncua's processor of one connection, with each request served by the session its
+    authentication token names (Part 4 5.6): asyncua's own keeps one session per connection,
+    so a second session on the same secure channel (as node-opcua opens them) would lend its
+    user to the first. A token of no session of this channel is served by none (refused),
+    except ActivateSession, which may move a live session here (Part 4 5.6.3).
+
+    A Write or Call that waited in the connection's queue longer than its TimeoutHint is
+    not carried out (BadTimeout, Part 4 7.28): its client has given up on it.
+
+    Publish requests are kept per session too: a subscription's notifications answer a
+    Publish of the session that owns it (Part 4 5.13.5), where asyncua's would answer any
+    session's on the channel, which the other session's client drops."""
+
+    def __init__(self, *args: Any) -> None:
+        super().__init__(*args)
+        self.sessions: dict[ua.NodeId, Any] = {}
+        self.arrived: float | None = None
+        """When the message being served arrived (`_Protocol`)."""
+
+    def stale(self, requesthdr: Any) -> bool:
+        hint = requesthdr.TimeoutHint
+        waited = 0.0 if self.arrived is None else time.monotonic() - self.arrived
+        return bool(hint) and waited > hint / 1000
+
+    async def _process_message(self, typeid: Any, requesthdr: Any, seqhdr: Any, body: Any) -> Any:
+        if typeid in _ACTING and self.stale(requesthdr):
+            log.info("a request waited longer than its client waits for it: not carried out")
+            raise ServiceError(ua.StatusCodes.BadTimeout)
+        if typeid not in _NO_SESSION:
+            self.session = self.sessions.get(requesthdr.AuthenticationToken)
+        session: Any = self.session if typeid != _CREATE else None
+        active = session is not None and session.is_activated()
+        _current_user.set(session.user if active else None)
+        try:
+            if typeid == _PUBLISH and active:
+                await self._publish(session, requesthdr, seqhdr, body)
+                return True
+            return await super()._process_message(typeid, requesthdr, seqhdr, body)
+        finally:
+            if self.session is not None:
+                if typeid == _CLOSE:
+                    self.sessions.pop(self.session.auth_token, None)
+                else:
+                    self.sessions[self.session.auth_token] = self.session
+            _current_user.set(None)
+
+    def _owned(self, session: Any) -> dict[int, Any]:
+        """The subscriptions of ``session`` by id."""
+        subscriptions = self.iserver.subscription_service.subscriptions
+        return {i: s for i, s in subscriptions.items() if s.session_id == session.session_id}
+
+    def _owner(self, subscription_id: int) -> ua.NodeId | None:
+        """The token of the session of this channel that owns the subscription."""
+        sub = self.iserver.subscription_service.subscriptions.get(subscription_id)
+        for token, session in self.sessions.items():
+            if sub is not None and session.session_id == sub.session_id:
+                return token
+        return None
+
+    async def _publish(self, session: Any, requesthdr: Any, seqhdr: Any, body: Any) -> None:
+        """A Publish request of ``session``, as asyncua serves one, for its own subscriptions
+        only."""
+        self.session_last_activity = time.monotonic()
+        session.touch()
+        params = struct_from_binary(ua.PublishParameters, body)
+        owned = self._owned(session)
+        if not owned:
+            raise ServiceError(ua.StatusCodes.BadNoSubscription)
+        results: list[ua.StatusCode] = []
+        for ack in params.SubscriptionAcknowledgements or []:
+            sub = owned.get(ack.SubscriptionId)
+            if sub is None:
+                results.append(ua.StatusCode(ua.StatusCodes.BadSubscriptionIdInvalid))
+            else:
+                sub.publish([ack.SequenceNumber])
+                results.append(ua.StatusCode())
+        data = PublishRequestData(requesthdr=requesthdr, seqhdr=seqhdr, results=results)
+        token = requesthdr.AuthenticationToken
+        for subscription_id in [i for i in self._publish_results_subs if i in owned]:
+            del self._publish_results_subs[subscription_id]
+            if await owned[subscription_id].publish_results(data):
+                return  # answered at once with what was waiting
+        mine = [d for d in self._publish_requests if d.requesthdr.AuthenticationToken == token]
+        if len(mine) >= self.publish_request_limit(len(owned)):
+            self._publish_requests.remove(mine[0])
+            fault = ua.ServiceFault()
+            fault.ResponseHeader.ServiceResult = ua.StatusCode(
+                ua.StatusCodes.BadTooManyPublishRequests
+            )
+            self.send_response(mine[0].requesthdr.RequestHandle, mine[0].seqhdr, fault)
+        self._publish_requests.append(data)
+
+    def get_publish_request(self, subscription_id: int) -> Any:
+        """The oldest Publish request of the subscription's session still waited for; None
+        (the subscription waits for the next) without one."""
+        owner = self._owner(subscription_id)
+        now = time.monotonic()
+        for data in list(self._publish_requests):
+            if data.requesthdr.AuthenticationToken != owner:
+                continue
+            self._publish_requests.remove(data)
+            if not data.has_timed_out(now):
+                return data
+            self._send_publish_request_timeout(data)
+        self._publish_results_subs[subscription_id] = True
+        return None
+
+    async def close(self) -> None:
+        others = [s for s in self.sessions.values() if s is not self.session]
+        await super().close()
+        for session in others:
+            self.session = session
+            if self._should_close_session_on_transport_loss():
+                await session.close_session(True)
+
+
+class _Protocol(OPCUAProtocol):  # type: ignore[misc]
+    """asyncua's connection, serving with `_SessionProcessor` and telling it when each
+    message arrived."""
+
+    processor: Any
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.arrivals: deque[float] = deque()
+
+    def data_received(self, data: bytes) -> None:
+        now = time.monotonic()
+        queued = self.messages.qsize()
+        super().data_received(data)
+        self.arrivals.extend([now] * (self.messages.qsize() - queued))
+
+    async def _process_one_msg(self, header: Any, buf: Any) -> bool:
+        if self.arrivals and self.processor is not None:
+            self.processor.arrived = self.arrivals.popleft()
+        done: bool = await super()._process_one_msg(header, buf)
+        return done
+
+    def connection_made(self, transport: Any) -> None:
+        super().connection_made(transport)
+        if self.processor is not None:
+            processor = _SessionProcessor(self.iserver, self.transport, self.limits)
+            processor.set_policies(self.policies)
+            self.processor = processor
+
+
+class _Listener(BinaryServer):  # type: ignore[misc]
+    def _make_protocol(self) -> _Protocol:
+        return _Protocol(
+            iserver=self.iserver,
+            policies=self._policies,
+            clients=self.clients,
+            closing_tasks=self.closing_tasks,
+            limits=self.limits,
+        )
+
+
+class _Server(Server):  # type: ignore[misc]
+    """asyncua's server listening with `_SessionProcessor` (as ``Server.start`` does), its
+    clients' sessions named by random authentication tokens: asyncua numbers them one after
+    the other, so a client could name the next client's session in an ActivateSession on its
+    own channel and take it over (Part 4 5.6.2: the token is a secret)."""
+
+    async def start(self) -> None:
+        iserver = self.iserver
+        create = iserver.create_session
+
+        def create_session(name: str, user: User = _ANONYMOUS, external: bool = False) -> Any:
+            session = create(name, user=user, external=external)
+            if external:
+                iserver.unregister_external_session(session)
+                session.auth_token = ua.NodeId(secrets.token_bytes(32), 0, ua.NodeIdType.ByteString)
+                iserver.register_external_session(session)
+            return session
+
+        iserver.create_session = create_session
+        await self._setup_server_nodes()
+        await self.iserver.start()
+        host, port = self._get_bind_socket_info()
+        self.bserver = _Listener(self.iserver, host, port, self.limits)
+        self.bserver.set_policies(self._policies)
+        try:
+            await self.bserver.start()
+        except Exception:
+            await self.iserver.stop()
+            raise
 
 
 WriteHandler = Callable[[Any], Awaitable[None]]
 
 
+@dataclass(frozen=True, slots=True)
+class _Writable:
+    """A variable whose writes go to the drive: the handler and the type it takes."""
+
+    handler: WriteHandler
+    vtype: ua.VariantType
+
+
 _ADMIN = User(role=UserRole.Admin)
+_ROLES = {UserRole.Anonymous: "anonymous", UserRole.User: "user"}
+"""The users `pyuss.gateway.uanodes.may_change` knows (none an admin: clients never are)."""
+_READ = ua.AccessLevel.CurrentRead.mask
+_READ_WRITE = ua.AccessLevel.CurrentRead.mask | ua.AccessLevel.CurrentWrite.mask
 
 
-class _Writes(AttributeService):  # type: ignore[misc]
-    """Client writes to the drives' variables go to the drive first."""
+class _Attributes(AttributeService):  # type: ignore[misc]
+    """Client writes to the drives' variables go to the drive first, once checked; the
+    UserAccessLevel and UserExecutable a session reads say what that session may do."""
 
     def __init__(self, aspace: Any, face: OpcuaFace) -> None:
         super().__init__(aspace)
         self.face = face
 
+    def read(self, params: ua.ReadParameters) -> list[ua.DataValue]:
+        results: list[ua.DataValue] = super().read(params)
+        may = self.face.may_write(_current_user.get())
+        for number, item in enumerate(params.NodesToRead):
+            attribute, node = item.AttributeId, item.NodeId
+            if attribute == ua.AttributeIds.UserAccessLevel and node in self.face.writables:
+                level = _READ_WRITE if may else _READ
+                results[number] = ua.DataValue(ua.Variant(level, ua.VariantType.Byte))
+            elif attribute == ua.AttributeIds.UserExecutable and node in self.face.commands:
+                results[number] = ua.DataValue(ua.Variant(may, ua.VariantType.Boolean))
+        return results
+
     async def write(self, params: ua.WriteParameters, user: User = _ADMIN) -> list[ua.StatusCode]:
         results: list[ua.StatusCode] = []
         for item in params.NodesToWrite:
-            handler = self.face.write_handlers.get(item.NodeId)
-            if handler is None or item.AttributeId != ua.AttributeIds.Value:
+            writable = self.face.writables.get(item.NodeId)
+            value = item.AttributeId == ua.AttributeIds.Value
+            client = user.role is not UserRole.Admin  # the server itself writes as admin
+            if client and value and writable is None and self._read_only_here(item.NodeId):
+                results.append(_status(ua.StatusCodes.BadNotWritable))
+                continue
+            if writable is None or not value:
                 one = ua.WriteParameters(NodesToWrite=[item])
                 results.extend(await super().write(one, user))
                 continue
-            if not self.face.may_write(user):
-                results.append(ua.StatusCode(ua.StatusCodes.BadUserAccessDenied))
-                continue
-            value = item.Value.Value.Value if item.Value and item.Value.Value else None
-            try:
-                await handler(value)
-            except (UssError, ValueError, TypeError) as exc:
-                log.info("write to %s refused: %s", item.NodeId.to_string(), exc)
-                results.append(status_of(exc))
-                continue
-            results.append(ua.StatusCode())
+            results.append(await self._write(item, writable, user))
         return results
+
+    def _read_only_here(self, node: ua.NodeId) -> bool:
+        """A variable of the face's own that no one may write (the whole face read-only
+        is BadUserAccessDenied instead, as on the other faces)."""
+        face = self.face
+        return (
+            not face.options.read_only and node.NamespaceIndex == face.ns and node in self._aspace
+        )
+
+    async def _write(self, item: ua.WriteValue, writable: _Writable, user: User) -> ua.StatusCode:
+        where = item.NodeId.to_string()
+        if not self.face.may_write(user):
+            return _status(ua.StatusCodes.BadUserAccessDenied)
+        if item.IndexRange:
+            return _status(ua.StatusCodes.BadWriteNotSupported)  # a scalar, written whole
+        value = item.Value
+        if value is None or (value.StatusCode is not None and not value.StatusCode.is_good()):
+            return _status(ua.StatusCodes.BadWriteNotSupported)  # only good values act
+        wrong = check_value(value.Value, writable.vtype)
+        if wrong is not None:
+            log.info("write to %s refused: %r is not a %s", where, value.Value, writable.vtype)
+            return _status(wrong)
+        try:
+            await writable.handler(value.Value.Value)
+        except (UssError, ValueError, TypeError) as exc:
+            log.info("write to %s refused: %s", where, exc)
+            return status_of(exc)
+        return ua.StatusCode()
+
+
+@dataclass(frozen=True, slots=True)
+class _Method:
+    """A drive's method: the object it belongs to, the types of its input arguments, whether
+    it changes the drive (a write right needed) and what it does with checked values."""
+
+    face: OpcuaFace
+    parent: ua.NodeId
+    inputs: tuple[ua.VariantType, ...]
+    changes: bool
+    body: Callable[..., Awaitable[Any]]
+
+    async def call(self, parent: ua.NodeId, *args: Any) -> Any:
+        if parent != self.parent:
+            return _status(ua.StatusCodes.BadMethodInvalid)  # another object's method
+        if self.changes and not self.face.may_write(_current_user.get()):
+            return _status(ua.StatusCodes.BadUserAccessDenied)
+        wrong_count = argument_fault(len(args), len(self.inputs))
+        if wrong_count is not None:
+            return _status(getattr(ua.StatusCodes, wrong_count))
+        checks = [check_value(a, t) for a, t in zip(args, self.inputs, strict=True)]
+        if any(code is not None for code in checks):
+            return ua.CallMethodResult(
+                StatusCode=_status(ua.StatusCodes.BadInvalidArgument),
+                InputArgumentResults=[ua.StatusCode(code or 0) for code in checks],
+            )
+        try:
+            return await self.body(*(a.Value for a in args))
+        except (UssError, ValueError) as exc:
+            return status_of(exc)
 
 
 class _DriveNodes:
@@ -208,43 +540,105 @@ class _DriveNodes:
         self.drive = drive
         self.nodes: dict[str, tuple[ua.NodeId, ua.VariantType]] = {}
         self.last: dict[str, Any] = {}
+        self.reference: float | None = None
+        self.ranges: dict[str, tuple[ua.NodeId, float, float]] = {}
+        """The EURange of each process value in the drive's unit: its node and the percent
+        range it is the reference's share of (set once the reference is known)."""
 
     def nid(self, name: str) -> ua.NodeId:
         return ua.NodeId(f"{self.drive.model.bus}.{self.drive.name}{name}", self.face.ns)
+
+    @property
+    def obj(self) -> ua.NodeId:
+        """The drive's object."""
+        return self.nid("")
+
+    async def var(
+        self,
+        where: Any,
+        name: str,
+        key: str,
+        value: Any,
+        vtype: ua.VariantType,
+        *,
+        unit: str | None = None,
+        span: tuple[float, float] | None = None,
+        writer: WriteHandler | None = None,
+    ) -> None:
+        """A variable; with a ``unit`` an AnalogItemType (Part 8 5.3.2) with EngineeringUnits
+        and EURange ``span`` (None: not known yet, BadWaitingForInitialData)."""
+        face = self.face
+        ns = face.ns
+        nodeid = self.nid(key)
+        item = ua.AddNodesItem(
+            RequestedNewNodeId=nodeid,
+            BrowseName=ua.QualifiedName(name, ns),
+            NodeClass=ua.NodeClass.Variable,
+            ParentNodeId=where.nodeid,
+            ReferenceTypeId=ua.NodeId(ua.ObjectIds.HasComponent),
+            TypeDefinition=ua.NodeId(
+                ua.ObjectIds.BaseDataVariableType if unit is None else ua.ObjectIds.AnalogItemType
+            ),
+        )
+        attrs = ua.VariableAttributes(
+            DisplayName=ua.LocalizedText(name),
+            Description=ua.LocalizedText(name),
+            DataType=ua.NodeId(vtype.value),
+            Value=ua.Variant(value, vtype),
+            AccessLevel=_READ,
+            UserAccessLevel=_READ,
+        )
+        if isinstance(value, list):
+            attrs.ValueRank = ua.ValueRank.OneDimension
+            attrs.ArrayDimensions = [len(value)]
+        else:
+            attrs.ValueRank = ua.ValueRank.Scalar
+        item.NodeAttributes = attrs
+        (result,) = await face.server.iserver.isession.add_nodes([item])
+        result.StatusCode.check()
+        node = face.server.get_node(nodeid)
+        if unit is not None:
+            await node.add_property(
+                ua.NodeId(f"{nodeid.Identifier}.EngineeringUnits", ns),
+                ua.QualifiedName("EngineeringUnits", 0),
+                engineering_units(unit),
+            )
+            eu_range = await node.add_property(
+                ua.NodeId(f"{nodeid.Identifier}.EURange", ns),
+                ua.QualifiedName("EURange", 0),
+                ua.Range(Low=0.0, High=0.0),
+            )
+            if span is None:
+                await eu_range.write_value(
+                    ua.DataValue(StatusCode=_status(ua.StatusCodes.BadWaitingForInitialData))
+                )
+            else:
+                await eu_range.write_value(ua.Range(Low=span[0], High=span[1]))
+        if writer is not None and not face.options.read_only:
+            await node.set_writable(True)
+            face.writables[nodeid] = _Writable(writer, vtype)
+        self.nodes[key] = (nodeid, vtype)
+        self.last[key] = value
 
     async def build(self, parent: Any) -> None:
         face = self.face
         ns = face.ns
         model = self.drive.model
-        obj = await parent.add_object(self.nid(""), ua.QualifiedName(self.drive.name, ns))
-
-        async def var(
-            where: Any,
-            name: str,
-            key: str,
-            value: Any,
-            vtype: ua.VariantType,
-            *,
-            unit: str | None = None,
-            writer: WriteHandler | None = None,
-        ) -> None:
-            node = await where.add_variable(
-                self.nid(key), ua.QualifiedName(name, ns), ua.Variant(value, vtype)
-            )
-            if unit is not None:
-                await node.add_property(
-                    ua.NodeId(f"{self.nid(key).Identifier}.EngineeringUnits", ns),
-                    ua.QualifiedName("EngineeringUnits", 0),
-                    engineering_units(unit),
-                )
-            if writer is not None and not face.options.read_only:
-                await node.set_writable(True)
-                face.write_handlers[node.nodeid] = writer
-            self.nodes[key] = (node.nodeid, vtype)
-            self.last[key] = value
+        obj = await parent.add_object(self.obj, ua.QualifiedName(self.drive.name, ns))
+        var = self.var
 
         async def folder(name: str) -> Any:
             return await obj.add_folder(self.nid(f".{name}"), ua.QualifiedName(name, ns))
+
+        def scaled(key: str, percent: tuple[float, float]) -> tuple[float, float] | None:
+            """The range in the drive's unit: known at once for a reference in the table,
+            else once it was read; remembered so that `update` sets it then."""
+            self.ranges[key] = (self.nid(f"{key}.EURange"), *percent)
+            if model.unit == "%":
+                return percent
+            if isinstance(model.reference, float):
+                return percent[0] * model.reference / 100, percent[1] * model.reference / 100
+            return None
 
         await var(obj, "Address", ".Address", model.address, ua.VariantType.UInt16)
         await var(obj, "StatusWord", ".StatusWord", 0, ua.VariantType.UInt16)
@@ -255,23 +649,14 @@ class _DriveNodes:
         drive = self.drive
         actual = await folder("Actual")
         actual_pc = await folder("ActualPercent")
+        double = ua.VariantType.Double
         for item in model.actual:
-            await var(
-                actual,
-                item.key,
-                f".Actual.{item.key}",
-                math.nan,
-                ua.VariantType.Double,
-                unit=model.unit,
-            )
-            await var(
-                actual_pc,
-                item.key,
-                f".ActualPercent.{item.key}",
-                math.nan,
-                ua.VariantType.Double,
-                unit="%",
-            )
+            percent = percent_range(item.dword)
+            key = f".Actual.{item.key}"
+            span = scaled(key, percent)
+            await var(actual, item.key, key, math.nan, double, unit=model.unit, span=span)
+            key = f".ActualPercent.{item.key}"
+            await var(actual_pc, item.key, key, math.nan, double, unit="%", span=percent)
 
         async def control(value: Any) -> None:
             await drive.set_control_word(int(value))
@@ -287,13 +672,16 @@ class _DriveNodes:
 
                 return write
 
+            percent = percent_range(item.dword)
+            key = f".Setpoint.{item.key}"
             await var(
                 setpoint,
                 item.key,
-                f".Setpoint.{item.key}",
+                key,
                 0.0,
-                ua.VariantType.Double,
+                double,
                 unit=model.unit,
+                span=scaled(key, percent),
                 writer=writer(item.key, "value"),
             )
             await var(
@@ -301,8 +689,9 @@ class _DriveNodes:
                 item.key,
                 f".SetpointPercent.{item.key}",
                 0.0,
-                ua.VariantType.Double,
+                double,
                 unit="%",
+                span=percent,
                 writer=writer(item.key, "percent"),
             )
         params = await folder("Parameters")
@@ -320,8 +709,9 @@ class _DriveNodes:
                 meta.key,
                 f".Parameters.{meta.key}",
                 math.nan,
-                ua.VariantType.Double,
+                double,
                 unit=meta.unit or None,
+                span=parameter_range(meta),
                 writer=param_writer(meta.pnu, meta.index) if meta.writable else None,
             )
         health = await folder("Health")
@@ -334,27 +724,45 @@ class _DriveNodes:
         await var(health, "LastErrorPnu", ".Health.LastErrorPnu", -1, ua.VariantType.Int32)
         await self._methods(obj)
 
+    async def _method(
+        self,
+        obj: Any,
+        name: str,
+        body: Callable[..., Awaitable[Any]],
+        inputs: Sequence[ua.Argument],
+        outputs: Sequence[ua.Argument],
+        *,
+        changes: bool,
+    ) -> None:
+        face = self.face
+        types = tuple(ua.VariantType(a.DataType.Identifier) for a in inputs)
+        method = _Method(face, self.obj, types, changes, body)
+        node = await obj.add_method(
+            self.nid(f".{name}"),
+            ua.QualifiedName(name, face.ns),
+            method.call,
+            list(inputs),
+            outputs,
+        )
+        if changes:
+            face.commands.add(node.nodeid)
+            if face.options.read_only:
+                await node.write_attribute(
+                    ua.AttributeIds.Executable, ua.DataValue(ua.Variant(False))
+                )
+
     async def _methods(self, obj: Any) -> None:
-        ns = self.face.ns
         drive = self.drive
         for name in ("On", "Off1", "Off2", "Off3", "Acknowledge"):
 
-            def command(which: str) -> Callable[..., Awaitable[Any]]:
-                async def call(parent: ua.NodeId) -> Any:
-                    denied = self.face.denied()
-                    if denied is not None:
-                        return denied
-                    try:
-                        await drive.command(which)
-                    except (UssError, ValueError) as exc:
-                        return status_of(exc)
+            def command(which: str) -> Callable[[], Awaitable[Any]]:
+                async def call() -> Any:
+                    await drive.command(which)
                     return []
 
                 return call
 
-            await obj.add_method(
-                self.nid(f".{name}"), ua.QualifiedName(name, ns), command(name.lower()), [], []
-            )
+            await self._method(obj, name, command(name.lower()), [], [], changes=True)
 
         def argument(name: str, dtype: int, text: str) -> ua.Argument:
             return ua.Argument(
@@ -369,82 +777,41 @@ class _DriveNodes:
         value_arg = argument("Value", ua.ObjectIds.Double, "value in the parameter's unit")
         unit_arg = argument("Unit", ua.ObjectIds.String, "the parameter's unit")
 
-        def index_of(variant: Any) -> int | None:
-            value = int(variant.Value if isinstance(variant, ua.Variant) else variant)
+        def index_of(value: int) -> int | None:
+            if value < -1:
+                raise ConfigError(
+                    f"Index is an element 0.. or -1 for a simple parameter, not {value}"
+                )
             return None if value < 0 else value
 
-        async def read(parent: ua.NodeId, pnu: Any, index: Any) -> Any:
-            try:
-                reading = await drive.read_parameter(int(pnu.Value), index_of(index))
-            except (UssError, ValueError) as exc:
-                return status_of(exc)
+        async def read(pnu: int, index: int) -> Any:
+            reading = await drive.read_parameter(pnu, index_of(index))
             value = math.nan if reading.value is None else float(reading.value)
             return [
                 ua.Variant(value, ua.VariantType.Double),
                 ua.Variant(reading.meta.unit, ua.VariantType.String),
             ]
 
-        async def write(parent: ua.NodeId, pnu: Any, index: Any, value: Any) -> Any:
-            denied = self.face.denied()
-            if denied is not None:
-                return denied
-            try:
-                reading = await drive.write_parameter(
-                    int(pnu.Value), float(value.Value), index_of(index)
-                )
-            except (UssError, ValueError) as exc:
-                return status_of(exc)
+        async def write(pnu: int, index: int, value: float) -> Any:
+            reading = await drive.write_parameter(pnu, value, index_of(index))
             answered = math.nan if reading.value is None else float(reading.value)
             return [ua.Variant(answered, ua.VariantType.Double)]
 
-        await obj.add_method(
-            self.nid(".ReadParameter"),
-            ua.QualifiedName("ReadParameter", ns),
-            read,
-            [pnu_arg, index_arg],
-            [value_arg, unit_arg],
+        await self._method(
+            obj, "ReadParameter", read, [pnu_arg, index_arg], [value_arg, unit_arg], changes=False
         )
-        await obj.add_method(
-            self.nid(".WriteParameter"),
-            ua.QualifiedName("WriteParameter", ns),
+        await self._method(
+            obj,
+            "WriteParameter",
             write,
             [pnu_arg, index_arg, value_arg],
             [value_arg],
+            changes=True,
         )
-
-    def values(self, state: DriveState) -> dict[str, Any]:
-        found: dict[str, Any] = {
-            ".StatusWord": state.status_word or 0,
-            ".State": state.state,
-            ".ControlWord": state.control_word & 0xFFFF,
-            ".Health.NotSending": state.health.not_sending,
-            ".Health.Counters": list(state.health.counters.words()),
-            ".Health.Answers": state.health.answers & 0xFFFF_FFFF,
-            ".Health.Timeouts": state.health.timeouts & 0xFFFF_FFFF,
-            ".Health.LastFault": (state.health.last_fault or 0) & 0xFFFF_FFFF,
-        }
-        for name, on in state.bits.items():
-            found[f".Status.{name}"] = on
-        for key, value in state.actual.items():
-            found[f".Actual.{key}"] = math.nan if value.value is None else value.value
-            found[f".ActualPercent.{key}"] = value.percent
-        for key, value in state.setpoints.items():
-            found[f".Setpoint.{key}"] = math.nan if value.value is None else value.value
-            found[f".SetpointPercent.{key}"] = value.percent
-        for key, reading in state.parameters.items():
-            found[f".Parameters.{key}"] = (
-                math.nan if reading.value is None else float(reading.value)
-            )
-        refusal = state.health.last_refusal
-        if refusal is not None:
-            number = 8 if refusal.get("response_id") == 8 else int(refusal.get("number", -1))
-            found[".Health.LastErrorNumber"] = number
-            found[".Health.LastErrorPnu"] = int(refusal.get("pnu", -1))
-        return found
 
     async def update(self, state: DriveState) -> None:
         server = self.face.server
-        for key, value in self.values(state).items():
+        for key, value in drive_values(state).items():
             if key not in self.nodes:
                 continue
             old = self.last.get(key)
@@ -458,6 +825,12 @@ class _DriveNodes:
             nodeid, vtype = self.nodes[key]
             self.last[key] = value
             await server.write_attribute_value(nodeid, ua.DataValue(ua.Variant(value, vtype)))
+        reference = state.reference
+        if reference is not None and reference != self.reference and self.drive.model.unit != "%":
+            self.reference = reference
+            for nodeid, low, high in self.ranges.values():
+                span = ua.Range(Low=low * reference / 100, High=high * reference / 100)
+                await server.write_attribute_value(nodeid, ua.DataValue(ua.Variant(span)))
 
 
 class OpcuaFace:
@@ -466,27 +839,21 @@ class OpcuaFace:
     def __init__(self, plant: Plant, options: OpcuaOptions) -> None:
         self.plant = plant
         self.options = options
-        self.server = Server(user_manager=_Users(options))
+        self.server = _Server(user_manager=_Users(options))
         self.ns = 0
-        self.write_handlers: dict[ua.NodeId, WriteHandler] = {}
+        self.writables: dict[ua.NodeId, _Writable] = {}
+        self.commands: set[ua.NodeId] = set()
+        """The methods that change a drive (all but ReadParameter)."""
         self.drives = [_DriveNodes(self, drive) for drive in plant.drives]
         self._removers: list[Callable[[], None]] = []
         self._started = False
 
     def may_write(self, user: User | None) -> bool:
-        if self.options.read_only:
-            return False
-        if user is None or user.role is UserRole.Admin:
-            return True
-        if user.role is UserRole.Anonymous:
-            return self.options.anonymous == "write"
-        return True
-
-    def denied(self) -> ua.StatusCode | None:
-        """The status code for a method call the calling user may not make, else None."""
-        if self.may_write(_current_user.get()):
-            return None
-        return ua.StatusCode(ua.StatusCodes.BadUserAccessDenied)
+        """Whether ``user`` (None: no activated session) may write and call the methods that
+        change a drive."""
+        role = None if user is None else _ROLES.get(user.role)
+        options = self.options
+        return may_change(role, anonymous=options.anonymous, read_only=options.read_only)
 
     async def start(self) -> None:
         server = self.server
@@ -512,7 +879,7 @@ class OpcuaFace:
         if self.options.certificate is not None and self.options.private_key is not None:
             await server.load_certificate(self.options.certificate)
             await server.load_private_key(self.options.private_key)
-        server.iserver.attribute_service = _Writes(server.iserver.aspace, self)
+        server.iserver.attribute_service = _Attributes(server.iserver.aspace, self)
         self.ns = await server.register_namespace(self.options.namespace)
         root = await server.nodes.objects.add_folder(
             ua.NodeId("USS", self.ns), ua.QualifiedName("USS", self.ns)
