@@ -14,7 +14,12 @@
 - a drive that does not answer (no answer within ``max(1 / rate, 0.5 s)``, "slave does not
   send" of A 5.2.1.1, or a parameter job that timed out) gives a row with every value empty
   and ``no answer`` in the ``comm`` column: never the last values again. A parameter the
-  drive refuses is empty with the refusal in ``comm``.
+  drive refuses is empty with the refusal in ``comm``;
+- a line too slow for the rate asked (9600 baud carries some 25 samples a second, fewer with
+  parameters) is said, not hidden: when fewer than `SHORT` of the slots got a row, `run`
+  tells ``on_short`` the rate reached once during the log, and the result carries it
+  (`LogResult.reached`; `uss log` says it on stderr and in a ``#`` comment line at the end of
+  the file).
 """
 
 from __future__ import annotations
@@ -24,7 +29,7 @@ import contextlib
 import datetime as _dt
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from pyuss.commission.status import reference_value
@@ -37,12 +42,25 @@ from pyuss.master.errors import NoWriteAuthority
 from pyuss.params import ParamInfo, decode, format_value
 from pyuss.protocol.pzd import STATUS_BITS, raw16_to_percent
 
-__all__ = ["COMM_OK", "NO_ANSWER", "DataLogger", "LogResult", "iso_now"]
+__all__ = [
+    "COMM_OK",
+    "NO_ANSWER",
+    "SHORT",
+    "DataLogger",
+    "LogResult",
+    "iso_now",
+    "rate_text",
+    "write_comment",
+]
 
 NO_ANSWER = "no answer"
 COMM_OK = "ok"
 MIN_WAIT = 0.5
 """Seconds a sample waits at least for an answer before it is written as "no answer"."""
+SHORT = 0.9
+"""The rate counts as not reached when fewer than this share of the slots got a row."""
+SHORT_AFTER = 20
+"""Slots that pass before `DataLogger.run` judges the rate during the log."""
 
 
 def iso_now() -> str:
@@ -55,6 +73,20 @@ class LogResult:
     rows: int
     no_answer: int
     """Rows written as "no answer"."""
+    rate: float = 0.0
+    """Samples a second asked."""
+    slots: int = 0
+    """Slots that passed: rows written plus slots skipped because the line was slower."""
+
+    @property
+    def reached(self) -> float:
+        """Samples a second written: the rate asked times the share of slots that got a row."""
+        return self.rate * self.rows / self.slots if self.slots else self.rate
+
+    @property
+    def short(self) -> bool:
+        """Whether the rate asked was not reached (fewer than `SHORT` of the slots got a row)."""
+        return self.slots > 0 and self.rows < SHORT * self.slots
 
 
 def cell(info: ParamInfo | None, value: Value | Sequence[Value]) -> str:
@@ -70,6 +102,20 @@ def cell(info: ParamInfo | None, value: Value | Sequence[Value]) -> str:
     if info is None or info.is_bit_field:
         return str(value)
     return format_value(info, value, unit=False, texts=False)
+
+
+def rate_text(result: LogResult) -> str:
+    """What a log that falls short of its rate says of it (no comma: a CSV cell unquoted)."""
+    return (
+        f"{result.reached:.3g} samples a second reached of the {result.rate:g} asked: "
+        f"the line is slower ({result.slots - result.rows} of {result.slots} slots skipped)"
+    )
+
+
+def write_comment(log: CsvLog, text: str) -> None:
+    """A ``#`` comment as a row of its own: the text in the first cell, the others empty (a
+    CSV reader that skips comments, ``pandas.read_csv(comment="#")``, skips it)."""
+    log.write([f"# {text}", *[""] * (len(log.header) - 1)])
 
 
 async def read_parameter(drive: Drive, pnu: int, index: int | None, timeout: float) -> str:
@@ -245,14 +291,17 @@ class DataLogger:
         *,
         count: int | None = None,
         duration: float | None = None,
+        on_short: Callable[[LogResult], object] | None = None,
     ) -> LogResult:
         """Write rows to ``log`` until ``stop`` is set, ``count`` rows are written or
-        ``duration`` seconds have passed."""
+        ``duration`` seconds have passed. ``on_short(result so far)`` is called once, as soon
+        as `SHORT_AFTER` slots have passed, when the rate asked is not reached."""
         period = 1.0 / self.rate
         start = time.monotonic()
         end = math.inf if duration is None else start + duration
         rows = silent = 0
         slot = 0
+        judged = on_short is None
         while not stop.is_set() and (count is None or rows < count):
             due = start + slot * period
             now = time.monotonic()
@@ -274,4 +323,9 @@ class DataLogger:
             silent += not answered
             # the next slot after now: skipped slots are not made up for
             slot = max(slot + 1, math.floor((time.monotonic() - start) / period) + 1)
-        return LogResult(rows, silent)
+            if not judged and slot >= SHORT_AFTER:
+                judged = True
+                so_far = LogResult(rows, silent, self.rate, slot)
+                if so_far.short and on_short is not None:
+                    on_short(so_far)
+        return LogResult(rows, silent, self.rate, slot)
