@@ -8,6 +8,7 @@ import csv
 import datetime as dt
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -232,10 +233,16 @@ def test_a_rate_the_line_cannot_carry_is_said(tmp_path: Path) -> None:
     assert 0 < reached < 45 and len(rows(path)) == 30
 
 
-def test_a_rate_the_line_carries_says_nothing_more(tmp_path: Path) -> None:
+def test_a_rate_the_line_carries_says_nothing_more_and_words_are_hex(tmp_path: Path) -> None:
     out, err, path = _log_on_a_9600_baud_line(
-        tmp_path, "slow.csv", "--rate", "4", "--count", "6", "--json"
+        tmp_path, "slow.csv", "P552", "--rate", "2", "--count", "4", "--json"
     )
     summary = json.loads(out)
-    assert summary["rate"] == 4 and summary["rate_reached"] == 4 and not err
+    assert summary["rate"] == 2 and summary["rate_reached"] == 2 and not err
     assert not [line for line in path.read_text().splitlines() if line.startswith("#")]
+    table = rows(path)
+    assert len(table) == 4
+    for row in table:  # the status word and a V2 parameter (P552) in hex, as everywhere
+        assert re.fullmatch(r"[0-9A-F]{4}h", row["status word"]), row
+        assert re.fullmatch(r"[0-9A-F]{4}h", row["P552 Status word"]), row
+    assert table[0]["status word"] == "0240h"  # switch-on inhibited, as the simulator starts

@@ -91,15 +91,18 @@ class LogResult:
 
 def cell(info: ParamInfo | None, value: Value | Sequence[Value]) -> str:
     """A value as a CSV cell: a number as a spreadsheet reads it (scaled, the decimals of its
-    parameter, no unit or value text: the header has the unit), text without padding, bytes
-    in hex, the elements of an array separated by blanks."""
+    parameter, no unit or value text: the header has the unit), a word of bits (V2: control
+    and status words) in hex as 0237h, text without padding, bytes in hex, the elements of an
+    array separated by blanks."""
     if isinstance(value, list | tuple):
         return " ".join(cell(info, v) for v in value)
     if isinstance(value, bytes):
         return value.hex(" ").upper()
     if isinstance(value, str):
         return value.rstrip()
-    if info is None or info.is_bit_field:
+    if info is not None and info.is_bit_field and isinstance(value, int):
+        return f"{value:04X}h"  # a word of bits (control word, status word) in hex
+    if info is None:
         return str(value)
     return format_value(info, value, unit=False, texts=False)
 
@@ -231,7 +234,7 @@ class DataLogger:
 
     def _process_cells(self, quantity: Quantity, status: DriveStatus) -> list[str]:
         if quantity.kind is Kind.STATUS:
-            return [str(status.word)]
+            return [f"{status.word:04X}h"]
         if quantity.kind is Kind.STATE:
             return [status.state]
         if quantity.kind is Kind.ACTUAL:
