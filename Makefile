@@ -1,20 +1,29 @@
 # pyuss developer entry points. Two commands set everything up: `make demo` and `make test`.
+# Each installs what it needs into .venv: the demo only pyuss itself (it needs no extra), the
+# tests, lint, type check, benchmarks and screenshots the test toolchain (the `test` extra).
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
+DEMO_STAMP := $(VENV)/.installed-demo
 STAMP  := $(VENV)/.installed
 
 .PHONY: demo test lint typecheck pytest bench clean venv screenshots
 
-$(STAMP): pyproject.toml
+$(PY):
 	$(PYTHON) -m venv $(VENV)
+
+$(DEMO_STAMP): pyproject.toml | $(PY)
+	$(PY) -m pip install --quiet --disable-pip-version-check -e .
+	touch $(DEMO_STAMP)
+
+$(STAMP): pyproject.toml | $(PY)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[test]'
-	touch $(STAMP)
+	touch $(DEMO_STAMP) $(STAMP)
 
 venv: $(STAMP)
 
-demo: $(STAMP)
+demo: $(DEMO_STAMP)
 	$(VENV)/bin/uss demo
 
 lint: $(STAMP)

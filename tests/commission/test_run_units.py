@@ -30,7 +30,9 @@ def test_jog_runs_at_the_drives_jog_setpoint(mm4: Simulator) -> None:  # noqa: F
     )
     samples = [json.loads(line) for line in out.splitlines()]
     assert code == 0
-    assert any(s.get("control") == 0x057F for s in samples)  # ON with jog 1 (bit 8)
+    # a MICROMASTER 4 jogs from standstill: jog 1 (bit 8) with ON/OFF1 = 0, never ON
+    controls = {s["control"] for s in samples} - {None}
+    assert 0x057E in controls and not any(c & 1 for c in controls), controls
     top = max(s["actual"] for s in samples)
     assert abs(top - 5.0) < 50 / 0x4000  # P1058 jog frequency right: 5 Hz, to one PZD step
     assert samples[-1]["state"] != "operation enabled"

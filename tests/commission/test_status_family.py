@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
-from master.conftest import simulated_bus
+import json
+
+import pytest
+
+from master.conftest import SimulatorThread, simulated_bus
+from pyuss.cli.main import main
 from pyuss.commission.status import look
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
@@ -25,3 +30,24 @@ async def test_status_names_the_familys_bits_and_fault() -> None:
     assert faults == [f"P947.0 (Fault numbers) = 72 ({text})"], seen.lines()
     shown = {p["label"]: p["fault_text"] for p in seen.to_dict()["parameters"]}
     assert shown["P947.0"] == text and shown["P2110.0"] is None  # no warning
+
+
+@pytest.mark.parametrize("profile", ["micromaster440", "sinamics-v20"])
+def test_only_the_fault_number_parameter_gets_a_fault_text(
+    profile: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """P2 (drive state) = 1 is "ready to run", not fault 1 (overcurrent): `uss status` puts
+    fault texts beside the fault number parameter (r0947) only."""
+    with SimulatorThread([(3, profile, None)]) as sim:
+        argv = ["status", "3", "--port", sim.paths[0], "--baud", str(sim.baud)]
+        argv += ["--profile", profile]
+        assert main(argv) == 0
+        text, _ = capsys.readouterr()
+        assert main([*argv, "--json"]) == 0
+        data = json.loads(capsys.readouterr().out)
+    state = [line for line in text.splitlines() if line.startswith("P2 ")]
+    assert state == ["P2 (Drive state) = 1 [ready to run]"], text
+    assert get_profile(profile).faults[1] == "overcurrent"  # the text it must not get
+    shown = {p["label"]: p for p in data["parameters"]}
+    assert shown["P2"]["value"] == 1 and shown["P2"]["fault_text"] is None
+    assert shown["P947.0"]["value"] == 0 and shown["P947.0"]["fault_text"] is None

@@ -252,3 +252,14 @@ def test_unchanged_displays_are_not_reported_again() -> None:
     drive.step(1.3)
     assert drive.value(947) == code
     assert seen[-1] == ParameterChange(947, None, (code,), False, "local")
+
+
+def test_in_commissioning_a_jog_does_not_switch_the_drive_on() -> None:
+    drive = SimulatedDrive.from_profile("micromaster440")
+    drive.write(10, 1)  # P0010 = 1: quick commissioning
+    drive.exchange([0x047E, 0], 0.0)
+    drive.exchange([0x047E | ControlWord.JOG1, 0], 0.1)
+    assert drive.state is DriveState.READY_TO_SWITCH_ON
+    drive.write(10, 0)
+    drive.exchange([0x047E | ControlWord.JOG1, 0], 0.2)
+    assert drive.state is DriveState.JOG

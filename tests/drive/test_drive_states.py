@@ -199,6 +199,60 @@ def test_jog_needs_standstill_with_setpoint_zero() -> None:
     assert m.state is DriveState.OPERATION
 
 
+FAMILY_JOG = Motion(quick_stop=1.0, jog1=0.2, jog2=-0.1, jog_ramp=2.0, jog_switches_on=True)
+
+
+def test_a_familys_jog_switches_the_drive_on_from_standstill_and_off_again() -> None:
+    """MICROMASTER 4 / SINAMICS: jog right with ON/OFF1 = 0 (057Eh) switches on, runs to the
+    jog setpoint while the bit is set, brakes when it drops, ready to switch on at standstill."""
+    m = DriveStateMachine(0.0, FAMILY_JOG)
+    m.apply(OFF1 | C.JOG1, 0.0, 1.0)  # straight from switch-on inhibit: OFF1, then jog
+    assert m.state is DriveState.JOG
+    assert m.status_word() & 0x7 == 0x7  # switched on, pulses enabled
+    m.step(3.0)
+    assert m.actual == pytest.approx(0.2)
+    m.apply(OFF1, 0.0, 3.0)  # jog off: brake on the jog ramp
+    assert m.state is DriveState.JOG and m.status_word() & S.OPERATION_ENABLED
+    m.step(3.4)
+    assert m.state is DriveState.READY_TO_SWITCH_ON and m.actual == 0.0
+    assert m.status_word() == 0x0231
+    m.apply(OFF1 | C.JOG2, 0.0, 4.0)
+    m.step(9.0)
+    assert m.state is DriveState.JOG and m.actual == pytest.approx(-0.1)
+
+
+def test_a_familys_jog_bits_are_not_acted_on_while_switched_on() -> None:
+    m = running_machine(0.0, FAMILY_JOG)
+    assert m.state is DriveState.OPERATION
+    m.apply(RUN | C.JOG1, 0.0, 1.0)
+    m.step(5.0)
+    assert m.state is DriveState.OPERATION and m.actual == 0.0
+
+
+def test_a_familys_jog_needs_operation_enabled_and_stops_when_it_is_inhibited() -> None:
+    m = DriveStateMachine(0.0, FAMILY_JOG)
+    m.apply(OFF1 & ~C.ENABLE_OPERATION | C.JOG1, 0.0, 1.0)
+    assert m.state is DriveState.READY_TO_SWITCH_ON
+    m.apply(OFF1 | C.JOG1, 0.0, 2.0)
+    m.step(4.0)
+    assert m.state is DriveState.JOG
+    m.apply(OFF1 & ~C.ENABLE_OPERATION | C.JOG1, 0.0, 4.0)  # pulses off: the motor coasts
+    assert m.state is DriveState.READY_TO_SWITCH_ON and not m.running
+    m.apply(OFF1 & ~C.NO_OFF2 | C.JOG1, 0.0, 5.0)  # OFF2 with the jog bit still set
+    assert m.state is DriveState.SWITCH_ON_INHIBIT
+
+
+def test_an_on_during_a_familys_jog_waits_for_the_jog_to_end() -> None:
+    m = DriveStateMachine(0.0, FAMILY_JOG)
+    m.apply(OFF1 | C.JOG1, 0.0, 0.0)
+    m.apply(RUN | C.JOG1, 0.5, 1.0)
+    m.step(3.0)
+    assert m.state is DriveState.JOG and m.actual == pytest.approx(0.2)
+    m.apply(RUN, 0.5, 3.0)  # the jog ends: brake, then the ON asked for switches on
+    m.step(3.4)
+    assert m.state is DriveState.OPERATION
+
+
 def test_wait_time_in_ready_falls_back_to_inhibit() -> None:
     m = DriveStateMachine(0.0, Motion(wait=30.0))
     m.apply(OFF1, 0.0, 0.0)

@@ -7,7 +7,9 @@ import asyncio
 import contextlib
 import csv
 import datetime as dt
+import json
 import os
+import re
 import resource
 import signal
 import subprocess
@@ -17,6 +19,7 @@ from pathlib import Path
 
 import pytest
 
+from cli.test_simulate import _first_line, _start
 from pyuss.bus import VirtualBus
 from pyuss.datalog import NO_ANSWER, CsvLog, DataLogger, parse_values
 from pyuss.master import Master
@@ -27,8 +30,9 @@ UV = [sys.executable, "-m", "pyuss.cli.main"]
 
 
 def rows(path: Path) -> list[dict[str, str]]:
+    """The rows of a log, without its ``#`` comment rows."""
     with open(path, newline="", encoding="utf-8") as file:
-        return list(csv.DictReader(file))
+        return [row for row in csv.DictReader(file) if not row["time"].startswith("#")]
 
 
 async def test_a_drive_that_stops_answering_is_logged_as_silent(tmp_path: Path) -> None:
@@ -275,3 +279,53 @@ async def test_values_are_typed_by_the_parameter_model(tmp_path: Path) -> None:
         assert row["P2010.1 USS baudrate"] == "6"
         assert row["P947 Last fault code"] == "0 0 0 0 0 0 0 0"
         assert row["comm"] == "ok"
+
+
+LINE = ["--baud", "9600", "--layout", "3,2"]
+
+
+def _log_on_a_9600_baud_line(tmp_path: Path, name: str, *args: str) -> tuple[str, str, Path]:
+    """``uss log 5 status ARGS`` on a virtual bus at 9600 baud with true character timing (one
+    exchange of PKW 3 + PZD 2 takes some 37 ms there); its stdout, stderr and file."""
+    sim = _start("simulate", "--bus-tcp", "127.0.0.1:0", *LINE, "--address", "5")
+    try:
+        url = _first_line(sim)
+        path = tmp_path / name
+        done = subprocess.run(
+            [*UV, "log", "5", "status", *args, "-o", str(path), "--port", url, *LINE],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert done.returncode == 0, done.stderr
+        return done.stdout, done.stderr, path
+    finally:
+        sim.send_signal(signal.SIGTERM)
+        sim.communicate(timeout=30)
+
+
+def test_a_rate_the_line_cannot_carry_is_said(tmp_path: Path) -> None:
+    _, err, path = _log_on_a_9600_baud_line(tmp_path, "fast.csv", "--rate", "50", "--count", "30")
+    said = [line for line in err.splitlines() if "samples a second reached" in line]
+    assert len(said) == 2, err  # once early, once at the end
+    assert all(line.startswith("uss log: ") and "of the 50 asked" in line for line in said)
+    lines = path.read_text(encoding="utf-8").splitlines()
+    assert lines[-1].startswith("# ") and "of the 50 asked: the line is slower" in lines[-1]
+    assert lines[-1].endswith(",")  # a row of its own, as many cells as the header
+    reached = float(lines[-1].split()[1])
+    assert 0 < reached < 45 and len(rows(path)) == 30
+
+
+def test_a_rate_the_line_carries_says_nothing_more_and_words_are_hex(tmp_path: Path) -> None:
+    out, err, path = _log_on_a_9600_baud_line(
+        tmp_path, "slow.csv", "P552", "--rate", "2", "--count", "4", "--json"
+    )
+    summary = json.loads(out)
+    assert summary["rate"] == 2 and summary["rate_reached"] == 2 and not err
+    assert not [line for line in path.read_text().splitlines() if line.startswith("#")]
+    table = rows(path)
+    assert len(table) == 4
+    for row in table:  # the status word and a V2 parameter (P552) in hex, as everywhere
+        assert re.fullmatch(r"[0-9A-F]{4}h", row["status word"]), row
+        assert re.fullmatch(r"[0-9A-F]{4}h", row["P552 Status word"]), row
+    assert table[0]["status word"] == "0240h"  # switch-on inhibited, as the simulator starts

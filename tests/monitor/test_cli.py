@@ -17,6 +17,7 @@ import pytest
 from monitor.traffic import REQ_52, Slave, Wire, answer, drive, request
 from pyuss.bus import VirtualBus
 from pyuss.cli.main import main
+from pyuss.cli.monitor import ProfileValues
 from pyuss.monitor import (
     LayoutBook,
     Listener,
@@ -26,6 +27,7 @@ from pyuss.monitor import (
     read_capture,
 )
 from pyuss.protocol import Layout, Pkw
+from pyuss.protocol.telegram import Telegram
 from pyuss.transport.serialport import SerialTransport
 
 BAUD = 38400
@@ -515,3 +517,44 @@ def test_a_reader_that_goes_away_ends_the_run_quietly(tmp_path: Path) -> None:
     _, err = proc.communicate(timeout=TIMEOUT)
     assert proc.returncode == 0
     assert b"Traceback" not in err and b"BrokenPipe" not in err
+
+
+def test_a_known_profile_shows_values_typed_and_scaled(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """With --profile the values of parameters show as the profile types them: a float ramp
+    time in seconds, a state with its text; the words in hex after them."""
+    path = tmp_path / "mm4.pcapng"
+    layout = Layout(4, 2)
+    monitor = Monitor(19200, layouts=LayoutBook(layout))
+    wire = Wire(monitor)
+    for job, reply in (
+        (Pkw(1, 1120), Pkw(2, 1120, values=(0x4120, 0x0000))),  # 10.0 as a float
+        (Pkw(1, 2), Pkw(1, 2, values=(0, 1))),  # a word in PWE2 of PKW 4
+    ):
+        wire.send(Telegram(3, 0, layout.pack(job, (0x047E, 0))).encode(), 0.01)
+        wire.send(Telegram(3, 0, layout.pack(reply, (0x0231, 0))).encode(), 0.004)
+    writer = open_writer(path, baud=19200, gap=monitor.gap)
+    for ex in wire.finish():
+        writer.write(ex)
+    writer.close()
+    assert main(["monitor", "--read", str(path), "--profile", "micromaster4"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "read P1120 -> P1120 = 10.00 s (41200000h)" in lines[0]
+    assert "read P2 -> P2 = 1 [READY] (0001h)" in lines[1]
+    assert main(["monitor", "--read", str(path)]) == 0  # no profile: the words as numbers
+    assert "P1120 = 1092616192 (41200000h)" in capsys.readouterr().out
+    known = ProfileValues("micromaster4")
+    known.actuals = (2,)  # a profile mapping PZD3 of the answers to P2
+    assert known.process(False, 3, 1) == "1 [READY]" and known.process(True, 3, 1) is None
+
+
+def test_the_summary_names_the_receive_error_status_as_such(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The A 5.2.3 error status word is no status word of a drive: its column says so."""
+    path = tmp_path / "line.pcapng"
+    _capture(path)
+    assert main(["monitor", "--read", str(path), "--summary"]) == 0
+    header = capsys.readouterr().out.splitlines()[0]
+    assert "rx errors" in header and "status" not in header

@@ -154,6 +154,30 @@ def test_jog_1_and_2_from_standstill() -> None:
     assert not_standing == (0x0337, 0x2000)
 
 
+def test_a_micromaster_jogs_from_standstill_with_on_off1_zero() -> None:
+    """MICROMASTER 440 control word bits 8/9 (jog right/left): with ON/OFF1 = 0 the drive
+    switches on and runs at the jog frequency while the bit is set, and is back in "ready to
+    switch on" when it drops; while switched on the bits do nothing."""
+    with (
+        PtySim(engine(5, "micromaster440", "v,2", spontaneous=False)) as sim,
+        sim.master() as master,
+    ):
+        drive = Drive(master)
+        net = master.ask(5, LV, Pkw(8, 1060, 0, values=(0, 0)), (0, 0))  # P1060[0] = 0.0 s
+        assert net.pkw.id == 5, net.pkw
+        drive.send(OFF1)
+        jogging = drive.send(OFF1 | JOG1)
+        again = drive.send(OFF1 | JOG1)
+        stopped = drive.send(OFF1)
+        after = drive.send(OFF1)
+        drive.send(ON)
+        switched_on = drive.send(ON | JOG1)
+    # P1058[0] = 5.00 Hz of the 50.00 Hz reference P2000: 10 % = 0666h
+    assert jogging[0] & OPERATION and abs(again[1] - 0x0666) <= 1
+    assert stopped[1] == 0 and after[0] & 0x7 == READY_TO_SWITCH_ON
+    assert switched_on[0] & OPERATION and switched_on[1] == 0  # ON = 1: no jog
+
+
 def test_bit_10_zero_keeps_the_old_process_data() -> None:
     with _serve() as sim, sim.master() as master:
         drive = Drive(master)

@@ -14,8 +14,10 @@ An existing file is never overwritten: ``--append`` adds rows to it when it has 
 columns; ``--rotate SIZE`` starts a new file when the current one would grow past SIZE (the
 full one is renamed NAME-YYYYMMDD-HHMMSS.csv). Ctrl+C or SIGTERM ends the log cleanly, as do
 ``--count`` and ``--duration``. A file the disk cannot take more of ends it with one line
-(``cannot write FILE: no space left on device``, exit code 1), the rows before kept whole.
-See docs/web.md.
+(``cannot write FILE: no space left on device``, exit code 1), the rows before kept whole. A
+line too slow for ``--rate`` (9600 baud carries some 25 samples a second) is said on stderr,
+once early and at the end with the rate reached, and in a ``#`` comment row at the end of the
+file. See docs/web.md.
 """
 
 from __future__ import annotations
@@ -74,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
 
 async def _log(args: argparse.Namespace) -> int:
     from pyuss.datalog import CsvLog, DataLogger, parse_size, parse_values
+    from pyuss.datalog.logger import LogResult, rate_text, write_comment
     from pyuss.master import CYCLIC
 
     if args.count is not None and args.count < 1:
@@ -104,8 +107,17 @@ async def _log(args: argparse.Namespace) -> int:
                 file=sys.stderr,
                 flush=True,
             )
+
+        def short(so_far: LogResult) -> None:
+            print(f"uss log: {rate_text(so_far)}", file=sys.stderr, flush=True)
+
         try:
-            result = await logger.run(log, stop, count=args.count, duration=args.duration)
+            result = await logger.run(
+                log, stop, count=args.count, duration=args.duration, on_short=short
+            )
+            if result.short:
+                write_comment(log, rate_text(result))
+                print(f"uss log: {rate_text(result)}", file=sys.stderr)
         finally:
             log.close()
     summary = {
@@ -113,6 +125,8 @@ async def _log(args: argparse.Namespace) -> int:
         "rows": result.rows,
         "no_answer": result.no_answer,
         "rotated": [str(p) for p in log.rotated],
+        "rate": args.rate,
+        "rate_reached": round(result.reached, 3),
     }
     if args.json:
         print(json.dumps(summary))

@@ -13,9 +13,11 @@ Exit codes (all commands): 0 success, 1 the operation failed (no answer, drive r
 from __future__ import annotations
 
 import argparse
+import difflib
 import importlib
 import logging
 import os
+import re
 import sys
 from collections.abc import Sequence
 from typing import NoReturn
@@ -152,12 +154,79 @@ def command_of(argv: Sequence[str]) -> str | None:
     return None
 
 
+_NEGATIVE_NUMBER = re.compile(r"^-\d+$|^-\d*\.\d+$")
+"""A word argparse takes as a negative number, not an option (its own rule)."""
+
+
+def _is_option(word: str) -> bool:
+    """Whether argparse reads ``word`` as an option (its rules: not ``-`` alone, not a
+    negative number, no space)."""
+    return (
+        word.startswith("-")
+        and word != "-"
+        and not _NEGATIVE_NUMBER.match(word)
+        and " " not in word
+    )
+
+
+def _known(parser: argparse.ArgumentParser, word: str) -> bool:
+    """Whether ``parser`` takes the option ``word``: its own, with ``=VALUE``, a prefix of one
+    of its long options (argparse's abbreviations; an ambiguous one it names itself), or a
+    short option with its value or more short flags attached (``-vv``)."""
+    strings = parser._option_string_actions
+    name = word.split("=", 1)[0]
+    if name in strings:
+        return True
+    if word.startswith("--"):
+        return any(option.startswith(name) for option in strings if option.startswith("--"))
+    return word[:2] in strings
+
+
+def unknown_option(
+    parser: argparse.ArgumentParser, words: Sequence[str]
+) -> tuple[argparse.ArgumentParser, str] | None:
+    """The first option in ``words`` that the (sub-)command it is given to does not take,
+    with that command's parser; None when there is none. Found before parsing, so that an
+    unknown option is named as such, not reported as a missing required one (or taken for
+    the positional argument that follows it)."""
+    for index, word in enumerate(words):
+        if word == "--":  # the rest are positional
+            return None
+        if _is_option(word):
+            if not _known(parser, word):
+                return parser, word
+            continue
+        subparsers = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        if subparsers and word in subparsers[0].choices:
+            return unknown_option(subparsers[0].choices[word], words[index + 1 :])
+    return None
+
+
+def _refuse_unknown_option(parser: argparse.ArgumentParser, words: Sequence[str]) -> None:
+    """Exit 2 with "unknown option --prot; did you mean --port?" where ``words`` hold one."""
+    found = unknown_option(parser, words)
+    if found is None:
+        return
+    owner, word = found
+    name = word.split("=", 1)[0]
+    options = sorted({o for o in owner._option_string_actions if o.startswith("--")})
+    close = difflib.get_close_matches(name, options, n=1, cutoff=0.6)
+    if owner is not parser and _known(parser, word):
+        hint = f"{name} is an option of uss itself: give it before the command"
+    elif close:
+        hint = f"did you mean {close[0]}?"
+    else:
+        hint = f"'{owner.prog} --help' lists its options"
+    owner.error(f"unknown option {name}; {hint}")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     words = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(command_of(words), lazy=True)
     _Parser.json_errors = "--json" in words
     _Parser.command = command_of(words)
     try:
+        _refuse_unknown_option(parser, words)
         args = parser.parse_args(words)
     finally:
         _Parser.json_errors = False

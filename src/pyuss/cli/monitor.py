@@ -53,7 +53,7 @@ from pyuss.monitor.infer import LayoutBook
 from pyuss.monitor.live import Listener, replay, watch
 from pyuss.monitor.model import Direction, Exchange, Frame
 from pyuss.monitor.pcapng import check_linktype
-from pyuss.monitor.render import exchange_line, summary_table
+from pyuss.monitor.render import ValueText, exchange_line, summary_table
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import AddressMode
 from pyuss.protocol.timing import BAUD_RATES, check_baud
@@ -115,7 +115,8 @@ def register(subparsers: Any) -> None:
         "--profile",
         metavar="NAME",
         help="device profile, for parameter numbers from 2000 on in the IND page bits "
-        "(micromaster4: P2010 rather than PNU 10)",
+        "(micromaster4: P2010 rather than PNU 10) and parameter values typed and scaled by its "
+        "parameter file (P1120 = 10.00 s)",
     )
     decode.add_argument(
         "--gap",
@@ -233,6 +234,7 @@ def exchange_json(
     origin: float = 0.0,
     epoch: float | None = None,
     page_size: int | None = None,
+    known: ValueText | None = None,
 ) -> dict[str, Any]:
     """An exchange as a JSON-ready dict (the keys are listed in docs/monitor.md): ``time`` is
     the ISO 8601 wall-clock time of ``epoch + ex.time`` (null when ``epoch`` is None: the
@@ -258,7 +260,7 @@ def exchange_json(
         ],
         "unsure": ex.unsure or None,
         "notes": list(ex.notes),
-        "summary": exchange_line(ex, origin=origin, page_size=page_size),
+        "summary": exchange_line(ex, origin=origin, page_size=page_size, known=known),
         "error": None,
     }
 
@@ -343,6 +345,7 @@ class _Output:
         color = args.color == "always" or (args.color == "auto" and stream.isatty())
         self.color = color and not args.json
         self.page_size = page_size(args)
+        self.known = profile_values(args)
 
     def __call__(self, exchanges: Iterable[Exchange]) -> None:
         for ex in exchanges:
@@ -375,16 +378,16 @@ class _Output:
 
     def render(self, ex: Exchange) -> str:
         assert self.origin is not None
-        pages = self.page_size
+        pages, known = self.page_size, self.known
         if self.args.json:
             return json.dumps(
-                exchange_json(ex, origin=self.origin, epoch=self.wall, page_size=pages)
+                exchange_json(ex, origin=self.origin, epoch=self.wall, page_size=pages, known=known)
             )
         if self.args.time == "abs":
             return exchange_line(
-                ex, origin=self.epoch, absolute=True, color=self.color, page_size=pages
+                ex, origin=self.epoch, absolute=True, color=self.color, page_size=pages, known=known
             )
-        return exchange_line(ex, origin=self.origin, color=self.color, page_size=pages)
+        return exchange_line(ex, origin=self.origin, color=self.color, page_size=pages, known=known)
 
     def table(self) -> str:
         now = self.monitor.now
@@ -438,6 +441,47 @@ def page_size(args: argparse.Namespace) -> int | None:
     from pyuss.profiles import get_profile
 
     return get_profile(args.profile).pnu_page_size
+
+
+class ProfileValues:
+    """The values of a line's devices as their profile types them (`ValueText`): parameters
+    through the profile's parameter file (type, scaling, unit, value texts), PZD3 and up
+    through the parameters its ``[process]`` table maps them to."""
+
+    def __init__(self, name: str) -> None:
+        from pyuss.params import ParamBook
+        from pyuss.profiles import get_profile
+
+        profile = get_profile(name)
+        db = profile.database()
+        self.book = ParamBook.for_profile(profile)
+        self.setpoints = db.process_setpoints
+        self.actuals = db.process_actuals
+
+    def parameter(self, pnu: int, index: int | None, words: tuple[int, ...]) -> str | None:
+        from pyuss.params import decode, format_value
+
+        info = self.book.get(pnu)
+        if info is None:
+            return None
+        try:
+            return format_value(info, decode(info, words, index))
+        except TelegramError:  # words that do not fit its type: shown as they are
+            return None
+
+    def process(self, request: bool, number: int, word: int) -> str | None:
+        pnus = self.setpoints if request else self.actuals
+        pnu = pnus[number - 3] if 0 <= number - 3 < len(pnus) else 0
+        info = self.book.get(pnu) if pnu else None
+        if info is None or info.words != 1:
+            return None
+        return self.parameter(pnu, None, (word,))
+
+
+def profile_values(args: argparse.Namespace) -> ProfileValues | None:
+    """The values typed by ``--profile`` (None without one)."""
+    name = getattr(args, "profile", None)
+    return None if name is None else ProfileValues(name)
 
 
 def _check(args: argparse.Namespace) -> tuple[list[str], LayoutBook]:

@@ -2,8 +2,10 @@
 
 Sets the main setpoint - 50 or 50 % in percent, 25 Hz or 1500 rpm where the profile names the
 reference parameter that is 100 % (P2000 of a MICROMASTER 4, read from the drive) - and
-switches the drive on; or, with ``--jog 1`` or ``--jog 2``, switches it on at setpoint 0 and
-jogs it at the drive's own jog setpoint. It shows its state, status word and actual value (in
+switches the drive on; or, with ``--jog 1`` or ``--jog 2``, jogs it at the drive's own jog
+setpoint: a drive of the USS specification's profile is switched on at setpoint 0 and then
+jogs, a MICROMASTER 4 or SINAMICS (whose jog bits switch it on) jogs from standstill with
+ON/OFF1 = 0 (057Eh for jog 1). It shows its state, status word and actual value (in
 the reference's unit too) while it ramps - on one line that updates itself in a terminal, one
 line per ``--interval`` otherwise. Ctrl+C or SIGTERM (or the end of ``--duration``) switches it
 off cleanly: OFF1, then the telegrams go on until the drive reports that operation is no longer
@@ -14,7 +16,7 @@ reports a fault, gives no answer for ``--timeout`` seconds, does not stop within
 
 The setpoint goes into PZD2 (4000h = 100 %); on is control word 047Eh, then 047Fh, OFF1 047Eh,
 OFF2 047Ch, jog control bit 8 or 9 while operation is enabled (USS specification C 5.2.1,
-C Tables 5.4 and 5.5).
+C Tables 5.4 and 5.5), or with ON/OFF1 = 0 where the family's jog switches the drive on.
 
 With ``--json`` every line is one object with the same keys: ``time`` (ISO 8601 wall clock of
 the answer shown), ``address``, ``setpoint`` (percent, or ``jog N``), ``state``, ``status``,
@@ -74,7 +76,8 @@ def register(subparsers: Any) -> None:
         type=int,
         choices=(1, 2),
         help="jog 1 or 2 at the drive's own jog setpoint instead (control bit 8 or 9, USS "
-        "specification C Table 5.4)",
+        "specification C Table 5.4; a MICROMASTER 4 or SINAMICS jogs from standstill with "
+        "ON/OFF1 = 0)",
     )
     parser.add_argument(
         "--duration",
@@ -283,9 +286,12 @@ async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[
         try:
             if args.jog:
                 # C Table 5.4: jog bits act while operation is enabled and the drive stands
-                # with setpoint 0: switch on at 0 %, then jog.
+                # with setpoint 0: switch on at 0 %, then jog. A family whose jog switches
+                # the drive on jogs from standstill with ON/OFF1 = 0 and ignores jog bits
+                # while switched on.
                 await drive.setpoint(0.0)
-                await drive.on()
+                if not drive.profile.database().words.jog_switches_on:
+                    await drive.on()
                 await drive.jog(args.jog)
             else:
                 assert isinstance(live.setpoint, float)

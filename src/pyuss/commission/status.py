@@ -68,7 +68,8 @@ class Look:
     shown: dict[str, str] = field(default_factory=dict)
     """Each parameter's value as printed (by label), with its unit and value text."""
     texts: dict[int, str] = field(default_factory=dict)
-    """Fault texts by number."""
+    """Fault texts by number, for the parameter labelled `fault_label`."""
+    fault_label: str = ""
     warnings: dict[int, str] = field(default_factory=dict)
     """Warning texts by number, for the parameter labelled `warning_label`."""
     warning_label: str = ""
@@ -78,8 +79,11 @@ class Look:
     def _text_of(self, entry: Entry) -> str | None:
         if not entry.ok or not isinstance(entry.value, int) or entry.value == 0:
             return None
-        table = self.warnings if entry.label == self.warning_label else self.texts
-        return table.get(entry.value)
+        if entry.label == self.fault_label:
+            return self.texts.get(entry.value)
+        if entry.label == self.warning_label:
+            return self.warnings.get(entry.value)
+        return None
 
     @property
     def state(self) -> str:
@@ -146,11 +150,12 @@ async def look(drive: Drive, *, timeout: float | None = None) -> Look:
         value = await drive.read(ref.pnu, ref.index, timeout=timeout)
         assert isinstance(value, int)
         word = value
-    warning = db.roles.get("warning")
+    fault, warning = db.roles.get("fault"), db.roles.get("warning")
     result = Look(
         drive.address,
         word,
         texts=fault_texts(drive),
+        fault_label=param_label(fault.pnu, fault.index) if fault else "",
         warnings=warning_texts(drive),
         warning_label=param_label(warning.pnu, warning.index) if warning else "",
         family_bits={bit: text for bit, text in drive.profile.status_bits.items() if bit >= 11},

@@ -16,7 +16,12 @@ handle comes from the command; the logger itself imports the drive model, not th
 - a drive that does not answer (no answer within ``max(1 / rate, 0.5 s)``, "slave does not
   send" of A 5.2.1.1, or a parameter job that timed out) gives a row with every value empty
   and ``no answer`` in the ``comm`` column: never the last values again. A parameter the
-  drive refuses is empty with the refusal in ``comm``.
+  drive refuses is empty with the refusal in ``comm``;
+- a line too slow for the rate asked (9600 baud carries some 25 samples a second, fewer with
+  parameters) is said, not hidden: when fewer than `SHORT` of the slots got a row, `run`
+  tells ``on_short`` the rate reached once during the log, and the result carries it
+  (`LogResult.reached`; `uss log` says it on stderr and in a ``#`` comment line at the end of
+  the file).
 """
 
 from __future__ import annotations
@@ -26,7 +31,7 @@ import contextlib
 import datetime as _dt
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from pyuss.datalog.csvfile import CsvLog
@@ -37,12 +42,25 @@ from pyuss.params import ParamInfo, format_value
 from pyuss.points import Drive, DrivePoints, DriveStatus, NoWriteAuthority
 from pyuss.protocol.pzd import STATUS_BITS
 
-__all__ = ["COMM_OK", "NO_ANSWER", "DataLogger", "LogResult", "iso_now"]
+__all__ = [
+    "COMM_OK",
+    "NO_ANSWER",
+    "SHORT",
+    "DataLogger",
+    "LogResult",
+    "iso_now",
+    "rate_text",
+    "write_comment",
+]
 
 NO_ANSWER = "no answer"
 COMM_OK = "ok"
 MIN_WAIT = 0.5
 """Seconds a sample waits at least for an answer before it is written as "no answer"."""
+SHORT = 0.9
+"""The rate counts as not reached when fewer than this share of the slots got a row."""
+SHORT_AFTER = 20
+"""Slots that pass before `DataLogger.run` judges the rate during the log."""
 
 
 def iso_now() -> str:
@@ -55,21 +73,52 @@ class LogResult:
     rows: int
     no_answer: int
     """Rows written as "no answer"."""
+    rate: float = 0.0
+    """Samples a second asked."""
+    slots: int = 0
+    """Slots that passed: rows written plus slots skipped because the line was slower."""
+
+    @property
+    def reached(self) -> float:
+        """Samples a second written: the rate asked times the share of slots that got a row."""
+        return self.rate * self.rows / self.slots if self.slots else self.rate
+
+    @property
+    def short(self) -> bool:
+        """Whether the rate asked was not reached (fewer than `SHORT` of the slots got a row)."""
+        return self.slots > 0 and self.rows < SHORT * self.slots
 
 
 def cell(info: ParamInfo | None, value: Value | Sequence[Value]) -> str:
     """A value as a CSV cell: a number as a spreadsheet reads it (scaled, the decimals of its
-    parameter, no unit or value text: the header has the unit), text without padding, bytes
-    in hex, the elements of an array separated by blanks."""
+    parameter, no unit or value text: the header has the unit), a word of bits (V2: control
+    and status words) in hex as 0237h, text without padding, bytes in hex, the elements of an
+    array separated by blanks."""
     if isinstance(value, list | tuple):
         return " ".join(cell(info, v) for v in value)
     if isinstance(value, bytes):
         return value.hex(" ").upper()
     if isinstance(value, str):
         return value.rstrip()
-    if info is None or info.is_bit_field:
+    if info is not None and info.is_bit_field and isinstance(value, int):
+        return f"{value:04X}h"  # a word of bits (control word, status word) in hex
+    if info is None:
         return str(value)
     return format_value(info, value, unit=False, texts=False)
+
+
+def rate_text(result: LogResult) -> str:
+    """What a log that falls short of its rate says of it (no comma: a CSV cell unquoted)."""
+    return (
+        f"{result.reached:.3g} samples a second reached of the {result.rate:g} asked: "
+        f"the line is slower ({result.slots - result.rows} of {result.slots} slots skipped)"
+    )
+
+
+def write_comment(log: CsvLog, text: str) -> None:
+    """A ``#`` comment as a row of its own: the text in the first cell, the others empty (a
+    CSV reader that skips comments, ``pandas.read_csv(comment="#")``, skips it)."""
+    log.write([f"# {text}", *[""] * (len(log.header) - 1)])
 
 
 async def read_parameter(drive: Drive, pnu: int, index: int | None, timeout: float) -> str:
@@ -177,7 +226,7 @@ class DataLogger:
 
     def _process_cells(self, quantity: Quantity, status: DriveStatus) -> list[str]:
         if quantity.kind is Kind.STATUS:
-            return [str(status.word)]
+            return [f"{status.word:04X}h"]
         if quantity.kind is Kind.STATE:
             return [status.state]
         if quantity.kind is Kind.ACTUAL:
@@ -237,14 +286,17 @@ class DataLogger:
         *,
         count: int | None = None,
         duration: float | None = None,
+        on_short: Callable[[LogResult], object] | None = None,
     ) -> LogResult:
         """Write rows to ``log`` until ``stop`` is set, ``count`` rows are written or
-        ``duration`` seconds have passed."""
+        ``duration`` seconds have passed. ``on_short(result so far)`` is called once, as soon
+        as `SHORT_AFTER` slots have passed, when the rate asked is not reached."""
         period = 1.0 / self.rate
         start = time.monotonic()
         end = math.inf if duration is None else start + duration
         rows = silent = 0
         slot = 0
+        judged = on_short is None
         while not stop.is_set() and (count is None or rows < count):
             due = start + slot * period
             now = time.monotonic()
@@ -266,4 +318,9 @@ class DataLogger:
             silent += not answered
             # the next slot after now: skipped slots are not made up for
             slot = max(slot + 1, math.floor((time.monotonic() - start) / period) + 1)
-        return LogResult(rows, silent)
+            if not judged and slot >= SHORT_AFTER:
+                judged = True
+                so_far = LogResult(rows, silent, self.rate, slot)
+                if so_far.short and on_short is not None:
+                    on_short(so_far)
+        return LogResult(rows, silent, self.rate, slot)

@@ -1,6 +1,6 @@
 """What a log records: the VALUES of ``uss log`` and their CSV columns.
 
-- ``status``: the status word (PZD1 of every answer, C 5.2.1), as a number;
+- ``status``: the status word (PZD1 of every answer, C 5.2.1), in hex as everywhere (0237h);
 - ``state``: the drive state the status word spells (C Tables 5.5, 5.6), as text;
 - ``actual``: the actual values (PZD2 and up): PZD2 in percent of the reference (4000h = 100 %,
   C 5.2.2), or in the reference's unit when the profile's parameter file names a reference
@@ -9,7 +9,8 @@
   the names of `pyuss.protocol.pzd.StatusWord` in any case, or ``bit3``): 1 or 0;
 - a parameter: ``P52``, ``P4.2`` (element 2 of array P4), also ``r52`` or ``52``: its value,
   typed and scaled by what the drive's parameter book knows of it (`pyuss.params`: the
-  profile's file, the drive's own description), in its unit; the unsigned word the drive sent
+  profile's file, the drive's own description), in its unit; a word of bits (V2, such as the
+  control and status word displays r0054 and r0052) in hex; the unsigned word the drive sent
   when nothing is known of it. Parameters are read with a parameter job for every sample.
 """
 

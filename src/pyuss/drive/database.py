@@ -155,7 +155,7 @@ COMMISSIONING_KEYS = (
 )
 """Keys of ``[commissioning]`` (see `Commissioning`)."""
 
-WORD_KEYS = ("reverse", "status_ones", "direction")
+WORD_KEYS = ("reverse", "status_ones", "direction", "jog_switches_on")
 """Keys of ``[words]`` (see `WordBits`)."""
 
 
@@ -376,11 +376,16 @@ class WordBits:
     ``reverse``: control bit that inverts the setpoint (MICROMASTER 4 / SINAMICS bit 11).
     ``status_ones``: status bits shown as 1 while their (low-active) warning is absent.
     ``direction``: status bit that is 1 while the motor turns right (positive), 0 left.
+    ``jog_switches_on``: jog bits 8/9 switch the drive on from "ready to switch on" (ON/OFF1 =
+    0) and off again when they drop, and are not acted on while it is switched on (MICROMASTER
+    4, SINAMICS); false: the USS specification's jog from standstill with operation enabled
+    (C Table 5.4). See `pyuss.drive.states`.
     """
 
     reverse: int | None = None
     status_ones: tuple[int, ...] = ()
     direction: int | None = None
+    jog_switches_on: bool = False
 
 
 class ParameterDatabase:
@@ -1137,7 +1142,15 @@ def _words(table: dict[str, Any], source: str) -> WordBits:
     ones = _int_list(table.get("status_ones", []), where, "status_ones")
     if any(not 0 <= b <= 15 for b in ones):
         raise where.error("status_ones", "bits are 0..15")
-    return WordBits(reverse=bit("reverse"), status_ones=tuple(ones), direction=bit("direction"))
+    jog = table.get("jog_switches_on", False)
+    if not isinstance(jog, bool):
+        raise where.error("jog_switches_on", "must be true or false")
+    return WordBits(
+        reverse=bit("reverse"),
+        status_ones=tuple(ones),
+        direction=bit("direction"),
+        jog_switches_on=jog,
+    )
 
 
 def _limit(entry: dict[str, Any], key: str, dtype: DataType, where: _Where) -> int | float | None:

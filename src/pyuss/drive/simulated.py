@@ -19,12 +19,13 @@ change of an active parameter.
 Family rules read from the parameter file (docs/drive.md):
 
 - ``[commissioning]`` (`pyuss.drive.database.Commissioning`): while the commissioning
-  parameter (Siemens P0010) is not 0 the drive does not switch on (control bit 0 is taken as
-  0) and shows the ``commissioning`` state code; a write of the end parameter (P3900)
-  calculates the motor data and leaves commissioning; a write of the reset parameter (P0970)
-  in the factory-setting state restores the factory values.
+  parameter (Siemens P0010) is not 0 the drive does not switch on (control bits 0, 8 and 9,
+  ON and jog, are taken as 0) and shows the ``commissioning`` state code; a write of the end
+  parameter (P3900) calculates the motor data and leaves commissioning; a write of the reset
+  parameter (P0970) in the factory-setting state restores the factory values.
 - ``[words]`` (`pyuss.drive.database.WordBits`): the control bit that inverts the setpoint,
-  the status bits shown as 1 while their low-active warning is absent, and the direction bit.
+  the status bits shown as 1 while their low-active warning is absent, the direction bit, and
+  whether the jog bits switch the drive on (`pyuss.drive.states`).
 """
 
 from __future__ import annotations
@@ -47,9 +48,12 @@ from pyuss.drive.datatypes import DataType, Value, round_float
 from pyuss.drive.faults import ParameterFault
 from pyuss.drive.memory import ParameterMemory
 from pyuss.drive.states import WAIT_FOREVER, DriveState, DriveStateMachine, Motion
-from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32
+from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32, ControlWord
 
 _DEFAULTS = Motion()
+
+_SWITCHES_ON = int(ControlWord.ON | ControlWord.JOG1 | ControlWord.JOG2)
+"""Control bits that switch a drive on (jog 1 and 2 do on some families)."""
 
 _PLAIN_DISPLAYS = ("state", "fault", "warning", "control_word", "status_word")
 _LEVEL_DISPLAYS = ("setpoint", "actual")
@@ -141,7 +145,7 @@ class SimulatedDrive(ParameterMemory):
         """
         self.machine.motion = self._motion()
         if self.commissioning_active():
-            control_word &= ~1  # in commissioning the drive does not switch on
+            control_word &= ~_SWITCHES_ON  # in commissioning the drive does not switch on
         fraction = None if setpoint is None else _fraction_of_raw(setpoint, bits)
         reverse = self.db.words.reverse
         if reverse is not None and control_word >> 10 & 1:
@@ -324,6 +328,7 @@ class SimulatedDrive(ParameterMemory):
             jog_ramp=self._seconds("jog_ramp_time"),
             jog1=pick(self._fraction("jog1"), _DEFAULTS.jog1),
             jog2=pick(self._fraction("jog2"), _DEFAULTS.jog2),
+            jog_switches_on=self.db.words.jog_switches_on,
             tolerance=pick(self._fraction("tolerance"), _DEFAULTS.tolerance),
             tolerance_time=pick(self._seconds("tolerance_time"), _DEFAULTS.tolerance_time),
             compare=pick(self._fraction("compare_value"), _DEFAULTS.compare),

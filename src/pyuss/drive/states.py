@@ -18,6 +18,13 @@ States and what leads from one to the next (control bits of C Tables 5.2..5.4):
 - ``JOG``: jog 1 or 2 (bits 8, 9) while operation is enabled and the drive stands with setpoint
   0 (C Table 5.4): the drive runs "as fast as possible" (the jog ramp) to the jog setpoint; when
   the jog bit drops it brakes the same way and is back in OPERATION at standstill.
+  A family whose jog switches the drive on (``Motion.jog_switches_on``: MICROMASTER 4 and
+  SINAMICS, whose manuals give control bits 8/9 as jog right/left) jogs from READY TO SWITCH ON
+  instead: with ON/OFF1 = 0 and operation enabled, a jog bit switches the drive on and runs it
+  to the jog setpoint while the bit is set; when it drops the drive brakes on the jog ramp and
+  is back in READY TO SWITCH ON at standstill. While the drive is switched on (ON = 1) its jog
+  bits are not acted on, and an ON during a jog waits for the jog to end. Operation inhibited
+  (bit 3 = 0) during such a jog: pulses off, READY TO SWITCH ON.
 - ``OFF1``: bit 0 = 0 while running: ramp down on the ramp-down time, at standstill READY TO
   SWITCH ON. ON again during the ramp returns to OPERATION.
 - ``OFF3``: bit 2 = 0 while running: quick stop on the OFF3 ramp, then SWITCH-ON INHIBIT. An
@@ -126,6 +133,10 @@ class Motion:
     """Jog ramp (up and down); None: the OFF3 ramp ("as fast as possible")."""
     jog1: float = 0.0
     jog2: float = 0.0
+    jog_switches_on: bool = False
+    """The family's jog: bits 8/9 switch the drive on from READY TO SWITCH ON and off again
+    (see the module docstring); False: the USS specification's jog from standstill in
+    OPERATION."""
     tolerance: float = 0.02
     """Half width of the band around the setpoint for status bit 8."""
     tolerance_time: float = 0.0
@@ -318,7 +329,8 @@ class DriveStateMachine:
         elif self.state is DriveState.OFF3:
             self._enter(DriveState.SWITCH_ON_INHIBIT, t)
         elif self.state is DriveState.JOG and self._jog == 0:
-            self._enter(DriveState.OPERATION, t)
+            back = DriveState.READY_TO_SWITCH_ON if self.motion.jog_switches_on else None
+            self._enter(back or DriveState.OPERATION, t)
         else:
             return False
         self._transitions(t, False)
@@ -381,11 +393,20 @@ class DriveStateMachine:
         elif state is DriveState.READY_TO_SWITCH_ON:
             if on:
                 self._enter(DriveState.READY, t)
+            elif enabled and self.motion.jog_switches_on and (wanted := _jog_wanted(control)):
+                self._jog = wanted  # the family's jog switches the drive on
+                self._enter(DriveState.JOG, t)
         elif state is DriveState.READY:
             if not on:
                 self._enter(DriveState.READY_TO_SWITCH_ON, t)
             elif enabled:
                 self._enter(DriveState.OPERATION, t)
+        elif state is DriveState.JOG and self.motion.jog_switches_on:
+            if enabled:
+                self._jog_bits(state, control, t)
+            else:  # pulses off, the motor coasts
+                self._jog = 0
+                self._enter(DriveState.READY_TO_SWITCH_ON, t)
         elif state in (DriveState.OPERATION, DriveState.JOG):
             if not on:
                 self._enter(DriveState.OFF1, t)
@@ -400,8 +421,10 @@ class DriveStateMachine:
                 self._enter(DriveState.READY_TO_SWITCH_ON, t)
 
     def _jog_bits(self, state: DriveState, control: int, t: float) -> None:
-        wanted = 1 if control & _JOG1 else 2 if control & _JOG2 else 0
+        wanted = _jog_wanted(control)
         if state is DriveState.OPERATION:
+            if self.motion.jog_switches_on:
+                return  # the family jogs from READY TO SWITCH ON only
             standing = self.actual == 0.0 and self._operation_target() == 0.0
             if wanted and standing:
                 self._jog = wanted
@@ -411,3 +434,8 @@ class DriveStateMachine:
             self._jog = 0  # brake, back to OPERATION at standstill
         elif not self._jog and wanted:
             self._jog = wanted
+
+
+def _jog_wanted(control: int) -> int:
+    """The jog the control word asks for: 1, 2 or 0 (none; jog 1 when both bits are set)."""
+    return 1 if control & _JOG1 else 2 if control & _JOG2 else 0

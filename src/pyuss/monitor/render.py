@@ -11,6 +11,9 @@ The line of an exchange reads, left to right::
 - CW/SW: control and status word (PZD1, C 5.2.1) with the bits that changed since the last
   telegram of that address (``+ON -NO_OFF2``; the first time the bits that are set);
   SP/AV: setpoint and actual value (PZD2) in percent of 4000h (C 5.2.2); more PZD in hex.
+- With a `ValueText` (the device profile is known: ``uss monitor --profile``), parameter
+  values and PZD3 and up that the profile maps to parameters show typed and scaled, in their
+  unit, the words in hex after them (``P1120 = 10.00 s (41200000h)``).
 - DELAY: the response delay (A 5.2.1.1).
 - ``!!`` then every problem as ``name: what`` (receive faults, no answer, late answer, wrong
   address, ...); ``(unsure: ...)`` when the pairing on a 2-wire line is a guess.
@@ -21,6 +24,7 @@ With colours (a terminal), problems are red and guesses yellow.
 from __future__ import annotations
 
 import datetime as _dt
+from typing import Protocol
 
 from pyuss.errors import TelegramError
 from pyuss.monitor.model import Exchange, LayoutSource
@@ -37,7 +41,7 @@ from pyuss.protocol.pkw import (
 from pyuss.protocol.pzd import ControlWord, StatusWord, raw16_to_percent
 from pyuss.protocol.telegram import AddressMode
 
-__all__ = ["answer_text", "exchange_line", "job_text", "summary_table"]
+__all__ = ["ValueText", "answer_text", "exchange_line", "job_text", "summary_table"]
 
 _RED, _YELLOW, _RESET = "\x1b[31m", "\x1b[33m", "\x1b[0m"
 _STANDARD_BITS = 11
@@ -45,15 +49,34 @@ _MAX_VALUES = 8
 _NOISE_BYTES = 16
 
 
-def _value(pkw: Pkw, double: bool) -> str:
+class ValueText(Protocol):
+    """What the device profile tells of values (the monitor itself knows no profile: the
+    command that runs it gives one). Each returns None where it knows nothing."""
+
+    def parameter(self, pnu: int, index: int | None, words: tuple[int, ...]) -> str | None:
+        """The value ``words`` carry for parameter ``pnu`` (element ``index``), with unit."""
+        ...
+
+    def process(self, request: bool, number: int, word: int) -> str | None:
+        """PZD``number`` (3 and up) of a request (a setpoint) or an answer (an actual value)."""
+        ...
+
+
+def _value(
+    pkw: Pkw, double: bool, pnu: int = 0, index: int | None = None, known: ValueText | None = None
+) -> str:
+    words: tuple[int, ...]
     try:
         if double:
             value = pkw.dword()
-            return f"{value} ({value:08X}h)"
-        word = pkw.word()
+            raw, words = f"{value:08X}h", (value >> 16, value & 0xFFFF)
+        else:
+            value = pkw.word()
+            raw, words = f"{value:04X}h", (value,)
     except TelegramError:
         return _words(pkw.values)
-    return f"{word} ({word:04X}h)"
+    typed = None if known is None else known.parameter(pnu, index, words)
+    return f"{typed if typed is not None else value} ({raw})"
 
 
 def _words(values: tuple[int, ...]) -> str:
@@ -79,11 +102,13 @@ _EEPROM_JOBS = {
 }
 
 
-def job_text(pkw: Pkw, page_size: int | None = None) -> str:
+def job_text(pkw: Pkw, page_size: int | None = None, known: ValueText | None = None) -> str:
     """A parameter job (request, C Table 4.1) in words; ``page_size``: parameter numbers per
-    IND page of the device (2000 for MICROMASTER 4: PNU 10 on page 1 shows as P2010)."""
+    IND page of the device (2000 for MICROMASTER 4: PNU 10 on page 1 shows as P2010);
+    ``known``: the values typed by the device profile."""
     rid = RequestId(pkw.id)
-    p, sub = f"P{parameter_number(pkw.pnu, pkw.index, page_size)}", _sub(pkw)
+    param = parameter_number(pkw.pnu, pkw.index, page_size)
+    p, sub = f"P{param}", _sub(pkw)
     if rid is RequestId.NO_JOB:
         return "no job"
     if rid is RequestId.READ_VALUE:
@@ -106,13 +131,16 @@ def job_text(pkw: Pkw, page_size: int | None = None) -> str:
         return f"read text {p}[{sub}]{field}"
     verb = "write+store" if rid in _EEPROM_JOBS else "write"
     target = f"{p}[{sub}]" if rid.is_indexed else p
-    return f"{verb} {target} = {_value(pkw, rid in _DWORD_JOBS)}"
+    index = pkw.subindex if rid.is_indexed else None
+    return f"{verb} {target} = {_value(pkw, rid in _DWORD_JOBS, param, index, known)}"
 
 
-def answer_text(pkw: Pkw, page_size: int | None = None) -> str:
-    """An answer (response, C Table 4.2) in words (``page_size`` as for `job_text`)."""
+def answer_text(pkw: Pkw, page_size: int | None = None, known: ValueText | None = None) -> str:
+    """An answer (response, C Table 4.2) in words (``page_size`` and ``known`` as for
+    `job_text`)."""
     aid = ResponseId(pkw.id)
-    p, sub = f"P{parameter_number(pkw.pnu, pkw.index, page_size)}", _sub(pkw)
+    param = parameter_number(pkw.pnu, pkw.index, page_size)
+    p, sub = f"P{param}", _sub(pkw)
     double = aid in (
         ResponseId.VALUE_DWORD,
         ResponseId.ARRAY_DWORD,
@@ -140,7 +168,8 @@ def answer_text(pkw: Pkw, page_size: int | None = None) -> str:
     target = f"{p}[{sub}]" if aid.is_indexed else p
     if pkw.subindex == INDEX_ALL and aid.is_indexed:
         return f"{spont}{target} = {_words(pkw.values)}"
-    return f"{spont}{target} = {_value(pkw, double)}"
+    index = pkw.subindex if aid.is_indexed else None
+    return f"{spont}{target} = {_value(pkw, double, param, index, known)}"
 
 
 def _bits(word: int, before: int | None, flags: type[ControlWord] | type[StatusWord]) -> str:
@@ -155,7 +184,9 @@ def _bits(word: int, before: int | None, flags: type[ControlWord] | type[StatusW
     return "(" + " ".join(parts) + ")" if parts else ""
 
 
-def _pzd_text(data: NetData, before: int | None, request: bool) -> str:
+def _pzd_text(
+    data: NetData, before: int | None, request: bool, known: ValueText | None = None
+) -> str:
     if not data.pzd:
         return ""
     word = data.pzd[0]
@@ -164,7 +195,9 @@ def _pzd_text(data: NetData, before: int | None, request: bool) -> str:
     parts = [f"{first} {word:04X}h{_bits(word, before, flags)}"]
     if len(data.pzd) > 1:
         parts.append(f"{value} {raw16_to_percent(data.pzd[1]):.2f}%")
-    parts += [f"PZD{i} {w:04X}h" for i, w in enumerate(data.pzd[2:], 3)]
+    for i, w in enumerate(data.pzd[2:], 3):
+        typed = None if known is None else known.process(request, i, w)
+        parts.append(f"PZD{i} {w:04X}h" if typed is None else f"PZD{i} {typed} ({w:04X}h)")
     return " ".join(parts)
 
 
@@ -184,7 +217,9 @@ def _layout(ex: Exchange) -> str:
     return f"{ex.layout}{'?' if ex.layout_source is LayoutSource.GUESSED else ''}"
 
 
-def _net_text(ex: Exchange, page_size: int | None = None) -> list[str]:
+def _net_text(
+    ex: Exchange, page_size: int | None = None, known: ValueText | None = None
+) -> list[str]:
     """Job -> answer and the PZD texts."""
     mode = ex.mode
     if mode in (AddressMode.MIRROR, AddressMode.SPECIAL, AddressMode.SPECIAL_BROADCAST):
@@ -197,15 +232,15 @@ def _net_text(ex: Exchange, page_size: int | None = None) -> list[str]:
     job = rq.pkw if rq is not None else None
     reply = an.pkw if an is not None else None
     if job is not None or reply is not None:
-        left = job_text(job, page_size) if job is not None else "?"
+        left = job_text(job, page_size, known) if job is not None else "?"
         if ex.answer is None:
             parts.append(left)
         else:
-            right = answer_text(reply, page_size) if reply is not None else "?"
+            right = answer_text(reply, page_size, known) if reply is not None else "?"
             parts.append(f"{left} -> {right}")
-    if rq is not None and (text := _pzd_text(rq, ex.control_before, True)):
+    if rq is not None and (text := _pzd_text(rq, ex.control_before, True, known)):
         parts.append(text)
-    if an is not None and (text := _pzd_text(an, ex.status_before, False)):
+    if an is not None and (text := _pzd_text(an, ex.status_before, False, known)):
         parts.append(text)
     if not parts and (text := _data_text(ex)):
         parts.append(text)  # net data that fit no layout: the bytes
@@ -236,16 +271,18 @@ def exchange_line(
     absolute: bool = False,
     color: bool = False,
     page_size: int | None = None,
+    known: ValueText | None = None,
 ) -> str:
     """One line for ``ex`` (see the module text). ``origin`` is subtracted from times (or,
     with ``absolute``, added to make them Unix time); ``page_size``: parameter numbers per IND
-    page of the devices (P2010 rather than PNU 10 for MICROMASTER 4)."""
+    page of the devices (P2010 rather than PNU 10 for MICROMASTER 4); ``known``: values typed
+    by the devices' profile."""
     parts = [_time(ex.time, origin, absolute), f"{_where(ex):<8}", f"{_layout(ex):<5}"]
     if ex.kind == "noise" and ex.request is not None:
         raw = ex.request.raw
         shown = raw[:_NOISE_BYTES].hex(" ").upper() + (" .." if len(raw) > _NOISE_BYTES else "")
         parts.append(f"{len(raw)} bytes: {shown}")
-    parts += _net_text(ex, page_size)
+    parts += _net_text(ex, page_size, known)
     if ex.delay is not None:
         parts.append(f"{ex.delay * 1000:.3f} ms")
     parts += list(ex.notes)
@@ -268,7 +305,7 @@ _COLUMNS = (
     ("late", 5),
     ("wrong", 6),
     ("err%", 6),
-    ("status", 7),
+    ("rx errors", 10),
     ("good/min", 9),
     ("disc/min", 9),
     ("frame", 6),
@@ -285,7 +322,9 @@ _COLUMNS = (
 
 def summary_table(summary: Summary, now: float) -> str:
     """The summary as a table: one row per address and one for the whole line (A 5.2.3
-    counters, error rates, response times)."""
+    counters, error rates, response times). The column ``rx errors`` is the receive error
+    status of A 5.2.3 (diagnostic parameter 4, `pyuss.protocol.diagnostics.ErrorStatus`: bit 0
+    framing .. bit 7 timeout, latched) in hex - not the drive's status word."""
 
     def ms(value: float | None) -> str:
         return "-" if value is None else f"{value:.2f}"
