@@ -91,7 +91,7 @@ async def test_a_rate_the_line_cannot_be_opened_at_is_left_out() -> None:
             [9600, 19200, 38400],
             [2, 3],
             skipped=lambda baud, exc: notes.append((baud, str(exc))),
-            latency=0.005,
+            latency=0.05,  # bus:// between tasks of a loaded machine: a margin for the answer
         )
         assert [(f.address, f.baud, f.layout) for f in found] == [(3, 19200, Layout(4, 2))]
         assert [baud for baud, _ in notes] == [9600, 38400]
