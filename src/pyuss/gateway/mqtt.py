@@ -47,6 +47,7 @@ from pyuss.errors import ConfigError, UssError
 from pyuss.gateway.config import MqttOptions
 from pyuss.gateway.topics import (
     Command,
+    CommandError,
     DriveTopics,
     check_reply_to,
     discovery,
@@ -292,7 +293,8 @@ class MqttBusFace:
             if drive_name not in self.workers:
                 log.info("%s: ignored %s: %s", self.bus.name, show(topic, 200), exc)
                 return
-            bad = Command(drive=drive_name, name="?")
+            ident = exc.id if isinstance(exc, CommandError) else None
+            bad = Command(drive=drive_name, name="?", id=ident)
             reply_topic = self.workers[drive_name].topics.reply
             await self._refuse(
                 bad, error_dict(exc), reply_topic, f"a message on {show(topic, 120)}"

@@ -22,8 +22,16 @@ an ``id`` is carried out once: a repeated id (an MQTT QoS 1 duplicate, a client'
 answered with the first result again and not applied twice. Commands without an id (Home
 Assistant's) are all applied; those it sends are the same whether applied once or twice.
 
-Replies: ``{"id", "command", "drive", "ok": true, "result": {...}}`` or ``{"ok": false,
+Replies: ``{"v", "id", "command", "drive", "ok": true, "result": {...}}`` or ``{"ok": false,
 "error": {"type", "message", "class", "number", "meaning"}}`` (`pyuss.points.errors`).
+
+The topics and payloads are a versioned contract: JSON Schema files shipped in the package
+(``pyuss/gateway/schemas``, docs/gateway.md "The MQTT contract"). Every JSON payload the
+gateway publishes carries the contract version as ``"v": 1`` (`CONTRACT_VERSION`); a command
+may name the version it is written in (``v``) and is refused if the gateway does not speak
+it (`VERSIONS`, `UnsupportedVersion`). A JSON command holds only the fields of its topic
+(`FIELDS`): a misspelt field is refused (`UnknownField`), never ignored. These refusals carry
+the command's id (`CommandError`).
 
 States, parameters and results carry values rounded to their resolution (`state_dict`,
 `reading_dict`).
@@ -53,8 +61,14 @@ from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32
 
 __all__ = [
     "COMMAND_NAMES",
+    "CONTRACT_VERSION",
+    "FIELDS",
+    "VERSIONS",
     "Command",
+    "CommandError",
     "DriveTopics",
+    "UnknownField",
+    "UnsupportedVersion",
     "check_reply_to",
     "discovery",
     "parse_command",
@@ -80,6 +94,28 @@ COMMAND_NAMES = (
 ``setpoint_percent`` in percent; ``read`` and ``write`` a parameter."""
 
 WRITES = frozenset(set(COMMAND_NAMES) - {"read"})
+
+CONTRACT_VERSION = 1
+"""The version of the MQTT contract (``pyuss/gateway/schemas``) the gateway publishes: the
+``v`` of every JSON payload it sends."""
+VERSIONS = (1,)
+"""The contract versions the gateway takes commands in (``v``; a command without one is
+taken as the newest)."""
+
+_BASE = frozenset({"v", "id", "reply_to"})
+FIELDS: dict[str, frozenset[str]] = {
+    **{name: _BASE | {"value"} for name in ("on", "off1", "off2", "off3", "acknowledge")},
+    "run": _BASE | {"value"},
+    "control_word": _BASE | {"value"},
+    "setpoint": _BASE | {"value", "key"},
+    "setpoint_percent": _BASE | {"value", "key"},
+    "read": _BASE | {"pnu", "index", "value"},
+    "write": _BASE | {"pnu", "index", "value", "eeprom"},
+    "param/set": _BASE | {"value", "eeprom"},
+    "param/get": _BASE,
+}
+"""The fields a JSON command may hold, by command (``param/set`` and ``param/get``: the
+topics of a parameter)."""
 
 DEVICE_CLASSES: dict[str, str] = {
     "Hz": "frequency",
@@ -264,6 +300,47 @@ def _text(fields: dict[str, Any], key: str) -> str | None:
     return value
 
 
+class CommandError(ConfigError):
+    """A command refused while it is parsed, once its ``id`` is known: the refusal carries
+    the id, so that it reaches the client waiting for it."""
+
+    def __init__(self, message: str, id: str | None = None) -> None:
+        super().__init__(message)
+        self.id = id
+
+
+class UnsupportedVersion(CommandError):
+    """A command written in a contract version the gateway does not speak."""
+
+
+class UnknownField(CommandError):
+    """A JSON command holds a field its topic does not take."""
+
+
+def _version(fields: dict[str, Any], ident: str | None) -> None:
+    """`UnsupportedVersion` unless the command's ``v`` is absent or one of `VERSIONS`."""
+    version = fields.get("v")
+    if version is None or (
+        isinstance(version, int) and not isinstance(version, bool) and version in VERSIONS
+    ):
+        return
+    speaks = ", ".join(str(v) for v in VERSIONS)
+    raise UnsupportedVersion(
+        f"v {show(version)}: this gateway speaks MQTT contract version {speaks} "
+        "(send one of these as v, or no v)",
+        ident,
+    )
+
+
+def _fields(fields: dict[str, Any], name: str, ident: str | None) -> None:
+    """`UnknownField` naming the fields of a JSON command that its topic does not take."""
+    unknown = sorted(set(fields) - FIELDS[name])
+    if unknown:
+        names = ", ".join(show(key, 30) for key in unknown[:4])
+        known = ", ".join(sorted(FIELDS[name]))
+        raise UnknownField(f"{name}: unknown field {names} (known: {known})", ident)
+
+
 def _param(value: object) -> tuple[int, int | None]:
     if isinstance(value, int) and not isinstance(value, bool):
         return value, None
@@ -282,6 +359,8 @@ def parse_command(topic: str, payload: bytes, prefix: str, bus: str) -> Command:
     drive = parts[len(head)]
     rest = parts[len(head) + 1 :]
     fields, value = _payload(payload)
+    ident = _text(fields, "id")
+    _version(fields, ident)
     reply_to = _text(fields, "reply_to")
     if reply_to is not None and any(c in reply_to for c in "+#\0"):
         raise ConfigError(f"reply_to must be a topic without wildcards, not {show(reply_to)}")
@@ -290,12 +369,13 @@ def parse_command(topic: str, payload: bytes, prefix: str, bus: str) -> Command:
         raise ConfigError(f"eeprom must be true or false, not {show(eeprom)}")
     common: dict[str, Any] = {
         "drive": drive,
-        "id": _text(fields, "id"),
+        "id": ident,
         "reply_to": reply_to,
         "eeprom": eeprom,
     }
     if rest[0] == "param" and len(rest) == 3 and rest[2] in ("set", "get"):
         param = _param(rest[1])
+        _fields(fields, f"param/{rest[2]}", ident)
         name = "write" if rest[2] == "set" else "read"
         return Command(name=name, value=value, pnu=param[0], index=param[1], **common)
     if rest[0] != "cmd" or len(rest) != 2:
@@ -303,6 +383,7 @@ def parse_command(topic: str, payload: bytes, prefix: str, bus: str) -> Command:
     name = rest[1]
     if name not in COMMAND_NAMES:
         raise ConfigError(f"unknown command {show(name)} (known: {', '.join(COMMAND_NAMES)})")
+    _fields(fields, name, ident)
     pnu: int | None = None
     index: int | None = None
     if name in ("read", "write"):
@@ -445,11 +526,15 @@ def state_dict(state: DriveState) -> dict[str, Any]:
 
 
 def state_payload(state: DriveState) -> bytes:
-    return json.dumps(state_dict(state), separators=(",", ":")).encode()
+    """The state message (schema ``state.json``)."""
+    data = {"v": CONTRACT_VERSION, **state_dict(state)}
+    return json.dumps(data, separators=(",", ":")).encode()
 
 
 def param_payload(reading: ParamValue) -> bytes:
-    return json.dumps(reading_dict(reading), separators=(",", ":")).encode()
+    """The message of a parameter as last read (schema ``param.json``)."""
+    data = {"v": CONTRACT_VERSION, **reading_dict(reading)}
+    return json.dumps(data, separators=(",", ":")).encode()
 
 
 def reply_payload(
@@ -459,7 +544,9 @@ def reply_payload(
     error: dict[str, Any] | None = None,
     duplicate: bool = False,
 ) -> dict[str, Any]:
+    """The reply to ``command`` (schema ``reply.json``)."""
     reply: dict[str, Any] = {
+        "v": CONTRACT_VERSION,
         "id": command.id,
         "command": command.name,
         "drive": command.drive,
