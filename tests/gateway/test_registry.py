@@ -18,10 +18,11 @@ from conftest import ROOT
 from gateway import dummyface
 from gateway.test_cli import USS, first_line, start, stop
 from pyuss.bus import VirtualBus
+from pyuss.cli.main import main
 from pyuss.errors import ConfigError
 from pyuss.gateway.config import parse_config
 from pyuss.gateway.extras import Library, MissingExtra
-from pyuss.gateway.faces import FaceSpec, faces, register, unregister
+from pyuss.gateway.faces import FaceSpec, Flag, faces, register, unregister
 from pyuss.gateway.run import Gateway
 
 TESTS = ROOT / "tests"
@@ -97,6 +98,25 @@ def test_a_face_whose_library_is_missing_is_refused_before_anything_starts(
     register(dataclasses.replace(needs, extra="dummy"), replace=True)
     with pytest.raises(MissingExtra, match=r"pip install 'pyuss\[dummy\]'$"):
         Gateway(config)
+
+
+def test_read_only_refuses_to_start_a_face_that_cannot_refuse_writes(
+    dummy: FaceSpec, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a face whose options have no read_only would take writes: it is not started at all
+    @dataclasses.dataclass(frozen=True)
+    class Writable:
+        port: int = 0
+
+    register(
+        dataclasses.replace(dummy, flag=Flag("PORT", "", lambda o, t: Writable())), replace=True
+    )
+    args = ["gateway", "--port", "/dev/null", "--address", "5", "--dummy", ":0", "--read-only"]
+    assert main(args) == 2
+    assert capsys.readouterr().err == (
+        "uss gateway: --read-only: the dummy face: its options have no read_only, "
+        "so it cannot refuse writes\n"
+    )
 
 
 def _package(tmp_path: Path, entry: str) -> dict[str, str]:

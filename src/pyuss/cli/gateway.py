@@ -124,7 +124,10 @@ def build_config(args: argparse.Namespace) -> Any:
         for spec in faces().values():
             options = config.face(spec.name)
             if options is not None:
-                config = config.with_face(spec.name, spec.read_only(options))
+                try:
+                    config = config.with_face(spec.name, spec.read_only(options))
+                except ConfigError as exc:
+                    raise ConfigError(f"--read-only: the {spec.name} face: {exc}") from None
     if all(config.face(name) is None for name in faces()):
         give = ", ".join(flags[:-1]) + f" or {flags[-1]}" if len(flags) > 1 else "".join(flags)
         raise ConfigError(f"no face: give {give} (or their tables)")

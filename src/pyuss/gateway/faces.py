@@ -99,7 +99,13 @@ def _endpoint(face: Any) -> str:
 
 
 def _read_only(options: Any) -> Any:
-    return dataclasses.replace(options, read_only=True)
+    """The default: the options' ``read_only`` set; options without one refuse (a face that
+    cannot refuse writes is not started as if it did)."""
+    if not dataclasses.is_dataclass(options) or not any(
+        f.name == "read_only" for f in dataclasses.fields(options)
+    ):
+        raise ConfigError("its options have no read_only, so it cannot refuse writes")
+    return dataclasses.replace(options, read_only=True)  # type: ignore[type-var]
 
 
 @dataclass(frozen=True, slots=True)
