@@ -32,6 +32,8 @@ EXIT_USAGE = 2
 
 
 def register(subparsers: Any) -> None:
+    from pyuss.gateway.faces import faces as registry  # their flags
+
     parser = subparsers.add_parser(
         "gateway",
         help="serve USS drives on Modbus TCP, MQTT (Home Assistant) and OPC UA",
@@ -63,8 +65,6 @@ def register(subparsers: Any) -> None:
         "--cycle-time", type=float, metavar="S", help="bus cycle in seconds (default: fastest)"
     )
     one.add_argument("--bus-name", default="bus", help="the bus's name in topics and nodes")
-    from pyuss.gateway.faces import faces as registry
-
     faces = parser.add_argument_group("faces")
     for spec in registry().values():
         if spec.flag is not None:

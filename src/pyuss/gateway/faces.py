@@ -57,8 +57,22 @@ ENTRY_POINTS = "pyuss.faces"
 
 log = logging.getLogger("pyuss.gateway")
 
-RESERVED: tuple[str, ...] = ("bus", "web", "config", "port", "address", "baud", "profile")
-RESERVED += ("layout", "parameter", "help", "duration")
+RESERVED = (
+    "bus",
+    "web",
+    "config",
+    "port",
+    "address",
+    "baud",
+    "profile",
+    "layout",
+    "parameter",
+    "cycle_time",
+    "bus_name",
+    "read_only",
+    "duration",
+    "help",
+)
 """No face's name: the other tables of the configuration file (``web`` belongs to ``uss web``)
 and the other flags of ``uss gateway``."""
 
