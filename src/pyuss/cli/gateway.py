@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
-import dataclasses
 import signal
 import sys
 from typing import Any
@@ -33,6 +32,8 @@ EXIT_USAGE = 2
 
 
 def register(subparsers: Any) -> None:
+    from pyuss.gateway.faces import faces as registry  # their flags
+
     parser = subparsers.add_parser(
         "gateway",
         help="serve USS drives on Modbus TCP, MQTT (Home Assistant) and OPC UA",
@@ -65,9 +66,14 @@ def register(subparsers: Any) -> None:
     )
     one.add_argument("--bus-name", default="bus", help="the bus's name in topics and nodes")
     faces = parser.add_argument_group("faces")
-    faces.add_argument("--modbus", metavar="HOST:PORT", help="serve Modbus TCP here")
-    faces.add_argument("--mqtt", metavar="URL", help="publish to this MQTT broker")
-    faces.add_argument("--opcua", metavar="URL", help="serve OPC UA here (opc.tcp://HOST:PORT)")
+    for spec in registry().values():
+        if spec.flag is not None:
+            faces.add_argument(
+                f"--{spec.name}",
+                metavar=spec.flag.metavar,
+                help=spec.flag.help,
+                dest=f"face_{spec.name}",
+            )
     faces.add_argument(
         "--read-only", action="store_true", help="every face refuses writes and commands"
     )
@@ -79,15 +85,9 @@ def register(subparsers: Any) -> None:
 
 def build_config(args: argparse.Namespace) -> Any:
     """The `GatewayConfig` the arguments ask for; `ConfigError` naming the flag or key."""
-    from pyuss.gateway.config import (
-        GatewayConfig,
-        ModbusOptions,
-        MqttOptions,
-        OpcuaOptions,
-        load_config,
-    )
+    from pyuss.gateway.config import GatewayConfig, load_config
+    from pyuss.gateway.faces import faces
     from pyuss.points.config import plant_from_flags
-    from pyuss.points.endpoint import parse_endpoint
 
     if args.config is not None:
         if args.port is not None or args.address or args.parameter:
@@ -108,47 +108,29 @@ def build_config(args: argparse.Namespace) -> Any:
         )
         config = GatewayConfig(plant)
 
-    def endpoint(text: str, face: str, flag: str) -> Any:
-        try:
-            return parse_endpoint(text, face)
-        except ConfigError as exc:
-            raise ConfigError(f"{flag}: {exc}") from None
-
-    if args.modbus is not None:
-        where = endpoint(args.modbus, "modbus", "--modbus")
-        config = dataclasses.replace(
-            config,
-            modbus=dataclasses.replace(config.modbus, endpoint=where)
-            if config.modbus
-            else ModbusOptions(where),
-        )
-    if args.mqtt is not None:
-        where = endpoint(args.mqtt, "mqtt", "--mqtt")
-        config = dataclasses.replace(
-            config,
-            mqtt=dataclasses.replace(
-                config.mqtt, endpoint=where, username=where.username, password=where.password
-            )
-            if config.mqtt
-            else MqttOptions(where, username=where.username, password=where.password),
-        )
-    if args.opcua is not None:
-        where = endpoint(args.opcua, "opcua", "--opcua")
-        config = dataclasses.replace(
-            config,
-            opcua=dataclasses.replace(config.opcua, endpoint=where)
-            if config.opcua
-            else OpcuaOptions(where),
-        )
+    flags: list[str] = []
+    for spec in faces().values():
+        if spec.flag is None:
+            continue
+        flags.append(f"--{spec.name}")
+        value = getattr(args, f"face_{spec.name}", None)
+        if value is not None:
+            try:
+                options = spec.flag.apply(config.face(spec.name), value)
+            except ConfigError as exc:
+                raise ConfigError(f"--{spec.name}: {exc}") from None
+            config = config.with_face(spec.name, options)
     if args.read_only:
-        for face in ("modbus", "mqtt", "opcua"):
-            options = getattr(config, face)
+        for spec in faces().values():
+            options = config.face(spec.name)
             if options is not None:
-                config = dataclasses.replace(
-                    config, **{face: dataclasses.replace(options, read_only=True)}
-                )
-    if config.modbus is None and config.mqtt is None and config.opcua is None:
-        raise ConfigError("no face: give --modbus, --mqtt or --opcua (or their tables)")
+                try:
+                    config = config.with_face(spec.name, spec.read_only(options))
+                except ConfigError as exc:
+                    raise ConfigError(f"--read-only: the {spec.name} face: {exc}") from None
+    if all(config.face(name) is None for name in faces()):
+        give = ", ".join(flags[:-1]) + f" or {flags[-1]}" if len(flags) > 1 else "".join(flags)
+        raise ConfigError(f"no face: give {give} (or their tables)")
     if args.duration is not None and not args.duration > 0:
         raise ConfigError(f"--duration {args.duration}: must be > 0 seconds")
     return config
@@ -185,9 +167,7 @@ async def serve(gateway: Any, duration: float | None) -> int:
                     + ", ".join(f"{d.name}={d.address}" for d in bus.model.drives),
                     flush=True,
                 )
-            for name, face in gateway.faces.items():
-                where = getattr(face, "endpoint", None) or getattr(face, "options", None)
-                where = getattr(where, "endpoint", where)
+            for name, where in gateway.endpoints():
                 print(f"{name}: {where}", flush=True)
             print("ready", flush=True)
             with contextlib.suppress(TimeoutError):

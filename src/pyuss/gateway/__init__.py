@@ -1,5 +1,7 @@
 """USS drives on Modbus TCP, MQTT and OPC UA: the faces of the plant's data points.
 
+- `pyuss.gateway.faces`: the registry of faces, one `FaceSpec` each (and the ``pyuss.faces``
+  entry points of other packages): config, extras, run and ``uss gateway`` iterate it.
 - `pyuss.gateway.config`: the configuration file (buses, drives, faces).
 - `pyuss.gateway.run`: `Gateway`, the plant and its faces started and stopped together.
 - `pyuss.gateway.registers` (pure) and `pyuss.gateway.modbus` (a server of its own): Modbus TCP.

@@ -31,13 +31,15 @@ tables, see `pyuss.points.config`) and one table per face::
     read_only = false
 
 A face without its table is not started. Bad configuration raises `ConfigError` naming the key,
-before anything is opened.
+before anything is opened. Which tables there are comes from the registry of faces
+(`pyuss.gateway.faces`): each face's entry reads its own table (the readers of pyuss's faces
+are here).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -110,10 +112,33 @@ class OpcuaOptions:
 
 @dataclass(frozen=True, slots=True)
 class GatewayConfig:
+    """The plant and the options of each face configured (None: not started). pyuss's faces
+    have a field each; the options of other faces (`pyuss.gateway.faces`) are in ``faces``.
+    `face` and `with_face` treat them alike."""
+
     plant: PlantConfig
     modbus: ModbusOptions | None = None
     mqtt: MqttOptions | None = None
     opcua: OpcuaOptions | None = None
+    faces: Mapping[str, Any] = field(default_factory=dict)
+
+    def face(self, name: str) -> Any:
+        """The options of the face ``name``, None if it is not configured."""
+        if name in _FIELDS:
+            return getattr(self, name)
+        return self.faces.get(name)
+
+    def with_face(self, name: str, options: Any) -> GatewayConfig:
+        """This configuration with the options of the face ``name`` (None: not started)."""
+        if name in _FIELDS:
+            return replace(self, **{name: options})
+        others = {key: value for key, value in self.faces.items() if key != name}
+        if options is not None:
+            others[name] = options
+        return replace(self, faces=others)
+
+
+_FIELDS = frozenset(f.name for f in fields(GatewayConfig)) - {"plant", "faces"}
 
 
 def _endpoint(value: object, face: str, where: Where) -> Endpoint:
@@ -276,21 +301,20 @@ def opcua_options(table: Mapping[str, Any], where: Where, base: Path | None = No
     )
 
 
-TOP_KEYS = ("bus", "modbus", "mqtt", "opcua", "web")
-"""``web`` belongs to ``uss web``; the gateway leaves it alone."""
-
-
 def parse_config(data: Mapping[str, Any], base: Path | None = None) -> GatewayConfig:
-    """The gateway configuration from a TOML document (already parsed)."""
-    root = Where("")
-    root.table(data, TOP_KEYS)
-    plant = parse_plant(data.get("bus"), Where("bus"), face_keys=("modbus",))
-    return GatewayConfig(
-        plant=plant,
-        modbus=modbus_options(data["modbus"], Where("modbus"), plant) if "modbus" in data else None,
-        mqtt=mqtt_options(data["mqtt"], Where("mqtt"), base) if "mqtt" in data else None,
-        opcua=opcua_options(data["opcua"], Where("opcua"), base) if "opcua" in data else None,
-    )
+    """The gateway configuration from a TOML document (already parsed): ``[[bus]]``, a table
+    per face of the registry, and ``[web]``, which belongs to ``uss web`` (left alone)."""
+    from pyuss.gateway.faces import faces  # the registry imports the readers from here
+
+    registry = faces()
+    Where("").table(data, ("bus", *registry, "web"))
+    bus_keys = tuple(key for spec in registry.values() for key in spec.bus_keys)
+    plant = parse_plant(data.get("bus"), Where("bus"), face_keys=bus_keys)
+    config = GatewayConfig(plant)
+    for name, spec in registry.items():
+        if name in data:
+            config = config.with_face(name, spec.read(data[name], Where(name), plant, base))
+    return config
 
 
 def load_config(path: str | Path) -> GatewayConfig:

@@ -1,7 +1,8 @@
 """Which library each face needs, and the one line that says how to install it.
 
 The base install of pyuss is pyserial only; each face is an extra (``pip install
-'pyuss[modbus]'``, ``[mqtt]``, ``[opcua]`` or ``[all]``). `require` is called before a face
+'pyuss[modbus]'``, ``[mqtt]``, ``[opcua]`` or ``[all]``). Each face's entry in the registry
+(`pyuss.gateway.faces`) names its `Library` and extra. `require` is called before a face
 starts, so a missing or unsuitable library is one line naming the pip install to run, before
 any port opens.
 """
@@ -10,16 +11,22 @@ from __future__ import annotations
 
 import importlib
 import importlib.metadata
+from dataclasses import dataclass
 
 from pyuss.errors import ConfigError
 
-__all__ = ["FACES", "MissingExtra", "require"]
+__all__ = ["Library", "MissingExtra", "require"]
 
-FACES: dict[str, tuple[str, str, tuple[int, int] | None, tuple[int, int] | None]] = {
-    # face: (module, distribution, lowest version, first version not supported)
-    "mqtt": ("aiomqtt", "aiomqtt", (2, 3), (3, 0)),
-    "opcua": ("asyncua", "asyncua", (2, 0), (3, 0)),
-}
+
+@dataclass(frozen=True, slots=True)
+class Library:
+    """The library a face imports: its module, its distribution, the lowest version supported
+    and the first version not supported (None: no bound)."""
+
+    module: str
+    distribution: str
+    low: tuple[int, int] | None = None
+    high: tuple[int, int] | None = None
 
 
 class MissingExtra(ConfigError, ImportError):
@@ -39,10 +46,14 @@ def _version(text: str) -> tuple[int, int]:
 def require(face: str) -> None:
     """Check that the library of ``face`` can be imported in a supported version (a face
     without a library, Modbus, needs nothing)."""
-    if face not in FACES:
+    from pyuss.gateway.faces import faces  # the registry reads its libraries from here
+
+    spec = faces().get(face)
+    if spec is None or spec.library is None:
         return
-    module, dist, low, high = FACES[face]
-    install = f"pip install 'pyuss[{face}]'"
+    library = spec.library
+    module, dist, low, high = library.module, library.distribution, library.low, library.high
+    install = spec.install
     try:
         importlib.import_module(module)
     except ImportError as exc:

@@ -1,7 +1,8 @@
 """`Gateway`: a plant and its faces, started and stopped together.
 
-The faces are built first (each checks that its library is installed, `pyuss.gateway.extras`,
-and its configuration), so bad configuration fails before any port opens. `start` starts the
+The faces configured are built first, in the order of the registry (`pyuss.gateway.faces`;
+each checks that its library is installed, `pyuss.gateway.extras`, and its configuration), so
+bad configuration fails before any port opens. `start` starts the
 faces and then the buses - the OPC UA server's start takes the event loop for a moment, which
 would otherwise delay the first telegrams -, `close` stops the faces first (MQTT says
 ``offline``) and then the buses.
@@ -12,10 +13,11 @@ from __future__ import annotations
 import logging
 from collections.abc import Mapping
 from types import TracebackType
-from typing import Any, Protocol
+from typing import Any
 
 from pyuss.gateway.config import GatewayConfig
 from pyuss.gateway.extras import require
+from pyuss.gateway.faces import Face, FaceSpec, faces
 from pyuss.points.model import resolve
 from pyuss.points.plant import Plant
 from pyuss.transport.base import Transport
@@ -23,12 +25,6 @@ from pyuss.transport.base import Transport
 __all__ = ["Gateway"]
 
 log = logging.getLogger("pyuss.gateway")
-
-
-class Face(Protocol):
-    async def start(self) -> None: ...
-
-    async def close(self) -> None: ...
 
 
 class Gateway:
@@ -39,50 +35,36 @@ class Gateway:
         self, config: GatewayConfig, *, transports: Mapping[str, Transport] | None = None
     ) -> None:
         self.config = config
-        for face, options in (
-            ("modbus", config.modbus),
-            ("mqtt", config.mqtt),
-            ("opcua", config.opcua),
-        ):
-            if options is not None:
-                require(face)
+        configured = [
+            (spec, options)
+            for spec in faces().values()
+            if (options := config.face(spec.name)) is not None
+        ]
+        for spec, _options in configured:
+            require(spec.name)
         self.plant = Plant(resolve(config.plant), transports=transports)
         self.faces: dict[str, Face] = {}
-        self.modbus: list[Any] = []
-        if config.modbus is not None:
-            from pyuss.gateway.modbus import ModbusFace
-
-            options = config.modbus
-            shared = [b for b in self.plant.buses if b not in options.bus_endpoints]
-            if shared:
-                shared_face = ModbusFace(
-                    self.plant,
-                    options.endpoint,
-                    buses=shared,
-                    word_order=options.word_order,
-                    read_only=options.read_only,
-                )
-                self.faces["modbus"] = shared_face
-                self.modbus.append(shared_face)
-            for bus, endpoint in options.bus_endpoints.items():
-                own = ModbusFace(
-                    self.plant,
-                    endpoint,
-                    buses=[bus],
-                    word_order=options.word_order,
-                    read_only=options.read_only,
-                )
-                self.faces[f"modbus {bus}"] = own
-                self.modbus.append(own)
-        if config.mqtt is not None:
-            from pyuss.gateway.mqtt import MqttFace
-
-            self.faces["mqtt"] = MqttFace(self.plant, config.mqtt)
-        if config.opcua is not None:
-            from pyuss.gateway.opcua import OpcuaFace
-
-            self.faces["opcua"] = OpcuaFace(self.plant, config.opcua)
+        """Every face started, by the name it is printed under (``modbus line1``: a bus's
+        own Modbus server)."""
+        self._specs: dict[str, FaceSpec] = {}
+        for spec, options in configured:
+            for name, face in spec.instances(self.plant, options):
+                self.faces[name] = face
+                self._specs[name] = spec
         self._started: list[Face] = []
+
+    def faces_of(self, face: str) -> list[Any]:
+        """The faces started for the registry's face ``face`` (Modbus: one server per address)."""
+        return [f for name, f in self.faces.items() if self._specs[name].name == face]
+
+    @property
+    def modbus(self) -> list[Any]:
+        """The Modbus servers: the shared one first, then those of buses with their own."""
+        return self.faces_of("modbus")
+
+    def endpoints(self) -> list[tuple[str, str]]:
+        """Each face's name and where it listens or connects, as ``uss gateway`` prints them."""
+        return [(name, self._specs[name].endpoint(face)) for name, face in self.faces.items()]
 
     async def start(self) -> None:
         try:
