@@ -78,9 +78,9 @@ def test_a_failing_parameter_is_recorded_and_the_backup_goes_on(
     file = tmp_path / "set.toml"
     code, out = uss(["backup", "3", "-o", str(file), "--params", str(mine), *opts(mm4)])
     assert code == 1
-    assert "P999: not read: drive refused the job (PNU 999): error 0" in out
+    assert "P0999: not read: drive refused the job (PNU 999): error 0" in out
     taken = load(file)
-    assert len(taken.entries) == 20 and [e.label for e in taken.failed] == ["P999"]
+    assert len(taken.entries) == 20 and [e.label for e in taken.failed] == ["P0999"]
     assert taken.failed[0].error == {
         "type": "DriveRefusal",
         "message": "drive refused the job (PNU 999): error 0: illegal parameter number",
@@ -184,7 +184,7 @@ def test_status_and_acknowledge(mm4: Simulator) -> None:
     code, out = uss(["status", "3", *opts(mm4), "--json"])
     data = json.loads(out)
     assert code == 0 and data["state"] == "switch-on inhibited" and data["unit"] == "Hz"
-    assert [p["label"] for p in data["parameters"]] == ["P2", "P21", "P947.0"]
+    assert [p["label"] for p in data["parameters"]] == ["r0002", "r0021", "r0947.0"]
     code, out = uss(["ack", "3", *opts(mm4)])
     assert code == 0 and out.startswith("drive 3: acknowledged: ready to switch on")
 
