@@ -7,7 +7,8 @@
   parameter; further words raw, or scaled by the parameter the file maps them to;
 - a status bit's name (``ready``, ``fault``, ``operation_enabled``, ``in_tolerance``, ...:
   the names of `pyuss.protocol.pzd.StatusWord` in any case, or ``bit3``): 1 or 0;
-- a parameter: ``P52``, ``P4.2`` (element 2 of array P4), also ``r52`` or ``52``: its value,
+- a parameter: ``P52``, ``P4.2`` (element 2 of array P4), in any spelling of
+  `pyuss.params.names` (``r0052``, ``52``, ``P0004[2]``): its value,
   typed and scaled by what the drive's parameter book knows of it (`pyuss.params`: the
   profile's file, the drive's own description), in its unit; a word of bits (V2, such as the
   control and status word displays r0054 and r0052) in hex; the unsigned word the drive sent
