@@ -108,3 +108,15 @@ def test_what_is_written_reads_back_in_every_style(
     assert parse_param_name(text.lower()) == (pnu, index)
     bracket = text if index is None else text.replace(f".{index}", f"[{index}]")
     assert parse_param_name(bracket) == (pnu, index)
+
+
+def test_what_the_book_learns_later_is_named_in_its_style_too() -> None:
+    from pyuss.drive.database import load_profile
+
+    mm4 = ParamBook.for_profile(get_profile("micromaster4"))
+    kept = {"parameters": [{**mm4[21].to_dict(), "pnu": 9021}]}  # a description cached
+    mm4.load_cache_data(kept)
+    assert mm4.label(9021) == "r9021"
+    unnamed = ParamBook()  # a drive of no profile, with the user's file of a Siemens drive
+    unnamed.use_database(load_profile("micromaster4"))
+    assert unnamed.label(21) == "r0021" and unnamed.label(1120) == "P1120"
