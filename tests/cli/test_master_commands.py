@@ -76,7 +76,12 @@ def test_bad_input_exits_2_with_one_line(sim: str, capsys: pytest.CaptureFixture
     code, _, err = uss(capsys, "write", "5", "18", "70000", "--raw", "--dword", *common(sim))
     assert code == 2 and "double words need PKW 4" in err and len(err.splitlines()) == 1
     code, _, err = uss(capsys, "read", "5", "abc", *common(sim))
-    assert code == 2 and "PNU or PNU.INDEX" in err
+    assert code == 2 and "'abc' is not a parameter number" in err
+    code, out, err = uss(capsys, "write", "5", "P18x", "5", *common(sim))
+    assert (code, out) == (2, "")
+    assert err == (
+        "uss write: 'P18x' is not a parameter number (for example r0021, P1120, 21 or 947.1)\n"
+    )
     code, _, err = uss(capsys, "read", "5", "52", "--port", sim, "--layout", "9,9")
     assert code == 2 and "PKW count" in err
     code, _, err = uss(capsys, "write", "5", "107", "nan", *common(sim))
@@ -106,6 +111,10 @@ def test_describe_element_and_fixed_layout_walk(
     code, out, _ = uss(capsys, "describe", "5", "52", *common(sim))
     assert code == 0
     assert "lower limit" in out and "identifier" in out
+    code, again, _ = uss(capsys, "describe", "5", "r0052", *common(sim))  # any spelling
+    assert (code, again) == (0, out) and out.startswith("P52 (")
+    code, out, err = uss(capsys, "describe", "5", "52.1", *common(sim))
+    assert (code, out) == (2, "") and "'52.1': a description is the whole parameter's" in err
     code, out, _ = uss(capsys, "describe", "5", "52", "--element", "7", *common(sim), "--json")
     assert code == 0 and json.loads(out)["elements"][0]["words"] == [0x5FFF]
     code, _, err = uss(capsys, "describe", "5", "52", "--element", "255", *common(sim))

@@ -78,9 +78,9 @@ def test_a_failing_parameter_is_recorded_and_the_backup_goes_on(
     file = tmp_path / "set.toml"
     code, out = uss(["backup", "3", "-o", str(file), "--params", str(mine), *opts(mm4)])
     assert code == 1
-    assert "P999: not read: drive refused the job (PNU 999): error 0" in out
+    assert "P0999: not read: drive refused the job (PNU 999): error 0" in out
     taken = load(file)
-    assert len(taken.entries) == 20 and [e.label for e in taken.failed] == ["P999"]
+    assert len(taken.entries) == 20 and [e.label for e in taken.failed] == ["P0999"]
     assert taken.failed[0].error == {
         "type": "DriveRefusal",
         "message": "drive refused the job (PNU 999): error 0: illegal parameter number",
@@ -184,7 +184,7 @@ def test_status_and_acknowledge(mm4: Simulator) -> None:
     code, out = uss(["status", "3", *opts(mm4), "--json"])
     data = json.loads(out)
     assert code == 0 and data["state"] == "switch-on inhibited" and data["unit"] == "Hz"
-    assert [p["label"] for p in data["parameters"]] == ["P2", "P21", "P947.0"]
+    assert [p["label"] for p in data["parameters"]] == ["r0002", "r0021", "r0947.0"]
     code, out = uss(["ack", "3", *opts(mm4)])
     assert code == 0 and out.startswith("drive 3: acknowledged: ready to switch on")
 
@@ -310,3 +310,66 @@ def test_descriptions_kept_in_a_cache_file_for_the_next_run(tmp_path: Path) -> N
                 assert refuses(line.removeprefix("uss read: "), bad, message), line
     finally:
         stop(sim)
+
+
+OLD_BACKUP = """\
+pyuss_backup = 1
+address = 3
+profile = "micromaster4"
+date = "2026-01-05T09:30:00+00:00"
+port = "/dev/pts/7"
+count = 3
+identity = []
+
+[[parameter]]
+pnu = 21
+label = "P21"
+name = "Act. frequency"
+unit = "Hz"
+type = "float"
+access = "ro"
+value = 0.0
+raw = "0000 0000"
+
+[[parameter]]
+pnu = 947
+index = 1
+label = "P947.1"
+name = "Last fault code"
+type = "uint16"
+access = "ro"
+value = 0
+raw = "0000"
+
+[[parameter]]
+pnu = 1120
+label = "P1120"
+name = "Ramp-up time"
+unit = "s"
+type = "float"
+access = "rw"
+value = 10.0
+raw = "4120 0000"
+"""
+
+
+def test_a_backup_written_before_reads_and_names_as_the_family_writes(tmp_path: Path) -> None:
+    """Files keep ``pnu`` and ``index`` as numbers; the ``label`` they carry is not read, so
+    a file written in the project's spelling reads as it did and prints in the family's."""
+    old = loads(OLD_BACKUP)
+    assert [(e.pnu, e.index) for e in old.entries] == [(21, None), (947, 1), (1120, None)]
+    assert [e.label for e in old.entries] == ["r0021", "r0947.1", "P1120"]
+    by_hand = OLD_BACKUP.replace("pnu = 21\n", 'pnu = "r0021"\n')
+    by_hand = by_hand.replace("pnu = 947\nindex = 1\n", 'pnu = "r0947[1]"\n')
+    by_hand = by_hand.replace("pnu = 1120\n", 'pnu = "P1120"\n')
+    assert loads(by_hand).entries == old.entries
+    old_file, hand_file = tmp_path / "old.toml", tmp_path / "hand.toml"
+    old_file.write_text(OLD_BACKUP, encoding="utf-8")
+    hand_file.write_text(by_hand.replace("value = 0.0", "value = 1.5"), encoding="utf-8")
+    code, out = uss(["diff", str(old_file), str(hand_file)])
+    assert (code, out.splitlines()[0]) == (1, "r0021 (Act. frequency): 0.00 Hz -> 1.50 Hz")
+    with pytest.raises(ConfigError) as info:
+        loads(OLD_BACKUP.replace("pnu = 21\n", 'pnu = "P21x"\n'))
+    assert "parameter 1: field 'pnu': 'P21x' is not a parameter number" in str(info.value)
+    with pytest.raises(ConfigError, match="names index 1, 'index' 2"):
+        loads(OLD_BACKUP.replace("pnu = 947\nindex = 1\n", 'pnu = "r0947[1]"\nindex = 2\n'))

@@ -42,9 +42,9 @@ async def test_motor_data_are_restored_inside_quick_commissioning() -> None:
         writes, skips = plan(saved, Backup(1, "sinamics-v20", now), drive.params, drive.profile)
         labels = [w.label for w in writes]
         assert (
-            labels.index("P10")
-            < labels.index("P304.0")
-            < len(labels) - labels[::-1].index("P10") - 1
+            labels.index("P0010")
+            < labels.index("P0304.0")
+            < len(labels) - labels[::-1].index("P0010") - 1
         )
         assert [w.value for w in writes if w.pnu == 10] == [1, 0]
         outcomes = await restore(drive, writes)

@@ -26,17 +26,17 @@ async def test_status_names_the_familys_bits_and_fault() -> None:
     assert meanings[3] == "fault"  # the specification's bits keep their words
     text = get_profile("sinamics-v20").faults[72]
     assert "setpoint fault" in text
-    faults = [line for line in seen.lines() if line.startswith("P947.0")]
-    assert faults == [f"P947.0 (Fault numbers) = 72 ({text})"], seen.lines()
+    faults = [line for line in seen.lines() if line.startswith("r0947.0")]
+    assert faults == [f"r0947.0 (Fault numbers) = 72 ({text})"], seen.lines()
     shown = {p["label"]: p["fault_text"] for p in seen.to_dict()["parameters"]}
-    assert shown["P947.0"] == text and shown["P2110.0"] is None  # no warning
+    assert shown["r0947.0"] == text and shown["r2110.0"] is None  # no warning
 
 
 @pytest.mark.parametrize("profile", ["micromaster440", "sinamics-v20"])
 def test_only_the_fault_number_parameter_gets_a_fault_text(
     profile: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """P2 (drive state) = 1 is "ready to run", not fault 1 (overcurrent): `uss status` puts
+    """r0002 (drive state) = 1 is "ready to run", not fault 1 (overcurrent): `uss status` puts
     fault texts beside the fault number parameter (r0947) only."""
     with SimulatorThread([(3, profile, None)]) as sim:
         argv = ["status", "3", "--port", sim.paths[0], "--baud", str(sim.baud)]
@@ -45,9 +45,9 @@ def test_only_the_fault_number_parameter_gets_a_fault_text(
         text, _ = capsys.readouterr()
         assert main([*argv, "--json"]) == 0
         data = json.loads(capsys.readouterr().out)
-    state = [line for line in text.splitlines() if line.startswith("P2 ")]
-    assert state == ["P2 (Drive state) = 1 [ready to run]"], text
+    state = [line for line in text.splitlines() if line.startswith("r0002 ")]
+    assert state == ["r0002 (Drive state) = 1 [ready to run]"], text
     assert get_profile(profile).faults[1] == "overcurrent"  # the text it must not get
     shown = {p["label"]: p for p in data["parameters"]}
-    assert shown["P2"]["value"] == 1 and shown["P2"]["fault_text"] is None
-    assert shown["P947.0"]["value"] == 0 and shown["P947.0"]["fault_text"] is None
+    assert shown["r0002"]["value"] == 1 and shown["r0002"]["fault_text"] is None
+    assert shown["r0947.0"]["value"] == 0 and shown["r0947.0"]["fault_text"] is None

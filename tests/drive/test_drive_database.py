@@ -209,3 +209,17 @@ def test_extends_an_unknown_profile_names_the_file(tmp_path: Path) -> None:
     path = _write(tmp_path, '[profile]\nname = "x"\nextends = "genric"\n')
     with pytest.raises(ConfigError, match=r"\.toml: \[profile\] field 'extends': unknown profile"):
         load_database(path)
+
+
+def test_names_style_is_the_familys_and_a_bad_one_is_refused(tmp_path: Path) -> None:
+    from pyuss.drive.database import NameStyle
+
+    assert load_profile("sinamics-g120").profile.names is NameStyle.SIEMENS  # from _siemens
+    assert load_profile("micromaster4").profile.names is NameStyle.SIEMENS
+    assert load_profile("nord").profile.names is NameStyle.PROJECT
+    assert load_profile("generic").profile.names is NameStyle.PROJECT
+    path = _write(tmp_path, HEAD + 'names = "manual"\n')
+    with pytest.raises(ConfigError) as info:
+        load_database(path)
+    message = str(info.value)
+    assert str(path) in message and "'names'" in message and "'siemens'" in message

@@ -34,3 +34,13 @@ def test_values_not_understood_are_named(text: str) -> None:
 def test_at_least_one_value() -> None:
     with pytest.raises(ConfigError):
         parse_values([])
+
+
+def test_parameters_take_every_spelling() -> None:
+    values = parse_values(["r0021", "P0947[1]", "21.0", "p1120"])
+    assert [(v.pnu, v.index) for v in values] == [(21, None), (947, 1), (21, 0), (1120, None)]
+    with pytest.raises(ConfigError) as info:
+        parse_values(["P21x"])
+    assert str(info.value) == (
+        "value 'P21x' is not a parameter number (for example r0021, P1120, 21 or 947.1)"
+    )

@@ -541,7 +541,7 @@ def test_a_known_profile_shows_values_typed_and_scaled(
     assert main(["monitor", "--read", str(path), "--profile", "micromaster4"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert "read P1120 -> P1120 = 10.00 s (41200000h)" in lines[0]
-    assert "read P2 -> P2 = 1 [READY] (0001h)" in lines[1]
+    assert "read r0002 -> r0002 = 1 [READY] (0001h)" in lines[1]
     assert main(["monitor", "--read", str(path)]) == 0  # no profile: the words as numbers
     assert "P1120 = 1092616192 (41200000h)" in capsys.readouterr().out
     known = ProfileValues("micromaster4")

@@ -154,3 +154,14 @@ def test_a_value_between_steps_or_beyond_the_limits_is_refused_before_sending() 
         meta.raw(50.005)
     with pytest.raises(ConfigError, match="above the maximum"):
         meta.raw(601.0)
+
+
+def test_gateway_parameters_take_every_spelling_and_keep_their_keys() -> None:
+    text = GOOD.replace('[107, "4.2", { pnu = 52, poll = 5.0 }]', '["r0021", "P0947[1]", "p52"]')
+    drive = parse_config(tomllib.loads(text + "[modbus]\n")).plant.buses[0].drives[0]
+    assert [(p.pnu, p.index) for p in drive.parameters] == [(21, None), (947, 1), (52, None)]
+    assert [p.key for p in drive.parameters] == ["P21", "P947.1", "P52"]  # stable keys
+    bad = GOOD.replace('"4.2"', '"P21x"')
+    with pytest.raises(ConfigError) as error:
+        parse_config(tomllib.loads(bad + "[modbus]\n"))
+    assert "bus[0].drive[0].parameters[1]: 'P21x' is not a parameter number" in str(error.value)

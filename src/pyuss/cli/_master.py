@@ -28,6 +28,7 @@ from pyuss.cli._help import plain
 from pyuss.cli._output import error_object, failure, print_json
 from pyuss.errors import ConfigError, UssError
 from pyuss.master.scheduler import Master, Mode
+from pyuss.params.names import parse_param_name
 from pyuss.profiles import profile_names
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import MAX_ADDRESS
@@ -190,23 +191,9 @@ def address(text: str) -> int:
 
 
 def parameter(text: str) -> tuple[int, int | None]:
-    """``PNU`` or ``PNU.INDEX`` (also ``PNU[INDEX]``, an optional ``P``/``r`` prefix)."""
-    raw = text.strip()
-    body = raw[1:] if raw[:1] in ("P", "p", "r", "R") else raw
-    body = body.replace("[", ".").rstrip("]")
-    pnu_text, dot, index_text = body.partition(".")
-    try:
-        pnu = int(pnu_text, 0)
-        index = int(index_text, 0) if dot else None
-    except ValueError:
-        raise ConfigError(f"{text!r} is not PNU or PNU.INDEX (for example 52 or 2010.1)") from None
-    if pnu < 0 or (index is not None and not 0 <= index <= 254):
-        raise ConfigError(f"{text!r}: PNU must be >= 0 and INDEX 0..254")
-    return pnu, index
-
-
-def label(pnu: int, index: int | None) -> str:
-    return f"P{pnu}" + ("" if index is None else f".{index}")
+    """``PNU`` or ``PNU.INDEX`` in any spelling of `pyuss.params.names` (``r0021``, ``P1120``,
+    ``21``, ``947.1``, ``r0947[1]``); `ConfigError` naming the text if it is none."""
+    return parse_param_name(text)
 
 
 def master_options(args: argparse.Namespace) -> dict[str, Any]:

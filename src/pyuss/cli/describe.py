@@ -22,14 +22,17 @@ from pyuss.cli._master import (
     integer,
     open_master,
     outcome,
+    parameter,
     run,
 )
+from pyuss.errors import ConfigError
 from pyuss.master.description import Description
+from pyuss.params.model import param_label
 
 
 def register(subparsers: Any) -> None:
     parser = command(subparsers, "describe", "read the description of a parameter", __doc__)
-    parser.add_argument("pnu", type=integer, metavar="PNU", help="parameter number, e.g. 52")
+    parser.add_argument("pnu", metavar="PNU", help="parameter number, e.g. 52, P1120 or r0052")
     parser.add_argument(
         "--element",
         type=integer,
@@ -40,8 +43,19 @@ def register(subparsers: Any) -> None:
     finish(parser, main, unnamed=True)
 
 
-def render(description: Description) -> str:
-    lines = [f"P{description.pnu} ({description.style.value} description)"]
+def whole_parameter(text: str) -> int:
+    """A parameter number in any spelling (`pyuss.params.names`), without an index: a
+    description is the whole parameter's."""
+    pnu, index = parameter(text)
+    if index is not None:
+        raise ConfigError(f"{text!r}: a description is the whole parameter's, give no index")
+    return pnu
+
+
+def render(description: Description, label: str | None = None) -> str:
+    """The description as printed; ``label``: the parameter as the drive's family writes it."""
+    name = label if label is not None else param_label(description.pnu)
+    lines = [f"{name} ({description.style.value} description)"]
     summary = [
         ("name", description.name),
         ("data type", description.data_type),
@@ -66,17 +80,18 @@ def render(description: Description) -> str:
 
 def main(args: argparse.Namespace) -> int:
     async def body() -> int:
+        pnu = whole_parameter(args.pnu)
         async with open_master(args) as bus:
             drive = bus.drive(args.address)
             description = await outcome(
                 args,
-                {"address": args.address, "pnu": args.pnu},
-                drive.read_description(args.pnu, args.element),
+                {"address": args.address, "pnu": pnu},
+                drive.read_description(pnu, args.element),
             )
         if description is None:
             return EXIT_FAILED
         data = {"address": args.address, **description.to_dict()}
-        emit(args, data, render(description))
+        emit(args, data, render(description, drive.params.label(pnu)))
         return EXIT_OK
 
     return run("describe", args, body)

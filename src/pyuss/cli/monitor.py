@@ -469,6 +469,9 @@ class ProfileValues:
         except TelegramError:  # words that do not fit its type: shown as they are
             return None
 
+    def name(self, pnu: int) -> str:
+        return self.book.label(pnu)
+
     def process(self, request: bool, number: int, word: int) -> str | None:
         pnus = self.setpoints if request else self.actuals
         pnu = pnus[number - 3] if 0 <= number - 3 < len(pnus) else 0

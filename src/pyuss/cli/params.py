@@ -101,7 +101,7 @@ def limits(info: ParamInfo) -> str:
 
 def row(info: ParamInfo, value: str | None = None) -> str:
     shape = info.type_name + (f"[{info.array}]" if info.array is not None else "")
-    text = f"P{info.pnu:<6} {info.name:<18} {shape:<12} {info.access.value:<9}"
+    text = f"{info.label():<7} {info.name:<18} {shape:<12} {info.access.value:<9}"
     span = limits(info)
     text += f" {span + (' ' + info.unit if info.unit and span else ''):<20}"
     if not span and info.unit:

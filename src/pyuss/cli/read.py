@@ -30,7 +30,6 @@ from pyuss.cli._master import (
     emit,
     error_dict,
     finish,
-    label,
     open_master,
     parameter,
     run,
@@ -66,7 +65,8 @@ def main(args: argparse.Namespace) -> int:
             drive = bus.drive(args.address)
             _params.setup(args, drive)
             for pnu, index in wanted:
-                progress = _params.Progress(f"P{pnu}", enabled=None if not args.json else False)
+                label = drive.params.label(pnu, index)
+                progress = _params.Progress(label, enabled=None if not args.json else False)
                 try:
                     if args.raw:
                         info = drive.params.get(pnu)
@@ -81,19 +81,23 @@ def main(args: argparse.Namespace) -> int:
                 except UssError as exc:
                     failed = True
                     results.append(
-                        {"pnu": pnu, "index": index, "label": label(pnu, index)}
-                        | {"error": error_dict(exc)}
+                        {"pnu": pnu, "index": index, "label": label} | {"error": error_dict(exc)}
                     )
                     if not args.json:
-                        print(f"{label(pnu, index)}: {exc}", file=sys.stderr)
+                        print(f"{label}: {exc}", file=sys.stderr)
                     continue
                 finally:
                     progress.close()
                 if reading is None:
                     results.append(
-                        {"pnu": pnu, "index": index, "label": label(pnu, index), "raw": list(words)}
+                        {
+                            "pnu": pnu,
+                            "index": index,
+                            "label": label,
+                            "raw": list(words),
+                        }
                     )
-                    text = f"{label(pnu, index)} = {words_text(words)}"
+                    text = f"{label} = {words_text(words)}"
                 else:
                     results.append(reading.to_dict())
                     text = reading.text()

@@ -34,7 +34,6 @@ from pyuss.cli._master import (
     command,
     emit,
     finish,
-    label,
     open_master,
     outcome,
     parameter,
@@ -179,8 +178,8 @@ def main(args: argparse.Namespace) -> int:
         if how == READ_BACK:
             stored += " (its answer was lost; read back: the drive holds it)"
         if args.raw:
-            data.update(label=label(pnu, index), raw=list(answer.words))
-            text = f"{label(pnu, index)} = {words_text(answer.words)}{stored}"
+            data.update(label=drive.params.label(pnu, index), raw=list(answer.words))
+            text = f"{drive.params.label(pnu, index)} = {words_text(answer.words)}{stored}"
         else:
             data.update(answer.to_dict())
             text = answer.text() + stored

@@ -31,10 +31,12 @@ from pathlib import Path
 from typing import Any
 
 from pyuss.atomicfile import check_target, write_atomically
+from pyuss.drive.database import NameStyle
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
 from pyuss.master.drive import Drive
 from pyuss.master.errors import JobTimeout
-from pyuss.params.model import ParamInfo, Reading, param_label
+from pyuss.params.model import ParamInfo, Reading
+from pyuss.params.names import param_name, parse_param_name
 from pyuss.params.values import format_value, json_value
 from pyuss.protocol.pkw import ErrorNumber
 from pyuss.userfile import parse_json, parse_toml, read_text
@@ -83,10 +85,13 @@ class Entry:
     """``rw``, ``ro`` or ``protected`` where known."""
     error: dict[str, Any] | None = None
     """Why it could not be read: ``message`` and, for a refusal, ``number`` and ``meaning``."""
+    names: NameStyle = field(default=NameStyle.PROJECT, compare=False)
+    """How the drive's family writes parameter numbers (`label`; not in the files)."""
 
     @property
     def label(self) -> str:
-        return param_label(self.pnu, self.index)
+        """``P1120``, ``r0021``, ``P947.0``: as the drive's family writes it."""
+        return param_name(self.pnu, self.index, style=self.names, read_only=self.access == "ro")
 
     @property
     def ok(self) -> bool:
@@ -116,6 +121,7 @@ class Entry:
             json_value(reading.value),
             reading.words,
             info.access.value if info else "",
+            names=info.names if info else NameStyle.PROJECT,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -143,11 +149,18 @@ class Entry:
         """An entry read from a file; `ConfigError` naming the entry and field if broken."""
         if not isinstance(data, dict):
             raise ConfigError(f"{where}: not a table of fields")
-        pnu = data.get("pnu")
+        pnu, index = data.get("pnu"), data.get("index")
+        if isinstance(pnu, str):  # written by hand: r0021, P947.1 (pyuss.params.names)
+            try:
+                pnu, named = parse_param_name(pnu)
+            except ConfigError as exc:
+                raise ConfigError(f"{where}: field 'pnu': {exc}") from None
+            if named is not None and index is not None and index != named:
+                raise ConfigError(f"{where}: field 'pnu' names index {named}, 'index' {index}")
+            index = named if named is not None else index
         if isinstance(pnu, bool) or not isinstance(pnu, int) or pnu < 0:
             raise ConfigError(f"{where}: field 'pnu' must be a parameter number")
-        where = f"{where} (P{pnu})"
-        index = data.get("index")
+        where = f"{where} ({param_name(pnu)})"
         if index is not None and (
             isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= 254
         ):
@@ -181,6 +194,17 @@ class Entry:
             data.get("access", ""),
             error,
         )
+
+
+def _names_of(profile: str) -> NameStyle:
+    """How the family of the built-in ``profile`` writes parameter numbers (the project's
+    style for a profile this pyuss does not know)."""
+    from pyuss.profiles import get_profile
+
+    try:
+        return get_profile(profile).database().profile.names
+    except ConfigError:
+        return NameStyle.PROJECT
 
 
 def raw_text(words: Sequence[int]) -> str:
@@ -285,7 +309,11 @@ class Backup:
                 f"{where}: the header counts {count} parameters, the file holds {len(params)} "
                 "(cut short or edited by hand?)"
             )
-        entries = [Entry.from_dict(p, f"{where}: parameter {n}") for n, p in enumerate(params, 1)]
+        style = _names_of(data["profile"])
+        entries = [
+            replace(Entry.from_dict(p, f"{where}: parameter {n}"), names=style)
+            for n, p in enumerate(params, 1)
+        ]
         seen: set[tuple[int, int | None]] = set()
         for entry in entries:
             if (entry.pnu, entry.index) in seen:
@@ -296,7 +324,10 @@ class Backup:
             data["profile"],
             entries,
             data.get("date", ""),
-            [Entry.from_dict(p, f"{where}: identity {n}") for n, p in enumerate(ident, 1)],
+            [
+                replace(Entry.from_dict(p, f"{where}: identity {n}"), names=style)
+                for n, p in enumerate(ident, 1)
+            ],
             data.get("port", ""),
             where,
         )
@@ -344,7 +375,7 @@ async def read_parameters(
     silent = 0
     for done, (pnu, index) in enumerate(wanted):
         if progress is not None:
-            progress(done, len(wanted), param_label(pnu, index))
+            progress(done, len(wanted), drive.params.label(pnu, index))
         try:
             reading = await drive.read_param(pnu, index)
         except ConfigError:
@@ -363,6 +394,7 @@ async def read_parameters(
                     info.type_name if info else None,
                     access=info.access.value if info else "",
                     error=error_dict(exc),
+                    names=drive.params.names,
                 )
             )
             continue
@@ -385,7 +417,7 @@ async def scan(drive: Drive, pnus: Iterable[int], *, progress: Progress | None =
     found = []
     for done, pnu in enumerate(candidates):
         if progress is not None:
-            progress(done, len(candidates), f"P{pnu}?")
+            progress(done, len(candidates), f"{drive.params.label(pnu)}?")
         if pnu in drive.params:
             found.append(pnu)
             continue

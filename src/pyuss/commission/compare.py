@@ -74,7 +74,8 @@ class Difference:
 
     @property
     def label(self) -> str:
-        return param_label(self.pnu, self.index)
+        entry = self.right or self.left
+        return entry.label if entry is not None else param_label(self.pnu, self.index)
 
     @property
     def name(self) -> str:
@@ -156,7 +157,7 @@ class Write:
 
     @property
     def label(self) -> str:
-        return param_label(self.pnu, self.index)
+        return param_label(self.pnu, self.index, self.info)
 
     def text(self) -> str:
         name = f" ({self.info.name})" if self.info is not None else ""

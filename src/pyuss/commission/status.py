@@ -17,7 +17,6 @@ from typing import Any
 from pyuss.commission.backup import Entry, read_parameters
 from pyuss.master.drive import Drive
 from pyuss.master.process import DriveStatus, state_of
-from pyuss.params.model import param_label
 from pyuss.protocol.pzd import STATUS_BITS, describe_bits, raw16_to_percent
 
 __all__ = ["Look", "fault_texts", "look", "reference_value", "warning_texts"]
@@ -155,9 +154,9 @@ async def look(drive: Drive, *, timeout: float | None = None) -> Look:
         drive.address,
         word,
         texts=fault_texts(drive),
-        fault_label=param_label(fault.pnu, fault.index) if fault else "",
+        fault_label=drive.params.label(fault.pnu, fault.index) if fault else "",
         warnings=warning_texts(drive),
-        warning_label=param_label(warning.pnu, warning.index) if warning else "",
+        warning_label=drive.params.label(warning.pnu, warning.index) if warning else "",
         family_bits={bit: text for bit, text in drive.profile.status_bits.items() if bit >= 11},
     )
     if status is not None and status.actual:

@@ -39,6 +39,7 @@ from pyuss.datalog.values import Kind, Quantity
 from pyuss.drive.datatypes import Value
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
 from pyuss.params import ParamInfo, format_value
+from pyuss.params.names import param_name
 from pyuss.points import Drive, DrivePoints, DriveStatus, NoWriteAuthority
 from pyuss.protocol.pzd import STATUS_BITS
 
@@ -202,9 +203,9 @@ class DataLogger:
             elif quantity.kind is Kind.BIT:
                 names.append(f"bit {quantity.bit} {STATUS_BITS[quantity.bit][0]}")
             else:
-                label = f"P{quantity.pnu}" + (
-                    "" if quantity.index is None else f".{quantity.index}"
-                )
+                # the project's spelling whatever the family's: a log appended to keeps its
+                # columns
+                label = param_name(quantity.pnu, quantity.index)
                 param = self.drive.params.get(quantity.pnu)
                 if param is not None:
                     label += f" {param.name}" + (f" [{param.unit}]" if param.unit else "")

@@ -7,7 +7,8 @@
   parameter; further words raw, or scaled by the parameter the file maps them to;
 - a status bit's name (``ready``, ``fault``, ``operation_enabled``, ``in_tolerance``, ...:
   the names of `pyuss.protocol.pzd.StatusWord` in any case, or ``bit3``): 1 or 0;
-- a parameter: ``P52``, ``P4.2`` (element 2 of array P4), also ``r52`` or ``52``: its value,
+- a parameter: ``P52``, ``P4.2`` (element 2 of array P4), in any spelling of
+  `pyuss.params.names` (``r0052``, ``52``, ``P0004[2]``): its value,
   typed and scaled by what the drive's parameter book knows of it (`pyuss.params`: the
   profile's file, the drive's own description), in its unit; a word of bits (V2, such as the
   control and status word displays r0054 and r0052) in hex; the unsigned word the drive sent
@@ -22,6 +23,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from pyuss.errors import ConfigError
+from pyuss.params.names import parse_param_name
 from pyuss.protocol.pzd import StatusWord
 
 __all__ = ["Kind", "Quantity", "parse_values"]
@@ -40,7 +42,6 @@ _BITS: dict[str, int] = {
     for flag in StatusWord
     if flag.name is not None and not flag.name.startswith("DEVICE")
 }
-_PARAM = re.compile(r"^[PpRr]?(\d+)(?:[.\[](\d+)\]?)?$")
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,15 +82,15 @@ def parse_values(texts: Sequence[str]) -> list[Quantity]:
         if bit and int(bit.group(1)) <= 15:
             out.append(Quantity(Kind.BIT, word, bit=int(bit.group(1))))
             continue
-        match = _PARAM.match(word)
-        if match is None:
+        if word[:1].isdigit() or (word[:1] in "PpRr" and word[1:2].isdigit()):
+            try:
+                pnu, index = parse_param_name(word)
+            except ConfigError as exc:
+                raise ConfigError(f"value {exc}") from None
+        else:
             raise ConfigError(
                 f"value {text!r}: use status, state, actual, a status bit ({_bit_names()}, "
-                "bit0..bit15) or a parameter such as P52 or P4.2"
+                "bit0..bit15) or a parameter such as P52, r0021 or P4.2"
             )
-        pnu = int(match.group(1))
-        index = int(match.group(2)) if match.group(2) is not None else None
-        if index is not None and not 0 <= index <= 254:
-            raise ConfigError(f"value {text!r}: the index must be 0..254")
         out.append(Quantity(Kind.PARAMETER, word, pnu=pnu, index=index))
     return out

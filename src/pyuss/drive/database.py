@@ -84,6 +84,17 @@ class DescriptionStyle(enum.Enum):
     """Elements 1, 2, 5, 6: attribute, info, minimum, maximum (Baumueller manual 2.2.1)."""
 
 
+class NameStyle(enum.Enum):
+    """How a family's documents write a parameter number (``[profile]`` key ``names``);
+    `pyuss.params.names` writes and reads them."""
+
+    PROJECT = "pyuss"
+    """``P21``, ``P947.0``: a P before the number as it is (the generic profile, NORD)."""
+    SIEMENS = "siemens"
+    """``r0021`` for a read-only parameter, ``P1120`` for a writable one, four digits at
+    least, as the MICROMASTER 4 and SINAMICS parameter lists and panels write them."""
+
+
 class DisplayFormat(enum.IntEnum):
     """Display format code of the Baumueller attribute bits 8..11 (Baumueller manual 2.2.1)."""
 
@@ -337,6 +348,8 @@ class ProfileInfo:
     """A parameter whose bit ``write_enable_bit`` must be 1 for any interface but the drive's
     own to change parameters (Baumueller 126 "source de communication", Baumueller manual 1.5)."""
     write_enable_bit: int = 0
+    names: NameStyle = NameStyle.PROJECT
+    """How the family's documents write parameter numbers (``P21`` or ``r0021``/``P1120``)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -609,6 +622,7 @@ _PROFILE_KEYS = {
     "protected_level",
     "write_enable",
     "write_enable_bit",
+    "names",
     "remove",
 }
 _PARAM_KEYS = {
@@ -772,10 +786,11 @@ def _profile(data: dict[str, Any], source: str, sources: str) -> ProfileInfo:
         write_enable=enable_ref,
         write_enable_bit=enable_bit,
         protected_level=protected_level,
+        names=_choice(NameStyle, data.get("names", "pyuss"), where, "names"),
     )
 
 
-_E = TypeVar("_E", Access, DescriptionStyle)
+_E = TypeVar("_E", Access, DescriptionStyle, NameStyle)
 
 
 def _choice(kind: type[_E], value: object, where: _Where, name: str) -> _E:

@@ -253,11 +253,11 @@ class Drive:
         if info is None or index is None:
             return
         if info.array is None:
-            raise ConfigError(f"P{pnu} ({info.name}) is not an array: give no index")
+            raise ConfigError(f"{info.label()} ({info.name}) is not an array: give no index")
         span = self.params.indices(info)
         if index not in span:
             raise ConfigError(
-                f"P{pnu} ({info.name}) has {info.array} element(s): index "
+                f"{info.label()} ({info.name}) has {info.array} element(s): index "
                 f"{span.start}..{span.stop - 1}, not {index}"
             )
 
@@ -477,11 +477,11 @@ class Drive:
             return Reading(pnu, index, None, answer, typed)
         if info.array is not None and index is None:
             raise ConfigError(
-                f"P{pnu} ({info.name}) is an array: give the element's index "
+                f"{info.label()} ({info.name}) is an array: give the element's index "
                 f"({self.params.index_base}..{self.params.index_base + info.array - 1})"
             )
         if info.read_only:
-            raise ValueRefused(f"P{pnu} ({info.name}) is read-only")
+            raise ValueRefused(f"{info.label()} ({info.name}) is read-only")
         words = encode(info, value, index)
         dword = len(words) == 2 and not info.dtype.is_string
         answer = await self.write_raw(

@@ -61,6 +61,16 @@ class ValueText(Protocol):
         """PZD``number`` (3 and up) of a request (a setpoint) or an answer (an actual value)."""
         ...
 
+    def name(self, pnu: int) -> str | None:
+        """Parameter ``pnu`` as the device family's documents write it (``r0021``)."""
+        ...
+
+
+def _name(param: int, known: ValueText | None) -> str:
+    """``P21``, or the family's spelling where the profile gives one."""
+    named = None if known is None else known.name(param)
+    return named if named is not None else f"P{param}"
+
 
 def _value(
     pkw: Pkw, double: bool, pnu: int = 0, index: int | None = None, known: ValueText | None = None
@@ -108,7 +118,7 @@ def job_text(pkw: Pkw, page_size: int | None = None, known: ValueText | None = N
     ``known``: the values typed by the device profile."""
     rid = RequestId(pkw.id)
     param = parameter_number(pkw.pnu, pkw.index, page_size)
-    p, sub = f"P{param}", _sub(pkw)
+    p, sub = _name(param, known), _sub(pkw)
     if rid is RequestId.NO_JOB:
         return "no job"
     if rid is RequestId.READ_VALUE:
@@ -140,7 +150,7 @@ def answer_text(pkw: Pkw, page_size: int | None = None, known: ValueText | None 
     `job_text`)."""
     aid = ResponseId(pkw.id)
     param = parameter_number(pkw.pnu, pkw.index, page_size)
-    p, sub = f"P{param}", _sub(pkw)
+    p, sub = _name(param, known), _sub(pkw)
     double = aid in (
         ResponseId.VALUE_DWORD,
         ResponseId.ARRAY_DWORD,

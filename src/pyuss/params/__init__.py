@@ -8,6 +8,8 @@
 - `pyuss.params.values`: words <-> typed values (float, signed/unsigned 8/16/32, scaled,
   texts), parsing a user's text with refusals before anything is sent (`ValueRefused`), and
   formatting (``10.00 s``).
+- `pyuss.params.names`: parameter numbers as the family's documents write them (``r0021``,
+  ``P1120``, ``P947.0``) and read in any spelling (``r21``, ``P0021``, ``21[0]``).
 
 `pyuss.master.Drive.read` / ``write`` convert through the drive's book (``Drive.params``);
 ``read_raw`` / ``write_raw`` give the words. See docs/master.md ("Values") and

@@ -28,13 +28,22 @@ from __future__ import annotations
 import enum
 import json
 from collections.abc import Iterable, Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from pyuss.atomicfile import write_atomically
-from pyuss.drive.database import ParameterDatabase, load_database
+from pyuss.drive.database import NameStyle, ParameterDatabase, load_database
 from pyuss.errors import ConfigError
-from pyuss.params.model import DescriptionLike, ParamInfo, Source, from_description, from_parameter
+from pyuss.params.model import (
+    DescriptionLike,
+    ParamInfo,
+    Source,
+    from_description,
+    from_parameter,
+    param_label,
+)
+from pyuss.params.names import param_name, parse_param_name
 from pyuss.profiles import Profile
 from pyuss.protocol.pkw import RequestId
 from pyuss.userfile import parse_json, read_text
@@ -67,8 +76,11 @@ class ParamBook:
         profile: str = "",
         describe: Describe = Describe.AUTO,
         drive_describes: bool = False,
+        names: NameStyle = NameStyle.PROJECT,
     ) -> None:
         self.profile = profile
+        self.names = names
+        """How the drive's family writes parameter numbers (`label`, `pyuss.params.names`)."""
         """Name of the profile whose file the book started from ('' for none)."""
         self.index_base = index_base
         """The first array index of the drive (C 3.2 counts from 1; MICROMASTER 4 from 0)."""
@@ -91,8 +103,9 @@ class ParamBook:
         options.setdefault(
             "drive_describes", int(RequestId.READ_PBE_ELEMENT) in profile.request_ids
         )
+        options.setdefault("names", db.profile.names)
         return cls(
-            (from_parameter(p) for p in db),
+            (from_parameter(p, names=options["names"]) for p in db),
             index_base=db.profile.index_base,
             profile=profile.name,
             **options,
@@ -102,9 +115,10 @@ class ParamBook:
     def from_database(cls, db: ParameterDatabase, source: Source = Source.PROFILE) -> ParamBook:
         """A book of one parameter file's entries."""
         return cls(
-            (from_parameter(p, source) for p in db),
+            (from_parameter(p, source, db.profile.names) for p in db),
             index_base=db.profile.index_base,
             profile=db.profile.name,
+            names=db.profile.names,
         )
 
     # -- sources -----------------------------------------------------------------------------
@@ -114,14 +128,17 @@ class ParamBook:
         self.user_file = str(path)
 
     def use_database(self, db: ParameterDatabase) -> None:
-        """Take the entries of a parameter database as the user's (highest trust)."""
-        self._user = {p.pnu: from_parameter(p, Source.USER) for p in db}
+        """Take the entries of a parameter database as the user's (highest trust); they are
+        named in the style of the drive's profile, or the file's own for a drive of none."""
+        if not self.profile:
+            self.names = db.profile.names
+        self._user = {p.pnu: from_parameter(p, Source.USER, self.names) for p in db}
 
     def learn(self, description: DescriptionLike) -> ParamInfo | None:
         """Take a description the drive sent (C 6); returns the record it gives, or None when
         the description does not say the data type."""
         pnu = description.pnu
-        info = from_description(description, self._shipped.get(pnu))
+        info = from_description(description, self._shipped.get(pnu), self.names)
         if info is None:
             self._refused.add(pnu)
             return None
@@ -154,6 +171,14 @@ class ParamBook:
         """What is known of ``pnu`` from the most trusted source that knows it, or None."""
         return self._user.get(pnu) or self._live.get(pnu) or self._shipped.get(pnu)
 
+    def label(self, pnu: int, index: int | None = None) -> str:
+        """Parameter ``pnu`` (element ``index``) as the drive's family writes it: ``r0021``,
+        ``P1120``, ``P947.0`` (by its access where known; ``P`` where not)."""
+        info = self.get(pnu)
+        if info is not None:
+            return param_label(pnu, index, info)
+        return param_name(pnu, index, style=self.names)
+
     def __getitem__(self, pnu: int) -> ParamInfo:
         info = self.get(pnu)
         if info is None:
@@ -177,9 +202,11 @@ class ParamBook:
         return len(self.pnus())
 
     def search(self, words: str | Iterable[str] = "") -> list[ParamInfo]:
-        """Parameters whose number or name matches: ``"1120"`` or ``"P1120"`` finds that number
-        (``"11"`` every number starting with 11), other words must all appear in the name, the
-        unit or the documentation (case does not matter). No words: every parameter."""
+        """Parameters whose number or name matches: ``"1120"``, ``"P1120"`` or ``"r0021"`` finds
+        that number (``"11"`` every number starting with 11, ``"r00"`` every one written
+        ``r00..``; an index as in ``"947.1"`` or ``"r0947[1]"`` that number only; any spelling
+        of `pyuss.params.names`), other words must all appear in the name, the unit or the
+        documentation (case does not matter). No words: every parameter."""
         terms = words.split() if isinstance(words, str) else [w for t in words for w in t.split()]
         found = []
         for info in self:
@@ -211,7 +238,7 @@ class ParamBook:
             live = {}
             for item in data.get("parameters", []):
                 info = ParamInfo.from_dict({**item, "source": "drive"})
-                live[info.pnu] = info
+                live[info.pnu] = replace(info, names=self.names)
             refused = {int(p) for p in data.get("no_description", [])}
             described = data.get("descriptions", True)
         except (AttributeError, TypeError, ValueError) as exc:
@@ -262,8 +289,14 @@ def _cache_file(text: str, path: Path) -> dict[str, Any]:
 
 def _matches(info: ParamInfo, term: str) -> bool:
     low = term.casefold()
-    digits = low[1:] if low[:1] in ("p", "r") and low[1:].isdigit() else low
-    if digits.isdigit():
-        return str(info.pnu).startswith(digits)
+    try:
+        pnu, index = parse_param_name(low)
+    except ConfigError:
+        pass
+    else:
+        if index is not None:
+            return info.pnu == pnu
+        digits = low.lstrip("pr")
+        return str(info.pnu).startswith(digits) or f"{info.pnu:04d}".startswith(digits)
     haystack = f"{info.name} {info.unit} {info.doc}".casefold()
     return low in haystack

@@ -20,8 +20,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
-from pyuss.drive.database import Access, Parameter
+from pyuss.drive.database import Access, NameStyle, Parameter
 from pyuss.drive.datatypes import DataType, Value
+from pyuss.params.names import param_name
 
 __all__ = [
     "Access",
@@ -91,6 +92,13 @@ class ParamInfo:
     """The drive keeps it in EEPROM."""
     doc: str = ""
     source: Source = Source.PROFILE
+    names: NameStyle = NameStyle.PROJECT
+    """How the drive's family writes parameter numbers (`label`); not part of `to_dict`."""
+
+    def label(self, index: int | None = None) -> str:
+        """The parameter (element) as the family's documents write it: ``r0021``, ``P1120``,
+        ``P947.0`` (`pyuss.params.names`)."""
+        return param_name(self.pnu, index, style=self.names, read_only=self.read_only)
 
     # -- shape ---------------------------------------------------------------------------
     @property
@@ -231,7 +239,9 @@ class ParamInfo:
             raise ValueError(f"not a parameter record: {exc}") from None
 
 
-def from_parameter(param: Parameter, source: Source = Source.PROFILE) -> ParamInfo:
+def from_parameter(
+    param: Parameter, source: Source = Source.PROFILE, names: NameStyle = NameStyle.PROJECT
+) -> ParamInfo:
     """The record of a parameter-file entry (`pyuss.drive.database.Parameter`).
 
     Keys the file format may carry beyond the simulator's own (``level``: access level,
@@ -268,6 +278,7 @@ def from_parameter(param: Parameter, source: Source = Source.PROFILE) -> ParamIn
         store=param.store,
         doc=param.doc,
         source=source,
+        names=names,
     )
 
 
@@ -314,12 +325,15 @@ def _scaling_of(desc: DescriptionLike) -> float | None:
     return None if factor == 1.0 else factor
 
 
-def from_description(desc: DescriptionLike, known: ParamInfo | None = None) -> ParamInfo | None:
+def from_description(
+    desc: DescriptionLike, known: ParamInfo | None = None, names: NameStyle | None = None
+) -> ParamInfo | None:
     """The record of a description the drive sent (C 6), over what ``known`` says.
 
     The drive's own data win: type, name, array size, scaling, access and limits. Unit, texts,
     default, access level and documentation (which the description does not carry) stay from
-    ``known`` while its type agrees. None when the description does not say the data type.
+    ``known`` while its type agrees. ``names``: the family's naming style (default: that of
+    ``known``). None when the description does not say the data type.
     """
     code = desc.type_code
     try:
@@ -329,6 +343,7 @@ def from_description(desc: DescriptionLike, known: ParamInfo | None = None) -> P
     if dtype is None:
         return None
     same = known is not None and known.dtype is dtype
+    style = names if names is not None else known.names if known is not None else NameStyle.PROJECT
     base = known if same and known is not None else ParamInfo(desc.pnu, f"P{desc.pnu}", dtype)
     if not same and known is not None:
         base = replace(base, name=known.name, unit=known.unit, level=known.level, doc=known.doc)
@@ -368,13 +383,15 @@ def from_description(desc: DescriptionLike, known: ParamInfo | None = None) -> P
         decimals=base.decimals if scaling == base.scaling else None,
         active=bool(desc.active) if desc.active is not None else base.active,
         source=Source.DRIVE,
+        names=style,
     )
 
 
-def param_label(pnu: int, index: int | None = None) -> str:
-    """``P1120``, ``P947.3``, ``P2010.1``: the parameter number as drive manuals write it (a
-    number from 2000 on as the number itself, whatever IND page carries it)."""
-    return f"P{pnu}" if index is None else f"P{pnu}.{index}"
+def param_label(pnu: int, index: int | None = None, info: ParamInfo | None = None) -> str:
+    """``P1120``, ``P947.3``, ``P2010.1``, ``r0021``: the parameter number as the drive's
+    documents write it, by what ``info`` says of it (its family's style and access; without
+    it ``P21``); a number from 2000 on as the number itself, whatever IND page carries it."""
+    return info.label(index) if info is not None else param_name(pnu, index)
 
 
 @dataclass(frozen=True, slots=True)
@@ -393,7 +410,7 @@ class Reading:
 
     @property
     def label(self) -> str:
-        return param_label(self.pnu, self.index)
+        return param_label(self.pnu, self.index, self.info)
 
     def text(self) -> str:
         """``P1120 = 10.00 s (Ramp-up time)``."""

@@ -61,8 +61,8 @@ class ValueRefused(ConfigError):
 
 
 def label(info: ParamInfo, index: int | None = None) -> str:
-    """``P1120`` or ``P947.3``."""
-    return f"P{info.pnu}" if index is None else f"P{info.pnu}.{index}"
+    """``P1120``, ``r0021`` or ``P947.3``: as the drive's family writes it (`ParamInfo.label`)."""
+    return info.label(index)
 
 
 # -- floats ------------------------------------------------------------------------------------

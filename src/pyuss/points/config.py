@@ -196,18 +196,11 @@ class Where:
 
 
 def parse_parameter_spec(text: str) -> tuple[int, int | None]:
-    """``107``, ``P107``, ``r2``, ``4.2`` or ``P4.2`` -> (PNU, index)."""
-    raw = text.strip()
-    body = raw[1:] if raw[:1] in ("P", "p", "r", "R") else raw
-    pnu_text, dot, index_text = body.partition(".")
-    try:
-        pnu = int(pnu_text, 0)
-        index = int(index_text, 0) if dot else None
-    except ValueError:
-        raise ConfigError(f"{text!r} is not PNU or PNU.INDEX (for example 107 or 4.2)") from None
-    if not 0 <= pnu <= 65535 or (index is not None and not 0 <= index <= 254):
-        raise ConfigError(f"{text!r}: PNU must be 0..65535 and INDEX 0..254")
-    return pnu, index
+    """``107``, ``P107``, ``r0002``, ``4.2``, ``P4.2`` or ``r0947[1]`` -> (PNU, index): any
+    spelling of `pyuss.params.names`."""
+    from pyuss.params.names import parse_param_name
+
+    return parse_param_name(text)
 
 
 def _parameter(value: object, where: Where) -> ParameterConfig:

@@ -772,6 +772,7 @@ def _row(info: ParamInfo, index: int | None) -> dict[str, Any]:
         "id": _id(info.pnu, index),
         "pnu": info.pnu,
         "index": index,
+        "label": info.label(index),
         "name": info.name,
         "unit": info.unit,
         "type": info.type_name,
