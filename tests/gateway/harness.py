@@ -29,16 +29,11 @@ from pyuss.points.config import plant_from_flags
 from pyuss.points.endpoint import parse_endpoint
 from pyuss.protocol.layout import Layout
 from pyuss.slave import SlaveEngine
+from support.network import free_port
+from support.waiting import eventually
 
 BAUD = 38400
 LAYOUT = "4,2"
-
-
-def free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port: int = sock.getsockname()[1]
-        return port
 
 
 class Broker:
@@ -364,13 +359,6 @@ async def subscribed(
         finally:
             task.cancel()
             await asyncio.gather(task, return_exceptions=True)
-
-
-async def eventually(check: Any, timeout: float = 10.0) -> None:
-    """Wait until ``check()`` is true (bounded; no timing is asserted)."""
-    async with asyncio.timeout(timeout):
-        while not check():
-            await asyncio.sleep(0.02)
 
 
 def close_to(value: float, expected: float) -> bool:

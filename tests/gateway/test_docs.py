@@ -6,8 +6,8 @@ import re
 import subprocess
 import sys
 
-from conftest import ROOT
-from gateway.harness import free_port
+from support.network import free_port
+from support.paths import ROOT
 
 
 def test_the_worked_example_runs_as_written() -> None:

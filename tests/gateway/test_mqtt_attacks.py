@@ -18,10 +18,11 @@ from typing import Any
 import aiomqtt
 import pytest
 
-from gateway.harness import Broker, MqttClient, eventually, simulated_gateway, subscribed
+from gateway.harness import Broker, MqttClient, simulated_gateway, subscribed
 from pyuss.gateway.mqtt import MqttBusFace
 from pyuss.gateway.run import Gateway
 from pyuss.slave import SlaveEngine
+from support.waiting import eventually
 
 pytestmark = pytest.mark.skipif(
     shutil.which("mosquitto_pub") is None,

@@ -20,11 +20,12 @@ from typing import Any
 import pytest
 from asyncua import Client, ua
 
-from gateway.harness import OpcuaClient, eventually, simulated_gateway
+from gateway.harness import OpcuaClient, simulated_gateway
 from pyuss.gateway.run import Gateway
 from pyuss.protocol.pkw import RequestId
 from pyuss.protocol.telegram import AddressMode, Telegram
 from pyuss.slave import SlaveEngine
+from support.waiting import eventually
 
 NODE_OPCUA = "node-opcua-client@2.182.2"
 
