@@ -337,6 +337,23 @@ class OpcuaClient:
         return result
 
 
+async def mosquitto_pub(
+    broker: Broker, topic: str, payload: bytes | str = b"", *, retain: bool = False
+) -> None:
+    """Publish with QoS 1 through mosquitto_pub (the payload on its standard input); returns
+    once the broker took the message."""
+    data = payload.encode() if isinstance(payload, str) else payload
+    flags = ["-r"] if retain else []
+    process = await asyncio.create_subprocess_exec(
+        *("mosquitto_pub", "-h", "127.0.0.1", "-p", str(broker.port), "-q", "1"),
+        *("-t", topic, *flags, "-s" if data else "-n"),
+        stdin=asyncio.subprocess.PIPE,
+        stderr=asyncio.subprocess.PIPE,
+    )
+    _, error = await process.communicate(data or None)
+    assert process.returncode == 0, error
+
+
 @contextlib.asynccontextmanager
 async def subscribed(
     broker: Broker, *topics: str, on: Callable[[str, bytes], object]
