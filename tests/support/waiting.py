@@ -6,12 +6,15 @@ import asyncio
 from collections.abc import Callable
 
 
-async def eventually(check: Callable[[], object], timeout: float = 15.0) -> None:
-    """Wait (generously) until ``check()`` is true; fail the test if it is not within
-    ``timeout`` seconds (a bound against hanging, not a timing that is asserted)."""
+async def eventually(
+    check: Callable[[], object], timeout: float = 15.0, *, what: str = "condition"
+) -> None:
+    """Wait (generously: a loaded machine) until ``check()`` is true; fail the test, naming
+    ``what`` was awaited, if it is not within ``timeout`` seconds (a bound against hanging,
+    not a timing that is asserted)."""
     loop = asyncio.get_running_loop()
     end = loop.time() + timeout
     while not check():
         if loop.time() > end:
-            raise AssertionError(f"condition not reached within {timeout} s")
-        await asyncio.sleep(0.005)
+            raise AssertionError(f"{what} not reached within {timeout} s")
+        await asyncio.sleep(0.01)
