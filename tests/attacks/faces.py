@@ -76,6 +76,8 @@ class Face:
         raise NotImplementedError
 
     meaningless: ClassVar[dict[str, str]] = {}
+    errors: ClassVar[frozenset[object]] = frozenset()
+    """The face's errors for a request it refuses as bad (`Refused.code`)."""
     """Why a notion of `NOTIONS` has no meaning on the face."""
 
     async def outdated(self, notion: str) -> None:
@@ -129,6 +131,7 @@ def fc16(address: int, *words: int) -> bytes:
 
 class ModbusFace(ClientFace):
     name = "modbus"
+    errors = frozenset({3, "closed"})  # illegal data value; no request: the connection closed
     meaningless: ClassVar[dict[str, str]] = {
         "retained": "Modbus TCP keeps no request for later: nothing is retained",
         "stale": "a Modbus request carries no age: it is answered on its connection or not",
@@ -230,6 +233,7 @@ MQTT_MALFORMED: dict[str, tuple[str, bytes]] = {
 
 class MqttFace(ClientFace):
     name = "mqtt"
+    errors = frozenset({"bad_value"})
     meaningless: ClassVar[dict[str, str]] = {
         "stale": "an MQTT command carries no age (commands queued while the gateway was away"
         " are tests/gateway/test_mqtt_attacks.py's)",
@@ -298,6 +302,9 @@ class MqttFace(ClientFace):
 # -- OPC UA ----------------------------------------------------------------------------------
 class OpcuaFace(ClientFace):
     name = "opcua"
+    errors = frozenset(
+        {"BadTypeMismatch", "BadOutOfRange", "BadInvalidArgument", "BadNodeIdInvalid"}
+    )
     meaningless: ClassVar[dict[str, str]] = {
         "retained": "OPC UA keeps no write for later: nothing is retained",
         "replayed": "an OPC UA write carries no token to replay: each is checked whole anew",
@@ -384,6 +391,7 @@ WEB_MALFORMED: dict[str, str] = {
 
 class WebFace(Face):
     name = "web"
+    errors = frozenset({400})
     meaningless: ClassVar[dict[str, str]] = {
         "retained": "HTTP keeps no request for later: nothing is retained"
     }

@@ -68,6 +68,11 @@ async def refused(request: Awaitable[object]) -> Refused:
     return caught.value
 
 
+def faces_error(face: Face, refusal: Refused) -> None:
+    """The refusal is one of the face's own errors for a bad request."""
+    assert refusal.code in face.errors, (face.name, refusal.code)
+
+
 async def applies(request: Callable[[], Awaitable[object]]) -> None:
     """Run ``request``, or skip the case where it has no meaning on this face."""
     try:
@@ -107,7 +112,7 @@ REFUSED: dict[str, Callable[[Face], Awaitable[object]]] = {
 @pytest.mark.parametrize("case", list(REFUSED))
 async def test_a_refused_request_changes_nothing_on_the_line(face: Face, case: str) -> None:
     async with Watch(face.engine) as watch:
-        await refused(REFUSED[case](face))
+        faces_error(face, await refused(REFUSED[case](face)))
         await watch.unmoved()
     await face.served()
 
@@ -127,8 +132,9 @@ async def test_malformed_input_gets_the_faces_error_and_moves_nothing(
     face: Face, kind: str
 ) -> None:
     async with Watch(face.engine) as watch:
-        with pytest.raises(Refused):
+        with pytest.raises(Refused) as caught:
             await applies(lambda: face.malformed(kind))
+        faces_error(face, caught.value)
         await watch.unmoved()
     await face.served()
 
