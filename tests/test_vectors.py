@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-from conftest import load_vectors, shared_folder
+from support.paths import load_vectors, shared_folder
 
 CITATIONS = {"seed", "section", "source"}
 

@@ -10,7 +10,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import load_vectors
 from pyuss.bass.codec import (
     BassAnswer,
     BassCommand,
@@ -37,6 +36,7 @@ from pyuss.bass.errors import (
     error_meaning,
 )
 from pyuss.errors import DriveRefusal, TelegramError, UssError
+from support.paths import load_vectors
 
 
 def _wire(line: str) -> bytes:

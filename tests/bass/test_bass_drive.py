@@ -11,7 +11,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import load_vectors
 from pyuss.bass.codec import BassAnswer, BassRequest, checksum, decode_answer
 from pyuss.bass.drive import FAULT_TO_BASS, DriveOperatingData, bass_error, drive_ring
 from pyuss.bass.errors import BassErrorNumber, BassRefusal
@@ -26,6 +25,7 @@ from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import ErrorNumber
 from pyuss.slave import JobLatency, SlaveEngine, SlaveServer
+from support.paths import load_vectors
 
 E = BassErrorNumber
 VECTORS = load_vectors("bass")

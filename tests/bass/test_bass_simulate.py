@@ -20,12 +20,12 @@ import pytest
 import serial
 
 from bass.protocol_recording import recorded
-from conftest import load_vectors
 from pyuss.bass.codec import BassAnswer, BassRequest, decode_answer
 from pyuss.bass.master import BassMaster
 from pyuss.cli.main import main
 from pyuss.master import Master, SpontaneousMessage
 from pyuss.transport import PtyPort, open_transport
+from support.paths import load_vectors
 
 TIMEOUT = 20  # generous: real ptys and a second process on a loaded machine
 PORT_OPTIONS = ("--timeout", "5")

@@ -11,12 +11,12 @@ from dataclasses import dataclass
 
 import pytest
 
-from conftest import load_vectors
 from pyuss.bus import BusClientTransport, Fault, FaultKind, FaultPlan, VirtualBus
 from pyuss.protocol.receiver import Event, Received, Receiver
 from pyuss.protocol.telegram import Telegram
 from pyuss.transport import SerialTransport, TcpTransport, Transport, open_transport
 from pyuss.transport.base import Chunk, LineError
+from support.paths import load_vectors
 from transport.helpers import WAIT, byte_ends, flat_errors, joined, read_bytes
 
 BAUD = 19200

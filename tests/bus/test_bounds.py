@@ -13,17 +13,10 @@ import pytest
 from pyuss.bus import BusClientTransport, VirtualBus
 from pyuss.bus.core import EVICT_IDLE, MAX_QUEUE, MAX_SENDERS
 from pyuss.errors import ConfigError
+from support.waiting import eventually
 from transport.helpers import WAIT, joined, read_bytes
 
 BAUD = 9600
-
-
-async def _until(condition: object, what: str) -> None:
-    """Let the event loop run until ``condition()`` holds (generous: a loaded machine)."""
-    deadline = time.monotonic() + WAIT
-    while not condition():  # type: ignore[operator]
-        assert time.monotonic() < deadline, what
-        await asyncio.sleep(0.01)
 
 
 async def _send_and_leave(port: int, size: int) -> None:
@@ -51,11 +44,12 @@ async def test_a_flooding_station_is_bounded_and_its_rest_dropped_when_it_leaves
         bus.on_char.append(watch)
         stats = bus.stats
         await _send_and_leave(raw_port, size)
-        await _until(
+        await eventually(
             lambda: stats.overflow + stats.unsent + stats.chars + bus.queued() == size,
-            "every byte was taken, dropped or sent",
+            WAIT,
+            what="every byte was taken, dropped or sent",
         )
-        await _until(lambda: stats.unsent, "the station left")
+        await eventually(lambda: stats.unsent, WAIT, what="the station left")
         assert most <= MAX_QUEUE
         assert stats.overflow >= size - MAX_QUEUE - stats.chars  # room freed as chars went out
         assert bus.queued() <= 2  # at most what was on the wire as it left
@@ -96,7 +90,9 @@ async def test_idle_raw_connections_never_lock_a_bus_master_out() -> None:
         _, raw_port = await bus.serve_tcp("127.0.0.1", 0)
         host, port = await bus.serve_tcp("127.0.0.1", 0, framed=True)
         idle = [socket.create_connection(("127.0.0.1", raw_port)) for _ in range(MAX_SENDERS)]
-        await _until(lambda: len(bus.stations) == MAX_SENDERS, "every raw station attached")
+        await eventually(
+            lambda: len(bus.stations) == MAX_SENDERS, WAIT, what="every raw station attached"
+        )
         await asyncio.sleep(EVICT_IDLE + 0.1)  # they stay silent
         async with BusClientTransport(host, port, baud=BAUD, name="master") as master:
             assert master.name == "master"
@@ -141,7 +137,7 @@ async def test_an_evicted_raw_station_puts_nothing_more_on_the_line() -> None:
     try:
         _, raw_port = await bus.serve_tcp("127.0.0.1", 0)
         with socket.create_connection(("127.0.0.1", raw_port)) as sock:
-            await _until(lambda: "tcp1" in bus.stations, "attached")
+            await eventually(lambda: "tcp1" in bus.stations, WAIT, what="attached")
             station = bus.stations["tcp1"]
             assert station.evict is not None
             station.evict()

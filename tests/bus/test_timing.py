@@ -8,9 +8,9 @@ import time
 
 import pytest
 
-from conftest import load_vectors
 from pyuss.bus import Recorder, VirtualBus
 from pyuss.transport import SerialTransport
+from support.paths import load_vectors
 from transport.helpers import joined, read_bytes
 
 #: Ideal times are computed, not measured: they agree with n x 11 / baud to float rounding.

@@ -11,12 +11,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import load_vectors
 from pyuss.cli.decode import describe, parse_hex, render
 from pyuss.cli.main import main
 from pyuss.errors import ConfigError
 from pyuss.protocol.layout import MAX_WORDS, PKW_VARIABLE, Layout
 from pyuss.protocol.telegram import AddressMode, Telegram
+from support.paths import load_vectors
 
 VECTORS = load_vectors("uss")["telegrams"]
 BY_NAME = {v["name"]: v for v in VECTORS}

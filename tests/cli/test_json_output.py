@@ -14,10 +14,10 @@ from pathlib import Path
 import pytest
 
 from cli.test_run_output import KEYS as RUN_KEYS
-from master.conftest import SimulatorThread
 from monitor.test_cli import EXCHANGE_KEYS
 from pyuss.cli.main import build_parser, main
 from pyuss.protocol.layout import Layout
+from support.buses import SimulatorThread
 
 ERROR_KEYS = {"type", "message", "exit_code"}
 

@@ -15,10 +15,10 @@ from collections.abc import Iterator
 
 import pytest
 
-from conftest import simulator_pty
-from master.conftest import SimulatorThread
 from pyuss.cli.main import main
 from pyuss.protocol.layout import Layout
+from support.buses import SimulatorThread
+from support.processes import simulator_pty
 
 BAUD = "38400"
 

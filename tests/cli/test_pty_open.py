@@ -12,8 +12,8 @@ from collections.abc import Iterator
 
 import pytest
 
-from conftest import simulator_pty
 from pyuss.master.sync import Master
+from support.processes import simulator_pty
 from transport.helpers import even_8e1, killed_holder, plain_8n1
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux ptys")

@@ -9,9 +9,9 @@ from collections.abc import Iterator
 
 import pytest
 
-from master.conftest import SimulatorThread
 from pyuss.cli.main import main
 from pyuss.protocol.layout import Layout
+from support.buses import SimulatorThread
 
 KEYS = {
     "time",

@@ -15,7 +15,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from conftest import simulator_pty
+from support.processes import simulator_pty
 
 BAUD = "38400"
 """The rate scanned; a pty has none, so the simulator's own does not matter."""

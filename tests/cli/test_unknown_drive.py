@@ -16,7 +16,6 @@ from pathlib import Path
 
 import pytest
 
-from master.conftest import SimulatorThread
 from pyuss.bus import VirtualBus
 from pyuss.cli.main import main
 from pyuss.drive.database import parse_database
@@ -27,6 +26,7 @@ from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import RequestId
 from pyuss.protocol.telegram import AddressMode, Telegram
 from pyuss.slave import SlaveEngine, SlaveServer
+from support.buses import SimulatorThread
 
 BAUD = 38400
 LAYOUT = Layout(4, 6)

@@ -12,10 +12,10 @@ from collections.abc import Callable
 
 import pytest
 
-from master.conftest import SimulatorThread
 from pyuss.bus.core import WireChar
 from pyuss.cli.main import main
 from pyuss.protocol.layout import Layout
+from support.buses import SimulatorThread
 
 GAP = 1.5  # character times: a longer idle gap starts a new telegram
 

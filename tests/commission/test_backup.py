@@ -19,9 +19,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from commission.test_docs import uss
-from params.conftest import Simulator, start, stop
 from pyuss.commission.backup import Backup, Entry, dumps, load, loads
 from pyuss.errors import ConfigError
+from support.typed import Simulator, start, stop
 from test_userfile import bad_files, refuses
 
 USS = [sys.executable, "-m", "pyuss.cli.main"]
@@ -160,7 +160,7 @@ def test_a_backup_killed_half_way_leaves_the_old_file(tmp_path: Path) -> None:
 
 
 def test_scan_finds_the_parameters_no_file_knows(tmp_path: Path) -> None:
-    from params.conftest import TYPES_TOML
+    from support.typed import TYPES_TOML
 
     params = tmp_path / "typed.toml"
     params.write_text(TYPES_TOML, encoding="utf-8")
@@ -287,7 +287,7 @@ def test_a_number_no_parameter_holds_is_refused_naming_the_parameter(
 
 
 def test_descriptions_kept_in_a_cache_file_for_the_next_run(tmp_path: Path) -> None:
-    from params.conftest import TYPES_TOML
+    from support.typed import TYPES_TOML
 
     params = tmp_path / "typed.toml"
     params.write_text(TYPES_TOML, encoding="utf-8")

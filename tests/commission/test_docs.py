@@ -11,8 +11,9 @@ from pathlib import Path
 import pytest
 
 from commission.session import matches, run_step, steps
-from conftest import ROOT, simulator_pty
 from pyuss.cli.main import main
+from support.paths import ROOT
+from support.processes import simulator_pty
 
 PAGE = ROOT / "docs" / "commissioning.md"
 

@@ -7,7 +7,7 @@ import json
 
 from commission.test_backup import mm4, opts  # noqa: F401  (the fixture)
 from commission.test_docs import uss
-from params.conftest import Simulator
+from support.typed import Simulator
 
 
 def test_a_setpoint_in_hz_goes_through_the_reference_parameter(mm4: Simulator) -> None:  # noqa: F811

@@ -6,11 +6,11 @@ import json
 
 import pytest
 
-from master.conftest import SimulatorThread, simulated_bus
 from pyuss.cli.main import main
 from pyuss.commission.status import look
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
+from support.buses import SimulatorThread, simulated_bus
 
 
 async def test_status_names_the_familys_bits_and_fault() -> None:

@@ -6,13 +6,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import load_vectors
 from pyuss.drive.database import Access, builtin_profiles, load_profile, parse_database
 from pyuss.drive.database import Parameter as ParameterSpec
 from pyuss.drive.datatypes import DataType
 from pyuss.drive.faults import DriveErrorNumber, NoWriteAuthority, ParameterFault
 from pyuss.drive.memory import LOCAL, WHOLE_ARRAY, ParameterChange, ParameterMemory
 from pyuss.protocol.pkw import ErrorNumber
+from support.paths import load_vectors
 
 
 def words_of(name: str) -> list[int]:

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import pytest
 
-from conftest import load_vectors
 from pyuss.drive.database import load_database
 from pyuss.drive.faults import DriveErrorNumber, ParameterFault
 from pyuss.drive.memory import ParameterChange
@@ -14,6 +13,7 @@ from pyuss.drive.simulated import SimulatedDrive
 from pyuss.drive.states import DriveState
 from pyuss.drive.store import ParameterStore
 from pyuss.protocol.pzd import ControlWord, StatusWord, join_dword, split_dword
+from support.paths import load_vectors
 
 
 def vector_words(name: str) -> list[int]:

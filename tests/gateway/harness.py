@@ -29,16 +29,11 @@ from pyuss.points.config import plant_from_flags
 from pyuss.points.endpoint import parse_endpoint
 from pyuss.protocol.layout import Layout
 from pyuss.slave import SlaveEngine
+from support.network import free_port
+from support.waiting import eventually
 
 BAUD = 38400
 LAYOUT = "4,2"
-
-
-def free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port: int = sock.getsockname()[1]
-        return port
 
 
 class Broker:
@@ -342,6 +337,23 @@ class OpcuaClient:
         return result
 
 
+async def mosquitto_pub(
+    broker: Broker, topic: str, payload: bytes | str = b"", *, retain: bool = False
+) -> None:
+    """Publish with QoS 1 through mosquitto_pub (the payload on its standard input); returns
+    once the broker took the message."""
+    data = payload.encode() if isinstance(payload, str) else payload
+    flags = ["-r"] if retain else []
+    process = await asyncio.create_subprocess_exec(
+        *("mosquitto_pub", "-h", "127.0.0.1", "-p", str(broker.port), "-q", "1"),
+        *("-t", topic, *flags, "-s" if data else "-n"),
+        stdin=asyncio.subprocess.PIPE,
+        stderr=asyncio.subprocess.PIPE,
+    )
+    _, error = await process.communicate(data or None)
+    assert process.returncode == 0, error
+
+
 @contextlib.asynccontextmanager
 async def subscribed(
     broker: Broker, *topics: str, on: Callable[[str, bytes], object]
@@ -364,13 +376,6 @@ async def subscribed(
         finally:
             task.cancel()
             await asyncio.gather(task, return_exceptions=True)
-
-
-async def eventually(check: Any, timeout: float = 10.0) -> None:
-    """Wait until ``check()`` is true (bounded; no timing is asserted)."""
-    async with asyncio.timeout(timeout):
-        while not check():
-            await asyncio.sleep(0.02)
 
 
 def close_to(value: float, expected: float) -> bool:

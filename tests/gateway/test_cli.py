@@ -15,7 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from gateway.harness import Broker, free_port
+from gateway.harness import Broker
+from support.network import free_port
 from test_userfile import bad_files, refuses
 
 USS = [sys.executable, "-m", "pyuss.cli.main"]

@@ -7,8 +7,8 @@ import re
 import subprocess
 import sys
 
-from conftest import ROOT
-from gateway.harness import free_port
+from support.network import free_port
+from support.paths import ROOT
 
 
 def _example(section: str) -> tuple[str, str]:

@@ -17,9 +17,9 @@ from gateway.harness import (
     OpcuaClient,
     Refused,
     close_to,
-    eventually,
     simulated_gateway,
 )
+from support.waiting import eventually
 
 FACES = ["modbus", "mqtt", "opcua"]
 

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from gateway.harness import ModbusClient, eventually, simulated_gateway
+from gateway.harness import ModbusClient, simulated_gateway
 from pyuss.gateway.registers import (
     EXCEPTIONS,
     DriveRegisters,
@@ -20,6 +20,7 @@ from pyuss.gateway.registers import (
     to_registers,
 )
 from pyuss.points.errors import Failure
+from support.waiting import eventually
 
 
 @given(st.integers(min_value=-(1 << 31), max_value=(1 << 31) - 1), st.sampled_from(WordOrder))

@@ -16,12 +16,13 @@ from collections.abc import AsyncIterator, Sequence
 
 import pytest
 
-from conftest import ROOT
-from gateway.harness import ModbusClient, eventually, simulated_gateway
+from gateway.harness import ModbusClient, simulated_gateway
 from pyuss.errors import ConfigError
 from pyuss.gateway.modbus import ModbusFace
 from pyuss.gateway.run import Gateway
 from pyuss.slave import SlaveEngine
+from support.paths import ROOT
+from support.waiting import eventually
 
 UNIT = 5
 RUNNING = 0x047F

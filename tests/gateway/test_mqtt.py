@@ -13,9 +13,10 @@ from typing import Any
 import aiomqtt
 
 from gateway import ha_schema
-from gateway.harness import Broker, MqttClient, eventually, simulated_gateway, subscribed
+from gateway.harness import Broker, MqttClient, simulated_gateway, subscribed
 from pyuss.gateway.topics import decimals, param_value
 from pyuss.points.parameters import ParamMeta
+from support.waiting import eventually
 
 
 @contextlib.asynccontextmanager

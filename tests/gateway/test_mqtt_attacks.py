@@ -6,7 +6,6 @@ as before) and that a well-behaved client is served afterwards."""
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import json
 import logging
@@ -18,32 +17,16 @@ from typing import Any
 import aiomqtt
 import pytest
 
-from gateway.harness import Broker, MqttClient, eventually, simulated_gateway, subscribed
+from gateway.harness import Broker, MqttClient, mosquitto_pub, simulated_gateway, subscribed
 from pyuss.gateway.mqtt import MqttBusFace
 from pyuss.gateway.run import Gateway
 from pyuss.slave import SlaveEngine
+from support.waiting import eventually
 
 pytestmark = pytest.mark.skipif(
     shutil.which("mosquitto_pub") is None,
     reason="mosquitto_pub is not installed (apt-get install mosquitto-clients)",
 )
-
-
-async def mosquitto_pub(
-    broker: Broker, topic: str, payload: bytes | str = b"", *, retain: bool = False
-) -> None:
-    """Publish with QoS 1 through mosquitto_pub (the payload on its standard input); returns
-    once the broker took the message."""
-    data = payload.encode() if isinstance(payload, str) else payload
-    flags = ["-r"] if retain else []
-    process = await asyncio.create_subprocess_exec(
-        *("mosquitto_pub", "-h", "127.0.0.1", "-p", str(broker.port), "-q", "1"),
-        *("-t", topic, *flags, "-s" if data else "-n"),
-        stdin=asyncio.subprocess.PIPE,
-        stderr=asyncio.subprocess.PIPE,
-    )
-    _, error = await process.communicate(data or None)
-    assert process.returncode == 0, error
 
 
 @contextlib.asynccontextmanager

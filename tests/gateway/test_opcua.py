@@ -9,7 +9,8 @@ from typing import Any
 import pytest
 from asyncua import ua
 
-from gateway.harness import OpcuaClient, eventually, simulated_gateway
+from gateway.harness import OpcuaClient, simulated_gateway
+from support.waiting import eventually
 
 
 async def test_a_client_browses_the_drives_and_reads_units() -> None:

@@ -20,39 +20,21 @@ from typing import Any
 import pytest
 from asyncua import Client, ua
 
-from gateway.harness import OpcuaClient, eventually, simulated_gateway
+from gateway.harness import OpcuaClient, simulated_gateway
 from pyuss.gateway.run import Gateway
-from pyuss.protocol.pkw import RequestId
-from pyuss.protocol.telegram import AddressMode, Telegram
-from pyuss.slave import SlaveEngine
+from support.line import LineRecord
 
 NODE_OPCUA = "node-opcua-client@2.182.2"
 
 
-class LineWatch:
+class LineWatch(LineRecord):
     """The telegrams the gateway sent one simulated drive, from now on: the process data of
     each and the parameter jobs that change something."""
-
-    def __init__(self, engine: SlaveEngine) -> None:
-        self.pzd: list[tuple[int, ...]] = []
-        self.changes: list[Any] = []
-        handle = engine.handle
-
-        def recording(telegram: Telegram, now: float) -> Telegram | None:
-            if telegram.address == engine.address and telegram.mode is AddressMode.NORMAL:
-                net = engine.layout.unpack(telegram.data)
-                self.pzd.append(net.pzd)
-                if net.pkw is not None and RequestId(net.pkw.id).is_change:
-                    self.changes.append(net.pkw)
-            return handle(telegram, now)
-
-        engine.handle = recording  # type: ignore[method-assign]
 
     async def nothing_moved(self) -> None:
         """Some telegrams went out since the watch began (refused requests had their chance
         to show), all with the process data of the first and no changing parameter job."""
-        seen = len(self.pzd)
-        await eventually(lambda: len(self.pzd) >= seen + 3)
+        await self.telegrams()
         assert set(self.pzd) == {self.pzd[0]}, "a refused request changed the process data"
         assert self.changes == [], "a refused request sent a parameter change"
 

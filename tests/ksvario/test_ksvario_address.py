@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import load_vectors
 from pyuss.errors import ConfigError
 from pyuss.ksvario.address import Address, Area, View, channel_area, parse_address
+from support.paths import load_vectors
 
 VECTORS = load_vectors("ksvario")
 

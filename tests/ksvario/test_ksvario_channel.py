@@ -10,7 +10,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import load_vectors
 from pyuss.errors import ConfigError
 from pyuss.ksvario.address import Address
 from pyuss.ksvario.channel import (
@@ -27,6 +26,7 @@ from pyuss.ksvario.channel import (
     encode_value,
     end_result,
 )
+from support.paths import load_vectors
 
 VECTORS = load_vectors("ksvario")
 

@@ -10,7 +10,6 @@ from typing import Any
 
 import pytest
 
-from conftest import load_vectors
 from pyuss.errors import ConfigError, UssTimeout
 from pyuss.ksvario.address import Address, View
 from pyuss.ksvario.channel import ByteOrder, DataFormat, DisplayWord, Result
@@ -19,6 +18,7 @@ from pyuss.ksvario.errors import ChannelResultError
 from pyuss.ksvario.master import CyclicLink, KsVarioMaster, LocalLink
 from pyuss.ksvario.modules import Configuration
 from pyuss.ksvario.userprm import FailSafe, UserParameters
+from support.paths import load_vectors
 
 VECTORS = load_vectors("ksvario")
 

@@ -7,11 +7,11 @@ import re
 
 import pytest
 
-from conftest import load_vectors, shared_folder
 from pyuss.errors import ConfigError
 from pyuss.ksvario.diag import IDENT_NUMBER, Diagnosis
 from pyuss.ksvario.gsd import emit_gsd, parse_gsd
 from pyuss.ksvario.modules import MODULES
+from support.paths import load_vectors, shared_folder
 
 
 def _document_gsd() -> str:

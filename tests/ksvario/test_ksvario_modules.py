@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import pytest
 
-from conftest import load_vectors
 from pyuss.errors import ConfigError
 from pyuss.ksvario.modules import (
     MODULES,
@@ -15,6 +14,7 @@ from pyuss.ksvario.modules import (
     module,
     parse_modules,
 )
+from support.paths import load_vectors
 
 VECTORS = load_vectors("ksvario")
 

@@ -11,7 +11,6 @@ from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
-from master.conftest import SimulatorThread, line_telegrams, simulated_bus
 from pyuss.bus import VirtualBus
 from pyuss.errors import ConfigError, DriveRefusal
 from pyuss.master import Drive, Master
@@ -23,6 +22,7 @@ from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.pkw import Pkw, RequestId, ResponseId
 from pyuss.protocol.telegram import AddressMode, Telegram
 from pyuss.protocol.timing import char_time
+from support.buses import SimulatorThread, line_telegrams, simulated_bus
 
 VARIABLE = Layout(PKW_VARIABLE, 3)
 

@@ -7,12 +7,12 @@ import asyncio
 
 import pytest
 
-from conftest import load_vectors
-from master.conftest import line_telegrams, simulated_bus
 from pyuss.errors import DriveRefusal
 from pyuss.master import ACYCLIC, SpontaneousMessage
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
+from support.buses import line_telegrams, simulated_bus
+from support.paths import load_vectors
 
 VECTORS = {v["name"]: bytes.fromhex(v["hex"]) for v in load_vectors("uss")["telegrams"]}
 

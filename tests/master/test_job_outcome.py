@@ -12,7 +12,6 @@ import time
 
 import pytest
 
-from master.conftest import line_telegrams, scripted_bus, simulated_bus
 from pyuss.bus import Fault, FaultPlan, VirtualBus
 from pyuss.master import JobOutcome, JobTimeout
 from pyuss.master.jobs import Job, ParameterChannel
@@ -20,6 +19,7 @@ from pyuss.master.verify import read_request
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw, RequestId, ResponseId, TextIndex
+from support.buses import line_telegrams, scripted_bus, simulated_bus
 
 GENERIC = get_profile("generic")
 LAYOUT = Layout(3, 2)

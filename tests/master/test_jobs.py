@@ -8,7 +8,6 @@ import contextlib
 
 import pytest
 
-from master.conftest import scripted_bus
 from pyuss.errors import ConfigError, DriveRefusal
 from pyuss.master import JobTimeout, NoWriteAuthority, SpontaneousMessage
 from pyuss.master.jobs import Job, ParameterChannel
@@ -17,6 +16,7 @@ from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw, RequestId, ResponseId, pwe_float
 from pyuss.protocol.pzd import ControlWord
+from support.buses import scripted_bus
 
 GENERIC = get_profile("generic")
 

@@ -8,7 +8,6 @@ import itertools
 
 import pytest
 
-from master.conftest import simulated_bus
 from pyuss.errors import ConfigError
 from pyuss.master import ACYCLIC
 from pyuss.master.profile import answers, resolve_profile, response_limit
@@ -16,6 +15,7 @@ from pyuss.profiles import get_profile
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.pkw import Pkw, RequestId, ResponseId
 from pyuss.protocol.timing import char_time
+from support.buses import simulated_bus
 
 
 async def test_micromaster4_reaches_parameters_from_2000_on_through_the_page_bits() -> None:

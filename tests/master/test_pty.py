@@ -10,7 +10,6 @@ from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
-from master.conftest import SimulatorThread, eventually, line_telegrams
 from pyuss.bus import Fault, FaultPlan
 from pyuss.errors import TransportError, UssTimeout
 from pyuss.master import Master, SpontaneousMessage
@@ -18,6 +17,8 @@ from pyuss.master import sync as sync_master
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.layout import Layout
 from pyuss.slave import JobLatency
+from support.buses import SimulatorThread, line_telegrams
+from support.waiting import eventually
 
 L32 = Layout(3, 2)
 L42 = Layout(4, 2)

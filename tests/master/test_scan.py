@@ -7,7 +7,6 @@ import dataclasses
 
 import pytest
 
-from master.conftest import simulated_bus
 from pyuss.bus import VirtualBus
 from pyuss.errors import ConfigError, TransportError
 from pyuss.master import Master
@@ -16,6 +15,7 @@ from pyuss.profiles import get_profile
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.telegram import AddressMode, Telegram
 from pyuss.transport.url import open_transport
+from support.buses import simulated_bus
 
 
 def test_probe_layouts_one_per_length_profile_first() -> None:

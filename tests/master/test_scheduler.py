@@ -9,7 +9,6 @@ import json
 
 import pytest
 
-from master.conftest import eventually, line_telegrams, scripted_bus
 from master.scripted import ScriptedSlave
 from pyuss.bus import Fault, FaultPlan, VirtualBus
 from pyuss.errors import ConfigError, UssTimeout
@@ -18,6 +17,8 @@ from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import AddressMode
 from pyuss.protocol.timing import char_time, start_pause
+from support.buses import line_telegrams, scripted_bus
+from support.waiting import eventually
 
 
 async def test_poll_list_with_repeated_entries_is_followed_in_order() -> None:

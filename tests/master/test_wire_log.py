@@ -7,8 +7,8 @@ import logging
 
 import pytest
 
-from master.conftest import simulated_bus
 from pyuss.protocol.layout import Layout
+from support.buses import simulated_bus
 
 
 async def test_raw_frames_are_logged_on_pyuss_wire(caplog: pytest.LogCaptureFixture) -> None:

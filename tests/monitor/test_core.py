@@ -9,7 +9,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import load_vectors
 from monitor.traffic import REQ_52, Wire, answer, request
 from pyuss.errors import ConfigError
 from pyuss.monitor import Direction, Exchange, LayoutBook, LayoutSource, Monitor, Problem
@@ -18,6 +17,7 @@ from pyuss.protocol import Layout, Pkw, Receiver, Telegram
 from pyuss.protocol.layout import PKW_VARIABLE
 from pyuss.protocol.timing import char_time, start_pause
 from pyuss.transport.base import LineError
+from support.paths import load_vectors
 
 VECTORS = load_vectors("uss")["telegrams"]
 BAUD = 19200

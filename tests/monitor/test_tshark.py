@@ -11,11 +11,11 @@ from pathlib import Path
 
 import pytest
 
-from conftest import load_vectors
 from monitor.traffic import REQ_52, Wire
 from pyuss.monitor import LayoutBook, Monitor, dissector_source, open_writer
 from pyuss.protocol import Layout, Pkw, Telegram
 from pyuss.protocol.layout import PKW_VARIABLE
+from support.paths import load_vectors
 
 TSHARK = shutil.which("tshark")
 IN_CI = bool(os.environ.get("CI"))

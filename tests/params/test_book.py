@@ -8,7 +8,6 @@ from pathlib import Path
 
 import pytest
 
-from conftest import ROOT
 from pyuss.drive.database import Access, DescriptionStyle, load_profile, parse_database
 from pyuss.drive.datatypes import DataType
 from pyuss.drive.description import description
@@ -16,6 +15,7 @@ from pyuss.errors import ConfigError
 from pyuss.master.description import decode_description
 from pyuss.params import Describe, ParamBook, Source
 from pyuss.profiles import get_profile
+from support.paths import ROOT
 
 
 def drive_description(text: str, pnu: int):  # type: ignore[no-untyped-def]

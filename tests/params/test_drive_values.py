@@ -8,11 +8,11 @@ from pathlib import Path
 
 import pytest
 
-from params.conftest import Simulator
 from pyuss.errors import ConfigError, DriveRefusal
 from pyuss.master import sync
 from pyuss.params import Describe, ParamBook, Source
 from pyuss.protocol.pkw import pwe_float
+from support.typed import Simulator
 
 EXPECTED = {
     800: -7,

@@ -10,7 +10,6 @@ from collections.abc import AsyncIterator
 
 import pytest
 
-from gateway.harness import eventually
 from pyuss.bus import VirtualBus
 from pyuss.errors import ConfigError
 from pyuss.points import (
@@ -23,6 +22,7 @@ from pyuss.points import (
     simulated_drives,
 )
 from pyuss.protocol.layout import Layout
+from support.waiting import eventually
 
 BAUD = 38400
 DRIVES = [(1, "generic", Layout(4, 2)), (4, "baumueller", Layout(3, 2))]

@@ -6,13 +6,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import load_vectors
 from pyuss.drive import SimulatedDrive
 from pyuss.errors import ConfigError
 from pyuss.profiles import PROFILES, BroadcastForm, baumueller, get_profile, profile_names
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.timing import char_time
 from pyuss.slave import SlaveEngine
+from support.paths import load_vectors
 
 MM4 = get_profile("micromaster4")
 

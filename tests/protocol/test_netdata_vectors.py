@@ -7,7 +7,6 @@ from typing import Any
 
 import pytest
 
-from conftest import load_vectors
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.layout import PKW_VARIABLE, Layout, NetData
 from pyuss.protocol.pkw import (
@@ -22,6 +21,7 @@ from pyuss.protocol.pkw import (
 )
 from pyuss.protocol.pzd import ControlWord, StatusWord, raw16_to_percent
 from pyuss.protocol.telegram import AddressMode, Telegram
+from support.paths import load_vectors
 
 VECTORS = load_vectors("uss")["telegrams"]
 BY_NAME = {v["name"]: v for v in VECTORS}

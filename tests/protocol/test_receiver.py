@@ -7,13 +7,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import load_vectors
 from pyuss.errors import ConfigError
 from pyuss.protocol.diagnostics import Diagnostics, ErrorStatus
 from pyuss.protocol.receiver import Event, FaultKind, Received, ReceiveFault, Receiver
 from pyuss.protocol.telegram import AddressMode, Telegram, bcc
 from pyuss.protocol.timing import char_time, residual_time_max
 from pyuss.transport.base import LineError
+from support.paths import load_vectors
 
 from .wire import Wire
 

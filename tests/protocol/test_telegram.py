@@ -10,7 +10,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import load_vectors
 from pyuss.errors import TelegramError
 from pyuss.protocol.telegram import (
     MAX_NET_BYTES,
@@ -25,6 +24,7 @@ from pyuss.protocol.telegram import (
     bcc,
     parse_adr,
 )
+from support.paths import load_vectors
 
 VECTORS = load_vectors("uss")
 TELEGRAMS = VECTORS["telegrams"]

@@ -7,7 +7,6 @@ from typing import Any
 
 import pytest
 
-from conftest import load_vectors
 from pyuss.errors import ConfigError
 from pyuss.protocol.timing import (
     BAUD_RATES,
@@ -21,6 +20,7 @@ from pyuss.protocol.timing import (
     start_pause,
     transmit_time,
 )
+from support.paths import load_vectors
 
 TIMING = load_vectors("uss")["timing"]
 MS = 1000.0

@@ -6,9 +6,9 @@ from typing import Any
 
 import pytest
 
-from conftest import load_vectors
 from pyuss.protocol.layout import Layout
 from slave.harness import PtySim, engine, frame
+from support.paths import load_vectors
 
 VECTORS: dict[str, Any] = {t["name"]: t for t in load_vectors("uss")["telegrams"]}
 

@@ -14,7 +14,7 @@ import aiohttp
 
 from pyuss.web.backend import Backend
 from pyuss.web.server import MAX_BODY, MAX_DEPTH, MAX_JSON
-from web.conftest import serve
+from support.web import serve
 
 WRITE = {"X-Pyuss": "1"}
 JSON = {**WRITE, "Content-Type": "application/json"}

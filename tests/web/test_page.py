@@ -13,7 +13,7 @@ import pytest
 from pyuss.drive.states import DriveState
 from pyuss.monitor.capture import read_capture
 from pyuss.profiles import profile_names
-from web.conftest import Running, open_page, screenshot
+from support.web import Running, open_page, screenshot
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 

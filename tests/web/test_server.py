@@ -16,7 +16,7 @@ import pytest
 from pyuss.errors import ConfigError
 from pyuss.web.backend import Backend
 from pyuss.web.server import WebServer
-from web.conftest import serve
+from support.web import serve
 
 WRITE = {"X-Pyuss": "1"}
 

@@ -1,10 +1,11 @@
-"""Fixtures for master tests: a virtual bus with scripted slaves."""
+"""Buses for master tests: scripted slaves or simulated drives on a virtual bus behind a
+started master, and simulated drives in a thread of their own reached through ptys."""
 
 from __future__ import annotations
 
 import asyncio
 import threading
-from collections.abc import AsyncIterator, Callable, Sequence
+from collections.abc import AsyncIterator, Sequence
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
 from typing import Any
@@ -114,16 +115,6 @@ async def simulated_bus(
             yield SimSetup(bus, master, engines, recorder)
     finally:
         await bus.close()
-
-
-async def eventually(predicate: Callable[[], bool], timeout: float = 15.0) -> None:
-    """Wait (generously) until ``predicate`` holds."""
-    loop = asyncio.get_running_loop()
-    end = loop.time() + timeout
-    while not predicate():
-        if loop.time() > end:
-            raise AssertionError("condition not reached in time")
-        await asyncio.sleep(0.005)
 
 
 class SimulatorThread:

@@ -1,0 +1,20 @@
+"""The one way the tests wait: for a condition, bounded, never asserting how long it took."""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+
+
+async def eventually(
+    check: Callable[[], object], timeout: float = 15.0, *, what: str = "condition"
+) -> None:
+    """Wait (generously: a loaded machine) until ``check()`` is true; fail the test, naming
+    ``what`` was awaited, if it is not within ``timeout`` seconds (a bound against hanging,
+    not a timing that is asserted)."""
+    loop = asyncio.get_running_loop()
+    end = loop.time() + timeout
+    while not check():
+        if loop.time() > end:
+            raise AssertionError(f"{what} not reached within {timeout} s")
+        await asyncio.sleep(0.01)
