@@ -18,9 +18,10 @@ from jsonschema import Draft202012Validator
 from conftest import ROOT
 from gateway import contract
 from gateway.contract import KINDS, SCHEMAS, check, load, problems
-from gateway.harness import Broker, MqttClient, eventually, simulated_gateway, subscribed
+from gateway.harness import Broker, MqttClient, simulated_gateway, subscribed
 from gateway.test_mqtt_attacks import drives, mosquitto_pub
 from pyuss.gateway.topics import COMMAND_NAMES, CONTRACT_VERSION, VERSIONS
+from support.waiting import eventually
 
 
 def test_the_schema_files_ship_in_the_package_and_are_draft_2020_12() -> None:
