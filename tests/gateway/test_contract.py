@@ -15,12 +15,12 @@ from typing import Any
 import pytest
 from jsonschema import Draft202012Validator
 
-from conftest import ROOT
 from gateway import contract
 from gateway.contract import KINDS, SCHEMAS, check, load, problems
 from gateway.harness import Broker, MqttClient, simulated_gateway, subscribed
 from gateway.test_mqtt_attacks import drives, mosquitto_pub
 from pyuss.gateway.topics import COMMAND_NAMES, CONTRACT_VERSION, VERSIONS
+from support.paths import ROOT
 from support.waiting import eventually
 
 

@@ -14,7 +14,6 @@ from pathlib import Path
 
 import pytest
 
-from conftest import ROOT
 from gateway import dummyface
 from gateway.test_cli import USS, first_line, start, stop
 from pyuss.bus import VirtualBus
@@ -24,6 +23,7 @@ from pyuss.gateway.config import parse_config
 from pyuss.gateway.extras import Library, MissingExtra
 from pyuss.gateway.faces import FaceSpec, Flag, faces, register, unregister
 from pyuss.gateway.run import Gateway
+from support.paths import ROOT
 
 TESTS = ROOT / "tests"
 PLANT = {"bus": [{"port": "bus://simulated:1", "baud": 38400, "drive": [{"address": 5}]}]}
