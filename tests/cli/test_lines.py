@@ -20,6 +20,7 @@ import pytest
 from conftest import ROOT, simulator_pty
 from gateway.harness import free_port
 from pyuss.cli.main import main
+from test_userfile import bad_files, refuses
 
 USS = [sys.executable, "-m", "pyuss.cli.main"]
 BAUD = 38400
@@ -77,6 +78,10 @@ def test_a_drive_by_name_and_a_line_by_name(sim: str, capsys: pytest.CaptureFixt
     assert (code, out.strip()) == (0, "P18 = 7 (Fixed setpoint)"), err
     code, out, err = uss(capsys, "status", "pump", "--json")
     assert code == 0 and json.loads(out)["address"] == 6, err
+    code, out, err = uss(capsys, "describe", "conveyor", "52")
+    assert code == 0 and out.startswith("P52 "), err
+    code, out, err = uss(capsys, "mirror", "pump", "--count", "1", "--json")
+    assert code == 0, err
     code, out, err = uss(capsys, "scan", "--address", "5", "--json")
     assert code == 0, err
     assert [(f["address"], f["baud"]) for f in json.loads(out)] == [(5, BAUD)]
@@ -183,6 +188,18 @@ def test_no_file_is_todays_behaviour_and_a_bad_file_one_line(
     assert code == 1 and "nonexistent-port" in err
 
 
+def test_a_file_no_reader_takes_is_one_line_naming_it(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    folder = tmp_path / "bad"
+    folder.mkdir()
+    for path, message in bad_files(folder, "the configuration"):
+        code, out, err = uss(capsys, "read", "conveyor", "52", "--config", str(path))
+        assert (code, out) == (2, ""), path
+        (text,) = err.splitlines()
+        assert refuses(text.removeprefix("uss read: "), path, message), text
+
+
 def test_params_and_diff_take_a_drive_by_name(
     sim: str, capsys: pytest.CaptureFixture[str], place: Path
 ) -> None:
@@ -270,6 +287,13 @@ def test_uss_web_shows_the_drives_of_the_files_line(sim: str) -> None:
         (5, "generic", "3,2"),
         (6, "generic", "3,2"),
     ]
+    process, lines = serve(["web", "--address", "pump", "--listen", "127.0.0.1:0"], "http://")
+    try:
+        bus = page_bus(lines[-1])
+    finally:
+        assert stop(process) == 0
+    drives = bus["drives"]
+    assert isinstance(drives, list) and [d["address"] for d in drives] == [6]
 
 
 def test_uss_web_profile_auto_asks_each_drive_its_family() -> None:
