@@ -58,8 +58,13 @@ TOP_KEYS = ("bus", "modbus", "mqtt", "opcua", "web")
 def candidates() -> list[Path]:
     """Where the file is looked for without ``--config`` or ``USS_CONFIG``, in order."""
     config_home = os.environ.get("XDG_CONFIG_HOME") or ""
-    base = Path(config_home) if config_home.strip() else Path.home() / ".config"
-    return [Path(FILE_NAME), base / "pyuss" / FILE_NAME]
+    if config_home.strip():
+        return [Path(FILE_NAME), Path(config_home) / "pyuss" / FILE_NAME]
+    try:
+        home = Path.home()
+    except RuntimeError:  # no HOME and no user entry: no configuration directory
+        return [Path(FILE_NAME)]
+    return [Path(FILE_NAME), home / ".config" / "pyuss" / FILE_NAME]
 
 
 def find(explicit: str | None = None) -> Path | None:

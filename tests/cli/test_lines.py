@@ -133,6 +133,19 @@ def test_the_order_of_the_files(
     assert code == 2 and "no drive named 'in-env'" in err
 
 
+def test_without_xdg_config_home_the_file_is_in_the_home_folder(
+    sim: str, capsys: pytest.CaptureFixture[str], place: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv("XDG_CONFIG_HOME")
+    monkeypatch.setenv("HOME", str(place.parent))
+    code, _, err = uss(capsys, "read", "in-home", "52")
+    assert code == 2 and f"{place.parent}/.config/pyuss/uss.toml" in err  # where it looked
+    folder = place.parent / ".config" / "pyuss"
+    folder.mkdir(parents=True)
+    (folder / "uss.toml").write_text(line("home", sim, (5, "in-home")))
+    assert uss(capsys, "read", "in-home", "52")[0] == 0
+
+
 def test_unknown_and_ambiguous_names_are_refused_with_the_files_names(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
