@@ -83,8 +83,8 @@ def find(explicit: str | None = None) -> Path | None:
 
 
 def looked_in() -> str:
-    """The places looked in, for a message saying that no file was found."""
-    return ", ".join(str(p) for p in candidates()) + f" (or --config FILE, {ENVIRONMENT})"
+    """Where the file was looked for, for a message saying that none was found."""
+    return "looked for " + ", ".join([f"${ENVIRONMENT}", *(str(p) for p in candidates())])
 
 
 @dataclass(frozen=True, slots=True)

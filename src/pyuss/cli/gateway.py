@@ -102,7 +102,7 @@ def build_config(args: argparse.Namespace) -> Any:
         found = find()  # USS_CONFIG, ./uss.toml, ~/.config/pyuss/uss.toml
         if found is None:
             raise ConfigError(
-                f"--port: give a port URL, or --config FILE (no configuration file found in "
+                f"--port: give a port URL, or --config FILE (no configuration file found: "
                 f"{looked_in()})"
             )
         path = str(found)
