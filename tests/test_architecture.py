@@ -41,10 +41,12 @@ ALLOWED: dict[str, set[str]] = {
     "datalog": {"protocol", "drive", "params", "points"},
     # the gateway's faces over the drive model
     "gateway": {"protocol", "transport", "bus", "drive", "profiles", "params", "points"},
-    # the uss command wires every part to the command line
+    # the uss command wires every part to the command line; pyuss.lines (the module of the
+    # configuration file of lines and drives, over pyuss.points.config) serves it alone
     "cli": {
         "protocol", "transport", "bus", "drive", "profiles", "slave", "monitor", "params",
         "master", "bass", "ksvario", "commission", "points", "web", "datalog", "gateway",
+        "lines",
     },
 }  # fmt: skip
 FACES = ("web", "datalog", "gateway")

@@ -27,6 +27,7 @@ from typing import Any, TypeVar
 from pyuss.cli._help import plain
 from pyuss.cli._output import error_object, failure, print_json
 from pyuss.errors import ConfigError, UssError
+from pyuss.lines import ENVIRONMENT, LineFile, Target, find, is_address, load, looked_in
 from pyuss.master.scheduler import Master, Mode
 from pyuss.params.names import parse_param_name
 from pyuss.profiles import profile_names
@@ -59,17 +60,20 @@ def add_options(
     is of unknown kind (``args.profile`` None; `UNNAMED_HELP`), else ``generic``."""
     parser.add_argument(
         "--port",
-        required=True,
         metavar="URL",
         help="the line to the drives: a serial port (/dev/ttyUSB0, COM3), a pty (/dev/pts/7), "
         "tcp://HOST:PORT (serial-to-Ethernet converter) or bus://HOST:PORT (uss bus); "
-        "adapter options in the query, e.g. /dev/ttyUSB0?rs485=rts&echo=1 (docs/transport.md)",
+        "adapter options in the query, e.g. /dev/ttyUSB0?rs485=rts&echo=1 (docs/transport.md); "
+        "default: the line's in the configuration file",
     )
+    add_line_options(parser)
     rates = ", ".join(map(str, BAUD_RATES))
+    parser.set_defaults(
+        default_baud="9600" if lists else 9600, default_profile=None if unnamed else "generic"
+    )
     if lists:
         parser.add_argument(
             "--baud",
-            default="9600",
             metavar="LIST",
             help=f"baud rates to try, e.g. 9600,19200, or all: {rates} (USS specification "
             "B 2.4; default 9600)",
@@ -78,12 +82,10 @@ def add_options(
         parser.add_argument(
             "--baud",
             type=integer,
-            default=9600,
             help=f"baud rate of the line: {rates} (USS specification B 2.4; default 9600)",
         )
     parser.add_argument(
         "--profile",
-        default=None if unnamed else "generic",
         metavar="NAME",
         help="the drive family, which sets parameter numbering, response delay, error texts "
         f"and default layout: {', '.join(profile_names())}; auto: ask the drive which family "
@@ -153,9 +155,10 @@ def command(subparsers: Any, name: str, summary: str, doc: str | None) -> argpar
     if name != "scan":
         parser.add_argument(
             "address",
-            type=address,
+            type=drive_address,
             metavar="ADDRESS",
-            help="the drive's bus address, 0..31 (USS specification A 4.3)",
+            help="the drive's bus address, 0..31 (USS specification A 4.3), or its name in the "
+            "configuration file (docs/lines.md)",
         )
     return parser
 
@@ -179,7 +182,111 @@ def finish(
     (``unnamed``: see `add_options`)."""
     add_options(parser, lists=parser.prog.endswith(" scan"), unnamed=unnamed)
     parser.epilog = EPILOG
-    parser.set_defaults(func=func)
+    name = parser.prog.rsplit(" ", 1)[-1]
+
+    def resolved(args: argparse.Namespace) -> int:
+        try:
+            use_lines(args, None if name == "scan" else args.address)
+        except ConfigError as exc:
+            report(name, args, exc, EXIT_USAGE)
+            return EXIT_USAGE
+        return func(args)
+
+    parser.set_defaults(func=resolved)
+
+
+def add_line_options(parser: argparse.ArgumentParser) -> None:
+    """``--config FILE`` and ``--line NAME``: the lines and drives of a configuration file
+    (`pyuss.lines`)."""
+    parser.add_argument(
+        "--config",
+        metavar="FILE",
+        help=f"the configuration file of lines and drives (default: ${ENVIRONMENT}, ./uss.toml, "
+        "then ~/.config/pyuss/uss.toml; docs/lines.md)",
+    )
+    parser.add_argument(
+        "--line",
+        metavar="NAME",
+        help="the line of the configuration file to use: its port, baud, profile and layout "
+        "(default: the drive's line, or the file's only line)",
+    )
+
+
+def use_lines(args: argparse.Namespace, drive: int | str | None) -> None:
+    """Fill ``--port``, ``--baud``, ``--profile`` and ``--layout`` where not given from the
+    configuration file's line (`pyuss.lines`), and ``args.address`` with the address of
+    ``drive`` (a drive's name or number; None: the command takes no drive); then the
+    defaults of the options. The file is read only when it is needed: ``--config`` or
+    ``--line`` given, a drive given by name, or no ``--port``. `ConfigError` for a bad file,
+    an unknown or ambiguous name, and no port at all."""
+    named = isinstance(drive, str) and not is_address(drive)
+    if args.config is not None or args.line is not None or named or args.port is None:
+        target = find_target(args, None if drive is None else str(drive))
+        if target is not None:
+            if named:  # a number is checked as an address below
+                args.address = target.address
+            line = target.line
+            scan = isinstance(args.default_baud, str)  # uss scan: lists of rates and layouts
+            if line is not None:
+                args.port = args.port or line.port
+                if args.baud is None:
+                    args.baud = str(line.baud) if scan else line.baud
+            if args.profile is None:
+                args.profile = target.profile
+            if args.layout is None and target.layout is not None:
+                args.layout = [target.layout] if scan else target.layout
+    if args.port is None:
+        raise ConfigError(
+            "--port: give the line's port URL, or name the line in a configuration file "
+            f"(none found: {looked_in()})"
+        )
+    if drive is not None and isinstance(args.address, str):
+        try:
+            args.address = address(args.address)
+        except argparse.ArgumentTypeError as exc:
+            raise ConfigError(str(exc)) from None
+    if args.baud is None:
+        args.baud = args.default_baud
+    if args.profile is None:
+        args.profile = args.default_profile
+
+
+def names_drive(args: argparse.Namespace, word: str) -> bool:
+    """Whether ``word`` is the name of a drive in the configuration file (on ``--line`` when
+    given), for the commands whose first word may be a drive or something else."""
+    if is_address(word):
+        return False
+    path = find(args.config)
+    if path is None:
+        return False
+    lines = load(path)
+    line = lines.line(args.line) if args.line is not None else None
+    return bool(lines.drives_named(word, line))
+
+
+def find_target(args: argparse.Namespace, drive: str | None) -> Target | None:
+    """The line and drive the configuration file gives ``args`` (None: no file found, and
+    none needed)."""
+    lines = line_file(args, drive)
+    return (
+        None if lines is None else lines.target(args.line, drive, port_given=args.port is not None)
+    )
+
+
+def line_file(args: argparse.Namespace, drive: str | None) -> LineFile | None:
+    """The configuration file (``--config``, else as `pyuss.lines.find` finds it); None when
+    there is none and neither ``--line`` nor ``drive``, a name, needs one."""
+    path = find(args.config)
+    if path is None:
+        if args.line is not None:
+            raise ConfigError(f"--line {args.line}: no configuration file found ({looked_in()})")
+        if drive is not None and not is_address(drive):
+            raise ConfigError(
+                f"{drive!r} is no address 0..{MAX_ADDRESS}, and no configuration file names "
+                f"drives ({looked_in()})"
+            )
+        return None
+    return load(path)
 
 
 def address(text: str) -> int:
@@ -188,6 +295,12 @@ def address(text: str) -> int:
     if not 0 <= value <= MAX_ADDRESS:
         raise argparse.ArgumentTypeError(f"address {value} is not 0..{MAX_ADDRESS}")
     return value
+
+
+def drive_address(text: str) -> int | str:
+    """A slave address 0..31, or a drive's name in the configuration file (argparse type;
+    the name is looked up by `use_lines`)."""
+    return address(text) if is_address(text) else text
 
 
 def parameter(text: str) -> tuple[int, int | None]:

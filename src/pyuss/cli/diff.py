@@ -9,6 +9,7 @@ code 0 when the sets agree, 1 when they differ (as diff does), 2 for a file that
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 from pyuss.cli import _params
@@ -17,14 +18,16 @@ from pyuss.cli._master import (
     EXIT_FAILED,
     EXIT_OK,
     add_options,
-    address,
     emit,
+    names_drive,
     open_master,
     run,
+    use_lines,
 )
 from pyuss.commission import backup as backups
 from pyuss.commission.compare import compare
 from pyuss.errors import ConfigError
+from pyuss.lines import is_address
 from pyuss.params.book import ParamBook
 from pyuss.profiles import get_profile
 
@@ -58,13 +61,10 @@ def main(args: argparse.Namespace) -> int:
     async def body() -> int:
         right = backups.load(args.right)
         book: ParamBook | None
-        if args.left.isdigit() or args.left.lower().startswith("0x"):
-            try:
-                where = address(args.left)
-            except argparse.ArgumentTypeError as exc:
-                raise ConfigError(str(exc)) from None
-            if not args.port:
-                raise ConfigError("comparing with a drive needs --port URL")
+        if is_address(args.left) or (not Path(args.left).exists() and names_drive(args, args.left)):
+            args.address = args.left
+            use_lines(args, args.left)
+            where = args.address
             async with open_master(args) as bus:
                 drive = bus.drive(where)
                 _params.setup(args, drive)

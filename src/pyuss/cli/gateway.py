@@ -1,7 +1,9 @@
 """Serve USS drives to the plant on Modbus TCP, MQTT and OPC UA, until stopped.
 
 The plant comes from a configuration file (``--config plant.toml``: buses, drives, faces; see
-docs/gateway.md) or, for one bus, from flags (``--port URL --address 5 --address 6``). The
+docs/gateway.md) or, for one bus, from flags (``--port URL --address 5 --address 6``); with
+neither, from the file the other commands read (``USS_CONFIG``, ``./uss.toml``,
+``~/.config/pyuss/uss.toml``: docs/lines.md). The
 faces are named by their addresses: ``--modbus 127.0.0.1:5020``,
 ``--mqtt mqtt://127.0.0.1:1883``, ``--opcua opc.tcp://127.0.0.1:4840`` (with a configuration
 file, these replace the address of that face or add it). Listening faces bind to the host
@@ -40,7 +42,12 @@ def register(subparsers: Any) -> None:
         description=plain(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--config", metavar="FILE", help="the plant's configuration (TOML)")
+    parser.add_argument(
+        "--config",
+        metavar="FILE",
+        help="the plant's configuration (TOML; default without --port: $USS_CONFIG, ./uss.toml, "
+        "then ~/.config/pyuss/uss.toml)",
+    )
     one = parser.add_argument_group("one bus without a configuration file")
     one.add_argument("--port", metavar="URL", help="serial port or URL (/dev/ttyUSB0, bus://...)")
     one.add_argument(
@@ -87,15 +94,23 @@ def build_config(args: argparse.Namespace) -> Any:
     """The `GatewayConfig` the arguments ask for; `ConfigError` naming the flag or key."""
     from pyuss.gateway.config import GatewayConfig, load_config
     from pyuss.gateway.faces import faces
+    from pyuss.lines import find, looked_in
     from pyuss.points.config import plant_from_flags
 
-    if args.config is not None:
+    path = args.config
+    if path is None and args.port is None:
+        found = find()  # USS_CONFIG, ./uss.toml, ~/.config/pyuss/uss.toml
+        if found is None:
+            raise ConfigError(
+                f"--port: give a port URL, or --config FILE (no configuration file found: "
+                f"{looked_in()})"
+            )
+        path = str(found)
+    if path is not None:
         if args.port is not None or args.address or args.parameter:
             raise ConfigError("--config: give the buses in the file, not with --port/--address")
-        config = load_config(args.config)
+        config = load_config(path)
     else:
-        if args.port is None:
-            raise ConfigError("--port: give a port URL (or --config FILE)")
         plant = plant_from_flags(
             port=args.port,
             addresses=args.address,

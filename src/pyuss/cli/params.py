@@ -19,12 +19,14 @@ from pyuss.cli._help import plain
 from pyuss.cli._master import (
     EXIT_FAILED,
     EXIT_OK,
-    address,
+    add_line_options,
     emit,
     error_dict,
     integer,
     master_options,
+    names_drive,
     run,
+    use_lines,
 )
 from pyuss.errors import ConfigError, UssError
 from pyuss.params.book import ParamBook
@@ -44,13 +46,15 @@ def register(subparsers: Any) -> None:
         "words",
         nargs="*",
         metavar="[ADDRESS] SEARCH",
-        help="with --port: the drive's address first; then numbers or words to look for",
+        help="with --port or --line: the drive's address first (or its name in the "
+        "configuration file, docs/lines.md); then numbers or words to look for",
     )
     parser.add_argument("--port", metavar="URL", help="ask the drive on this port as well")
-    parser.add_argument("--baud", type=integer, default=9600, help="baud rate (default 9600)")
+    add_line_options(parser)
+    parser.add_argument("--baud", type=integer, help="baud rate (default 9600)")
+    parser.set_defaults(default_baud=9600, default_profile="generic")
     parser.add_argument(
         "--profile",
-        default="generic",
         metavar="NAME",
         help=f"device profile ({', '.join(profile_names())}; default generic)",
     )
@@ -118,6 +122,14 @@ def row(info: ParamInfo, value: str | None = None) -> str:
 def main(args: argparse.Namespace) -> int:
     async def body() -> int:
         words = list(args.words)
+        online = args.port is not None or args.line is not None
+        if online or (words and names_drive(args, words[0])):
+            if not words:
+                raise ConfigError("give the drive's ADDRESS (or name) after --port or --line")
+            args.address = words.pop(0)
+            use_lines(args, args.address)
+        else:
+            args.profile = args.profile or args.default_profile
         get_profile(args.profile)
         if args.port is None:
             if args.scan or args.values:
@@ -126,12 +138,7 @@ def main(args: argparse.Namespace) -> int:
             if args.params:
                 book.use_file(args.params)
             return show(args, book, book.search(words), {})
-        if not words:
-            raise ConfigError("give the drive's ADDRESS after --port")
-        try:
-            where = address(words.pop(0))
-        except argparse.ArgumentTypeError as exc:
-            raise ConfigError(str(exc)) from None
+        where = args.address
         from pyuss.cli._master import open_master
         from pyuss.commission.backup import scan
 

@@ -29,7 +29,7 @@ import sys
 from typing import Any
 
 from pyuss.cli._help import plain
-from pyuss.cli._master import address, integer
+from pyuss.cli._master import add_line_options, drive_address, integer, line_file
 from pyuss.errors import ConfigError
 from pyuss.profiles import profile_names
 from pyuss.protocol.layout import Layout
@@ -48,33 +48,34 @@ def register(subparsers: Any) -> None:
         description=plain(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    where = parser.add_mutually_exclusive_group(required=True)
+    where = parser.add_mutually_exclusive_group()
     where.add_argument(
         "--port",
         metavar="URL",
-        help="serial port or URL of the line: /dev/ttyUSB0, COM3, tcp://HOST:PORT, bus://HOST:PORT",
+        help="serial port or URL of the line: /dev/ttyUSB0, COM3, tcp://HOST:PORT, "
+        "bus://HOST:PORT (default: the line's in the configuration file)",
     )
     where.add_argument(
         "--demo",
         action="store_true",
         help="three simulated drives on a virtual bus at 38400 baud, no hardware needed",
     )
-    parser.add_argument(
-        "--baud", type=integer, default=9600, help="baud rate of the line (default 9600)"
-    )
+    add_line_options(parser)
+    parser.add_argument("--baud", type=integer, help="baud rate of the line (default 9600)")
     parser.add_argument(
         "--address",
-        type=address,
+        type=drive_address,
         action="append",
         default=[],
         metavar="N",
-        help="a drive to show, 0..31 (repeatable; none: scan from the page)",
+        help="a drive to show, 0..31 or its name in the configuration file (repeatable; none: "
+        "the line's drives in the file, else scan from the page)",
     )
     parser.add_argument(
         "--profile",
-        default="generic",
         metavar="NAME",
-        help=f"device profile of the drives ({', '.join(profile_names())}; default generic)",
+        help=f"device profile of the drives ({', '.join(profile_names())}; auto: ask each "
+        "drive which family it is; default: the file's, else generic)",
     )
     parser.add_argument(
         "--layout",
@@ -135,20 +136,21 @@ async def _serve(args: argparse.Namespace) -> int:
     host, port = parse_listen(args.listen)
     if not args.timeout > 0:
         raise ConfigError(f"--timeout {args.timeout}: must be > 0 seconds")
-    if args.profile not in profile_names():
-        raise ConfigError(f"--profile {args.profile!r}: one of {', '.join(profile_names())}")
-    layout = Layout.parse(args.layout) if args.layout else None
+    if args.profile not in (None, "auto", *profile_names()):
+        raise ConfigError(
+            f"--profile {args.profile!r}: one of {', '.join(profile_names())} or auto"
+        )
     token = args.token
     if token is not None and not token.strip():
         raise ConfigError("--token must not be empty")
     if token is None and not is_loopback(host):
         token = secrets.token_urlsafe(18)
     if args.demo:
-        if args.address:
-            raise ConfigError("--demo brings its own drives: leave out --address")
+        if args.address or args.line:
+            raise ConfigError("--demo brings its own drives: leave out --address and --line")
         backend = Backend(demo=True, job_timeout=args.timeout)
     else:
-        specs = [DriveSpec(a, args.profile, layout) for a in dict.fromkeys(args.address)]
+        specs = [DriveSpec(a, p, layout) for a, p, layout in await _drives(args)]
         backend = Backend(port=args.port, baud=args.baud, drives=specs, job_timeout=args.timeout)
     server = WebServer(backend, host=host, port=port, token=token, read_only=args.read_only)
     await backend.start()
@@ -164,6 +166,58 @@ async def _serve(args: argparse.Namespace) -> int:
         await server.close()
         await backend.close()
     return EXIT_OK
+
+
+async def _drives(args: argparse.Namespace) -> list[tuple[int, str, Layout | None]]:
+    """The line (``args.port``, ``args.baud`` filled from the configuration file where not
+    given) and its drives to show: address, profile and layout of each. Those of ``--address``
+    (a number or a name of the file), else the drives of the file's line; ``--profile`` and
+    ``--layout`` win over the file's; ``--profile auto`` asks each drive its family."""
+    named = [a for a in args.address if isinstance(a, str)]
+    drives: list[tuple[int, str | None, str | None]] = [
+        (a, None, None) for a in args.address if isinstance(a, int)
+    ]
+    if args.config is not None or args.line is not None or named or args.port is None:
+        lines = line_file(args, named[0] if named else None)
+        if lines is None:
+            raise ConfigError(
+                "give --port URL or --demo, or name the line in a configuration file "
+                "(docs/lines.md)"
+            )
+        port_given = args.port is not None
+        targets = [lines.target(args.line, str(a), port_given=port_given) for a in args.address]
+        if not targets:
+            targets = [lines.target(args.line, None, port_given=port_given)]
+        line = targets[0].line
+        if any(t.line is not line for t in targets):
+            raise ConfigError(
+                "the drives given are on different lines of the configuration file: "
+                "uss web shows one line (--line NAME)"
+            )
+        if line is not None:
+            args.port = args.port or line.port
+            args.baud = args.baud or line.baud
+            if not args.address:
+                targets = [lines.target(line.name, d.name, port_given=True) for d in line.drives]
+        drives = [(t.address, t.profile, t.layout) for t in targets if t.address is not None]
+    args.baud = args.baud or 9600
+    port, baud = args.port, args.baud
+    found: list[tuple[int, str, Layout | None]] = []
+    for number, profile, layout_text in drives:
+        text = args.layout or layout_text
+        layout = Layout.parse(text) if text else None
+        profile = args.profile or profile or "generic"
+        if profile == "auto":
+            from pyuss.master.identify import identify_family
+            from pyuss.transport.url import open_transport
+
+            profile, layout = await identify_family(
+                lambda: open_transport(port, baud=baud), number, layout, job_timeout=args.timeout
+            )
+        found.append((number, profile, layout))
+    if args.profile == "auto" and not found:
+        raise ConfigError("--profile auto: give the drives (--address, or a line with drives)")
+    return list({a: (a, p, layout) for a, p, layout in found}.values())
 
 
 async def _wait_for_stop() -> None:

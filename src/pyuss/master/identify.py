@@ -23,7 +23,14 @@ from pyuss.profiles.identify import Identity, identify
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.transport.base import Transport
 
-__all__ = ["AUTO_LAYOUTS", "auto_master", "identify_drive", "identify_found", "identify_on"]
+__all__ = [
+    "AUTO_LAYOUTS",
+    "auto_master",
+    "identify_drive",
+    "identify_family",
+    "identify_found",
+    "identify_on",
+]
 
 AUTO_LAYOUTS = (Layout(PKW_VARIABLE, 2), Layout(4, 2))
 """Layouts `auto_master` tries when none is given: the Siemens families' variable PKW area and
@@ -91,9 +98,25 @@ async def auto_master(
     **options: Any,
 ) -> AsyncIterator[Master]:
     """A started `Master` whose profile is the family of the drive at ``address``
-    (``--profile auto``): a first master identifies it, with ``layout`` or each of
-    `AUTO_LAYOUTS` in turn; then the master is opened with the family's profile (and the layout
-    the drive answered). A drive that cannot be identified is an error naming the address."""
+    (``--profile auto``): `identify_family` finds it; then the master is opened with the
+    family's profile (and the layout the drive answered)."""
+    profile, answered = await identify_family(transport, address, layout, job_timeout=job_timeout)
+    async with Master(
+        transport(), profile=profile, layout=answered, job_timeout=job_timeout, **options
+    ) as master:
+        yield master
+
+
+async def identify_family(
+    transport: Callable[[], Transport],
+    address: int,
+    layout: Layout | None = None,
+    *,
+    job_timeout: float = 2.0,
+) -> tuple[str, Layout]:
+    """The profile of the drive at ``address`` and the layout it answered with: a master on
+    ``transport()`` identifies it, with ``layout`` or each of `AUTO_LAYOUTS` in turn. A drive
+    that cannot be identified is an error naming the address."""
     found = None
     for candidate in (layout,) if layout is not None else AUTO_LAYOUTS:
         async with Master(
@@ -113,7 +136,4 @@ async def auto_master(
         raise ProtocolError(
             f"address {address}: the drive's family could not be identified; give --profile NAME"
         )
-    async with Master(
-        transport(), profile=identity.profile, layout=answered, job_timeout=job_timeout, **options
-    ) as master:
-        yield master
+    return identity.profile, answered
