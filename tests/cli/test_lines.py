@@ -17,9 +17,10 @@ from pathlib import Path
 
 import pytest
 
-from conftest import ROOT, simulator_pty
 from gateway.harness import free_port
 from pyuss.cli.main import main
+from support.paths import ROOT
+from support.processes import simulator_pty
 from test_userfile import bad_files, refuses
 
 USS = [sys.executable, "-m", "pyuss.cli.main"]
