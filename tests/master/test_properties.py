@@ -123,7 +123,9 @@ def test_descriptions_of_every_parameter_decode(name: str) -> None:
     st.lists(st.floats(min_value=0, max_value=1, allow_nan=False), max_size=60),
     st.integers(min_value=1, max_value=8),
 )
-def test_sample_percentiles_are_those_of_the_recent_window(values: list[float], window: int) -> None:
+def test_sample_percentiles_are_those_of_the_recent_window(
+    values: list[float], window: int
+) -> None:
     """The median and p99 a drive's diagnostics report are the nearest-rank quantiles of the
     last ``window`` values, however many came before and fell out of it."""
     samples = Samples(window)

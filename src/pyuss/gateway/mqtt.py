@@ -256,7 +256,7 @@ class MqttBusFace:
         if client is None or not self.connected.is_set():
             return False
         paho = getattr(client, "_client", None)  # aiomqtt's paho client
-        if qos == 0 and isinstance(paho, mqtt.Client):
+        if qos == 0 and isinstance(paho, mqtt.Client) and not paho.want_write():
             return self._publish_now(paho, topic, payload, retain)
         try:
             await client.publish(topic, payload, qos=qos, retain=retain)
@@ -272,7 +272,10 @@ class MqttBusFace:
         aiomqtt a message takes a task, a timer and three more turns of the loop (paho asks
         for the socket to be watched for writing, from any thread; the loop watches it, writes,
         stops watching): most of the gateway's CPU per state. With no watch to ask for, paho
-        writes at once; what the socket could not take is left to the watch as before."""
+        writes at once; what the socket could not take is left to the watch as before. Only
+        while nothing waits to be written: a watch asked for earlier and not yet set up would
+        otherwise be set up after this write, with nothing left to write, and never removed
+        (the loop would call it at every turn)."""
         register = paho.on_socket_register_write
         paho.on_socket_register_write = None
         try:

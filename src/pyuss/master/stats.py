@@ -2,8 +2,8 @@
 
 `Samples` keeps a count, the extremes and the mean of everything recorded, and the most
 recent ``window`` values for the median and the 99th percentile, kept in order as well, so
-that a summary (taken with every answer a drive gives the gateway) costs no sort. The snapshots are frozen
-dataclasses with a ``to_dict()`` for JSON output.
+that a summary (taken with every answer a drive gives the gateway) costs no sort. The
+snapshots are frozen dataclasses with a ``to_dict()`` for JSON output.
 """
 
 from __future__ import annotations
