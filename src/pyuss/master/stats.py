@@ -41,7 +41,8 @@ class SampleSummary:
 
 
 class Samples:
-    """Running statistics over all values plus a window of recent ones for percentiles."""
+    """Running statistics over all values plus a window of recent ones for percentiles (the
+    values are times and counts: never NaN, which has no place in an order)."""
 
     __slots__ = (
         "_m2",
@@ -79,6 +80,8 @@ class Samples:
         self._m2 += delta * (value - self._mean)
         recent, ordered = self.recent, self._ordered
         if len(recent) == recent.maxlen:
+            if not recent:
+                return  # a window of 0 keeps no values
             del ordered[bisect.bisect_left(ordered, recent[0])]
         recent.append(value)
         bisect.insort(ordered, value)
