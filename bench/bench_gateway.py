@@ -4,8 +4,10 @@ In one process: simulated drives on a virtual bus (one station answering every a
 ``uss simulate`` does), the gateway in the same event loop, real clients over loopback sockets
 and a real mosquitto, 1 and 31 drives, with the Modbus face alone and with all three:
 
-- latency of a Modbus write and of an MQTT command until the drive answered the telegram
-  carrying it (the write returns then), in bus cycles: goal at most 2;
+- latency of a Modbus write until the drive answered the telegram carrying it (the write
+  returns then), in bus cycles: goal at most 2; the same of an MQTT command and its reply
+  (no goal: the broker's two hops with their QoS 1 acknowledgements take milliseconds of
+  their own, more than a cycle of one drive alone on its bus);
 - the state messages per drive while the drives ramp, over the drive's answers (every answer
   changes what it shows, so each gives one message): goal at least 0.95;
 - CPU time per second of the whole process (bus, simulated drives, master, gateway).
@@ -222,7 +224,11 @@ def in_process() -> list[Figure]:
                 cycle = r["cycle_ms"]
                 figures.append(_cycles(f"{where}: Modbus write latency", r["modbus_ms"], cycle))
                 if "mqtt_ms" in r:
-                    figures.append(_cycles(f"{where}: MQTT command latency", r["mqtt_ms"], cycle))
+                    # through the broker and back, each way with its QoS 1 acknowledgement:
+                    # milliseconds of its own, more than a cycle of one drive alone on its bus
+                    figures.append(
+                        Figure(f"{where}: MQTT command latency", r["mqtt_ms"], unit="ms", digits=1)
+                    )
                     figures.append(
                         Figure(
                             f"{where}: states per drive over answers (ramping)",
