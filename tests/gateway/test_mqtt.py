@@ -7,6 +7,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import selectors
 from collections.abc import AsyncIterator
 from typing import Any
 
@@ -14,6 +15,7 @@ import aiomqtt
 
 from gateway import ha_schema
 from gateway.harness import Broker, MqttClient, simulated_gateway, subscribed
+from pyuss.gateway.mqtt import MqttFace
 from pyuss.gateway.topics import decimals, param_value
 from pyuss.points.parameters import ParamMeta
 from support.waiting import eventually
@@ -255,3 +257,38 @@ async def test_stopping_the_gateway_says_offline(broker: Broker) -> None:
         "uss/bus/availability": b"offline",
         "uss/bus/drive5/availability": b"offline",
     }
+
+
+async def test_a_state_sent_while_another_message_waits_leaves_the_socket_unwatched(
+    broker: Broker,
+) -> None:
+    """A state goes out in the turn of the loop that made it; one published while another
+    message still waits for the socket goes out with it, and afterwards the client's socket
+    is not watched for writing (a watch left behind would wake the loop at every turn, and
+    end in an error when the connection closes)."""
+    async with (
+        simulated_gateway(mqtt=broker.url) as (gateway, _),
+        watcher(broker, "test/#") as seen,
+    ):
+        face = gateway.faces["mqtt"]
+        assert isinstance(face, MqttFace)
+        bus = face.buses["bus"]
+        await eventually(bus.connected.is_set)
+        # both in one turn of the loop: the first is queued and asks for a watch, which the
+        # loop sets up in its next turn; the state goes out at once, and the first with it
+        sent = await asyncio.gather(
+            bus.publish("test/one", "1", qos=1), bus.publish("test/two", "2", qos=0)
+        )
+        assert sent == [True, True]
+        await eventually(lambda: seen.get("test/one") == b"1" and seen.get("test/two") == b"2")
+        client = bus._client
+        assert client is not None
+        sock = client._client.socket()
+        assert sock is not None
+        selector = asyncio.get_running_loop()._selector  # type: ignore[attr-defined]
+
+        def watched() -> bool:
+            key = selector.get_map().get(sock.fileno())
+            return key is not None and bool(key.events & selectors.EVENT_WRITE)
+
+        await eventually(lambda: not watched())

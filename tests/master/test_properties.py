@@ -3,6 +3,8 @@ description decoder against the drive simulator's descriptions of every profile 
 
 from __future__ import annotations
 
+import math
+
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -11,6 +13,7 @@ from pyuss.drive import SimulatedDrive
 from pyuss.drive.database import DescriptionStyle
 from pyuss.master.description import decode_description
 from pyuss.master.jobs import Job, ParameterChannel
+from pyuss.master.stats import Samples
 from pyuss.profiles import PROFILES, get_profile
 from pyuss.protocol.pkw import Pkw, RequestId, ResponseId
 
@@ -113,3 +116,26 @@ def test_descriptions_of_every_parameter_decode(name: str) -> None:
             and style is DescriptionStyle.PROFIBUS
         ):
             assert description.low == param.minimum
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(st.floats(min_value=0, max_value=1, allow_nan=False), max_size=60),
+    st.integers(min_value=0, max_value=8),
+)
+def test_sample_percentiles_are_those_of_the_recent_window(
+    values: list[float], window: int
+) -> None:
+    """The median and p99 a drive's diagnostics report are the nearest-rank quantiles of the
+    last ``window`` values, however many came before and fell out of it."""
+    samples = Samples(window)
+    for n, value in enumerate(values, start=1):
+        samples.add(value)
+        recent = sorted(values[max(0, n - window) : n])
+        summary = samples.summary()
+        rank = [max(0, math.ceil(q * len(recent)) - 1) for q in (0.5, 0.99)]
+        assert summary.median == (recent[rank[0]] if recent else 0.0)
+        assert summary.p99 == (recent[rank[1]] if recent else 0.0)
+        assert summary.count == n and summary.last == value
+        assert samples.summary() is summary
+    assert samples.percentile(0.5) == (samples.summary().median if values else 0.0)

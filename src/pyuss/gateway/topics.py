@@ -46,6 +46,7 @@ available while the gateway and the drive are; each names its entity id as
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from dataclasses import dataclass, field
@@ -472,6 +473,7 @@ def check_reply_to(topic: str, topics: DriveTopics, discovery_prefix: str) -> No
         raise ConfigError(f"reply_to {show(topic)} has the shape of a command topic")
 
 
+@functools.lru_cache(maxsize=256)
 def decimals(step: float) -> int:
     """The decimals a value that moves in steps of ``step`` is shown with: the first decimal
     place at or above the step (steps of 0.003 Hz: 2)."""

@@ -923,21 +923,24 @@ class Master:
         ends at its deadline - or, when a telegram carrying it is on the line then, once that
         exchange is over - never a cycle later."""
         now = self._clock()
-        for link in self._links.values():
-            if link is exclude:
-                continue
+        for link in self._busy(exclude):
             deadline = link.channel.deadline
             if deadline is not None and now > deadline:
                 link.channel.expire(now)
 
     def _next_deadline(self, exclude: _Link | None = None) -> float | None:
         """The earliest deadline of a job of any slave but ``exclude``."""
-        deadlines = [
-            d
-            for d in (link.channel.deadline for link in self._links.values() if link is not exclude)
-            if d is not None
+        deadlines = [link.channel.deadline for link in self._busy(exclude)]
+        return min((d for d in deadlines if d is not None), default=None)
+
+    def _busy(self, exclude: _Link | None) -> list[_Link]:
+        """The slaves but ``exclude`` with a job open or queued (looked at after every
+        exchange: plain attributes, as most slaves have none)."""
+        return [
+            link
+            for link in self._links.values()
+            if (link.channel.current is not None or link.channel.queue) and link is not exclude
         ]
-        return min(deadlines, default=None)
 
     def _answer(self, link: _Link, result: _Result, version: int, control: int) -> None:
         received = result.received

@@ -1,12 +1,14 @@
 """Figures the master keeps: sample statistics and the diagnostics snapshots it hands out.
 
 `Samples` keeps a count, the extremes and the mean of everything recorded, and the most
-recent ``window`` values for the median and the 99th percentile. The snapshots are frozen
-dataclasses with a ``to_dict()`` for JSON output.
+recent ``window`` values for the median and the 99th percentile, kept in order as well, so
+that a summary (taken with every answer a drive gives the gateway) costs no sort. The
+snapshots are frozen dataclasses with a ``to_dict()`` for JSON output.
 """
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections import deque
 from dataclasses import asdict, dataclass
@@ -39,12 +41,27 @@ class SampleSummary:
 
 
 class Samples:
-    """Running statistics over all values plus a window of recent ones for percentiles."""
+    """Running statistics over all values plus a window of recent ones for percentiles (the
+    values are times and counts: never NaN, which has no place in an order)."""
 
-    __slots__ = ("_m2", "_mean", "count", "last", "maximum", "minimum", "recent")
+    __slots__ = (
+        "_m2",
+        "_mean",
+        "_ordered",
+        "_summary",
+        "count",
+        "last",
+        "maximum",
+        "minimum",
+        "recent",
+    )
 
     def __init__(self, window: int = 1000) -> None:
         self.recent: deque[float] = deque(maxlen=window)
+        self._ordered: list[float] = []
+        """The values of ``recent``, sorted."""
+        self._summary: SampleSummary | None = None
+        """The last summary, until the next value."""
         self.count = 0
         self.last = 0.0
         self.minimum = math.inf
@@ -53,6 +70,7 @@ class Samples:
         self._m2 = 0.0
 
     def add(self, value: float) -> None:
+        self._summary = None
         self.count += 1
         self.last = value
         self.minimum = min(self.minimum, value)
@@ -60,21 +78,29 @@ class Samples:
         delta = value - self._mean
         self._mean += delta / self.count
         self._m2 += delta * (value - self._mean)
-        self.recent.append(value)
+        recent, ordered = self.recent, self._ordered
+        if len(recent) == recent.maxlen:
+            if not recent:
+                return  # a window of 0 keeps no values
+            del ordered[bisect.bisect_left(ordered, recent[0])]
+        recent.append(value)
+        bisect.insort(ordered, value)
 
     def percentile(self, q: float) -> float:
         """The ``q`` quantile (0..1) of the recent values, nearest rank; 0 when empty."""
-        if not self.recent:
+        ordered = self._ordered
+        if not ordered:
             return 0.0
-        ordered = sorted(self.recent)
         rank = max(0, min(len(ordered) - 1, math.ceil(q * len(ordered)) - 1))
         return ordered[rank]
 
     def summary(self) -> SampleSummary:
+        if self._summary is not None:
+            return self._summary
         if not self.count:
             return SampleSummary()
         stdev = math.sqrt(self._m2 / (self.count - 1)) if self.count > 1 else 0.0
-        return SampleSummary(
+        self._summary = SampleSummary(
             count=self.count,
             last=self.last,
             mean=self._mean,
@@ -84,6 +110,7 @@ class Samples:
             p99=self.percentile(0.99),
             stdev=stdev,
         )
+        return self._summary
 
 
 @dataclass(frozen=True, slots=True)

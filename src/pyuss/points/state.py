@@ -44,6 +44,8 @@ STATE_CODES: dict[str, int] = {
 }
 """The drive state as a number, for faces that carry numbers only (Modbus)."""
 
+_COUNTER_FIELDS = tuple(Counters.__dataclass_fields__)
+
 
 def state_name(word: int | None) -> str:
     """The drive state a status word spells (C Tables 5.5, 5.6); ``no answer`` for None."""
@@ -175,12 +177,10 @@ class Health:
     """The last job the drive refused, as `pyuss.points.errors.error_dict`."""
 
     def to_dict(self) -> dict[str, Any]:
-        counters = {
-            name: (int(value) if not isinstance(value, int) else value)
-            for name, value in (
-                (f, getattr(self.counters, f)) for f in Counters.__dataclass_fields__
-            )
-        }
+        counters = {}
+        for name in _COUNTER_FIELDS:
+            value = getattr(self.counters, name)
+            counters[name] = value if isinstance(value, int) else int(value)
         return {
             "not_sending": self.not_sending,
             "exchanges": self.exchanges,
