@@ -33,10 +33,10 @@ def test_the_bus_view_lists_the_drives_with_their_health(page: Any) -> None:
     rows = page.locator("#bus-table tbody tr")
     rows.first.wait_for()
     page.wait_for_function(
-        "document.querySelectorAll('#bus-table tbody tr').length === 3 && "
+        "document.querySelectorAll('#bus-table tbody tr').length === 4 && "
         "Number(document.querySelector('#bus-table tbody tr td:nth-child(7)').textContent) > 0"
     )
-    assert [rows.nth(i).get_attribute("data-address") for i in range(3)] == ["1", "4", "7"]
+    assert [rows.nth(i).get_attribute("data-address") for i in range(4)] == ["1", "4", "7", "9"]
     assert "switch-on inhibited" in rows.nth(0).inner_text()
     assert "0.00 Hz" in rows.nth(0).inner_text()  # the main actual value in its unit
     assert "0.00 %" in rows.nth(1).inner_text()  # no reference parameter: percent
@@ -63,8 +63,13 @@ def test_the_trend_moves_and_on_off_switch_the_drive_after_asking(page: Any, dem
     page.fill("#setpoint-value", "500")
     page.click("#setpoint-form button[type=submit]")
     page.wait_for_function(
-        "document.querySelector('#drive-message').textContent.includes('outside')"
+        "document.querySelector('#drive-message').textContent.includes('not sent')"
     )
+    # The message says what went wrong and what to do; the section only follows.
+    said = page.locator("#drive-message").inner_text()
+    assert said.startswith("Setpoint: setpoint 500 % not sent: it is beyond what the drive")
+    assert "Enter a value within -200 % .. 199.99 % (-100 .. 99.99 Hz)" in said
+    assert said.endswith("(USS specification C 5.2.2).")
     assert not page.locator("#confirm").is_visible()
     assert demo.run(lambda: demo.backend.points(1).drive.setpoints) == (0,)
     # Setpoint 40 % and ON: the simulated drive runs and the trend follows its ramp. The page
@@ -74,7 +79,10 @@ def test_the_trend_moves_and_on_off_switch_the_drive_after_asking(page: Any, dem
     page.locator("#confirm").wait_for()
     assert "set the setpoint to 40 % (20 Hz)?" in page.locator("#confirm-text").inner_text()
     page.click("#confirm-yes")
-    page.wait_for_function("document.querySelector('#drive-message').textContent.includes('sent')")
+    page.wait_for_function(
+        "document.querySelector('#drive-message').textContent.includes('in force')"
+    )
+    assert page.locator("#setpoint-force").inner_text() == "40.00 % (20.00 Hz)"
     page.click("[data-cmd=on]")
     page.click("#confirm-yes")
     page.wait_for_function(
@@ -96,6 +104,67 @@ def test_the_trend_moves_and_on_off_switch_the_drive_after_asking(page: Any, dem
         "document.querySelector('#drive-state').textContent !== 'operation enabled'"
     )
     assert drive_state(demo, 1) is not DriveState.OPERATION
+
+
+def _command(page: Any, name: str) -> str:
+    """Click command ``name`` (say yes where the page asks) and wait for what the page says."""
+    page.evaluate("document.querySelector('#drive-message').textContent = ''")
+    page.click(f"[data-cmd={name}]")
+    if name in ("on", "jog1", "jog2"):
+        page.wait_for_function(
+            "document.querySelector('#confirm').open"
+            " || document.querySelector('#drive-message').textContent !== ''"
+        )
+        assert page.locator("#drive-message").inner_text() == ""
+        page.click("#confirm-yes")
+    page.wait_for_function(
+        "(() => { const t = document.querySelector('#drive-message').textContent;"
+        " return t !== '' && !t.includes('waiting'); })()"
+    )
+    return str(page.locator("#drive-message").inner_text())
+
+
+def test_a_command_the_drive_does_not_take_is_said_so(page: Any, demo: Running) -> None:
+    # The generic drive jogs as the USS specification says: not from "switch-on inhibited".
+    page.goto(demo.url + "#drive/4")
+    page.wait_for_function("document.querySelector('#drive-state').textContent !== '-'")
+    page.wait_for_function("!document.querySelector('[data-cmd=jog1]').disabled")
+    said = _command(page, "jog1")
+    assert said.startswith("jog1: the drive did not take it: it shows ready to switch on")
+    assert "What to do:" in said
+    assert page.locator("#drive-message").get_attribute("class") == "error"
+    assert demo.run(lambda: demo.backend.points(4).snapshot().state) != "operation enabled"
+    said = _command(page, "jog_off")
+    assert said.startswith("jog_off: done")
+
+
+def test_a_v20_jogs_from_standstill_and_shows_its_ramp_down(page: Any, demo: Running) -> None:
+    page.goto(demo.url + "#drive/9")
+    page.wait_for_function("document.querySelector('#drive-title').textContent.includes('drive 9')")
+    page.wait_for_function("!document.querySelector('[data-cmd=jog1]').disabled")
+    # Nothing sent yet: the setpoint box is empty, the setpoint in force is 0.
+    assert page.locator("#setpoint-value").input_value() == ""
+    assert page.locator("#setpoint-force").inner_text().startswith("0.00 %")
+    said = _command(page, "jog1")
+    assert said.startswith("jog1: done, the drive is operation enabled"), said
+    assert "jogging" in said
+    assert _command(page, "jog_off").startswith("jog_off: done")
+    page.wait_for_function(
+        "document.querySelector('#drive-state').textContent !== 'operation enabled'"
+    )
+    demo.call(demo.backend.command(9, "setpoint", 60))
+    assert _command(page, "on").startswith("on: done, the drive is operation enabled")
+    page.wait_for_function(
+        "parseFloat(document.querySelector('#drive-actuals td[data-pzd]').textContent) > 8"
+    )
+    # OFF1: the drive stays in "operation enabled" while it ramps down; the page says so.
+    said = _command(page, "off1")
+    assert said.startswith("off1: done") and "OFF1 active, ramping down" in said
+    assert page.locator("#drive-state").inner_text() == "operation enabled"
+    page.wait_for_function(
+        "document.querySelector('#drive-motion').textContent === 'OFF1 active, ramping down'"
+    )
+    page.wait_for_function("document.querySelector('#drive-motion').textContent === 'stopped'")
 
 
 def test_every_answer_reaches_the_trend(page: Any, demo: Running) -> None:

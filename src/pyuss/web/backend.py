@@ -44,6 +44,7 @@ from pyuss.points import (
     MOVES,
     Drive,
     DrivePoints,
+    DriveState,
     Found,
     Plant,
     ProcessValue,
@@ -52,6 +53,7 @@ from pyuss.points import (
     scan,
     simulated_drives,
 )
+from pyuss.points.view import command_outcome, motion, setpoint_refusal
 from pyuss.profiles import get_profile, profile_names
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.pzd import STATUS_BITS
@@ -99,9 +101,11 @@ class DriveSpec:
 DEMO_DRIVES: tuple[DriveSpec, ...] = (
     DriveSpec(1, "generic", Layout(PKW_VARIABLE, 2)),
     DriveSpec(4, "baumueller", Layout(3, 2)),
-    DriveSpec(7, "micromaster4", Layout(PKW_VARIABLE, 2)),
+    DriveSpec(7, "micromaster440", Layout(PKW_VARIABLE, 2)),
+    DriveSpec(9, "sinamics-v20", Layout(PKW_VARIABLE, 2)),
 )
-"""The simulated drives of ``uss web --demo`` (the same bus as ``uss demo``)."""
+"""The simulated drives of ``uss web --demo``: a generic drive, a Baumueller drive with the
+fixed layout 3,2 (PKW 3), a MICROMASTER 440 and a SINAMICS V20."""
 
 
 class Backend:
@@ -149,6 +153,7 @@ class Backend:
         self._exchange_seq = 0
         self.scan_progress: tuple[int, int] | None = None
         self._lock = asyncio.Lock()
+        self._sent: dict[int, dict[str, Any]] = {}
 
     # -- life cycle ---------------------------------------------------------------------------
     async def start(self) -> None:
@@ -316,6 +321,9 @@ class Backend:
             "setpoints": list(state.setpoint_words),
             "status": state.status_word,
             "state": state.state if state.answered else "no answer yet",
+            "motion": motion(state),
+            "setpoint": _setpoint_in_force(state),
+            "sent_setpoint": self._sent.get(address),
             "fault": state.fault,
             "warning": state.warning,
             "actual": list(points.actual_row(state.actual_words)) if state.answered else [],
@@ -334,6 +342,10 @@ class Backend:
                 },
             },
         }
+
+    def motion(self, address: int) -> str:
+        """The ramp state of drive ``address`` now (`pyuss.points.view.motion`)."""
+        return motion(self.points(address).state)
 
     def bus(self) -> dict[str, Any]:
         """The line: port, baud rate, the drives and the line's own counters."""
@@ -384,7 +396,11 @@ class Backend:
                 raise ConfigError('a setpoint is a number or {"value": v, "unit": u}')
             unit = value.get("unit", "%")
             value = value.get("value")
-        return points.check_setpoint(value, unit=unit if isinstance(unit, str) else repr(unit))
+        unit_text = unit if isinstance(unit, str) else repr(unit)
+        refusal = setpoint_refusal(points, value, unit_text)
+        if refusal is not None:
+            raise ConfigError(refusal)
+        return points.check_setpoint(value, unit=unit_text)
 
     async def command(self, address: int, name: object, value: object = None) -> dict[str, Any]:
         """Send control command ``name`` (see `COMMANDS`); ``setpoint`` takes ``value`` in
@@ -392,13 +408,31 @@ class Backend:
         first (`check`): a refused command sends nothing."""
         points = self.points(address)
         self.check(address, name, value)
+        before = points.snapshot()
         if name == "setpoint":
             checked = self._setpoint(points, value)
             state = await points.set_setpoint(checked.raw, unit="raw", timeout=self.job_timeout)
-        else:
-            assert isinstance(name, str)
-            state = await points.command(name, timeout=self.job_timeout)
-        return {"status": state.status_word, "state": state.state}
+            shown = _setpoint_text(checked, _unit_given(value))
+            self._sent[address] = {"value": _number_given(value), "unit": _unit_given(value)}
+            return {
+                "command": name,
+                "taken": True,
+                "text": f"Setpoint {shown} is in force (the drive answered the telegram).",
+                "status": state.status_word,
+                "state": state.state,
+                "motion": motion(state),
+                "setpoint": _setpoint_in_force(state),
+            }
+        assert isinstance(name, str)
+        await points.command(name, timeout=self.job_timeout)
+        outcome = await command_outcome(points, name, before)
+        return outcome.to_dict()
+
+    def sent_setpoint(self, address: int) -> dict[str, Any] | None:
+        """The setpoint this page last sent to drive ``address`` as it was typed (None: none
+        sent yet)."""
+        self.points(address)
+        return self._sent.get(address)
 
     # -- parameters ---------------------------------------------------------------------------
     def parameters(self, address: int) -> list[dict[str, Any]]:
@@ -735,6 +769,16 @@ def _setpoint_text(checked: ProcessValue, given: object) -> str:
     if given == checked.unit:
         return f"{value} ({percent} of the reference)"
     return f"{percent} ({value})"
+
+
+def _number_given(value: object) -> object:
+    return value.get("value") if isinstance(value, dict) else value
+
+
+def _setpoint_in_force(state: DriveState) -> dict[str, Any] | None:
+    """The main setpoint the drive is sent now (percent, and in units where known)."""
+    value = state.setpoints.get("main") or next(iter(state.setpoints.values()), None)
+    return None if value is None else value.to_dict()
 
 
 def _id(pnu: int, index: int | None) -> str:

@@ -575,6 +575,8 @@ class WebServer:
 
     def _send_tick(self, count: int) -> None:
         backend = self.backend
+        if backend.scan_progress is not None:
+            return  # the drives of before are gone, the new ones not there yet
         samples = backend.take_samples()
         drives = {}
         for address, taken in samples.items():
@@ -584,6 +586,7 @@ class WebServer:
                 "status": last.status,
                 "state": state_name(last.status),
                 "setpoint": backend.points(address).setpoint_value(),
+                "motion": backend.motion(address),
             }
         if self.hub.clients:
             self.hub.send(json.dumps({"type": "tick", "drives": drives}))

@@ -51,6 +51,8 @@ export class DriveView {
 
   async driveChanged(address) {
     this.info = null;
+    this.setpointShown = false;
+    document.getElementById("setpoint-value").value = "";
     if (address == null) return;
     const info = await get(`/api/drive/${address}`);
     if (this.state.address !== address) return;
@@ -146,11 +148,32 @@ export class DriveView {
   busState(bus) {
     const d = bus.drives.find((x) => x.address === this.state.address);
     if (!d) return;
+    this.summary = d;
     const stateEl = document.getElementById("drive-state");
+    const silent = d.not_sending || d.status == null;
     if (d.not_sending) {
       stateEl.textContent = "does not send";
       stateEl.className = "state lost";
     }
+    // No drive answering: nothing to command (a command would only time out).
+    for (const button of document.querySelectorAll("#view-drive .controls button, #setpoint-form button")) {
+      button.disabled = silent;
+      button.title = silent ? "the drive does not answer" : "";
+    }
+    document.getElementById("drive-motion").textContent = silent ? "-" : d.motion;
+    this.showSetpoint(d.setpoint);
+    document.getElementById("control-sent").textContent = hex4(d.control);
+    const box = document.getElementById("setpoint-value");
+    if (!this.setpointShown && d.sent_setpoint && document.activeElement !== box) {
+      box.value = d.sent_setpoint.value;
+      document.getElementById("setpoint-unit").value = d.sent_setpoint.unit;
+    }
+    this.setpointShown = true;
+  }
+
+  showSetpoint(sp) {
+    document.getElementById("setpoint-force").textContent = sp == null ? "-"
+      : `${sp.percent.toFixed(2)} %${sp.value != null && sp.unit !== "%" ? ` (${sp.value.toFixed(2)} ${sp.unit})` : ""}`;
   }
 
   tick(message) {
@@ -161,6 +184,7 @@ export class DriveView {
     const last = samples[samples.length - 1];
     this.updates += samples.length;
     this.showStatus(last[1], drive.state, last[2]);
+    if (drive.motion) document.getElementById("drive-motion").textContent = drive.motion;
     for (const [t, , values] of samples) {
       this.data[0].push(t);
       this.series.forEach((s, i) => {
@@ -266,8 +290,9 @@ export class DriveView {
       request.confirm = check.confirm;
     }
     try {
+      this.say(`${name}: sent, waiting for the drive ...`);
       const reply = await post(`/api/drive/${address}/command`, request);
-      this.say(`${name}: sent, drive reports ${reply.state} (${hex4(reply.status)}).`);
+      this.say(reply.text, !reply.taken);
     } catch (error) {
       this.say(`${name}: ${error.message}`, true);
     }
@@ -285,8 +310,9 @@ export class DriveView {
       return;
     }
     try {
-      await post(`/api/drive/${address}/command`, { ...request, confirm: check.confirm });
-      this.say(`Setpoint ${value} ${unit} sent.`);
+      const reply = await post(`/api/drive/${address}/command`, { ...request, confirm: check.confirm });
+      this.showSetpoint(reply.setpoint);
+      this.say(reply.text, !reply.taken);
     } catch (error) {
       this.say(`Setpoint: ${error.message}`, true);
     }
