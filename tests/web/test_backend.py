@@ -178,3 +178,28 @@ async def test_backup_compare_and_restore_are_those_of_uss_backup() -> None:
                 await backend.compare(1, data, "f.toml")
     finally:
         await backend.close()
+
+
+async def test_a_value_the_layout_cannot_carry_is_not_asked_for(backend: Backend) -> None:
+    # Drive 4 has the fixed layout 3,2: one PWE word, no room for its 32-bit P70.
+    rows = {r["id"]: r for r in backend.parameters(4)}
+    needs = "needs PKW 4 or the variable layout: its int32 value takes 2 words, layout 3,2"
+    assert rows["70"]["needs"].startswith(needs)
+    assert not rows["70"]["writable"]
+    assert "needs" not in rows["60"]  # a 16-bit value travels
+    jobs = backend.points(4).drive.diagnostics().jobs
+    before = jobs.completed + jobs.refused
+    (item,) = await backend.read(4, [(70, None)])
+    assert item["needs"].startswith(needs) and "value" not in item and "error" not in item
+    try:
+        await backend.write(4, 70, None, "5")
+    except ConfigError as exc:
+        assert str(exc).startswith("P70 cannot be written: needs PKW 4")
+    else:
+        raise AssertionError("a write the layout cannot carry was sent")
+    jobs = backend.points(4).drive.diagnostics().jobs
+    assert jobs.completed + jobs.refused == before  # nothing reached the drive
+    # A backup records why, instead of the drive's refusal.
+    _, text = await backend.backup(4)
+    assert 'message = "P70: needs PKW 4 or the variable layout' in text
+    assert "error 103" not in text

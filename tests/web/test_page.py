@@ -227,6 +227,23 @@ def test_a_parameter_edit_reaches_the_drive_and_a_refusal_is_shown(
     screenshot(page, "web-params", full_page=False)
 
 
+def test_a_value_the_layout_cannot_carry_is_said_once_and_not_editable(
+    page: Any, demo: Running
+) -> None:
+    # Drive 4 talks the fixed layout 3,2: its 32-bit parameters do not fit one PWE word.
+    page.goto(demo.url + "#params/4")
+    page.wait_for_function(
+        "document.querySelector('#param-message').textContent.includes('values read')"
+    )
+    row = page.locator("#param-table tbody tr[data-id='70']")
+    assert row.locator("td.value").inner_text() == "needs PKW 4 or the variable layout"
+    assert "error" not in row.inner_text()
+    assert row.get_attribute("class") != "writable"
+    row.locator("td.value").click()
+    assert not page.locator("#edit").is_visible()
+    assert page.locator("#param-table tbody tr[data-id='60']").get_attribute("class") == "writable"
+
+
 def test_a_backup_downloads_and_restores_and_a_refusal_is_shown(
     page: Any, demo: Running, tmp_path: Any
 ) -> None:

@@ -439,12 +439,17 @@ class Backend:
         """The expert list: every parameter (every element of an array) the drive's parameter
         book knows (`pyuss.params.ParamBook`: the user's file, the drive's descriptions, the
         profile's file), with its name, unit, type, limits and texts; values come from `read`."""
-        book = self.points(address).drive.params
+        drive = self.points(address).drive
+        book = drive.params
         rows = []
         for info in book:
             indexes: list[int | None] = [None] if info.array is None else list(book.indices(info))
+            needs = backups.beyond_layout(drive.layout, info)
             for index in indexes:
-                rows.append(_row(info, index))
+                row = _row(info, index)
+                if needs is not None:
+                    row.update(needs=needs, writable=False)
+                rows.append(row)
         return rows
 
     async def read(
@@ -457,6 +462,10 @@ class Backend:
         out: list[dict[str, Any]] = []
         for pnu, index in refs:
             item: dict[str, Any] = {"id": _id(pnu, index)}
+            needs = backups.beyond_layout(points.drive.layout, points.drive.params.get(pnu))
+            if needs is not None:  # the drive would refuse it (error 103): not asked
+                out.append({**item, "needs": needs})
+                continue
             try:
                 reading = await points.read_value(pnu, index, timeout=self.job_timeout)
             except UssError as exc:
@@ -473,6 +482,10 @@ class Backend:
         checked by the points against the parameter's type, limits and access before anything
         is sent (`DrivePoints.write_value`); the drive's refusal raises `DriveRefusal`.
         Returns the value the drive answered with, as `read` does."""
+        drive = self.points(address).drive
+        needs = backups.beyond_layout(drive.layout, drive.params.get(pnu))
+        if needs is not None:
+            raise ConfigError(f"{_label(pnu, index)} cannot be written: {needs}")
         reading = await self.points(address).write_value(
             pnu, index, text, eeprom=eeprom, timeout=self.job_timeout
         )
@@ -779,6 +792,10 @@ def _setpoint_in_force(state: DriveState) -> dict[str, Any] | None:
     """The main setpoint the drive is sent now (percent, and in units where known)."""
     value = state.setpoints.get("main") or next(iter(state.setpoints.values()), None)
     return None if value is None else value.to_dict()
+
+
+def _label(pnu: int, index: int | None) -> str:
+    return f"P{_id(pnu, index)}"
 
 
 def _id(pnu: int, index: int | None) -> str:
