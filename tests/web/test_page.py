@@ -167,6 +167,68 @@ def test_a_v20_jogs_from_standstill_and_shows_its_ramp_down(page: Any, demo: Run
     page.wait_for_function("document.querySelector('#drive-motion').textContent === 'stopped'")
 
 
+def test_the_drive_view_shows_every_status_bit_and_the_fault_panel(
+    page: Any, demo: Running
+) -> None:
+    page.goto(demo.url + "#drive/9")
+    page.wait_for_function("document.querySelector('#drive-title').textContent.includes('drive 9')")
+    page.wait_for_function("document.querySelector('#fault-note').textContent !== ''")
+    # All 16 bits, 11..15 with the SINAMICS V20's own texts (r0052).
+    bits = page.locator("#drive-bits li")
+    assert bits.count() == 16
+    assert "motor turns right" in bits.nth(14).inner_text()
+    assert "inverter overload (0 = active)" in bits.nth(15).inner_text()
+    page.wait_for_function("document.querySelector('#control-force').textContent !== '-'")
+    assert page.locator("#control-sent").inner_text() != "----"
+    assert page.locator("#fault-now").inner_text() == "no fault, no warning"
+    assert "r0947 fault numbers" in page.locator("#fault-note").inner_text()
+    # A fault and a warning trip: the panel shows them with the family's texts.
+    engine = demo.backend.engines[9].drive
+    demo.run(engine.raise_fault, 3)
+    demo.run(engine.raise_warning, 503)
+    page.wait_for_function(
+        "document.querySelector('#fault-table tbody').textContent.includes('undervoltage')"
+    )
+    table = page.locator("#fault-table tbody").inner_text()
+    assert "F0003" in table and "A0503" in table and "undervoltage limit" in table
+    assert page.locator("#fault-now").inner_text() == "fault active, warning active"
+    screenshot(page, "web-faults", full_page=True)
+    # Acknowledge from the panel: the fault goes, the warning stays while its cause does.
+    page.click("#fault-ack")
+    page.wait_for_function(
+        "document.querySelector('#fault-now').textContent === 'no fault, warning active'"
+    )
+    assert page.locator("#drive-message").inner_text().startswith("acknowledge: done")
+    demo.run(engine.clear_warning, 503)
+
+
+def test_a_v20_shows_its_key_actual_values_and_trends_them(page: Any, demo: Running) -> None:
+    page.goto(demo.url + "#drive/9")
+    page.wait_for_function("document.querySelector('#drive-title').textContent.includes('drive 9')")
+    # Polled through the parameter channel beside the process data, with units.
+    page.wait_for_function(
+        "document.querySelector('#drive-actuals td[data-pnu=\"27\"]').textContent !== '-'"
+    )
+    table = page.locator("#drive-actuals").inner_text()
+    for name in ("Actual frequency (r0021)", "Output current (r0027)", "Output voltage (r0025)"):
+        assert name in table
+    assert "DC link voltage (r0026)" in table and "Output power (r0032)" in table
+    assert " A" in page.locator("#drive-actuals td[data-pnu='27']").inner_text()
+    # Each may be put on the trend; the time axis is the 24-hour clock.
+    choice = page.locator("#trend-choice label", has_text="Output current [A]")
+    choice.locator("input").check()
+    page.wait_for_function("window.pyuss.views.drive.polls >= 2")
+    column = page.evaluate(
+        "(() => { const d = window.pyuss.views.drive; const i = d.series.findIndex("
+        "s => s.key === 'p27'); return d.data[i + 1].filter(v => v !== null).length; })()"
+    )
+    assert column >= 2
+    ticks = page.evaluate("window.pyuss.views.drive.plot.axes[0]._values")
+    assert ticks and all(len(t) == 8 and t[2] == ":" and t[5] == ":" for t in ticks)
+    assert not any(t.endswith(("am", "pm", "AM", "PM")) for t in ticks)
+    screenshot(page, "web-v20", full_page=True)
+
+
 def test_every_answer_reaches_the_trend(page: Any, demo: Running) -> None:
     page.goto(demo.url + "#drive/4")
     page.wait_for_function("document.querySelector('#drive-title').textContent.includes('drive 4')")
@@ -363,12 +425,43 @@ def test_the_page_fits_a_tablet(browser: Any, demo: Running) -> None:
         page.context.close()
 
 
+def test_the_bus_table_and_the_monitor_are_usable_on_a_phone(browser: Any, demo: Running) -> None:
+    page = open_page(browser, demo.url + "#bus", width=400, height=800)
+    try:
+        page.wait_for_function("document.querySelectorAll('#bus-table tbody tr').length === 4")
+        wide = "document.documentElement.scrollWidth - document.documentElement.clientWidth"
+        assert page.evaluate(wide) <= 0
+        # every column shown fits the card: nothing to scroll sideways for
+        table = page.evaluate(
+            "(() => { const s = document.querySelector('#bus-table').parentElement;"
+            " return s.scrollWidth - s.clientWidth; })()"
+        )
+        assert table <= 0
+        row = page.locator("#bus-table tbody tr[data-address='9']")
+        assert "sinamics-v20" in row.inner_text()
+        shown = [c.is_visible() for c in row.locator("td").all()]
+        assert sum(shown) == 6 and shown[3]  # the state is one of them
+        screenshot(page, "web-phone-bus", full_page=True)
+        page.goto(demo.url + "#monitor")
+        page.wait_for_function("document.querySelectorAll('#mon-list div').length > 20")
+        assert page.evaluate(wide) <= 0
+        lines = page.evaluate(
+            "(() => { const l = document.querySelector('#mon-list');"
+            " return l.scrollWidth - l.clientWidth; })()"
+        )
+        assert lines <= 0  # the lines wrap: a telegram is read without scrolling sideways
+        screenshot(page, "web-phone-monitor", full_page=False)
+    finally:
+        page.context.close()
+
+
 def test_the_trend_zooms_pauses_and_exports_what_it_shows(
     page: Any, demo: Running, tmp_path: Any
 ) -> None:
     page.goto(demo.url + "#drive/7")
     page.wait_for_function("document.querySelector('#drive-title').textContent.includes('drive 7')")
     page.wait_for_function("window.pyuss.views.drive.data[0].length > 60")
+    page.locator("#trend .u-over").scroll_into_view_if_needed()
     box = page.locator("#trend .u-over").bounding_box()
     assert box is not None
     # drag across the middle of the plot: a zoom into that time span

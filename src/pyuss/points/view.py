@@ -8,6 +8,10 @@ view (`pyuss.web`), read from `DriveState` and `DrivePoints` alone.
 - `command_outcome`: after a command's telegram was answered, whether the drive took it - its
   state becomes the one the command leads to within a short time (`TAKE_TIME`) - and if not,
   what it did instead and what to do.
+- `fault_panel`: the active fault and warning, the fault history and the warning numbers
+  with the family's texts, read through the parameter channel where the family has them.
+- `key_actuals` / `read_key_actuals`: the family's key actual values (frequency, current,
+  voltages, power, motor temperature) through the parameter channel, where its file has them.
 - `setpoint_refusal`: why a setpoint cannot be sent, in words, with the span the drive's word
   carries.
 """
@@ -30,7 +34,10 @@ __all__ = [
     "TAKE_TIME",
     "Outcome",
     "command_outcome",
+    "fault_panel",
+    "key_actuals",
     "motion",
+    "read_key_actuals",
     "setpoint_refusal",
 ]
 
@@ -226,3 +233,113 @@ def _cut(value: object) -> str:
 def _down(value: float) -> str:
     """``value`` cut (not rounded) to two decimals: the highest a person may type."""
     return f"{math.floor(value * 100) / 100:g}"
+
+
+FAULT_PARAMETERS: dict[str, int] = {
+    "numbers": 947,
+    "times": 948,
+    "values": 949,
+    "warnings": 2110,
+}
+"""The fault history and warning parameters of the Siemens families (r0947 fault numbers,
+r0948 fault times, r0949 fault values, r2110 warning numbers); read where the family's
+parameter file has them."""
+
+
+async def _elements(
+    points: DrivePoints, pnu: int, timeout: float | None
+) -> list[tuple[int | None, object]] | None:
+    """Every element of ``pnu`` as ``(index, value)`` (None: the family has no such
+    parameter); an element the drive refuses is left out."""
+    book = points.drive.params
+    info = book.get(pnu)
+    if info is None:
+        return None
+    indexes: list[int | None] = [None] if info.array is None else list(book.indices(info))
+    out: list[tuple[int | None, object]] = []
+    for index in indexes:
+        with contextlib.suppress(UssError):
+            reading = await points.read_value(pnu, index, timeout=timeout)
+            out.append((index, reading.value))
+    return out
+
+
+def _number(value: object) -> int | None:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return None
+    return int(value)
+
+
+async def fault_panel(points: DrivePoints, *, timeout: float | None = None) -> dict[str, Any]:
+    """The drive's faults and warnings as a panel shows them: whether a fault or warning is
+    active now (status bits 3 and 7), the fault history (number, text from the family's file,
+    time and value where the family keeps them) and the warning numbers with their texts.
+    ``history`` and ``warnings`` are None where the family's parameter file has no such
+    parameter."""
+    profile = points.drive.profile
+    state = points.snapshot()
+    found: dict[str, list[tuple[int | None, object]] | None] = {}
+    for key, pnu in FAULT_PARAMETERS.items():
+        found[key] = await _elements(points, pnu, timeout)
+    times = dict(found["times"] or [])
+    values = dict(found["values"] or [])
+    history = None
+    if found["numbers"] is not None:
+        history = [
+            {
+                "index": index,
+                "number": number,
+                "text": profile.faults.get(number, ""),
+                "time": times.get(index),
+                "value": values.get(index),
+            }
+            for index, raw in found["numbers"]
+            if (number := _number(raw))
+        ]
+    warnings = None
+    if found["warnings"] is not None:
+        warnings = [
+            {"index": index, "number": number, "text": profile.warnings.get(number, "")}
+            for index, raw in found["warnings"]
+            if (number := _number(raw))
+        ]
+    return {
+        "fault": state.fault,
+        "warning": state.warning,
+        "history": history,
+        "warnings": warnings,
+        "parameters": {key: pnu for key, pnu in FAULT_PARAMETERS.items() if found[key] is not None},
+    }
+
+
+KEY_ACTUALS: tuple[int, ...] = (21, 27, 25, 26, 32, 35)
+"""The key actual values of a Siemens drive's panel: output frequency (r0021), current
+(r0027), voltage (r0025), DC-link voltage (r0026), power (r0032), motor temperature (r0035)."""
+
+
+def key_actuals(points: DrivePoints) -> list[dict[str, Any]]:
+    """Which of `KEY_ACTUALS` the drive's parameter file has (number, name, unit): the values a
+    panel polls through the parameter channel beside the process data."""
+    out = []
+    for pnu in KEY_ACTUALS:
+        info = points.drive.params.get(pnu)
+        if info is not None and info.array is None and info.is_numeric:
+            out.append({"pnu": pnu, "name": info.name, "unit": info.unit})
+    return out
+
+
+async def read_key_actuals(
+    points: DrivePoints, *, timeout: float | None = None
+) -> list[dict[str, Any]]:
+    """The values of `key_actuals` now: ``value`` (a number in ``unit``) or ``error``."""
+    out = []
+    for item in key_actuals(points):
+        try:
+            reading = await points.read_value(item["pnu"], None, timeout=timeout)
+        except UssError as exc:
+            out.append({**item, "error": str(exc)})
+            continue
+        value = reading.value
+        number = float(value) if isinstance(value, int | float) else None
+        out.append({**item, "value": number})
+    return out

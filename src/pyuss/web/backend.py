@@ -24,7 +24,7 @@ import logging
 import tempfile
 import time
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -53,7 +53,14 @@ from pyuss.points import (
     scan,
     simulated_drives,
 )
-from pyuss.points.view import command_outcome, motion, setpoint_refusal
+from pyuss.points.view import (
+    command_outcome,
+    fault_panel,
+    key_actuals,
+    motion,
+    read_key_actuals,
+    setpoint_refusal,
+)
 from pyuss.profiles import get_profile, profile_names
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.pzd import STATUS_BITS
@@ -300,10 +307,8 @@ class Backend:
                 {"value": reference, "unit": points.model.unit} if reference is not None else None
             ),
             "actuals": points.actual_columns(),
-            "status_bits": [
-                {"bit": bit, "set": texts[0], "clear": texts[1]}
-                for bit, texts in sorted(STATUS_BITS.items())
-            ],
+            "key_actuals": key_actuals(points),
+            "status_bits": _status_bits(profile.status_bits),
         }
 
     def summary(self, address: int) -> dict[str, Any]:
@@ -318,6 +323,7 @@ class Backend:
             "layout": str(points.model.layout),
             "not_sending": state.health.not_sending,
             "control": state.control_word,
+            "control_in_force": _control_in_force(points),
             "setpoints": list(state.setpoint_words),
             "status": state.status_word,
             "state": state.state if state.answered else "no answer yet",
@@ -433,6 +439,19 @@ class Backend:
         sent yet)."""
         self.points(address)
         return self._sent.get(address)
+
+    async def key_actuals(self, address: int) -> dict[str, Any]:
+        """The family's key actual values of drive ``address`` read now through the parameter
+        channel (`pyuss.points.view.read_key_actuals`), with the time of the reading."""
+        points = self.points(address)
+        values = await read_key_actuals(points, timeout=self.job_timeout)
+        return {"time": time.time(), "values": values}
+
+    async def faults(self, address: int) -> dict[str, Any]:
+        """The fault and warning panel of drive ``address`` (`pyuss.points.view.fault_panel`):
+        the active fault and warning, the fault history and the warning numbers with the
+        family's texts, where its parameter file has them."""
+        return await fault_panel(self.points(address), timeout=self.job_timeout)
 
     # -- parameters ---------------------------------------------------------------------------
     def parameters(self, address: int) -> list[dict[str, Any]]:
@@ -782,6 +801,28 @@ def _setpoint_text(checked: ProcessValue, given: object) -> str:
     if given == checked.unit:
         return f"{value} ({percent} of the reference)"
     return f"{percent} ({value})"
+
+
+def _status_bits(family: Mapping[int, str]) -> list[dict[str, Any]]:
+    """All 16 status bits: the family's text where it has one (what the bit shows when 1;
+    "(0 = active)" marks a low-active bit), else the profile's meaning set and clear (C Tables
+    5.5, 5.6); bits 11..15 of a family without texts are device-specific."""
+    bits = []
+    for bit in range(16):
+        text = family.get(bit)
+        if text is not None:
+            bits.append({"bit": bit, "text": text})
+        elif bit in STATUS_BITS:
+            bits.append({"bit": bit, "set": STATUS_BITS[bit][0], "clear": STATUS_BITS[bit][1]})
+        else:
+            bits.append({"bit": bit, "text": "device-specific"})
+    return bits
+
+
+def _control_in_force(points: DrivePoints) -> int | None:
+    """The control word of the request the drive's last answer answered."""
+    status = points.drive.status
+    return None if status is None else status.control
 
 
 def _number_given(value: object) -> object:
