@@ -203,3 +203,21 @@ async def test_a_value_the_layout_cannot_carry_is_not_asked_for(backend: Backend
     _, text = await backend.backup(4)
     assert 'message = "P70: needs PKW 4 or the variable layout' in text
     assert "error 103" not in text
+
+
+async def test_the_ramp_state_follows_the_actual_value(backend: Backend) -> None:
+    # The generic drive sets status bit 8 at once; the page says "ramping up" until the actual
+    # value reaches the setpoint, and after OFF1 "ramping down" while operation stays enabled.
+    await backend.command(1, "setpoint", 80)
+    reply = await backend.command(1, "on")
+    assert reply["taken"] and reply["motion"] == "ramping up", reply
+    seen = set()
+    async with asyncio.timeout(30):
+        while backend.motion(1) != "at setpoint":
+            seen.add(backend.motion(1))
+            await asyncio.sleep(0.05)
+    assert seen == {"ramping up"}
+    reply = await backend.command(1, "off1")
+    assert reply["taken"] and reply["state"] == "operation enabled"
+    assert reply["motion"] == "OFF1 active, ramping down"
+    assert "off1: done" in reply["text"] and "ramping down" in reply["text"]

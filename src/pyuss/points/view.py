@@ -45,6 +45,9 @@ TAKE_TIME = 1.5
 """How long a command's state may take to show after its telegram was answered (seconds)."""
 AT_REST = 0.5
 """An actual value below this (percent of the reference) is a motor at rest."""
+AT_SETPOINT = 1.0
+"""An actual value this close to the setpoint (percent of the reference) is at setpoint; the
+values decide, not status bit 8 alone (whose tolerance band is the drive's)."""
 
 Goal = Callable[[DriveState, DriveState], bool]
 """``goal(before, now)``: the state ``now`` is the one a command leads to."""
@@ -111,7 +114,8 @@ def motion(state: DriveState) -> str:
     """The ramp state a panel shows: ``stopped`` (or the state, when not running), ``jogging``,
     ``OFF1 active, ramping down``, ``at setpoint``, ``ramping up``, ``ramping down``. OFF1
     keeps a drive in "operation enabled" while it ramps down (control bit 0 = 0, status bit 2
-    still 1); bit 8 (actual value in tolerance) tells the setpoint reached."""
+    still 1). The main actual value against the setpoint in force tells the ramp (within
+    `AT_SETPOINT`: at setpoint); status bit 8 only where either is missing."""
     word = state.status_word
     if word is None:
         return "no answer"
@@ -124,11 +128,11 @@ def motion(state: DriveState) -> str:
         return "jogging"
     if not control & ControlWord.ON:
         return "OFF1 active, ramping down" if turning else "OFF1 active, stopping"
-    if word & StatusWord.IN_TOLERANCE:
-        return "at setpoint"
     setpoint = _main(state.setpoints)
     if actual is None or setpoint is None:
-        return "running"
+        return "at setpoint" if word & StatusWord.IN_TOLERANCE else "running"
+    if abs(actual.percent - setpoint.percent) <= AT_SETPOINT:
+        return "at setpoint"
     if abs(actual.percent) < abs(setpoint.percent):
         return "ramping up"
     return "ramping down"
