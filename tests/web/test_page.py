@@ -226,7 +226,17 @@ def test_a_v20_shows_its_key_actual_values_and_trends_them(page: Any, demo: Runn
     ticks = page.evaluate("window.pyuss.views.drive.plot.axes[0]._values")
     assert ticks and all(len(t) == 8 and t[2] == ":" and t[5] == ":" for t in ticks)
     assert not any(t.endswith(("am", "pm", "AM", "PM")) for t in ticks)
-    screenshot(page, "web-v20", full_page=True)
+    # Running: the polled frequency follows the ramp (for the picture of the docs).
+    demo.call(demo.backend.command(9, "setpoint", 60))
+    demo.call(demo.backend.command(9, "on"))
+    try:
+        page.wait_for_function(
+            "parseFloat(document.querySelector('#drive-actuals td[data-pnu=\"21\"]')"
+            ".textContent) > 10"
+        )
+        screenshot(page, "web-v20", full_page=True)
+    finally:
+        demo.call(demo.backend.command(9, "off1"))
 
 
 def test_every_answer_reaches_the_trend(page: Any, demo: Running) -> None:
@@ -496,6 +506,30 @@ def test_the_trend_zooms_pauses_and_exports_what_it_shows(
     page.click("#trend-pause")
     page.click("#trend-follow")
     assert page.locator("#trend-follow").is_hidden()
+
+
+def test_the_buttons_are_disabled_while_no_drive_answers(browser: Any, demo: Running) -> None:
+    from pyuss.web.backend import Backend, DriveSpec
+    from pyuss.web.server import WebServer
+
+    async def start() -> Backend:
+        backend = Backend(demo=True, drives=[DriveSpec(12)], job_timeout=0.3)
+        await backend.start()
+        return backend
+
+    backend = demo.call(start())  # nothing answers at address 12 on its virtual bus
+    server = WebServer(backend, port=0)
+    url = demo.call(server.start())
+    try:
+        page = open_page(browser, url + "#drive/12")
+        page.wait_for_function("document.querySelector('[data-cmd=on]').disabled")
+        for selector in ("[data-cmd=on]", "[data-cmd=jog1]", "#setpoint-form button", "#fault-ack"):
+            assert page.locator(selector).is_disabled(), selector
+        assert page.locator("[data-cmd=on]").get_attribute("title") == "the drive does not answer"
+        page.context.close()
+    finally:
+        demo.call(server.close())
+        demo.call(backend.close())
 
 
 def test_read_only_hides_every_control(browser: Any, demo: Running) -> None:

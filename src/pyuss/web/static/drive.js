@@ -207,7 +207,7 @@ export class DriveView {
           stroke: COLORS[i % COLORS.length],
           width: 2,
           show: s.on,
-          spanGaps: Boolean(s.polled),
+          spanGaps: true, // a polled row holds no process data: draw across it
           points: { show: false },
         })),
       ],
