@@ -143,6 +143,7 @@ def test_a_v20_jogs_from_standstill_and_shows_its_ramp_down(page: Any, demo: Run
     page.wait_for_function("document.querySelector('#drive-title').textContent.includes('drive 9')")
     page.wait_for_function("!document.querySelector('[data-cmd=jog1]').disabled")
     # Nothing sent yet: the setpoint box is empty, the setpoint in force is 0.
+    page.wait_for_function("document.querySelector('#setpoint-force').textContent !== '-'")
     assert page.locator("#setpoint-value").input_value() == ""
     assert page.locator("#setpoint-force").inner_text().startswith("0.00 %")
     said = _command(page, "jog1")

@@ -70,6 +70,10 @@ export class DriveView {
     this.info = null;
     this.setpointShown = false;
     document.getElementById("setpoint-value").value = "";
+    // nothing of the drive shown before stays until this one's state comes
+    for (const id of ["setpoint-force", "control-sent", "control-force", "drive-motion"]) {
+      document.getElementById(id).textContent = "-";
+    }
     if (address == null) return;
     const info = await get(`/api/drive/${address}`);
     if (this.state.address !== address) return;
