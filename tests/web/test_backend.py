@@ -50,13 +50,19 @@ async def test_a_scan_finds_the_drives_and_reports_progress() -> None:
     progress: list[tuple[int, int]] = []
     try:
         found = await backend.scan(range(10), progress=lambda d, t: progress.append((d, t)))
-        assert [(f["address"], f["layout"]) for f in found] == [(1, "v,2"), (4, "3,2"), (7, "v,2")]
+        assert [(f["address"], f["layout"]) for f in found] == [
+            (1, "v,2"),
+            (4, "3,2"),
+            (7, "v,2"),
+            (9, "v,2"),
+        ]
         assert progress[-1][0] == progress[-1][1] and len(progress) > 10
-        assert backend.addresses() == [1, 4, 7]
+        assert backend.addresses() == [1, 4, 7, 9]
         assert [d["profile"] for d in backend.bus()["drives"]] == [
             "generic",
             "baumueller",
-            "micromaster4",
+            "micromaster440",
+            "sinamics-v20",
         ]
         # the master runs again after the scan
         status = await backend.command(1, "off1")
@@ -88,25 +94,25 @@ async def test_the_expert_list_and_edits_go_through_the_parameter_model() -> Non
     await backend.start()
     try:
         rows = {r["id"]: r for r in backend.parameters(7)}
-        ramp = rows["1120"]
+        ramp = rows["1120.0"]  # MICROMASTER 440: one ramp-up time per data set
         assert (ramp["name"], ramp["unit"], ramp["type"]) == ("Ramp-up time", "s", "float")
         assert (ramp["min"], ramp["max"], ramp["writable"]) == ("0.00", "650.00", True)
         assert "2010.0" in rows and "2010.1" in rows  # MICROMASTER 4 counts from 0
-        assert rows["2010.1"]["texts"]["7"] == "19200 BAUD"
+        assert rows["2010.1"]["texts"]["7"] == "19200 baud"
         assert not rows["52"]["writable"]  # a bit field: raw words only
         # typed as the manual writes them: a time in another unit, a value text
-        assert (await backend.write(7, 1120, None, "1500 ms"))["value"] == "1.50 s"
-        assert (await backend.write(7, 2010, 1, "19200 baud"))["value"] == "7 [19200 BAUD]"
+        assert (await backend.write(7, 1120, 0, "1500 ms"))["value"] == "1.50 s"
+        assert (await backend.write(7, 2010, 1, "19200 baud"))["value"] == "7 [19200 baud]"
         assert (await backend.read(7, [(2010, 1)]))[0]["input"] == "7"
-        await backend.write(7, 2010, 1, "9600 BAUD")
+        await backend.write(7, 2010, 1, "9600 baud")
         # refused before anything is sent: no job reaches the drive
         jobs = backend.points(7).drive.diagnostics().jobs
         before = jobs.completed + jobs.refused
         for pnu, index, text, words in [
-            (1120, None, "700", "outside 0.00..650.00 s"),
-            (1120, None, "fast", "not a number"),
-            (1120, None, "2 Hz", "unit 'Hz' does not fit"),
-            (2010, 1, "0x2", "outside 3..13"),
+            (1120, 0, "700", "outside 0.00..650.00 s"),
+            (1120, 0, "fast", "not a number"),
+            (1120, 0, "2 Hz", "unit 'Hz' does not fit"),
+            (2010, 1, "0x2", "outside 3..12"),
             (21, None, "5", "read-only"),
             (52, None, "1", "read-only"),
         ]:
@@ -172,3 +178,46 @@ async def test_backup_compare_and_restore_are_those_of_uss_backup() -> None:
                 await backend.compare(1, data, "f.toml")
     finally:
         await backend.close()
+
+
+async def test_a_value_the_layout_cannot_carry_is_not_asked_for(backend: Backend) -> None:
+    # Drive 4 has the fixed layout 3,2: one PWE word, no room for its 32-bit P70.
+    rows = {r["id"]: r for r in backend.parameters(4)}
+    needs = "needs PKW 4 or the variable layout: its int32 value takes 2 words, layout 3,2"
+    assert rows["70"]["needs"].startswith(needs)
+    assert not rows["70"]["writable"]
+    assert "needs" not in rows["60"]  # a 16-bit value travels
+    jobs = backend.points(4).drive.diagnostics().jobs
+    before = jobs.completed + jobs.refused
+    (item,) = await backend.read(4, [(70, None)])
+    assert item["needs"].startswith(needs) and "value" not in item and "error" not in item
+    try:
+        await backend.write(4, 70, None, "5")
+    except ConfigError as exc:
+        assert str(exc).startswith("P70 cannot be written: needs PKW 4")
+    else:
+        raise AssertionError("a write the layout cannot carry was sent")
+    jobs = backend.points(4).drive.diagnostics().jobs
+    assert jobs.completed + jobs.refused == before  # nothing reached the drive
+    # A backup records why, instead of the drive's refusal.
+    _, text = await backend.backup(4)
+    assert 'message = "P70: needs PKW 4 or the variable layout' in text
+    assert "error 103" not in text
+
+
+async def test_the_ramp_state_follows_the_actual_value(backend: Backend) -> None:
+    # The generic drive sets status bit 8 at once; the page says "ramping up" until the actual
+    # value reaches the setpoint, and after OFF1 "ramping down" while operation stays enabled.
+    await backend.command(1, "setpoint", 80)
+    reply = await backend.command(1, "on")
+    assert reply["taken"] and reply["motion"] == "ramping up", reply
+    seen = set()
+    async with asyncio.timeout(30):
+        while backend.motion(1) != "at setpoint":
+            seen.add(backend.motion(1))
+            await asyncio.sleep(0.05)
+    assert seen == {"ramping up"}
+    reply = await backend.command(1, "off1")
+    assert reply["taken"] and reply["state"] == "operation enabled"
+    assert reply["motion"] == "OFF1 active, ramping down"
+    assert "off1: done" in reply["text"] and "ramping down" in reply["text"]

@@ -33,10 +33,10 @@ def test_the_bus_view_lists_the_drives_with_their_health(page: Any) -> None:
     rows = page.locator("#bus-table tbody tr")
     rows.first.wait_for()
     page.wait_for_function(
-        "document.querySelectorAll('#bus-table tbody tr').length === 3 && "
+        "document.querySelectorAll('#bus-table tbody tr').length === 4 && "
         "Number(document.querySelector('#bus-table tbody tr td:nth-child(7)').textContent) > 0"
     )
-    assert [rows.nth(i).get_attribute("data-address") for i in range(3)] == ["1", "4", "7"]
+    assert [rows.nth(i).get_attribute("data-address") for i in range(4)] == ["1", "4", "7", "9"]
     assert "switch-on inhibited" in rows.nth(0).inner_text()
     assert "0.00 Hz" in rows.nth(0).inner_text()  # the main actual value in its unit
     assert "0.00 %" in rows.nth(1).inner_text()  # no reference parameter: percent
@@ -63,8 +63,13 @@ def test_the_trend_moves_and_on_off_switch_the_drive_after_asking(page: Any, dem
     page.fill("#setpoint-value", "500")
     page.click("#setpoint-form button[type=submit]")
     page.wait_for_function(
-        "document.querySelector('#drive-message').textContent.includes('outside')"
+        "document.querySelector('#drive-message').textContent.includes('not sent')"
     )
+    # The message says what went wrong and what to do; the section only follows.
+    said = page.locator("#drive-message").inner_text()
+    assert said.startswith("Setpoint: setpoint 500 % not sent: it is beyond what the drive")
+    assert "Enter a value within -200 % .. 199.99 % (-100 .. 99.99 Hz)" in said
+    assert said.endswith("(USS specification C 5.2.2).")
     assert not page.locator("#confirm").is_visible()
     assert demo.run(lambda: demo.backend.points(1).drive.setpoints) == (0,)
     # Setpoint 40 % and ON: the simulated drive runs and the trend follows its ramp. The page
@@ -74,7 +79,10 @@ def test_the_trend_moves_and_on_off_switch_the_drive_after_asking(page: Any, dem
     page.locator("#confirm").wait_for()
     assert "set the setpoint to 40 % (20 Hz)?" in page.locator("#confirm-text").inner_text()
     page.click("#confirm-yes")
-    page.wait_for_function("document.querySelector('#drive-message').textContent.includes('sent')")
+    page.wait_for_function(
+        "document.querySelector('#drive-message').textContent.includes('in force')"
+    )
+    assert page.locator("#setpoint-force").inner_text() == "40.00 % (20.00 Hz)"
     page.click("[data-cmd=on]")
     page.click("#confirm-yes")
     page.wait_for_function(
@@ -96,6 +104,140 @@ def test_the_trend_moves_and_on_off_switch_the_drive_after_asking(page: Any, dem
         "document.querySelector('#drive-state').textContent !== 'operation enabled'"
     )
     assert drive_state(demo, 1) is not DriveState.OPERATION
+
+
+def _command(page: Any, name: str) -> str:
+    """Click command ``name`` (say yes where the page asks) and wait for what the page says."""
+    page.evaluate("document.querySelector('#drive-message').textContent = ''")
+    page.click(f"[data-cmd={name}]")
+    if name in ("on", "jog1", "jog2"):
+        page.wait_for_function(
+            "document.querySelector('#confirm').open"
+            " || document.querySelector('#drive-message').textContent !== ''"
+        )
+        assert page.locator("#drive-message").inner_text() == ""
+        page.click("#confirm-yes")
+    page.wait_for_function(
+        "(() => { const t = document.querySelector('#drive-message').textContent;"
+        " return t !== '' && !t.includes('waiting'); })()"
+    )
+    return str(page.locator("#drive-message").inner_text())
+
+
+def test_a_command_the_drive_does_not_take_is_said_so(page: Any, demo: Running) -> None:
+    # The generic drive jogs as the USS specification says: not from "switch-on inhibited".
+    page.goto(demo.url + "#drive/4")
+    page.wait_for_function("document.querySelector('#drive-state').textContent !== '-'")
+    page.wait_for_function("!document.querySelector('[data-cmd=jog1]').disabled")
+    said = _command(page, "jog1")
+    assert said.startswith("jog1: the drive did not take it: it shows ready to switch on")
+    assert "What to do:" in said
+    assert page.locator("#drive-message").get_attribute("class") == "error"
+    assert demo.run(lambda: demo.backend.points(4).snapshot().state) != "operation enabled"
+    said = _command(page, "jog_off")
+    assert said.startswith("jog_off: done")
+
+
+def test_a_v20_jogs_from_standstill_and_shows_its_ramp_down(page: Any, demo: Running) -> None:
+    page.goto(demo.url + "#drive/9")
+    page.wait_for_function("document.querySelector('#drive-title').textContent.includes('drive 9')")
+    page.wait_for_function("!document.querySelector('[data-cmd=jog1]').disabled")
+    # Nothing sent yet: the setpoint box is empty, the setpoint in force is 0.
+    page.wait_for_function("document.querySelector('#setpoint-force').textContent !== '-'")
+    assert page.locator("#setpoint-value").input_value() == ""
+    assert page.locator("#setpoint-force").inner_text().startswith("0.00 %")
+    said = _command(page, "jog1")
+    assert said.startswith("jog1: done, the drive is operation enabled"), said
+    assert "jogging" in said
+    assert _command(page, "jog_off").startswith("jog_off: done")
+    page.wait_for_function(
+        "document.querySelector('#drive-state').textContent !== 'operation enabled'"
+    )
+    demo.call(demo.backend.command(9, "setpoint", 60))
+    assert _command(page, "on").startswith("on: done, the drive is operation enabled")
+    page.wait_for_function(
+        "parseFloat(document.querySelector('#drive-actuals td[data-pzd]').textContent) > 8"
+    )
+    # OFF1: the drive stays in "operation enabled" while it ramps down; the page says so.
+    said = _command(page, "off1")
+    assert said.startswith("off1: done") and "OFF1 active, ramping down" in said
+    assert page.locator("#drive-state").inner_text() == "operation enabled"
+    page.wait_for_function(
+        "document.querySelector('#drive-motion').textContent === 'OFF1 active, ramping down'"
+    )
+    page.wait_for_function("document.querySelector('#drive-motion').textContent === 'stopped'")
+
+
+def test_the_drive_view_shows_every_status_bit_and_the_fault_panel(
+    page: Any, demo: Running
+) -> None:
+    page.goto(demo.url + "#drive/9")
+    page.wait_for_function("document.querySelector('#drive-title').textContent.includes('drive 9')")
+    page.wait_for_function("document.querySelector('#fault-note').textContent !== ''")
+    # All 16 bits, 11..15 with the SINAMICS V20's own texts (r0052).
+    bits = page.locator("#drive-bits li")
+    assert bits.count() == 16
+    assert "motor turns right" in bits.nth(14).inner_text()
+    assert "inverter overload (0 = active)" in bits.nth(15).inner_text()
+    page.wait_for_function("document.querySelector('#control-force').textContent !== '-'")
+    assert page.locator("#control-sent").inner_text() != "----"
+    assert page.locator("#fault-now").inner_text() == "no fault, no warning"
+    assert "r0947 fault numbers" in page.locator("#fault-note").inner_text()
+    # A fault and a warning trip: the panel shows them with the family's texts.
+    engine = demo.backend.engines[9].drive
+    demo.run(engine.raise_fault, 3)
+    demo.run(engine.raise_warning, 503)
+    page.wait_for_function(
+        "document.querySelector('#fault-table tbody').textContent.includes('undervoltage')"
+    )
+    table = page.locator("#fault-table tbody").inner_text()
+    assert "F0003" in table and "A0503" in table and "undervoltage limit" in table
+    assert page.locator("#fault-now").inner_text() == "fault active, warning active"
+    screenshot(page, "web-faults", full_page=True)
+    # Acknowledge from the panel: the fault goes, the warning stays while its cause does.
+    page.click("#fault-ack")
+    page.wait_for_function(
+        "document.querySelector('#fault-now').textContent === 'no fault, warning active'"
+    )
+    assert page.locator("#drive-message").inner_text().startswith("acknowledge: done")
+    demo.run(engine.clear_warning, 503)
+
+
+def test_a_v20_shows_its_key_actual_values_and_trends_them(page: Any, demo: Running) -> None:
+    page.goto(demo.url + "#drive/9")
+    page.wait_for_function("document.querySelector('#drive-title').textContent.includes('drive 9')")
+    # Polled through the parameter channel beside the process data, with units.
+    page.wait_for_function(
+        "document.querySelector('#drive-actuals td[data-pnu=\"27\"]').textContent !== '-'"
+    )
+    table = page.locator("#drive-actuals").inner_text()
+    for name in ("Actual frequency (r0021)", "Output current (r0027)", "Output voltage (r0025)"):
+        assert name in table
+    assert "DC link voltage (r0026)" in table and "Output power (r0032)" in table
+    assert " A" in page.locator("#drive-actuals td[data-pnu='27']").inner_text()
+    # Each may be put on the trend; the time axis is the 24-hour clock.
+    choice = page.locator("#trend-choice label", has_text="Output current [A]")
+    choice.locator("input").check()
+    page.wait_for_function("window.pyuss.views.drive.polls >= 2")
+    column = page.evaluate(
+        "(() => { const d = window.pyuss.views.drive; const i = d.series.findIndex("
+        "s => s.key === 'p27'); return d.data[i + 1].filter(v => v !== null).length; })()"
+    )
+    assert column >= 2
+    ticks = page.evaluate("window.pyuss.views.drive.plot.axes[0]._values")
+    assert ticks and all(len(t) == 8 and t[2] == ":" and t[5] == ":" for t in ticks)
+    assert not any(t.endswith(("am", "pm", "AM", "PM")) for t in ticks)
+    # Running: the polled frequency follows the ramp (for the picture of the docs).
+    demo.call(demo.backend.command(9, "setpoint", 60))
+    demo.call(demo.backend.command(9, "on"))
+    try:
+        page.wait_for_function(
+            "parseFloat(document.querySelector('#drive-actuals td[data-pnu=\"21\"]')"
+            ".textContent) > 10"
+        )
+        screenshot(page, "web-v20", full_page=True)
+    finally:
+        demo.call(demo.backend.command(9, "off1"))
 
 
 def test_every_answer_reaches_the_trend(page: Any, demo: Running) -> None:
@@ -156,6 +298,23 @@ def test_a_parameter_edit_reaches_the_drive_and_a_refusal_is_shown(
     page.click("#edit-cancel")
     page.fill("#param-search", "")
     screenshot(page, "web-params", full_page=False)
+
+
+def test_a_value_the_layout_cannot_carry_is_said_once_and_not_editable(
+    page: Any, demo: Running
+) -> None:
+    # Drive 4 talks the fixed layout 3,2: its 32-bit parameters do not fit one PWE word.
+    page.goto(demo.url + "#params/4")
+    page.wait_for_function(
+        "document.querySelector('#param-message').textContent.includes('values read')"
+    )
+    row = page.locator("#param-table tbody tr[data-id='70']")
+    assert row.locator("td.value").inner_text() == "needs PKW 4 or the variable layout"
+    assert "error" not in row.inner_text()
+    assert row.get_attribute("class") != "writable"
+    row.locator("td.value").click()
+    assert not page.locator("#edit").is_visible()
+    assert page.locator("#param-table tbody tr[data-id='60']").get_attribute("class") == "writable"
 
 
 def test_a_backup_downloads_and_restores_and_a_refusal_is_shown(
@@ -277,12 +436,43 @@ def test_the_page_fits_a_tablet(browser: Any, demo: Running) -> None:
         page.context.close()
 
 
+def test_the_bus_table_and_the_monitor_are_usable_on_a_phone(browser: Any, demo: Running) -> None:
+    page = open_page(browser, demo.url + "#bus", width=400, height=800)
+    try:
+        page.wait_for_function("document.querySelectorAll('#bus-table tbody tr').length === 4")
+        wide = "document.documentElement.scrollWidth - document.documentElement.clientWidth"
+        assert page.evaluate(wide) <= 0
+        # every column shown fits the card: nothing to scroll sideways for
+        table = page.evaluate(
+            "(() => { const s = document.querySelector('#bus-table').parentElement;"
+            " return s.scrollWidth - s.clientWidth; })()"
+        )
+        assert table <= 0
+        row = page.locator("#bus-table tbody tr[data-address='9']")
+        assert "sinamics-v20" in row.inner_text()
+        shown = [c.is_visible() for c in row.locator("td").all()]
+        assert sum(shown) == 6 and shown[3]  # the state is one of them
+        screenshot(page, "web-phone-bus", full_page=True)
+        page.goto(demo.url + "#monitor")
+        page.wait_for_function("document.querySelectorAll('#mon-list div').length > 20")
+        assert page.evaluate(wide) <= 0
+        lines = page.evaluate(
+            "(() => { const l = document.querySelector('#mon-list');"
+            " return l.scrollWidth - l.clientWidth; })()"
+        )
+        assert lines <= 0  # the lines wrap: a telegram is read without scrolling sideways
+        screenshot(page, "web-phone-monitor", full_page=False)
+    finally:
+        page.context.close()
+
+
 def test_the_trend_zooms_pauses_and_exports_what_it_shows(
     page: Any, demo: Running, tmp_path: Any
 ) -> None:
     page.goto(demo.url + "#drive/7")
     page.wait_for_function("document.querySelector('#drive-title').textContent.includes('drive 7')")
     page.wait_for_function("window.pyuss.views.drive.data[0].length > 60")
+    page.locator("#trend .u-over").scroll_into_view_if_needed()
     box = page.locator("#trend .u-over").bounding_box()
     assert box is not None
     # drag across the middle of the plot: a zoom into that time span
@@ -317,6 +507,30 @@ def test_the_trend_zooms_pauses_and_exports_what_it_shows(
     page.click("#trend-pause")
     page.click("#trend-follow")
     assert page.locator("#trend-follow").is_hidden()
+
+
+def test_the_buttons_are_disabled_while_no_drive_answers(browser: Any, demo: Running) -> None:
+    from pyuss.web.backend import Backend, DriveSpec
+    from pyuss.web.server import WebServer
+
+    async def start() -> Backend:
+        backend = Backend(demo=True, drives=[DriveSpec(12)], job_timeout=0.3)
+        await backend.start()
+        return backend
+
+    backend = demo.call(start())  # nothing answers at address 12 on its virtual bus
+    server = WebServer(backend, port=0)
+    url = demo.call(server.start())
+    try:
+        page = open_page(browser, url + "#drive/12")
+        page.wait_for_function("document.querySelector('[data-cmd=on]').disabled")
+        for selector in ("[data-cmd=on]", "[data-cmd=jog1]", "#setpoint-form button", "#fault-ack"):
+            assert page.locator(selector).is_disabled(), selector
+        assert page.locator("[data-cmd=on]").get_attribute("title") == "the drive does not answer"
+        page.context.close()
+    finally:
+        demo.call(server.close())
+        demo.call(backend.close())
 
 
 def test_read_only_hides_every_control(browser: Any, demo: Running) -> None:

@@ -117,7 +117,7 @@ async def test_bad_requests_get_one_clear_line(backend: Backend) -> None:
             url = base(server)
             cases = [
                 ("/api/drive/1/command", {"name": "fly"}, 400, "unknown command"),
-                ("/api/drive/9/command", {"name": "on"}, 400, "not on the page"),
+                ("/api/drive/12/command", {"name": "on"}, 400, "not on the page"),
                 ("/api/drive/1/command", {"name": "setpoint", "value": "fast"}, 400, "number"),
                 ("/api/drive/1/params/write", {"id": "x", "value": "1"}, 400, "parameter"),
                 ("/api/drive/1/params/write", {"id": "2", "value": "1"}, 400, "read-only"),

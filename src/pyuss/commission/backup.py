@@ -38,6 +38,7 @@ from pyuss.master.errors import JobTimeout
 from pyuss.params.model import ParamInfo, Reading
 from pyuss.params.names import param_name, parse_param_name
 from pyuss.params.values import format_value, json_value
+from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import ErrorNumber
 from pyuss.userfile import parse_json, parse_toml, read_text
 
@@ -45,6 +46,8 @@ __all__ = [
     "FORMAT_VERSION",
     "Backup",
     "Entry",
+    "LayoutTooSmall",
+    "beyond_layout",
     "identity_parameters",
     "load",
     "read_parameters",
@@ -355,6 +358,22 @@ def identity_parameters(drive: Drive) -> list[tuple[int, int | None]]:
     ]
 
 
+class LayoutTooSmall(UssError):
+    """The telegram layout cannot carry the parameter's value: not asked, nothing sent."""
+
+
+def beyond_layout(layout: Layout, info: ParamInfo | None) -> str | None:
+    """Why a value of ``info`` cannot travel in ``layout`` (a 32-bit value in PKW 3, whose one
+    PWE word carries 16 bits, C 4.2.3), or None."""
+    if info is None or layout.variable or layout.pkw == 0 or info.words <= layout.pkw - 2:
+        return None
+    needs = "PKW 4 or the variable layout" if info.words <= 2 else "the variable layout"
+    return (
+        f"needs {needs}: its {info.type_name} value takes {info.words} words, layout "
+        f"{layout} carries {layout.pkw - 2}"
+    )
+
+
 def error_dict(exc: UssError) -> dict[str, Any]:
     data: dict[str, Any] = {"type": type(exc).__name__, "message": str(exc)}
     if isinstance(exc, DriveRefusal):
@@ -376,7 +395,11 @@ async def read_parameters(
     for done, (pnu, index) in enumerate(wanted):
         if progress is not None:
             progress(done, len(wanted), drive.params.label(pnu, index))
+        info = drive.params.get(pnu)
         try:
+            too_long = beyond_layout(drive.layout, info)
+            if too_long is not None:
+                raise LayoutTooSmall(f"{drive.params.label(pnu, index)}: {too_long}")
             reading = await drive.read_param(pnu, index)
         except ConfigError:
             raise
@@ -384,7 +407,6 @@ async def read_parameters(
             silent = silent + 1 if isinstance(exc, UssTimeout) else 0
             if silent >= MAX_TIMEOUTS:
                 raise
-            info = drive.params.get(pnu)
             entries.append(
                 Entry(
                     pnu,

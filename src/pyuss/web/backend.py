@@ -24,7 +24,7 @@ import logging
 import tempfile
 import time
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -44,6 +44,7 @@ from pyuss.points import (
     MOVES,
     Drive,
     DrivePoints,
+    DriveState,
     Found,
     Plant,
     ProcessValue,
@@ -51,6 +52,14 @@ from pyuss.points import (
     line_model,
     scan,
     simulated_drives,
+)
+from pyuss.points.view import (
+    command_outcome,
+    fault_panel,
+    key_actuals,
+    motion,
+    read_key_actuals,
+    setpoint_refusal,
 )
 from pyuss.profiles import get_profile, profile_names
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
@@ -99,9 +108,11 @@ class DriveSpec:
 DEMO_DRIVES: tuple[DriveSpec, ...] = (
     DriveSpec(1, "generic", Layout(PKW_VARIABLE, 2)),
     DriveSpec(4, "baumueller", Layout(3, 2)),
-    DriveSpec(7, "micromaster4", Layout(PKW_VARIABLE, 2)),
+    DriveSpec(7, "micromaster440", Layout(PKW_VARIABLE, 2)),
+    DriveSpec(9, "sinamics-v20", Layout(PKW_VARIABLE, 2)),
 )
-"""The simulated drives of ``uss web --demo`` (the same bus as ``uss demo``)."""
+"""The simulated drives of ``uss web --demo``: a generic drive, a Baumueller drive with the
+fixed layout 3,2 (PKW 3), a MICROMASTER 440 and a SINAMICS V20."""
 
 
 class Backend:
@@ -149,6 +160,7 @@ class Backend:
         self._exchange_seq = 0
         self.scan_progress: tuple[int, int] | None = None
         self._lock = asyncio.Lock()
+        self._sent: dict[int, dict[str, Any]] = {}
 
     # -- life cycle ---------------------------------------------------------------------------
     async def start(self) -> None:
@@ -295,10 +307,8 @@ class Backend:
                 {"value": reference, "unit": points.model.unit} if reference is not None else None
             ),
             "actuals": points.actual_columns(),
-            "status_bits": [
-                {"bit": bit, "set": texts[0], "clear": texts[1]}
-                for bit, texts in sorted(STATUS_BITS.items())
-            ],
+            "key_actuals": key_actuals(points),
+            "status_bits": _status_bits(profile.status_bits),
         }
 
     def summary(self, address: int) -> dict[str, Any]:
@@ -313,9 +323,13 @@ class Backend:
             "layout": str(points.model.layout),
             "not_sending": state.health.not_sending,
             "control": state.control_word,
+            "control_in_force": _control_in_force(points),
             "setpoints": list(state.setpoint_words),
             "status": state.status_word,
             "state": state.state if state.answered else "no answer yet",
+            "motion": motion(state),
+            "setpoint": _setpoint_in_force(state),
+            "sent_setpoint": self._sent.get(address),
             "fault": state.fault,
             "warning": state.warning,
             "actual": list(points.actual_row(state.actual_words)) if state.answered else [],
@@ -334,6 +348,10 @@ class Backend:
                 },
             },
         }
+
+    def motion(self, address: int) -> str:
+        """The ramp state of drive ``address`` now (`pyuss.points.view.motion`)."""
+        return motion(self.points(address).state)
 
     def bus(self) -> dict[str, Any]:
         """The line: port, baud rate, the drives and the line's own counters."""
@@ -384,7 +402,11 @@ class Backend:
                 raise ConfigError('a setpoint is a number or {"value": v, "unit": u}')
             unit = value.get("unit", "%")
             value = value.get("value")
-        return points.check_setpoint(value, unit=unit if isinstance(unit, str) else repr(unit))
+        unit_text = unit if isinstance(unit, str) else repr(unit)
+        refusal = setpoint_refusal(points, value, unit_text)
+        if refusal is not None:
+            raise ConfigError(refusal)
+        return points.check_setpoint(value, unit=unit_text)
 
     async def command(self, address: int, name: object, value: object = None) -> dict[str, Any]:
         """Send control command ``name`` (see `COMMANDS`); ``setpoint`` takes ``value`` in
@@ -392,25 +414,61 @@ class Backend:
         first (`check`): a refused command sends nothing."""
         points = self.points(address)
         self.check(address, name, value)
+        before = points.snapshot()
         if name == "setpoint":
             checked = self._setpoint(points, value)
             state = await points.set_setpoint(checked.raw, unit="raw", timeout=self.job_timeout)
-        else:
-            assert isinstance(name, str)
-            state = await points.command(name, timeout=self.job_timeout)
-        return {"status": state.status_word, "state": state.state}
+            shown = _setpoint_text(checked, _unit_given(value))
+            self._sent[address] = {"value": _number_given(value), "unit": _unit_given(value)}
+            return {
+                "command": name,
+                "taken": True,
+                "text": f"Setpoint {shown} is in force (the drive answered the telegram).",
+                "status": state.status_word,
+                "state": state.state,
+                "motion": motion(state),
+                "setpoint": _setpoint_in_force(state),
+            }
+        assert isinstance(name, str)
+        await points.command(name, timeout=self.job_timeout)
+        outcome = await command_outcome(points, name, before)
+        return outcome.to_dict()
+
+    def sent_setpoint(self, address: int) -> dict[str, Any] | None:
+        """The setpoint this page last sent to drive ``address`` as it was typed (None: none
+        sent yet)."""
+        self.points(address)
+        return self._sent.get(address)
+
+    async def key_actuals(self, address: int) -> dict[str, Any]:
+        """The family's key actual values of drive ``address`` read now through the parameter
+        channel (`pyuss.points.view.read_key_actuals`), with the time of the reading."""
+        points = self.points(address)
+        values = await read_key_actuals(points, timeout=self.job_timeout)
+        return {"time": time.time(), "values": values}
+
+    async def faults(self, address: int) -> dict[str, Any]:
+        """The fault and warning panel of drive ``address`` (`pyuss.points.view.fault_panel`):
+        the active fault and warning, the fault history and the warning numbers with the
+        family's texts, where its parameter file has them."""
+        return await fault_panel(self.points(address), timeout=self.job_timeout)
 
     # -- parameters ---------------------------------------------------------------------------
     def parameters(self, address: int) -> list[dict[str, Any]]:
         """The expert list: every parameter (every element of an array) the drive's parameter
         book knows (`pyuss.params.ParamBook`: the user's file, the drive's descriptions, the
         profile's file), with its name, unit, type, limits and texts; values come from `read`."""
-        book = self.points(address).drive.params
+        drive = self.points(address).drive
+        book = drive.params
         rows = []
         for info in book:
             indexes: list[int | None] = [None] if info.array is None else list(book.indices(info))
+            needs = backups.beyond_layout(drive.layout, info)
             for index in indexes:
-                rows.append(_row(info, index))
+                row = _row(info, index)
+                if needs is not None:
+                    row.update(needs=needs, writable=False)
+                rows.append(row)
         return rows
 
     async def read(
@@ -423,6 +481,10 @@ class Backend:
         out: list[dict[str, Any]] = []
         for pnu, index in refs:
             item: dict[str, Any] = {"id": _id(pnu, index)}
+            needs = backups.beyond_layout(points.drive.layout, points.drive.params.get(pnu))
+            if needs is not None:  # the drive would refuse it (error 103): not asked
+                out.append({**item, "needs": needs})
+                continue
             try:
                 reading = await points.read_value(pnu, index, timeout=self.job_timeout)
             except UssError as exc:
@@ -439,6 +501,10 @@ class Backend:
         checked by the points against the parameter's type, limits and access before anything
         is sent (`DrivePoints.write_value`); the drive's refusal raises `DriveRefusal`.
         Returns the value the drive answered with, as `read` does."""
+        drive = self.points(address).drive
+        needs = backups.beyond_layout(drive.layout, drive.params.get(pnu))
+        if needs is not None:
+            raise ConfigError(f"{_label(pnu, index)} cannot be written: {needs}")
         reading = await self.points(address).write_value(
             pnu, index, text, eeprom=eeprom, timeout=self.job_timeout
         )
@@ -735,6 +801,42 @@ def _setpoint_text(checked: ProcessValue, given: object) -> str:
     if given == checked.unit:
         return f"{value} ({percent} of the reference)"
     return f"{percent} ({value})"
+
+
+def _status_bits(family: Mapping[int, str]) -> list[dict[str, Any]]:
+    """All 16 status bits: the family's text where it has one (what the bit shows when 1;
+    "(0 = active)" marks a low-active bit), else the profile's meaning set and clear (C Tables
+    5.5, 5.6); bits 11..15 of a family without texts are device-specific."""
+    bits = []
+    for bit in range(16):
+        text = family.get(bit)
+        if text is not None:
+            bits.append({"bit": bit, "text": text})
+        elif bit in STATUS_BITS:
+            bits.append({"bit": bit, "set": STATUS_BITS[bit][0], "clear": STATUS_BITS[bit][1]})
+        else:
+            bits.append({"bit": bit, "text": "device-specific"})
+    return bits
+
+
+def _control_in_force(points: DrivePoints) -> int | None:
+    """The control word of the request the drive's last answer answered."""
+    status = points.drive.status
+    return None if status is None else status.control
+
+
+def _number_given(value: object) -> object:
+    return value.get("value") if isinstance(value, dict) else value
+
+
+def _setpoint_in_force(state: DriveState) -> dict[str, Any] | None:
+    """The main setpoint the drive is sent now (percent, and in units where known)."""
+    value = state.setpoints.get("main") or next(iter(state.setpoints.values()), None)
+    return None if value is None else value.to_dict()
+
+
+def _label(pnu: int, index: int | None) -> str:
+    return f"P{_id(pnu, index)}"
 
 
 def _id(pnu: int, index: int | None) -> str:

@@ -4,7 +4,9 @@ Routes (all under the token when there is one):
 
 - ``GET /``: the page; ``/static/...``: its scripts, styles and the plotting library.
 - ``GET /api/config``, ``/api/bus``, ``/api/drive/N``, ``/api/drive/N/params``: what the page
-  shows; ``POST /api/drive/N/params/read``: parameter values.
+  shows; ``POST /api/drive/N/params/read``: parameter values; ``GET /api/drive/N/faults``:
+  the active fault and warning, the fault history and warning numbers with their texts;
+  ``GET /api/drive/N/actuals``: the family's key actual values, read now.
 - ``GET /api/drive/N/backup?format=toml|json|csv``: a backup file of the drive's parameters
   (`pyuss.commission`, the files of ``uss backup``); ``POST /api/drive/N/compare?name=FILE``
   with a backup file as the body: the differences, what a restore would write.
@@ -261,6 +263,8 @@ class WebServer:
         app.router.add_get(r"/api/drive/{address:\d+}", self._drive)
         app.router.add_post(r"/api/drive/{address:\d+}/command", self._command)
         app.router.add_get(r"/api/drive/{address:\d+}/params", self._params)
+        app.router.add_get(r"/api/drive/{address:\d+}/faults", self._faults)
+        app.router.add_get(r"/api/drive/{address:\d+}/actuals", self._actuals)
         app.router.add_post(r"/api/drive/{address:\d+}/params/read", self._params_read)
         app.router.add_post(r"/api/drive/{address:\d+}/params/write", self._params_write)
         app.router.add_get(r"/api/drive/{address:\d+}/backup", self._backup)
@@ -422,6 +426,12 @@ class WebServer:
             self._confirms.redeem(data["confirm"], checked)
         return web.json_response(await self.backend.command(address, name, value))
 
+    async def _actuals(self, request: web.Request) -> web.Response:
+        return web.json_response(await self.backend.key_actuals(self._address(request)))
+
+    async def _faults(self, request: web.Request) -> web.Response:
+        return web.json_response(await self.backend.faults(self._address(request)))
+
     async def _params(self, request: web.Request) -> web.Response:
         return web.json_response(self.backend.parameters(self._address(request)))
 
@@ -575,6 +585,8 @@ class WebServer:
 
     def _send_tick(self, count: int) -> None:
         backend = self.backend
+        if backend.scan_progress is not None:
+            return  # the drives of before are gone, the new ones not there yet
         samples = backend.take_samples()
         drives = {}
         for address, taken in samples.items():
@@ -584,6 +596,7 @@ class WebServer:
                 "status": last.status,
                 "state": state_name(last.status),
                 "setpoint": backend.points(address).setpoint_value(),
+                "motion": backend.motion(address),
             }
         if self.hub.clients:
             self.hub.send(json.dumps({"type": "tick", "drives": drives}))

@@ -13,6 +13,17 @@ const CONFIRM = {
   jog2: "Jog 2? The motor turns at the jog 2 setpoint until you press Jog off.",
 };
 
+// A time of day on the 24-hour clock (14:05:09), as the trend's axis and legend show it.
+function clock(t) {
+  const d = new Date(t * 1000);
+  return [d.getHours(), d.getMinutes(), d.getSeconds()].map((n) => String(n).padStart(2, "0")).join(":");
+}
+
+// A status bit as a panel shows it: the meaning now, or the family's text with the bit's value.
+function bitText(b, on) {
+  return b.text ? `${b.bit} = ${on ? 1 : 0}: ${b.text}` : `${b.bit}: ${on ? b.set : b.clear}`;
+}
+
 export class DriveView {
   constructor(state) {
     this.state = state;
@@ -41,7 +52,13 @@ export class DriveView {
     document.getElementById("trend-pause").addEventListener("click", () => this.pause(!this.paused));
     document.getElementById("trend-follow").addEventListener("click", () => this.follow());
     document.getElementById("trend-csv").addEventListener("click", () => this.csv());
+    document.getElementById("faults-read").addEventListener("click", () => this.readFaults());
+    document.getElementById("fault-ack").addEventListener("click", async () => {
+      await this.command("acknowledge");
+      this.readFaults();
+    });
     window.addEventListener("resize", () => this.resize());
+    setInterval(() => this.poll(), 1000);
   }
 
   shown(visible) {
@@ -51,6 +68,12 @@ export class DriveView {
 
   async driveChanged(address) {
     this.info = null;
+    this.setpointShown = false;
+    document.getElementById("setpoint-value").value = "";
+    // nothing of the drive shown before stays until this one's state comes
+    for (const id of ["setpoint-force", "control-sent", "control-force", "drive-motion"]) {
+      document.getElementById(id).textContent = "-";
+    }
     if (address == null) return;
     const info = await get(`/api/drive/${address}`);
     if (this.state.address !== address) return;
@@ -58,10 +81,16 @@ export class DriveView {
     document.getElementById("drive-title").textContent =
       `drive ${address} · ${info.title} · layout ${info.layout}`;
     document.getElementById("drive-bits").replaceChildren(
-      ...info.status_bits.map((b) => el("li", { dataset: { bit: b.bit } }, `${b.bit}: ${b.clear}`)));
+      ...info.status_bits.map((b) => el("li", { dataset: { bit: b.bit } }, bitText(b, false))));
     const rows = info.actuals.map((a) => el("tr", {},
       el("td", {}, `${a.name} (PZD${a.pzd})`),
       el("td", { dataset: { pzd: a.pzd } }, "-")));
+    // The family's key actual values, polled through the parameter channel.
+    for (const k of info.key_actuals) {
+      rows.push(el("tr", { class: "polled" },
+        el("td", {}, `${k.name} (r${String(k.pnu).padStart(4, "0")})`),
+        el("td", { dataset: { pnu: k.pnu } }, "-")));
+    }
     document.querySelector("#drive-actuals tbody").replaceChildren(...rows);
     const unit = document.getElementById("setpoint-unit");
     const units = ["%"];
@@ -70,6 +99,7 @@ export class DriveView {
     this.series = [
       ...info.actuals.map((a) => ({ name: a.name, unit: a.unit, key: `pzd${a.pzd}`, on: a.pzd === 2 })),
       { name: "Setpoint", unit: info.actuals.length ? info.actuals[0].unit : "%", key: "setpoint", on: true },
+      ...info.key_actuals.map((k) => ({ name: k.name, unit: k.unit, key: `p${k.pnu}`, on: false, polled: true })),
     ];
     const choice = document.getElementById("trend-choice");
     choice.replaceChildren(...this.series.map((s, i) => {
@@ -84,6 +114,86 @@ export class DriveView {
     this.data = [[], ...this.series.map(() => [])];
     this.updates = 0;
     this.build();
+    this.alarmBits = null;
+    this.readFaults();
+  }
+
+  // One row of the trend at time t, in time order (a polled value may be older than the
+  // newest sample).
+  insert(t, row) {
+    const xs = this.data[0];
+    let at = xs.length;
+    while (at > 0 && xs[at - 1] > t) at -= 1;
+    if (at === xs.length) {
+      xs.push(t);
+      row.forEach((v, i) => this.data[i + 1].push(v));
+    } else {
+      xs.splice(at, 0, t);
+      row.forEach((v, i) => this.data[i + 1].splice(at, 0, v));
+    }
+  }
+
+  // The key actual values: read once a second through the parameter channel while the drive
+  // view is shown (one read at a time), into their cells and the trend.
+  async poll() {
+    const address = this.state.address;
+    if (this.polling || !this.visible || !this.info || !this.info.key_actuals.length) return;
+    this.polling = true;
+    try {
+      const reply = await get(`/api/drive/${address}/actuals`);
+      if (this.state.address !== address || !this.info) return;
+      this.polls = (this.polls || 0) + 1;
+      const row = this.series.map((s) => {
+        const v = reply.values.find((x) => `p${x.pnu}` === s.key);
+        return v && v.value != null ? v.value : null;
+      });
+      for (const v of reply.values) {
+        const cell = document.querySelector(`#drive-actuals td[data-pnu="${v.pnu}"]`);
+        if (cell) cell.textContent = v.error ? "not read" : `${v.value.toFixed(2)} ${v.unit}`;
+        if (cell && v.error) cell.title = v.error;
+      }
+      this.insert(reply.time, row);
+      this.redraw();
+    } catch (error) {
+      // the drive may not answer now: the buttons and state say so
+    } finally {
+      this.polling = false;
+    }
+  }
+
+  // The fault and warning panel: read through the parameter channel when the drive is shown
+  // and whenever its fault or warning bit changes.
+  async readFaults() {
+    const address = this.state.address;
+    if (address == null) return;
+    let panel;
+    try {
+      panel = await get(`/api/drive/${address}/faults`);
+    } catch (error) {
+      document.getElementById("fault-note").textContent = `Faults not read: ${error.message}`;
+      return;
+    }
+    if (this.state.address !== address) return;
+    const now = [panel.fault ? "fault active" : "no fault", panel.warning ? "warning active" : "no warning"];
+    const fault = document.getElementById("fault-now");
+    fault.textContent = now.join(", ");
+    fault.className = panel.fault ? "error" : "note";
+    const rows = [];
+    const cell = (v) => el("td", {}, v == null ? "" : String(v));
+    for (const f of panel.history || []) {
+      rows.push(el("tr", { class: "fault" }, cell("fault"), cell(f.index), cell(`F${String(f.number).padStart(4, "0")}`),
+        cell(f.text), cell(f.time), cell(f.value)));
+    }
+    for (const w of panel.warnings || []) {
+      rows.push(el("tr", { class: "warning" }, cell("warning"), cell(w.index), cell(`A${String(w.number).padStart(4, "0")}`),
+        cell(w.text), cell(null), cell(null)));
+    }
+    document.querySelector("#fault-table tbody").replaceChildren(...rows);
+    const names = { numbers: "fault numbers", times: "fault times", values: "fault values", warnings: "warning numbers" };
+    const kept = Object.entries(panel.parameters).map(([k, pnu]) => `r${String(pnu).padStart(4, "0")} ${names[k]}`);
+    document.getElementById("fault-note").textContent = kept.length
+      ? `Read from ${kept.join(", ")}${rows.length ? "" : ": none recorded"}.`
+      : "This drive family keeps no fault history in its parameters: the status word shows fault and warning.";
   }
 
   build() {
@@ -95,16 +205,17 @@ export class DriveView {
       height: 300,
       scales: { x: { time: true } },
       series: [
-        { label: "time" },
+        { label: "time", value: (u, t) => (t == null ? "-" : clock(t)) },
         ...this.series.map((s, i) => ({
           label: `${s.name}${s.unit ? ` [${s.unit}]` : ""}`,
           stroke: COLORS[i % COLORS.length],
           width: 2,
           show: s.on,
+          spanGaps: true, // a polled row holds no process data: draw across it
           points: { show: false },
         })),
       ],
-      axes: [{}, { size: 60 }],
+      axes: [{ values: (u, splits) => splits.map(clock) }, { size: 60 }],
       cursor: { drag: { x: true, y: false } },
       hooks: {
         setSelect: [(u) => {
@@ -146,11 +257,34 @@ export class DriveView {
   busState(bus) {
     const d = bus.drives.find((x) => x.address === this.state.address);
     if (!d) return;
+    this.summary = d;
     const stateEl = document.getElementById("drive-state");
+    const silent = d.not_sending || d.status == null;
     if (d.not_sending) {
       stateEl.textContent = "does not send";
       stateEl.className = "state lost";
     }
+    // No drive answering: nothing to command (a command would only time out).
+    for (const button of document.querySelectorAll("#view-drive .controls button, #setpoint-form button, #fault-ack")) {
+      button.disabled = silent;
+      button.title = silent ? "the drive does not answer" : "";
+    }
+    document.getElementById("drive-motion").textContent = silent ? "-" : d.motion;
+    this.showSetpoint(d.setpoint);
+    document.getElementById("control-sent").textContent = hex4(d.control);
+    document.getElementById("control-force").textContent =
+      d.control_in_force == null ? "-" : hex4(d.control_in_force);
+    const box = document.getElementById("setpoint-value");
+    if (!this.setpointShown && d.sent_setpoint && document.activeElement !== box) {
+      box.value = d.sent_setpoint.value;
+      document.getElementById("setpoint-unit").value = d.sent_setpoint.unit;
+    }
+    this.setpointShown = true;
+  }
+
+  showSetpoint(sp) {
+    document.getElementById("setpoint-force").textContent = sp == null ? "-"
+      : `${sp.percent.toFixed(2)} %${sp.value != null && sp.unit !== "%" ? ` (${sp.value.toFixed(2)} ${sp.unit})` : ""}`;
   }
 
   tick(message) {
@@ -161,14 +295,13 @@ export class DriveView {
     const last = samples[samples.length - 1];
     this.updates += samples.length;
     this.showStatus(last[1], drive.state, last[2]);
+    if (drive.motion) document.getElementById("drive-motion").textContent = drive.motion;
     for (const [t, , values] of samples) {
-      this.data[0].push(t);
-      this.series.forEach((s, i) => {
-        let v = null;
-        if (s.key === "setpoint") v = drive.setpoint ?? null;
-        else v = values[Number(s.key.slice(3)) - 2] ?? null;
-        this.data[i + 1].push(v);
-      });
+      this.insert(t, this.series.map((s) => {
+        if (s.key === "setpoint") return drive.setpoint ?? null;
+        if (s.key.startsWith("pzd")) return values[Number(s.key.slice(3)) - 2] ?? null;
+        return null;
+      }));
     }
     const extra = this.data[0].length - MAX_POINTS;
     if (extra > 0) for (const column of this.data) column.splice(0, extra);
@@ -176,6 +309,9 @@ export class DriveView {
   }
 
   showStatus(word, state, values) {
+    const alarms = word & 0x88;  // status bits 3 (fault) and 7 (warning)
+    if (this.alarmBits !== null && this.alarmBits !== undefined && alarms !== this.alarmBits) this.readFaults();
+    this.alarmBits = alarms;
     document.getElementById("drive-status").textContent = hex4(word);
     const stateEl = document.getElementById("drive-state");
     stateEl.textContent = state;
@@ -185,7 +321,7 @@ export class DriveView {
       const on = Boolean((word >> bit) & 1);
       const info = this.info.status_bits[bit];
       li.classList.toggle("on", on);
-      li.textContent = `${bit}: ${on ? info.set : info.clear}`;
+      li.textContent = bitText(info, on);
     }
     for (const cell of document.querySelectorAll("#drive-actuals td[data-pzd]")) {
       const pzd = Number(cell.dataset.pzd);
@@ -266,8 +402,9 @@ export class DriveView {
       request.confirm = check.confirm;
     }
     try {
+      this.say(`${name}: sent, waiting for the drive ...`);
       const reply = await post(`/api/drive/${address}/command`, request);
-      this.say(`${name}: sent, drive reports ${reply.state} (${hex4(reply.status)}).`);
+      this.say(reply.text, !reply.taken);
     } catch (error) {
       this.say(`${name}: ${error.message}`, true);
     }
@@ -285,8 +422,9 @@ export class DriveView {
       return;
     }
     try {
-      await post(`/api/drive/${address}/command`, { ...request, confirm: check.confirm });
-      this.say(`Setpoint ${value} ${unit} sent.`);
+      const reply = await post(`/api/drive/${address}/command`, { ...request, confirm: check.confirm });
+      this.showSetpoint(reply.setpoint);
+      this.say(reply.text, !reply.taken);
     } catch (error) {
       this.say(`Setpoint: ${error.message}`, true);
     }

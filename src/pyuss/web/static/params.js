@@ -69,8 +69,11 @@ export class ParamsView {
     const writable = !this.state.config.read_only;
     const rows = this.rows.filter((r) => this.matches(r, words)).map((r) => {
       const value = this.values.get(r.id) || {};
-      const cell = el("td", { class: value.error ? "value err" : "value" },
-        value.error ? value.error : value.value ?? "…");
+      // A value the layout cannot carry: said once, in short, no value, no edit.
+      const cell = r.needs
+        ? el("td", { class: "value na", title: r.needs }, r.needs.split(":")[0])
+        : el("td", { class: value.error ? "value err" : "value" },
+          value.error ? value.error : value.value ?? "…");
       const access = r.access === "ro" ? "read-only" : r.access === "protected" ? "protected" : "";
       const tr = el("tr", { dataset: { id: r.id } },
         el("td", {}, `P${r.id}`), el("td", { class: "name", title: r.doc }, r.name), cell,
@@ -87,7 +90,7 @@ export class ParamsView {
 
   async readAll() {
     const address = this.state.address;
-    const ids = this.rows.map((r) => r.id);
+    const ids = this.rows.filter((r) => !r.needs).map((r) => r.id);
     this.note.textContent = `Reading ${ids.length} values …`;
     for (let i = 0; i < ids.length; i += 16) {
       const batch = await post(`/api/drive/${address}/params/read`, { ids: ids.slice(i, i + 16) });
