@@ -23,10 +23,12 @@ __all__ = ["Drive", "DriveStatus", "Found", "scan", "simulated_drives"]
 
 
 def simulated_drives(
-    bus: VirtualBus, drives: Sequence[tuple[int, str, Layout | None]]
+    bus: VirtualBus, drives: Sequence[tuple[int, str, Layout | None]], *, one_station: bool = True
 ) -> AbstractAsyncContextManager[dict[int, Any]]:
     """Serve ``drives`` - ``(address, profile name, layout or None)`` - on ``bus`` while the
-    block runs (`pyuss.master.testing.simulated_drives`); yields the engines by address."""
+    block runs (`pyuss.master.testing.simulated_drives`); yields the engines by address. By
+    default one station answers every address, as ``uss simulate`` does: one receiver of the
+    line for all drives."""
     from pyuss.master.testing import simulated_drives as serve
 
-    return serve(bus, drives)
+    return serve(bus, drives, one_station=one_station)
