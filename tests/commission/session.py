@@ -2,7 +2,8 @@
 command (in this process), ``$ head``/``$ grep`` lines through the shell, and compares what they
 print with the lines that follow in the page. A line ``$ uss simulate ... &`` is the
 simulator the test started; its device stands in the page as ``/dev/pts/7``. ``...`` in the
-expected output stands for any lines; dates print as they are and are compared as ``DATE``."""
+expected output stands for any lines; dates print as they are and are compared as ``DATE``.
+A page's ``## `` sections can run apart, each against its own simulator."""
 
 from __future__ import annotations
 
@@ -24,9 +25,24 @@ class Step:
     expected: list[str] = field(default_factory=list)
 
 
-def steps(page: Path) -> list[Step]:
+def sections(page: Path) -> dict[str, str]:
+    """The text of each ``## `` section of ``page`` by its title (the text before the first one
+    under ``""``)."""
+    parts = re.split(r"^## (.+)\n", page.read_text(encoding="utf-8"), flags=re.M)
+    return {"": parts[0]} | dict(zip(parts[1::2], parts[2::2], strict=True))
+
+
+def steps(page: Path, only: str | None = None, without: tuple[str, ...] = ()) -> list[Step]:
+    """The session of ``page``: of its section titled ``only`` if given, else of every section
+    but those titled in ``without``."""
+    texts = sections(page)
+    for title in (only, *without):
+        assert title is None or title in texts, f"{page.name} has no section {title!r}"
+    chosen = (
+        [texts[only]] if only is not None else [t for k, t in texts.items() if k not in without]
+    )
     found: list[Step] = []
-    for block in BLOCK.findall(page.read_text(encoding="utf-8")):
+    for block in BLOCK.findall("".join(chosen)):
         for line in block.splitlines():
             if line.startswith("$ "):
                 found.append(Step(line[2:]))
