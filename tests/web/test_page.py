@@ -300,6 +300,24 @@ def test_a_parameter_edit_reaches_the_drive_and_a_refusal_is_shown(
     screenshot(page, "web-params", full_page=False)
 
 
+def test_a_v20_names_its_parameters_as_its_manual_and_finds_every_spelling(
+    page: Any, demo: Running
+) -> None:
+    page.goto(demo.url + "#params/9")  # the demo's SINAMICS V20
+    page.wait_for_function(
+        "document.querySelector('#param-message').textContent.includes('values read')"
+    )
+    for spelling in ("r0021", "r21", "P0021", "21.0", "r0021[0]"):
+        page.fill("#param-search", spelling)
+        rows = page.locator("#param-table tbody tr[data-id^='21']")
+        assert rows.count() >= 1, spelling
+        assert rows.first.locator("td").first.inner_text().startswith("r0021"), spelling
+    page.fill("#param-search", "P1120")
+    row = page.locator("#param-table tbody tr[data-id^='1120']").first
+    assert row.locator("td").first.inner_text().startswith("P1120")
+    page.fill("#param-search", "")
+
+
 def test_a_value_the_layout_cannot_carry_is_said_once_and_not_editable(
     page: Any, demo: Running
 ) -> None:

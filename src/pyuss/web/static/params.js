@@ -60,8 +60,19 @@ export class ParamsView {
 
   matches(row, words) {
     if (!words) return true;
-    const text = `p${row.id} ${row.id} ${row.name} ${row.unit}`.toLowerCase();
-    return words.split(/\s+/).every((w) => text.includes(w.replace(/^r/, "p")) || text.includes(w));
+    const label = (row.label || "").toLowerCase();
+    const text = `p${row.id} ${row.id} ${label} ${row.name} ${row.unit}`.toLowerCase();
+    return words.split(/\s+/).every((w) => {
+      // A parameter as any document writes it - r21, P0021, 21, 21.0, r0947[1] - finds its rows.
+      const spelled = /^[rp]?0*(\d+)(?:[.[](\d+)\]?)?$/.exec(w);
+      if (spelled) {
+        const wanted = spelled[2] === undefined ? spelled[1] : `${spelled[1]}.${spelled[2]}`;
+        const id = String(row.id);
+        if (id === wanted || id.startsWith(`${wanted}.`)) return true;
+        if (id === spelled[1] && Number(spelled[2]) === 0) return true; // 21.0: a scalar's only value
+      }
+      return text.includes(w.replace(/^r/, "p")) || text.includes(w);
+    });
   }
 
   render() {
@@ -76,7 +87,7 @@ export class ParamsView {
           value.error ? value.error : value.value ?? "…");
       const access = r.access === "ro" ? "read-only" : r.access === "protected" ? "protected" : "";
       const tr = el("tr", { dataset: { id: r.id } },
-        el("td", {}, `P${r.id}`), el("td", { class: "name", title: r.doc }, r.name), cell,
+        el("td", {}, r.label || `P${r.id}`), el("td", { class: "name", title: r.doc }, r.name), cell,
         el("td", { class: "note" }, rangeText(r)),
         el("td", { class: "note" }, access));
       if (r.writable && writable) {
