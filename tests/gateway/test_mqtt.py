@@ -193,7 +193,7 @@ async def test_no_command_is_applied_twice_over_a_broker_restart(broker: Broker)
 
         async def client_session(values: range) -> None:
             async with aiomqtt.Client(
-                "127.0.0.1", broker.port, identifier="test-client", clean_session=False
+                "127.0.0.1", broker.port, identifier="test-client", clean_session=True
             ) as client:
                 await client.subscribe("uss/bus/drive5/reply", qos=1)
                 for value in values:
@@ -217,7 +217,7 @@ async def test_no_command_is_applied_twice_over_a_broker_restart(broker: Broker)
         await eventually(lambda: face.connections >= 2)
         await client_session(range(6, 11))
     assert sorted(replies) == sorted(sent)
-    assert all(len(r) == 1 and r[0]["ok"] for r in replies.values())
+    assert all(len(r) == 1 and r[0]["ok"] for r in replies.values()), replies
     assert engines[5].drive.value(18) == 10
 
 
