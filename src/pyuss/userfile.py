@@ -28,7 +28,15 @@ from typing import Any
 
 from pyuss.errors import ConfigError
 
-__all__ = ["MAX_DEPTH", "MAX_SIZE", "check_depth", "parse_json", "parse_toml", "read_text"]
+__all__ = [
+    "MAX_DEPTH",
+    "MAX_SIZE",
+    "check_depth",
+    "json_depth",
+    "parse_json",
+    "parse_toml",
+    "read_text",
+]
 
 MAX_DEPTH = 32
 """Deepest nesting of lists and tables a file may have (the deepest file of pyuss, a JSON
@@ -153,3 +161,27 @@ def _parse(
         raise ConfigError(f"{where}: {problem}: {_LONG_NUMBER}") from None
     check_depth(data, where)
     return data
+
+
+def json_depth(text: str) -> int:
+    """The deepest nesting of JSON arrays and objects in ``text``, strings skipped: measured
+    before the standard library's parser, which recurses, ever sees a message from the network
+    (the MQTT face's commands, the web page's request bodies)."""
+    depth = deepest = 0
+    quoted = escaped = False
+    for char in text:
+        if quoted:
+            if escaped:
+                escaped = False
+            elif char == "\\":
+                escaped = True
+            elif char == '"':
+                quoted = False
+        elif char == '"':
+            quoted = True
+        elif char in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif char in "]}":
+            depth -= 1
+    return deepest

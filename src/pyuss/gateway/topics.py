@@ -59,6 +59,7 @@ from pyuss.points.model import DriveModel
 from pyuss.points.parameters import ParamMeta
 from pyuss.points.state import DriveState, ParamValue
 from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32
+from pyuss.userfile import json_depth
 
 __all__ = [
     "COMMAND_NAMES",
@@ -218,28 +219,6 @@ def show(value: object, width: int = 40) -> str:
     return text if len(text) <= width else f"{text[: width - 5]}...{text[-2:]}"
 
 
-def _depth(text: str) -> int:
-    """The deepest nesting of JSON arrays and objects in ``text`` (strings skipped)."""
-    depth = deepest = 0
-    quoted = escaped = False
-    for char in text:
-        if quoted:
-            if escaped:
-                escaped = False
-            elif char == "\\":
-                escaped = True
-            elif char == '"':
-                quoted = False
-        elif char == '"':
-            quoted = True
-        elif char in "[{":
-            depth += 1
-            deepest = max(deepest, depth)
-        elif char in "]}":
-            depth -= 1
-    return deepest
-
-
 class _Bad(Exception):
     """A number or constant the JSON parser hands over that a command never holds."""
 
@@ -271,7 +250,7 @@ def _payload(raw: bytes) -> tuple[dict[str, Any], Any]:
         raise ConfigError("the payload is not UTF-8 text") from None
     if not text:
         return {}, None
-    if _depth(text) > MAX_DEPTH:
+    if json_depth(text) > MAX_DEPTH:
         raise ConfigError(f"the payload is nested deeper than {MAX_DEPTH} levels")
     try:
         data = json.loads(

@@ -62,6 +62,7 @@ except ImportError:  # pragma: no cover - the extra is installed for the tests
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
 from pyuss.points import NoWriteAuthority, state_name
 from pyuss.profiles import profile_names
+from pyuss.userfile import json_depth
 from pyuss.web.backend import Backend
 from pyuss.web.hub import QUEUE_SIZE, SEND_TIMEOUT, Hub
 
@@ -143,24 +144,8 @@ def parse_json(body: bytes) -> Any:
         text = body.decode("utf-8")
     except UnicodeDecodeError:
         raise ConfigError("the request body is not JSON (not UTF-8 text)") from None
-    depth = 0
-    in_string = escaped = False
-    for char in text:
-        if in_string:
-            if escaped:
-                escaped = False
-            elif char == "\\":
-                escaped = True
-            elif char == '"':
-                in_string = False
-        elif char == '"':
-            in_string = True
-        elif char in "[{":
-            depth += 1
-            if depth > MAX_DEPTH:
-                raise ConfigError(f"the request body nests deeper than {MAX_DEPTH} levels")
-        elif char in "]}":
-            depth -= 1
+    if json_depth(text) > MAX_DEPTH:
+        raise ConfigError(f"the request body nests deeper than {MAX_DEPTH} levels")
     try:
         return json.loads(text, parse_constant=_no_constant)
     except ConfigError:
