@@ -8,12 +8,16 @@ so a family may stay below the goal but never falls back.
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import pytest
 
 from pyuss.drive.database import parse_database
 from pyuss.errors import ConfigError
 from pyuss.profiles.coverage import checklist, coverage, parse_checklist
 
+DOC = Path(__file__).resolve().parents[2] / "docs" / "drives.md"
 GOAL = 0.95
 REACHED = {
     "micromaster420": 72 / 85,
@@ -103,3 +107,24 @@ def test_a_bad_checklist_is_refused_naming_the_place(text: str, problem: str) ->
 def test_a_family_without_a_checklist_is_named() -> None:
     with pytest.raises(ConfigError, match="no commissioning checklist for 'generic'"):
         coverage("generic")
+
+
+def _numbers(text: str) -> set[int]:
+    found: set[int] = set()
+    for first, last in re.findall(r"(\d+)(?:\.\.(\d+))?", text):
+        found.update(range(int(first), int(last or first) + 1))
+    return found
+
+
+def test_docs_list_every_parameter_a_family_lacks() -> None:
+    rows = re.findall(
+        r"^\| `([a-z0-9-]+)` \| (\d+) of (\d+) \(\d+%\) \| (.*) \|$",
+        DOC.read_text(encoding="utf-8"),
+        re.M,
+    )
+    assert {row[0] for row in rows} == set(REACHED)
+    for family, present, wanted, left_out in rows:
+        found = coverage(family)
+        assert int(wanted) == found.wanted, family
+        assert int(present) / int(wanted) == pytest.approx(REACHED[family]), family
+        assert set(found.missing) <= _numbers(left_out), family
