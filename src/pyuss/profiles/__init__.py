@@ -25,6 +25,8 @@ warning numbers, the reference parameter, and how a drive shows its identity
 (`pyuss.profiles.identify`). ``micromaster4`` and ``nord`` stay as they were.
 
 `get_profile` returns one; `Profile` (in `pyuss.profiles.base`) documents what it holds.
+`pyuss.profiles.coverage` says how much of a commissioning each family's parameter file covers
+(the checklist ``commissioning.toml`` beside this module).
 """
 
 from __future__ import annotations
