@@ -36,21 +36,23 @@ import asyncio
 import contextlib
 import json
 import math
-import os
-import select
-import shutil
-import socket
 import statistics
 import struct
-import subprocess
 import tempfile
 import time
-from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from common import USS, Figure, simulator_bus, table
+from common import (
+    Figure,
+    cpu_seconds,
+    free_port,
+    gateway,
+    mosquitto,
+    simulator_bus,
+    table,
+)
 
 from pyuss.bus import VirtualBus
 from pyuss.gateway.config import GatewayConfig, ModbusOptions, MqttOptions, OpcuaOptions
@@ -74,33 +76,6 @@ GOAL_CYCLES = 2.0
 turn in the poll list comes within one bus cycle, its answer within the next."""
 GOAL_STATES = 0.95
 """While a drive ramps every answer changes what it shows: one state message per answer."""
-
-
-def free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port: int = sock.getsockname()[1]
-        return port
-
-
-@contextlib.contextmanager
-def mosquitto() -> object:
-    if shutil.which("mosquitto") is None:
-        yield None
-        return
-    port = free_port()
-    with tempfile.TemporaryDirectory() as directory:
-        config = Path(directory) / "m.conf"
-        config.write_text(f"listener {port} 127.0.0.1\nallow_anonymous true\n", encoding="utf-8")
-        process = subprocess.Popen(
-            ["mosquitto", "-c", str(config)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
-        )
-        time.sleep(0.3)
-        try:
-            yield port
-        finally:
-            process.terminate()
-            process.wait(10)
 
 
 def config(count: int, faces: bool, mqtt_port: int | None) -> GatewayConfig:
@@ -201,8 +176,8 @@ async def run(count: int, faces: bool, mqtt_port: int | None, seconds: float) ->
 
 def in_process() -> list[Figure]:
     figures: list[Figure] = []
-    with mosquitto() as port:
-        mqtt_port = port if isinstance(port, int) else None
+    with mosquitto() as broker:
+        mqtt_port = broker.port if broker else None
         print(
             f"{'drives':>6} {'faces':>12} {'cycle':>9} {'modbus write':>13} {'mqtt cmd':>9} "
             f"{'states/drive/s':>15} {'cycles/s':>9} {'CPU':>6}"
@@ -251,13 +226,6 @@ def _cycles(name: str, ms: float, cycle_ms: float) -> Figure:
 # -- as deployed ------------------------------------------------------------------------------
 
 
-def _cpu_seconds(pid: int) -> float:
-    """User and system CPU time of process ``pid`` so far."""
-    with open(f"/proc/{pid}/stat", encoding="ascii") as stat:
-        fields = stat.read().rpartition(")")[2].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
 def _sizes(count: int) -> list[int]:
     return [min(BUS_SIZE, count - start) for start in range(0, count, BUS_SIZE)]
 
@@ -296,43 +264,6 @@ def _modbus_ports(path: Path) -> list[int]:
 
     data = tomllib.loads(path.read_text(encoding="utf-8"))
     return [int(bus["modbus"].rpartition(":")[2]) for bus in data["bus"]]
-
-
-@contextlib.contextmanager
-def _gateway(config: Path) -> Iterator[subprocess.Popen[bytes]]:
-    log = config.with_suffix(".log")
-    with log.open("w", encoding="utf-8") as stderr:
-        # unbuffered: a line read is the line, nothing more waits in a buffer unseen by select
-        process = subprocess.Popen(
-            [*USS, "gateway", "--config", str(config)],
-            stdout=subprocess.PIPE,
-            stderr=stderr,
-            bufsize=0,
-            env={**os.environ, "PYTHONUNBUFFERED": "1"},
-        )
-    try:
-        assert process.stdout is not None
-        deadline = time.monotonic() + 120
-        while True:
-            left = deadline - time.monotonic()
-            ready, _, _ = select.select([process.stdout], [], [], max(0.0, left))
-            line = process.stdout.readline() if ready else ""
-            if not line:
-                process.kill()
-                process.wait()
-                tail = log.read_text(encoding="utf-8").splitlines()[-5:]
-                raise RuntimeError("uss gateway did not start: " + "\n".join(tail))
-            if line.strip() == b"ready":
-                break
-        yield process
-    finally:
-        if process.poll() is None:
-            process.terminate()
-        try:
-            process.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
 
 
 def _answers(clients: list[Any], sizes: list[int]) -> list[int]:
@@ -388,7 +319,7 @@ def deployed(count: int, mqtt_port: int | None) -> dict[str, float]:
         urls = [stack.enter_context(simulator_bus(BAUD, n, layout="4,2")) for n in sizes]
         directory = Path(stack.enter_context(tempfile.TemporaryDirectory()))
         config = _plant_file(directory, urls, sizes, mqtt_port)
-        gateway = stack.enter_context(_gateway(config))
+        process = stack.enter_context(gateway(config))
         ports = _modbus_ports(config)
         clients = [ModbusTcpClient("127.0.0.1", port=p) for p in ports]
         for client in clients:
@@ -413,7 +344,7 @@ def deployed(count: int, mqtt_port: int | None) -> dict[str, float]:
             for address in range(1, size + 1)
         )
         before = _answers(clients, sizes)
-        cpu = _cpu_seconds(gateway.pid)
+        cpu = cpu_seconds(process.pid)
         wall = time.perf_counter()
         if mqtt_port is None:
             states = 0
@@ -421,7 +352,7 @@ def deployed(count: int, mqtt_port: int | None) -> dict[str, float]:
         else:
             states = asyncio.run(_count_states(mqtt_port, WINDOW))
         wall = time.perf_counter() - wall
-        cpu = _cpu_seconds(gateway.pid) - cpu
+        cpu = cpu_seconds(process.pid) - cpu
         after = _answers(clients, sizes)
     updates = [b - a for a, b in zip(before, after, strict=True)]
     limit = 1 / ((2 * TELEGRAM + 4) * char_time(BAUD))
@@ -438,8 +369,8 @@ def deployed(count: int, mqtt_port: int | None) -> dict[str, float]:
 
 def as_deployed() -> list[Figure]:
     figures: list[Figure] = []
-    with mosquitto() as port:
-        if not isinstance(port, int):
+    with mosquitto() as broker:
+        if broker is None:
             print("as deployed: skipped (no mosquitto; .ci/system-deps mosquitto)")
             return figures
         print(
@@ -448,7 +379,7 @@ def as_deployed() -> list[Figure]:
         )
         for count in DEPLOYED_COUNTS:
             alone = deployed(count, None)
-            full = deployed(count, port)
+            full = deployed(count, broker.port)
             for label, r in (("modbus only", alone), ("all three", full)):
                 states = r["states_per_drive_s"] * count / (r["updates_per_s"] or 1)
                 print(

@@ -1,17 +1,22 @@
-"""What the benchmarks share: figures with their goals, the summary table, and the ``uss``
-processes (a bus, a simulator) that the figures "as users run it" are measured against."""
+"""What the benchmarks share: figures with their goals, the summary table, and the processes
+(``uss bus``, ``uss simulate``, ``uss gateway``, mosquitto) that the figures "as users run it"
+are measured against, with their CPU time from /proc."""
 
 from __future__ import annotations
 
 import contextlib
 import os
 import select
+import shutil
 import signal
+import socket
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TypeVar
 
 #: The ``uss`` command of this interpreter (the project under test, not one on PATH).
@@ -197,3 +202,94 @@ def pty_drives(baud: int, drives: int, *, layout: str = "3,2") -> Iterator[str]:
     args = ["simulate", "--pty", "--baud", str(baud), "--layout", layout, "--failure-time", "0"]
     with processes(([*args, *addresses], 1)) as (sim,):
         yield sim.lines[0]
+
+
+def free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port: int = sock.getsockname()[1]
+        return port
+
+
+def cpu_seconds(pid: int) -> float:
+    """User and system CPU time of process ``pid`` so far (``/proc/PID/stat``)."""
+    with open(f"/proc/{pid}/stat", encoding="ascii") as stat:
+        fields = stat.read().rpartition(")")[2].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+@dataclass(frozen=True)
+class Broker:
+    """A mosquitto started by `mosquitto`: its port on 127.0.0.1 and its process id."""
+
+    port: int
+    pid: int
+
+
+@contextlib.contextmanager
+def mosquitto(*settings: str) -> Iterator[Broker | None]:
+    """A real mosquitto on a free loopback port (None: mosquitto is not installed), with the
+    configuration lines ``settings`` added; stopped at the end."""
+    if shutil.which("mosquitto") is None:
+        yield None
+        return
+    port = free_port()
+    with tempfile.TemporaryDirectory() as directory:
+        config = Path(directory) / "m.conf"
+        lines = [f"listener {port} 127.0.0.1", "allow_anonymous true", *settings]
+        config.write_text("\n".join(lines) + "\n", encoding="utf-8")
+        process = subprocess.Popen(
+            ["mosquitto", "-c", str(config)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+        )
+        try:
+            deadline = time.monotonic() + 10
+            while True:
+                with socket.socket() as sock:
+                    if sock.connect_ex(("127.0.0.1", port)) == 0:
+                        break
+                if time.monotonic() > deadline or process.poll() is not None:
+                    raise RuntimeError(f"mosquitto did not listen on port {port}")
+                time.sleep(0.05)
+            yield Broker(port, process.pid)
+        finally:
+            process.terminate()
+            process.wait(10)
+
+
+@contextlib.contextmanager
+def gateway(config: Path) -> Iterator[subprocess.Popen[bytes]]:
+    """``uss gateway --config CONFIG`` in a process of its own, once it printed "ready"; its
+    log goes to CONFIG with the suffix .log."""
+    log = config.with_suffix(".log")
+    with log.open("w", encoding="utf-8") as stderr:
+        # unbuffered: a line read is the line, nothing more waits in a buffer unseen by select
+        process = subprocess.Popen(
+            [*USS, "gateway", "--config", str(config)],
+            stdout=subprocess.PIPE,
+            stderr=stderr,
+            bufsize=0,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        )
+    try:
+        assert process.stdout is not None
+        deadline = time.monotonic() + 120
+        while True:
+            left = deadline - time.monotonic()
+            ready, _, _ = select.select([process.stdout], [], [], max(0.0, left))
+            line = process.stdout.readline() if ready else ""
+            if not line:
+                process.kill()
+                process.wait()
+                tail = log.read_text(encoding="utf-8").splitlines()[-5:]
+                raise RuntimeError("uss gateway did not start: " + "\n".join(tail))
+            if line.strip() == b"ready":
+                break
+        yield process
+    finally:
+        if process.poll() is None:
+            process.terminate()
+        try:
+            process.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()

@@ -1,7 +1,8 @@
 """Run every benchmark under bench/ (files named bench_*.py, each with a ``main()``), then print
 the figures that have goals in one table (docs/bench.md says how to read it).
 
-``python bench/run.py master scan`` runs only the ones named.
+``python bench/run.py master scan`` runs only the ones named; ``--quick`` asks those that
+have a quick mode for it (shorter windows: ``USS_BENCH_QUICK=1``).
 """
 
 from __future__ import annotations
@@ -18,7 +19,9 @@ def main() -> int:
     sys.path.insert(0, str(here))
     from common import Figure, table
 
-    only = set(sys.argv[1:])
+    if "--quick" in sys.argv:
+        os.environ["USS_BENCH_QUICK"] = "1"
+    only = set(sys.argv[1:]) - {"--quick"}
     figures: list[Figure] = []
     began = time.monotonic()
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
@@ -28,6 +31,7 @@ def main() -> int:
         spec = importlib.util.spec_from_file_location(path.stem, path)
         assert spec is not None and spec.loader is not None
         module = importlib.util.module_from_spec(spec)
+        sys.modules[spec.name] = module  # as an import would: dataclasses look their module up
         spec.loader.exec_module(module)
         print(f"== {path.stem.removeprefix('bench_')}", flush=True)
         figures += module.main() or []
