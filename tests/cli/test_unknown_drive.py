@@ -11,11 +11,18 @@ from __future__ import annotations
 import asyncio
 import dataclasses
 import json
+import subprocess
+import time
+import urllib.error
+import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
+from cli.test_lines import serve, stop
+from gateway.conftest import broker  # noqa: F401  (the fixture of a real mosquitto)
+from gateway.harness import Broker
 from pyuss.bus import VirtualBus
 from pyuss.cli.main import main
 from pyuss.drive.database import parse_database
@@ -27,6 +34,7 @@ from pyuss.protocol.pkw import RequestId
 from pyuss.protocol.telegram import AddressMode, Telegram
 from pyuss.slave import SlaveEngine, SlaveServer
 from support.buses import SimulatorThread
+from support.network import free_port
 
 BAUD = 38400
 LAYOUT = Layout(4, 6)
@@ -345,6 +353,113 @@ def test_log_writes_percent_and_words(
         "comm",
     ]
     assert all(row.split(",")[-2:] == ["100000", "ok"] for row in rows) and len(rows) == 2
+
+
+def _api(base: str, path: str, body: object | None = None) -> object:
+    """A request of the page's API (a POST carries the header only a script can add)."""
+    data = None if body is None else json.dumps(body).encode()
+    headers = {"X-Pyuss": "1", "Content-Type": "application/json"} if body is not None else {}
+    request = urllib.request.Request(base + path, data=data, headers=headers)
+    with urllib.request.urlopen(request, timeout=30) as reply:
+        return json.load(reply)
+
+
+def test_the_page_reads_and_writes_the_drive_s_parameters_as_words(pump: PumpBus) -> None:
+    pytest.importorskip("aiohttp")
+    if not pump.engine.silent:
+        pytest.skip("one variant is enough: the page talks as the commands do")
+    before = pump.described
+    argv = ["web", *pump.port("bus"), "--address", "0", "--layout", "4,6"]
+    process, lines = serve([*argv, "--listen", "127.0.0.1:0"], "http://")
+    try:
+        base = lines[-1].split("?")[0] + "api/drive/0"
+        shown = _api(base, "")
+        assert isinstance(shown, dict)
+        assert (shown["profile"], shown["reference"]) == ("unknown", None)
+        assert _api(base + "/params", "") == []  # nothing known of it: no family's list
+        read = _api(base, "/params/read", {"ids": ["150", "151", "160.2"]})
+        assert [(r["id"], r["value"]) for r in read] == [  # type: ignore[union-attr]
+            ("150", "1200 (04B0h)"),
+            ("151", "100000 (000186A0h)"),
+            ("160.2", "7 (0007h)"),
+        ]
+        try:
+            written = _api(base, "/params/write", {"id": "150", "value": "0x5DC"})
+            assert isinstance(written, dict) and written["value"] == "1500 (05DCh)"
+        finally:
+            assert _api(base, "/params/write", {"id": "150", "value": "1200"})
+        with pytest.raises(urllib.error.HTTPError) as refused:  # the device's own refusal
+            _api(base, "/params/write", {"id": "3", "value": "5"})
+        assert "error 1: " in str(json.load(refused.value)["error"])
+    finally:
+        assert stop(process) == 0
+    assert pump.described == before
+
+
+def _reply(server: Broker, command: str, body: dict[str, object]) -> dict[str, object]:
+    """Publish ``body`` on the drive's ``cmd/COMMAND`` until its reply comes."""
+    topic = "uss/bus/drive0"
+    listen = subprocess.Popen(
+        ["mosquitto_sub", "-p", str(server.port), "-t", f"{topic}/reply", "-C", "1", "-W", "60"],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        payload = json.dumps(body)
+        while listen.poll() is None:
+            pub = ["mosquitto_pub", "-p", str(server.port), "-t", f"{topic}/cmd/{command}"]
+            subprocess.run([*pub, "-m", payload], check=True, timeout=30)
+            time.sleep(0.5)  # the subscription may not have been in place yet
+        out, _ = listen.communicate(timeout=30)
+    finally:
+        if listen.poll() is None:
+            listen.kill()
+    reply: dict[str, object] = json.loads(out)
+    return reply
+
+
+def test_the_gateway_s_mailbox_reads_and_writes_words(
+    pump: PumpBus,
+    broker: Broker,  # noqa: F811
+) -> None:
+    from pymodbus.client import ModbusTcpClient
+
+    if not pump.engine.silent:
+        pytest.skip("one variant is enough: the gateway talks as the commands do")
+    before = pump.described
+    port = free_port()
+    argv = ["gateway", *pump.port("bus"), "--address", "0", "--layout", "4,6"]
+    process, _ = serve([*argv, "--modbus", f"127.0.0.1:{port}", "--mqtt", broker.url], "ready")
+    try:
+        client = ModbusTcpClient("127.0.0.1", port=port, timeout=10)
+        assert client.connect()
+
+        def job(pnu: int, fmt: int, value: tuple[int, int], command: int) -> list[int]:
+            box = client.readwrite_registers(
+                read_address=206,
+                read_count=5,
+                write_address=200,
+                values=[pnu, 0xFFFF, fmt, *value, command],
+                device_id=0,
+            )
+            assert not box.isError(), box
+            assert box.registers[0] == 1  # done
+            return list(box.registers[3:])
+
+        assert job(150, 0, (0, 0), 1) == [0, 1200]  # the word, as nothing says more of it
+        assert job(151, 3, (0, 0), 1) == [0x0001, 0x86A0]  # the double word as it came
+        assert job(150, 1, (0, 1500), 2) == [0, 1500]
+        assert job(150, 1, (0, 1200), 2) == [0, 1200]
+        client.close()
+        read = _reply(broker, "read", {"id": "r", "pnu": 151})
+        assert (read["ok"], read["result"]["value"]) == (True, 100000)  # type: ignore[index]
+        wrote = _reply(broker, "write", {"id": "w", "pnu": 160, "index": 3, "value": 9})
+        assert (wrote["ok"], wrote["result"]["value"]) == (True, 9)  # type: ignore[index]
+        back = _reply(broker, "write", {"id": "b", "pnu": 160, "index": 3, "value": 7})
+        assert back["ok"] is True
+    finally:
+        assert stop(process) == 0
+    assert pump.described == before
 
 
 def test_backup_says_the_kind_is_unknown_and_restore_writes_the_words_back(
