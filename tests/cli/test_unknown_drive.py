@@ -341,6 +341,7 @@ def test_log_writes_percent_and_words(
     pump: PumpBus, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     path = tmp_path / "pump.csv"
+    before = pump.described
     at = [*pump.port("bus"), "--layout", "4,6"]
     code, _, _ = uss(capsys, "log", "0", "actual", "P151", "--count", "2", "-o", str(path), *at)
     header, *rows = path.read_text(encoding="utf-8").splitlines()
@@ -353,6 +354,7 @@ def test_log_writes_percent_and_words(
         "comm",
     ]
     assert all(row.split(",")[-2:] == ["100000", "ok"] for row in rows) and len(rows) == 2
+    assert pump.described == before  # no description asked of P151
 
 
 def _api(base: str, path: str, body: object | None = None) -> object:
