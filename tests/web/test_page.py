@@ -551,6 +551,48 @@ def test_the_buttons_are_disabled_while_no_drive_answers(browser: Any, demo: Run
         demo.call(backend.close())
 
 
+def test_a_drive_of_unknown_kind_shows_a_parameter_typed_by_number_as_words(
+    browser: Any, demo: Running
+) -> None:
+    from pyuss.protocol.layout import PKW_VARIABLE, Layout
+    from pyuss.web.backend import Backend, DriveSpec
+    from pyuss.web.server import WebServer
+
+    async def start() -> Backend:
+        # the demo's generic drive at address 1, shown as a drive no profile is named for
+        unknown = DriveSpec(1, None, Layout(PKW_VARIABLE, 2))
+        backend = Backend(demo=True, drives=[unknown], job_timeout=2.0)
+        await backend.start()
+        return backend
+
+    backend = demo.call(start())
+    server = WebServer(backend, port=0)
+    url = demo.call(server.start())
+    try:
+        page = open_page(browser, url + "#params/1")
+        page.wait_for_function(
+            "document.querySelector('#param-message').textContent.includes('values read')"
+        )
+        assert page.locator("#param-table tbody tr").count() == 0  # no family's list
+        page.fill("#param-search", "P462")
+        row = page.locator("#param-table tbody tr[data-id='462']")
+        page.wait_for_function(
+            "document.querySelector(\"#param-table tr[data-id='462'] td.value\")"
+            ".textContent.includes('0064h')"
+        )
+        assert "(nothing known: words)" in row.inner_text()  # 10.0 s is the word 100
+        row.locator("td.value").click()
+        page.fill("#edit-value", "0x19")
+        page.click("#edit-write")
+        page.wait_for_function("!document.querySelector('#edit').open")
+        assert "25 (0019h)" in row.inner_text()
+        assert demo.run(lambda: backend.engines[1].drive.value(462)) == 25
+        page.context.close()
+    finally:
+        demo.call(server.close())
+        demo.call(backend.close())
+
+
 def test_read_only_hides_every_control(browser: Any, demo: Running) -> None:
     from pyuss.web.server import WebServer
 
