@@ -80,7 +80,11 @@ GOAL_STATES = 0.95
 
 def config(count: int, faces: bool, mqtt_port: int | None) -> GatewayConfig:
     plant = plant_from_flags(
-        port="bus://simulated:1", addresses=list(range(1, count + 1)), baud=BAUD, layout="4,2"
+        port="bus://simulated:1",
+        addresses=list(range(1, count + 1)),
+        baud=BAUD,
+        profile="generic",  # the simulated drives' family
+        layout="4,2",
     )
     if not faces:
         return GatewayConfig(
@@ -240,6 +244,7 @@ def _plant_file(directory: Path, urls: list[str], sizes: list[int], mqtt_port: i
             f'name = "line{number}"',
             f'port = "{url}"',
             f"baud = {BAUD}",
+            'profile = "generic"',
             'layout = "4,2"',
             f'modbus = "127.0.0.1:{free_port()}"',
         ]

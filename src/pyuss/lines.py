@@ -96,8 +96,8 @@ class Target:
     drive: DriveConfig | None
     address: int | None
     profile_named: bool
-    """Whether the file names the line's or the drive's profile (else the line's is the
-    default ``generic``)."""
+    """Whether the file names the line's or the drive's profile (else the drive is of
+    unknown kind)."""
 
     @property
     def profile(self) -> str | None:

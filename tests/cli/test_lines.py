@@ -297,9 +297,10 @@ def test_uss_web_shows_the_drives_of_the_files_line(sim: str) -> None:
     assert (bus["port"], bus["baud"]) == (sim, BAUD)
     drives = bus["drives"]
     assert isinstance(drives, list)
+    # the file names no profile: drives of unknown kind, no family's facts put on them
     assert [(d["address"], d["profile"], d["layout"]) for d in drives] == [
-        (5, "generic", "3,2"),
-        (6, "generic", "3,2"),
+        (5, "unknown", "3,2"),
+        (6, "unknown", "3,2"),
     ]
     process, lines = serve(["web", "--address", "pump", "--listen", "127.0.0.1:0"], "http://")
     try:

@@ -11,11 +11,18 @@ from __future__ import annotations
 import asyncio
 import dataclasses
 import json
+import subprocess
+import time
+import urllib.error
+import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
+from cli.test_lines import serve, stop
+from gateway.conftest import broker  # noqa: F401  (the fixture of a real mosquitto)
+from gateway.harness import Broker
 from pyuss.bus import VirtualBus
 from pyuss.cli.main import main
 from pyuss.drive.database import parse_database
@@ -27,6 +34,7 @@ from pyuss.protocol.pkw import RequestId
 from pyuss.protocol.telegram import AddressMode, Telegram
 from pyuss.slave import SlaveEngine, SlaveServer
 from support.buses import SimulatorThread
+from support.network import free_port
 
 BAUD = 38400
 LAYOUT = Layout(4, 6)
@@ -130,6 +138,11 @@ class PumpBus(SimulatorThread):
     @property
     def described(self) -> int:
         return int(self.call(lambda _: self.engine.described))
+
+
+SLACK = ["--response-delay", "300"]
+"""A window for a telegram's answer that a loaded test machine keeps (status, run, mirror,
+scan wait for the answers to single telegrams)."""
 
 
 @pytest.fixture(scope="module", params=["silent", "refusing"])
@@ -255,3 +268,232 @@ def test_a_named_profile_that_has_descriptions_asks_once_then_reads_words(
         assert drive.read(160, 2) == 7
         assert drive.params.without_descriptions
     assert pump.described - before == 1
+
+
+def test_status_shows_what_the_telegram_says_and_no_family_s_facts(
+    pump: PumpBus, line: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    before = pump.described
+    at = [*pump.port(line), "--layout", "4,6", *SLACK]
+    code, out, err = uss(capsys, "status", "0", *at, "--json")
+    seen = json.loads(out)
+    assert (code, err) == (0, ""), out
+    assert (seen["state"], seen["status_hex"], seen["actual_percent"]) == (
+        "switch-on inhibited",
+        "0240",
+        0.0,
+    )
+    # no generic parameters read for state, fault and warning, no reference, no texts
+    assert (seen["unknown_kind"], seen["parameters"], seen["actual"]) == (True, [], None)
+    assert [b["meaning"] for b in seen["bits"][11:]] == ["device-specific"] * 5
+    code, out, _ = uss(capsys, "status", "0", *at)
+    assert code == 0 and out.splitlines()[-1].startswith("drive of unknown kind (no --profile)")
+    assert pump.described == before
+
+
+def test_run_takes_percent_and_refuses_a_unit_it_cannot_know(
+    pump: PumpBus, capsys: pytest.CaptureFixture[str]
+) -> None:
+    at = [*pump.port("bus"), "--layout", "4,6", *SLACK, "--stop-timeout", "10"]
+    code, out, err = uss(capsys, "run", "0", "--setpoint", "25 Hz", *at)
+    assert (code, out) == (2, "")
+    assert "the drive is of unknown kind (no --profile), so its reference parameter" in err
+    code, out, err = uss(capsys, "run", "0", "--setpoint", "20", "--duration", "0.3", *at, "--json")
+    lines = [json.loads(text) for text in out.splitlines()]
+    assert (code, err) == (0, ""), out
+    answered = [ln for ln in lines if ln["state"] is not None]
+    assert answered and {ln["unit"] for ln in answered} == {"%"}  # no reference: percent
+    assert all(ln["setpoint"] == pytest.approx(20.0, abs=0.01) for ln in lines)
+    assert lines[-1]["state"] != "operation enabled"  # switched off again
+    code, out, _ = uss(capsys, "ack", "0", *at[:-2])
+    assert code == 0 and out.startswith("drive 0: acknowledged")
+
+
+def test_mirror_and_scan_find_the_drive_and_name_no_family(
+    pump: PumpBus, line: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, out, _ = uss(capsys, "mirror", "0", *pump.port(line), "--layout", "4,6", *SLACK)
+    assert code == 0 and "1 of 1 came back unchanged" in out
+    code, out, _ = uss(capsys, "scan", "--address", "0", *pump.port(line), "--json", *SLACK)
+    found = json.loads(out)
+    assert code == 0
+    assert [(f["address"], f["layout"], f["family"], f["profile"]) for f in found] == [
+        (0, "4,6", None, None)
+    ]
+
+
+def test_params_scan_lists_what_it_finds_as_words(
+    pump: PumpBus, capsys: pytest.CaptureFixture[str]
+) -> None:
+    before = pump.described
+    at = [*pump.port("pty"), "--layout", "4,6"]
+    code, out, err = uss(capsys, "params", "0", "--scan", "148-161", "--values", *at)
+    assert (code, err) == (0, "")
+    assert [" ".join(row.split()) for row in out.splitlines()] == [
+        "P150 (nothing known: words) = 1200 (04B0h)",
+        "P151 (nothing known: words) = 100000 (000186A0h)",
+        "P160 (nothing known: words) = [7 (0007h), 7 (0007h), 7 (0007h)]",
+    ]
+    assert pump.described == before
+
+
+def test_log_writes_percent_and_words(
+    pump: PumpBus, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "pump.csv"
+    before = pump.described
+    at = [*pump.port("bus"), "--layout", "4,6"]
+    code, _, _ = uss(capsys, "log", "0", "actual", "P151", "--count", "2", "-o", str(path), *at)
+    header, *rows = path.read_text(encoding="utf-8").splitlines()
+    assert code == 0
+    # no generic reference (Hz) nor generic names for PZD3..6: the words as they come
+    assert header.split(",")[1:] == [
+        "actual PZD2 [%]",
+        *(f"actual PZD{n}" for n in range(3, 7)),
+        "P151",
+        "comm",
+    ]
+    assert all(row.split(",")[-2:] == ["100000", "ok"] for row in rows) and len(rows) == 2
+    assert pump.described == before  # no description asked of P151
+
+
+def _api(base: str, path: str, body: object | None = None) -> object:
+    """A request of the page's API (a POST carries the header only a script can add)."""
+    data = None if body is None else json.dumps(body).encode()
+    headers = {"X-Pyuss": "1", "Content-Type": "application/json"} if body is not None else {}
+    request = urllib.request.Request(base + path, data=data, headers=headers)
+    with urllib.request.urlopen(request, timeout=30) as reply:
+        return json.load(reply)
+
+
+def test_the_page_reads_and_writes_the_drive_s_parameters_as_words(pump: PumpBus) -> None:
+    pytest.importorskip("aiohttp")
+    if not pump.engine.silent:
+        pytest.skip("one variant is enough: the page talks as the commands do")
+    before = pump.described
+    argv = ["web", *pump.port("bus"), "--address", "0", "--layout", "4,6"]
+    process, lines = serve([*argv, "--listen", "127.0.0.1:0"], "http://")
+    try:
+        base = lines[-1].split("?")[0] + "api/drive/0"
+        shown = _api(base, "")
+        assert isinstance(shown, dict)
+        assert (shown["profile"], shown["reference"]) == ("unknown", None)
+        assert _api(base + "/params", "") == []  # nothing known of it: no family's list
+        read = _api(base, "/params/read", {"ids": ["150", "151", "160.2"]})
+        assert [(r["id"], r["value"]) for r in read] == [  # type: ignore[union-attr]
+            ("150", "1200 (04B0h)"),
+            ("151", "100000 (000186A0h)"),
+            ("160.2", "7 (0007h)"),
+        ]
+        try:
+            written = _api(base, "/params/write", {"id": "150", "value": "0x5DC"})
+            assert isinstance(written, dict) and written["value"] == "1500 (05DCh)"
+        finally:
+            assert _api(base, "/params/write", {"id": "150", "value": "1200"})
+        with pytest.raises(urllib.error.HTTPError) as refused:  # the device's own refusal
+            _api(base, "/params/write", {"id": "3", "value": "5"})
+        assert "error 1: " in str(json.load(refused.value)["error"])
+    finally:
+        assert stop(process) == 0
+    assert pump.described == before
+
+
+def _reply(server: Broker, command: str, body: dict[str, object]) -> dict[str, object]:
+    """Publish ``body`` on the drive's ``cmd/COMMAND`` until its reply comes."""
+    topic = "uss/bus/drive0"
+    listen = subprocess.Popen(
+        ["mosquitto_sub", "-p", str(server.port), "-t", f"{topic}/reply", "-C", "1", "-W", "60"],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        payload = json.dumps(body)
+        while listen.poll() is None:
+            pub = ["mosquitto_pub", "-p", str(server.port), "-t", f"{topic}/cmd/{command}"]
+            subprocess.run([*pub, "-m", payload], check=True, timeout=30)
+            time.sleep(0.5)  # the subscription may not have been in place yet
+        out, _ = listen.communicate(timeout=30)
+    finally:
+        if listen.poll() is None:
+            listen.kill()
+    reply: dict[str, object] = json.loads(out)
+    return reply
+
+
+def test_the_gateway_s_mailbox_reads_and_writes_words(
+    pump: PumpBus,
+    broker: Broker,  # noqa: F811
+) -> None:
+    from pymodbus.client import ModbusTcpClient
+
+    if not pump.engine.silent:
+        pytest.skip("one variant is enough: the gateway talks as the commands do")
+    before = pump.described
+    port = free_port()
+    argv = ["gateway", *pump.port("bus"), "--address", "0", "--layout", "4,6"]
+    process, _ = serve([*argv, "--modbus", f"127.0.0.1:{port}", "--mqtt", broker.url], "ready")
+    try:
+        client = ModbusTcpClient("127.0.0.1", port=port, timeout=10)
+        assert client.connect()
+
+        def job(pnu: int, fmt: int, value: tuple[int, int], command: int) -> list[int]:
+            box = client.readwrite_registers(
+                read_address=206,
+                read_count=5,
+                write_address=200,
+                values=[pnu, 0xFFFF, fmt, *value, command],
+                device_id=0,
+            )
+            assert not box.isError(), box
+            assert box.registers[0] == 1  # done
+            return list(box.registers[3:])
+
+        assert job(150, 0, (0, 0), 1) == [0, 1200]  # the word, as nothing says more of it
+        assert job(151, 3, (0, 0), 1) == [0x0001, 0x86A0]  # the double word as it came
+        assert job(150, 1, (0, 1500), 2) == [0, 1500]
+        assert job(150, 1, (0, 1200), 2) == [0, 1200]
+        client.close()
+        read = _reply(broker, "read", {"id": "r", "pnu": 151})
+        assert (read["ok"], read["result"]["value"]) == (True, 100000)  # type: ignore[index]
+        wrote = _reply(broker, "write", {"id": "w", "pnu": 160, "index": 3, "value": 9})
+        assert (wrote["ok"], wrote["result"]["value"]) == (True, 9)  # type: ignore[index]
+        back = _reply(broker, "write", {"id": "b", "pnu": 160, "index": 3, "value": 7})
+        assert back["ok"] is True
+    finally:
+        assert stop(process) == 0
+    assert pump.described == before
+
+
+def test_backup_says_the_kind_is_unknown_and_restore_writes_the_words_back(
+    pump: PumpBus, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    at = [*pump.port("bus"), "--layout", "4,6"]
+    file = tmp_path / "pump.json"
+    code, _, _ = uss(capsys, "backup", "0", "-o", str(file), "--scan", "150-151", *at)
+    data = json.loads(file.read_text(encoding="utf-8"))
+    assert (code, data["profile"]) == (0, "unknown")
+    assert uss(capsys, "diff", "0", str(file), *at)[:2] == (0, f"drive 0 and {file} agree\n")
+    # a file of the generic profile, as earlier versions wrote of every drive: the same words
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps({**data, "profile": "generic"}), encoding="utf-8")
+    assert uss(capsys, "diff", str(file), str(old))[0] == 0  # two kinds: compared by words
+    try:
+        assert uss(capsys, "write", "0", "150", "1500", *at)[0] == 0
+        code, out, _ = uss(capsys, "diff", "0", str(file), *at)
+        assert (code, out.splitlines()[0]) == (1, "P150: 1500 -> 1200")
+        code, out, err = uss(capsys, "restore", "0", str(old), "--yes", *at)
+        assert (code, out) == (2, "")  # refused before anything is written
+        assert "a backup of a generic drive, this drive is of unknown kind (no --profile)" in err
+        assert uss(capsys, "read", "0", "150", *at)[1] == "P150 = 1500 (05DCh)\n"
+        code, out, _ = uss(capsys, "restore", "0", str(file), "--yes", *at)
+        assert (code, out.splitlines()) == (
+            0,
+            ["P150: 05DCh -> 04B0h", "drive 0: 1 of 1 written"],
+        )
+        assert uss(capsys, "read", "0", "150", *at)[1] == "P150 = 1200 (04B0h)\n"
+        assert uss(capsys, "write", "0", "150", "1500", *at)[0] == 0
+        code, out, _ = uss(capsys, "restore", "0", str(old), "--yes", "--force", *at)
+        assert (code, out.splitlines()[0]) == (0, "P150: 05DCh -> 04B0h")  # its words as read
+    finally:
+        uss(capsys, "write", "0", "150", "1200", *at)
+    assert uss(capsys, "read", "0", "150", *at)[1] == "P150 = 1200 (04B0h)\n"

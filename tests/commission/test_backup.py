@@ -167,12 +167,12 @@ def test_scan_finds_the_parameters_no_file_knows(tmp_path: Path) -> None:
     sim = start(params, "--layout", "v,2")
     try:
         port = ["--port", sim.path, "--baud", "38400", "--layout", "v,2"]
-        code, out = uss(["params", "5", "--scan", "800-812", "--values", *port, "--json"])
+        asked = ["--describe", "always"]  # no --profile: the drive's descriptions on request
+        code, out = uss(["params", "5", "--scan", "800-812", "--values", *port, *asked, "--json"])
         found = {p["pnu"]: p for p in json.loads(out)["parameters"]}
         assert code == 0 and {800, 805, 811} <= set(found)
         assert found[805]["source"] == "drive" and found[805]["value_text"] == "1500.50"
         file = tmp_path / "set.json"
-        asked = ["--describe", "always"]  # no --profile: the drive's descriptions on request
         code, out = uss(["backup", "5", "-o", str(file), "--scan", "800-812", *port, *asked])
         assert code == 0
         assert load(file).find(804).value == -123.456  # type: ignore[union-attr]

@@ -100,6 +100,7 @@ async def simulated_gateway(
         port="bus://simulated:1",
         addresses=list(addresses),
         baud=BAUD,
+        profile="generic",  # the simulated drives' family
         layout=LAYOUT,
         name=bus_name,
         parameters=list(parameters),

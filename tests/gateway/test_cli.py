@@ -85,6 +85,8 @@ def test_bus_simulator_and_gateway_as_separate_processes(broker: Broker) -> None
             url,
             "--baud",
             "38400",
+            "--profile",
+            "generic",  # the simulated drives' family: its reference and parameter types
             "--layout",
             "4,2",
             "--address",
@@ -189,7 +191,8 @@ def test_a_file_that_is_no_configuration_is_one_line_naming_it(tmp_path: Path) -
 def test_a_bad_key_in_the_file_is_named_before_any_port_opens(tmp_path: Path) -> None:
     config = tmp_path / "plant.toml"
     config.write_text(
-        '[[bus]]\nport = "/dev/ttyNOPE"\n[[bus.drive]]\naddress = 5\nparameters = [90]\n[opcua]\n',
+        '[[bus]]\nport = "/dev/ttyNOPE"\nprofile = "generic"\n[[bus.drive]]\naddress = 5\n'
+        "parameters = [90]\n[opcua]\n",
         encoding="utf-8",
     )
     result = subprocess.run(

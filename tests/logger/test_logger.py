@@ -152,12 +152,10 @@ def test_uss_log_writes_no_answer_once_the_simulator_is_gone(tmp_path: Path) -> 
             out, err = log.communicate(timeout=30)
             assert log.returncode == 0, err
             table = rows(path)
-            assert table[0]["comm"] == "ok" and table[0]["P52 Load display"] == "16384"
+            assert table[0]["comm"] == "ok" and table[0]["P52"] == "16384"
             silent = [r for r in table if r["comm"] == NO_ANSWER]
             assert silent, table[-5:]
-            assert all(
-                r["status word"] == r["state"] == r["P52 Load display"] == "" for r in silent
-            )
+            assert all(r["status word"] == r["state"] == r["P52"] == "" for r in silent)
             assert "rows" in out
         finally:
             if log is not None and log.poll() is None:
@@ -197,7 +195,7 @@ def _one_line_and_whole_rows(done: subprocess.CompletedProcess[str], path: Path,
     assert "Traceback" not in done.stderr
     assert path.read_bytes().endswith(b"\r\n")  # no half row
     table = rows(path)
-    assert len(table) > 5 and all(r["comm"] == "ok" and r["P52 Load display"] for r in table)
+    assert len(table) > 5 and all(r["comm"] == "ok" and r["P52"] for r in table)
 
 
 def test_a_log_the_system_refuses_to_grow_ends_in_one_line_with_whole_rows(
@@ -282,6 +280,7 @@ async def test_values_are_typed_by_the_parameter_model(tmp_path: Path) -> None:
 
 
 LINE = ["--baud", "9600", "--layout", "3,2"]
+GENERIC = ["--profile", "generic"]  # the simulated drive's family: its parameters' types
 
 
 def _log_on_a_9600_baud_line(tmp_path: Path, name: str, *args: str) -> tuple[str, str, Path]:
@@ -292,7 +291,7 @@ def _log_on_a_9600_baud_line(tmp_path: Path, name: str, *args: str) -> tuple[str
         url = _first_line(sim)
         path = tmp_path / name
         done = subprocess.run(
-            [*UV, "log", "5", "status", *args, "-o", str(path), "--port", url, *LINE],
+            [*UV, "log", "5", "status", *args, "-o", str(path), "--port", url, *LINE, *GENERIC],
             capture_output=True,
             text=True,
             timeout=120,

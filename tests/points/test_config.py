@@ -21,6 +21,7 @@ GOOD = """
 name = "line1"
 port = "bus://127.0.0.1:4000"
 baud = 38400
+profile = "generic"
 layout = "4,2"
 [[bus.drive]]
 address = 5
@@ -45,6 +46,16 @@ def test_a_good_file_gives_the_plant() -> None:
     model = resolve(config.plant)
     assert model.drives[0].unit == "Hz"  # from the generic profile's reference P352
     assert model.drives[0].parameters[0].meta.is_float
+
+
+def test_a_bus_that_names_no_profile_has_drives_of_unknown_kind() -> None:
+    plant = parse_config(tomllib.loads(GOOD.replace('profile = "generic"\n', ""))).plant
+    assert plant.buses[0].profile is None
+    drive = resolve(plant).drives[0]
+    # no family's facts: no reference (process values in percent), P107 a word as it travels
+    assert (drive.profile, drive.reference, drive.unit, drive.fault) == (None, None, "%", None)
+    meta = drive.parameters[0].meta
+    assert (meta.known, meta.is_float, meta.scaling) == (False, False, None)
 
 
 @pytest.mark.parametrize(
@@ -87,14 +98,28 @@ def test_bad_face_options_name_the_key(extra: str, message: str) -> None:
     assert message in str(error.value)
 
 
+GENERIC = {"profile": "generic"}  # the facts refused on below are the generic profile's
+
+
 def test_what_the_points_cannot_show_is_refused_with_its_key() -> None:
     with pytest.raises(ConfigError, match=r"parameters\[0\]: P90 .*numbers only"):
-        resolve(parse_plant([{"port": "x", "drive": [{"address": 1, "parameters": [90]}]}]))
+        resolve(
+            parse_plant([{"port": "x", **GENERIC, "drive": [{"address": 1, "parameters": [90]}]}])
+        )
     with pytest.raises(ConfigError, match=r"parameters\[0\]: P4 .*name an element"):
-        resolve(parse_plant([{"port": "x", "drive": [{"address": 1, "parameters": [4]}]}]))
+        resolve(
+            parse_plant([{"port": "x", **GENERIC, "drive": [{"address": 1, "parameters": [4]}]}])
+        )
     with pytest.raises(ConfigError, match="double word: layout 3,2"):
         plant = parse_plant(
-            [{"port": "x", "layout": "3,2", "drive": [{"address": 1, "parameters": [107]}]}]
+            [
+                {
+                    "port": "x",
+                    **GENERIC,
+                    "layout": "3,2",
+                    "drive": [{"address": 1, "parameters": [107]}],
+                }
+            ]
         )
         resolve(plant)
     with pytest.raises(ConfigError, match=r"actual\[0\].pzd: PZD3"):

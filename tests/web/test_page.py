@@ -41,9 +41,9 @@ def test_the_bus_view_lists_the_drives_with_their_health(page: Any) -> None:
     assert "0.00 Hz" in rows.nth(0).inner_text()  # the main actual value in its unit
     assert "0.00 %" in rows.nth(1).inner_text()  # no reference parameter: percent
     assert page.locator("#bus-baud").inner_text() == "38400 baud"
-    # a scan may look for any profile pyuss knows
+    # a scan looks for drives of unknown kind, or of any profile pyuss knows
     options = page.locator("#scan-profile option").all_inner_texts()
-    assert options == list(profile_names())
+    assert options == ["unknown", *profile_names()]
     screenshot(page, "web-bus", full_page=True)
 
 
@@ -552,6 +552,48 @@ def test_the_buttons_are_disabled_while_no_drive_answers(browser: Any, demo: Run
         for selector in ("[data-cmd=on]", "[data-cmd=jog1]", "#setpoint-form button", "#fault-ack"):
             assert page.locator(selector).is_disabled(), selector
         assert page.locator("[data-cmd=on]").get_attribute("title") == "the drive does not answer"
+        page.context.close()
+    finally:
+        demo.call(server.close())
+        demo.call(backend.close())
+
+
+def test_a_drive_of_unknown_kind_shows_a_parameter_typed_by_number_as_words(
+    browser: Any, demo: Running
+) -> None:
+    from pyuss.protocol.layout import PKW_VARIABLE, Layout
+    from pyuss.web.backend import Backend, DriveSpec
+    from pyuss.web.server import WebServer
+
+    async def start() -> Backend:
+        # the demo's generic drive at address 1, shown as a drive no profile is named for
+        unknown = DriveSpec(1, None, Layout(PKW_VARIABLE, 2))
+        backend = Backend(demo=True, drives=[unknown], job_timeout=2.0)
+        await backend.start()
+        return backend
+
+    backend = demo.call(start())
+    server = WebServer(backend, port=0)
+    url = demo.call(server.start())
+    try:
+        page = open_page(browser, url + "#params/1")
+        page.wait_for_function(
+            "document.querySelector('#param-message').textContent.includes('values read')"
+        )
+        assert page.locator("#param-table tbody tr").count() == 0  # no family's list
+        page.fill("#param-search", "P462")
+        row = page.locator("#param-table tbody tr[data-id='462']")
+        page.wait_for_function(
+            "document.querySelector(\"#param-table tr[data-id='462'] td.value\")"
+            ".textContent.includes('0064h')"
+        )
+        assert "(nothing known: words)" in row.inner_text()  # 10.0 s is the word 100
+        row.locator("td.value").click()
+        page.fill("#edit-value", "0x19")
+        page.click("#edit-write")
+        page.wait_for_function("!document.querySelector('#edit').open")
+        assert "25 (0019h)" in row.inner_text()
+        assert demo.run(lambda: backend.engines[1].drive.value(462)) == 25
         page.context.close()
     finally:
         demo.call(server.close())

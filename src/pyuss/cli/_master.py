@@ -5,10 +5,11 @@ Options of every master command: ``--port URL`` (a serial port such as ``/dev/tt
 pty, ``tcp://HOST:PORT``, ``bus://HOST:PORT``; any URL `pyuss.transport.open_transport`
 takes), ``--baud B``, ``--profile NAME``, ``--layout PKW,PZD``, ``--timeout S`` (per
 parameter job), ``--response-delay MS``, ``--tolerance MS`` (receive tolerance for ports with
-coarse timestamps) and ``--json``. Without ``--profile`` the commands that read and write
-parameter values (read, write, describe, backup) take the drive as one of unknown kind: the
-telegrams follow the USS specification, but no family's parameter facts are applied to it
-(`pyuss.master.scheduler.Master` without a profile); the others take ``generic``.
+coarse timestamps) and ``--json``. Without ``--profile`` every command takes the drive as one
+of unknown kind: the telegrams follow the USS specification, but no family's parameter facts,
+texts or reference are applied to it (`pyuss.master.scheduler.Master` without a profile):
+values travel as words, and what needs a family's facts (a setpoint in Hz, fault texts) says
+so and works with what the drive gives.
 
 Exit codes: 0 done; 1 the operation failed (no answer, drive refused, mirror changed, port
 failed); 2 bad input (arguments, values, a request the layout cannot carry); 130 interrupted.
@@ -52,12 +53,10 @@ def integer(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
 
 
-def add_options(
-    parser: argparse.ArgumentParser, *, lists: bool = False, unnamed: bool = False
-) -> None:
+def add_options(parser: argparse.ArgumentParser, *, lists: bool = False) -> None:
     """The options every master command takes; ``lists``: ``--baud`` takes a list and
-    ``--layout`` may be repeated (``uss scan``); ``unnamed``: without ``--profile`` the drive
-    is of unknown kind (``args.profile`` None; `UNNAMED_HELP`), else ``generic``."""
+    ``--layout`` may be repeated (``uss scan``). Without ``--profile`` the drive is of unknown
+    kind (``args.profile`` None; `UNNAMED_HELP`)."""
     parser.add_argument(
         "--port",
         metavar="URL",
@@ -68,9 +67,7 @@ def add_options(
     )
     add_line_options(parser)
     rates = ", ".join(map(str, BAUD_RATES))
-    parser.set_defaults(
-        default_baud="9600" if lists else 9600, default_profile=None if unnamed else "generic"
-    )
+    parser.set_defaults(default_baud="9600" if lists else 9600, default_profile=None)
     if lists:
         parser.add_argument(
             "--baud",
@@ -89,13 +86,7 @@ def add_options(
         metavar="NAME",
         help="the drive family, which sets parameter numbering, response delay, error texts "
         f"and default layout: {', '.join(profile_names())}; auto: ask the drive which family "
-        "it is (docs/drives.md; "
-        + (
-            UNNAMED_HELP
-            if unnamed
-            else "default generic, the drive profile of the USS specification"
-        )
-        + ")",
+        f"it is (docs/drives.md; {UNNAMED_HELP})",
     )
     parser.add_argument(
         "--layout",
@@ -172,15 +163,9 @@ exit codes:
   130  interrupted (uss run: after switching the drive off)"""
 
 
-def finish(
-    parser: argparse.ArgumentParser,
-    func: Callable[[argparse.Namespace], int],
-    *,
-    unnamed: bool = False,
-) -> None:
-    """Add the shared options, the exit codes and the function that runs the command
-    (``unnamed``: see `add_options`)."""
-    add_options(parser, lists=parser.prog.endswith(" scan"), unnamed=unnamed)
+def finish(parser: argparse.ArgumentParser, func: Callable[[argparse.Namespace], int]) -> None:
+    """Add the shared options, the exit codes and the function that runs the command."""
+    add_options(parser, lists=parser.prog.endswith(" scan"))
     parser.epilog = EPILOG
     name = parser.prog.rsplit(" ", 1)[-1]
 
@@ -311,7 +296,7 @@ def parameter(text: str) -> tuple[int, int | None]:
 
 def master_options(args: argparse.Namespace) -> dict[str, Any]:
     """Keyword arguments for `Master` from the shared options (`ConfigError` if bad); no
-    ``--profile`` where the command allows it: ``profile`` None, a drive of unknown kind."""
+    ``--profile``: ``profile`` None, a drive of unknown kind."""
     options: dict[str, Any] = {"profile": args.profile, "job_timeout": args.timeout}
     if not args.timeout > 0:
         raise ConfigError(f"--timeout {args.timeout}: must be > 0 seconds")

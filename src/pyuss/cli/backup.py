@@ -45,7 +45,7 @@ def register(subparsers: Any) -> None:
         "--force", action="store_true", help="replace FILE if it exists (else it is refused)"
     )
     _params.add_options(parser)
-    finish(parser, main, unnamed=True)
+    finish(parser, main)
 
 
 def main(args: argparse.Namespace) -> int:

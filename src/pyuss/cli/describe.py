@@ -40,7 +40,7 @@ def register(subparsers: Any) -> None:
         help="read element N only, 1..254, or 255 for the whole description in one telegram "
         "(USS specification C 6)",
     )
-    finish(parser, main, unnamed=True)
+    finish(parser, main)
 
 
 def whole_parameter(text: str) -> int:

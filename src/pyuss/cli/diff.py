@@ -1,7 +1,9 @@
 """Show what differs between parameter sets: uss diff ADDRESS FILE, or uss diff FILE FILE
 
 With an ADDRESS (and ``--port``) the drive's parameters named in FILE are read now and compared
-with the file; with two files nothing is sent. Each difference prints as one line with the
+with the file; with two files nothing is sent. Without ``--profile`` the drive is of unknown
+kind and read as words; against a file of a named profile (or two files of different profiles)
+the parameters are compared by their raw words. Each difference prints as one line with the
 parameter's name and unit: ``P1120 (Ramp-up time): 10.00 s -> 2.50 s`` (left -> right). Exit
 code 0 when the sets agree, 1 when they differ (as diff does), 2 for a file that is no backup.
 """
@@ -71,7 +73,7 @@ def main(args: argparse.Namespace) -> int:
                 wanted = [(e.pnu, e.index) for e in right.entries]
                 entries = await backups.read_parameters(drive, wanted)
                 book = drive.params
-            left = backups.Backup(where, drive.profile.name, entries, source=f"drive {where}")
+            left = backups.Backup(where, backups.kind_of(drive), entries, source=f"drive {where}")
             left_name = f"drive {where}"
         else:
             left = backups.load(args.left)

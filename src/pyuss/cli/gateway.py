@@ -59,7 +59,11 @@ def register(subparsers: Any) -> None:
         help="a drive's address 0..31 (repeat for more drives)",
     )
     one.add_argument("--baud", type=int, default=9600, help="baud rate (default 9600)")
-    one.add_argument("--profile", default="generic", help="device profile (default generic)")
+    one.add_argument(
+        "--profile",
+        help="device profile (default: none, drives of unknown kind - parameters as words, "
+        "process values in percent, no family's facts)",
+    )
     one.add_argument("--layout", metavar="PKW,PZD", help="telegram layout (default: profile's)")
     one.add_argument(
         "--parameter",

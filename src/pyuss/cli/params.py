@@ -1,7 +1,9 @@
 """List and search the parameters pyuss knows of a drive: uss params [SEARCH...]
 
-Without a port it lists the profile's parameter file (``--profile``) and ``--params FILE``; with
-``--port URL ADDRESS`` it asks the drive as well: ``--describe always`` reads every parameter's
+Without a port it lists the profile's parameter file (``--profile``, default ``generic``) and
+``--params FILE``; with ``--port URL ADDRESS`` it asks the drive as well (without
+``--profile`` a drive of unknown kind: no family's file, only what ``--params``, the drive's
+descriptions and ``--scan`` find): ``--describe always`` reads every parameter's
 own description (C 6; the drive's name, type, scaling, access and limits win over the files),
 ``--scan FROM-TO`` looks for parameters no file knows by asking the drive for their
 descriptions over that range, and ``--values`` reads the current value of each. SEARCH words
@@ -12,6 +14,7 @@ in the name, unit or documentation (all must match; case does not matter).
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from typing import Any
 
 from pyuss.cli import _params
@@ -52,11 +55,13 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--port", metavar="URL", help="ask the drive on this port as well")
     add_line_options(parser)
     parser.add_argument("--baud", type=integer, help="baud rate (default 9600)")
-    parser.set_defaults(default_baud=9600, default_profile="generic")
+    parser.set_defaults(default_baud=9600, default_profile=None)
     parser.add_argument(
         "--profile",
         metavar="NAME",
-        help=f"device profile ({', '.join(profile_names())}; default generic)",
+        help=f"device profile ({', '.join(profile_names())}; default without a drive: "
+        "generic's list; with a drive: none, a drive of unknown kind, whose parameters only "
+        "the drive, --params and --scan tell)",
     )
     parser.add_argument("--layout", metavar="PKW,PZD", help="telegram layout (with --port)")
     parser.add_argument(
@@ -75,6 +80,11 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--json", action="store_true", help="print JSON for scripts")
     _params.add_options(parser)
     parser.set_defaults(func=main)
+
+
+OFFLINE_PROFILE = "generic"
+"""The list shown without a drive and without ``--profile``: the USS specification's drive
+profile. A drive asked (``--port``) without ``--profile`` is of unknown kind instead."""
 
 
 def pnu_range(text: str) -> range:
@@ -129,8 +139,9 @@ def main(args: argparse.Namespace) -> int:
             args.address = words.pop(0)
             use_lines(args, args.address)
         else:
-            args.profile = args.profile or args.default_profile
-        get_profile(args.profile)
+            args.profile = args.profile or OFFLINE_PROFILE
+        if args.profile is not None:
+            get_profile(args.profile)
         if args.port is None:
             if args.scan or args.values:
                 raise ConfigError("--scan and --values ask a drive: give --port URL ADDRESS")
@@ -145,6 +156,7 @@ def main(args: argparse.Namespace) -> int:
         master_options(args)
         values: dict[int, str] = {}
         failed = False
+        words_only: list[int] = []
         async with open_master(args) as bus:
             drive = bus.drive(where)
             _params.setup(args, drive)
@@ -152,42 +164,57 @@ def main(args: argparse.Namespace) -> int:
             if args.scan:
                 progress = _params.Progress("scan", enabled=None if not args.json else False)
                 try:
-                    await scan(drive, pnu_range(args.scan), progress=progress)
+                    there = await scan(drive, pnu_range(args.scan), progress=progress)
                 finally:
                     progress.close()
+                if not words:  # found by their values: nothing known but that they are there
+                    words_only = [pnu for pnu in there if pnu not in book]
             found = book.search(words)
             for info in found:
                 await drive.info(info.pnu)  # --describe always: the drive's own description
             found = book.search(words)
             if args.values:
-                for info in found:
+                for pnu in [info.pnu for info in found] + words_only:
                     try:
-                        reading = await drive.read_param(info.pnu)
-                        values[info.pnu] = format_value(reading.info, reading.value)
+                        reading = await drive.read_param(pnu)
+                        values[pnu] = format_value(reading.info, reading.value)
                     except ConfigError:
                         raise
                     except UssError as exc:
                         failed = True
-                        values[info.pnu] = f"(not read: {error_dict(exc)['message']})"
+                        values[pnu] = f"(not read: {error_dict(exc)['message']})"
             _params.save(args, drive)
-        show(args, book, found, values)
+        show(args, book, found, values, words_only)
         return EXIT_FAILED if failed else EXIT_OK
 
     return run("params", args, body)
 
 
 def show(
-    args: argparse.Namespace, book: ParamBook, found: list[ParamInfo], values: dict[int, str]
+    args: argparse.Namespace,
+    book: ParamBook,
+    found: list[ParamInfo],
+    values: dict[int, str],
+    words_only: Sequence[int] = (),
 ) -> int:
+    """Print the parameters found; ``words_only``: those a scan found that nothing is known
+    of (a drive without descriptions), read as words."""
     if args.json:
         items = [
             info.to_dict() | ({"value_text": values[info.pnu]} if info.pnu in values else {})
             for info in found
+        ] + [
+            {"pnu": pnu, "label": book.label(pnu), "known": False}
+            | ({"value_text": values[pnu]} if pnu in values else {})
+            for pnu in words_only
         ]
         emit(args, {"profile": book.profile, "parameters": items}, "")
         return EXIT_OK
     for info in found:
         print(row(info, values.get(info.pnu)))
-    if not found:
+    for pnu in words_only:
+        value = f"  = {values[pnu]}" if pnu in values else ""
+        print(f"{book.label(pnu):<7} {'(nothing known: words)':<40}{value}".rstrip())
+    if not found and not words_only:
         print("no parameter matches")
     return EXIT_OK

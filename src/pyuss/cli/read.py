@@ -53,7 +53,7 @@ def register(subparsers: Any) -> None:
         help="print the words as the drive sent them (PWE, USS specification C 4.2.3)",
     )
     _params.add_options(parser)
-    finish(parser, main, unnamed=True)
+    finish(parser, main)
 
 
 def main(args: argparse.Namespace) -> int:

@@ -3,9 +3,12 @@
 The file is checked first (a cut-short or hand-broken file, or a value a parameter cannot take,
 is refused before anything is written, exit 2), and so is whose it is: a file of another
 profile, or whose identity parameters (firmware, type) differ from the drive's, is refused
-unless ``--force``. Then the drive's parameters are read and the differences shown; after a
-``y`` (or ``--yes``) only the writable parameters that differ are written, in an order the
-profile gives (the access level and commissioning parameters first), with ``--eeprom``
+unless ``--force``. Without ``--profile`` the drive is of unknown kind: a backup of a drive of
+unknown kind (``profile = "unknown"``) is written back as the words it read; a file of a named
+profile (``"generic"`` in files of earlier versions) wants that ``--profile``, or ``--force``,
+which writes its words as read. Then the drive's parameters are read and the differences shown;
+after a ``y`` (or ``--yes``) only the writable parameters that differ are written, in an order
+the profile gives (the access level and commissioning parameters first), with ``--eeprom``
 through the EEPROM requests (C Table 4.1). A refusal is reported with its error number and
 meaning and the restore goes on. ``--dry-run`` shows what would be written and writes nothing.
 Exit code 0 when every write was taken, 1 when any was refused.
@@ -62,15 +65,14 @@ def ask(question: str) -> bool:
 def main(args: argparse.Namespace) -> int:
     async def body() -> int:
         wanted = backups.load(args.file)
-        if wanted.profile != args.profile and not args.force:
-            raise ConfigError(
-                f"{args.file} is a backup of a {wanted.profile} drive, this is --profile "
-                f"{args.profile} (--force to restore anyway)"
-            )
+        kind = args.profile or backups.UNKNOWN_KIND
+        if kind != "auto":  # else once the drive has shown its family
+            check_kind(args, wanted, kind)
         if not args.dry_run and not args.yes and args.json:
             raise ConfigError("--json needs --yes (or --dry-run): there is no one to ask")
         async with open_master(args) as bus:
             drive = bus.drive(args.address)
+            check_kind(args, wanted, backups.kind_of(drive))
             _params.setup(args, drive)
             stranger = await another_drive(wanted, drive)
             if stranger is not None and not args.force:
@@ -82,8 +84,9 @@ def main(args: argparse.Namespace) -> int:
                 )
             finally:
                 progress.close()
-            current = backups.Backup(args.address, drive.profile.name, now)
-            writes, skips = plan(wanted, current, drive.params, drive.profile)
+            current = backups.Backup(args.address, backups.kind_of(drive), now)
+            named = drive.profile if drive.profile_named else None
+            writes, skips = plan(wanted, current, drive.params, named)
             if not args.json:
                 for write in writes:
                     print(write.text())
@@ -119,6 +122,30 @@ def main(args: argparse.Namespace) -> int:
         return EXIT_FAILED if failed else EXIT_OK
 
     return run("restore", args, body)
+
+
+def check_kind(args: argparse.Namespace, wanted: backups.Backup, kind: str) -> None:
+    """`ConfigError` (nothing written) for a file of another kind than the drive, unless
+    ``--force``."""
+    if wanted.profile != kind and not args.force:
+        raise ConfigError(f"{args.file} is {whose(wanted.profile)}, {this(kind)}")
+
+
+def whose(kind: str) -> str:
+    """``a backup of a generic drive`` / ``a backup of a drive of unknown kind``."""
+    if kind == backups.UNKNOWN_KIND:
+        return "a backup of a drive of unknown kind (taken without --profile)"
+    return f"a backup of a {kind} drive"
+
+
+def this(kind: str) -> str:
+    """What the command takes the drive as, and what to do about a file of another kind."""
+    if kind == backups.UNKNOWN_KIND:
+        return (
+            "this drive is of unknown kind (no --profile): give the file's --profile, or "
+            "--force to write its words as read"
+        )
+    return f"this is --profile {kind} (--force to restore anyway)"
 
 
 def report(

@@ -1,10 +1,11 @@
 """Run a drive and watch it: uss run ADDRESS --setpoint VALUE, or --jog 1|2
 
 Sets the main setpoint - 50 or 50 % in percent, 25 Hz or 1500 rpm where the profile names the
-reference parameter that is 100 % (P2000 of a MICROMASTER 4, read from the drive) - and
-switches the drive on; or, with ``--jog 1`` or ``--jog 2``, jogs it at the drive's own jog
-setpoint: a drive of the USS specification's profile is switched on at setpoint 0 and then
-jogs, a MICROMASTER 4 or SINAMICS (whose jog bits switch it on) jogs from standstill with
+reference parameter that is 100 % (P2000 of a MICROMASTER 4, read from the drive; a drive of
+unknown kind, without ``--profile``, takes and shows percent) - and switches the drive on;
+or, with ``--jog 1`` or ``--jog 2``, jogs it at the drive's own jog setpoint: a drive of the
+USS specification's profile (or of unknown kind) is switched on at setpoint 0 and then jogs,
+a MICROMASTER 4 or SINAMICS (whose jog bits switch it on) jogs from standstill with
 ON/OFF1 = 0 (057Eh for jog 1). It shows its state, status word and actual value (in
 the reference's unit too) while it ramps - on one line that updates itself in a terminal, one
 line per ``--interval`` otherwise. Ctrl+C or SIGTERM (or the end of ``--duration``) switches it
@@ -106,7 +107,7 @@ Reference = tuple[float, str] | None
 """The reference parameter's value and unit (100 % = 4000h), where the profile names one."""
 
 
-def setpoint_percent(text: str, reference: Reference, profile: str) -> float:
+def setpoint_percent(text: str, reference: Reference, profile: str | None) -> float:
     """A ``--setpoint`` in percent: ``50`` / ``50 %`` as they are, ``25 Hz`` through the
     reference parameter; checked by the drive model's one check of a setpoint
     (`pyuss.points.checked_setpoint`: finite, within the word's range), as sent."""
@@ -118,6 +119,9 @@ def setpoint_percent(text: str, reference: Reference, profile: str) -> float:
             f"the reference parameter is in {reference[1]}"
             if reference is not None
             else f"profile {profile} names no reference parameter with a unit"
+            if profile is not None
+            else "the drive is of unknown kind (no --profile), so its reference parameter (100 %) "
+            "is not known"
         )
         raise ConfigError(f"--setpoint {text!r}: {where}; give percent or that unit")
     try:
@@ -280,7 +284,9 @@ async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[
         live = Live(args, drive)
         live.reference = await reference_value(drive)
         if args.setpoint is not None:
-            live.setpoint = setpoint_percent(args.setpoint, live.reference, drive.profile.name)
+            live.setpoint = setpoint_percent(
+                args.setpoint, live.reference, drive.profile.name if drive.profile_named else None
+            )
         shown = asyncio.Event()
         follower = asyncio.create_task(live.follow(shown))
         try:
@@ -290,7 +296,7 @@ async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[
                 # the drive on jogs from standstill with ON/OFF1 = 0 and ignores jog bits
                 # while switched on.
                 await drive.setpoint(0.0)
-                if not drive.profile.database().words.jog_switches_on:
+                if not (drive.profile_named and drive.profile.database().words.jog_switches_on):
                     await drive.on()
                 await drive.jog(args.jog)
             else:

@@ -24,7 +24,10 @@ Each drive found with a parameter area is asked who it is as soon as it is found
 still open at its rate: the family column names it where the drive shows its identity in a
 parameter (r0964 product type on MICROMASTER 420/440, P2023 on SINAMICS V20, P743/P707 on NORD
 SK 500E; docs/drives.md), and the profile column the profile to give to the other commands.
-``--profile auto`` probes as ``generic`` does.
+A drive that shows no family stays one of unknown kind (``-``; ``null`` in JSON): no profile is
+named for it on the strength of its answering. The probes follow the USS specification's
+telegram rules; ``--profile NAME`` probes by that family's (its default layout first), and
+``--profile auto`` as without a profile.
 """
 
 from __future__ import annotations
@@ -247,7 +250,9 @@ def main(args: argparse.Namespace) -> int:
         layouts = [Layout.parse(text) for text in args.layout or ()]
         options = master_options(args)
         name = options.pop("profile")
-        profile = resolve_profile("generic" if name == "auto" else name)
+        # no profile (or auto): the USS specification's telegram rules; families come only from
+        # what each drive shows of itself (Report.identify)
+        profile = resolve_profile(None if name == "auto" else name)
         probe_layouts(profile, layouts)  # checks the layouts against the profile early
         port = args.port
         open_transport(port, baud=bauds[0])  # a bad URL is bad input (exit 2) before probing

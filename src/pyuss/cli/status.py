@@ -5,7 +5,10 @@ One telegram for the process data (C 5): the drive's state from its status word,
 bit with its meaning, the main actual value (PZD2) in percent and, where the profile names the
 reference parameter, in its unit (Hz, rpm); then the parameters the profile names for state,
 actual value, setpoint, fault and warning, with units, and fault and warning numbers with the
-profile's text where it has one. Nothing is switched: the control word stays as it is.
+profile's text where it has one. Without ``--profile`` the drive is of unknown kind: the state,
+the status bits by the USS specification and the actual value in percent, and a line saying
+that its parameters, texts and reference are not known (no family's are put in their place).
+Nothing is switched: the control word stays as it is.
 """
 
 from __future__ import annotations

@@ -75,7 +75,8 @@ def register(subparsers: Any) -> None:
         "--profile",
         metavar="NAME",
         help=f"device profile of the drives ({', '.join(profile_names())}; auto: ask each "
-        "drive which family it is; default: the file's, else generic)",
+        "drive which family it is; default: the file's, else none: drives of unknown kind, their "
+        "parameters as words, no family's facts)",
     )
     parser.add_argument(
         "--layout",
@@ -168,7 +169,7 @@ async def _serve(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-async def _drives(args: argparse.Namespace) -> list[tuple[int, str, Layout | None]]:
+async def _drives(args: argparse.Namespace) -> list[tuple[int, str | None, Layout | None]]:
     """The line (``args.port``, ``args.baud`` filled from the configuration file where not
     given) and its drives to show: address, profile and layout of each. Those of ``--address``
     (a number or a name of the file), else the drives of the file's line; ``--profile`` and
@@ -202,11 +203,11 @@ async def _drives(args: argparse.Namespace) -> list[tuple[int, str, Layout | Non
         drives = [(t.address, t.profile, t.layout) for t in targets if t.address is not None]
     args.baud = args.baud or 9600
     port, baud = args.port, args.baud
-    found: list[tuple[int, str, Layout | None]] = []
+    found: list[tuple[int, str | None, Layout | None]] = []
     for number, profile, layout_text in drives:
         text = args.layout or layout_text
         layout = Layout.parse(text) if text else None
-        profile = args.profile or profile or "generic"
+        profile = args.profile or profile  # None: a drive of unknown kind
         if profile == "auto":
             from pyuss.master.identify import identify_family
             from pyuss.transport.url import open_transport

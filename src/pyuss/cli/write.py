@@ -81,7 +81,7 @@ def register(subparsers: Any) -> None:
         "drive took it",
     )
     _params.add_options(parser)
-    finish(parser, main, unnamed=True)
+    finish(parser, main)
 
 
 def raw_words(text: str, size: int | None, dword: bool) -> tuple[int, ...]:
@@ -102,7 +102,7 @@ def raw_words(text: str, size: int | None, dword: bool) -> tuple[int, ...]:
 
 async def write(args: argparse.Namespace, drive: Drive, pnu: int, index: int | None) -> Reading:
     """Parse VALUE by the parameter's type and write it (or the raw words with ``--raw``)."""
-    from pyuss.params.values import parse
+    from pyuss.params.values import parse, parse_unknown
 
     info = await drive.info(pnu)
     if args.raw:
@@ -112,7 +112,9 @@ async def write(args: argparse.Namespace, drive: Drive, pnu: int, index: int | N
         return Reading(pnu, index, None, answer, words_text(answer))
     if args.dword:
         raise ConfigError("--dword goes with --raw; a typed value has the parameter's own size")
-    value: object = parse(info, args.value, index) if info is not None else number(args.value)
+    value: object = (
+        parse(info, args.value, index) if info is not None else parse_unknown(args.value)
+    )
     return await drive.write_param(pnu, value, index, eeprom=args.eeprom)
 
 
@@ -141,24 +143,6 @@ async def write_verified(
         words = await drive.read_raw(pnu, index)
         return Reading(pnu, index, None, words, words_text(words)), READ_BACK
     return await drive.read_param(pnu, index), READ_BACK
-
-
-def number(text: str) -> int | float:
-    """An integer (any base prefix) or a float, for a parameter nothing is known of."""
-    try:
-        return int(text, 0)
-    except ValueError:
-        pass
-    try:
-        value = float(text)
-    except ValueError:
-        raise ConfigError(
-            f"VALUE {text!r} is not an integer or a number (the parameter is not known: give "
-            "--params FILE or --profile for texts and units)"
-        ) from None
-    if value != value or value in (float("inf"), float("-inf")):
-        raise ConfigError(f"VALUE {text!r} is not a finite number")
-    return value
 
 
 def main(args: argparse.Namespace) -> int:

@@ -1,7 +1,10 @@
 """Parameter sets: read a drive's parameters into a `Backup`, keep it in a file, read it back.
 
-A `Backup` is a header - address, profile, date (ISO 8601, UTC), the drive's identity
-parameters where it has them, and how many parameters follow - and one `Entry` per parameter:
+A `Backup` is a header - address, profile (`UNKNOWN_KIND`, ``"unknown"``, for a drive no
+profile was named for: its values are the words as read; a file that says ``"generic"`` is a
+drive of the generic profile, as files of earlier versions say of every drive), date (ISO 8601,
+UTC), the drive's identity parameters where it has them, and how many parameters follow - and
+one `Entry` per parameter:
 number, name, unit, type, the value as the drive engineer reads it (typed and scaled, a list
 for an array), the raw words as they travelled, and, for a parameter that could not be read,
 the error instead of a value.
@@ -30,6 +33,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from pyuss import profiles
 from pyuss.atomicfile import check_target, write_atomically
 from pyuss.drive.database import NameStyle
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
@@ -44,11 +48,13 @@ from pyuss.userfile import parse_json, parse_toml, read_text
 
 __all__ = [
     "FORMAT_VERSION",
+    "UNKNOWN_KIND",
     "Backup",
     "Entry",
     "LayoutTooSmall",
     "beyond_layout",
     "identity_parameters",
+    "kind_of",
     "load",
     "read_parameters",
     "save",
@@ -57,6 +63,15 @@ __all__ = [
 
 FORMAT_VERSION = 1
 """The ``pyuss_backup`` number of the file format."""
+
+UNKNOWN_KIND = profiles.UNKNOWN_KIND
+"""The ``profile`` of a backup of a drive of unknown kind (no profile named, none shown)."""
+
+
+def kind_of(drive: Drive) -> str:
+    """The ``profile`` a backup of ``drive`` records: its named profile, else `UNKNOWN_KIND`."""
+    return drive.profile.name if drive.profile_named else UNKNOWN_KIND
+
 
 IDENTITY_WORDS = ("firmware", "version", "serial", "identif", "drive type", "device type")
 """Words in a parameter's name that make it an identity parameter (when the profile names
@@ -343,7 +358,7 @@ def identity_parameters(drive: Drive) -> list[tuple[int, int | None]]:
     """The parameters that say which drive it is: those the profile's identity rules read
     (`pyuss.profiles.base.IdentityRule`) if it has any, else the known parameters whose name
     speaks of firmware, version, serial number or type."""
-    rules = getattr(drive.profile, "identity", None)
+    rules = getattr(drive.profile, "identity", None) if drive.profile_named else None
     if rules:
         found: list[tuple[int, int | None]] = []
         for rule in rules:
@@ -477,7 +492,7 @@ async def take(
     identity = await read_parameters(drive, identity_parameters(drive))
     entries = await read_parameters(drive, [(p, None) for p in numbers], progress=progress)
     date = datetime.fromtimestamp(now(), UTC).isoformat(timespec="seconds")
-    return Backup(drive.address, drive.profile.name, entries, date, identity, port)
+    return Backup(drive.address, kind_of(drive), entries, date, identity, port)
 
 
 # -- files --------------------------------------------------------------------------------------

@@ -1,16 +1,20 @@
 """Comparing parameter sets and writing one back to a drive.
 
 `compare` lists what differs between two `Backup`s (a drive read now, or two files), with names
-and units. `plan` turns "what the drive holds now" and "what the file says" into the writes a
-restore makes: only parameters that differ, only writable ones (a read-only one, a parameter
-the file could not read, and one nothing is known of without raw words are listed as skipped),
-an array element by element, each value checked against the parameter's type and limits first
-so that a hand-broken file is refused before anything is written. The order: the profile's
-own list (``restore_order``) if it has one, then the access level parameter, the parameter
-that enables writing, parameters changeable only in quick commissioning (``changeable`` C;
-wrapped in the drive's commissioning rule: P0010 = 1 before them, 0 after), then the rest by
-number. The commissioning parameters themselves (P0010, P3900, P0970) are commands, not
-settings, and are not restored.
+and units; two sets of different kinds (a drive of unknown kind, read as words, and a file of a
+named profile, or files of two profiles) are compared by their raw words where both sides have
+them, since their values are not read alike. `plan` turns "what the drive holds now" and "what
+the file says" into the writes a restore makes: only parameters that differ, only writable ones
+(a read-only one, a parameter the file could not read, and one nothing is known of without raw
+words are listed as skipped), an array element by element, each value checked against the
+parameter's type and limits first so that a hand-broken file is refused before anything is
+written. The order (for a drive of a named profile; a drive of unknown kind is written by
+number, no family's order or commissioning rule put on it): the profile's own list
+(``restore_order``) if it has one, then the access level parameter, the parameter that enables
+writing, parameters changeable only in quick commissioning (``changeable`` C; wrapped in the
+drive's commissioning rule: P0010 = 1 before them, 0 after), then the rest by number. The
+commissioning parameters themselves (P0010, P3900, P0970) are commands, not settings, and are
+not restored.
 `restore` makes the writes, reports each refusal with its meaning and goes on.
 """
 
@@ -21,7 +25,14 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from pyuss.commission.backup import MAX_TIMEOUTS, Backup, Entry, error_dict, read_parameters
+from pyuss.commission.backup import (
+    MAX_TIMEOUTS,
+    Backup,
+    Entry,
+    error_dict,
+    kind_of,
+    read_parameters,
+)
 from pyuss.drive.datatypes import DataType
 from pyuss.errors import ConfigError, UssError, UssTimeout
 from pyuss.master.drive import Drive
@@ -56,10 +67,13 @@ def _same(a: Any, b: Any) -> bool:
     return bool(a == b)
 
 
-def same_entry(a: Entry, b: Entry) -> bool:
-    """Whether two entries hold the same value (two failed reads count as the same)."""
+def same_entry(a: Entry, b: Entry, *, words: bool = False) -> bool:
+    """Whether two entries hold the same value (two failed reads count as the same);
+    ``words``: the same raw words where both have them (sets of different kinds)."""
     if not a.ok or not b.ok:
         return not a.ok and not b.ok
+    if words and a.raw and b.raw:
+        return a.raw == b.raw
     return _same(a.value, b.value)
 
 
@@ -113,14 +127,16 @@ class Difference:
 
 
 def compare(left: Backup, right: Backup) -> list[Difference]:
-    """What differs between two parameter sets, in parameter order."""
+    """What differs between two parameter sets, in parameter order (by raw words where
+    they are of different kinds: module docstring)."""
+    words = left.profile != right.profile
     lefts = {(e.pnu, e.index): e for e in left.entries}
     rights = {(e.pnu, e.index): e for e in right.entries}
     keys = sorted({*lefts, *rights}, key=lambda k: (k[0], -1 if k[1] is None else k[1]))
     found = []
     for key in keys:
         a, b = lefts.get(key), rights.get(key)
-        if a is not None and b is not None and same_entry(a, b):
+        if a is not None and b is not None and same_entry(a, b, words=words):
             continue
         found.append(Difference(key[0], key[1], a, b))
     return found
@@ -133,8 +149,9 @@ async def another_drive(wanted: Backup, drive: Drive) -> str | None:
     """Why ``wanted`` is another drive's file: the first of its identity parameters (firmware,
     device type) the drive holds otherwise, in words; None when they all agree. Reads them."""
     found = await read_parameters(drive, [(e.pnu, e.index) for e in wanted.identity])
+    words = wanted.profile != kind_of(drive)
     for old, new in zip(wanted.identity, found, strict=True):
-        if not same_entry(old, new):
+        if not same_entry(old, new, words=words):
             return (
                 f"{wanted.source or 'the backup'} is from another drive: {old.label} "
                 f"({old.name}) is {old.text()} there, {new.text()} here"
@@ -194,10 +211,10 @@ def commissioning_only(info: ParamInfo | None) -> bool:
     return "C" in letters and "T" not in letters and "U" not in letters
 
 
-def _order(profile: Profile, book: ParamBook) -> Callable[[Write], tuple[int, int, int]]:
+def _order(profile: Profile | None, book: ParamBook) -> Callable[[Write], tuple[int, int, int]]:
     first = [int(getattr(p, "pnu", p)) for p in getattr(profile, "restore_order", ()) or ()]
-    db = profile.database().profile
-    early = [ref.pnu for ref in (db.access_level, db.write_enable) if ref is not None]
+    db = None if profile is None else profile.database().profile
+    early = [] if db is None else [r.pnu for r in (db.access_level, db.write_enable) if r]
 
     def key(write: Write) -> tuple[int, int, int]:
         if write.pnu in first:
@@ -213,10 +230,12 @@ def _order(profile: Profile, book: ParamBook) -> Callable[[Write], tuple[int, in
     return key
 
 
-def _with_commissioning(writes: list[Write], profile: Profile, book: ParamBook) -> list[Write]:
+def _with_commissioning(
+    writes: list[Write], profile: Profile | None, book: ParamBook
+) -> list[Write]:
     """Wrap the writes of parameters changeable only in commissioning in the drive's own rule:
     its commissioning parameter (P0010) to quick commissioning first, back to 0 after them."""
-    rule = getattr(profile.database(), "commissioning", None)
+    rule = _commissioning(profile)
     if rule is None or not any(commissioning_only(w.info) for w in writes):
         return writes
     info = book.get(rule.parameter)
@@ -229,15 +248,20 @@ def _with_commissioning(writes: list[Write], profile: Profile, book: ParamBook) 
     return [*writes[:start], enter, *writes[start:end], leave, *writes[end:]]
 
 
+def _commissioning(profile: Profile | None) -> Any:
+    return None if profile is None else getattr(profile.database(), "commissioning", None)
+
+
 def plan(
-    wanted: Backup, current: Backup, book: ParamBook, profile: Profile
+    wanted: Backup, current: Backup, book: ParamBook, profile: Profile | None
 ) -> tuple[list[Write], list[Skip]]:
     """The writes that make the drive (``current``) hold ``wanted``, in the order they are
-    made, and the differences left out. Every value is checked first: a value the parameter
-    cannot take is a `ConfigError` naming the file and the parameter (nothing written yet)."""
+    made, and the differences left out (``profile`` None: a drive of unknown kind, no
+    family's order or commands). Every value is checked first: a value the parameter cannot
+    take is a `ConfigError` naming the file and the parameter (nothing written yet)."""
     writes: list[Write] = []
     skips: list[Skip] = []
-    rule = getattr(profile.database(), "commissioning", None)
+    rule = _commissioning(profile)
     commands = set() if rule is None else {rule.parameter, rule.end, rule.reset} - {None}
     for diff in compare(current, wanted):
         entry = diff.right

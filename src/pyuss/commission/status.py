@@ -6,7 +6,11 @@ instead) and reads the parameters the profile's file names for the purpose (``[d
 state, actual, setpoint, fault, warning, and the reference that is 100 % of setpoints and
 actual values, 4000h). The main actual value is shown in percent and, where the profile names
 the reference parameter, in its unit (Hz, rpm). Fault and warning numbers come with the text
-the profile gives them where it has one.
+the profile gives them where it has one. A drive of unknown kind (no profile named) shows what
+its telegram says - state, status word, the bits' meanings by the USS specification (C Table
+5.5; bits 11..15 are the device's own), the actual value in percent - and `Look.unknown_kind`
+says that its parameters, texts and reference are not known: no family's are put in their
+place.
 """
 
 from __future__ import annotations
@@ -19,14 +23,23 @@ from pyuss.master.drive import Drive
 from pyuss.master.process import DriveStatus, state_of
 from pyuss.protocol.pzd import STATUS_BITS, describe_bits, raw16_to_percent
 
-__all__ = ["Look", "fault_texts", "look", "reference_value", "warning_texts"]
+__all__ = ["UNKNOWN_KIND_NOTE", "Look", "fault_texts", "look", "reference_value", "warning_texts"]
 
 ROLES = ("state", "actual", "setpoint", "fault", "warning")
 
+UNKNOWN_KIND_NOTE = (
+    "drive of unknown kind (no --profile): its parameters for state, setpoint, fault and "
+    "warning, their texts and the reference of the actual value are not known; give --profile "
+    "NAME (or auto) for them"
+)
+
 
 def fault_texts(drive: Drive) -> dict[int, str]:
-    """Fault numbers the profile knows, with their texts (the family's own list first)."""
+    """Fault numbers the profile knows, with their texts (the family's own list first); none
+    for a drive of unknown kind."""
     texts: dict[int, str] = {}
+    if not drive.profile_named:
+        return texts
     for name, code in drive.profile.database().faults.items():
         texts.setdefault(code, name.replace("_", " "))
     texts.update(drive.profile.faults)
@@ -34,13 +47,16 @@ def fault_texts(drive: Drive) -> dict[int, str]:
 
 
 def warning_texts(drive: Drive) -> dict[int, str]:
-    """Warning numbers the profile knows, with their texts."""
-    return dict(drive.profile.warnings)
+    """Warning numbers the profile knows, with their texts (none for a drive of unknown
+    kind)."""
+    return dict(drive.profile.warnings) if drive.profile_named else {}
 
 
 async def reference_value(drive: Drive) -> tuple[float, str] | None:
     """The value and unit of the reference parameter (100 % = 4000h), where the profile names
-    one whose unit is not percent."""
+    one whose unit is not percent (None for a drive of unknown kind: no profile names one)."""
+    if not drive.profile_named:
+        return None
     ref = drive.profile.database().roles.get("reference")
     if ref is None:
         return None
@@ -74,6 +90,8 @@ class Look:
     warning_label: str = ""
     family_bits: dict[int, str] = field(default_factory=dict)
     """What the device-specific status bits 11..15 show on this family (its profile)."""
+    unknown_kind: bool = False
+    """No profile was named: the drive's parameters, fault texts and reference are unknown."""
 
     def _text_of(self, entry: Entry) -> str | None:
         if not entry.ok or not isinstance(entry.value, int) or entry.value == 0:
@@ -107,6 +125,8 @@ class Look:
                 text += f" ({meaning})"
             name = f" ({entry.name})" if entry.name else ""
             out.append(f"{entry.label}{name} = {text}")
+        if self.unknown_kind:
+            out.append(UNKNOWN_KIND_NOTE)
         return out
 
     def to_dict(self) -> dict[str, Any]:
@@ -119,6 +139,7 @@ class Look:
             "actual_percent": self.actual_percent,
             "actual": self.actual,
             "unit": self.unit,
+            "unknown_kind": self.unknown_kind,
             "parameters": [
                 {
                     **e.to_dict(),
@@ -132,24 +153,30 @@ class Look:
 
 async def look(drive: Drive, *, timeout: float | None = None) -> Look:
     """One look at ``drive`` (see the module docstring)."""
-    db = drive.profile.database()
+    db = drive.profile.database() if drive.profile_named else None
     status: DriveStatus | None = None
     if drive.layout.pzd >= 1:
         status = await drive.next_update(timeout=timeout)
         word = status.word
     else:
-        ref = db.roles.get("status_word")
+        ref = None if db is None else db.roles.get("status_word")
         if ref is None:
             from pyuss.errors import ConfigError
 
+            whose = (
+                f"profile {drive.profile.name} names"
+                if db is not None
+                else "the drive is of unknown kind (no --profile): nothing names"
+            )
             raise ConfigError(
-                f"layout {drive.layout} carries no status word (PZD 0) and profile "
-                f"{drive.profile.name} names no status word parameter: give --layout with PZD"
+                f"layout {drive.layout} carries no status word (PZD 0) and {whose} its status "
+                "word parameter: give --layout with PZD"
             )
         value = await drive.read(ref.pnu, ref.index, timeout=timeout)
         assert isinstance(value, int)
         word = value
-    fault, warning = db.roles.get("fault"), db.roles.get("warning")
+    roles = {} if db is None else db.roles
+    fault, warning = roles.get("fault"), roles.get("warning")
     result = Look(
         drive.address,
         word,
@@ -157,7 +184,12 @@ async def look(drive: Drive, *, timeout: float | None = None) -> Look:
         fault_label=drive.params.label(fault.pnu, fault.index) if fault else "",
         warnings=warning_texts(drive),
         warning_label=drive.params.label(warning.pnu, warning.index) if warning else "",
-        family_bits={bit: text for bit, text in drive.profile.status_bits.items() if bit >= 11},
+        family_bits={
+            bit: text
+            for bit, text in drive.profile.status_bits.items()
+            if bit >= 11 and drive.profile_named
+        },
+        unknown_kind=db is None,
     )
     if status is not None and status.actual:
         result.actual_percent = raw16_to_percent(status.actual[0])
@@ -167,7 +199,7 @@ async def look(drive: Drive, *, timeout: float | None = None) -> Look:
             result.unit = reference[1]
     wanted = []
     for role in ROLES:
-        ref = db.roles.get(role)
+        ref = roles.get(role)
         if ref is not None and (ref.pnu, ref.index) not in wanted:
             wanted.append((ref.pnu, ref.index))
     result.parameters = await read_parameters(drive, wanted)

@@ -562,7 +562,7 @@ def discovery(
         "identifiers": [node],
         "name": f"{model.name} ({model.bus})",
         "manufacturer": "USS drive",
-        "model": f"profile {model.profile}, address {model.address}",
+        "model": f"profile {model.profile or '(unknown kind)'}, address {model.address}",
     }
     origin = {"name": "pyuss", "sw_version": __version__}
     availability = [{"topic": topics.bus_availability}, {"topic": topics.availability}]

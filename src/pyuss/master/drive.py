@@ -177,6 +177,13 @@ class Drive:
         return self._link.profile
 
     @property
+    def profile_named(self) -> bool:
+        """Whether the profile was named (by the caller, or the drive showed its family): its
+        parameter facts, texts and reference apply. False for a drive of unknown kind, whose
+        `profile` gives only the USS specification's telegram rules."""
+        return self._link.named
+
+    @property
     def response_delay(self) -> float:
         """The response delay limit in seconds (A 5.2.1.1)."""
         return self._link.response_delay

@@ -273,6 +273,10 @@ class Drive:
         return self._drive.profile
 
     @property
+    def profile_named(self) -> bool:
+        return self._drive.profile_named
+
+    @property
     def response_delay(self) -> float:
         return self._drive.response_delay
 

@@ -46,6 +46,7 @@ __all__ = [
     "format_value",
     "json_value",
     "parse",
+    "parse_unknown",
     "physical",
     "raw_of",
     "shortest_float",
@@ -289,6 +290,26 @@ def parse(info: ParamInfo, text: str, index: int | None = None) -> Value:
         value = int(value)
     encode(info, value, index)
     return round_float(float(value)) if dtype is DataType.FLOAT else value
+
+
+def parse_unknown(text: str) -> int | float:
+    """A value for a parameter nothing is known of (a drive of unknown kind): an integer (any
+    base prefix; it travels as a word if it fits -32768..65535, else as a double word) or a
+    finite float; `ValueRefused` for anything else."""
+    try:
+        return int(text, 0)
+    except ValueError:
+        pass
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueRefused(
+            f"VALUE {text!r} is not an integer or a number (the parameter is not known: give "
+            "--params FILE or --profile for texts and units)"
+        ) from None
+    if not math.isfinite(value):
+        raise ValueRefused(f"VALUE {text!r} is not a finite number")
+    return value
 
 
 def _decimal(text: str) -> int | float:

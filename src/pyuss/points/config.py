@@ -14,7 +14,7 @@ is opened. The file's format is in docs/gateway.md; in short::
     name = "line1"                   # letters, digits, - and _ (it is part of MQTT topics)
     port = "/dev/ttyUSB0"            # any port URL of pyuss.transport
     baud = 19200
-    profile = "generic"
+    profile = "generic"              # the drives' family; without it: of unknown kind
     layout = "4,2"                   # default layout of its drives
     cycle_time = 0.1                 # seconds; default: as fast as the line allows
 
@@ -26,7 +26,10 @@ is opened. The file's format is in docs/gateway.md; in short::
     unit = "Hz"
 
 The default reference of a drive is its profile's reference parameter (P352 on the generic
-profile), read once when the gateway starts; without one, process values are in percent.
+profile), read once when the gateway starts; without one, process values are in percent. A bus
+or drive that names no profile is of unknown kind: no family's parameter facts, texts or
+reference are applied to it (its parameters travel as words, its process values in percent),
+as the commands take a drive without ``--profile``.
 """
 
 from __future__ import annotations
@@ -108,7 +111,8 @@ class BusConfig:
     name: str
     port: str
     baud: int = 9600
-    profile: str = "generic"
+    profile: str | None = None
+    """The drives' profile (None: of unknown kind, unless a drive names its own)."""
     layout: Layout | None = None
     cycle_time: float | None = None
     job_timeout: float = 2.0
@@ -342,7 +346,7 @@ def _bus(value: object, where: Where, number: int, face_keys: Sequence[str]) -> 
         check_baud(baud)
     except ConfigError as exc:
         raise where.key("baud").error(str(exc)) from None
-    profile = where.key("profile").profile(table.get("profile", "generic"))
+    profile = where.key("profile").profile(table["profile"]) if "profile" in table else None
     layout = where.key("layout").layout(table["layout"]) if "layout" in table else None
     cycle = where.key("cycle_time").seconds(table["cycle_time"]) if "cycle_time" in table else None
     timeout = where.key("job_timeout").seconds(table.get("job_timeout", 2.0))
@@ -407,7 +411,7 @@ def plant_from_flags(
     port: str,
     addresses: Sequence[int],
     baud: int = 9600,
-    profile: str = "generic",
+    profile: str | None = None,
     layout: str | None = None,
     name: str = DEFAULT_BUS,
     cycle_time: float | None = None,
@@ -420,7 +424,7 @@ def plant_from_flags(
         "name": name,
         "port": port,
         "baud": baud,
-        "profile": profile,
+        **({"profile": profile} if profile is not None else {}),
         "job_timeout": job_timeout,
         "drive": [
             {"address": a, **({"parameters": list(parameters)} if parameters else {})}

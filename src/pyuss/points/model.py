@@ -23,9 +23,9 @@ from dataclasses import dataclass, replace
 
 from pyuss.drive.database import ParamRef
 from pyuss.errors import ConfigError
+from pyuss.master.profile import resolve_profile
 from pyuss.points.config import BusConfig, DriveConfig, PlantConfig, ProcessConfig, Where
 from pyuss.points.parameters import ParameterModel, ParamMeta
-from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pzd import StatusWord
 
@@ -100,7 +100,8 @@ class DriveModel:
     bus: str
     address: int
     name: str
-    profile: str
+    profile: str | None
+    """The drive's profile (None: of unknown kind, no family's facts)."""
     layout: Layout
     actual: tuple[ProcessConfig, ...]
     setpoints: tuple[ProcessConfig, ...]
@@ -150,7 +151,7 @@ class PlantModel:
 
 def _drive(bus: BusConfig, config: DriveConfig, where: Where) -> DriveModel:
     profile_name = config.profile or bus.profile
-    profile = get_profile(profile_name)
+    profile = resolve_profile(profile_name)  # None: the USS specification's telegram rules
     layout = config.layout or bus.layout or profile.default_layout
     try:
         profile.check_layout(layout)
@@ -224,7 +225,7 @@ def _drive(bus: BusConfig, config: DriveConfig, where: Where) -> DriveModel:
 
 def line_model(
     name: str,
-    drives: Sequence[tuple[int, str, Layout | None]],
+    drives: Sequence[tuple[int, str | None, Layout | None]],
     *,
     baud: int = 9600,
     job_timeout: float = 2.0,
@@ -234,7 +235,7 @@ def line_model(
     the answer an actual value too, the profile's reference, no configured parameters."""
     configs = []
     for address, profile, layout in drives:
-        words = (layout or get_profile(profile).default_layout).pzd
+        words = (layout or resolve_profile(profile).default_layout).pzd
         main = (ProcessConfig(),) if words >= 2 else ()
         configs.append(
             DriveConfig(address, f"drive{address}", layout, profile, actual=main, setpoints=main)

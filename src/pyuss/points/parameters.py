@@ -131,13 +131,16 @@ def _meta(info: ParamInfo, index: int | None, base: int) -> ParamMeta:
 
 
 class ParameterModel:
-    """The parameters of one profile as the points use them."""
+    """The parameters of one profile as the points use them (``profile`` None: a drive of
+    unknown kind, of whose parameters nothing is known: they travel as words)."""
 
-    def __init__(self, profile: str) -> None:
+    def __init__(self, profile: str | None) -> None:
         self.profile = profile
 
     @functools.cached_property
     def book(self) -> ParamBook:
+        if self.profile is None:
+            return ParamBook()
         return ParamBook.for_profile(get_profile(self.profile))
 
     def meta(self, pnu: int, index: int | None = None, name: str | None = None) -> ParamMeta:
@@ -154,6 +157,8 @@ class ParameterModel:
 
     def role(self, role: str) -> tuple[int, int | None] | None:
         """The parameter the profile uses for ``role`` (``reference``, ``fault``), if any."""
+        if self.profile is None:
+            return None
         try:
             ref = load_profile(self.profile).roles.get(role)
         except ConfigError:

@@ -57,6 +57,7 @@ from pyuss.master.process import DriveStatus
 from pyuss.master.scheduler import Master
 from pyuss.params import ParamInfo, ValueRefused, decode, parse
 from pyuss.params.model import Reading, param_label
+from pyuss.params.values import parse_unknown
 from pyuss.points.config import ProcessConfig
 from pyuss.points.errors import UnknownPoint, error_dict
 from pyuss.points.model import COMMAND_TABLE, BusModel, DriveModel, PlantModel, line_model
@@ -136,7 +137,8 @@ class DrivePoints:
         """The points of a drive handle of a master run elsewhere (`uss log`): its profile's
         reference (`read_reference`), every word of the answer an actual value
         (`pyuss.points.model.line_model`); the line's settings are the master's."""
-        model = line_model(bus, [(drive.address, drive.profile.name, drive.layout)])
+        kind = drive.profile.name if drive.profile_named else None
+        model = line_model(bus, [(drive.address, kind, drive.layout)])
         return cls(model.drives[0], drive)
 
     # -- what it is --------------------------------------------------------------------------
@@ -409,7 +411,10 @@ class DrivePoints:
         return taken
 
     def process_parameter(self, number: int) -> ParamInfo | None:
-        """The parameter the profile maps to actual value PZD``number`` (3 and up)."""
+        """The parameter the profile maps to actual value PZD``number`` (3 and up; None for a
+        drive of unknown kind)."""
+        if not self.drive.profile_named:
+            return None
         pnus = self.drive.profile.database().process_actuals
         pnu = pnus[number - 3] if 0 <= number - 3 < len(pnus) else 0
         return self.drive.params.get(pnu) if pnu else None
@@ -533,19 +538,26 @@ class DrivePoints:
         """Write a value as a person types it (``2.5``, ``2.5 s``, ``0x7000``, a value text):
         parsed and checked against the parameter's type, limits and access before anything
         is sent (`pyuss.params.parse`; refusals as `ValueRefused`); the drive's refusal
-        raises `DriveRefusal`. A write of the reference parameter reads the reference anew."""
+        raises `DriveRefusal`. A write of the reference parameter reads the reference anew. On
+        a drive of unknown kind a parameter nothing is known of takes what ``uss write`` takes
+        then (`pyuss.params.values.parse_unknown`: an integer, sent as a word or double word,
+        or a float), and what the device does not take the device refuses."""
         if not isinstance(text, str) or len(text) > 4 * MAX_TEXT:
             raise ConfigError(f"{param_label(pnu, index)}: the value must be a short text")
         info = await self.drive.info(pnu, timeout=timeout)
-        if info is None:
+        value: object
+        if info is None and not self.drive.profile_named:
+            value = parse_unknown(text.strip())
+        elif info is None:
             raise ConfigError(
                 f"{param_label(pnu, index)}: nothing is known of it (no parameter file has "
                 "it, the drive gives no description), so its value cannot be checked: write "
                 "its words with uss write --raw"
             )
-        if info.read_only:
+        elif info.read_only:
             raise ValueRefused(f"{param_label(pnu, index)} ({info.name}) is read-only")
-        value = parse(info, text, index)
+        else:
+            value = parse(info, text, index)
         try:
             reading = await self.drive.write_param(
                 pnu, value, index, eeprom=eeprom, timeout=timeout

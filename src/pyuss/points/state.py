@@ -15,6 +15,7 @@ from typing import Any
 from pyuss.master.process import state_of
 from pyuss.points.model import STATUS_BIT_NAMES, DriveModel
 from pyuss.points.parameters import ParamMeta
+from pyuss.profiles import UNKNOWN_KIND
 from pyuss.protocol.diagnostics import Counters
 from pyuss.protocol.pzd import StatusWord, join_dword, raw16_to_percent, raw32_to_percent
 
@@ -267,7 +268,7 @@ class DriveState:
             "bus": model.bus,
             "address": model.address,
             "name": model.name,
-            "profile": model.profile,
+            "profile": model.profile or UNKNOWN_KIND,
             "time": iso(self.time),
             "online": self.online,
             "status_word": self.status_word,

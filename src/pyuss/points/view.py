@@ -280,6 +280,7 @@ async def fault_panel(points: DrivePoints, *, timeout: float | None = None) -> d
     time and value where the family keeps them) and the warning numbers with their texts.
     ``history`` and ``warnings`` are None where the family's parameter file has no such
     parameter."""
+    named = points.drive.profile_named  # a drive of unknown kind: numbers without texts
     profile = points.drive.profile
     state = points.snapshot()
     found: dict[str, list[tuple[int | None, object]] | None] = {}
@@ -293,7 +294,7 @@ async def fault_panel(points: DrivePoints, *, timeout: float | None = None) -> d
             {
                 "index": index,
                 "number": number,
-                "text": profile.faults.get(number, ""),
+                "text": profile.faults.get(number, "") if named else "",
                 "time": times.get(index),
                 "value": values.get(index),
             }
@@ -303,7 +304,11 @@ async def fault_panel(points: DrivePoints, *, timeout: float | None = None) -> d
     warnings = None
     if found["warnings"] is not None:
         warnings = [
-            {"index": index, "number": number, "text": profile.warnings.get(number, "")}
+            {
+                "index": index,
+                "number": number,
+                "text": profile.warnings.get(number, "") if named else "",
+            }
             for index, raw in found["warnings"]
             if (number := _number(raw))
         ]

@@ -45,6 +45,7 @@ from pyuss.profiles.base import BitRef, BroadcastForm, IdentityRule, Profile
 
 __all__ = [
     "PROFILES",
+    "UNKNOWN_KIND",
     "BitRef",
     "BroadcastForm",
     "IdentityRule",
@@ -52,6 +53,11 @@ __all__ = [
     "get_profile",
     "profile_names",
 ]
+
+UNKNOWN_KIND = "unknown"
+"""What stands for the profile of a drive no profile is named for, where a name is shown or
+kept (a backup's header, the page, the gateway's state): a drive of unknown kind, no family's
+facts applied. No profile has this name."""
 
 PROFILES: dict[str, Profile] = {
     p.name: p

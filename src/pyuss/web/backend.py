@@ -61,7 +61,7 @@ from pyuss.points.view import (
     read_key_actuals,
     setpoint_refusal,
 )
-from pyuss.profiles import get_profile, profile_names
+from pyuss.profiles import Profile, get_profile, profile_names
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.pzd import STATUS_BITS
 from pyuss.protocol.telegram import MAX_ADDRESS
@@ -90,16 +90,17 @@ Progress = Callable[[int, int, str], object]
 
 @dataclass(frozen=True, slots=True)
 class DriveSpec:
-    """A drive the page works with: its address, profile and telegram layout."""
+    """A drive the page works with: its address, profile (None: of unknown kind, no family's
+    facts) and telegram layout."""
 
     address: int
-    profile: str = "generic"
+    profile: str | None = None
     layout: Layout | None = None
 
     def __post_init__(self) -> None:
         if not 0 <= self.address <= MAX_ADDRESS:
             raise ConfigError(f"address {self.address} is not 0..{MAX_ADDRESS}")
-        if self.profile not in profile_names():
+        if self.profile is not None and self.profile not in profile_names():
             raise ConfigError(
                 f"profile {self.profile!r} is not one of {', '.join(profile_names())}"
             )
@@ -180,7 +181,9 @@ class Backend:
             self._bus = VirtualBus(DEMO_BAUD)
             self._stack.push_async_callback(self._bus.close)
             self.engines = await self._stack.enter_async_context(
-                simulated_drives(self._bus, [(s.address, s.profile, s.layout) for s in DEMO_DRIVES])
+                simulated_drives(
+                    self._bus, [(s.address, s.profile or "generic", s.layout) for s in DEMO_DRIVES]
+                )
             )
         await self._start_master()
 
@@ -294,13 +297,14 @@ class Backend:
         """What does not change: profile, layout, the status bits' meanings, the actual
         values' names and units."""
         points = self.points(address)
-        profile = get_profile(points.model.profile)
+        named = points.model.profile is not None
+        profile = get_profile(points.model.profile or "generic")  # the telegram rules
         layout = points.model.layout
         reference = points.reference
         return {
             "address": address,
-            "profile": profile.name,
-            "title": profile.title,
+            "profile": profile.name if named else backups.UNKNOWN_KIND,
+            "title": profile.title if named else "a drive of unknown kind",
             "layout": str(layout),
             "pzd": layout.pzd,
             "reference": (
@@ -308,7 +312,7 @@ class Backend:
             ),
             "actuals": points.actual_columns(),
             "key_actuals": key_actuals(points),
-            "status_bits": _status_bits(profile.status_bits),
+            "status_bits": _status_bits(profile.status_bits if named else {}),
         }
 
     def summary(self, address: int) -> dict[str, Any]:
@@ -319,7 +323,7 @@ class Backend:
         counters = diagnostics.counters
         return {
             "address": address,
-            "profile": points.model.profile,
+            "profile": points.model.profile or backups.UNKNOWN_KIND,
             "layout": str(points.model.layout),
             "not_sending": state.health.not_sending,
             "control": state.control_word,
@@ -523,7 +527,7 @@ class Backend:
         taken = await backups.take(drive, port=self.port, progress=progress)
         text = backups.dumps(taken, fmt)
         stamp = time.strftime("%Y%m%d-%H%M%S")
-        return f"drive{address}-{drive.profile.name}-{stamp}.{fmt}", text
+        return f"drive{address}-{taken.profile}-{stamp}.{fmt}", text
 
     async def _wanted_and_now(
         self, address: int, data: bytes, name: str, progress: Progress | None
@@ -536,14 +540,14 @@ class Backend:
         wanted = backups.loads(text, name)
         wanted_refs = [(e.pnu, e.index) for e in wanted.entries]
         entries = await backups.read_parameters(drive, wanted_refs, progress=progress)
-        now = backups.Backup(address, drive.profile.name, entries, source=f"drive {address}")
+        now = backups.Backup(address, backups.kind_of(drive), entries, source=f"drive {address}")
         return drive, wanted, now
 
     async def _stranger(self, wanted: backups.Backup, drive: Drive) -> str | None:
-        if wanted.profile != drive.profile.name:
+        if wanted.profile != backups.kind_of(drive):
             return (
                 f"{wanted.source} is a backup of a {wanted.profile} drive, drive "
-                f"{drive.address} is {drive.profile.name}"
+                f"{drive.address} is {backups.kind_of(drive)}"
             )
         return await another_drive(wanted, drive)
 
@@ -579,7 +583,7 @@ class Backend:
             "refused": None,
         }
         try:
-            writes, skips = plan(wanted, now, book, drive.profile)
+            writes, skips = plan(wanted, now, book, _named(drive))
         except ConfigError as exc:
             reply["refused"] = str(exc)
         else:
@@ -608,7 +612,7 @@ class Backend:
         stranger = await self._stranger(wanted, drive)
         if stranger is not None and not force:
             raise ConfigError(stranger)
-        writes, skips = plan(wanted, now, drive.params, drive.profile)
+        writes, skips = plan(wanted, now, drive.params, _named(drive))
         outcomes = await restore(drive, writes, eeprom=eeprom, progress=progress)
         points = self.points(address)
         if any(o.ok and points.is_reference(o.write.pnu, o.write.index) for o in outcomes):
@@ -646,7 +650,7 @@ class Backend:
         addresses: Sequence[int],
         bauds: Sequence[int] | None = None,
         *,
-        profile: str = "generic",
+        profile: str | None = None,
         progress: Callable[[int, int], None] | None = None,
     ) -> list[dict[str, Any]]:
         """Stop the cyclic traffic, probe ``addresses`` (`pyuss.master.scan`), and go on with
@@ -801,6 +805,11 @@ def _setpoint_text(checked: ProcessValue, given: object) -> str:
     if given == checked.unit:
         return f"{value} ({percent} of the reference)"
     return f"{percent} ({value})"
+
+
+def _named(drive: Drive) -> Profile | None:
+    """The drive's profile where one is named; None for a drive of unknown kind."""
+    return drive.profile if drive.profile_named else None
 
 
 def _status_bits(family: Mapping[int, str]) -> list[dict[str, Any]]:

@@ -61,7 +61,7 @@ except ImportError:  # pragma: no cover - the extra is installed for the tests
 
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
 from pyuss.points import NoWriteAuthority, state_name
-from pyuss.profiles import profile_names
+from pyuss.profiles import UNKNOWN_KIND, profile_names
 from pyuss.userfile import json_depth
 from pyuss.web.backend import Backend
 from pyuss.web.hub import QUEUE_SIZE, SEND_TIMEOUT, Hub
@@ -384,7 +384,7 @@ class WebServer:
                 "moves": sorted(Backend.MOVES),
                 "commands": list(Backend.COMMANDS),
                 "tick": TICK,
-                "profiles": list(profile_names()),
+                "profiles": [UNKNOWN_KIND, *profile_names()],
             }
         )
 
@@ -501,17 +501,19 @@ class WebServer:
     async def _scan(self, request: web.Request) -> web.Response:
         self._writable()
         data = await self._json(request, keys=("addresses", "profile"))
-        addresses, profile = data.get("addresses", "0-31"), data.get("profile", "generic")
+        addresses, profile = data.get("addresses", "0-31"), data.get("profile", UNKNOWN_KIND)
         if not isinstance(addresses, str) or len(addresses) > 200:
             raise ConfigError("addresses must be a short text: 0-31, 1,4,7 or 1-5,9")
-        if profile not in profile_names():
+        if profile != UNKNOWN_KIND and profile not in profile_names():
             raise ConfigError(f"profile {_cut(profile)} is not one of {', '.join(profile_names())}")
         addresses = _addresses(addresses)
 
         def progress(done: int, total: int) -> None:
             self.hub.send(json.dumps({"type": "scan", "done": done, "total": total}))
 
-        found = await self.backend.scan(addresses, profile=profile, progress=progress)
+        found = await self.backend.scan(
+            addresses, profile=None if profile == UNKNOWN_KIND else profile, progress=progress
+        )
         self.hub.send(json.dumps({"type": "scan", "done": 1, "total": 1, "found": found}))
         return web.json_response({"found": found})
 

@@ -75,10 +75,29 @@ export class ParamsView {
     });
   }
 
+  // A parameter the list does not know (all of them, on a drive of unknown kind), typed into
+  // the search by number: a row of its own, read and written as the words it travels in.
+  wordsRow(words) {
+    const spelled = /^[rp]?0*(\d+)(?:[.[](\d+)\]?)?$/.exec(words);
+    if (!spelled) return null;
+    const id = spelled[2] === undefined ? spelled[1] : `${spelled[1]}.${spelled[2]}`;
+    if (!this.values.has(id)) {
+      this.values.set(id, {});
+      post(`/api/drive/${this.state.address}/params/read`, { ids: [id] }).then((batch) => {
+        for (const item of batch) this.values.set(item.id, item);
+        this.render();
+      }, (e) => this.values.set(id, { error: e.message }));
+    }
+    return { id, label: `P${id}`, name: "(nothing known: words)", doc: "", type: "words",
+      unit: "", texts: {}, access: "", writable: true };
+  }
+
   render() {
     const words = this.search.value.trim().toLowerCase();
     const writable = !this.state.config.read_only;
-    const rows = this.rows.filter((r) => this.matches(r, words)).map((r) => {
+    let listed = this.rows.filter((r) => this.matches(r, words));
+    if (!listed.length) listed = [this.wordsRow(words)].filter(Boolean);
+    const rows = listed.map((r) => {
       const value = this.values.get(r.id) || {};
       // A value the layout cannot carry: said once, in short, no value, no edit.
       const cell = r.needs
