@@ -13,7 +13,8 @@ this module is the client around them:
   every message is parsed within bounds (`pyuss.gateway.topics.MAX_PAYLOAD` and the rest).
   Such a message gets an error reply and one log line; nothing a message holds ends the
   message loop or a drive's task.
-- After every (re)connection it subscribes again, publishes ``online``, the discovery
+- After every (re)connection it subscribes again, publishes ``online``, the gateway message
+  (`pyuss.gateway.announce`: its version, read-only or not, keep-alive, drives), the discovery
   messages, every drive's state and availability, and the replies it could not send. An
   unreachable broker is tried again after 1 s, then twice as long each time up to
   `RECONNECT_MAX`; losing it and getting it back are one log line each.
@@ -47,6 +48,7 @@ from paho.mqtt.reasoncodes import ReasonCode
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from pyuss.errors import ConfigError, UssError
+from pyuss.gateway.announce import gateway_payload, gateway_topic
 from pyuss.gateway.config import MqttOptions
 from pyuss.gateway.topics import (
     Command,
@@ -390,6 +392,17 @@ class MqttBusFace:
             if any(_failed(code) for code in granted):
                 raise aiomqtt.MqttError(f"the broker refused the subscription to {topic}")
         await client.publish(self.availability, "online", qos=1, retain=True)
+        await client.publish(
+            gateway_topic(self.options.prefix, self.bus.name),
+            gateway_payload(
+                self.bus.name,
+                [worker.drive.model for worker in self.workers.values()],
+                read_only=self.options.read_only,
+                keepalive=self.options.keepalive,
+            ),
+            qos=1,
+            retain=True,
+        )
         self.connected.set()
         self.connections += 1
         for worker in self.workers.values():
