@@ -71,7 +71,7 @@ from pyuss.points.errors import ReadOnly, UnknownPoint, error_dict
 from pyuss.points.plant import BusPoints, DrivePoints, Plant
 from pyuss.points.state import DriveState
 
-__all__ = ["MqttBusFace", "MqttFace"]
+__all__ = ["MqttBusFace", "MqttFace", "make_client"]
 
 log = logging.getLogger("pyuss.gateway.mqtt")
 client_log = logging.getLogger("pyuss.gateway.mqtt.client")
@@ -107,6 +107,27 @@ def _tls(options: MqttOptions) -> ssl.SSLContext | None:
         context.check_hostname = False
         context.verify_mode = ssl.CERT_NONE
     return context
+
+
+def make_client(
+    options: MqttOptions, identifier: str, will: aiomqtt.Will | None = None
+) -> aiomqtt.Client:
+    """An MQTT 5 client for ``options`` (broker, user, password, TLS, keep-alive) with a clean
+    start and no session expiry: the broker keeps nothing for it while it is away."""
+    return aiomqtt.Client(
+        options.endpoint.host,
+        options.endpoint.port,
+        username=options.username,
+        password=options.password,
+        identifier=identifier,
+        protocol=aiomqtt.ProtocolVersion.V5,
+        clean_start=True,  # and no session expiry: nothing is kept while away
+        keepalive=options.keepalive,
+        will=will,
+        tls_context=_tls(options),
+        timeout=10,
+        logger=client_log,
+    )
 
 
 class _DriveWorker:
@@ -369,21 +390,8 @@ class MqttBusFace:
 
     # -- the connection ------------------------------------------------------------------------
     def _make_client(self) -> aiomqtt.Client:
-        options = self.options
-        return aiomqtt.Client(
-            options.endpoint.host,
-            options.endpoint.port,
-            username=options.username,
-            password=options.password,
-            identifier=self.client_id,
-            protocol=aiomqtt.ProtocolVersion.V5,
-            clean_start=True,  # and no session expiry: nothing is kept while away
-            keepalive=options.keepalive,
-            will=aiomqtt.Will(self.availability, "offline", qos=1, retain=True),
-            tls_context=_tls(options),
-            timeout=10,
-            logger=client_log,
-        )
+        will = aiomqtt.Will(self.availability, "offline", qos=1, retain=True)
+        return make_client(self.options, self.client_id, will)
 
     async def _connected(self, client: aiomqtt.Client) -> None:
         self._client = client
