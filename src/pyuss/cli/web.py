@@ -172,14 +172,15 @@ async def _serve(args: argparse.Namespace) -> int:
     if token is None and not is_loopback(host):
         token = secrets.token_urlsafe(18)
     if args.mqtt is not None:
-        from pyuss.web.plant import PlantBackend
-
         if args.address or args.line or args.profile or args.layout or args.baud:
             raise ConfigError(
                 "--mqtt shows the drives the gateways publish: leave out --address, --line, "
                 "--profile, --layout and --baud"
             )
-        plant_backend = PlantBackend(_remote_plant(args))
+        remote = _remote_plant(args)  # the mqtt extra checked first
+        from pyuss.web.plant import PlantBackend
+
+        plant_backend = PlantBackend(remote)
         return await _run(plant_backend, WebServer(
             plant_backend, host=host, port=port, token=token, read_only=args.read_only
         ), token, args.read_only)  # fmt: skip
@@ -226,7 +227,6 @@ def _remote_plant(args: argparse.Namespace) -> Any:
         raise ConfigError(f"--mqtt: {exc}") from None
     from pyuss.gateway.config import mqtt_options
     from pyuss.lines import find
-    from pyuss.plant.remote import RemotePlant
     from pyuss.points.config import Where
     from pyuss.userfile import parse_toml, read_text
 
@@ -262,6 +262,8 @@ def _remote_plant(args: argparse.Namespace) -> Any:
     except ConfigError as exc:
         message = str(exc).replace("web.broker", "--mqtt" if args.mqtt else "web.mqtt")
         raise ConfigError(message) from None
+    from pyuss.plant.remote import RemotePlant
+
     return RemotePlant(options, timeout=max(args.timeout, 5.0))
 
 
