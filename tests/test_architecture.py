@@ -39,7 +39,7 @@ ALLOWED: dict[str, set[str]] = {
     | {"points", "commission", "monitor", "plant"},
     # the plant over the broker: the gateways' topics (their contract), read and commanded
     # as an MQTT client; the drive model's checks and values, never the master
-    "plant": {"protocol", "profiles", "params", "points", "gateway"},
+    "plant": {"protocol", "drive", "profiles", "params", "points", "gateway"},
     # the data logger: a drive's process data and parameters through the drive model
     "datalog": {"protocol", "drive", "params", "points"},
     # the gateway's faces over the drive model

@@ -26,6 +26,10 @@ import pytest
 
 from gateway.contract import check, problems
 from gateway.harness import Broker
+from pyuss.errors import ConfigError
+from pyuss.gateway.config import mqtt_options
+from pyuss.plant.remote import RemotePlant
+from pyuss.points.config import Where
 from support.network import free_port
 from support.paths import ROOT
 from support.plant import KEEPALIVE, Line, Page
@@ -220,6 +224,7 @@ def test_parameters_backup_compare_and_restore_go_through_the_gateway(plant: Pla
     status, text = page.api("/api/drive/line2.6/backup?format=toml")
     assert status == 200 and isinstance(text, str)
     assert 'value = 50.0\nraw = "4248 0000"' in text  # P107 as uss backup writes it
+    assert 'value = 16384\nraw = "4000"' in text  # a display beyond its own limits too
     status, wrote = page.api("/api/drive/line2.6/params/write", {"id": "107", "value": "60 Hz"})
     assert status == 200 and wrote["value"] == "60.00 Hz"
     # checked by the page before anything is sent: limits, read-only
@@ -235,6 +240,30 @@ def test_parameters_backup_compare_and_restore_go_through_the_gateway(plant: Pla
     assert status == 200 and restored["message"] == "drive line2.6: 1 of 1 written"
     status, read = page.api("/api/drive/line2.6/params/read", {"ids": ["107"]})
     assert read[0]["value"] == "50.00 Hz"
+
+
+def test_messages_beyond_bounds_or_of_another_version_are_dropped() -> None:
+    page = RemotePlant(mqtt_options({"broker": "mqtt://127.0.0.1:1"}, Where("web")))
+    good = {
+        "v": 1, "bus": "b", "version": "1", "read_only": False, "keepalive": 5,
+        "drives": [{"name": "d", "address": 5, "profile": "generic", "layout": "4,2",
+                    "unit": "%", "setpoints": [], "actual": []}],
+        "time": None,
+    }  # fmt: skip
+    for bad, words in (
+        ({**good, "v": 2}, "contract version 2: this page reads 1"),
+        ({**good, "bus": "c"}, "names bus 'c'"),
+        ({**good, "drives": [{**good["drives"][0], "address": 40}]}, "drives[0].address"),
+    ):
+        with pytest.raises(ConfigError, match=re.escape(words)):
+            page.receive("uss/b/gateway", json.dumps(bad).encode())
+    with pytest.raises(ConfigError, match="nested deeper than 8 levels"):
+        page.receive("uss/b/gateway", b"[" * 5000 + b"]" * 5000)
+    with pytest.raises(ConfigError, match="at most 262144 are read"):
+        page.receive("uss/b/gateway", b" " * 300_000)
+    assert page.drives == {}
+    page.receive("uss/b/gateway", json.dumps(good).encode())
+    assert list(page.drives) == ["b.5"]
 
 
 def test_replies_that_answer_no_request_are_dropped(plant: Plant) -> None:

@@ -58,13 +58,14 @@ from typing import Any
 import aiomqtt
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
+from pyuss.drive.datatypes import encode as encode_raw
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
 from pyuss.gateway.config import MqttOptions
 from pyuss.gateway.mqtt import make_client
 from pyuss.gateway.topics import CONTRACT_VERSION
 from pyuss.params import ParamBook, ParamInfo
 from pyuss.params.model import Reading
-from pyuss.params.values import encode
+from pyuss.params.values import raw_of
 from pyuss.points import Sample
 from pyuss.profiles import get_profile, profile_names
 from pyuss.profiles.base import Profile
@@ -580,9 +581,10 @@ class RemoteParams:
             raise GatewayRefusal(f"{self.params.label(pnu, index)}: the gateway gave no number")
         if info is not None and info.dtype.is_integer and float(value).is_integer():
             value = int(value) if info.scaling in (None, 1) else value
-        try:
-            words = encode(info, value, index) if info is not None else ()
-        except (ConfigError, ValueError, OverflowError):
+        try:  # the words that carry it, as the drive holds it (a display beyond its limits)
+            raw = raw_of(info, value, index) if info is not None else None
+            words = () if info is None or raw is None else encode_raw(info.dtype, raw, info.length)
+        except (UssError, ValueError, OverflowError, TypeError):
             words = ()
         return Reading(pnu, index, info, tuple(words), value)
 
