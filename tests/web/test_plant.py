@@ -84,6 +84,8 @@ def plant(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Plant]:
     folder = tmp_path_factory.mktemp("plant")
     broker = Broker(folder)
     broker.start()
+    # every message on the broker - the gateways' and the pages' - against the contract
+    recorder = Watcher(broker.port, "uss/#")
     lines: dict[str, Line] = {}
     page: Page | None = None
     try:
@@ -98,7 +100,12 @@ def plant(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Plant]:
             page.stop()
         for line in lines.values():
             line.stop()
+        recorder.stop()
         broker.stop()
+    sent = [(topic, payload) for topic, payload, _ in recorder.messages if payload]
+    assert any("/cmd/" in topic for topic, _ in sent)
+    found = [problem for topic, payload in sent for problem in check(topic, payload)]
+    assert not found, "messages that break the MQTT contract:\n" + "\n".join(found[:20])
 
 
 def bus(plant: Plant) -> dict[str, Any]:
@@ -289,7 +296,9 @@ def test_replies_that_answer_no_request_are_dropped(plant: Plant) -> None:
         wait(lambda: ghost.messages, "the command on the broker")
         topic, payload, _ = ghost.messages[0]
         sent = json.loads(payload)
-        reply = {"v": 1, "command": "read", "drive": "d5", "ok": True, "result": {"value": 1}}
+        result = {"pnu": 107, "index": None, "name": "Mot.rated freq.", "value": 1.0, "unit": "Hz",
+                  "time": "2026-11-27T00:00:00.000Z"}  # fmt: skip
+        reply = {"v": 1, "command": "read", "drive": "d5", "ok": True, "result": result}
         # retained on the page's reply topic, a wrong id, the right id for another drive:
         # none answers the request
         ghost.client.publish(sent["reply_to"], json.dumps({**reply, "id": sent["id"]}), 1, True)
@@ -316,7 +325,7 @@ def test_replies_that_answer_no_request_are_dropped(plant: Plant) -> None:
         wait(lambda: len(ghost.messages) == 2, "the second command")
         sent = json.loads(ghost.messages[1][1])
         ghost.client.publish(sent["reply_to"], json.dumps({**reply, "id": sent["id"]}), 1)
-        assert asked.result(30) == {"value": 1}
+        assert asked.result(30) == result
     finally:
         page.plant.timeout = 10.0
         for topic in ("gateway", "availability", "d5/availability"):
