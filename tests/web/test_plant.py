@@ -271,6 +271,8 @@ def test_messages_beyond_bounds_or_of_another_version_are_dropped() -> None:
     assert page.drives == {}
     page.receive("uss/b/gateway", json.dumps(good).encode())
     assert list(page.drives) == ["b.5"]
+    page.receive("uss/b/gateway", b"")  # its retained message cleared: gone for good
+    assert page.drives == {} and page.buses == {}
 
 
 def test_replies_that_answer_no_request_are_dropped(plant: Plant) -> None:
