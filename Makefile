@@ -47,7 +47,7 @@ bench: $(STAMP)
 screenshots: $(STAMP)
 	bash .ci/system-deps chromium
 	rm -rf build/screenshots
-	$(PY) -m pytest tests/web/test_page.py -q -p no:cacheprovider
+	$(PY) -m pytest tests/web/test_page.py tests/web/test_plant.py -q -p no:cacheprovider
 	cp build/screenshots/*.png docs/images/
 
 clean:

@@ -36,7 +36,10 @@ ALLOWED: dict[str, set[str]] = {
     # the faces: the drive model, commission and the monitor, never the master
     # (the web page and the data logger know nothing of each other)
     "web": {"protocol", "transport", "bus", "profiles", "params"}
-    | {"points", "commission", "monitor"},
+    | {"points", "commission", "monitor", "plant"},
+    # the plant over the broker: the gateways' topics (their contract), read and commanded
+    # as an MQTT client; the drive model's checks and values, never the master
+    "plant": {"protocol", "drive", "profiles", "params", "points", "gateway"},
     # the data logger: a drive's process data and parameters through the drive model
     "datalog": {"protocol", "drive", "params", "points"},
     # the gateway's faces over the drive model
@@ -46,10 +49,10 @@ ALLOWED: dict[str, set[str]] = {
     "cli": {
         "protocol", "transport", "bus", "drive", "profiles", "slave", "monitor", "params",
         "master", "bass", "ksvario", "commission", "points", "web", "datalog", "gateway",
-        "lines",
+        "lines", "plant",
     },
 }  # fmt: skip
-FACES = ("web", "datalog", "gateway")
+FACES = ("web", "datalog", "gateway", "plant")
 # Each gateway face imports its own library only; the pure modules none of them.
 FACE_LIBRARIES = {"pymodbus", "aiomqtt", "paho", "asyncua"}
 FACE_OWN = {"modbus.py": set(), "mqtt.py": {"aiomqtt", "paho"}, "opcua.py": {"asyncua"}}

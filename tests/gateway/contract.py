@@ -18,7 +18,7 @@ from referencing import Registry, Resource
 from pyuss.gateway.topics import COMMAND_NAMES
 
 SCHEMAS = resources.files("pyuss.gateway") / "schemas"
-KINDS = ("availability", "state", "param", "reply", "command", "param_set")
+KINDS = ("availability", "gateway", "state", "param", "reply", "command", "param_set")
 """The schema of each kind of message; ``common`` holds what they share."""
 
 
@@ -62,6 +62,8 @@ def schema_of(topic: str, prefix: str = "uss") -> str | None:
     rest = levels[2:]
     if rest == ["availability"] or rest[1:] == ["availability"]:
         return "availability"
+    if rest == ["gateway"]:
+        return "gateway"
     if len(rest) < 2:
         return None
     if rest[1:] == ["state"]:
@@ -112,7 +114,7 @@ def check(topic: str, payload: bytes) -> list[str]:
     return [f"{topic}: {problem}" for problem in problems(schema, value)]
 
 
-OUTPUTS = ("availability", "state", "param", "reply")
+OUTPUTS = ("availability", "gateway", "state", "param", "reply")
 """The kinds of message the gateway publishes (the others it receives)."""
 
 

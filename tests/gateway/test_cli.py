@@ -4,12 +4,9 @@ the gateway; bad configuration refused before any port opens; SIGTERM stops it c
 from __future__ import annotations
 
 import json
-import os
-import signal
 import struct
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -17,41 +14,12 @@ import pytest
 
 from gateway.harness import Broker
 from support.network import free_port
+from support.processes import first_line, start_uss, stop_uss
 from test_userfile import bad_files, refuses
 
 USS = [sys.executable, "-m", "pyuss.cli.main"]
-
-
-def start(*args: str) -> subprocess.Popen[str]:
-    # stderr (log lines) goes to a file: a pipe nobody reads would fill and stop the process
-    log = tempfile.TemporaryFile("w+")  # noqa: SIM115 - closed with the process
-    return subprocess.Popen(
-        [*USS, *args],
-        stdout=subprocess.PIPE,
-        stderr=log,
-        text=True,
-        env={**os.environ, "PYTHONUNBUFFERED": "1"},
-    )
-
-
-def first_line(process: subprocess.Popen[str], want: str, timeout: float = 30) -> str:
-    assert process.stdout is not None
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        line = process.stdout.readline()
-        if not line:
-            break
-        if want in line:
-            return line.strip()
-    raise AssertionError(
-        f"no line with {want!r}; stderr: {process.stderr.read() if process.stderr else ''}"
-    )
-
-
-def stop(process: subprocess.Popen[str]) -> int:
-    if process.poll() is None:
-        process.send_signal(signal.SIGTERM)
-    return process.wait(30)
+start = start_uss
+stop = stop_uss
 
 
 def test_bus_simulator_and_gateway_as_separate_processes(broker: Broker) -> None:

@@ -14,6 +14,7 @@ from typing import Any
 import aiomqtt
 
 from gateway import ha_schema
+from gateway.contract import problems
 from gateway.harness import Broker, MqttClient, simulated_gateway, subscribed
 from pyuss.gateway.mqtt import MqttFace
 from pyuss.gateway.topics import decimals, param_value
@@ -292,3 +293,24 @@ async def test_a_state_sent_while_another_message_waits_leaves_the_socket_unwatc
             return key is not None and bool(key.events & selectors.EVENT_WRITE)
 
         await eventually(lambda: not watched())
+
+
+async def test_the_gateway_message_tells_a_reader_the_bus_its_drives_and_read_only(
+    broker: Broker,
+) -> None:
+    async with (
+        simulated_gateway(mqtt=broker.url, bus_name="line7", read_only=True) as _,
+        watcher(broker, "uss/line7/gateway") as seen,
+    ):
+        await eventually(lambda: "uss/line7/gateway" in seen)
+        # retained: a reader that comes later gets it at once
+        async with watcher(broker, "uss/line7/gateway") as later:
+            await eventually(lambda: "uss/line7/gateway" in later)
+    message = json.loads(later["uss/line7/gateway"])
+    assert problems("gateway", message) == []
+    assert message["bus"] == "line7" and message["read_only"] is True
+    assert message["keepalive"] == 5
+    drives = {drive["address"]: drive for drive in message["drives"]}
+    assert sorted(drives) == [5, 6]
+    assert drives[5]["name"] == "drive5" and drives[5]["unit"] == "Hz"
+    assert drives[5]["setpoints"] == [{"key": "main", "pzd": 2, "dword": False}]

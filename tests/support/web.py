@@ -33,14 +33,42 @@ def screenshot(page: Any, name: str, *, full_page: bool = False) -> Path:
     return path
 
 
-class Running:
-    """Backend and server started in a background thread's event loop."""
+class LoopThread:
+    """An event loop on a thread of its own, to run coroutines in (`call`): a page's server
+    and backend run there."""
 
-    def __init__(self, **options: Any) -> None:
-        self.options = options
+    server: WebServer
+    backend: Any
+
+    def __init__(self) -> None:
         self.loop = asyncio.new_event_loop()
         self.thread = threading.Thread(target=self.loop.run_forever, daemon=True)
         self.thread.start()
+
+    def call(self, coro: Coroutine[Any, Any, T], timeout: float = 60) -> T:
+        future: Future[T] = asyncio.run_coroutine_threadsafe(coro, self.loop)
+        return future.result(timeout)
+
+    def stop(self) -> None:
+        """Close the page's server and backend (``server``, ``backend``), then `end`."""
+        try:
+            self.call(self.server.close())
+            self.call(self.backend.close())
+        finally:
+            self.end()
+
+    def end(self) -> None:
+        """Stop the loop and its thread."""
+        self.loop.call_soon_threadsafe(self.loop.stop)
+        self.thread.join(10)
+
+
+class Running(LoopThread):
+    """Backend and server started in a background thread's event loop."""
+
+    def __init__(self, **options: Any) -> None:
+        super().__init__()
+        self.options = options
         self.backend: Backend = self.call(self._backend())
         self.server = WebServer(
             self.backend, host=options.pop("host", "127.0.0.1"), port=0, **options
@@ -52,10 +80,6 @@ class Running:
         await backend.start()
         return backend
 
-    def call(self, coro: Coroutine[Any, Any, T], timeout: float = 60) -> T:
-        future: Future[T] = asyncio.run_coroutine_threadsafe(coro, self.loop)
-        return future.result(timeout)
-
     def run(self, func: Any, *args: Any) -> Any:
         """Run a plain function in the server's loop (the simulated drives live there)."""
 
@@ -63,14 +87,6 @@ class Running:
             return func(*args)
 
         return self.call(call())
-
-    def stop(self) -> None:
-        try:
-            self.call(self.server.close())
-            self.call(self.backend.close())
-        finally:
-            self.loop.call_soon_threadsafe(self.loop.stop)
-            self.thread.join(10)
 
 
 async def serve(backend: Backend, **options: Any) -> WebServer:

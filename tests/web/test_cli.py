@@ -8,6 +8,7 @@ import subprocess
 import sys
 import urllib.error
 import urllib.request
+from pathlib import Path
 
 import pytest
 
@@ -51,6 +52,10 @@ def test_off_loopback_a_token_is_printed_and_needed() -> None:
         (["--demo", "--address", "5"], "--demo brings its own drives"),
         (["--port", "tcp://127.0.0.1:9", "--profile", "nosuch"], "--profile"),
         (["--demo", "--token", " "], "--token"),
+        (["--mqtt", "ftp://broker"], "--mqtt"),
+        (["--mqtt", "mqtt://127.0.0.1:1883", "--address", "5"], "leave out --address"),
+        (["--mqtt", "mqtt://127.0.0.1:1883", "--mqtt-password", "x"], "needs a username"),
+        (["--mqtt", "--config", "/nonexistent.toml"], "nonexistent.toml"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(args: list[str], words: str) -> None:
@@ -69,3 +74,27 @@ def test_a_port_that_cannot_be_opened_fails_in_one_line() -> None:
     )
     assert done.returncode == 1
     assert done.stderr.count("\n") == 1 and "nonexistent" in done.stderr
+
+
+def test_a_plant_without_the_mqtt_extra_names_the_pip_install() -> None:
+    code = (
+        "import sys; sys.modules['aiomqtt'] = None\n"
+        "from pyuss.cli.main import main\n"
+        "sys.exit(main(['web', '--mqtt', 'mqtt://127.0.0.1:1883', '--listen', ':0']))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1 and "pip install 'pyuss[mqtt]'" in done.stderr
+
+
+def test_a_bad_web_table_is_named_in_one_line(tmp_path: Path) -> None:
+    config = tmp_path / "uss.toml"
+    config.write_text('[web]\nmqtt = "mqtt://127.0.0.1:1883"\nbroker = "x"\n', encoding="utf-8")
+    done = subprocess.run(
+        [*USS, "web", "--mqtt", "--config", str(config)], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 2
+    assert done.stderr.strip() == (
+        f"uss web: {config}: web.broker: unknown key (known: mqtt, username, password, ca, "
+        "cert, key, insecure, prefix, keepalive)"
+    )

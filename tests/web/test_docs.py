@@ -102,9 +102,12 @@ def test_uss_log_example(tmp_path: Path) -> None:
 
 def test_every_picture_of_the_doc_is_one_the_browser_tests_take() -> None:
     shown = re.findall(r"\]\(images/([a-z-]+)\.png\)", DOC.read_text(encoding="utf-8"))
-    taken = re.findall(
-        r'screenshot\(\s*page,\s*"([a-z-]+)"', (ROOT / "tests/web/test_page.py").read_text()
-    )
+    tests = ("tests/web/test_page.py", "tests/web/test_plant.py")
+    taken = [
+        name
+        for test in tests
+        for name in re.findall(r'screenshot\(\s*page,\s*"([a-z-]+)"', (ROOT / test).read_text())
+    ]
     assert shown and sorted(set(shown)) == sorted(set(taken))
     for name in shown:
         assert (ROOT / "docs" / "images" / f"{name}.png").is_file(), name

@@ -3,6 +3,7 @@
     uss web --demo                                   # simulated drives, no hardware
     uss web --port /dev/ttyUSB0 --baud 19200 --address 5 --address 7 --layout 3,2
     uss web --port /dev/ttyUSB0 --listen 0.0.0.0:8420 --read-only
+    uss web --mqtt mqtt://broker:1883                # every drive the gateways publish
 
 The first line printed is the page's address; open it in a browser. The page shows the bus
 (drives, state, communication health with the counters of the USS specification, A 5.2.3;
@@ -13,6 +14,13 @@ pcapng download). Ctrl+C stops the page and the master.
 The page listens on 127.0.0.1 (this computer only) unless --listen names another address;
 then a token is needed for every request: it is part of the printed address. --read-only
 hides and refuses everything that changes a drive. See docs/web.md.
+
+--mqtt shows a plant instead of a line: every bus and drive that `uss gateway` processes
+publish on one MQTT broker, commanded through the gateways' topics (the mqtt extra: pip
+install 'pyuss[mqtt]'). User, password and TLS come in the URL (mqtts://user:pass@host), the
+--mqtt-* options or the [web] table of the configuration file (docs/web.md, "A plant on one
+page"); --mqtt alone takes the broker from the file's [web] mqtt. The scan and the telegram
+monitor need the line itself and are not offered over the broker.
 
 Exit codes: 0 stopped by Ctrl+C or SIGTERM; 1 the port could not be opened or failed;
 2 bad input (arguments, a listen address in use).
@@ -60,6 +68,24 @@ def register(subparsers: Any) -> None:
         action="store_true",
         help="three simulated drives on a virtual bus at 38400 baud, no hardware needed",
     )
+    where.add_argument(
+        "--mqtt",
+        nargs="?",
+        const="",
+        metavar="URL",
+        help="a plant over an MQTT broker: every drive the uss gateway processes publish "
+        "(mqtt://HOST[:PORT], mqtts:// for TLS; alone: the broker of the file's [web] mqtt)",
+    )
+    broker = parser.add_argument_group("the broker of --mqtt (else the [web] table of the file)")
+    broker.add_argument("--mqtt-user", metavar="NAME", help="user name at the broker")
+    broker.add_argument("--mqtt-password", metavar="TEXT", help="password at the broker")
+    broker.add_argument("--mqtt-ca", metavar="FILE", help="CA certificate(s) for TLS")
+    broker.add_argument("--mqtt-cert", metavar="FILE", help="client certificate for TLS")
+    broker.add_argument("--mqtt-key", metavar="FILE", help="client certificate's key")
+    broker.add_argument(
+        "--mqtt-insecure", action="store_true", help="TLS without checking the broker's name"
+    )
+    broker.add_argument("--mqtt-prefix", metavar="TOPIC", help="the gateways' prefix (uss)")
     add_line_options(parser)
     parser.add_argument("--baud", type=integer, help="baud rate of the line (default 9600)")
     parser.add_argument(
@@ -146,6 +172,19 @@ async def _serve(args: argparse.Namespace) -> int:
         raise ConfigError("--token must not be empty")
     if token is None and not is_loopback(host):
         token = secrets.token_urlsafe(18)
+    if args.mqtt is not None:
+        if args.address or args.line or args.profile or args.layout or args.baud:
+            raise ConfigError(
+                "--mqtt shows the drives the gateways publish: leave out --address, --line, "
+                "--profile, --layout and --baud"
+            )
+        remote = _remote_plant(args)  # the mqtt extra checked first
+        from pyuss.web.plant import PlantBackend
+
+        plant_backend = PlantBackend(remote)
+        return await _run(plant_backend, WebServer(
+            plant_backend, host=host, port=port, token=token, read_only=args.read_only
+        ), token, args.read_only)  # fmt: skip
     if args.demo:
         if args.address or args.line:
             raise ConfigError("--demo brings its own drives: leave out --address and --line")
@@ -154,19 +193,79 @@ async def _serve(args: argparse.Namespace) -> int:
         specs = [DriveSpec(a, p, layout) for a, p, layout in await _drives(args)]
         backend = Backend(port=args.port, baud=args.baud, drives=specs, job_timeout=args.timeout)
     server = WebServer(backend, host=host, port=port, token=token, read_only=args.read_only)
+    return await _run(backend, server, token, args.read_only)
+
+
+async def _run(backend: Any, server: Any, token: str | None, read_only: bool) -> int:
     await backend.start()
     try:
         url = await server.start()
         print(url, flush=True)
         if token is not None:
             print(f"token: {token} (needed for every request; part of the address above)")
-        mode = "read-only, " if args.read_only else ""
+        mode = "read-only, " if read_only else ""
         print(f"{mode}serving {backend.port}; Ctrl+C stops", flush=True)
         await _wait_for_stop()
     finally:
         await server.close()
         await backend.close()
     return EXIT_OK
+
+
+WEB_KEYS = ("mqtt", "username", "password", "ca", "cert", "key", "insecure", "prefix", "keepalive")
+"""The keys of the ``[web]`` table of the configuration file (the broker of ``--mqtt``)."""
+
+
+def _remote_plant(args: argparse.Namespace) -> Any:
+    """The `pyuss.plant.remote.RemotePlant` of ``--mqtt``: the broker and its options from the
+    URL, the ``--mqtt-*`` options and the ``[web]`` table of the configuration file (the
+    options win over the file); the mqtt extra is needed."""
+    from pyuss.gateway.extras import MissingExtra, require
+
+    try:
+        require("mqtt")
+    except MissingExtra as exc:
+        raise ConfigError(f"--mqtt: {exc}") from None
+    from pyuss.gateway.config import mqtt_options
+    from pyuss.lines import find
+    from pyuss.points.config import Where
+    from pyuss.userfile import parse_toml, read_text
+
+    table: dict[str, Any] = {}
+    path = find(args.config)
+    base = None
+    if path is not None:
+        data = parse_toml(read_text(path, "the configuration"), str(path))
+        web = data.get("web", {})
+        try:
+            table = dict(Where("web").table(web, WEB_KEYS))
+        except ConfigError as exc:
+            raise ConfigError(f"{path}: {exc}") from None
+        base = path.parent
+    if args.mqtt:
+        table["mqtt"] = args.mqtt
+    if not table.get("mqtt"):
+        raise ConfigError("--mqtt: give the broker's URL (mqtt://HOST:PORT) or [web] mqtt")
+    given = {
+        "username": args.mqtt_user,
+        "password": args.mqtt_password,
+        "ca": args.mqtt_ca,
+        "cert": args.mqtt_cert,
+        "key": args.mqtt_key,
+        "prefix": args.mqtt_prefix,
+        "insecure": args.mqtt_insecure or None,
+    }
+    table.update({key: value for key, value in given.items() if value is not None})
+    table["broker"] = table.pop("mqtt")
+    where = Where("web") if path is None or args.mqtt else Where(f"{path}: web")
+    try:
+        options = mqtt_options(table, where, base)
+    except ConfigError as exc:
+        message = str(exc).replace("web.broker", "--mqtt" if args.mqtt else "web.mqtt")
+        raise ConfigError(message) from None
+    from pyuss.plant.remote import RemotePlant
+
+    return RemotePlant(options, timeout=max(args.timeout, 5.0))
 
 
 async def _drives(args: argparse.Namespace) -> list[tuple[int, str | None, Layout | None]]:

@@ -13,7 +13,8 @@ this module is the client around them:
   every message is parsed within bounds (`pyuss.gateway.topics.MAX_PAYLOAD` and the rest).
   Such a message gets an error reply and one log line; nothing a message holds ends the
   message loop or a drive's task.
-- After every (re)connection it subscribes again, publishes ``online``, the discovery
+- After every (re)connection it subscribes again, publishes ``online``, the gateway message
+  (`pyuss.gateway.announce`: its version, read-only or not, keep-alive, drives), the discovery
   messages, every drive's state and availability, and the replies it could not send. An
   unreachable broker is tried again after 1 s, then twice as long each time up to
   `RECONNECT_MAX`; losing it and getting it back are one log line each.
@@ -47,6 +48,7 @@ from paho.mqtt.reasoncodes import ReasonCode
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from pyuss.errors import ConfigError, UssError
+from pyuss.gateway.announce import gateway_payload, gateway_topic
 from pyuss.gateway.config import MqttOptions
 from pyuss.gateway.topics import (
     Command,
@@ -69,7 +71,7 @@ from pyuss.points.errors import ReadOnly, UnknownPoint, error_dict
 from pyuss.points.plant import BusPoints, DrivePoints, Plant
 from pyuss.points.state import DriveState
 
-__all__ = ["MqttBusFace", "MqttFace"]
+__all__ = ["MqttBusFace", "MqttFace", "make_client"]
 
 log = logging.getLogger("pyuss.gateway.mqtt")
 client_log = logging.getLogger("pyuss.gateway.mqtt.client")
@@ -105,6 +107,27 @@ def _tls(options: MqttOptions) -> ssl.SSLContext | None:
         context.check_hostname = False
         context.verify_mode = ssl.CERT_NONE
     return context
+
+
+def make_client(
+    options: MqttOptions, identifier: str, will: aiomqtt.Will | None = None
+) -> aiomqtt.Client:
+    """An MQTT 5 client for ``options`` (broker, user, password, TLS, keep-alive) with a clean
+    start and no session expiry: the broker keeps nothing for it while it is away."""
+    return aiomqtt.Client(
+        options.endpoint.host,
+        options.endpoint.port,
+        username=options.username,
+        password=options.password,
+        identifier=identifier,
+        protocol=aiomqtt.ProtocolVersion.V5,
+        clean_start=True,  # and no session expiry: nothing is kept while away
+        keepalive=options.keepalive,
+        will=will,
+        tls_context=_tls(options),
+        timeout=10,
+        logger=client_log,
+    )
 
 
 class _DriveWorker:
@@ -367,21 +390,8 @@ class MqttBusFace:
 
     # -- the connection ------------------------------------------------------------------------
     def _make_client(self) -> aiomqtt.Client:
-        options = self.options
-        return aiomqtt.Client(
-            options.endpoint.host,
-            options.endpoint.port,
-            username=options.username,
-            password=options.password,
-            identifier=self.client_id,
-            protocol=aiomqtt.ProtocolVersion.V5,
-            clean_start=True,  # and no session expiry: nothing is kept while away
-            keepalive=options.keepalive,
-            will=aiomqtt.Will(self.availability, "offline", qos=1, retain=True),
-            tls_context=_tls(options),
-            timeout=10,
-            logger=client_log,
-        )
+        will = aiomqtt.Will(self.availability, "offline", qos=1, retain=True)
+        return make_client(self.options, self.client_id, will)
 
     async def _connected(self, client: aiomqtt.Client) -> None:
         self._client = client
@@ -390,6 +400,17 @@ class MqttBusFace:
             if any(_failed(code) for code in granted):
                 raise aiomqtt.MqttError(f"the broker refused the subscription to {topic}")
         await client.publish(self.availability, "online", qos=1, retain=True)
+        await client.publish(
+            gateway_topic(self.options.prefix, self.bus.name),
+            gateway_payload(
+                self.bus.name,
+                [worker.drive.model for worker in self.workers.values()],
+                read_only=self.options.read_only,
+                keepalive=self.options.keepalive,
+            ),
+            qos=1,
+            retain=True,
+        )
         self.connected.set()
         self.connections += 1
         for worker in self.workers.values():

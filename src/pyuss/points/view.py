@@ -116,24 +116,33 @@ def motion(state: DriveState) -> str:
     keeps a drive in "operation enabled" while it ramps down (control bit 0 = 0, status bit 2
     still 1). The main actual value against the setpoint in force tells the ramp (within
     `AT_SETPOINT`: at setpoint); status bit 8 only where either is missing."""
-    word = state.status_word
+    actual = _main(state.actual)
+    setpoint = _main(state.setpoints)
+    return motion_of(
+        state.status_word,
+        state.control_word,
+        None if actual is None else actual.percent,
+        None if setpoint is None else setpoint.percent,
+    )
+
+
+def motion_of(word: int | None, control: int, actual: float | None, setpoint: float | None) -> str:
+    """`motion` from the status word, the control word sent, and the main actual value and
+    setpoint in percent (None: not there), as a state message of the gateway carries them."""
     if word is None:
         return "no answer"
     if not word & StatusWord.OPERATION_ENABLED:
         return "stopped" if not word & StatusWord.FAULT else "fault"
-    control = state.control_word
-    actual = _main(state.actual)
-    turning = actual is not None and abs(actual.percent) >= AT_REST
+    turning = actual is not None and abs(actual) >= AT_REST
     if control & (ControlWord.JOG1 | ControlWord.JOG2):
         return "jogging"
     if not control & ControlWord.ON:
         return "OFF1 active, ramping down" if turning else "OFF1 active, stopping"
-    setpoint = _main(state.setpoints)
     if actual is None or setpoint is None:
         return "at setpoint" if word & StatusWord.IN_TOLERANCE else "running"
-    if abs(actual.percent - setpoint.percent) <= AT_SETPOINT:
+    if abs(actual - setpoint) <= AT_SETPOINT:
         return "at setpoint"
-    if abs(actual.percent) < abs(setpoint.percent):
+    if abs(actual) < abs(setpoint):
         return "ramping up"
     return "ramping down"
 

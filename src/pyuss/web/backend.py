@@ -30,13 +30,21 @@ from pathlib import Path
 from typing import Any
 
 from pyuss.commission import backup as backups
-from pyuss.commission.compare import Write, another_drive, compare, plan, restore
+from pyuss.commission.compare import (
+    Outcome,
+    Skip,
+    Write,
+    another_drive,
+    compare,
+    plan,
+    restore,
+)
 from pyuss.errors import ConfigError, UssError
 from pyuss.monitor.core import Monitor, default_gap
 from pyuss.monitor.infer import LayoutBook
 from pyuss.monitor.model import Exchange
 from pyuss.monitor.render import exchange_line
-from pyuss.params import ParamInfo, format_value
+from pyuss.params import ParamBook, ParamInfo, format_value
 from pyuss.params.model import Reading
 from pyuss.params.values import physical
 from pyuss.points import (
@@ -353,6 +361,11 @@ class Backend:
             },
         }
 
+    def setpoint_value(self, address: int) -> float | None:
+        """The main setpoint sent to drive ``address`` now, in the unit of its main actual
+        value (`pyuss.points.DrivePoints.setpoint_value`)."""
+        return self.points(address).setpoint_value()
+
     def motion(self, address: int) -> str:
         """The ramp state of drive ``address`` now (`pyuss.points.view.motion`)."""
         return motion(self.points(address).state)
@@ -558,40 +571,8 @@ class Backend:
         differs, with names and units, what a restore would write and leave out, and why the
         file may be another drive's (``stranger``) or cannot be restored (``refused``)."""
         drive, wanted, now = await self._wanted_and_now(address, data, name, progress)
-        book = drive.params
-        differences = []
-        for diff in compare(now, wanted):
-            info = book.get(diff.pnu)
-            differences.append(
-                {
-                    "id": _id(diff.pnu, diff.index),
-                    "label": diff.label,
-                    "name": diff.name,
-                    "drive": None if diff.left is None else diff.left.text(info),
-                    "file": None if diff.right is None else diff.right.text(info),
-                }
-            )
-        reply: dict[str, Any] = {
-            "file": name,
-            "address": wanted.address,
-            "profile": wanted.profile,
-            "date": wanted.date,
-            "differences": differences,
-            "writes": [],
-            "skipped": [],
-            "stranger": await self._stranger(wanted, drive),
-            "refused": None,
-        }
-        try:
-            writes, skips = plan(wanted, now, book, _named(drive))
-        except ConfigError as exc:
-            reply["refused"] = str(exc)
-        else:
-            reply["writes"] = [_write_dict(w) for w in writes]
-            reply["skipped"] = [
-                {"label": s.entry.label, "name": s.entry.name, "reason": s.reason} for s in skips
-            ]
-        return reply
+        stranger = await self._stranger(wanted, drive)
+        return compared(name, wanted, now, drive.params, _named(drive), stranger)
 
     async def restore(
         self,
@@ -618,31 +599,7 @@ class Backend:
         if any(o.ok and points.is_reference(o.write.pnu, o.write.index) for o in outcomes):
             with contextlib.suppress(UssError):
                 await points.read_reference()
-        failed = [o for o in outcomes if not o.ok]
-        stored = " and stored in EEPROM" if eeprom else ""
-        message = (
-            f"drive {address}: {len(outcomes) - len(failed)} of {len(outcomes)} written"
-            f"{stored}" + (f", {len(failed)} refused" if failed else "")
-        )
-        if not writes:
-            message = f"drive {address} already holds {name}: nothing to write"
-        return {
-            "message": message,
-            "written": len(outcomes) - len(failed),
-            "refused": len(failed),
-            "results": [
-                {
-                    **_write_dict(o.write),
-                    "ok": o.ok,
-                    "answer": o.answer,
-                    "error": o.error_text() or None,
-                }
-                for o in outcomes
-            ],
-            "skipped": [
-                {"label": s.entry.label, "name": s.entry.name, "reason": s.reason} for s in skips
-            ],
-        }
+        return restored(f"drive {address}", name, writes, skips, outcomes, eeprom=eeprom)
 
     # -- scan ---------------------------------------------------------------------------------
     async def scan(
@@ -783,6 +740,89 @@ class Backend:
             )
             write_all(writer, (ex for _, ex in list(self.exchanges)))
             return path.read_bytes()
+
+
+def compared(
+    name: str,
+    wanted: backups.Backup,
+    now: backups.Backup,
+    book: ParamBook,
+    profile: Profile | None,
+    stranger: str | None,
+) -> dict[str, Any]:
+    """A comparison as the page shows it: the differences of the drive (``now``) and the
+    file ``name`` (``wanted``) with names and units, what a restore would write and leave out,
+    why the file may be another drive's (``stranger``) or cannot be restored (``refused``)."""
+    differences = []
+    for diff in compare(now, wanted):
+        info = book.get(diff.pnu)
+        differences.append(
+            {
+                "id": _id(diff.pnu, diff.index),
+                "label": diff.label,
+                "name": diff.name,
+                "drive": None if diff.left is None else diff.left.text(info),
+                "file": None if diff.right is None else diff.right.text(info),
+            }
+        )
+    reply: dict[str, Any] = {
+        "file": name,
+        "address": wanted.address,
+        "profile": wanted.profile,
+        "date": wanted.date,
+        "differences": differences,
+        "writes": [],
+        "skipped": [],
+        "stranger": stranger,
+        "refused": None,
+    }
+    try:
+        writes, skips = plan(wanted, now, book, profile)
+    except ConfigError as exc:
+        reply["refused"] = str(exc)
+    else:
+        reply["writes"] = [_write_dict(w) for w in writes]
+        reply["skipped"] = [_skip_dict(s) for s in skips]
+    return reply
+
+
+def restored(
+    drive: str,
+    name: str,
+    writes: Sequence[Write],
+    skips: Sequence[Skip],
+    outcomes: Sequence[Outcome],
+    *,
+    eeprom: bool,
+) -> dict[str, Any]:
+    """A restore of file ``name`` to ``drive`` (``drive 5``) as the page shows it: how many
+    were written and refused, each write's result, what was left out."""
+    failed = [o for o in outcomes if not o.ok]
+    stored = " and stored in EEPROM" if eeprom else ""
+    message = f"{drive}: {len(outcomes) - len(failed)} of {len(outcomes)} written{stored}" + (
+        f", {len(failed)} refused" if failed else ""
+    )
+    if not writes:
+        message = f"{drive} already holds {name}: nothing to write"
+    return {
+        "message": message,
+        "written": len(outcomes) - len(failed),
+        "refused": len(failed),
+        "results": [
+            {
+                **_write_dict(o.write),
+                "ok": o.ok,
+                "answer": o.answer,
+                "error": o.error_text() or None,
+            }
+            for o in outcomes
+        ],
+        "skipped": [_skip_dict(s) for s in skips],
+    }
+
+
+def _skip_dict(skip: Skip) -> dict[str, Any]:
+    return {"label": skip.entry.label, "name": skip.entry.name, "reason": skip.reason}
 
 
 def _shown(value: object) -> str:

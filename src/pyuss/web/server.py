@@ -46,7 +46,7 @@ import time
 from collections.abc import Awaitable, Callable
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 from urllib.parse import urlsplit
 
 from pyuss import __version__
@@ -65,6 +65,9 @@ from pyuss.profiles import UNKNOWN_KIND, profile_names
 from pyuss.userfile import json_depth
 from pyuss.web.backend import Backend
 from pyuss.web.hub import QUEUE_SIZE, SEND_TIMEOUT, Hub
+
+if TYPE_CHECKING:
+    from pyuss.web.plant import PlantBackend
 
 __all__ = ["DEFAULT_HOST", "DEFAULT_PORT", "WebServer", "is_loopback"]
 
@@ -95,6 +98,8 @@ CONFIRM_AGE = 60.0
 MAX_CONFIRMS = 64
 """Checked commands waiting for a yes at most (the oldest are forgotten)."""
 COOKIE = "pyuss_token"
+DRIVE = r"/api/drive/{address:[A-Za-z0-9_.-]+}"
+"""A drive's URLs: ``/api/drive/5`` on the page's line, ``/api/drive/line2.5`` in a plant."""
 STATIC = Path(str(resources.files("pyuss.web").joinpath("static")))
 
 Handler = Callable[[web.Request], Awaitable[web.StreamResponse]]
@@ -199,7 +204,7 @@ class WebServer:
 
     def __init__(
         self,
-        backend: Backend,
+        backend: Backend | PlantBackend,
         *,
         host: str = DEFAULT_HOST,
         port: int = DEFAULT_PORT,
@@ -245,16 +250,16 @@ class WebServer:
         app.router.add_static("/static/", STATIC, show_index=False)
         app.router.add_get("/api/config", self._config)
         app.router.add_get("/api/bus", self._bus)
-        app.router.add_get(r"/api/drive/{address:\d+}", self._drive)
-        app.router.add_post(r"/api/drive/{address:\d+}/command", self._command)
-        app.router.add_get(r"/api/drive/{address:\d+}/params", self._params)
-        app.router.add_get(r"/api/drive/{address:\d+}/faults", self._faults)
-        app.router.add_get(r"/api/drive/{address:\d+}/actuals", self._actuals)
-        app.router.add_post(r"/api/drive/{address:\d+}/params/read", self._params_read)
-        app.router.add_post(r"/api/drive/{address:\d+}/params/write", self._params_write)
-        app.router.add_get(r"/api/drive/{address:\d+}/backup", self._backup)
-        app.router.add_post(r"/api/drive/{address:\d+}/compare", self._compare)
-        app.router.add_post(r"/api/drive/{address:\d+}/restore", self._restore)
+        app.router.add_get(DRIVE, self._drive)
+        app.router.add_post(DRIVE + r"/command", self._command)
+        app.router.add_get(DRIVE + r"/params", self._params)
+        app.router.add_get(DRIVE + r"/faults", self._faults)
+        app.router.add_get(DRIVE + r"/actuals", self._actuals)
+        app.router.add_post(DRIVE + r"/params/read", self._params_read)
+        app.router.add_post(DRIVE + r"/params/write", self._params_write)
+        app.router.add_get(DRIVE + r"/backup", self._backup)
+        app.router.add_post(DRIVE + r"/compare", self._compare)
+        app.router.add_post(DRIVE + r"/restore", self._restore)
         app.router.add_post("/api/scan", self._scan)
         app.router.add_get("/api/monitor.pcapng", self._pcapng)
         app.router.add_get("/ws", self._ws)
@@ -343,12 +348,15 @@ class WebServer:
                 content_type="application/json",
             )
 
-    @staticmethod
-    def _address(request: web.Request) -> int:
+    def _address(self, request: web.Request) -> Any:
+        """The drive a URL names: an address (``5``) on the page's own line, ``BUS.ADDRESS``
+        (``line2.5``) in the plant over the broker (`pyuss.web.plant`)."""
         text = request.match_info["address"]
-        if len(text) > 3:  # no drive has such an address; a huge number is never parsed
-            raise ConfigError(f"drive {_cut(text)} is not on the page")
-        return int(text)
+        if text.isdigit() and len(text) <= 3 and isinstance(self.backend, Backend):
+            return int(text)  # no drive has a longer address; a huge number is never parsed
+        if not isinstance(self.backend, Backend) and len(text) <= 70:
+            return text
+        raise ConfigError(f"drive {_cut(text)} is not on the page")
 
     @staticmethod
     async def _json(request: web.Request, keys: tuple[str, ...] = ()) -> dict[str, Any]:
@@ -381,6 +389,7 @@ class WebServer:
             {
                 "version": __version__,
                 "read_only": self.read_only,
+                "plant": not isinstance(self.backend, Backend),
                 "moves": sorted(Backend.MOVES),
                 "commands": list(Backend.COMMANDS),
                 "tick": TICK,
@@ -571,7 +580,7 @@ class WebServer:
                 log.exception("live update failed")
 
     def _send_tick(self, count: int) -> None:
-        backend = self.backend
+        backend: Any = self.backend  # drives by address (a line) or BUS.ADDRESS (the plant)
         if backend.scan_progress is not None:
             return  # the drives of before are gone, the new ones not there yet
         samples = backend.take_samples()
@@ -582,7 +591,7 @@ class WebServer:
                 "samples": [[round(s.time, 4), s.status, list(s.values)] for s in taken],
                 "status": last.status,
                 "state": state_name(last.status),
-                "setpoint": backend.points(address).setpoint_value(),
+                "setpoint": backend.setpoint_value(address),
                 "motion": backend.motion(address),
             }
         if self.hub.clients:

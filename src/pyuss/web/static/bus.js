@@ -25,28 +25,62 @@ export class BusView {
   }
 
   render(bus) {
+    if (bus.plant) {
+      this.renderPlant(bus);
+      return;
+    }
     document.getElementById("bus-port").textContent = bus.port;
     document.getElementById("bus-baud").textContent = `${bus.baud} baud`;
     document.getElementById("bus-cycle").textContent =
       bus.cycle_ms ? `${bus.cycle_ms.toFixed(1)} ms` : "-";
     document.getElementById("bus-line").textContent =
       bus.line.good === undefined ? "-" : `${bus.line.good} / ${bus.line.discarded}`;
-    const rows = bus.drives.map((d) => {
-      const h = d.health;
-      const c = h.counters;
-      const state = d.not_sending ? "does not send" : d.state;
-      const actual = d.actual.length ? `${d.actual[0].toFixed(2)} ${d.actual_unit}` : "-";
-      const row = el("tr", { dataset: { address: d.address } },
-        el("td", {}, el("a", { href: `#drive/${d.address}` }, d.address)),
-        el("td", {}, d.profile), el("td", {}, d.layout), el("td", {}, state),
-        el("td", {}, hex4(d.status)), el("td", { class: "num" }, actual),
-        ...[h.answers, h.timeouts, h.response_ms.toFixed(2), c.good, c.discarded, c.framing,
-          c.overrun, c.parity, c.no_stx, c.residual_time, c.bcc, c.bad_lge, c.timeout]
-          .map((v) => el("td", { class: "num" }, v)));
-      if (d.not_sending) row.classList.add("lost");
-      if (d.fault) row.classList.add("fault");
+    this.body.replaceChildren(...bus.drives.map((d) => this.row(d)));
+  }
+
+  row(d) {
+    const h = d.health;
+    const c = h.counters;
+    const state = d.offline || (d.not_sending ? "does not send" : d.state);
+    const actual = d.actual.length ? `${d.actual[0].toFixed(2)} ${d.actual_unit}` : "-";
+    const row = el("tr", { dataset: { address: d.address } },
+      el("td", {}, el("a", { href: `#drive/${d.address}` }, d.name ? `${d.address} ${d.name}` : d.address)),
+      el("td", {}, d.profile), el("td", {}, d.layout), el("td", {}, state),
+      el("td", {}, hex4(d.status)), el("td", { class: "num" }, actual),
+      ...[h.answers, h.timeouts, h.response_ms.toFixed(2), c.good, c.discarded, c.framing,
+        c.overrun, c.parity, c.no_stx, c.residual_time, c.bcc, c.bad_lge, c.timeout]
+        .map((v) => el("td", { class: "num" }, v)));
+    if (d.not_sending) row.classList.add("lost");
+    if (d.fault) row.classList.add("fault");
+    return row;
+  }
+
+  // A plant over the broker: the gateways with availability and latency, and the drives
+  // grouped by gateway; a drive of an offline gateway shows why and no value.
+  renderPlant(bus) {
+    document.getElementById("plant-broker").textContent =
+      `${bus.broker}${bus.connected ? "" : " (not connected)"}`;
+    const ms = (m) => (m.last_ms == null ? "-" : `${m.last_ms.toFixed(1)} / ${m.median_ms.toFixed(1)}`);
+    const gateways = bus.gateways.map((g) => {
+      const row = el("tr", { dataset: { bus: g.bus } },
+        el("td", {}, g.bus),
+        el("td", {}, g.online ? "online" : "offline"),
+        el("td", {}, g.read_only ? "read-only" : "read and write"),
+        el("td", {}, g.version ?? "-"),
+        el("td", { class: "num" }, g.keepalive == null ? "-" : `${g.keepalive} s`),
+        el("td", { class: "num" }, g.drives.length),
+        el("td", { class: "num latency-command" }, ms(g.latency.command)),
+        el("td", { class: "num latency-value" }, ms(g.latency.value)));
+      if (!g.online) row.classList.add("offline");
       return row;
     });
+    document.querySelector("#gateway-table tbody").replaceChildren(...gateways);
+    const rows = [];
+    for (const g of bus.gateways) {
+      const state = g.online ? (g.read_only ? "online, read-only" : "online") : "offline";
+      rows.push(el("tr", { class: "group" }, el("td", { colspan: 19 }, `gateway ${g.bus}: ${state}`)));
+      for (const d of bus.drives.filter((x) => x.bus === g.bus)) rows.push(this.row(d));
+    }
     this.body.replaceChildren(...rows);
   }
 

@@ -261,13 +261,20 @@ export class DriveView {
     const stateEl = document.getElementById("drive-state");
     const silent = d.not_sending || d.status == null;
     if (d.not_sending) {
-      stateEl.textContent = "does not send";
+      stateEl.textContent = d.offline || "does not send";
       stateEl.className = "state lost";
+      // nothing of before is shown as live: no status word, no values
+      document.getElementById("drive-status").textContent = hex4(null);
+      for (const cell of document.querySelectorAll("#drive-actuals td[data-pzd]")) cell.textContent = "-";
+    } else if (this.state.config.plant && d.status != null && this.info) {
+      // a gateway sends a drive's state when it changes: a drive at rest sends none, so
+      // the bus messages show its state too (after an offline spell, say)
+      this.showStatus(d.status, d.state, d.actual);
     }
     // No drive answering: nothing to command (a command would only time out).
     for (const button of document.querySelectorAll("#view-drive .controls button, #setpoint-form button, #fault-ack")) {
       button.disabled = silent;
-      button.title = silent ? "the drive does not answer" : "";
+      button.title = silent ? (d.offline || "the drive does not answer") : "";
     }
     document.getElementById("drive-motion").textContent = silent ? "-" : d.motion;
     this.showSetpoint(d.setpoint);
