@@ -46,7 +46,8 @@ class Line:
         path = self.folder / f"{self.name}.toml"
         path.write_text(
             f'[[bus]]\nname = "{self.name}"\nport = "{self.url}"\nbaud = {BAUD}\n'
-            'layout = "4,2"\n[[bus.drive]]\naddress = 5\n[[bus.drive]]\naddress = 6\n'
+            'layout = "4,2"\nprofile = "generic"\n'
+            "[[bus.drive]]\naddress = 5\n[[bus.drive]]\naddress = 6\n"
             f'[mqtt]\nbroker = "{self.broker}"\nkeepalive = {KEEPALIVE}\n'
             f"read_only = {'true' if read_only else 'false'}\n",
             encoding="utf-8",

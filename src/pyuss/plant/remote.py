@@ -550,13 +550,13 @@ class RemoteParams:
     def __init__(self, plant: RemotePlant, drive: RemoteDrive) -> None:
         self.plant = plant
         self.remote = drive
-        self.named = drive.profile in profile_names()
+        self.profile_named = drive.profile in profile_names()
         """Whether the gateway names the drive's family: its facts apply. A drive of unknown
         kind gets the USS specification's rules only, no parameter facts."""
-        self.profile: Profile = get_profile(drive.profile if self.named else "generic")
+        self.profile: Profile = get_profile(drive.profile if self.profile_named else "generic")
         self.params = (
             ParamBook.for_profile(self.profile)
-            if self.named
+            if self.profile_named
             else ParamBook(index_base=self.profile.database().profile.index_base)
         )
         self.layout = Layout.parse(drive.layout)
@@ -565,12 +565,12 @@ class RemoteParams:
     @property
     def kind(self) -> str:
         """The profile's name, or `UNKNOWN_KIND`, as a backup's header keeps it."""
-        return self.profile.name if self.named else UNKNOWN_KIND
+        return self.profile.name if self.profile_named else UNKNOWN_KIND
 
     @property
     def named_profile(self) -> Profile | None:
         """The profile where the gateway names one, None for a drive of unknown kind."""
-        return self.profile if self.named else None
+        return self.profile if self.profile_named else None
 
     async def read_param(
         self, pnu: int, index: int | None = None, *, timeout: float | None = None

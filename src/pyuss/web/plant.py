@@ -212,7 +212,7 @@ class PlantBackend:
         reference = _Setpoint(drive).reference
         params = RemoteParams(self.plant, drive)
         profile = params.profile  # the telegram rules; its facts only where it is named
-        title = profile.title if params.named else "a drive of unknown kind"
+        title = profile.title if params.profile_named else "a drive of unknown kind"
         return {
             "address": drive.key,
             "bus": drive.bus,
@@ -224,7 +224,7 @@ class PlantBackend:
             "reference": None if reference is None else {"value": reference, "unit": drive.unit},
             "actuals": self._columns(drive),
             "key_actuals": self._key_actuals(params),
-            "status_bits": _status_bits(profile.status_bits if params.named else {}),
+            "status_bits": _status_bits(profile.status_bits if params.profile_named else {}),
             "read_only": self.plant.buses[drive.bus].read_only,
         }
 

@@ -1,0 +1,41 @@
+"""The page over the broker assumes nothing of a drive that its gateway did not say: a drive
+of unknown kind, or of a family this version does not know, gets no family's facts."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+pytest.importorskip("aiomqtt")
+
+from pyuss.gateway.config import mqtt_options
+from pyuss.plant.remote import RemoteParams, RemotePlant, drives_of
+from pyuss.points.config import Where
+
+
+def _message(profile: str) -> dict[str, Any]:
+    point = [{"key": "main", "pzd": 2, "dword": False}]
+    drive = {"name": "pump", "address": 0, "profile": profile, "layout": "4,2", "unit": "%"}
+    return {"bus": "line9", "drives": [{**drive, "setpoints": point, "actual": point}]}
+
+
+@pytest.mark.parametrize("profile", ["unknown", "a-family-of-a-newer-version"])
+def test_a_drive_the_gateway_names_no_known_family_for_gets_no_family_s_facts(
+    profile: str,
+) -> None:
+    (drive,) = drives_of(_message(profile))
+    assert drive.profile == "unknown"
+    plant = RemotePlant(mqtt_options({"broker": "mqtt://127.0.0.1:1"}, Where("web")))
+    params = RemoteParams(plant, drive)
+    assert not params.profile_named and params.named_profile is None
+    assert params.kind == "unknown"
+    assert params.params.get(1120) is None  # the generic file's parameter is not applied
+
+
+def test_a_named_family_s_facts_apply() -> None:
+    (drive,) = drives_of(_message("sinamics-v20"))
+    plant = RemotePlant(mqtt_options({"broker": "mqtt://127.0.0.1:1"}, Where("web")))
+    params = RemoteParams(plant, drive)
+    assert params.profile_named and params.kind == "sinamics-v20"
+    assert params.params.get(1120) is not None
