@@ -146,6 +146,8 @@ def test_the_page_lists_every_gateway_and_drive_with_availability(plant: Plant) 
     drives = {d["address"]: d for d in shown["drives"]}
     assert drives["line2.6"]["name"] == "drive6" and drives["line2.6"]["bus"] == "line2"
     assert drives["line2.6"]["state"] == "switch-on inhibited"
+    # what the gateways' states do not carry is shown as not known, never as 0
+    assert drives["line2.6"]["health"]["response_ms"] is None
     status, info = plant.page.api("/api/drive/line1.5")
     assert status == 200
     assert info["reference"] == {"value": 50.0, "unit": "Hz"}

@@ -277,10 +277,11 @@ class PlantBackend:
                 "exchanges": health.get("exchanges", 0),
                 "answers": health.get("answers", 0),
                 "timeouts": health.get("timeouts", 0),
-                "late": 0,
-                "response_ms": 0.0,
-                "jobs": 0,
-                "refused": 0,
+                # not in the gateway's state: shown as not known, never as 0
+                "late": None,
+                "response_ms": None,
+                "jobs": None,
+                "refused": None,
                 "counters": {name: counters.get(name, 0) for name in _COUNTERS},
             },
         }

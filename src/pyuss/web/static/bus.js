@@ -47,7 +47,7 @@ export class BusView {
       el("td", {}, el("a", { href: `#drive/${d.address}` }, d.name ? `${d.address} ${d.name}` : d.address)),
       el("td", {}, d.profile), el("td", {}, d.layout), el("td", {}, state),
       el("td", {}, hex4(d.status)), el("td", { class: "num" }, actual),
-      ...[h.answers, h.timeouts, h.response_ms.toFixed(2), c.good, c.discarded, c.framing,
+      ...[h.answers, h.timeouts, h.response_ms == null ? "-" : h.response_ms.toFixed(2), c.good, c.discarded, c.framing,
         c.overrun, c.parity, c.no_stx, c.residual_time, c.bcc, c.bad_lge, c.timeout]
         .map((v) => el("td", { class: "num" }, v)));
     if (d.not_sending) row.classList.add("lost");
