@@ -1,9 +1,13 @@
 """Comparing parameter sets and writing one back to a drive.
 
-`compare` lists what differs between two `Backup`s (a drive read now, or two files), with names
-and units. `plan` turns "what the drive holds now" and "what the file says" into the writes a
-restore makes: only parameters that differ, only writable ones (a read-only one, a parameter
-the file could not read, and one nothing is known of without raw words are listed as skipped),
+`compare` lists the settings that differ between two `Backup`s (a drive read now, or two
+files), with names and units. Read-only parameters (status and control words, actual values,
+fault numbers: what the drive measures or shows) are no settings: two readings at different
+moments differ without anything to restore, so `compare` leaves them out and
+`changed_values` lists them apart; a restore never writes them. `plan` turns "what the drive
+holds now" and "what the file says" into the writes a restore makes: only settings that
+differ, only writable ones (a parameter the book knows as read-only, one the file could not
+read, and one nothing is known of without raw words are listed as skipped),
 an array element by element, each value checked against the parameter's type and limits first
 so that a hand-broken file is refused before anything is written. The order: the profile's
 own list (``restore_order``) if it has one, then the access level parameter, the parameter
@@ -36,6 +40,7 @@ __all__ = [
     "Skip",
     "Write",
     "another_drive",
+    "changed_values",
     "compare",
     "plan",
     "restore",
@@ -85,6 +90,11 @@ class Difference:
         return ""
 
     @property
+    def read_only(self) -> bool:
+        """A value the drive measures or shows (either side read it as read-only), no setting."""
+        return any(e is not None and e.access == "ro" for e in (self.left, self.right))
+
+    @property
     def kind(self) -> str:
         if self.left is None:
             return "only right"
@@ -113,7 +123,18 @@ class Difference:
 
 
 def compare(left: Backup, right: Backup) -> list[Difference]:
-    """What differs between two parameter sets, in parameter order."""
+    """The settings that differ between two parameter sets, in parameter order (read-only
+    values are left out: `changed_values`)."""
+    return [d for d in _differences(left, right) if not d.read_only]
+
+
+def changed_values(left: Backup, right: Backup) -> list[Difference]:
+    """The read-only values (measured or shown by the drive) that differ between two parameter
+    sets: shown apart from the settings, never restored."""
+    return [d for d in _differences(left, right) if d.read_only]
+
+
+def _differences(left: Backup, right: Backup) -> list[Difference]:
     lefts = {(e.pnu, e.index): e for e in left.entries}
     rights = {(e.pnu, e.index): e for e in right.entries}
     keys = sorted({*lefts, *rights}, key=lambda k: (k[0], -1 if k[1] is None else k[1]))
