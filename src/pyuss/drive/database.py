@@ -126,7 +126,23 @@ LEVEL_ROLES = ("jog1", "jog2", "tolerance", "compare_value")
 DISPLAY_ROLES = ("state", "fault", "warning", "control_word", "status_word", "setpoint", "actual")
 """Parameters the drive writes itself: state code, fault/warning number, words, values."""
 
-ROLES = (*TIME_ROLES, *LEVEL_ROLES, "reference", *DISPLAY_ROLES)
+MOTOR_ROLES = ("motor_voltage", "motor_current", "motor_power")
+"""Rated motor data the simulation's motor model reads (units V, A, kW; `MOTOR_UNITS`)."""
+
+OUTPUT_ROLES = ("output_voltage", "output_current", "output_power")
+"""What the simulation's motor model shows while the motor runs (units V, A, kW)."""
+
+MOTOR_UNITS = {
+    "motor_voltage": "V",
+    "motor_current": "A",
+    "motor_power": "kW",
+    "output_voltage": "V",
+    "output_current": "A",
+    "output_power": "kW",
+}
+"""The unit each motor role's parameter must have."""
+
+ROLES = (*TIME_ROLES, *LEVEL_ROLES, "reference", *DISPLAY_ROLES, *MOTOR_ROLES, *OUTPUT_ROLES)
 
 INTERFACE_ROLES = ("address", "baud", "pkw", "pzd", "failure_time")
 """Interface parameters of C 3 the slave engine reads its settings from."""
@@ -938,6 +954,10 @@ def _check_roles(db: ParameterDatabase, source: str) -> None:
                     f"P{ref.pnu} unit {unit!r} needs a 'reference' parameter with that unit "
                     "(or use %, or no unit for 4000h = 100 %)",
                 )
+        if name in MOTOR_UNITS and unit != MOTOR_UNITS[name]:
+            raise where.error(
+                name, f"P{ref.pnu} must have the unit {MOTOR_UNITS[name]}, not {unit!r}"
+            )
         if (
             name in ("state", "fault", "warning", "control_word", "status_word")
             and not param.dtype.is_integer
