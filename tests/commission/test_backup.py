@@ -81,14 +81,17 @@ def test_a_failing_parameter_is_recorded_and_the_backup_goes_on(
     file = tmp_path / "set.toml"
     code, out = uss(["backup", "3", "-o", str(file), "--params", str(mine), *opts(mm4)])
     assert code == 1
-    assert "P0999: not read: drive refused the job (PNU 999): error 0" in out
+    assert "P0999: not read: drive refused the job (P0999): error 0" in out
     taken = load(file)
     assert len(taken.entries) == 20 and [e.label for e in taken.failed] == ["P0999"]
     assert taken.failed[0].error == {
         "type": "DriveRefusal",
-        "message": "drive refused the job (PNU 999): error 0: illegal parameter number",
+        "message": "drive refused the job (P0999): error 0: illegal parameter number"
+        "; check the parameter number and the drive's profile: this drive has no such parameter",
         "number": 0,
         "meaning": "illegal parameter number",
+        "hint": "check the parameter number and the drive's profile: this drive has no such "
+        "parameter",
     }
     assert taken.find(1120) is not None and taken.find(1120).value == 10.0  # type: ignore[union-attr]
 

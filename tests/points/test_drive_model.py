@@ -154,3 +154,30 @@ def test_the_one_check_of_a_setpoint_serves_every_face_alike() -> None:
     with pytest.raises(ConfigError, match="reference is not known yet"):
         checked_setpoint(25, "value", reference=None, unit="Hz", where="line/drive1")
     assert checked_setpoint(25, "value", reference=50.0, unit="Hz").raw == 0x2000
+
+
+async def test_every_face_gets_the_refusal_with_what_to_do(plant: Plant) -> None:
+    """The faces' one error shape (`error_dict`: the MQTT reply's ``error``, the page's) keeps
+    its keys; its message carries the family's hint (Baumueller: P126)."""
+    from pyuss.master import NoWriteAuthority
+    from pyuss.points.errors import error_dict
+
+    points = plant.drive("line", 4)
+    await points.drive.write_raw(126, (0,))  # the communication interfaces may not change
+    try:
+        with pytest.raises(NoWriteAuthority) as denied:
+            await points.write_value(60, None, "1")
+        error = error_dict(denied.value)
+        assert set(error) == {"type", "message", "class", "response_id", "pnu"}
+        assert (error["type"], error["class"], error["pnu"]) == (
+            "NoWriteAuthority",
+            "no_authority",
+            60,
+        )
+        assert error["message"].endswith(
+            ": set bit 0 of P126 (communication source) so that the "
+            "communication interfaces may change parameters "
+            "(Baumueller manual 1.5)"
+        )
+    finally:
+        await points.drive.write_raw(126, (1,))

@@ -334,11 +334,14 @@ class Outcome:
         return self.error is None
 
     def error_text(self) -> str:
-        """``error 12: keyword missing`` for a refusal, else the error's message."""
+        """``error 12: keyword missing; <what to do>`` for a refusal, else the error's
+        message."""
         if self.error is None:
             return ""
         if "number" in self.error:
-            return f"error {self.error['number']}: {self.error['meaning']}"
+            hint = self.error.get("hint")
+            todo = f"; {hint}" if hint else ""
+            return f"error {self.error['number']}: {self.error['meaning']}{todo}"
         return str(self.error.get("message", "failed"))
 
     def text(self) -> str:
