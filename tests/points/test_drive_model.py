@@ -181,3 +181,26 @@ async def test_every_face_gets_the_refusal_with_what_to_do(plant: Plant) -> None
         )
     finally:
         await points.drive.write_raw(126, (1,))
+
+
+async def test_the_fault_panel_shows_when_a_micromaster_440_tripped() -> None:
+    """MICROMASTER 440 r0948 holds three words a trip (seconds high, low, 0) for the two fault
+    numbers a trip has in r0947: the panel gives each fault its trip's time."""
+    from pyuss.points.view import fault_panel
+
+    drives = [(7, "micromaster440", None)]
+    bus = VirtualBus(BAUD)
+    try:
+        async with simulated_drives(bus, drives) as engines:
+            drive = engines[7].drive
+            drive.update(947, 3, 2)  # the trip before the last: F0003 at 70000 s
+            drive.update(948, 1, 3)
+            drive.update(948, 70000 - 65536, 4)
+            model = line_model("line", drives, baud=BAUD)
+            async with Plant(model, transports={"line": bus.attach("master")}) as plant:
+                await eventually(lambda: plant.drive("line", 7).state.answered)
+                panel = await fault_panel(plant.drive("line", 7))
+    finally:
+        await bus.close()
+    assert panel["parameters"]["times"] == 948
+    assert [(f["index"], f["number"], f["time"]) for f in panel["history"]] == [(2, 3, 70000)]
