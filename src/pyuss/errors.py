@@ -43,15 +43,30 @@ class DriveRefusal(UssError):
     """A drive refused a parameter job: response ID 7 with an error number (C 4.2.1.1).
 
     ``number`` is the error number from PWE, ``meaning`` its name (C Table 4.3 for 0..7 and 17..,
-    or the drive profile's own numbers above 100), ``pnu`` and ``index`` say which job it was.
+    or the drive profile's own numbers above 100), ``pnu`` and ``index`` say which job it was,
+    ``label`` how the drive's family writes that parameter (``P0310.0``; without it ``PNU
+    310.0``), ``hint`` what to do (`pyuss.profiles.Profile.error_hint`; "" where nothing is
+    known). The message says all of it: ``drive refused the job (P0310.0): error 17: ...;
+    <what to do>``.
     """
 
     def __init__(
-        self, number: int, meaning: str, *, pnu: int | None = None, index: int | None = None
+        self,
+        number: int,
+        meaning: str,
+        *,
+        pnu: int | None = None,
+        index: int | None = None,
+        label: str | None = None,
+        hint: str = "",
     ) -> None:
         self.number = number
         self.meaning = meaning
         self.pnu = pnu
         self.index = index
-        where = "" if pnu is None else f" (PNU {pnu}" + ("" if index is None else f".{index}") + ")"
-        super().__init__(f"drive refused the job{where}: error {number}: {meaning}")
+        self.hint = hint
+        if label is None and pnu is not None:
+            label = f"PNU {pnu}" + ("" if index is None else f".{index}")
+        where = "" if label is None else f" ({label})"
+        todo = f"; {hint}" if hint else ""
+        super().__init__(f"drive refused the job{where}: error {number}: {meaning}{todo}")

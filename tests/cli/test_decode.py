@@ -147,6 +147,16 @@ def test_person_readable_output(capsys: pytest.CaptureFixture[str]) -> None:
     assert "PZD2       2000h = 8192 (50.00 % of 4000h)" in out
 
 
+def test_with_a_profile_the_parameter_is_named_as_the_family_writes_it(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    telegram = BY_NAME["read_word_request"]["hex"]  # read PNU 52
+    assert main(["decode", telegram, "--layout", "3,2", "--profile", "sinamics-v20"]) == 0
+    assert "\n           parameter r0052 (Status word 1)\n" in capsys.readouterr().out
+    assert main(["decode", telegram, "--layout", "3,2"]) == 0
+    assert "parameter r0052" not in capsys.readouterr().out  # no family: the PNU alone
+
+
 @pytest.mark.parametrize(
     "hexes",
     [

@@ -139,7 +139,8 @@ def test_read_puts_the_error_object_into_the_parameter_it_concerns(
     )
     assert bad["error"] == {
         "type": "DriveRefusal",
-        "message": "drive refused the job (PNU 999): error 0: illegal parameter number",
+        "message": "drive refused the job (P999): error 0: illegal parameter number"
+        "; check the parameter number and the drive's profile: this drive has no such parameter",
         "exit_code": 1,
         "number": 0,
         "meaning": "illegal parameter number",

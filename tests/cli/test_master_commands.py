@@ -46,7 +46,7 @@ def test_read_values_and_a_refused_one(sim: str, capsys: pytest.CaptureFixture[s
     code, out, err = uss(capsys, "read", "5", "52", "999", *common(sim))
     assert code == 1
     assert "P52 = 16384 (Load display)" in out  # int16, no unit
-    assert "P999: drive refused the job (PNU 999): error 0: illegal parameter number" in err
+    assert "P999: drive refused the job (P999): error 0: illegal parameter number; check" in err
     code, out, _ = uss(capsys, "read", "5", "52", "P683[1]", *common(sim), "--json")
     assert code == 0
     data = json.loads(out)

@@ -20,7 +20,10 @@ from hypothesis import strategies as st
 
 from commission.test_docs import uss
 from pyuss.commission.backup import Backup, Entry, dumps, load, loads
+from pyuss.commission.compare import plan
 from pyuss.errors import ConfigError
+from pyuss.params.book import ParamBook
+from pyuss.profiles import get_profile
 from support.typed import Simulator, start, stop
 from test_userfile import bad_files, refuses
 
@@ -78,14 +81,17 @@ def test_a_failing_parameter_is_recorded_and_the_backup_goes_on(
     file = tmp_path / "set.toml"
     code, out = uss(["backup", "3", "-o", str(file), "--params", str(mine), *opts(mm4)])
     assert code == 1
-    assert "P0999: not read: drive refused the job (PNU 999): error 0" in out
+    assert "P0999: not read: drive refused the job (P0999): error 0" in out
     taken = load(file)
     assert len(taken.entries) == 20 and [e.label for e in taken.failed] == ["P0999"]
     assert taken.failed[0].error == {
         "type": "DriveRefusal",
-        "message": "drive refused the job (PNU 999): error 0: illegal parameter number",
+        "message": "drive refused the job (P0999): error 0: illegal parameter number"
+        "; check the parameter number and the drive's profile: this drive has no such parameter",
         "number": 0,
         "meaning": "illegal parameter number",
+        "hint": "check the parameter number and the drive's profile: this drive has no such "
+        "parameter",
     }
     assert taken.find(1120) is not None and taken.find(1120).value == 10.0  # type: ignore[union-attr]
 
@@ -240,6 +246,48 @@ def test_two_files_compare_without_a_drive(mm4: Simulator, tmp_path: Path) -> No
     assert code == 2 and "cannot read" in out
 
 
+def test_status_words_and_actual_values_are_no_differences_to_restore(tmp_path: Path) -> None:
+    # two readings of a V20: before and after a run, with one setting changed in between
+    def taken(status: int, control: int, ramp: float) -> Backup:
+        return Backup(
+            5,
+            "sinamics-v20",
+            [
+                Entry(52, name="Status word 1", type="uint16", value=status, access="ro"),
+                Entry(54, name="Control word 1", type="uint16", value=control, access="ro"),
+                Entry(1120, 0, "Ramp-up time", "s", "float", ramp, access="rw"),
+            ],
+        )
+
+    before, after = tmp_path / "before.toml", tmp_path / "after.toml"
+    before.write_text(dumps(taken(59968, 0, 2.0), "toml"), "utf-8")
+    after.write_text(dumps(taken(59953, 1150, 3.5), "toml"), "utf-8")
+    code, out = uss(["diff", str(after), str(before)])
+    assert code == 1
+    assert out.splitlines() == [
+        "P1120.0 (Ramp-up time): 3.50 s -> 2.00 s",
+        f"1 parameter differs between {after} and {before}",
+        "read-only values, measured or shown by the drive (no settings, not restored):",
+        "  r0052 (Status word 1): 59953 -> 59968",
+        "  r0054 (Control word 1): 1150 -> 0",
+    ]
+    code, out = uss(["diff", str(after), str(before), "--json"])
+    found = json.loads(out)
+    assert [d["label"] for d in found["differences"]] == ["P1120.0"]
+    assert [d["label"] for d in found["read_only"]] == ["r0052", "r0054"]
+    # only the values the drive shows differ: the settings agree
+    same = tmp_path / "same.toml"
+    same.write_text(dumps(taken(59953, 1150, 2.0), "toml"), "utf-8")
+    code, out = uss(["diff", str(before), str(same)])
+    assert code == 0 and out.splitlines()[0] == f"{before} and {same} agree"
+    # a restore plans no write for them, and does not list them as left out either
+    book = ParamBook.for_profile(get_profile("sinamics-v20"))
+    writes, skips = plan(
+        loads(before.read_text("utf-8")), taken(59953, 1150, 3.5), book, get_profile("sinamics-v20")
+    )
+    assert [w.label for w in writes] == ["P1120.0"] and skips == []
+
+
 def test_a_file_that_is_no_backup_is_one_line_naming_it(tmp_path: Path) -> None:
     good = tmp_path / "good.toml"
     good.write_text(dumps(Backup(3, "micromaster4", [Entry(1120, value=10.0)]), "toml"), "utf-8")
@@ -367,7 +415,7 @@ def test_a_backup_written_before_reads_and_names_as_the_family_writes(tmp_path: 
     old_file.write_text(OLD_BACKUP, encoding="utf-8")
     hand_file.write_text(by_hand.replace("value = 0.0", "value = 1.5"), encoding="utf-8")
     code, out = uss(["diff", str(old_file), str(hand_file)])
-    assert (code, out.splitlines()[0]) == (1, "r0021 (Act. frequency): 0.00 Hz -> 1.50 Hz")
+    assert (code, out.splitlines()[-1]) == (0, "  r0021 (Act. frequency): 0.00 Hz -> 1.50 Hz")
     with pytest.raises(ConfigError) as info:
         loads(OLD_BACKUP.replace("pnu = 21\n", 'pnu = "P21x"\n'))
     assert "parameter 1: field 'pnu': 'P21x' is not a parameter number" in str(info.value)

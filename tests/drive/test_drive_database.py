@@ -143,6 +143,10 @@ def test_roles_are_checked(tmp_path: Path) -> None:
         load_database(_write(tmp_path, HEAD + "[drive]\nspeed = 5\n"))
     with pytest.raises(ConfigError, match="not defined"):
         load_database(_write(tmp_path, HEAD + "[drive]\nramp_up_time = 5\n"))
+    # the motor model's roles take the unit they are computed in
+    motor = text.replace("ramp_up_time", "output_current")
+    with pytest.raises(ConfigError, match=r"'output_current'.*must have the unit A, not 'Hz'"):
+        load_database(_write(tmp_path, motor))
 
 
 def test_a_file_extends_a_builtin_profile(tmp_path: Path) -> None:

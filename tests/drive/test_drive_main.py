@@ -48,6 +48,18 @@ def test_show_lists_a_profile_and_details_a_parameter(
     assert main(["show", "generic", "999"]) == 2
 
 
+def test_show_names_the_parameters_as_the_family_writes_them(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["show", "sinamics-v20"]) == 0
+    rows = {line.split()[0]: line for line in capsys.readouterr().out.splitlines()[1:]}
+    assert "r0021" in rows and "P1120" in rows and "P0003" in rows
+    assert main(["show", "sinamics-v20", "21"]) == 0
+    assert capsys.readouterr().out.startswith("r0021 'Actual frequency': float, ro")
+    assert main(["show", "nord", "102"]) == 0
+    assert capsys.readouterr().out.startswith("P102 ")
+
+
 def test_show_names_an_unknown_source(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["show", "genric"]) == 2
     err = capsys.readouterr().err

@@ -263,3 +263,28 @@ def test_in_commissioning_a_jog_does_not_switch_the_drive_on() -> None:
     drive.write(10, 0)
     drive.exchange([0x047E | ControlWord.JOG1, 0], 0.2)
     assert drive.state is DriveState.JOG
+
+
+@pytest.mark.parametrize("profile", ["micromaster440", "sinamics-v20"])
+def test_a_running_motor_draws_current_at_a_voltage_by_v_f(profile: str) -> None:
+    """r0025/r0027/r0032 of the simulation's motor model: 0 with the pulses off; running,
+    the voltage follows V/f up to the rated voltage (P0304), the current and the power rise
+    with the speed, and at the rated point the current is the rated current (P0305)."""
+    drive = SimulatedDrive.from_profile(profile)
+    rated_voltage, rated_current = drive.value(304, 0), drive.value(305, 0)
+    assert [drive.value(p) for p in (25, 27, 32)] == [0, 0, 0]
+    drive.exchange([0x047E, 0], 0.0)
+    drive.exchange([0x047F, 0x2000], 0.1)  # 50 % of P2000 = 50 Hz: 25 Hz
+    drive.exchange([0x047F, 0x2000], 30.0)
+    half = [drive.value(p) for p in (21, 25, 27, 32)]
+    assert half[0] == pytest.approx(25.0)
+    assert half[1] == pytest.approx(rated_voltage / 2, rel=1e-3)
+    assert 0 < half[2] < rated_current and half[3] > 0
+    drive.exchange([0x047F, 0x4000], 30.1)  # 50 Hz, the rated frequency (P0310)
+    drive.exchange([0x047F, 0x4000], 60.0)
+    rated = [drive.value(p) for p in (21, 25, 27, 32)]
+    assert rated[0] == pytest.approx(50.0)
+    assert rated[1] == pytest.approx(rated_voltage, rel=1e-3)
+    assert rated[2] == pytest.approx(rated_current, rel=1e-3) and rated[3] > half[3]
+    drive.exchange([0x047C, 0x4000], 60.1)  # OFF2: pulses off at once
+    assert [drive.value(p) for p in (25, 27, 32)] == [0, 0, 0]

@@ -156,18 +156,25 @@ def test_a_file_that_is_no_configuration_is_one_line_naming_it(tmp_path: Path) -
         assert not more and refuses(line.removeprefix("uss gateway: "), config, message), line
 
 
-def test_a_bad_key_in_the_file_is_named_before_any_port_opens(tmp_path: Path) -> None:
+def refused_drive(tmp_path: Path, drive: str) -> tuple[Path, str]:
+    """The one line ``uss gateway`` refuses a configuration with, whose one drive is given by
+    the ``[[bus.drive]]`` lines ``drive`` (exit code 2, before any port opens)."""
     config = tmp_path / "plant.toml"
     config.write_text(
-        '[[bus]]\nport = "/dev/ttyNOPE"\nprofile = "generic"\n[[bus.drive]]\naddress = 5\n'
-        "parameters = [90]\n[opcua]\n",
+        f'[[bus]]\nport = "/dev/ttyNOPE"\nprofile = "generic"\n[[bus.drive]]\naddress = 5\n'
+        f"{drive}[opcua]\n",
         encoding="utf-8",
     )
     result = subprocess.run(
         [*USS, "gateway", "--config", str(config)], capture_output=True, text=True, timeout=60
     )
     assert result.returncode == 2
-    assert result.stderr.strip() == (
+    return config, result.stderr.strip()
+
+
+def test_a_bad_key_in_the_file_is_named_before_any_port_opens(tmp_path: Path) -> None:
+    config, line = refused_drive(tmp_path, "parameters = [90]\n")
+    assert line == (
         f"uss gateway: {config}: bus[0].drive[0].parameters[0]: P90 (Plant name) is a string "
         "parameter: the gateway exposes numbers only"
     )
@@ -183,3 +190,13 @@ def test_a_face_without_its_library_names_the_pip_install() -> None:
         [sys.executable, "-c", code], capture_output=True, text=True, timeout=60
     )
     assert "pip install 'pyuss[opcua]'" in result.stdout
+
+
+def test_a_bad_parameter_of_a_siemens_drive_is_named_as_its_documents_write_it(
+    tmp_path: Path,
+) -> None:
+    config, line = refused_drive(tmp_path, 'profile = "sinamics-v20"\nparameters = ["r0947"]\n')
+    assert line == (
+        f"uss gateway: {config}: bus[0].drive[0].parameters[0]: r0947 (Fault numbers) is an "
+        "array of 8: name an element (r0947.0)"
+    )

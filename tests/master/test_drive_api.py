@@ -214,3 +214,41 @@ async def test_simulated_drives_from_one_station_answer_every_address() -> None:
             assert await master.drive(3).read_raw(462) != (77,)
     finally:
         await bus.close()
+
+
+async def test_a_refusal_says_what_to_do_in_the_family_s_words() -> None:
+    """A refused job names the parameter as the family writes it and what to do: the
+    family's own hint where its parameter file has one (V20 error 17; Baumueller response 8:
+    P126), the family-neutral one of C Table 4.3 otherwise."""
+    from pyuss.master import NoWriteAuthority
+    from pyuss.master.testing import simulated_drives
+
+    bus = VirtualBus(38400)
+    drives = [(3, "sinamics-v20", None), (4, "baumueller", None)]
+    try:
+        async with (
+            simulated_drives(bus, drives),
+            Master(bus.attach("master"), profile="sinamics-v20") as master,
+        ):
+            v20 = master.drive(3)
+            with pytest.raises(DriveRefusal) as refused:
+                await v20.write_raw(310, (0x4270, 0), 0)  # motor data outside commissioning
+            assert str(refused.value).startswith("drive refused the job (P0310.0): error 17: ")
+            assert refused.value.hint.endswith("set P0010 = 1 first and P0010 = 0 after")
+            assert str(refused.value).endswith(refused.value.hint)
+            with pytest.raises(DriveRefusal) as refused:
+                await v20.read_raw(999)
+            assert "(P0999): error 0: illegal parameter number; check the parameter" in str(
+                refused.value
+            )
+            baumueller = master.drive(4, profile="baumueller")
+            await baumueller.write_raw(126, (0,))  # communication may no longer change parameters
+            with pytest.raises(NoWriteAuthority) as denied:
+                await baumueller.write_raw(60, (1,))
+            assert "no parameter change rights for P60" in str(denied.value)
+            assert str(denied.value).endswith(
+                ": set bit 0 of P126 (communication source) so that the communication "
+                "interfaces may change parameters (Baumueller manual 1.5)"
+            )
+    finally:
+        await bus.close()

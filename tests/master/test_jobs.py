@@ -86,6 +86,21 @@ def test_a_job_times_out_and_leaves_the_answer_unknown() -> None:
     assert channel.last_answer is None
 
 
+def test_a_timeout_names_the_parameter_as_the_family_writes_it_and_what_to_do() -> None:
+    from pyuss.profiles import get_profile
+
+    channel = ParameterChannel(5, get_profile("sinamics-v20"))
+    done: list[Job] = []
+    channel.answer(Pkw(ResponseId.NO_RESPONSE), 0.0)
+    channel.submit(_job(Pkw(RequestId.READ_VALUE, 52), done, timeout=0.5))
+    channel.request(0.0)
+    channel.expire(0.6)
+    assert str(done[0].error) == (
+        "slave 5: no answer to read parameter value r0052 within 0.5 s (1 telegrams sent; "
+        "C 4.2.1.1): the drive answers, but not this job: allow it more time, or repeat it"
+    )
+
+
 def test_spontaneous_messages_are_new_only_when_the_toggle_changes() -> None:
     channel = ParameterChannel(5, GENERIC)
     assert channel.answer(Pkw(ResponseId.NO_RESPONSE), 0.0) is None

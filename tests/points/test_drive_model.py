@@ -154,3 +154,53 @@ def test_the_one_check_of_a_setpoint_serves_every_face_alike() -> None:
     with pytest.raises(ConfigError, match="reference is not known yet"):
         checked_setpoint(25, "value", reference=None, unit="Hz", where="line/drive1")
     assert checked_setpoint(25, "value", reference=50.0, unit="Hz").raw == 0x2000
+
+
+async def test_every_face_gets_the_refusal_with_what_to_do(plant: Plant) -> None:
+    """The faces' one error shape (`error_dict`: the MQTT reply's ``error``, the page's) keeps
+    its keys; its message carries the family's hint (Baumueller: P126)."""
+    from pyuss.master import NoWriteAuthority
+    from pyuss.points.errors import error_dict
+
+    points = plant.drive("line", 4)
+    await points.drive.write_raw(126, (0,))  # the communication interfaces may not change
+    try:
+        with pytest.raises(NoWriteAuthority) as denied:
+            await points.write_value(60, None, "1")
+        error = error_dict(denied.value)
+        assert set(error) == {"type", "message", "class", "response_id", "pnu"}
+        assert (error["type"], error["class"], error["pnu"]) == (
+            "NoWriteAuthority",
+            "no_authority",
+            60,
+        )
+        assert error["message"].endswith(
+            ": set bit 0 of P126 (communication source) so that the "
+            "communication interfaces may change parameters "
+            "(Baumueller manual 1.5)"
+        )
+    finally:
+        await points.drive.write_raw(126, (1,))
+
+
+async def test_the_fault_panel_shows_when_a_micromaster_440_tripped() -> None:
+    """MICROMASTER 440 r0948 holds three words a trip (seconds high, low, 0) for the two fault
+    numbers a trip has in r0947: the panel gives each fault its trip's time."""
+    from pyuss.points.view import fault_panel
+
+    drives = [(7, "micromaster440", None)]
+    bus = VirtualBus(BAUD)
+    try:
+        async with simulated_drives(bus, drives) as engines:
+            drive = engines[7].drive
+            drive.update(947, 3, 2)  # the trip before the last: F0003 at 70000 s
+            drive.update(948, 1, 3)
+            drive.update(948, 70000 - 65536, 4)
+            model = line_model("line", drives, baud=BAUD)
+            async with Plant(model, transports={"line": bus.attach("master")}) as plant:
+                await eventually(lambda: plant.drive("line", 7).state.answered)
+                panel = await fault_panel(plant.drive("line", 7))
+    finally:
+        await bus.close()
+    assert panel["parameters"]["times"] == 948
+    assert [(f["index"], f["number"], f["time"]) for f in panel["history"]] == [(2, 3, 70000)]

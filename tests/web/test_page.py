@@ -242,6 +242,12 @@ def test_a_v20_shows_its_key_actual_values_and_trends_them(page: Any, demo: Runn
             "parseFloat(document.querySelector('#drive-actuals td[data-pnu=\"21\"]')"
             ".textContent) > 10"
         )
+        # the simulated motor draws current at a voltage by V/f, and takes power
+        for pnu in (27, 25, 32):
+            page.wait_for_function(
+                f"parseFloat(document.querySelector('#drive-actuals td[data-pnu=\"{pnu}\"]')"
+                ".textContent) > 0"
+            )
         screenshot(page, "web-v20", full_page=True)
     finally:
         demo.call(demo.backend.command(9, "off1"))

@@ -7,7 +7,8 @@ The hex may be given as one string or several arguments, with or without blanks,
 ``0x`` prefixes. ``--layout PKW,PZD`` says how the net data are split (PKW 0, 3, 4 or ``v``;
 PZD 0..16); ``--direction`` whether the telegram is a request (master to slave, the default)
 or a response, which decides the names of IDs and of the bits of PZD1; ``--profile NAME`` says
-how the device numbers parameters from 2000 on (micromaster4: PNU 10 with IND bit 15 is P2010).
+how the device numbers parameters from 2000 on (micromaster4: PNU 10 with IND bit 15 is P2010)
+and names the parameter as the family's documents write it (``r0052 (Status word 1)``).
 
 A telegram with a wrong BCC is still decoded (``bcc_ok`` false) and exits with 0. Bad hex, a
 missing or bad layout, a bad direction, bytes that are no telegram (no STX, LGE not matching
@@ -29,7 +30,7 @@ import argparse
 import json
 import re
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pyuss.cli._help import plain
 from pyuss.cli._output import print_error
@@ -53,6 +54,9 @@ from pyuss.protocol.pzd import (
     raw16_to_percent,
 )
 from pyuss.protocol.telegram import AddressMode, Telegram, bcc
+
+if TYPE_CHECKING:
+    from pyuss.profiles import Profile
 
 __all__ = ["describe", "parse_hex", "register", "render", "run"]
 
@@ -195,7 +199,7 @@ def describe(
     }
 
 
-def _render_pkw(info: dict[str, Any], lines: list[str]) -> None:
+def _render_pkw(info: dict[str, Any], lines: list[str], profile: Profile | None) -> None:
     pkw, bea = info["pkw"], info["broadcast_enable"]
     if pkw is None:
         lines.append("PKW        none (PKW 0)")
@@ -212,11 +216,15 @@ def _render_pkw(info: dict[str, Any], lines: list[str]) -> None:
         f"PKE        {pke:04X}h: {kind} {pkw['id']} {pkw['id_name']} ({pkw['id_text']}), "
         f"PNU {pkw['pnu']}, toggle {int(pkw['spm_toggle'])}"
     )
-    if pkw.get("parameter", pkw["pnu"]) != pkw["pnu"]:
+    number = pkw.get("parameter", pkw["pnu"])
+    label = f"P{number}" if profile is None else profile.label(number)
+    if number != pkw["pnu"]:
         lines.append(
-            f"           parameter P{pkw['parameter']}: PNU {pkw['pnu']} on IND page "
+            f"           parameter {label}: PNU {pkw['pnu']} on IND page "
             f"{page_of(pkw['index'])} (bits 12..15)"
         )
+    elif profile is not None and number in profile.database():
+        lines.append(f"           parameter {label} ({profile.database().parameter(number).name})")
     index = pkw["index"]
     extra = ""
     if index >> 8:
@@ -232,8 +240,9 @@ def _render_pkw(info: dict[str, Any], lines: list[str]) -> None:
         lines.append(f"           text {text!r}")
 
 
-def render(info: dict[str, Any]) -> str:
-    """The person-readable form of `describe`'s dict."""
+def render(info: dict[str, Any], profile: Profile | None = None) -> str:
+    """The person-readable form of `describe`'s dict (``profile``: the parameter is named as
+    the family's documents write it, ``r0052 (Status word 1)``)."""
     raw_len = len(info["hex"].split())
     verdict = "ok" if info["bcc_ok"] else f"WRONG, expected {info['bcc_expected']:02X}h"
     direction = (
@@ -249,7 +258,7 @@ def render(info: dict[str, Any]) -> str:
         f"BCC        {info['bcc']:02X}h {verdict}",
         f"layout     PKW {pkw_count}, PZD {pzd_count}; {direction}",
     ]
-    _render_pkw(info, lines)
+    _render_pkw(info, lines, profile)
     pzd = info["pzd"]
     if pzd:
         kind = info["pzd1"]["kind"]
@@ -270,10 +279,12 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError("no layout given: --layout PKW,PZD is required, e.g. --layout 3,2")
         layout = Layout.parse(args.layout)
         page_size = None
+        profile = None
         if args.profile is not None:
             from pyuss.profiles import get_profile
 
-            page_size = get_profile(args.profile).pnu_page_size
+            profile = get_profile(args.profile)
+            page_size = profile.pnu_page_size
         info = describe(raw, layout, args.direction, page_size=page_size)
     except (ConfigError, TelegramError) as exc:
         if args.json:
@@ -281,5 +292,5 @@ def run(args: argparse.Namespace) -> int:
         else:
             print(f"uss decode: {exc}", file=sys.stderr)
         return EXIT_USAGE
-    print(json.dumps(info, indent=2) if args.json else render(info))
+    print(json.dumps(info, indent=2) if args.json else render(info, profile))
     return EXIT_OK

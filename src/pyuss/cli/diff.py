@@ -3,9 +3,11 @@
 With an ADDRESS (and ``--port``) the drive's parameters named in FILE are read now and compared
 with the file; with two files nothing is sent. Without ``--profile`` the drive is of unknown
 kind and read as words; against a file of a named profile (or two files of different profiles)
-the parameters are compared by their raw words. Each difference prints as one line with the
-parameter's name and unit: ``P1120 (Ramp-up time): 10.00 s -> 2.50 s`` (left -> right). Exit
-code 0 when the sets agree, 1 when they differ (as diff does), 2 for a file that is no backup.
+the parameters are compared by their raw words. Each setting that differs prints as one line
+with the parameter's name and unit: ``P1120 (Ramp-up time): 10.00 s -> 2.50 s`` (left ->
+right). Read-only values (status words, actual values) that differ follow apart: the drive
+measures or shows them, they are no settings and no restore writes them. Exit code 0 when the
+settings agree, 1 when they differ (as diff does), 2 for a file that is no backup.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ from pyuss.cli._master import (
     use_lines,
 )
 from pyuss.commission import backup as backups
-from pyuss.commission.compare import compare
+from pyuss.commission.compare import changed_values, compare
 from pyuss.errors import ConfigError
 from pyuss.lines import is_address
 from pyuss.params.book import ParamBook
@@ -49,7 +51,9 @@ def register(subparsers: Any) -> None:
         if action.dest == "port":
             action.required = False
     _params.add_options(parser)
-    parser.epilog = "exit codes:\n  0    no difference\n  1    differences\n  2    bad input"
+    parser.epilog = (
+        "exit codes:\n  0    the settings agree\n  1    settings differ\n  2    bad input"
+    )
 
 
 def book_for(profile: str) -> ParamBook | None:
@@ -80,6 +84,7 @@ def main(args: argparse.Namespace) -> int:
             left_name = args.left
             book = book_for(right.profile)
         differences = compare(left, right)
+        values = changed_values(left, right)
         if args.json:
             emit(
                 args,
@@ -87,6 +92,7 @@ def main(args: argparse.Namespace) -> int:
                     "left": left_name,
                     "right": args.right,
                     "differences": [d.to_dict() for d in differences],
+                    "read_only": [d.to_dict() for d in values],
                 },
                 "",
             )
@@ -100,6 +106,12 @@ def main(args: argparse.Namespace) -> int:
                 if count
                 else f"{left_name} and {args.right} agree"
             )
+            if values:
+                print(
+                    "read-only values, measured or shown by the drive (no settings, not restored):"
+                )
+                for value in values:
+                    print(f"  {value.text(book)}")
         return EXIT_FAILED if differences else EXIT_OK
 
     return run("diff", args, body)

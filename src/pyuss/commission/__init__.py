@@ -4,7 +4,8 @@ one look at a drive's state.
 - `pyuss.commission.backup`: `take` a `Backup` of a drive (every parameter its book knows,
   ``scan`` for the others), `save` it (TOML, JSON, CSV export; atomically), `load` it back
   (refusing cut-short or broken files).
-- `pyuss.commission.compare`: `compare` two sets; `another_drive` says whether a file is
+- `pyuss.commission.compare`: `compare` two sets (settings;
+  `changed_values`: the read-only values apart); `another_drive` says whether a file is
   another drive's; `plan` and `restore` write a set back.
 - `pyuss.commission.status`: `look` at a drive: state, status word, actual values with
   units, fault and warning numbers with texts.
@@ -20,6 +21,7 @@ from pyuss.commission.compare import (
     Skip,
     Write,
     another_drive,
+    changed_values,
     compare,
     plan,
     restore,
@@ -35,6 +37,7 @@ __all__ = [
     "Skip",
     "Write",
     "another_drive",
+    "changed_values",
     "compare",
     "load",
     "look",

@@ -390,9 +390,14 @@ def beyond_layout(layout: Layout, info: ParamInfo | None) -> str | None:
 
 
 def error_dict(exc: UssError) -> dict[str, Any]:
+    """``type``, ``message``, for a refusal ``number`` and ``meaning``, and ``hint`` (what to
+    do) where the error carries one."""
     data: dict[str, Any] = {"type": type(exc).__name__, "message": str(exc)}
     if isinstance(exc, DriveRefusal):
         data.update(number=exc.number, meaning=exc.meaning)
+    hint = getattr(exc, "hint", "")
+    if hint:
+        data["hint"] = hint
     return data
 
 

@@ -1,20 +1,23 @@
 """Comparing parameter sets and writing one back to a drive.
 
-`compare` lists what differs between two `Backup`s (a drive read now, or two files), with names
-and units; two sets of different kinds (a drive of unknown kind, read as words, and a file of a
-named profile, or files of two profiles) are compared by their raw words where both sides have
-them, since their values are not read alike. `plan` turns "what the drive holds now" and "what
-the file says" into the writes a restore makes: only parameters that differ, only writable ones
-(a read-only one, a parameter the file could not read, and one nothing is known of without raw
-words are listed as skipped), an array element by element, each value checked against the
-parameter's type and limits first so that a hand-broken file is refused before anything is
-written. The order (for a drive of a named profile; a drive of unknown kind is written by
-number, no family's order or commissioning rule put on it): the profile's own list
-(``restore_order``) if it has one, then the access level parameter, the parameter that enables
-writing, parameters changeable only in quick commissioning (``changeable`` C; wrapped in the
-drive's commissioning rule: P0010 = 1 before them, 0 after), then the rest by number. The
-commissioning parameters themselves (P0010, P3900, P0970) are commands, not settings, and are
-not restored.
+`compare` lists the settings that differ between two `Backup`s (a drive read now, or two
+files), with names and units; two sets of different kinds (a drive of unknown kind, read as
+words, and a file of a named profile, or files of two profiles) are compared by their raw words
+where both sides have them, since their values are not read alike. Read-only parameters (status
+and control words, actual values, fault numbers: what the drive measures or shows) are no
+settings: two readings at different moments differ without anything to restore, so `compare`
+leaves them out and `changed_values` lists them apart; a restore never writes them. `plan`
+turns "what the drive holds now" and "what the file says" into the writes a restore makes: only
+settings that differ, only writable ones (a parameter the book knows as read-only, one the file
+could not read, and one nothing is known of without raw words are listed as skipped), an array
+element by element, each value checked against the parameter's type and limits first so that a
+hand-broken file is refused before anything is written. The order (for a drive of a named
+profile; a drive of unknown kind is written by number, no family's order or commissioning rule
+put on it): the profile's own list (``restore_order``) if it has one, then the access level
+parameter, the parameter that enables writing, parameters changeable only in quick
+commissioning (``changeable`` C; wrapped in the drive's commissioning rule: P0010 = 1 before
+them, 0 after), then the rest by number. The commissioning parameters themselves (P0010,
+P3900, P0970) are commands, not settings, and are not restored.
 `restore` makes the writes, reports each refusal with its meaning and goes on.
 """
 
@@ -47,6 +50,7 @@ __all__ = [
     "Skip",
     "Write",
     "another_drive",
+    "changed_values",
     "compare",
     "plan",
     "restore",
@@ -99,6 +103,11 @@ class Difference:
         return ""
 
     @property
+    def read_only(self) -> bool:
+        """A value the drive measures or shows (either side read it as read-only), no setting."""
+        return any(e is not None and e.access == "ro" for e in (self.left, self.right))
+
+    @property
     def kind(self) -> str:
         if self.left is None:
             return "only right"
@@ -127,8 +136,19 @@ class Difference:
 
 
 def compare(left: Backup, right: Backup) -> list[Difference]:
-    """What differs between two parameter sets, in parameter order (by raw words where
-    they are of different kinds: module docstring)."""
+    """The settings that differ between two parameter sets, in parameter order (by raw words
+    where they are of different kinds: module docstring; read-only values are left out:
+    `changed_values`)."""
+    return [d for d in _differences(left, right) if not d.read_only]
+
+
+def changed_values(left: Backup, right: Backup) -> list[Difference]:
+    """The read-only values (measured or shown by the drive) that differ between two parameter
+    sets: shown apart from the settings, never restored."""
+    return [d for d in _differences(left, right) if d.read_only]
+
+
+def _differences(left: Backup, right: Backup) -> list[Difference]:
     words = left.profile != right.profile
     lefts = {(e.pnu, e.index): e for e in left.entries}
     rights = {(e.pnu, e.index): e for e in right.entries}
@@ -337,11 +357,14 @@ class Outcome:
         return self.error is None
 
     def error_text(self) -> str:
-        """``error 12: keyword missing`` for a refusal, else the error's message."""
+        """``error 12: keyword missing; <what to do>`` for a refusal, else the error's
+        message."""
         if self.error is None:
             return ""
         if "number" in self.error:
-            return f"error {self.error['number']}: {self.error['meaning']}"
+            hint = self.error.get("hint")
+            todo = f"; {hint}" if hint else ""
+            return f"error {self.error['number']}: {self.error['meaning']}{todo}"
         return str(self.error.get("message", "failed"))
 
     def text(self) -> str:

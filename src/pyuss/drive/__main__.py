@@ -3,7 +3,8 @@
 ``check`` validates a parameter file (and the files it extends) and prints a one-line summary;
 a bad file gives a one-line message naming file, parameter and field, and exit code 2.
 ``show`` lists the parameters of a built-in profile or a file, or one parameter with its
-description elements and texts.
+description elements and texts, each named as the family's documents write it (``r0021``,
+``P1120``; ``P21`` in the generic style).
 """
 
 from __future__ import annotations
@@ -48,7 +49,7 @@ def _table(db: ParameterDatabase) -> list[str]:
             limits = f"{p.low}..{p.high}"
         extra = " ".join(x for x in (limits, p.unit, "active" if p.active else "") if x)
         lines.append(
-            f"{p.pnu:>5}  {p.name:16}  {shape:8}  {p.access.value:9}  "
+            f"{db.label(p.pnu):>5}  {p.name:16}  {shape:8}  {p.access.value:9}  "
             f"{_value(p.default[0]):>14}  {extra}"
         )
     return lines
@@ -57,7 +58,8 @@ def _table(db: ParameterDatabase) -> list[str]:
 def _detail(db: ParameterDatabase, pnu: int) -> list[str]:
     memory = ParameterMemory(db)
     p = db.parameter(pnu)
-    lines = [f"P{p.pnu} {p.name!r}: {p.dtype.label}, {p.access.value}", f"  {p.doc}".rstrip()]
+    title = f"{db.label(p.pnu)} {p.name!r}: {p.dtype.label}, {p.access.value}"
+    lines = [title, f"  {p.doc}".rstrip()]
     if p.follows:
         lines.append(f"  follows: {p.follows}")
     for item in memory.description(pnu):

@@ -95,6 +95,21 @@ class NameStyle(enum.Enum):
     least, as the MICROMASTER 4 and SINAMICS parameter lists and panels write them."""
 
 
+def param_name(
+    pnu: int,
+    index: int | None = None,
+    *,
+    style: NameStyle = NameStyle.PROJECT,
+    read_only: bool = False,
+) -> str:
+    """``P21``, ``P947.3`` (`NameStyle.PROJECT`); ``r0021``, ``P1120``, ``r0947.3``
+    (`NameStyle.SIEMENS`: ``r`` where ``read_only``). The one formatter of parameter numbers
+    (`pyuss.params.names` gives it to the upper layers)."""
+    siemens = style is NameStyle.SIEMENS
+    text = f"{'r' if siemens and read_only else 'P'}{pnu:04d}" if siemens else f"P{pnu}"
+    return text if index is None else f"{text}.{index}"
+
+
 class DisplayFormat(enum.IntEnum):
     """Display format code of the Baumueller attribute bits 8..11 (Baumueller manual 2.2.1)."""
 
@@ -126,7 +141,23 @@ LEVEL_ROLES = ("jog1", "jog2", "tolerance", "compare_value")
 DISPLAY_ROLES = ("state", "fault", "warning", "control_word", "status_word", "setpoint", "actual")
 """Parameters the drive writes itself: state code, fault/warning number, words, values."""
 
-ROLES = (*TIME_ROLES, *LEVEL_ROLES, "reference", *DISPLAY_ROLES)
+MOTOR_ROLES = ("motor_voltage", "motor_current", "motor_power")
+"""Rated motor data the simulation's motor model reads (units V, A, kW; `MOTOR_UNITS`)."""
+
+OUTPUT_ROLES = ("output_voltage", "output_current", "output_power")
+"""What the simulation's motor model shows while the motor runs (units V, A, kW)."""
+
+MOTOR_UNITS = {
+    "motor_voltage": "V",
+    "motor_current": "A",
+    "motor_power": "kW",
+    "output_voltage": "V",
+    "output_current": "A",
+    "output_power": "kW",
+}
+"""The unit each motor role's parameter must have."""
+
+ROLES = (*TIME_ROLES, *LEVEL_ROLES, "reference", *DISPLAY_ROLES, *MOTOR_ROLES, *OUTPUT_ROLES)
 
 INTERFACE_ROLES = ("address", "baud", "pkw", "pzd", "failure_time")
 """Interface parameters of C 3 the slave engine reads its settings from."""
@@ -419,6 +450,7 @@ class ParameterDatabase:
         process_actuals: Sequence[int] = (),
         commissioning: Commissioning | None = None,
         words: WordBits | None = None,
+        hints: Mapping[int | str, str] | None = None,
     ) -> None:
         self.profile = profile
         self.commissioning = commissioning
@@ -434,6 +466,9 @@ class ParameterDatabase:
         """The family's warning numbers and short texts."""
         self.process_setpoints = tuple(process_setpoints)
         self.process_actuals = tuple(process_actuals)
+        self.hints: Mapping[int | str, str] = dict(hints or {})
+        """What to do when the drive refuses, in the family's words (``[hints]``): by error
+        number of response 7, and ``no_authority`` for response 8."""
 
     def __contains__(self, pnu: object) -> bool:
         return pnu in self._parameters
@@ -443,6 +478,13 @@ class ParameterDatabase:
 
     def __len__(self) -> int:
         return len(self._parameters)
+
+    def label(self, pnu: int, index: int | None = None) -> str:
+        """``pnu`` (element ``index``) as the family's documents write it: ``r0021``,
+        ``P1120``, NORD ``P102``; a number the file does not know with a ``P``."""
+        found = self._parameters.get(pnu)
+        read_only = found is not None and found.access is Access.RO
+        return param_name(pnu, index, style=self.profile.names, read_only=read_only)
 
     def parameter(self, pnu: int) -> Parameter:
         """The parameter numbered ``pnu``; error 0 "illegal PNU" if there is none."""
@@ -606,6 +648,7 @@ _TOP_KEYS = {
     "process",
     "commissioning",
     "words",
+    "hints",
 }
 _PROFILE_KEYS = {
     "name",
@@ -681,6 +724,7 @@ def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
         "process": {},
         "commissioning": {},
         "words": {},
+        "hints": {},
     }
     for source, data in layers:
         unknown = set(data) - _TOP_KEYS
@@ -733,6 +777,7 @@ def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
         process_actuals=_process(tables["process"], "actuals", sources, parameters),
         commissioning=_commissioning(tables["commissioning"], sources, parameters),
         words=_words(tables["words"], sources),
+        hints=_hints(tables["hints"], sources),
     )
     for name in ("access_level", "write_enable"):
         ref = getattr(profile, name)
@@ -901,6 +946,24 @@ def _number_texts(table: dict[str, Any], table_name: str, source: str) -> dict[i
     return dict(sorted(result.items()))
 
 
+HINT_KEYS = ("no_authority",)
+"""The named entries of ``[hints]`` beside the error numbers: ``no_authority`` (response 8)."""
+
+
+def _hints(table: dict[str, Any], source: str) -> dict[int | str, str]:
+    """``[hints]``: error numbers of response 7 and ``no_authority`` with what to do."""
+    named = {key: table.pop(key) for key in HINT_KEYS if key in table}
+    found: dict[int | str, str] = {
+        number: text for number, text in _number_texts(table, "hints", source).items()
+    }
+    for key, value in named.items():
+        if not isinstance(value, str):
+            raise _Where(source, "[hints]").error(key, "must be a text")
+        if value:
+            found[key] = value
+    return found
+
+
 def _process(
     table: dict[str, Any], key: str, source: str, parameters: Mapping[int, Parameter]
 ) -> tuple[int, ...]:
@@ -938,6 +1001,10 @@ def _check_roles(db: ParameterDatabase, source: str) -> None:
                     f"P{ref.pnu} unit {unit!r} needs a 'reference' parameter with that unit "
                     "(or use %, or no unit for 4000h = 100 %)",
                 )
+        if name in MOTOR_UNITS and unit != MOTOR_UNITS[name]:
+            raise where.error(
+                name, f"P{ref.pnu} must have the unit {MOTOR_UNITS[name]}, not {unit!r}"
+            )
         if (
             name in ("state", "fault", "warning", "control_word", "status_word")
             and not param.dtype.is_integer

@@ -26,6 +26,10 @@ Family rules read from the parameter file (docs/drive.md):
 - ``[words]`` (`pyuss.drive.database.WordBits`): the control bit that inverts the setpoint,
   the status bits shown as 1 while their low-active warning is absent, the direction bit, and
   whether the jog bits switch the drive on (`pyuss.drive.states`).
+- ``[drive]`` motor roles: from the rated motor data (``motor_voltage``, ``motor_current``,
+  ``motor_power``) a simple motor model (`motor_outputs`) shows output voltage, current and
+  power (``output_voltage``, ``output_current``, ``output_power``) while the pulses are on.
+  This is simulation, not a fact of any drive.
 """
 
 from __future__ import annotations
@@ -38,6 +42,8 @@ from pathlib import Path
 
 from pyuss.drive.database import (
     LEVEL_ROLES,
+    MOTOR_ROLES,
+    OUTPUT_ROLES,
     TIME_ROLES,
     TIME_UNITS,
     ParameterDatabase,
@@ -75,12 +81,56 @@ class _Display:
 
 
 @dataclass(frozen=True, slots=True)
+class RatedMotor:
+    """The rated data of the simulated motor: voltage (V), current (A), power (kW) and
+    frequency (Hz)."""
+
+    voltage: float
+    current: float
+    power: float
+    frequency: float
+
+
+EFFICIENCY = 0.8
+"""Efficiency of the simulated motor at its rated point (electrical power in = rated power /
+efficiency): the share of the rated current that is active current follows from it."""
+
+
+def motor_outputs(motor: RatedMotor, frequency: float, running: bool) -> tuple[float, float, float]:
+    """Output voltage (V), current (A) and power (kW) of the simulated motor at ``frequency``
+    (Hz) - a model for the simulation, not a fact of a drive:
+
+    - voltage by V/f: rated voltage x f / rated frequency, at most the rated voltage;
+    - current: the magnetising current (what the rated current holds beyond the active current
+      of the rated point) and an active current for a load whose torque rises with the square of
+      the speed (a fan or pump), the rated active current at the rated frequency;
+    - power: sqrt(3) x voltage x active current.
+
+    Pulses off (``running`` False): all 0."""
+    if not running or motor.frequency <= 0 or motor.voltage <= 0:
+        return 0.0, 0.0, 0.0
+    share = min(abs(frequency) / motor.frequency, 1.0)
+    rated_active = min(
+        motor.current, motor.power * 1000.0 / (math.sqrt(3) * motor.voltage * EFFICIENCY)
+    )
+    magnetising = math.sqrt(max(motor.current**2 - rated_active**2, 0.0))
+    active = rated_active * share * share
+    voltage = motor.voltage * share
+    current = math.hypot(magnetising, active)
+    return voltage, current, math.sqrt(3) * voltage * active / 1000.0
+
+
+@dataclass(frozen=True, slots=True)
 class _Displays:
     """The displays of `_PLAIN_DISPLAYS` and `_LEVEL_DISPLAYS` in that order (None where the
     parameter file names none)."""
 
     plain: tuple[_Display | None, ...]
     levels: tuple[_Display | None, ...]
+    outputs: tuple[_Display | None, ...]
+    """The motor model's displays (`OUTPUT_ROLES`)."""
+    motor: RatedMotor | None
+    """The rated motor data (None: the file names no motor, the model shows nothing)."""
 
 
 class SimulatedDrive(ParameterMemory):
@@ -101,6 +151,11 @@ class SimulatedDrive(ParameterMemory):
             ref.pnu
             for name, ref in db.roles.items()
             if name in (*TIME_ROLES, *LEVEL_ROLES, "reference")
+        }
+        rule = db.commissioning
+        rated = () if rule is None or rule.rated_frequency is None else (rule.rated_frequency,)
+        self._motor_pnus = {
+            ref.pnu for ref in (*(db.roles[n] for n in MOTOR_ROLES if n in db.roles), *rated)
         }
         self._motion_cache: Motion | None = None
         self._displays_cache: _Displays | None = None
@@ -302,6 +357,9 @@ class SimulatedDrive(ParameterMemory):
         return value / self._level_factor(ref)
 
     def _changed(self, pnu: int) -> None:
+        if pnu in self._motor_pnus:  # the rated motor data: the motor model's
+            self._displays_cache = None
+            self._published = None
         if pnu in self._motion_pnus:  # the reference among them: the level displays' factor
             self._motion_cache = None
             self._displays_cache = None
@@ -343,8 +401,27 @@ class SimulatedDrive(ParameterMemory):
             self._displays_cache = _Displays(
                 tuple(self._display(name, level=False) for name in _PLAIN_DISPLAYS),
                 tuple(self._display(name, level=True) for name in _LEVEL_DISPLAYS),
+                tuple(self._display(name, level=False) for name in OUTPUT_ROLES),
+                self._rated_motor(),
             )
         return self._displays_cache
+
+    def _rated_motor(self) -> RatedMotor | None:
+        """The rated motor data from the motor roles; the rated frequency from the
+        commissioning rule's, else the reference (None: a role is missing)."""
+        values = [self._role(name) for name in MOTOR_ROLES]
+        rule = self.db.commissioning
+        frequency: float | None = None
+        if rule is not None and rule.rated_frequency is not None:
+            held = self.ref_value(rule.rated_frequency)
+            assert isinstance(held, int | float)
+            frequency = float(held)
+        elif (reference := self._role("reference")) is not None:
+            frequency = reference[1]
+        if frequency is None or any(v is None for v in values):
+            return None
+        voltage, current, power = (v[1] for v in values if v is not None)
+        return RatedMotor(voltage, current, power, frequency)
 
     def _display(self, name: str, *, level: bool) -> _Display | None:
         ref = self.db.roles.get(name)
@@ -378,7 +455,8 @@ class SimulatedDrive(ParameterMemory):
             self.status_word(),
         )
         levels = (machine.ramp_input, machine.actual)
-        published = (plain, levels)
+        outputs = self._outputs(displays.motor)
+        published = (plain, levels, outputs)
         if published == self._published:
             return  # the displays show these values already (`_changed` forgets them)
         for display, value in zip(displays.plain, plain, strict=True):
@@ -387,7 +465,18 @@ class SimulatedDrive(ParameterMemory):
         for display, fraction in zip(displays.levels, levels, strict=True):
             if display is not None:
                 self._show(display, fraction * display.factor / display.divisor)
+        for display, output in zip(displays.outputs, outputs, strict=False):
+            if display is not None:
+                self._show(display, output / display.divisor)
         self._published = published
+
+    def _outputs(self, motor: RatedMotor | None) -> tuple[float, ...]:
+        """The motor model's output voltage, current and power now (empty without a motor)."""
+        if motor is None:
+            return ()
+        reference = self._role("reference")
+        hertz = abs(self.machine.actual) * (motor.frequency if reference is None else reference[1])
+        return motor_outputs(motor, hertz, self.machine.running)
 
     def _show(self, display: _Display, value: float) -> None:
         """Show ``value`` in a display, rounded to what its type holds; a value the display

@@ -275,12 +275,14 @@ class Drive:
         values = answer.values
         if answer.id in _DOUBLE:
             if not values or len(values) % 2:
-                raise TelegramError(f"P{pnu}: {len(values)} words are not whole double words")
+                raise TelegramError(
+                    f"{self.params.label(pnu)}: {len(values)} words are not whole double words"
+                )
             return values
         if answer.id not in _WORDS:
-            raise TelegramError(f"P{pnu}: answer {answer.id} carries no value")
+            raise TelegramError(f"{self.params.label(pnu)}: answer {answer.id} carries no value")
         if not values:
-            raise TelegramError(f"P{pnu}: the answer carries no value")
+            raise TelegramError(f"{self.params.label(pnu)}: the answer carries no value")
         if not self.layout.variable and len(values) > 1:
             return values[-1:]
         return values
@@ -577,7 +579,8 @@ class Drive:
             if silence.sent:
                 within = "" if silence.timeout is None else f" within {silence.timeout:g} s"
                 silence.args = (
-                    f"slave {self.address} gives no description of P{pnu}: it does not answer "
+                    f"slave {self.address} gives no description of {self.params.label(pnu)}: "
+                    "it does not answer "
                     f"request 4 (no reply{within} to {silence.sent} telegrams, though it "
                     "answers others): it has no parameter descriptions, as most USS slaves "
                     "(USS specification C 6)",

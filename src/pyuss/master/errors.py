@@ -45,16 +45,29 @@ class NoWriteAuthority(UssError, PermissionError):
     """Response ID 8: the interface has no right to change parameters (C Table 4.2).
 
     Reading still works; every change and EEPROM job is refused this way (C 4.2.1.1).
+    ``label``: the parameter as the drive's family writes it (``P1120``; without it ``P1120``
+    in the generic style); ``hint``: what to do (`pyuss.profiles.Profile.no_authority_hint`:
+    on a MICROMASTER 4 or SINAMICS drive, P0927).
     """
 
-    def __init__(self, *, address: int, pnu: int, index: int | None = None) -> None:
+    def __init__(
+        self,
+        *,
+        address: int,
+        pnu: int,
+        index: int | None = None,
+        label: str | None = None,
+        hint: str = "",
+    ) -> None:
         self.address = address
         self.pnu = pnu
         self.index = index
-        where = f"P{pnu}" + ("" if index is None else f".{index}")
+        self.hint = hint
+        where = label or (f"P{pnu}" + ("" if index is None else f".{index}"))
+        todo = f": {hint}" if hint else ""
         super().__init__(
             f"slave {address}: no parameter change rights for {where} (response ID 8: another "
-            "interface holds the parameter write authority)"
+            f"interface holds the parameter write authority){todo}"
         )
 
 
@@ -144,7 +157,11 @@ class NotSending(UssTimeout):
     def __init__(self, address: int, detail: str = "") -> None:
         self.address = address
         extra = f": {detail}" if detail else ""
-        super().__init__(f"slave {address} does not send{extra}")
+        super().__init__(f"slave {address} does not send{extra}; {NOT_SENDING_HINT}")
+
+
+NOT_SENDING_HINT = "check address, baud rate and wiring"
+"""What to do when a slave does not send (A 5.2.1.1), whichever the family."""
 
 
 class DriveFault(UssError):

@@ -42,7 +42,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 from pyuss.errors import DriveRefusal, UssError
-from pyuss.master.errors import JobOutcome, JobTimeout, NoWriteAuthority, job_changes
+from pyuss.master.errors import (
+    NOT_SENDING_HINT,
+    JobOutcome,
+    JobTimeout,
+    NoWriteAuthority,
+    job_changes,
+)
 from pyuss.master.profile import Profile, answers
 from pyuss.master.stats import JobStats, Samples
 from pyuss.protocol.pkw import Pkw, RequestId, ResponseId
@@ -77,9 +83,10 @@ class SpontaneousMessage:
         return pkw.word()
 
 
-def describe_job(request: Pkw, pnu: int, index: int | None) -> str:
-    """``"read parameter value P52"`` and the like, for messages."""
-    where = f"P{pnu}" + ("" if index is None else f".{index}")
+def describe_job(request: Pkw, pnu: int, index: int | None, label: str | None = None) -> str:
+    """``"read parameter value r0052"`` and the like, for messages (``label``: the parameter as
+    the drive's family writes it; without it ``P52``)."""
+    where = label or (f"P{pnu}" + ("" if index is None else f".{index}"))
     try:
         what = RequestId(request.id).text
     except ValueError:  # pragma: no cover - Pkw ids are 0..15, all named
@@ -214,17 +221,18 @@ class ParameterChannel:
                 self._timed_out += 1
                 if not self.not_sending:
                     what = (
-                        f"slave {self.address}: no answer to {job.text} within {job.timeout:g} s "
-                        f"({job.sent} telegrams sent; C 4.2.1.1)"
+                        f"slave {self.address}: no answer to {self._text(job)} within "
+                        f"{job.timeout:g} s ({job.sent} telegrams sent; C 4.2.1.1): the drive "
+                        "answers, but not this job: allow it more time, or repeat it"
                     )
                 elif not self.synced:
                     what = self._silent(job)
                 else:
                     what = (
-                        f"slave {self.address} has stopped answering: no reply to {job.text} "
-                        f"within {job.timeout:g} s ({job.sent} telegrams sent): check the "
-                        "wiring, and whether the drive knows this request (USS specification "
-                        "A 5.2.1.1: the slave does not send; C 4.2.1.1)"
+                        f"slave {self.address} has stopped answering: no reply to "
+                        f"{self._text(job)} within {job.timeout:g} s ({job.sent} telegrams "
+                        "sent): check the wiring, and whether the drive knows this request "
+                        "(USS specification A 5.2.1.1: the slave does not send; C 4.2.1.1)"
                     )
                 self._finish(job, error=self._timeout(job, now, what))
                 self._next_due(now)
@@ -238,18 +246,23 @@ class ParameterChannel:
                     what = self._silent(head)
                 else:
                     what = (
-                        f"slave {self.address}: {head.text} not sent within {head.timeout:g} s: "
+                        f"slave {self.address}: {self._text(head)} not sent within "
+                        f"{head.timeout:g} s: "
                         "the slave kept repeating an answer that could be taken for the answer "
                         "to it and did not answer 'no job' with 'no response' (C 4.2.1.1)"
                     )
                 self._finish(head, error=self._timeout(head, now, what))
                 self._next_due(now)
 
+    def _text(self, job: Job) -> str:
+        """The job in words, its parameter as the drive's family writes it."""
+        return describe_job(job.request, job.pnu, job.index, self.profile.label(job.pnu, job.index))
+
     def _silent(self, job: Job) -> str:
         """What a job's end says of a slave that does not answer at all."""
         return (
-            f"slave {self.address} does not answer (no reply within {job.timeout:g} s): check "
-            "address, baud rate and wiring (USS specification A 5.2.1.1: the slave does not send)"
+            f"slave {self.address} does not answer (no reply within {job.timeout:g} s): "
+            f"{NOT_SENDING_HINT} (USS specification A 5.2.1.1: the slave does not send)"
         )
 
     def _timeout(self, job: Job, now: float, message: str) -> JobTimeout:
@@ -310,14 +323,25 @@ class ParameterChannel:
                     0xFFFF, "no error number sent", pnu=job.pnu, index=job.index
                 )
             else:
-                meaning = self.profile.error_meaning(number)
-                error = DriveRefusal(number, meaning, pnu=job.pnu, index=job.index)
+                error = DriveRefusal(
+                    number,
+                    self.profile.error_meaning(number),
+                    pnu=job.pnu,
+                    index=job.index,
+                    label=self.profile.label(job.pnu, job.index),
+                    hint=self.profile.error_hint(number),
+                )
             self._finish(job, error=error)
         elif pkw.id == ResponseId.NO_AUTHORITY:
             self._refused += 1
-            self._finish(
-                job, error=NoWriteAuthority(address=self.address, pnu=job.pnu, index=job.index)
+            refusal = NoWriteAuthority(
+                address=self.address,
+                pnu=job.pnu,
+                index=job.index,
+                label=self.profile.label(job.pnu, job.index),
+                hint=self.profile.no_authority_hint,
             )
+            self._finish(job, error=refusal)
         else:
             self._completed += 1
             self._finish(job, answer=pkw)

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import re
 
-from pyuss.drive.database import NameStyle
+from pyuss.drive.database import NameStyle, param_name
 from pyuss.errors import ConfigError
 
 __all__ = ["MAX_INDEX", "MAX_PNU", "NameStyle", "param_name", "parse_param_name"]
@@ -39,20 +39,6 @@ MAX_INDEX = 254
 EXAMPLES = "for example r0021, P1120, 21 or 947.1"
 
 _NAME = re.compile(r"([PpRr]?)([0-9]+)(?:\.([0-9]+)|\[([0-9]+)\])?")
-
-
-def param_name(
-    pnu: int,
-    index: int | None = None,
-    *,
-    style: NameStyle = NameStyle.PROJECT,
-    read_only: bool = False,
-) -> str:
-    """``P21``, ``P947.3`` (`NameStyle.PROJECT`); ``r0021``, ``P1120``, ``r0947.3``
-    (`NameStyle.SIEMENS`: ``r`` where ``read_only``)."""
-    siemens = style is NameStyle.SIEMENS
-    text = f"{'r' if siemens and read_only else 'P'}{pnu:04d}" if siemens else f"P{pnu}"
-    return text if index is None else f"{text}.{index}"
 
 
 def parse_param_name(text: str) -> tuple[int, int | None]:

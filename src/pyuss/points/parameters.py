@@ -47,10 +47,19 @@ class ParamMeta:
     minimum: float | None = None
     maximum: float | None = None
     texts: Mapping[int, str] = field(default_factory=dict)
+    label: str = ""
+    """The parameter as its family's documents write it (``r0021``, ``P1120.0``; "": the
+    generic ``key``), for messages to people."""
 
     @property
     def key(self) -> str:
+        """``P21``, ``P1120.0``: the faces' stable key (topics, nodes), whatever the family."""
         return f"P{self.pnu}" if self.index is None else f"P{self.pnu}.{self.index}"
+
+    @property
+    def shown(self) -> str:
+        """The parameter in messages: ``label``, else ``key``."""
+        return self.label or self.key
 
     @property
     def is_integer(self) -> bool:
@@ -67,18 +76,18 @@ class ParamMeta:
         """The raw value to send for ``value`` in ``unit``; `ConfigError` if it is no number,
         not whole where the parameter holds integers, or outside the parameter's limits."""
         if not _finite(value):
-            raise ConfigError(f"{self.key}: {value!r} is not a finite number")
+            raise ConfigError(f"{self.shown}: {value!r} is not a finite number")
         if self.minimum is not None and value < self.minimum - 1e-9:
-            raise ConfigError(f"{self.key}: {value:g} is below the minimum {self.minimum:g}")
+            raise ConfigError(f"{self.shown}: {value:g} is below the minimum {self.minimum:g}")
         if self.maximum is not None and value > self.maximum + 1e-9:
-            raise ConfigError(f"{self.key}: {value:g} is above the maximum {self.maximum:g}")
+            raise ConfigError(f"{self.shown}: {value:g} is above the maximum {self.maximum:g}")
         if self.is_float:
             return float(value)
         scaled = value / self.scaling if self.scaling is not None else value
         whole = round(scaled)
         if abs(scaled - whole) > 1e-6:
             step = f" in steps of {self.scaling:g}" if self.scaling else ""
-            raise ConfigError(f"{self.key}: {value!r} must be a whole number{step}")
+            raise ConfigError(f"{self.shown}: {value!r} must be a whole number{step}")
         return int(whole)
 
 
@@ -88,22 +97,22 @@ def _finite(value: object) -> bool:
 
 def _meta(info: ParamInfo, index: int | None, base: int) -> ParamMeta:
     dtype = info.dtype
+    shown = info.label()
     if dtype.is_string:
         raise ConfigError(
-            f"P{info.pnu} ({info.name}) is a {dtype.label} parameter: the gateway exposes "
-            "numbers only"
+            f"{shown} ({info.name}) is a {dtype.label} parameter: the gateway exposes numbers only"
         )
     if info.is_array and index is None:
         raise ConfigError(
-            f"P{info.pnu} ({info.name}) is an array of {info.array}: name an element "
-            f"(P{info.pnu}.{base})"
+            f"{shown} ({info.name}) is an array of {info.array}: name an element "
+            f"({info.label(base)})"
         )
     if not info.is_array and index is not None:
-        raise ConfigError(f"P{info.pnu} ({info.name}) is not an array: leave out the index")
+        raise ConfigError(f"{shown} ({info.name}) is not an array: leave out the index")
     if info.is_array and index is not None:
         last = base + (info.array or 0) - 1
         if not base <= index <= last:
-            raise ConfigError(f"P{info.pnu}.{index}: the elements are {base}..{last}")
+            raise ConfigError(f"{info.label(index)}: the elements are {base}..{last}")
     scaling = info.scaling
     writable = info.writable
 
@@ -127,6 +136,7 @@ def _meta(info: ParamInfo, index: int | None, base: int) -> ParamMeta:
         minimum=scaled(info.minimum),
         maximum=scaled(info.maximum),
         texts=dict(info.texts),
+        label=info.label(index),
     )
 
 

@@ -283,6 +283,32 @@ def _number(value: object) -> int | None:
     return int(value)
 
 
+TIME_WORDS = 3
+"""Words of the fault time parameter a trip takes where it holds a time per trip rather than
+per fault number (MICROMASTER 440 r0948[12] for r0947[8]: the system run time in seconds as
+upper and lower word, then 0; MICROMASTER 440 Parameter List, r0948)."""
+
+
+def _fault_times(
+    elements: list[tuple[int | None, object]], numbers: list[int | None]
+) -> dict[int | None, object]:
+    """The time of each fault number element (``numbers``: their indexes): by the same index
+    where the fault time parameter has one element per fault number; where it has
+    `TIME_WORDS` a trip (fewer trips than fault numbers), the seconds of the trip the fault
+    number belongs to (None while the drive recorded none)."""
+    trips = len(elements) // TIME_WORDS
+    if not trips or len(elements) == len(numbers) or len(numbers) % trips:
+        return dict(elements)
+    words = [_number(value) for _, value in elements]
+    per_trip = len(numbers) // trips
+    out: dict[int | None, object] = {}
+    for position, index in enumerate(numbers):
+        trip = position // per_trip
+        seconds = (words[TIME_WORDS * trip] or 0) << 16 | (words[TIME_WORDS * trip + 1] or 0)
+        out[index] = seconds or None
+    return out
+
+
 async def fault_panel(points: DrivePoints, *, timeout: float | None = None) -> dict[str, Any]:
     """The drive's faults and warnings as a panel shows them: whether a fault or warning is
     active now (status bits 3 and 7), the fault history (number, text from the family's file,
@@ -295,7 +321,7 @@ async def fault_panel(points: DrivePoints, *, timeout: float | None = None) -> d
     found: dict[str, list[tuple[int | None, object]] | None] = {}
     for key, pnu in FAULT_PARAMETERS.items():
         found[key] = await _elements(points, pnu, timeout)
-    times = dict(found["times"] or [])
+    times = _fault_times(found["times"] or [], [i for i, _ in found["numbers"] or []])
     values = dict(found["values"] or [])
     history = None
     if found["numbers"] is not None:

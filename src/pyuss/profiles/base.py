@@ -15,6 +15,8 @@ texts) lives in the TOML file of the same name under ``pyuss/profiles/data`` and
 - the error numbers above the specification's (`Profile.error_meanings`,
   `Profile.error_meaning`) and which ones it answers when a job does not fit the PKW area
   (`Profile.too_large_error`, C 7) or names a reserved request ID (`Profile.unsupported_error`);
+- what to do after a refusal (`Profile.error_hint`, `Profile.no_authority_hint`, from the
+  parameter file's ``[hints]``);
 - device behaviour switched by parameters (`BitRef`), such as Baumueller's response-delay mode.
 
 Nothing here reads a clock or does I/O; a master uses the same objects to address a device
@@ -33,7 +35,9 @@ from pyuss.errors import ConfigError
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.pkw import (
     MAX_PNU,
+    NO_AUTHORITY_HINT,
     PAGE_BITS,
+    error_hint,
     error_meaning,
     page_of,
     parameter_number,
@@ -286,6 +290,23 @@ class Profile:
     def error_meaning(self, number: int) -> str:
         """The meaning of error ``number`` from a response 7, with this profile's numbers."""
         return error_meaning(number, self.error_meanings)
+
+    def error_hint(self, number: int) -> str:
+        """What to do after error ``number`` of a response 7: the family's own hint (its
+        file's ``[hints]``) or the family-neutral one; "" where none is known."""
+        hints = {k: v for k, v in self.database().hints.items() if isinstance(k, int)}
+        return error_hint(number, hints)
+
+    @property
+    def no_authority_hint(self) -> str:
+        """What to do after response 8 (no parameter change rights): the family's words
+        (``[hints] no_authority``, for example which parameter gives USS the rights) or the
+        family-neutral ones."""
+        return self.database().hints.get("no_authority", NO_AUTHORITY_HINT)
+
+    def label(self, pnu: int, index: int | None = None) -> str:
+        """``pnu`` as the family's documents write it (``r0021``, ``P1120``, NORD ``P102``)."""
+        return self.database().label(pnu, index)
 
     def fault_text(self, number: int) -> str:
         """The short text of fault ``number`` of this family ("" if unknown)."""

@@ -32,12 +32,14 @@ from pyuss.errors import ConfigError, TelegramError
 __all__ = [
     "INDEX_ALL",
     "MAX_PNU",
+    "NO_AUTHORITY_HINT",
     "ErrorNumber",
     "Pkw",
     "RequestId",
     "ResponseId",
     "TextIndex",
     "bytes_to_words",
+    "error_hint",
     "error_meaning",
     "expected_responses",
     "make_index",
@@ -361,6 +363,41 @@ def error_meaning(number: int, extra: Mapping[int, str] | None = None) -> str:
     if 0 <= number <= 100:
         return f"error {number} (PROFIBUS drive profile number, not in the USS spec)"
     return f"device-specific error {number}"
+
+
+_ERROR_HINT = {
+    ErrorNumber.ILLEGAL_PNU: "check the parameter number and the drive's profile: this drive "
+    "has no such parameter",
+    ErrorNumber.NOT_CHANGEABLE: "the drive does not take a value for it (a display or a fixed "
+    "value): read it, or change the parameter that sets it",
+    ErrorNumber.LIMIT_EXCEEDED: "give a value within the parameter's limits (a limit may "
+    "depend on another parameter)",
+    ErrorNumber.BAD_INDEX: "give an index the array has",
+    ErrorNumber.NOT_ARRAY: "leave out the index: the parameter is a single value",
+    ErrorNumber.WRONG_TYPE: "write the value in the parameter's own data type (the drive's "
+    "profile or parameter file names it)",
+    ErrorNumber.SET_NOT_ALLOWED: "the parameter may only be reset (written 0), not set",
+    ErrorNumber.DESCRIPTION_NOT_CHANGEABLE: "the description element is fixed in the drive: "
+    "nothing to change over USS",
+}
+
+NO_AUTHORITY_HINT = (
+    "the drive gives the right to change parameters to another interface (its panel or "
+    "another master): give it to this USS interface at the drive, then write again"
+)
+"""What to do on response 8 (C Table 4.2), where the family's file says nothing more."""
+
+
+def error_hint(number: int, extra: Mapping[int, str] | None = None) -> str:
+    """What to do after error ``number`` of a response 7, in an engineer's words: ``extra``
+    (a family's own hints, from its parameter file) first, then the family-neutral ones of
+    C Table 4.3's numbers 0..7; "" where nothing useful is known."""
+    if extra is not None and number in extra:
+        return extra[number]
+    try:
+        return _ERROR_HINT[ErrorNumber(number)]
+    except ValueError:
+        return ""
 
 
 class TextIndex(enum.IntFlag):
