@@ -26,6 +26,7 @@ from pyuss.gateway.topics import CONTRACT_VERSION
 from pyuss.points.config import ProcessConfig
 from pyuss.points.model import DriveModel
 from pyuss.points.state import iso, now
+from pyuss.profiles import UNKNOWN_KIND
 
 __all__ = ["gateway_payload", "gateway_topic"]
 
@@ -53,7 +54,7 @@ def gateway_payload(
             {
                 "name": drive.name,
                 "address": drive.address,
-                "profile": drive.profile,
+                "profile": drive.profile or UNKNOWN_KIND,
                 "layout": str(drive.layout),
                 "unit": drive.unit,
                 "setpoints": _points(drive.setpoints),
