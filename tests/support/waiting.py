@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import time
 from collections.abc import Callable
 
 
@@ -18,3 +19,13 @@ async def eventually(
         if loop.time() > end:
             raise AssertionError(f"{what} not reached within {timeout} s")
         await asyncio.sleep(0.01)
+
+
+def eventually_sync(check: Callable[[], object], what: str, timeout: float = 30.0) -> None:
+    """`eventually` for a test that runs no event loop of its own (the page's and a broker
+    client's run on threads): wait until ``check()`` is true, fail naming ``what``."""
+    end = time.monotonic() + timeout
+    while not check():
+        if time.monotonic() > end:
+            raise AssertionError(f"{what} not reached within {timeout} s")
+        time.sleep(0.05)

@@ -16,7 +16,7 @@ import subprocess
 import threading
 import time
 import urllib.request
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from concurrent.futures import Future
 from pathlib import Path
 from typing import Any
@@ -34,6 +34,7 @@ from support.network import free_port
 from support.paths import ROOT
 from support.plant import KEEPALIVE, Line, Page
 from support.processes import USS, first_line, stop_uss
+from support.waiting import eventually_sync
 from support.web import open_page, screenshot
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
@@ -69,14 +70,6 @@ class Watcher:
 
     def payloads(self, part: str) -> list[dict[str, Any]]:
         return [json.loads(p) for t, p, _ in self.messages if part in t]
-
-
-def wait(check_: Callable[[], object], what: str, timeout: float = 30.0) -> None:
-    """Wait for a condition (a bound against hanging, not a timing asserted)."""
-    end = time.monotonic() + timeout
-    while not check_():
-        assert time.monotonic() < end, f"{what} not reached within {timeout} s"
-        time.sleep(0.05)
 
 
 @pytest.fixture(scope="module")
@@ -131,7 +124,7 @@ def command(plant: Plant, key: str, name: str, value: object = None) -> tuple[in
 
 
 def test_the_page_lists_every_gateway_and_drive_with_availability(plant: Plant) -> None:
-    wait(
+    eventually_sync(
         lambda: sum(d["online"] for d in bus(plant)["drives"]) == 6,
         "the six drives of three gateways online",
     )
@@ -186,7 +179,7 @@ def test_a_command_refused_by_the_page_sends_nothing(plant: Plant) -> None:
         # a read goes out: the one command the gateways saw
         status, read = plant.page.api("/api/drive/line1.6/params/read", {"ids": ["107"]})
         assert status == 200 and read == [{"id": "107", "value": "50.00 Hz", "input": "50.00"}]
-        wait(lambda: watcher.messages, "the read on the broker")
+        eventually_sync(lambda: watcher.messages, "the read on the broker")
     finally:
         watcher.stop()
     assert [topic for topic, _, _ in watcher.messages] == ["uss/line1/drive6/cmd/read"]
@@ -200,11 +193,11 @@ def test_commands_reach_the_drive_once_and_the_latency_is_shown(plant: Plant) ->
     second = Page(plant.broker.url)  # another engineer's page on the same broker
     watcher = Watcher(plant.broker.port, "uss/line1/drive5/cmd/#", "uss/line1/drive5/reply/#")
     try:
-        wait(lambda: "line1.5" in second.plant.drives, "the second page knows line1.5")
+        eventually_sync(lambda: "line1.5" in second.plant.drives, "the second page knows line1.5")
         status, done = command(plant, "line1.5", "setpoint", {"value": 20, "unit": "Hz"})
         assert status == 200 and done["text"].startswith("Setpoint 20 Hz (40 % of the reference)")
         assert done["setpoint"]["value"] == 20.0
-        wait(lambda: second.plant.live(second.plant.drives["line1.5"]), "line1.5 live")
+        eventually_sync(lambda: second.plant.live(second.plant.drives["line1.5"]), "line1.5 live")
         body = {"name": "off1", "check": True}
         status, checked = second.api("/api/drive/line1.5/command", body)
         assert status == 200
@@ -293,11 +286,13 @@ def test_replies_that_answer_no_request_are_dropped(plant: Plant) -> None:
         ghost.client.publish("uss/ghost/gateway", json.dumps(gateway), qos=1, retain=True)
         ghost.client.publish("uss/ghost/availability", "online", qos=1, retain=True)
         ghost.client.publish("uss/ghost/d5/availability", "online", qos=1, retain=True)
-        wait(lambda: "ghost.5" in page.plant.drives and page.plant.buses["ghost"].online, "ghost")
-        wait(lambda: page.plant.drives["ghost.5"].available, "ghost.5 available")
+        eventually_sync(
+            lambda: "ghost.5" in page.plant.drives and page.plant.buses["ghost"].online, "ghost"
+        )
+        eventually_sync(lambda: page.plant.drives["ghost.5"].available, "ghost.5 available")
         page.plant.timeout = 3.0
         asked = ask(page)
-        wait(lambda: ghost.messages, "the command on the broker")
+        eventually_sync(lambda: ghost.messages, "the command on the broker")
         topic, payload, _ = ghost.messages[0]
         sent = json.loads(payload)
         result = {"pnu": 107, "index": None, "name": "Mot.rated freq.", "value": 1.0, "unit": "Hz",
@@ -326,7 +321,7 @@ def test_replies_that_answer_no_request_are_dropped(plant: Plant) -> None:
             restarted.stop()
         # a reply to the request it waits for is taken
         asked = ask(page)
-        wait(lambda: len(ghost.messages) == 2, "the second command")
+        eventually_sync(lambda: len(ghost.messages) == 2, "the second command")
         sent = json.loads(ghost.messages[1][1])
         ghost.client.publish(sent["reply_to"], json.dumps({**reply, "id": sent["id"]}), 1)
         assert asked.result(30) == result
@@ -342,6 +337,53 @@ def ask(page: Page) -> Future[dict[str, Any]]:
     plant = page.plant
     request = plant.request(plant.drives["ghost.5"], "read", {"pnu": 107})
     return asyncio.run_coroutine_threadsafe(request, page.loop)
+
+
+def test_the_fault_panel_reads_the_history_through_the_gateway(plant: Plant) -> None:
+    """A V20 behind a gateway (played by the test, answering each read): the drive view's
+    fault panel reads r0947, r0949 and r2110 through ``cmd/read`` as the local page reads them
+    on the line, with the family's texts; it never says the family keeps no history."""
+    point = [{"key": "main", "pzd": 2, "dword": False}]
+    gateway = {
+        "v": 1, "bus": "ghostv20", "version": "1", "read_only": False, "keepalive": 5,
+        "drives": [{"name": "v20", "address": 9, "profile": "sinamics-v20", "layout": "4,2",
+                    "unit": "Hz", "setpoints": point, "actual": point}],
+        "time": "2026-11-27T00:00:00.000Z",
+    }  # fmt: skip
+    values = {(947, 0): 3, (949, 0): 7, (2110, 0): 503}
+    asked: list[tuple[int, int | None]] = []
+
+    def answer(client: paho.Client, _data: object, message: paho.MQTTMessage) -> None:
+        sent = json.loads(message.payload)
+        key = (sent["pnu"], sent.get("index"))
+        asked.append(key)
+        result = {"pnu": key[0], "index": key[1], "name": "-", "value": values.get(key, 0),
+                  "unit": "", "time": "2026-11-27T00:00:00.000Z"}  # fmt: skip
+        reply = {"v": 1, "id": sent["id"], "command": "read", "drive": "v20", "ok": True,
+                 "result": result}  # fmt: skip
+        client.publish(sent["reply_to"], json.dumps(reply), qos=1)
+
+    ghost = Watcher(plant.broker.port, "uss/ghostv20/v20/cmd/read")
+    ghost.client.on_message = answer
+    page = plant.page
+    try:
+        ghost.client.publish("uss/ghostv20/gateway", json.dumps(gateway), qos=1, retain=True)
+        ghost.client.publish("uss/ghostv20/availability", "online", qos=1, retain=True)
+        ghost.client.publish("uss/ghostv20/v20/availability", "online", qos=1, retain=True)
+        eventually_sync(lambda: "ghostv20.9" in page.plant.drives, "ghostv20.9 on the page")
+        eventually_sync(lambda: page.plant.drives["ghostv20.9"].available, "ghostv20.9 available")
+        status, panel = page.api("/api/drive/ghostv20.9/faults")
+        assert status == 200, panel
+        assert panel["parameters"] == {"numbers": 947, "values": 949, "warnings": 2110}
+        (fault,) = panel["history"]
+        assert fault["number"] == 3 and fault["value"] == 7 and fault["text"]
+        (warning,) = panel["warnings"]
+        assert warning["number"] == 503 and warning["text"]
+        assert {pnu for pnu, _ in asked} == {947, 949, 2110}
+    finally:
+        for topic in ("gateway", "availability", "v20/availability"):
+            ghost.client.publish(f"uss/ghostv20/{topic}", b"", qos=1, retain=True)
+        ghost.stop()
 
 
 def test_the_page_walk_in_chromium(plant: Plant, browser: Any, tmp_path: Path) -> None:
@@ -529,7 +571,9 @@ def test_the_worked_example_of_the_doc_runs(tmp_path: Path) -> None:
                 shown = json.loads(reply.read())
             return [d["address"] for d in shown["drives"] if d["online"]]
 
-        wait(lambda: drives() == ["line1.5", "line1.6"], "the example's drives on the page")
+        eventually_sync(
+            lambda: drives() == ["line1.5", "line1.6"], "the example's drives on the page"
+        )
     finally:
         for process in reversed(started):
             stop_uss(process, signal.SIGINT)

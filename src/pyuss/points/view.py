@@ -23,17 +23,22 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 from pyuss.errors import ConfigError, UssError
+from pyuss.params import ParamBook
+from pyuss.params.model import Reading
 from pyuss.points.plant import DrivePoints
 from pyuss.points.state import DriveState, ProcessValue
+from pyuss.profiles.base import Profile
 from pyuss.protocol.pzd import ControlWord, StatusWord
 
 __all__ = [
     "TAKE_TIME",
     "Outcome",
+    "ParamReader",
     "command_outcome",
+    "fault_history",
     "fault_panel",
     "key_actuals",
     "motion",
@@ -259,12 +264,31 @@ r0948 fault times, r0949 fault values, r2110 warning numbers); read where the fa
 parameter file has them."""
 
 
+class ParamReader(Protocol):
+    """What reads a drive's parameters for a panel: its parameter book, profile, whether that
+    profile is named (a drive of unknown kind: numbers without texts) and ``read_param`` - a
+    local drive (`pyuss.master.Drive`) or one behind a gateway (`pyuss.plant.RemoteParams`)."""
+
+    @property
+    def params(self) -> ParamBook: ...
+
+    @property
+    def profile(self) -> Profile: ...
+
+    @property
+    def profile_named(self) -> bool: ...
+
+    async def read_param(
+        self, pnu: int, index: int | None = None, *, timeout: float | None = None
+    ) -> Reading: ...
+
+
 async def _elements(
-    points: DrivePoints, pnu: int, timeout: float | None
+    reader: ParamReader, pnu: int, timeout: float | None
 ) -> list[tuple[int | None, object]] | None:
     """Every element of ``pnu`` as ``(index, value)`` (None: the family has no such
     parameter); an element the drive refuses is left out."""
-    book = points.drive.params
+    book = reader.params
     info = book.get(pnu)
     if info is None:
         return None
@@ -272,7 +296,7 @@ async def _elements(
     out: list[tuple[int | None, object]] = []
     for index in indexes:
         with contextlib.suppress(UssError):
-            reading = await points.read_value(pnu, index, timeout=timeout)
+            reading = await reader.read_param(pnu, index, timeout=timeout)
             out.append((index, reading.value))
     return out
 
@@ -315,12 +339,21 @@ async def fault_panel(points: DrivePoints, *, timeout: float | None = None) -> d
     time and value where the family keeps them) and the warning numbers with their texts.
     ``history`` and ``warnings`` are None where the family's parameter file has no such
     parameter."""
-    named = points.drive.profile_named  # a drive of unknown kind: numbers without texts
-    profile = points.drive.profile
     state = points.snapshot()
+    return await fault_history(
+        points.drive, fault=state.fault, warning=state.warning, timeout=timeout
+    )
+
+
+async def fault_history(
+    reader: ParamReader, *, fault: bool, warning: bool, timeout: float | None = None
+) -> dict[str, Any]:
+    """`fault_panel` of a drive read through ``reader``, its fault and warning bits given."""
+    named = reader.profile_named  # a drive of unknown kind: numbers without texts
+    profile = reader.profile
     found: dict[str, list[tuple[int | None, object]] | None] = {}
     for key, pnu in FAULT_PARAMETERS.items():
-        found[key] = await _elements(points, pnu, timeout)
+        found[key] = await _elements(reader, pnu, timeout)
     times = _fault_times(found["times"] or [], [i for i, _ in found["numbers"] or []])
     values = dict(found["values"] or [])
     history = None
@@ -348,8 +381,8 @@ async def fault_panel(points: DrivePoints, *, timeout: float | None = None) -> d
             if (number := _number(raw))
         ]
     return {
-        "fault": state.fault,
-        "warning": state.warning,
+        "fault": fault,
+        "warning": warning,
         "history": history,
         "warnings": warnings,
         "parameters": {key: pnu for key, pnu in FAULT_PARAMETERS.items() if found[key] is not None},

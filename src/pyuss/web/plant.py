@@ -31,7 +31,7 @@ from pyuss.plant.remote import GatewayRefusal, RemoteDrive, RemoteParams, Remote
 from pyuss.points import COMMAND_TABLE, Sample
 from pyuss.points.plant import checked_setpoint
 from pyuss.points.state import ProcessValue, state_name
-from pyuss.points.view import KEY_ACTUALS, TAKE_TIME, motion_of
+from pyuss.points.view import KEY_ACTUALS, TAKE_TIME, fault_history, motion_of
 from pyuss.protocol.pzd import StatusWord
 from pyuss.web.backend import (
     Backend,
@@ -424,17 +424,16 @@ class PlantBackend:
         return {"time": time.time(), "values": values}
 
     async def faults(self, key: object) -> dict[str, Any]:
-        """The active fault and warning from the drive's state; the fault history is not
-        carried by the gateway's messages (None, as for a family without one)."""
+        """The active fault and warning from the drive's state, the fault history and warning
+        numbers read through the gateway (``cmd/read``) where the family keeps them: the local
+        page's panel (`pyuss.points.view.fault_history`)."""
         drive = self._drive(key)
         bits = self._state(drive).get("bits") or {}
-        return {
-            "fault": bool(bits.get("fault")),
-            "warning": bool(bits.get("warning")),
-            "history": None,
-            "warnings": None,
-            "parameters": {},
-        }
+        return await fault_history(
+            RemoteParams(self.plant, drive),
+            fault=bool(bits.get("fault")),
+            warning=bool(bits.get("warning")),
+        )
 
     # -- parameters ---------------------------------------------------------------------------
     def parameters(self, key: object) -> list[dict[str, Any]]:
