@@ -52,6 +52,7 @@ from pyuss.gateway.topics import (
     Command,
     CommandError,
     DriveTopics,
+    StatePayloads,
     check_reply_to,
     discovery,
     number,
@@ -117,10 +118,11 @@ class _DriveWorker:
         self.queue: asyncio.Queue[Command] = asyncio.Queue(QUEUE)
         self.published: dict[str, Any] = {}
         self.discovery_key: object = None
+        self.payloads = StatePayloads()
 
     async def publish_state(self, state: DriveState) -> None:
         face = self.face
-        await face.publish(self.topics.state, state_payload(state), qos=0, retain=True)
+        await face.publish(self.topics.state, self.payloads.payload(state), qos=0, retain=True)
         online = "online" if state.online else "offline"
         if self.published.get("availability") != online and await face.publish(
             self.topics.availability, online, qos=1, retain=True
