@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import importlib.util
 import json
 import math
 import statistics
@@ -45,6 +46,7 @@ from pathlib import Path
 from typing import Any
 
 from common import (
+    LOOPS,
     Figure,
     cpu_seconds,
     free_port,
@@ -315,8 +317,9 @@ def _start(where: tuple[int, int]) -> None:
         client.close()
 
 
-def deployed(count: int, mqtt_port: int | None) -> dict[str, float]:
-    """One run as deployed; ``mqtt_port`` None: the Modbus face alone."""
+def deployed(count: int, mqtt_port: int | None, uvloop: bool = True) -> dict[str, float]:
+    """One run as deployed; ``mqtt_port`` None: the Modbus face alone; ``uvloop`` False: the
+    gateway as if uvloop were not installed."""
     from pymodbus.client import ModbusTcpClient
 
     sizes = _sizes(count)
@@ -324,7 +327,7 @@ def deployed(count: int, mqtt_port: int | None) -> dict[str, float]:
         urls = [stack.enter_context(simulator_bus(BAUD, n, layout="4,2")) for n in sizes]
         directory = Path(stack.enter_context(tempfile.TemporaryDirectory()))
         config = _plant_file(directory, urls, sizes, mqtt_port)
-        process = stack.enter_context(gateway(config))
+        process = stack.enter_context(gateway(config, uvloop))
         ports = _modbus_ports(config)
         clients = [ModbusTcpClient("127.0.0.1", port=p) for p in ports]
         for client in clients:
@@ -382,16 +385,21 @@ def as_deployed() -> list[Figure]:
             f"{'drives':>6} {'faces':>11} {'running':>7} {'buses':>5} {'updates/s':>9} "
             f"{'CPU/update':>10} {'CPU':>5} {'bus share':>9} {'states/update':>13}"
         )
+        # with uvloop installed, all faces once more on the loop of pyuss.loop, to compare
+        compare = importlib.util.find_spec("uvloop") is not None
         for count in DEPLOYED_COUNTS:
             alone = deployed(count, None)
             full = deployed(count, broker.port)
-            for label, r in (("modbus only", alone), ("all three", full)):
+            runs = [("modbus only", alone), ("all three", full)]
+            if compare:
+                runs.append(("all, no uv", deployed(count, broker.port, uvloop=False)))
+            for label, r in runs:
                 states = r["states_per_drive_s"] * count / (r["updates_per_s"] or 1)
                 print(
                     f"{count:>6} {label:>11} {int(r['running']):>7} {int(r['buses']):>5} "
                     f"{r['updates_per_s']:>9.0f} {r['cpu_ms']:>8.3f}ms "
                     f"{r['cpu_share'] * 100:>4.0f}% {r['share']:>9.2f} "
-                    f"{states if r is full else math.nan:>13.2f}"
+                    f"{states if r is not alone else math.nan:>13.2f}"
                 )
             where = f"gateway as deployed, {_drives(count)}"
             faces = full["cpu_ms"] - alone["cpu_ms"]
@@ -424,6 +432,19 @@ def as_deployed() -> list[Figure]:
                     f"{where}, all faces: bus exchanges / wire limit", full["share"], GOAL_SHARE
                 ),
             ]
+            if compare:
+                figures.append(
+                    Figure(
+                        f"{where}, all faces, pyuss.loop: CPU per drive update",
+                        runs[2][1]["cpu_ms"],
+                        None,
+                        False,
+                        "ms",
+                        3,
+                    )
+                )
+        for setup, loop in LOOPS.items():
+            print(f"uss gateway ({setup}) ran on: {loop}")
     return figures
 
 

@@ -256,15 +256,26 @@ def mosquitto(*settings: str) -> Iterator[Broker | None]:
             process.wait(10)
 
 
+NO_UVLOOP = [
+    sys.executable,
+    "-c",
+    "import sys; sys.modules['uvloop'] = None; from pyuss.cli.main import main; sys.exit(main())",
+]
+"""``uss`` as if uvloop were not installed: the gateway on the loop of `pyuss.loop`."""
+LOOPS: dict[str, str] = {}
+"""The event loop each set-up of the gateway ran on, as it printed it."""
+
+
 @contextlib.contextmanager
-def gateway(config: Path) -> Iterator[subprocess.Popen[bytes]]:
+def gateway(config: Path, uvloop: bool = True) -> Iterator[subprocess.Popen[bytes]]:
     """``uss gateway --config CONFIG`` in a process of its own, once it printed "ready"; its
-    log goes to CONFIG with the suffix .log."""
+    log goes to CONFIG with the suffix .log. ``uvloop=False``: as if uvloop were not
+    installed. The loop it printed is kept in `LOOPS`."""
     log = config.with_suffix(".log")
     with log.open("w", encoding="utf-8") as stderr:
         # unbuffered: a line read is the line, nothing more waits in a buffer unseen by select
         process = subprocess.Popen(
-            [*USS, "gateway", "--config", str(config)],
+            [*(USS if uvloop else NO_UVLOOP), "gateway", "--config", str(config)],
             stdout=subprocess.PIPE,
             stderr=stderr,
             bufsize=0,
@@ -282,6 +293,10 @@ def gateway(config: Path) -> Iterator[subprocess.Popen[bytes]]:
                 process.wait()
                 tail = log.read_text(encoding="utf-8").splitlines()[-5:]
                 raise RuntimeError("uss gateway did not start: " + "\n".join(tail))
+            if line.startswith(b"event loop: "):
+                LOOPS["uvloop if installed" if uvloop else "uvloop hidden"] = (
+                    line.decode().removeprefix("event loop: ").strip()
+                )
             if line.strip() == b"ready":
                 break
         yield process

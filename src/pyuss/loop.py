@@ -26,16 +26,20 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
+import importlib
 import select
 import selectors
 import sys
 import weakref
 from collections.abc import Callable, Coroutine, Iterator
+from dataclasses import dataclass
 from typing import Any, TypeVar
 
 __all__ = [
     "COARSE_MARGIN",
     "FINE_MARGIN",
+    "LoopChoice",
     "fine_timers",
     "install",
     "installed",
@@ -43,6 +47,7 @@ __all__ = [
     "new_event_loop",
     "run",
     "sleep_until",
+    "uvloop_choice",
 ]
 
 T = TypeVar("T")
@@ -141,6 +146,49 @@ def installed(*, least_slack: bool = True) -> Iterator[None]:
 def margin(loop: asyncio.AbstractEventLoop | None = None) -> float:
     """How long before a moment a precise wait on ``loop`` stops sleeping and yields instead."""
     return FINE_MARGIN if fine_timers(loop) else COARSE_MARGIN
+
+
+@dataclass(frozen=True)
+class LoopChoice:
+    """The event loop a program runs on, and why (printed by ``uss gateway``)."""
+
+    name: str
+    why: str
+    factory: Callable[[], asyncio.AbstractEventLoop] | None = None
+    """Makes the loop; None: the loop `install` set up (`new_event_loop`)."""
+
+    def run(self, main: Coroutine[Any, Any, T]) -> T:
+        """`asyncio.run` on this loop."""
+        if self.factory is None:
+            return asyncio.run(main)
+        with asyncio.Runner(loop_factory=self.factory) as runner:
+            return runner.run(main)
+
+    def __str__(self) -> str:
+        return f"{self.name} ({self.why})"
+
+
+def uvloop_choice(timed_by_bus: bool) -> LoopChoice:
+    """uvloop where it is installed and the program keeps no line's timing by its own
+    timers, else the loop of `new_event_loop`. ``timed_by_bus``: every line the program
+    talks to is a virtual bus of another process (``bus://``), which puts each telegram on
+    the line at the moment handed over with it: the master needs no timer finer than
+    uvloop's milliseconds there. On a serial port, a pty or TCP it keeps the start pause
+    itself, and on a loop with millisecond timers would pass the last 1.2 ms of every wait
+    yielding to the loop (`COARSE_MARGIN`), which costs more CPU than uvloop saves. uvloop
+    takes fewer microseconds per turn of the loop, and a program that serves many drives
+    turns it several times per answer (docs/bench.md)."""
+    fine = LoopChoice("pyuss.loop", "microsecond timers")
+    if not timed_by_bus:
+        return dataclasses.replace(fine, why="microsecond timers: a line whose timing it keeps")
+    try:
+        uvloop = importlib.import_module("uvloop")  # an optional extra (pyuss[gateway])
+    except ImportError:
+        return dataclasses.replace(fine, why="microsecond timers; uvloop is not installed")
+    version = getattr(uvloop, "__version__", "")
+    return LoopChoice(
+        f"uvloop {version}".strip(), "every bus is bus://, timed by the bus", uvloop.new_event_loop
+    )
 
 
 async def sleep_until(target: float, clock: Callable[[], float]) -> None:

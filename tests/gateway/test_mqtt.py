@@ -8,6 +8,7 @@ import asyncio
 import contextlib
 import json
 import selectors
+import socket
 from collections.abc import AsyncIterator
 from typing import Any
 
@@ -314,3 +315,32 @@ async def test_the_gateway_message_tells_a_reader_the_bus_its_drives_and_read_on
     assert sorted(drives) == [5, 6]
     assert drives[5]["name"] == "drive5" and drives[5]["unit"] == "Hz"
     assert drives[5]["setpoints"] == [{"key": "main", "pzd": 2, "dword": False}]
+
+
+async def test_messages_the_socket_cannot_take_at_once_arrive_whole_and_in_order(
+    broker: Broker,
+) -> None:
+    """The face writes a QoS 0 message to the socket itself once paho has taken its topic;
+    what a full socket does not take is written after it, before anything else."""
+    got: list[bytes] = []
+    async with (
+        simulated_gateway(mqtt=broker.url) as (gateway, _),
+        subscribed(broker, "test/big", on=lambda _topic, payload: got.append(payload)),
+    ):
+        face = gateway.faces["mqtt"]
+        assert isinstance(face, MqttFace)
+        bus = face.buses["bus"]
+        await eventually(bus.connected.is_set)
+        client = bus._client
+        assert client is not None
+        sock = client._client.socket()
+        assert isinstance(sock, socket.socket)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 4096)
+        payloads = [b"%04d" % n + bytes(range(256)) * 40 for n in range(200)]
+        assert await bus.publish("test/big", payloads[0], qos=0)  # through paho: the topic
+        await eventually(lambda: len(got) == 1)
+        for payload in payloads[1:]:  # in one turn of the loop, as fast as they are made
+            assert await bus.publish("test/big", payload, qos=0)
+        await eventually(lambda: len(got) == len(payloads), timeout=20)
+        assert got == payloads
+        assert bus.connections == 1

@@ -9,8 +9,10 @@ faces are named by their addresses: ``--modbus 127.0.0.1:5020``,
 file, these replace the address of that face or add it). Listening faces bind to the host
 given: 127.0.0.1 unless told otherwise.
 
-Prints one line per bus and face and then ``ready``; runs until SIGINT or SIGTERM (or
-``--duration`` seconds), then says ``offline`` on MQTT, closes the servers and the ports.
+Prints one line per bus and face, the event loop it runs on (uvloop where it is installed and
+every bus is ``bus://``, `pyuss.loop.uvloop_choice`), and then ``ready``; runs until SIGINT or
+SIGTERM (or ``--duration`` seconds), then says ``offline`` on MQTT, closes the servers and the
+ports.
 
 Exit codes: 0 stopped; 1 a port or broker failed beyond recovery; 2 bad configuration (one
 line naming the key, before any port opens), or a face whose library is missing (the line
@@ -24,10 +26,13 @@ import asyncio
 import contextlib
 import signal
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pyuss.cli._help import plain
 from pyuss.errors import ConfigError
+
+if TYPE_CHECKING:
+    from pyuss.loop import LoopChoice
 
 EXIT_OK = 0
 EXIT_USAGE = 2
@@ -164,14 +169,23 @@ def run(args: argparse.Namespace) -> int:
     except ConfigError as exc:
         print(f"uss gateway: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    loop = _loop(config)
     try:
-        return asyncio.run(serve(gateway, args.duration))
+        return loop.run(serve(gateway, args.duration, loop))
     except ConfigError as exc:
         print(f"uss gateway: {exc}", file=sys.stderr)
         return EXIT_USAGE
 
 
-async def serve(gateway: Any, duration: float | None) -> int:
+def _loop(config: Any) -> LoopChoice:
+    """uvloop where installed and every bus is ``bus://`` (`pyuss.loop.uvloop_choice`)."""
+    from pyuss.loop import uvloop_choice
+
+    ports = [bus.port for bus in config.plant.buses]
+    return uvloop_choice(bool(ports) and all(p.startswith("bus://") for p in ports))
+
+
+async def serve(gateway: Any, duration: float | None, loop_choice: LoopChoice | None = None) -> int:
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -188,6 +202,8 @@ async def serve(gateway: Any, duration: float | None) -> int:
                 )
             for name, where in gateway.endpoints():
                 print(f"{name}: {where}", flush=True)
+            if loop_choice is not None:
+                print(f"event loop: {loop_choice}", flush=True)
             print("ready", flush=True)
             with contextlib.suppress(TimeoutError):
                 async with asyncio.timeout(duration):

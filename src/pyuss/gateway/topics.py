@@ -49,6 +49,7 @@ from __future__ import annotations
 import functools
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -57,7 +58,7 @@ from pyuss.errors import ConfigError
 from pyuss.points.config import ProcessConfig, parse_parameter_spec
 from pyuss.points.model import DriveModel
 from pyuss.points.parameters import ParamMeta
-from pyuss.points.state import DriveState, ParamValue
+from pyuss.points.state import COUNTER_FIELDS, DriveState, Health, ParamValue, iso
 from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32
 from pyuss.userfile import json_depth
 
@@ -69,6 +70,7 @@ __all__ = [
     "Command",
     "CommandError",
     "DriveTopics",
+    "StatePayloads",
     "UnknownField",
     "UnsupportedVersion",
     "check_reply_to",
@@ -491,25 +493,156 @@ def state_dict(state: DriveState) -> dict[str, Any]:
     resolution (`process_decimals`, `param_value`): a 20 Hz setpoint of a 50 Hz reference
     is 20.0, not the 20.001221 its raw word 199Ah stands for."""
     data = state.to_dict()
-    model = state.model
-    for group, items in (("actual", model.actual), ("setpoint", model.setpoints)):
-        for item in items:
-            entry = data[group].get(item.key)
-            if entry is None:
-                continue
-            places, percent_places = process_decimals(item, model.unit, state.reference)
-            if entry["value"] is not None:
-                entry["value"] = round(entry["value"], places)
-            entry["percent"] = round(entry["percent"], percent_places)
-    for key, reading in state.parameters.items():
-        data["parameters"][key] = reading_dict(reading)
+    data["actual"] = _process_dict(state, "actual")
+    data["setpoint"] = _process_dict(state, "setpoint")
+    data["parameters"] = _parameters_dict(state)
     return data
+
+
+def _process_dict(state: DriveState, group: str) -> dict[str, Any]:
+    """The ``actual`` or ``setpoint`` part of `state_dict`."""
+    model = state.model
+    values, items = (
+        (state.actual, model.actual) if group == "actual" else (state.setpoints, model.setpoints)
+    )
+    data = {key: value.to_dict() for key, value in values.items()}
+    for item in items:
+        entry = data.get(item.key)
+        if entry is None:
+            continue
+        places, percent_places = process_decimals(item, model.unit, state.reference)
+        if entry["value"] is not None:
+            entry["value"] = round(entry["value"], places)
+        entry["percent"] = round(entry["percent"], percent_places)
+    return data
+
+
+def _parameters_dict(state: DriveState) -> dict[str, Any]:
+    return {key: reading_dict(reading) for key, reading in state.parameters.items()}
+
+
+def _dumps(data: object) -> str:
+    return json.dumps(data, separators=(",", ":"))
 
 
 def state_payload(state: DriveState) -> bytes:
     """The state message (schema ``state.json``)."""
     data = {"v": CONTRACT_VERSION, **state_dict(state)}
-    return json.dumps(data, separators=(",", ":")).encode()
+    return _dumps(data).encode()
+
+
+class StatePayloads:
+    """The state messages of one drive, byte for byte `state_payload`, each built from the
+    parts that changed since the last one: a drive that ramps changes its time, its actual
+    values and its counters at every answer, and its identity, state, bits, setpoints and
+    parameters seldom. Each part's JSON is kept with what it was made from (the process
+    values from their raw words and the reference, the parameters by the readings
+    themselves) and made again only when that differs."""
+
+    def __init__(self) -> None:
+        self._parts: dict[str, tuple[object, str]] = {}
+        self._readings: tuple[object, ...] | None = None
+        self._parameters = ""
+
+    def _part(self, name: str, key: object, build: Callable[[], str]) -> str:
+        last = self._parts.get(name)
+        if last is not None and (last[0] is key or last[0] == key):
+            return last[1]
+        text = build()
+        self._parts[name] = (key, text)
+        return text
+
+    def payload(self, state: DriveState) -> bytes:
+        model = state.model
+        reference = (state.reference, type(state.reference), model.unit)
+        head = self._part(
+            "head",
+            model,
+            lambda: _dumps(
+                {
+                    "v": CONTRACT_VERSION,
+                    "bus": model.bus,
+                    "address": model.address,
+                    "name": model.name,
+                    "profile": model.profile,
+                }
+            )[:-1],
+        )
+        status = self._part(
+            "status",
+            (state.online, state.status_word, state.control_word, reference),
+            lambda: self._status(state),
+        )
+        actual = self._part(
+            "actual",
+            (state.actual_words, tuple(state.actual), reference),
+            lambda: _dumps(_process_dict(state, "actual")),
+        )
+        setpoint = self._part(
+            "setpoint",
+            (state.setpoint_words, tuple(state.setpoints), reference),
+            lambda: _dumps(_process_dict(state, "setpoint")),
+        )
+        # the readings themselves: a reading is kept until the parameter is read again
+        readings = (*state.parameters, *state.parameters.values())
+        if (
+            self._readings is None
+            or len(readings) != len(self._readings)
+            or any(a is not b for a, b in zip(readings, self._readings, strict=True))
+        ):
+            self._readings = readings
+            self._parameters = _dumps(_parameters_dict(state))
+        return (
+            f'{head},"time":"{iso(state.time)}",{status},"actual":{actual},'
+            f'"setpoint":{setpoint},"parameters":{self._parameters},'
+            f'"health":{self._health(state.health)}}}'
+        ).encode()
+
+    def _health(self, health: Health) -> str:
+        """``Health.to_dict`` as JSON: the counters (whole numbers, as ``to_dict`` makes
+        them) into a template, the fault and refusal as they last were."""
+        faults = self._part(
+            "faults",
+            (health.last_fault, health.last_fault_time, health.last_refusal),
+            lambda: _dumps(
+                {
+                    "last_fault": health.last_fault,
+                    "last_fault_time": iso(health.last_fault_time),
+                    "last_refusal": health.last_refusal,
+                }
+            )[1:-1],
+        )
+        counters = health.counters
+        return _HEALTH % (
+            "true" if health.not_sending else "false",
+            health.exchanges,
+            health.answers,
+            health.timeouts,
+            *[int(getattr(counters, name)) for name in COUNTER_FIELDS],
+            faults,
+        )
+
+    @staticmethod
+    def _status(state: DriveState) -> str:
+        data = state.to_dict()
+        part = {key: data[key] for key in _STATUS_KEYS}
+        return _dumps(part)[1:-1]
+
+
+_HEALTH = (
+    '{"not_sending":%s,"exchanges":%d,"answers":%d,"timeouts":%d,"counters":{'
+    + ",".join(f'"{name}":%d' for name in COUNTER_FIELDS)
+    + "},%s}"
+)
+_STATUS_KEYS = (
+    "online",
+    "status_word",
+    "status_hex",
+    "state",
+    "bits",
+    "control_word",
+    "reference",
+)
 
 
 def param_payload(reading: ParamValue) -> bytes:

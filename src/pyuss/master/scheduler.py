@@ -54,6 +54,11 @@ Time bases
     ends, with the time it is to start (`pyuss.bus.timed`), so the pause is kept to the
     microsecond; elsewhere it sleeps until shortly before and yields to the event loop for
     the rest (`pyuss.loop`), which is as exact as the machine allows on any event loop.
+    There, for a slave of fixed layout, it also waits for the whole answer at once
+    (`QueuedTransport.wait_bytes`) instead of waking for each of the bus's three hand-overs
+    of a telegram: the chunks keep their end times on the line, so the answer is judged
+    exactly as before, and only an answer that is not all in by the end of the response
+    window is followed chunk by chunk.
 
     The end of a request is taken as the time the write began plus its characters' time on the
     line (or the time the write returned, if later). Over a bare pty or TCP link the answer's
@@ -77,7 +82,7 @@ import contextlib
 import enum
 import logging
 import math
-from collections.abc import Callable, Collection, Iterable, Sequence
+from collections.abc import Awaitable, Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass
 from types import TracebackType
 from typing import TYPE_CHECKING
@@ -167,6 +172,9 @@ class MirrorResult:
 
 
 _NORMAL = frozenset({AddressMode.NORMAL})
+
+WaitBytes = Callable[[int, float], Awaitable[None]]
+"""``wait_bytes(count, timeout)`` of `pyuss.transport.queued.QueuedTransport`."""
 
 
 class _Outcome(enum.Enum):
@@ -1124,6 +1132,7 @@ class Master:
         # while it runs (`_JOB_CHECK`: how long a read may block before they are looked at).
         submitted = self._submitted
         jobs_due = self._next_deadline(exclude=link)
+        whole, expected = self._whole_answer(link)
         while True:
             now = self._clock()
             if submitted != self._submitted:
@@ -1166,9 +1175,27 @@ class Master:
                     return self._finish(outcome, None, start, end, link)
             if jobs_due is not None:
                 wait = min(wait, max(jobs_due - now, 0.0) + 1e-4)
-            chunk = await self.transport.read(min(wait, _JOB_CHECK))
+            wait = min(wait, _JOB_CHECK)
+            if whole is not None and not receiver.busy:
+                # nothing of the answer yet: wake once, when all of it may be in (the
+                # chunks keep their timestamps, the answer is judged as it would be anyway)
+                await whole(expected, wait)
+                continue
+            chunk = await self.transport.read(wait)
             if chunk is not None:
                 events = self._feed(chunk)
+
+    def _whole_answer(self, link: _Link | None) -> tuple[WaitBytes | None, int]:
+        """How to wait for the whole answer of ``link`` at once, and its length in bytes:
+        on a transport with exact timestamps that can wait for a number of bytes (the
+        virtual bus, ``bus://``) and a layout of fixed length. Else None: the master is woken
+        by every chunk (a virtual bus hands a telegram over in three, docs/bus.md)."""
+        wait_bytes: WaitBytes | None = getattr(self.transport, "wait_bytes", None)
+        if link is None or link.layout.lge is None or wait_bytes is None:
+            return None, 0
+        if not self.transport.exact_timestamps:
+            return None, 0
+        return wait_bytes, link.layout.lge + 2
 
     def _finish(
         self,

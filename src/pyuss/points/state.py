@@ -20,6 +20,7 @@ from pyuss.protocol.diagnostics import Counters
 from pyuss.protocol.pzd import StatusWord, join_dword, raw16_to_percent, raw32_to_percent
 
 __all__ = [
+    "COUNTER_FIELDS",
     "STATE_CODES",
     "DriveState",
     "Health",
@@ -45,7 +46,8 @@ STATE_CODES: dict[str, int] = {
 }
 """The drive state as a number, for faces that carry numbers only (Modbus)."""
 
-_COUNTER_FIELDS = tuple(Counters.__dataclass_fields__)
+COUNTER_FIELDS = tuple(Counters.__dataclass_fields__)
+"""The names of the diagnostic counters, in the order of the JSON form."""
 
 
 def state_name(word: int | None) -> str:
@@ -179,7 +181,7 @@ class Health:
 
     def to_dict(self) -> dict[str, Any]:
         counters = {}
-        for name in _COUNTER_FIELDS:
+        for name in COUNTER_FIELDS:
             value = getattr(self.counters, name)
             counters[name] = value if isinstance(value, int) else int(value)
         return {

@@ -16,6 +16,7 @@ and `stats.echo_errors` counts it.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import time
 from collections import deque
 from dataclasses import dataclass
@@ -67,6 +68,11 @@ def shift_errors(
     )
 
 
+def _wake(waiter: asyncio.Future[None]) -> None:
+    if not waiter.done():
+        waiter.set_result(None)
+
+
 class QueuedTransport(Transport):
     """Base of the concrete transports; see the module docstring.
 
@@ -87,6 +93,8 @@ class QueuedTransport(Transport):
         self._echo_sent = bytearray()
         self._echo_timer: asyncio.TimerHandle | None = None
         self._echo_error: EchoError | None = None
+        self._waiters: list[tuple[int, asyncio.Future[None]]] = []
+        self._queued_bytes = 0
         self._open = False
         self.stats = TransportStats()
 
@@ -109,6 +117,7 @@ class QueuedTransport(Transport):
 
     def flush_input(self) -> None:
         self._chunks.clear()
+        self._queued_bytes = 0
         if self._ready is not None:
             self._ready.clear()
 
@@ -122,6 +131,7 @@ class QueuedTransport(Transport):
                 raise error
             if self._chunks:
                 chunk = self._chunks.popleft()
+                self._queued_bytes -= len(chunk.data)
                 if not self._chunks:
                     self._ready.clear()
                 return chunk
@@ -136,11 +146,58 @@ class QueuedTransport(Transport):
             left = deadline - time.monotonic()
             if left <= 0:
                 return None
-            try:
-                async with asyncio.timeout(left):
-                    await self._ready.wait()
-            except TimeoutError:
-                return None
+            await self._wait(left, 1)
+
+    async def wait_bytes(self, count: int, timeout: float) -> None:
+        """Return once ``count`` bytes wait to be read, the link is lost or closed, an echo
+        error waits to be raised, or ``timeout`` seconds have passed: whichever comes first.
+        Nothing is read. A reader that knows how long the telegram it awaits is (the master,
+        for a slave of fixed length) is woken once for it instead of once per delivery; the
+        chunks keep the timestamps they were delivered with."""
+        if self._ready is None:
+            raise TransportError(f"{self.describe()} is not open")
+        if (
+            self._queued_bytes < count
+            and self._echo_error is None
+            and self._failure is None
+            and self._open
+            and timeout > 0
+        ):
+            await self._wait(timeout, count)
+
+    async def _wait(self, timeout: float, count: int) -> None:
+        """Wait until ``count`` bytes are queued (or the link is lost, or closed) or
+        ``timeout`` has passed. One future and one timer that only wakes the reader: a
+        fraction of the CPU time of ``asyncio.timeout`` around ``Event.wait``, whose expiry
+        cancels the task and unwinds the wait by an exception (the master waits like this
+        at every exchange)."""
+        loop = asyncio.get_running_loop()
+        waiter: asyncio.Future[None] = loop.create_future()
+        entry = (count, waiter)
+        self._waiters.append(entry)
+        timer = loop.call_later(timeout, _wake, waiter)
+        try:
+            await waiter
+        finally:
+            timer.cancel()
+            with contextlib.suppress(ValueError):
+                self._waiters.remove(entry)
+
+    def _signal(self, everyone: bool = True) -> None:
+        """Wake the readers: all of them when the link was lost or closed or an echo error
+        came (``everyone``), else those waiting for no more bytes than are queued."""
+        if self._ready is not None:
+            self._ready.set()
+        if not self._waiters:
+            return
+        queued = self._queued_bytes
+        keep = []
+        for entry in self._waiters:
+            if everyone or entry[0] <= queued:
+                _wake(entry[1])
+            else:
+                keep.append(entry)
+        self._waiters = keep
 
     # -- what subclasses use --------------------------------------------------------------------
     def describe(self) -> str:
@@ -160,15 +217,13 @@ class QueuedTransport(Transport):
         if self._echo_timer is not None:
             self._echo_timer.cancel()
             self._echo_timer = None
-        if self._ready is not None:
-            self._ready.set()
+        self._signal()
 
     def _lose(self, error: TransportError) -> None:
         """Report a lost link: readers get ``error`` once the buffered chunks are read."""
         if self._failure is None:
             self._failure = error
-        if self._ready is not None:
-            self._ready.set()
+        self._signal()
 
     def _check_writable(self) -> None:
         if self._failure is not None:
@@ -206,8 +261,7 @@ class QueuedTransport(Transport):
         if self._echo_timer is not None:
             self._echo_timer.cancel()
             self._echo_timer = None
-        if self._ready is not None:
-            self._ready.set()
+        self._signal()
 
     def _deliver(
         self, data: bytes, timestamp: float, errors: tuple[tuple[int, LineError], ...] = ()
@@ -223,8 +277,8 @@ class QueuedTransport(Transport):
         self.stats.chunks_in += 1
         self.stats.line_errors += len(errors)
         self._chunks.append(Chunk(data, timestamp, errors))
-        if self._ready is not None:
-            self._ready.set()
+        self._queued_bytes += len(data)
+        self._signal(everyone=False)
 
     def _strip_echo(
         self, data: bytes, timestamp: float, errors: tuple[tuple[int, LineError], ...]

@@ -123,8 +123,7 @@ class ReconnectingTransport(QueuedTransport):
                 chunk = await self._inner.read()
             except EchoError as exc:
                 self._echo_error = exc
-                if self._ready is not None:
-                    self._ready.set()
+                self._signal()
                 continue
             except TransportError as exc:
                 self._connected = False

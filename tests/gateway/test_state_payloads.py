@@ -1,0 +1,63 @@
+"""The MQTT face builds each state message from the parts that changed since the last one
+(`StatePayloads`): the messages stay byte for byte what `state_payload` makes of the whole
+state, through a ramp, a parameter read, a refused write, a drive that stops answering and
+comes back, and the reference read after the first answers."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+
+from pyuss.bus import VirtualBus
+from pyuss.errors import UssError
+from pyuss.gateway.topics import StatePayloads, state_payload
+from pyuss.master.testing import simulated_drives
+from pyuss.points.config import plant_from_flags
+from pyuss.points.model import resolve
+from pyuss.points.plant import Plant
+from pyuss.points.state import DriveState
+from pyuss.protocol.layout import Layout
+from support.waiting import eventually
+
+BAUD = 38400
+
+
+async def test_the_state_messages_are_those_of_the_whole_state() -> None:
+    bus = VirtualBus(BAUD)
+    config = plant_from_flags(
+        port="bus://simulated:1",
+        addresses=[5],
+        baud=BAUD,
+        layout="4,2",
+        name="line",
+        parameters=["107"],
+    )
+    states: list[DriveState] = []
+    async with simulated_drives(bus, [(5, "generic", Layout.parse("4,2"))]):
+        plant = Plant(resolve(config), transports={"line": bus.attach("gateway")})
+        await plant.start()
+        try:
+            drive = plant.drives[0]
+            drive.subscribe(states.append)
+            await eventually(lambda: drive.reference is not None)
+            await drive.set_setpoint(100.0, unit="percent")
+            await drive.command("on")
+            await eventually(lambda: len(states) > 30)
+            await drive.read_parameter(107)
+            with contextlib.suppress(UssError):  # P107 may not change while it runs
+                await drive.write_parameter(107, 60.0)
+            await drive.command("off1")
+            bus.make_dead("drive5", 0.3)
+            await eventually(lambda: states[-1].health.not_sending)
+            await eventually(lambda: not states[-1].health.not_sending)
+            await drive.read_parameter(107)
+            await asyncio.sleep(0.2)
+        finally:
+            await plant.close()
+    assert states[0].reference is None and states[-1].reference is not None
+    assert any(s.health.not_sending for s in states)
+    assert any(s.health.last_refusal is not None for s in states)
+    assert any(s.parameters["P107"].value is not None for s in states)
+    payloads = StatePayloads()
+    for state in states:
+        assert payloads.payload(state) == state_payload(state)
