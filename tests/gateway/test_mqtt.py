@@ -344,3 +344,19 @@ async def test_messages_the_socket_cannot_take_at_once_arrive_whole_and_in_order
         await eventually(lambda: len(got) == len(payloads), timeout=20)
         assert got == payloads
         assert bus.connections == 1
+
+
+async def test_the_face_sends_each_packet_at_once(broker: Broker) -> None:
+    """No Nagle delay: a state or reply leaves when it is made, not after the broker's
+    (delayed) acknowledgement of the packet before - the value and command latencies of
+    docs/bench.md depend on it."""
+    async with simulated_gateway(mqtt=broker.url) as (gateway, _):
+        face = gateway.faces["mqtt"]
+        assert isinstance(face, MqttFace)
+        bus = face.buses["bus"]
+        await eventually(bus.connected.is_set)
+        client = bus._client
+        assert client is not None
+        sock = client._client.socket()
+        assert isinstance(sock, socket.socket)
+        assert sock.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)

@@ -3,12 +3,15 @@ of unknown kind, or of a family this version does not know, gets no family's fac
 
 from __future__ import annotations
 
+import socket
+from pathlib import Path
 from typing import Any
 
 import pytest
 
 pytest.importorskip("aiomqtt")
 
+from gateway.harness import Broker
 from pyuss.gateway.config import mqtt_options
 from pyuss.plant.remote import RemoteParams, RemotePlant, drives_of
 from pyuss.points.config import Where
@@ -39,3 +42,20 @@ def test_a_named_family_s_facts_apply() -> None:
     params = RemoteParams(plant, drive)
     assert params.profile_named and params.kind == "sinamics-v20"
     assert params.params.get(1120) is not None
+
+
+async def test_the_page_s_client_sends_each_command_at_once(tmp_path: Path) -> None:
+    """No Nagle delay on the page's connection either: a command leaves when it is made."""
+    broker = Broker(tmp_path)
+    broker.start()
+    plant = RemotePlant(mqtt_options({"broker": broker.url}, Where("web")))
+    try:
+        await plant.start()
+        client = plant._client
+        assert client is not None
+        sock = client._client.socket()
+        assert isinstance(sock, socket.socket)
+        assert sock.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)
+    finally:
+        await plant.close()
+        broker.stop()

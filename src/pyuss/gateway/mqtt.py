@@ -28,6 +28,8 @@ this module is the client around them:
 - Commands of one drive are carried out one after the other, in order, by a task of that
   drive, so the message loop never waits for a drive; a command with an id is carried out
   once (`pyuss.gateway.topics`), its reply kept for repeats (the last 1000 ids per bus).
+- Its socket sends each packet at once (`send_at_once`: no Nagle delay behind the broker's
+  acknowledgement of the packet before).
 - On stop it publishes ``offline`` itself and disconnects.
 
 Why aiomqtt: the asyncio client over paho-mqtt (the reference MQTT client for Python); it
@@ -133,6 +135,18 @@ def make_client(
         timeout=10,
         logger=client_log,
     )
+
+
+def send_at_once(client: aiomqtt.Client) -> None:
+    """Turn Nagle's algorithm off on a connected client's TCP socket (``TCP_NODELAY``): a
+    state, command or reply goes out when it is made, not held until the broker acknowledged
+    the one before (with the peer's delayed acknowledgement, some 40 ms each time). A socket
+    that is no TCP socket (websockets) is left as it is."""
+    paho = getattr(client, "_client", None)  # aiomqtt's paho client
+    sock = paho.socket() if paho is not None else None
+    if isinstance(sock, socket.socket) and sock.family in (socket.AF_INET, socket.AF_INET6):
+        with contextlib.suppress(OSError):
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
 
 
 class _DriveWorker:
@@ -432,6 +446,7 @@ class MqttBusFace:
 
     async def _connected(self, client: aiomqtt.Client) -> None:
         self._client = client
+        send_at_once(client)
         for topic in subscriptions(self.options.prefix, self.bus.name):
             granted = await client.subscribe(topic, options=SUBSCRIBE)
             if any(_failed(code) for code in granted):

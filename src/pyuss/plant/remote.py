@@ -61,7 +61,7 @@ from paho.mqtt.subscribeoptions import SubscribeOptions
 from pyuss.drive.datatypes import encode as encode_raw
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
 from pyuss.gateway.config import MqttOptions
-from pyuss.gateway.mqtt import make_client
+from pyuss.gateway.mqtt import make_client, send_at_once
 from pyuss.gateway.topics import CONTRACT_VERSION
 from pyuss.params import ParamBook, ParamInfo
 from pyuss.params.model import Reading
@@ -333,6 +333,7 @@ class RemotePlant:
         while not self._stop.is_set():
             try:
                 async with make_client(self.options, self.client_id) as client:
+                    send_at_once(client)  # a command goes out when it is made
                     p = self.prefix
                     for topic in (
                         f"{p}/+/gateway",
