@@ -327,14 +327,7 @@ async def test_messages_the_socket_cannot_take_at_once_arrive_whole_and_in_order
         simulated_gateway(mqtt=broker.url) as (gateway, _),
         subscribed(broker, "test/big", on=lambda _topic, payload: got.append(payload)),
     ):
-        face = gateway.faces["mqtt"]
-        assert isinstance(face, MqttFace)
-        bus = face.buses["bus"]
-        await eventually(bus.connected.is_set)
-        client = bus._client
-        assert client is not None
-        sock = client._client.socket()
-        assert isinstance(sock, socket.socket)
+        bus, sock = await face_socket(gateway)
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 4096)
         payloads = [b"%04d" % n + bytes(range(256)) * 40 for n in range(200)]
         assert await bus.publish("test/big", payloads[0], qos=0)  # through paho: the topic
@@ -351,12 +344,18 @@ async def test_the_face_sends_each_packet_at_once(broker: Broker) -> None:
     (delayed) acknowledgement of the packet before - the value and command latencies of
     docs/bench.md depend on it."""
     async with simulated_gateway(mqtt=broker.url) as (gateway, _):
-        face = gateway.faces["mqtt"]
-        assert isinstance(face, MqttFace)
-        bus = face.buses["bus"]
-        await eventually(bus.connected.is_set)
-        client = bus._client
-        assert client is not None
-        sock = client._client.socket()
-        assert isinstance(sock, socket.socket)
+        _bus, sock = await face_socket(gateway)
         assert sock.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)
+
+
+async def face_socket(gateway: Any) -> tuple[Any, socket.socket]:
+    """The MQTT face of the gateway's bus ``bus`` once connected, and its TCP socket."""
+    face = gateway.faces["mqtt"]
+    assert isinstance(face, MqttFace)
+    bus = face.buses["bus"]
+    await eventually(bus.connected.is_set)
+    client = bus._client
+    assert client is not None
+    sock = client._client.socket()
+    assert isinstance(sock, socket.socket)
+    return bus, sock
