@@ -30,6 +30,7 @@ async def test_the_state_messages_are_those_of_the_whole_state() -> None:
         baud=BAUD,
         layout="4,2",
         name="line",
+        profile="generic",
         parameters=["107"],
     )
     states: list[DriveState] = []

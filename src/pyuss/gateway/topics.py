@@ -59,6 +59,7 @@ from pyuss.points.config import ProcessConfig, parse_parameter_spec
 from pyuss.points.model import DriveModel
 from pyuss.points.parameters import ParamMeta
 from pyuss.points.state import COUNTER_FIELDS, DriveState, Health, ParamValue, iso
+from pyuss.profiles import UNKNOWN_KIND
 from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32
 from pyuss.userfile import json_depth
 
@@ -564,7 +565,7 @@ class StatePayloads:
                     "bus": model.bus,
                     "address": model.address,
                     "name": model.name,
-                    "profile": model.profile,
+                    "profile": model.profile or UNKNOWN_KIND,
                 }
             )[:-1],
         )
