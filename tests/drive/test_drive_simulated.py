@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
@@ -288,3 +289,5 @@ def test_a_running_motor_draws_current_at_a_voltage_by_v_f(profile: str) -> None
     assert rated[2] == pytest.approx(rated_current, rel=1e-3) and rated[3] > half[3]
     drive.exchange([0x047C, 0x4000], 60.1)  # OFF2: pulses off at once
     assert [drive.value(p) for p in (25, 27, 32)] == [0, 0, 0]
+    # the DC link stays charged while the drive is powered: the peak of its supply
+    assert drive.value(26) == pytest.approx(math.sqrt(2) * rated_voltage, rel=1e-3)

@@ -144,8 +144,9 @@ DISPLAY_ROLES = ("state", "fault", "warning", "control_word", "status_word", "se
 MOTOR_ROLES = ("motor_voltage", "motor_current", "motor_power")
 """Rated motor data the simulation's motor model reads (units V, A, kW; `MOTOR_UNITS`)."""
 
-OUTPUT_ROLES = ("output_voltage", "output_current", "output_power")
-"""What the simulation's motor model shows while the motor runs (units V, A, kW)."""
+OUTPUT_ROLES = ("output_voltage", "output_current", "output_power", "dc_link_voltage")
+"""What the simulation's motor model shows: output voltage, current and power while the motor
+runs, the DC link voltage while the drive is powered (units V, A, kW, V)."""
 
 MOTOR_UNITS = {
     "motor_voltage": "V",
@@ -154,6 +155,7 @@ MOTOR_UNITS = {
     "output_voltage": "V",
     "output_current": "A",
     "output_power": "kW",
+    "dc_link_voltage": "V",
 }
 """The unit each motor role's parameter must have."""
 

@@ -96,19 +96,24 @@ EFFICIENCY = 0.8
 efficiency): the share of the rated current that is active current follows from it."""
 
 
-def motor_outputs(motor: RatedMotor, frequency: float, running: bool) -> tuple[float, float, float]:
-    """Output voltage (V), current (A) and power (kW) of the simulated motor at ``frequency``
-    (Hz) - a model for the simulation, not a fact of a drive:
+def motor_outputs(
+    motor: RatedMotor, frequency: float, running: bool
+) -> tuple[float, float, float, float]:
+    """Output voltage (V), current (A), power (kW) and DC link voltage (V) of the simulated
+    drive and motor at ``frequency`` (Hz) - a model for the simulation, not a fact of a drive:
 
     - voltage by V/f: rated voltage x f / rated frequency, at most the rated voltage;
     - current: the magnetising current (what the rated current holds beyond the active current
       of the rated point) and an active current for a load whose torque rises with the square of
       the speed (a fan or pump), the rated active current at the rated frequency;
-    - power: sqrt(3) x voltage x active current.
+    - power: sqrt(3) x voltage x active current;
+    - DC link: the peak of a supply of the motor's rated voltage, sqrt(2) x rated voltage
+      (565 V for 400 V), whether the pulses are on or not (the drive is powered).
 
-    Pulses off (``running`` False): all 0."""
+    Pulses off (``running`` False): output voltage, current and power 0."""
+    dc_link = math.sqrt(2) * max(motor.voltage, 0.0)
     if not running or motor.frequency <= 0 or motor.voltage <= 0:
-        return 0.0, 0.0, 0.0
+        return 0.0, 0.0, 0.0, dc_link
     share = min(abs(frequency) / motor.frequency, 1.0)
     rated_active = min(
         motor.current, motor.power * 1000.0 / (math.sqrt(3) * motor.voltage * EFFICIENCY)
@@ -117,7 +122,7 @@ def motor_outputs(motor: RatedMotor, frequency: float, running: bool) -> tuple[f
     active = rated_active * share * share
     voltage = motor.voltage * share
     current = math.hypot(magnetising, active)
-    return voltage, current, math.sqrt(3) * voltage * active / 1000.0
+    return voltage, current, math.sqrt(3) * voltage * active / 1000.0, dc_link
 
 
 @dataclass(frozen=True, slots=True)
@@ -471,7 +476,8 @@ class SimulatedDrive(ParameterMemory):
         self._published = published
 
     def _outputs(self, motor: RatedMotor | None) -> tuple[float, ...]:
-        """The motor model's output voltage, current and power now (empty without a motor)."""
+        """The motor model's output voltage, current, power and DC link voltage now (empty
+        without a motor)."""
         if motor is None:
             return ()
         reference = self._role("reference")
