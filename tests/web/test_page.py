@@ -39,8 +39,7 @@ def test_the_bus_view_lists_the_drives_with_their_health(page: Any) -> None:
     assert [rows.nth(i).get_attribute("data-address") for i in range(4)] == ["1", "4", "7", "9"]
     # (a loaded machine may miss one answer: the row says "does not send" until the next)
     page.wait_for_function(
-        "document.querySelector('#bus-table tbody tr').textContent"
-        ".includes('switch-on inhibited')"
+        "document.querySelector('#bus-table tbody tr').textContent.includes('switch-on inhibited')"
     )
     assert "0.00 Hz" in rows.nth(0).inner_text()  # the main actual value in its unit
     assert "0.00 %" in rows.nth(1).inner_text()  # no reference parameter: percent
