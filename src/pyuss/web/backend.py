@@ -24,7 +24,7 @@ import logging
 import tempfile
 import time
 from collections import deque
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Awaitable, Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -495,21 +495,11 @@ class Backend:
         printed: ``10.00 s``, ``1 [READY]``) and ``input`` (as a user types it), or
         ``error``."""
         points = self.points(address)
-        out: list[dict[str, Any]] = []
-        for pnu, index in refs:
-            item: dict[str, Any] = {"id": _id(pnu, index)}
-            needs = backups.beyond_layout(points.drive.layout, points.drive.params.get(pnu))
-            if needs is not None:  # the drive would refuse it (error 103): not asked
-                out.append({**item, "needs": needs})
-                continue
-            try:
-                reading = await points.read_value(pnu, index, timeout=self.job_timeout)
-            except UssError as exc:
-                item["error"] = str(exc)
-            else:
-                item.update(_shown_reading(reading))
-            out.append(item)
-        return out
+
+        async def read(pnu: int, index: int | None) -> Reading:
+            return await points.read_value(pnu, index, timeout=self.job_timeout)
+
+        return await read_rows(refs, points.drive.layout, points.drive.params, read)
 
     async def write(
         self, address: int, pnu: int, index: int | None, text: str, *, eeprom: bool = False
@@ -740,6 +730,32 @@ class Backend:
             )
             write_all(writer, (ex for _, ex in list(self.exchanges)))
             return path.read_bytes()
+
+
+async def read_rows(
+    refs: Sequence[tuple[int, int | None]],
+    layout: Layout,
+    book: ParamBook,
+    read: Callable[[int, int | None], Awaitable[Reading]],
+) -> list[dict[str, Any]]:
+    """The page's answer to a parameter read, by ``read`` (a drive on the line, or one behind
+    a gateway): per parameter ``value`` and ``input``, ``error``, or ``needs`` for one the
+    ``layout`` cannot carry (the drive would refuse it, error 103: not asked)."""
+    out: list[dict[str, Any]] = []
+    for pnu, index in refs:
+        item: dict[str, Any] = {"id": _id(pnu, index)}
+        needs = backups.beyond_layout(layout, book.get(pnu))
+        if needs is not None:
+            out.append({**item, "needs": needs})
+            continue
+        try:
+            reading = await read(pnu, index)
+        except UssError as exc:
+            item["error"] = str(exc)
+        else:
+            item.update(_shown_reading(reading))
+        out.append(item)
+    return out
 
 
 def compared(

@@ -43,6 +43,7 @@ from pyuss.web.backend import (
     _status_bits,
     _unit_given,
     compared,
+    read_rows,
     restored,
 )
 
@@ -461,21 +462,7 @@ class PlantBackend:
         drive = self._drive(key)
         self._may(drive, change=False)
         params = RemoteParams(self.plant, drive)
-        out: list[dict[str, Any]] = []
-        for pnu, index in refs:
-            item: dict[str, Any] = {"id": _id(pnu, index)}
-            needs = backups.beyond_layout(params.layout, params.params.get(pnu))
-            if needs is not None:
-                out.append({**item, "needs": needs})
-                continue
-            try:
-                reading = await params.read_param(pnu, index)
-            except UssError as exc:
-                item["error"] = str(exc)
-            else:
-                item.update(_shown_reading(reading))
-            out.append(item)
-        return out
+        return await read_rows(refs, params.layout, params.params, params.read_param)
 
     async def write(
         self, key: object, pnu: int, index: int | None, text: str, *, eeprom: bool = False
