@@ -12,8 +12,9 @@ import pytest
 pytest.importorskip("aiomqtt")
 
 from gateway.harness import Broker
+from pyuss.errors import ConfigError
 from pyuss.gateway.config import mqtt_options
-from pyuss.plant.remote import RemoteParams, RemotePlant, drives_of
+from pyuss.plant.remote import RemoteParams, RemotePlant, drives_of, parse_message
 from pyuss.points.config import Where
 
 
@@ -59,3 +60,10 @@ async def test_the_page_s_client_sends_each_command_at_once(tmp_path: Path) -> N
     finally:
         await plant.close()
         broker.stop()
+
+
+@pytest.mark.parametrize("constant", ["NaN", "Infinity", "-Infinity"])
+def test_a_message_holding_nan_or_infinity_is_refused(constant: str) -> None:
+    """A lying gateway's NaN never reaches the page's answers (a browser reads no NaN)."""
+    with pytest.raises(ConfigError, match=f"{constant} is no JSON number"):
+        parse_message(f'{{"v": 1, "actual": {{"main": {{"value": {constant}}}}}}}'.encode())

@@ -244,9 +244,15 @@ def drives_of(message: dict[str, Any]) -> list[RemoteDrive]:
     return out
 
 
+def _no_constant(name: str) -> Any:
+    """NaN and Infinity are no JSON: a gateway's message holding one would make the page's
+    own answers unreadable for the browser."""
+    raise ConfigError(f"{name} is no JSON number")
+
+
 def parse_message(payload: bytes) -> dict[str, Any]:
-    """A JSON object of the contract read within bounds, in a version this client reads;
-    `ConfigError` naming what is wrong."""
+    """A JSON object of the contract read within bounds (no NaN or Infinity), in a version
+    this client reads; `ConfigError` naming what is wrong."""
     if len(payload) > MAX_MESSAGE:
         raise ConfigError(f"{len(payload)} bytes; at most {MAX_MESSAGE} are read")
     try:
@@ -256,7 +262,9 @@ def parse_message(payload: bytes) -> dict[str, Any]:
     if json_depth(text) > MAX_DEPTH:
         raise ConfigError(f"nested deeper than {MAX_DEPTH} levels")
     try:
-        data = json.loads(text)
+        data = json.loads(text, parse_constant=_no_constant)
+    except ConfigError:
+        raise
     except ValueError:
         raise ConfigError("not JSON") from None
     if not isinstance(data, dict):
