@@ -137,6 +137,7 @@ class PlantBackend:
         self.scan_progress: tuple[int, int] | None = None
         self.last_exchange = 0
         self._sent: dict[str, dict[str, Any]] = {}
+        self._remote: dict[str, RemoteParams] = {}
 
     async def start(self) -> None:
         await self.plant.start()
@@ -147,6 +148,14 @@ class PlantBackend:
     # -- the drives ---------------------------------------------------------------------------
     def _drive(self, key: object) -> RemoteDrive:
         return self.plant.drive(str(key))
+
+    def _params_of(self, drive: RemoteDrive) -> RemoteParams:
+        """The drive's parameter jobs and book, made once per drive as its gateway message
+        names it (again when a new gateway message replaces the drive)."""
+        params = self._remote.get(drive.key)
+        if params is None or params.remote is not drive:
+            params = self._remote[drive.key] = RemoteParams(self.plant, drive)
+        return params
 
     def addresses(self) -> list[str]:
         return sorted(
@@ -211,7 +220,7 @@ class PlantBackend:
     def drive_info(self, key: object) -> dict[str, Any]:
         drive = self._drive(key)
         reference = _Setpoint(drive).reference
-        params = RemoteParams(self.plant, drive)
+        params = self._params_of(drive)
         profile = params.profile  # the telegram rules; its facts only where it is named
         title = profile.title if params.profile_named else "a drive of unknown kind"
         return {
@@ -410,7 +419,7 @@ class PlantBackend:
     async def key_actuals(self, key: object) -> dict[str, Any]:
         drive = self._drive(key)
         self._may(drive, change=False)
-        params = RemoteParams(self.plant, drive)
+        params = self._params_of(drive)
         values = []
         for item in self._key_actuals(params):
             try:
@@ -431,7 +440,7 @@ class PlantBackend:
         drive = self._drive(key)
         bits = self._state(drive).get("bits") or {}
         return await fault_history(
-            RemoteParams(self.plant, drive),
+            self._params_of(drive),
             fault=bool(bits.get("fault")),
             warning=bool(bits.get("warning")),
         )
@@ -440,7 +449,7 @@ class PlantBackend:
     def parameters(self, key: object) -> list[dict[str, Any]]:
         """The expert list of the drive's profile (its parameter file): names, units, limits,
         texts; over the broker a parameter is read and written as a number."""
-        params = RemoteParams(self.plant, self._drive(key))
+        params = self._params_of(self._drive(key))
         book = params.params
         rows = []
         for info in book:
@@ -461,7 +470,7 @@ class PlantBackend:
     ) -> list[dict[str, Any]]:
         drive = self._drive(key)
         self._may(drive, change=False)
-        params = RemoteParams(self.plant, drive)
+        params = self._params_of(drive)
         return await read_rows(refs, params.layout, params.params, params.read_param)
 
     async def write(
@@ -470,7 +479,7 @@ class PlantBackend:
         """Write a value as typed: parsed and checked against the parameter's type, limits and
         access (`pyuss.params.parse`) before anything is sent, then by the gateway."""
         drive = self._drive(key)
-        params = RemoteParams(self.plant, drive)
+        params = self._params_of(drive)
         info = params.params.get(pnu)
         if info is None:
             raise ConfigError(
@@ -491,7 +500,7 @@ class PlantBackend:
     def _params(self, key: object, *, change: bool) -> RemoteParams:
         drive = self._drive(key)
         self._may(drive, change=change)
-        return RemoteParams(self.plant, drive)
+        return self._params_of(drive)
 
     async def backup(
         self, key: object, fmt: str = "toml", progress: Progress | None = None
