@@ -311,18 +311,29 @@ def test_uss_web_shows_the_drives_of_the_files_line(sim: str) -> None:
     assert isinstance(drives, list) and [d["address"] for d in drives] == [6]
 
 
-def test_uss_web_profile_auto_asks_each_drive_its_family() -> None:
-    pytest.importorskip("aiohttp")
-    with simulator_pty("--profile", "sinamics-v20", "--address", "2", "--baud", "9600") as v20:
-        argv = ["web", "--port", v20, "--address", "2", "--profile", "auto", "--timeout", "0.5"]
-        process, lines = serve([*argv, "--listen", "127.0.0.1:0"], "http://")
+def auto_page(profile: str, address: str) -> tuple[list[dict[str, object]], str]:
+    """The drives `uss web --profile auto` shows of a simulated ``profile`` drive, and its
+    stderr."""
+    with simulator_pty("--profile", profile, "--address", address, "--baud", "9600") as pty:
+        argv = ["web", "--port", pty, "--address", address, "--profile", "auto"]
+        process, lines = serve([*argv, "--timeout", "0.5", "--listen", "127.0.0.1:0"], "http://")
         try:
             bus = page_bus(lines[-1])
         finally:
             assert stop(process) == 0
     drives = bus["drives"]
-    assert isinstance(drives, list)
+    assert isinstance(drives, list) and process.stderr is not None
+    return drives, process.stderr.read()
+
+
+def test_uss_web_profile_auto_asks_each_drive_its_family() -> None:
+    pytest.importorskip("aiohttp")
+    drives, _ = auto_page("sinamics-v20", "2")
     assert [(d["address"], d["profile"]) for d in drives] == [(2, "sinamics-v20")]
+    # a drive that shows no family: one of unknown kind, and the page says so on stderr
+    drives, stderr = auto_page("generic", "3")
+    assert [(d["address"], d["profile"]) for d in drives] == [(3, "unknown")]
+    assert "address 3: the drive shows no family known here" in stderr
     done = subprocess.run(
         [*USS, "web", "--port", "/dev/null", "--profile", "auto", "--listen", "127.0.0.1:0"],
         capture_output=True,

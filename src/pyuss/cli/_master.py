@@ -86,7 +86,7 @@ def add_options(parser: argparse.ArgumentParser, *, lists: bool = False) -> None
         metavar="NAME",
         help="the drive family, which sets parameter numbering, response delay, error texts "
         f"and default layout: {', '.join(profile_names())}; auto: ask the drive which family "
-        f"it is (docs/drives.md; {UNNAMED_HELP})",
+        f"it is, one that shows none is of unknown kind (docs/drives.md; {UNNAMED_HELP})",
     )
     parser.add_argument(
         "--layout",
@@ -318,7 +318,8 @@ def open_master(
 ) -> contextlib.AbstractAsyncContextManager[Master]:
     """A master on ``--port`` at ``--baud``, to be entered with ``async with``; with
     ``--profile auto`` its profile is the family of the drive at ``ADDRESS``
-    (`pyuss.master.identify.auto_master`)."""
+    (`pyuss.master.identify.auto_master`); a drive that shows no family is then one of unknown
+    kind, as without ``--profile``, and one line on stderr says so."""
     check_baud(args.baud)
     options = master_options(args)
     options.update(extra)
@@ -328,7 +329,11 @@ def open_master(
         del options["profile"]
         open_transport(args.port, baud=args.baud)  # a bad URL is bad input before probing
         return auto_master(
-            lambda: open_transport(args.port, baud=args.baud), args.address, mode=mode, **options
+            lambda: open_transport(args.port, baud=args.baud),
+            args.address,
+            mode=mode,
+            unknown=lambda text: print(f"uss {args.command}: {text}", file=sys.stderr),
+            **options,
         )
     transport = open_transport(args.port, baud=args.baud)
     return Master(transport, mode=mode, **options)

@@ -14,7 +14,7 @@ import contextlib
 from collections.abc import AsyncIterator, Callable, Sequence
 from typing import Any
 
-from pyuss.errors import DriveRefusal, ProtocolError, UssError, UssTimeout
+from pyuss.errors import DriveRefusal, UssError, UssTimeout
 from pyuss.master.drive import Drive
 from pyuss.master.scan import Found
 from pyuss.master.scheduler import ACYCLIC, Master
@@ -25,6 +25,7 @@ from pyuss.transport.base import Transport
 
 __all__ = [
     "AUTO_LAYOUTS",
+    "UNKNOWN_FAMILY",
     "auto_master",
     "identify_drive",
     "identify_family",
@@ -35,6 +36,12 @@ __all__ = [
 AUTO_LAYOUTS = (Layout(PKW_VARIABLE, 2), Layout(4, 2))
 """Layouts `auto_master` tries when none is given: the Siemens families' variable PKW area and
 the NORD SK 500E's PPO 1."""
+
+UNKNOWN_FAMILY = (
+    "address {address}: the drive shows no family known here; it is taken as one of unknown"
+    " kind (its parameters as words; --profile NAME gives a family's)"
+)
+"""What `auto_master` tells of a drive that answers but shows no family."""
 
 IDENTIFY_PROFILE = "micromaster4"
 """The numbering the identification reads with."""
@@ -95,12 +102,17 @@ async def auto_master(
     *,
     layout: Layout | None = None,
     job_timeout: float = 2.0,
+    unknown: Callable[[str], None] | None = None,
     **options: Any,
 ) -> AsyncIterator[Master]:
     """A started `Master` whose profile is the family of the drive at ``address``
     (``--profile auto``): `identify_family` finds it; then the master is opened with the
-    family's profile (and the layout the drive answered)."""
+    family's profile (and the layout the drive answered). A drive that answers but shows no
+    family is taken as one of unknown kind (the master has no profile: its parameters travel
+    as words), and ``unknown`` is told so in one sentence (`UNKNOWN_FAMILY`)."""
     profile, answered = await identify_family(transport, address, layout, job_timeout=job_timeout)
+    if profile is None and unknown is not None:
+        unknown(UNKNOWN_FAMILY.format(address=address))
     async with Master(
         transport(), profile=profile, layout=answered, job_timeout=job_timeout, **options
     ) as master:
@@ -113,10 +125,12 @@ async def identify_family(
     layout: Layout | None = None,
     *,
     job_timeout: float = 2.0,
-) -> tuple[str, Layout]:
+) -> tuple[str | None, Layout]:
     """The profile of the drive at ``address`` and the layout it answered with: a master on
     ``transport()`` identifies it, with ``layout`` or each of `AUTO_LAYOUTS` in turn. A drive
-    that cannot be identified is an error naming the address."""
+    that answers but shows no family known here has the profile None (a drive of unknown
+    kind: nothing is assumed of it that it did not say); one that answers in no layout is a
+    `UssTimeout` naming the address."""
     found = None
     for candidate in (layout,) if layout is not None else AUTO_LAYOUTS:
         async with Master(
@@ -132,8 +146,4 @@ async def identify_family(
     if found is None:
         raise UssTimeout(f"address {address}: no answer to identify the drive's family")
     identity, answered = found
-    if identity.profile is None:
-        raise ProtocolError(
-            f"address {address}: the drive's family could not be identified; give --profile NAME"
-        )
     return identity.profile, answered
