@@ -221,6 +221,30 @@ async def test_factory_reset_keeps_what_the_family_keeps() -> None:
         assert engine.drive.phase() == "T"
 
 
+async def test_micromaster420_pid_settings_as_its_parameter_list_gives_them() -> None:
+    # MICROMASTER 420 Parameter List 04/02: P2280 0..125 (the V20 stops at 65), P2285 and
+    # P2293 0..100 s, P2291/P2292 -200..200 %, all changeable while the motor runs (CUT).
+    db = get_profile("micromaster420").database()
+    async with family("micromaster420") as (drive, _):
+        assert await drive.read(2280) == 3.0 and await drive.read(2293) == 1.0
+        assert await drive.read(2291) == 100.0 and await drive.read(2292) == 0.0
+        await drive.control_word(0x047E)
+        await drive.control_word(0x047F)  # running: U
+        await drive.write(2280, 100.0)
+        await drive.write(2292, -200.0)  # both directions
+        await drive.write(2285, 100.0)
+        for pnu, too_far in ((2280, 125.5), (2291, 200.5), (2293, 100.5)):
+            with pytest.raises(DriveRefusal) as refused:  # the drive itself refuses it
+                await write_value(drive, db.parameter(pnu), too_far, None)
+            assert refused.value.number == 2, pnu
+        assert await drive.read(2280) == 100.0 and await drive.read(2292) == -200.0
+    v20 = get_profile("sinamics-v20").database()
+    async with family("sinamics-v20") as (drive, _):
+        with pytest.raises(DriveRefusal) as refused:
+            await write_value(drive, v20.parameter(2280), 100.0, None)
+        assert refused.value.number == 2
+
+
 @pytest.mark.parametrize("name", SIEMENS)
 async def test_status_and_control_word_bits_of_the_family(name: str) -> None:
     async with family(name) as (drive, engine):
