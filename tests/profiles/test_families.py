@@ -326,6 +326,36 @@ def test_family_facts() -> None:
         assert all(p.level is None or 0 <= p.level <= 4 for p in db)
 
 
+@pytest.mark.parametrize("name", ["micromaster440", "sinamics-g120"])
+async def test_pid_settings_as_the_micromaster_440_list_gives_them(name: str) -> None:
+    """MICROMASTER 440 Parameter List 01/06 pages 237/238, shared by the G120 (CU240S): the PID
+    settings keep their factory values and limits, are not per data set and can be changed
+    while the motor runs (CUT); the PID output is a display."""
+    async with family(name) as (drive, engine):
+        assert await drive.read(2280) == pytest.approx(3.0)  # proportional gain
+        assert await drive.read(2293) == pytest.approx(1.0)  # limit ramp, s
+        assert await drive.read(2291) == pytest.approx(100.0)  # upper limit, %
+        db = engine.drive.db
+        with pytest.raises(DriveRefusal) as refused:  # -200..200 %, refused by the drive
+            await write_value(drive, db.parameter(2291), 200.5, None)
+        assert refused.value.number == 2
+        bits, page = get_profile(name).encode_pnu(2280)
+        with pytest.raises(DriveRefusal) as refused:  # one value, not one a drive data set
+            await drive.job(Pkw(RequestId.READ_ARRAY, bits, page))
+        assert refused.value.number == 4
+        await drive.control_word(0x047E)
+        await drive.control_word(0x047F)
+        assert engine.drive.phase() == "U"
+        assert await drive.write(2285, 2.5) == pytest.approx(2.5)  # integral time, running
+        assert await drive.read(2285) == pytest.approx(2.5)
+        with pytest.raises(DriveRefusal) as refused:  # the PID output: a display
+            await write_value(drive, db.parameter(2294), 0.0, None)
+        assert refused.value.number == 1
+        assert db.parameter(2291).level is None  # not confirmed
+        assert db.parameter(948).array == 12
+        assert db.parameter(706).array == 3 and engine.drive.value(706, 2) == 15
+
+
 def _simulate(*args: str) -> tuple[subprocess.Popen[str], str]:
     proc = subprocess.Popen(
         [sys.executable, "-m", "pyuss.cli.main", "simulate", *args],
