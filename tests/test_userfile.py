@@ -8,9 +8,18 @@ import json
 from pathlib import Path
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from pyuss.errors import ConfigError
-from pyuss.userfile import MAX_DEPTH, parse_json, parse_toml, read_text
+from pyuss.userfile import (
+    MAX_DEPTH,
+    NotJson,
+    parse_json,
+    parse_message,
+    parse_toml,
+    read_text,
+)
 
 DEEP = 5000
 """Far deeper than Python's recursion limit."""
@@ -72,3 +81,49 @@ def test_the_deepest_nesting_allowed_is_read() -> None:
     assert parse_toml(f"a = {'[' * inner}{']' * inner}", "t.toml")
     with pytest.raises(ConfigError, match="nested more than"):
         parse_toml(f"a = {'[' * (inner + 1)}{']' * (inner + 1)}", "t.toml")
+
+
+JSON_VALUES = st.recursive(
+    st.none()
+    | st.booleans()
+    | st.integers(-(10**15), 10**15)
+    | st.floats(allow_nan=False, allow_infinity=False)
+    | st.text(max_size=20),
+    lambda inner: (
+        st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4)
+    ),
+    max_leaves=20,
+)
+
+
+@given(JSON_VALUES)
+def test_a_network_message_within_its_bounds_reads_as_written(value: object) -> None:
+    raw = json.dumps(value).encode()
+    assert parse_message(raw, "the message", max_depth=64, max_number=32) == value
+
+
+@pytest.mark.parametrize(
+    ("raw", "words"),
+    [
+        (b"[" * DEEP + b"]" * DEEP, "the message is nested deeper than 4 levels"),
+        (b'{"a": [[[[[1]]]]]}', "the message is nested deeper than 4 levels"),
+        (b" " * 20_001, "the message has 20001 bytes; at most 20000 are read"),
+        (b"\xff\xfe{}", "the message is not UTF-8 text"),
+        (b"[1" + b"0" * 40 + b"]", "the message: a number has at most 24 characters, not 41"),
+        (b'{"v": NaN}', "the message: NaN is no JSON number"),
+        (b"[-Infinity]", "the message: -Infinity is no JSON number"),
+    ],
+)
+def test_a_network_message_beyond_its_bounds_is_refused_naming_why(raw: bytes, words: str) -> None:
+    with pytest.raises(ConfigError) as refused:
+        parse_message(raw, "the message", max_depth=4, max_bytes=20_000, max_number=24)
+    assert str(refused.value) == words
+    assert not isinstance(refused.value, NotJson)
+
+
+def test_bounded_text_that_is_no_json_is_told_apart() -> None:
+    for raw in (b"ON", b"", b"{", b'"open'):
+        with pytest.raises(NotJson, match="the payload is not JSON"):
+            parse_message(raw, "the payload", max_depth=4)
+    # a string holding brackets is no nesting
+    assert parse_message(b'"[[[[[[[["', "the payload", max_depth=1) == "[[[[[[[["

@@ -31,9 +31,11 @@ from pyuss.errors import ConfigError
 __all__ = [
     "MAX_DEPTH",
     "MAX_SIZE",
+    "NotJson",
     "check_depth",
     "json_depth",
     "parse_json",
+    "parse_message",
     "parse_toml",
     "read_text",
 ]
@@ -185,3 +187,64 @@ def json_depth(text: str) -> int:
         elif char in "]}":
             depth -= 1
     return deepest
+
+
+class NotJson(ConfigError):
+    """A network message within its bounds that is no JSON (the MQTT face takes such a
+    payload as a plain value: ``ON``, ``42``)."""
+
+
+class _Unreadable(Exception):
+    """A number or constant the parser hands over that no message of pyuss holds."""
+
+
+def parse_message(
+    raw: bytes,
+    what: str,
+    *,
+    max_depth: int,
+    max_bytes: int | None = None,
+    max_number: int | None = None,
+) -> Any:
+    """A JSON message from the network (``what`` names it in errors: "the payload", "the
+    request body"), read within bounds before the standard library's parser, which recurses,
+    sees it: at most ``max_bytes`` bytes of UTF-8 text, arrays and objects nested at most
+    ``max_depth`` deep, numbers of at most ``max_number`` characters, and no NaN or Infinity
+    (no JSON numbers, and values the page's answers to a browser could not carry).
+    `ConfigError` naming what is wrong; `NotJson` for bounded text that is not JSON."""
+    import json  # here: a command that reads no message starts sooner
+
+    if max_bytes is not None and len(raw) > max_bytes:
+        raise ConfigError(f"{what} has {len(raw)} bytes; at most {max_bytes} are read")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(f"{what} is not UTF-8 text") from None
+    if json_depth(text) > max_depth:
+        raise ConfigError(f"{what} is nested deeper than {max_depth} levels")
+
+    def number(kind: Callable[[str], Any]) -> Callable[[str], Any]:
+        def parse(digits: str) -> Any:
+            if max_number is not None and len(digits) > max_number:
+                raise _Unreadable(
+                    f"a number has at most {max_number} characters, not {len(digits)}"
+                )
+            return kind(digits)
+
+        return parse
+
+    def constant(name: str) -> Any:
+        raise _Unreadable(f"{name} is no JSON number")
+
+    try:
+        return json.loads(
+            text, parse_int=number(int), parse_float=number(float), parse_constant=constant
+        )
+    except _Unreadable as exc:
+        raise ConfigError(f"{what}: {exc}") from None
+    except ValueError as exc:  # JSONDecodeError, or more digits than Python converts
+        raise NotJson(f"{what} is not JSON: {_cut(str(exc))}") from None
+
+
+def _cut(text: str, width: int = 60) -> str:
+    return text if len(text) <= width else text[: width - 3] + "..."

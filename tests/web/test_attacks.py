@@ -66,7 +66,7 @@ async def test_bad_bodies_get_a_clear_error_and_change_nothing(backend: Backend)
                 (command, nested[:60_000], 400, f"deeper than {MAX_DEPTH}"),
                 (command, '{"name": "on", "value": ' + "[" * 50 + "]" * 50 + "}", 400,
                  "deeper"),
-                (command, b"\xff\xfe{}", 400, "not JSON"),
+                (command, b"\xff\xfe{}", 400, "not UTF-8 text"),
                 (command, "[]", 400, "JSON object"),
                 # wrong types
                 (command, {"name": 5}, 400, "command name"),

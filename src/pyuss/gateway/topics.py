@@ -61,7 +61,7 @@ from pyuss.points.parameters import ParamMeta
 from pyuss.points.state import COUNTER_FIELDS, DriveState, Health, ParamValue, iso
 from pyuss.profiles import UNKNOWN_KIND
 from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32
-from pyuss.userfile import json_depth
+from pyuss.userfile import NotJson, parse_message
 
 __all__ = [
     "COMMAND_NAMES",
@@ -222,47 +222,21 @@ def show(value: object, width: int = 40) -> str:
     return text if len(text) <= width else f"{text[: width - 5]}...{text[-2:]}"
 
 
-class _Bad(Exception):
-    """A number or constant the JSON parser hands over that a command never holds."""
-
-
-def _json_int(text: str) -> int:
-    if len(text) > MAX_NUMBER:
-        raise _Bad(f"a number has at most {MAX_NUMBER} characters, not {len(text)}")
-    return int(text)
-
-
-def _json_float(text: str) -> float:
-    if len(text) > MAX_NUMBER:
-        raise _Bad(f"a number has at most {MAX_NUMBER} characters, not {len(text)}")
-    return float(text)
-
-
-def _json_constant(text: str) -> float:
-    raise _Bad(f"{text} is not a finite number")
-
-
 def _payload(raw: bytes) -> tuple[dict[str, Any], Any]:
     """(JSON object fields, plain value); `ConfigError` if the payload is too long, nested
-    too deep, holds too long a number or is not UTF-8 text."""
-    if len(raw) > MAX_PAYLOAD:
-        raise ConfigError(f"the payload has {len(raw)} bytes; a command has at most {MAX_PAYLOAD}")
+    too deep, holds too long a number or NaN/Infinity, or is not UTF-8 text (read by
+    `pyuss.userfile.parse_message`). A payload that is no JSON is a plain value (``ON``)."""
     try:
-        text = raw.decode("utf-8", errors="strict").strip() if raw else ""
-    except UnicodeDecodeError:
-        raise ConfigError("the payload is not UTF-8 text") from None
-    if not text:
-        return {}, None
-    if json_depth(text) > MAX_DEPTH:
-        raise ConfigError(f"the payload is nested deeper than {MAX_DEPTH} levels")
-    try:
-        data = json.loads(
-            text, parse_int=_json_int, parse_float=_json_float, parse_constant=_json_constant
+        data = parse_message(
+            raw,
+            "the payload",
+            max_depth=MAX_DEPTH,
+            max_bytes=MAX_PAYLOAD,
+            max_number=MAX_NUMBER,
         )
-    except _Bad as exc:
-        raise ConfigError(f"the payload: {exc}") from None
-    except json.JSONDecodeError:
-        return {}, text
+    except NotJson:
+        text = raw.decode("utf-8").strip()
+        return {}, (text or None)
     if isinstance(data, dict):
         return data, data.get("value")
     return {}, data

@@ -70,7 +70,7 @@ from pyuss.points import Sample
 from pyuss.profiles import UNKNOWN_KIND, get_profile, profile_names
 from pyuss.profiles.base import Profile
 from pyuss.protocol.layout import Layout
-from pyuss.userfile import json_depth
+from pyuss.userfile import parse_message as read_message
 
 __all__ = [
     "REPLY_TIMEOUT",
@@ -244,29 +244,11 @@ def drives_of(message: dict[str, Any]) -> list[RemoteDrive]:
     return out
 
 
-def _no_constant(name: str) -> Any:
-    """NaN and Infinity are no JSON: a gateway's message holding one would make the page's
-    own answers unreadable for the browser."""
-    raise ConfigError(f"{name} is no JSON number")
-
-
 def parse_message(payload: bytes) -> dict[str, Any]:
-    """A JSON object of the contract read within bounds (no NaN or Infinity), in a version
-    this client reads; `ConfigError` naming what is wrong."""
-    if len(payload) > MAX_MESSAGE:
-        raise ConfigError(f"{len(payload)} bytes; at most {MAX_MESSAGE} are read")
-    try:
-        text = payload.decode("utf-8")
-    except UnicodeDecodeError:
-        raise ConfigError("not UTF-8 text") from None
-    if json_depth(text) > MAX_DEPTH:
-        raise ConfigError(f"nested deeper than {MAX_DEPTH} levels")
-    try:
-        data = json.loads(text, parse_constant=_no_constant)
-    except ConfigError:
-        raise
-    except ValueError:
-        raise ConfigError("not JSON") from None
+    """A JSON object of the contract read within bounds (`pyuss.userfile.parse_message`: no
+    NaN or Infinity, which would make the page's own answers unreadable for the browser), in
+    a version this client reads; `ConfigError` naming what is wrong."""
+    data = read_message(payload, "the message", max_depth=MAX_DEPTH, max_bytes=MAX_MESSAGE)
     if not isinstance(data, dict):
         raise ConfigError("not a JSON object")
     if data.get("v") not in READS:

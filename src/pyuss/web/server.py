@@ -62,7 +62,7 @@ except ImportError:  # pragma: no cover - the extra is installed for the tests
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
 from pyuss.points import NoWriteAuthority, state_name
 from pyuss.profiles import UNKNOWN_KIND, profile_names
-from pyuss.userfile import json_depth
+from pyuss.userfile import parse_message
 from pyuss.web.backend import Backend
 from pyuss.web.hub import QUEUE_SIZE, SEND_TIMEOUT, Hub
 
@@ -143,24 +143,10 @@ def _cut(value: object) -> str:
 
 
 def parse_json(body: bytes) -> Any:
-    """A JSON request body, parsed only if its nesting is within `MAX_DEPTH` (the parser of
-    the standard library recurses: deep nesting must never reach it)."""
-    try:
-        text = body.decode("utf-8")
-    except UnicodeDecodeError:
-        raise ConfigError("the request body is not JSON (not UTF-8 text)") from None
-    if json_depth(text) > MAX_DEPTH:
-        raise ConfigError(f"the request body nests deeper than {MAX_DEPTH} levels")
-    try:
-        return json.loads(text, parse_constant=_no_constant)
-    except ConfigError:
-        raise
-    except ValueError as exc:
-        raise ConfigError(f"the request body is not JSON: {_cut(str(exc))}") from None
-
-
-def _no_constant(name: str) -> Any:
-    raise ConfigError(f"the request body is not JSON: {name} is no JSON number")
+    """A JSON request body, parsed only within `MAX_DEPTH` levels and without NaN or
+    Infinity (`pyuss.userfile.parse_message`: the parser of the standard library recurses,
+    deep nesting must never reach it)."""
+    return parse_message(body, "the request body", max_depth=MAX_DEPTH)
 
 
 class Confirmations:
