@@ -95,7 +95,13 @@ from pyuss.master.errors import MasterClosed, MirrorMismatch, NotSending
 from pyuss.master.jobs import Job, ParameterChannel, SpontaneousMessage
 from pyuss.master.process import DriveStatus
 from pyuss.master.profile import Profile, resolve_profile, response_limit
-from pyuss.master.stats import BusDiagnostics, CycleStats, Samples, SlaveDiagnostics
+from pyuss.master.stats import (
+    BusDiagnostics,
+    CycleStats,
+    Samples,
+    SlaveCounts,
+    SlaveDiagnostics,
+)
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.diagnostics import Diagnostics, FaultKind
 from pyuss.protocol.layout import Layout, NetData
@@ -240,6 +246,11 @@ class _Link:
     def wants_turn(self) -> bool:
         """Acyclic mode: a job, process data not yet answered, or an exchange asked for."""
         return self.channel.busy or self.answered_version < self.version or self.polls_wanted > 0
+
+    def counts(self, now: float) -> SlaveCounts:
+        return SlaveCounts(
+            self.diagnostics.snapshot(now), self.exchanges, self.answers, self.timeouts
+        )
 
     def snapshot(self, now: float) -> SlaveDiagnostics:
         return SlaveDiagnostics(
@@ -755,6 +766,9 @@ class Master:
 
     def _slave_diagnostics(self, link: _Link) -> SlaveDiagnostics:
         return link.snapshot(self._clock())
+
+    def _slave_counts(self, link: _Link) -> SlaveCounts:
+        return link.counts(self._clock())
 
     # -- the scheduler ---------------------------------------------------------------------
     async def _run(self) -> None:
