@@ -100,11 +100,11 @@ from pyuss.errors import ConfigError, DriveRefusal, UssError
 from pyuss.gateway.config import OpcuaOptions
 from pyuss.gateway.uanodes import (
     argument_fault,
-    drive_values,
     may_change,
     parameter_range,
     percent_range,
     unit_id,
+    value_parts,
 )
 from pyuss.points.errors import Failure, classify
 from pyuss.points.model import STATUS_BIT_NAMES
@@ -540,6 +540,8 @@ class _DriveNodes:
         self.drive = drive
         self.nodes: dict[str, tuple[ua.NodeId, ua.VariantType]] = {}
         self.last: dict[str, Any] = {}
+        self.sources: list[object] = []
+        """What each of `value_parts` was last made from."""
         self.reference: float | None = None
         self.ranges: dict[str, tuple[ua.NodeId, float, float]] = {}
         """The EURange of each process value in the drive's unit: its node and the percent
@@ -814,22 +816,27 @@ class _DriveNodes:
         stays NaN), and the EURanges when the reference changed. What is returned counts as
         written."""
         writes = []
-        nodes, last = self.nodes, self.last
-        for key, value in drive_values(state).items():
-            node = nodes.get(key)
-            if node is None:
-                continue
-            old = last.get(key)
-            if old == value or (
-                isinstance(old, float)
-                and isinstance(value, float)
-                and math.isnan(old)
-                and math.isnan(value)
-            ):
-                continue
-            nodeid, vtype = node
-            last[key] = value
-            writes.append((nodeid, ua.DataValue(ua.Variant(value, vtype))))
+        nodes, last, sources = self.nodes, self.last, self.sources
+        parts = value_parts(state)
+        for part, (source, values) in enumerate(parts):
+            if part < len(sources) and sources[part] == source:
+                continue  # the same values as last time
+            for key, value in values().items():
+                node = nodes.get(key)
+                if node is None:
+                    continue
+                old = last.get(key)
+                if old == value or (
+                    isinstance(old, float)
+                    and isinstance(value, float)
+                    and math.isnan(old)
+                    and math.isnan(value)
+                ):
+                    continue
+                nodeid, vtype = node
+                last[key] = value
+                writes.append((nodeid, ua.DataValue(ua.Variant(value, vtype))))
+        self.sources = [source for source, _values in parts]
         reference = state.reference
         if reference is not None and reference != self.reference and self.drive.model.unit != "%":
             self.reference = reference
