@@ -236,11 +236,32 @@ class _Link:
         self.update_callbacks: list[Callable[[DriveStatus], object]] = []
         self.spontaneous_callbacks: list[Callable[[SpontaneousMessage], object]] = []
         self.drive: Drive | None = None
+        self._request_key: tuple[object, ...] | None = None
+        self._request = b""
+        """The last telegram made without a job, and what it was made from."""
 
     def pzd(self) -> list[int]:
         if not self.layout.pzd:
             return []
         return [self.control, *self.setpoints]
+
+    def request(self, now: float) -> bytes:
+        """The telegram to this slave at ``now``: the PKW area of its job (or "no job") and
+        the newest process data. Without a job open or queued the PKW area is "no job"
+        whatever the time, so the telegram is made once for the same process data (and
+        spontaneous-message toggle bit) and sent again as it is, as a cyclic master does."""
+        channel = self.channel
+        layout = self.layout
+        key: tuple[object, ...] | None = None
+        if not layout.pkw or (channel.current is None and not channel.queue):
+            key = (layout, channel.toggle, self.control, *self.setpoints)
+            if key == self._request_key:
+                return self._request
+        pkw = channel.request(now) if layout.pkw else None
+        data = layout.pack(pkw, self.pzd())
+        frame = Telegram(self.address, AddressMode.NORMAL, data).encode()
+        self._request_key, self._request = key, frame
+        return frame
 
     @property
     def wants_turn(self) -> bool:
@@ -920,10 +941,8 @@ class Master:
         sent = [link.version, link.control]
 
         def build() -> bytes:
-            pkw = link.channel.request(self._clock()) if link.layout.pkw else None
             sent[:] = [link.version, link.control]
-            data = link.layout.pack(pkw, link.pzd())
-            return Telegram(link.address, AddressMode.NORMAL, data).encode()
+            return link.request(self._clock())
 
         link.polls_wanted = max(0, link.polls_wanted - 1)
         result = await self._transact(
