@@ -18,7 +18,9 @@ gap (the rest of the sender's queued characters) are handed over together, all b
 `RUN_LEAD` a little before the run ends and those when it ends, none more than `RUN_HOLD` after
 its own end. A station waiting for an answer sees it begin at once and digests most of it while
 its last characters are on the line: three hand-overs per telegram instead of one per character
-or two. On a loop with fine timers (`pyuss.loop`) the bus wakes up `FINE_MARGIN` before the
+or two. A station that holds runs (``hold=True``, every ``bus://`` client) takes the first
+character at once and the rest of the run when it ends: two, each a wake-up of its process.
+On a loop with fine timers (`pyuss.loop`) the bus wakes up `FINE_MARGIN` before the
 hand-over that ends a run and yields until it is due: a process that slept wakes up late. The
 chunk timestamps are the *ideal* end times, not the moment of delivery: receivers measure exact
 gaps, start pauses (A 5.1.2) and residual times (A 6.3). Contiguous characters (no idle time
