@@ -1,13 +1,14 @@
 """How the bus hands a run of characters over: the first character when it ends, the rest
 together near the end of the run, never a character before its end (docs/bus.md, "Timing
-model")."""
+model"); to a station that holds runs (``bus://``), the first character and then the rest when
+the run ends."""
 
 from __future__ import annotations
 
 import time
 
-from pyuss.bus import VirtualBus
-from pyuss.bus.core import RUN_HOLD, WireChar
+from pyuss.bus import BusClientTransport, VirtualBus
+from pyuss.bus.core import HOLD_MAX, RUN_HOLD, WireChar
 from pyuss.loop import run
 from pyuss.transport.base import LineError
 from transport.helpers import WAIT
@@ -107,3 +108,53 @@ async def test_a_station_made_deaf_in_the_middle_of_a_run_misses_the_rest_of_it(
     finally:
         await bus.close()
     assert b"".join(got) == bytes([1, 2, 3, 4])
+
+
+async def _held(baud: int, data: bytes, *, hold: bool = True) -> list[Delivery]:
+    """What a ``bus://`` station (in another process as far as the bus knows: a TCP
+    connection) got of ``data`` sent by an in-process station."""
+    bus = VirtualBus(baud)
+    got: list[Delivery] = []
+    try:
+        host, port = await bus.serve_tcp(framed=True)
+        reader = BusClientTransport(host, port, baud=baud, name="reader", hold=hold)
+        async with reader, bus.attach("master") as master:
+            await master.write(data)
+            received = 0
+            while received < len(data):
+                chunk = await reader.read(WAIT)
+                assert chunk is not None
+                got.append((chunk.data, chunk.timestamp, time.monotonic()))
+                received += len(chunk.data)
+    finally:
+        await bus.close()
+    assert b"".join(chunk for chunk, _, _ in got) == data
+    return got
+
+
+async def test_a_bus_station_is_handed_a_telegram_in_two_pieces() -> None:
+    # A station in another process is woken up by every hand-over: it takes the first
+    # character when it ends (a master sees an answer begin) and the rest when the
+    # telegram ends, each piece stamped with its last character's end on the line.
+    tc = 11 / 19200
+    telegram = bytes.fromhex("02 0C 05 10 34 00 00 00 00 04 7E 00 00 55")
+    got = await _held(19200, telegram)
+    assert len(got) == 2
+    (head, head_end, head_at), (rest, last_end, _) = got
+    # the head as soon as the loop hands it over: a character, or the few that ended by then
+    assert len(head) < 5 and head_at < last_end - 5 * tc
+    assert abs(last_end - head_end - len(rest) * tc) < 1e-6
+    for _, timestamp, delivered in got:
+        assert delivered >= timestamp
+    # without holding, the bus hands the same telegram over in more pieces
+    assert len(await _held(19200, telegram, hold=False)) > 2
+
+
+async def test_a_held_run_is_handed_over_at_most_hold_max_characters_at_a_time() -> None:
+    # A station that never stops sending keeps no listener waiting for the end of it: 600
+    # characters take 35 ms at 187500 baud, and come in pieces of at most HOLD_MAX.
+    got = await _held(187500, bytes(600))
+    run_end = got[-1][1]
+    assert got[0][2] < run_end - 200 * 11 / 187500
+    assert all(len(chunk) <= HOLD_MAX for chunk, _, _ in got)
+    assert len(got) >= 600 / HOLD_MAX

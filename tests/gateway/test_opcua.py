@@ -65,6 +65,37 @@ async def test_a_subscription_delivers_the_actual_value_as_the_drive_ramps() -> 
     assert engines[5].drive.value(3) == 1000
 
 
+async def test_values_no_client_monitors_are_read_as_the_drive_answers() -> None:
+    # Values nobody monitors are stored at once as states come, those a client monitors go
+    # through the server to its subscription: both read what the drive last answered.
+    async with simulated_gateway(opcua=True) as (gateway, _), OpcuaClient(gateway) as client:
+        # while the drive ramps (to its full speed: seconds) every answer is a new state
+        answers = client.node(6, ".Health.Answers")
+        actual = client.node(6, ".Actual.main")
+        await client.set_setpoint(6, 50.0)
+        await client.switch_on(6)
+        await _reads_above(actual, 0.0)
+        await _reads_above(answers, await answers.read_value() + 3)
+        seen: list[float] = []
+
+        class Handler:
+            def datachange_notification(self, node: Any, value: Any, data: Any) -> None:
+                seen.append(value)
+
+        subscription = await client.client.create_subscription(50, Handler())
+        await subscription.subscribe_data_change(answers)
+        await eventually(lambda: len(set(seen)) >= 3)
+        await subscription.delete()
+        await _reads_above(answers, max(seen) + 3)
+
+
+async def _reads_above(node: Any, value: float) -> None:
+    """Read ``node`` until it is above ``value`` (bounded as `eventually` is)."""
+    async with asyncio.timeout(15.0):
+        while not await node.read_value() > value:
+            await asyncio.sleep(0.01)
+
+
 async def test_anonymous_clients_read_but_may_not_write_or_command() -> None:
     async with simulated_gateway(opcua=True) as (gateway, engines):
         async with OpcuaClient(gateway, user=None) as anonymous:

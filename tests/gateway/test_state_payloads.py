@@ -1,16 +1,20 @@
 """The MQTT face builds each state message from the parts that changed since the last one
 (`StatePayloads`): the messages stay byte for byte what `state_payload` makes of the whole
 state, through a ramp, a parameter read, a refused write, a drive that stops answering and
-comes back, and the reference read after the first answers."""
+comes back, and the reference read after the first answers. The OPC UA face's values made
+from the parts that changed (`value_parts`) are those of the whole state, through the same."""
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import math
+from typing import Any
 
 from pyuss.bus import VirtualBus
 from pyuss.errors import UssError
 from pyuss.gateway.topics import StatePayloads, state_payload
+from pyuss.gateway.uanodes import drive_values, value_parts
 from pyuss.master.testing import simulated_drives
 from pyuss.points.config import plant_from_flags
 from pyuss.points.model import resolve
@@ -22,7 +26,9 @@ from support.waiting import eventually
 BAUD = 38400
 
 
-async def test_the_state_messages_are_those_of_the_whole_state() -> None:
+async def _states() -> list[DriveState]:
+    """The states of a drive through a ramp, a parameter read, a refused write, a drive
+    that stops answering and comes back, and the reference read after the first answers."""
     bus = VirtualBus(BAUD)
     config = plant_from_flags(
         port="bus://simulated:1",
@@ -55,6 +61,11 @@ async def test_the_state_messages_are_those_of_the_whole_state() -> None:
             await asyncio.sleep(0.2)
         finally:
             await plant.close()
+    return states
+
+
+async def test_the_state_messages_are_those_of_the_whole_state() -> None:
+    states = await _states()
     assert states[0].reference is None and states[-1].reference is not None
     assert any(s.health.not_sending for s in states)
     assert any(s.health.last_refusal is not None for s in states)
@@ -62,3 +73,22 @@ async def test_the_state_messages_are_those_of_the_whole_state() -> None:
     payloads = StatePayloads()
     for state in states:
         assert payloads.payload(state) == state_payload(state)
+
+
+async def test_the_opcua_values_made_from_the_parts_that_changed_are_the_whole_states() -> None:
+    # The OPC UA face makes again only the parts of a drive's values (`value_parts`) whose
+    # source changed: what it holds after each state is the values of the whole state.
+    held: dict[str, Any] = {}
+    sources: list[object] = []
+    for state in await _states():
+        parts = value_parts(state)
+        for part, (source, values) in enumerate(parts):
+            if part >= len(sources) or sources[part] != source:
+                held.update(values())
+        sources = [source for source, _values in parts]
+        for key, value in drive_values(state).items():
+            assert held[key] == value or _both_nan(held[key], value), key
+
+
+def _both_nan(a: Any, b: Any) -> bool:
+    return isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b)

@@ -252,3 +252,30 @@ async def test_a_refusal_says_what_to_do_in_the_family_s_words() -> None:
             )
     finally:
         await bus.close()
+
+
+async def test_every_telegram_carries_the_newest_process_data_and_the_open_job() -> None:
+    # Without a job the master sends the telegram it made last as long as the process data
+    # stay the same; a new setpoint or control word, or a job, goes out in the next one.
+    layout = Layout(4, 2)
+    async with simulated_bus([(5, "generic", layout)], record=True) as env:
+        drive = env.master.drive(5, layout=layout)
+        for _ in range(3):
+            await drive.next_update()
+        drive.set_pzd(2, 0x1234)
+        await drive.next_update()
+        await drive.next_update()
+        assert await drive.read(52) == 0x4000
+        drive.set_pzd(1, 0x047E)
+        await drive.next_update()
+        await drive.next_update()
+    assert env.recorder is not None
+    sent = [layout.unpack(r.telegram.data) for r in line_telegrams(env.recorder, 38400)]
+    words = [(net.pzd, net.pkw.id if net.pkw else None) for net in sent]
+    setpoint = next(i for i, (pzd, _) in enumerate(words) if pzd[1] == 0x1234)
+    assert all(pzd[1] == 0x1234 for pzd, _ in words[setpoint:])
+    read = [i for i, (_, job) in enumerate(words) if job == RequestId.READ_VALUE]
+    assert read and read[0] > setpoint and words[read[-1] + 1][1] == RequestId.NO_JOB
+    control = next(i for i, (pzd, _) in enumerate(words) if pzd[0] == 0x047E)
+    assert control > read[-1] and all(pzd[0] == 0x047E for pzd, _ in words[control:])
+    assert len(words) - control >= 2 and words[-1] == words[-2]

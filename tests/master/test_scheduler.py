@@ -4,6 +4,7 @@ broadcast, mirror (A 2, A 3, A 5.1, A 5.2, A 5.3)."""
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import itertools
 import json
 
@@ -14,6 +15,7 @@ from pyuss.bus import Fault, FaultPlan, VirtualBus
 from pyuss.errors import ConfigError, UssTimeout
 from pyuss.master import ACYCLIC, Master, MirrorMismatch, NotSending
 from pyuss.protocol.broadcast import BroadcastEnableArray
+from pyuss.protocol.diagnostics import Counters
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import AddressMode
 from pyuss.protocol.timing import char_time, start_pause
@@ -129,6 +131,31 @@ async def test_answers_with_the_wrong_address_are_discarded() -> None:
     assert diag.wrong_address >= 1
     assert diag.answers == 0
     assert drive.not_sending
+
+
+async def test_a_slaves_counts_are_those_of_its_diagnostics() -> None:
+    # `Drive.counts` (what the drive model reads at every answer) tells the same counters,
+    # exchanges, answers and timeouts as the full diagnostics, answered or silent.
+    async with scripted_bus((5,)) as env:
+        drive = env.master.drive(5)
+        silent = env.master.drive(7)
+        await drive.read(52)
+        await eventually(lambda: silent.not_sending)
+        for handle in (drive, silent):
+            # no await in between: the master does not run (the rates per minute aside,
+            # which a second's turn between the two may change)
+            counts, diag = handle.counts(), handle.diagnostics()
+            assert _totals(counts.counters) == _totals(diag.counters)
+            assert (counts.exchanges, counts.answers, counts.timeouts) == (
+                diag.exchanges,
+                diag.answers,
+                diag.timeouts,
+            )
+        assert drive.counts().answers >= 1 and silent.counts().timeouts >= 1
+
+
+def _totals(counters: Counters) -> Counters:
+    return dataclasses.replace(counters, good_per_minute=0, discarded_per_minute=0)
 
 
 async def test_garbled_answers_are_faults_and_the_job_is_repeated() -> None:

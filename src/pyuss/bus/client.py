@@ -95,6 +95,11 @@ class BusClientTransport(QueuedTransport):
     transport checks and removes them (a garbled echo reveals a collision, `EchoError`).
     ``bus_echo``: the bus sends them back and they are delivered as they are.
     ``listen_only``: a monitor that cannot send.
+    ``hold``: the bus hands this station a run's first character when it ends and the rest
+    of the run when the run ends (`pyuss.bus.core.VirtualBus.attach`): two hand-overs per
+    telegram, each a wake-up of this process, instead of three or four. A reader still
+    sees a telegram begin (a master waiting for an answer), and every character keeps its
+    end time on the line.
     """
 
     def __init__(
@@ -107,6 +112,7 @@ class BusClientTransport(QueuedTransport):
         echo: bool = False,
         bus_echo: bool = False,
         listen_only: bool = False,
+        hold: bool = True,
         connect_timeout: float = 5.0,
     ) -> None:
         super().__init__(baud=baud, echo=echo)
@@ -119,6 +125,7 @@ class BusClientTransport(QueuedTransport):
         self.name = name
         self._bus_echo = bus_echo or echo
         self.listen_only = listen_only
+        self.hold = hold
         self._protocol: _Protocol | None = None
         self.timed = False
         """Whether the bus takes send frames (`write_at` is then exact)."""
@@ -164,6 +171,7 @@ class BusClientTransport(QueuedTransport):
             "echo": self._bus_echo,
             "listen_only": self.listen_only,
             "timed": True,
+            "hold": self.hold,
         }
         try:
             protocol.transport.write(json.dumps(hello).encode() + b"\n")

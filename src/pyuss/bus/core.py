@@ -18,7 +18,9 @@ gap (the rest of the sender's queued characters) are handed over together, all b
 `RUN_LEAD` a little before the run ends and those when it ends, none more than `RUN_HOLD` after
 its own end. A station waiting for an answer sees it begin at once and digests most of it while
 its last characters are on the line: three hand-overs per telegram instead of one per character
-or two. On a loop with fine timers (`pyuss.loop`) the bus wakes up `FINE_MARGIN` before the
+or two. A station that holds runs (``hold=True``, every ``bus://`` client) takes the first
+character at once and the rest of the run when it ends: two, each a wake-up of its process.
+On a loop with fine timers (`pyuss.loop`) the bus wakes up `FINE_MARGIN` before the
 hand-over that ends a run and yields until it is due: a process that slept wakes up late. The
 chunk timestamps are the *ideal* end times, not the moment of delivery: receivers measure exact
 gaps, start pauses (A 5.1.2) and residual times (A 6.3). Contiguous characters (no idle time
@@ -71,6 +73,8 @@ EVICT_IDLE = 1.0
 RUN_HOLD = 0.002
 #: Characters at the end of a run handed over when it ends; the rest of the run comes before.
 RUN_LEAD = 3
+#: Characters a station that holds runs (``hold=True``) keeps at most before it is handed them.
+HOLD_MAX = 256
 _EPS = 1e-9
 
 Sink = Callable[[bytes, float, tuple[tuple[int, LineError], ...]], None]
@@ -162,6 +166,7 @@ class Station(QueuedTransport):
         echo: bool,
         listen_only: bool,
         sink: Sink | None = None,
+        hold: bool = False,
     ) -> None:
         super().__init__(baud=bus.baud)
         self.bus = bus
@@ -169,6 +174,13 @@ class Station(QueuedTransport):
         self.hears_own = echo
         self.listen_only = listen_only
         self._sink = sink
+        self.hold = hold
+        """It takes a run's first character when it ends and the rest when the run ends."""
+        self.held: list[tuple[bytes, float, tuple[tuple[int, LineError], ...]]] = []
+        """What a holding station is handed when the run ends."""
+        self.held_chars = 0
+        self.heard_end = -1.0
+        """End of the last character it heard (a character starting then continues a run)."""
         self.tx_free = 0.0
         self.queued = 0
         """Characters of this station waiting for or on the line (at most `MAX_QUEUE`)."""
@@ -215,6 +227,49 @@ class Station(QueuedTransport):
             raise TransportError(f"{self.describe()} is listen-only: it cannot send")
         self.stats.bytes_out += len(data)
         self.bus.send(self.name, bytes(data), at=start)
+
+    def hand(
+        self,
+        data: bytes,
+        start: float,
+        timestamp: float,
+        errors: tuple[tuple[int, LineError], ...],
+        run_ends: bool,
+    ) -> None:
+        """The bus hands over the characters ``data`` from ``start`` to ``timestamp``;
+        ``run_ends``: no character follows them without a gap. A station that holds runs
+        takes the first piece of a run at once and keeps the rest until the run ends."""
+        if not self.hold:
+            self.receive(data, timestamp, errors)
+            return
+        continues = start <= self.heard_end + _EPS
+        self.heard_end = timestamp
+        if continues:
+            if self.held_chars + len(data) > HOLD_MAX:
+                self.release()
+            self.held.append((data, timestamp, errors))
+            self.held_chars += len(data)
+            if run_ends:
+                self.release()
+            return
+        self.release()
+        self.receive(data, timestamp, errors)
+
+    def release(self) -> None:
+        """Hand the characters held over, as one piece (they follow each other)."""
+        held, self.held = self.held, []
+        self.held_chars = 0
+        if not held:
+            return
+        if len(held) == 1:
+            self.receive(*held[0])
+            return
+        errors: list[tuple[int, LineError]] = []
+        offset = 0
+        for data, _stamp, flags in held:
+            errors += [(offset + pos, flag) for pos, flag in flags]
+            offset += len(data)
+        self.receive(b"".join(data for data, _, _ in held), held[-1][1], tuple(errors))
 
     def receive(
         self, data: bytes, timestamp: float, errors: tuple[tuple[int, LineError], ...]
@@ -268,12 +323,21 @@ class VirtualBus:
 
     # -- stations ---------------------------------------------------------------------------
     def attach(
-        self, name: str, *, echo: bool = False, listen_only: bool = False, sink: Sink | None = None
+        self,
+        name: str,
+        *,
+        echo: bool = False,
+        listen_only: bool = False,
+        sink: Sink | None = None,
+        hold: bool = False,
     ) -> Station:
         """Add a station named ``name``; open the returned transport to use it.
 
         ``sink`` (instead of reading the transport) takes each delivery at once: the bus
-        uses it to pass characters on to ptys and sockets.
+        uses it to pass characters on to ptys and sockets. ``hold``: the station takes the
+        first character of a run when it ends and the rest of the run when the run ends (at
+        most `HOLD_MAX` characters at a time), two hand-overs per telegram: a station in
+        another process (``bus://``) is woken up that many times.
         """
         if not isinstance(name, str) or not name or "+" in name:
             raise ConfigError(f"station name must be a non-empty string without '+', not {name!r}")
@@ -285,7 +349,7 @@ class VirtualBus:
                 f"the bus has {MAX_SENDERS} sending stations already (B 1: 1 master, 31 slaves); "
                 f"attach {name!r} listen-only or detach one"
             )
-        station = Station(self, name, echo=echo, listen_only=listen_only, sink=sink)
+        station = Station(self, name, echo=echo, listen_only=listen_only, sink=sink, hold=hold)
         self.stations[name] = station
         return station
 
@@ -535,13 +599,15 @@ class VirtualBus:
         # A deaf (or dead) station misses the characters that end in its window: judged by
         # the line's time, not by when the bus hands them over.
         windows = bool(self._windows) or self._engine.windows
+        heap = self._heap
+        run_ends = not heap or heap[0].start > chars[-1].end + _EPS
         for station in list(self.stations.values()):
             if not station.listening:
                 continue
             name = station.name
             buf = bytearray()
             errors: list[tuple[int, LineError]] = []
-            last_end = 0.0
+            first = last_end = 0.0
             for char in chars:
                 if not station.hears_own and name in char.sender.split("+"):
                     continue
@@ -550,15 +616,19 @@ class VirtualBus:
                 if windows and self._deaf(name, char.end):
                     continue
                 if buf and char.start > last_end + _EPS:
-                    station.receive(bytes(buf), last_end, tuple(errors))
+                    station.hand(bytes(buf), first, last_end, tuple(errors), True)
                     buf.clear()
                     errors.clear()
+                if not buf:
+                    first = char.start
                 if char.flags:
                     errors.append((len(buf), char.flags))
                 buf.append(char.byte)
                 last_end = char.end
             if buf:
-                station.receive(bytes(buf), last_end, tuple(errors))
+                station.hand(bytes(buf), first, last_end, tuple(errors), run_ends)
+            elif station.held and run_ends:
+                station.release()
 
     async def serve_pty(self, n: int, *, echo: bool | Collection[str] = False) -> list[str]:
         """Open ``n`` pty stations; their device paths (see `pyuss.bus.serve`)."""

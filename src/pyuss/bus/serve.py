@@ -265,6 +265,7 @@ async def _framed_station(bus: VirtualBus, reader: _Reader, writer: asyncio.Stre
         echo = bool(hello.get("echo", False))
         listen_only = bool(hello.get("listen_only", False))
         timed = hello.get("timed") is True
+        hold = hello.get("hold") is True
     except (TimeoutError, ValueError, OSError) as exc:
         answer({"ok": False, "error": f"bad hello: {exc}"})
         return
@@ -275,11 +276,12 @@ async def _framed_station(bus: VirtualBus, reader: _Reader, writer: asyncio.Stre
             echo=echo,
             listen_only=listen_only,
             sink=_socket_sink(writer, framed=True, station=holder),
+            hold=hold,
         )
     except ConfigError as exc:
         answer({"ok": False, "error": str(exc)})
         return
     holder.append(station)
-    answer({"ok": True, "name": station.name, "baud": bus.baud, "timed": timed})
+    answer({"ok": True, "name": station.name, "baud": bus.baud, "timed": timed, "hold": hold})
     log.info("bus: station %s connected (bus://)", station.name)
     await _pump_in(bus, station, reader, SendDecoder() if timed else None)

@@ -1,10 +1,11 @@
 """The byte format between the virtual bus and its ``bus://`` stations in other processes.
 
 The station opens a TCP connection and sends one JSON line, its hello:
-``{"name": "m" | null, "echo": false, "listen_only": false, "timed": true}``. The bus answers
-with one JSON line, ``{"ok": true, "name": "m", "baud": 19200, "timed": true}`` or
-``{"ok": false, "error": "..."}``. From then on the bus sends frames, each the characters of
-one delivery::
+``{"name": "m" | null, "echo": false, "listen_only": false, "timed": true, "hold": true}``. The
+bus answers with one JSON line, ``{"ok": true, "name": "m", "baud": 19200, "timed": true,
+"hold": true}`` or ``{"ok": false, "error": "..."}``. From then on the bus sends frames, each
+the characters of one delivery (with ``"hold": true`` a run's first character when it ends and
+the rest of the run when the run ends, `pyuss.bus.core.VirtualBus.attach`)::
 
     timestamp  float64, big endian: the ideal end time of the last character (monotonic s)
     length     uint16: number of data bytes

@@ -89,7 +89,7 @@ from typing import Any
 from asyncua import Server, ua
 from asyncua.common.utils import ServiceError
 from asyncua.crypto.permission_rules import USER_TYPES, PermissionRuleset, User, UserRole
-from asyncua.server.address_space import AttributeService
+from asyncua.server.address_space import AddressSpace, AttributeService
 from asyncua.server.binary_server_asyncio import BinaryServer, OPCUAProtocol
 from asyncua.server.uaprocessor import PublishRequestData, UaProcessor
 from asyncua.server.user_managers import UserManager
@@ -100,11 +100,11 @@ from pyuss.errors import ConfigError, DriveRefusal, UssError
 from pyuss.gateway.config import OpcuaOptions
 from pyuss.gateway.uanodes import (
     argument_fault,
-    drive_values,
     may_change,
     parameter_range,
     percent_range,
     unit_id,
+    value_parts,
 )
 from pyuss.points.errors import Failure, classify
 from pyuss.points.model import STATUS_BIT_NAMES
@@ -540,6 +540,8 @@ class _DriveNodes:
         self.drive = drive
         self.nodes: dict[str, tuple[ua.NodeId, ua.VariantType]] = {}
         self.last: dict[str, Any] = {}
+        self.sources: list[object] = []
+        """What each of `value_parts` was last made from."""
         self.reference: float | None = None
         self.ranges: dict[str, tuple[ua.NodeId, float, float]] = {}
         """The EURange of each process value in the drive's unit: its node and the percent
@@ -809,28 +811,66 @@ class _DriveNodes:
             changes=True,
         )
 
-    async def update(self, state: DriveState) -> None:
-        server = self.face.server
-        for key, value in drive_values(state).items():
-            if key not in self.nodes:
-                continue
-            old = self.last.get(key)
-            if old == value or (
-                isinstance(old, float)
-                and isinstance(value, float)
-                and math.isnan(old)
-                and math.isnan(value)
-            ):
-                continue
-            nodeid, vtype = self.nodes[key]
-            self.last[key] = value
-            await server.write_attribute_value(nodeid, ua.DataValue(ua.Variant(value, vtype)))
+    def changes(self, state: DriveState) -> list[tuple[ua.NodeId, ua.DataValue]]:
+        """The writes that bring the nodes to ``state``: the values that changed (NaN
+        stays NaN), and the EURanges when the reference changed. What is returned counts as
+        written."""
+        writes = []
+        nodes, last, sources = self.nodes, self.last, self.sources
+        parts = value_parts(state)
+        for part, (source, values) in enumerate(parts):
+            if part < len(sources) and sources[part] == source:
+                continue  # the same values as last time
+            for key, value in values().items():
+                node = nodes.get(key)
+                if node is None:
+                    continue
+                old = last.get(key)
+                if old == value or (
+                    isinstance(old, float)
+                    and isinstance(value, float)
+                    and math.isnan(old)
+                    and math.isnan(value)
+                ):
+                    continue
+                nodeid, vtype = node
+                last[key] = value
+                writes.append((nodeid, ua.DataValue(ua.Variant(value, vtype))))
+        self.sources = [source for source, _values in parts]
         reference = state.reference
         if reference is not None and reference != self.reference and self.drive.model.unit != "%":
             self.reference = reference
             for nodeid, low, high in self.ranges.values():
                 span = ua.Range(Low=low * reference / 100, High=high * reference / 100)
-                await server.write_attribute_value(nodeid, ua.DataValue(ua.Variant(span)))
+                writes.append((nodeid, ua.DataValue(ua.Variant(span))))
+        return writes
+
+    async def update(self, state: DriveState) -> None:
+        server = self.face.server
+        for nodeid, value in self.changes(state):
+            await server.write_attribute_value(nodeid, value)
+
+
+def _write_at_once(aspace: AddressSpace, writes: list[tuple[ua.NodeId, ua.DataValue]]) -> bool:
+    """Store ``writes`` in the address space as its own write does (asyncua's
+    ``AddressSpace.write_attribute_value``), without awaiting: possible, and done, when no
+    value has a data change callback (no client monitors it) or a setter of its own. False:
+    nothing was written, the writes are to go through the server (`_DriveNodes.update`)."""
+    values = []
+    for nodeid, value in writes:
+        node = aspace.get(nodeid)
+        attribute = None if node is None else node.attributes.get(ua.AttributeIds.Value)
+        if (
+            attribute is None
+            or attribute.datachange_callbacks
+            or attribute.value_setter is not None
+        ):
+            return False
+        values.append((attribute, value))
+    for attribute, value in values:
+        attribute.value = value
+        attribute.value_callback = None
+    return True
 
 
 class OpcuaFace:
@@ -915,11 +955,14 @@ class OpcuaFace:
 
 
 class _Updater:
-    """Writes a drive's changed states into its nodes, one at a time, newest first: a state
-    that comes while the previous one is being written waits, and a newer one replaces it."""
+    """Writes a drive's changed states into its nodes in order, newest first: the values
+    that changed, at once where no client monitors them (`_write_at_once`), else through the
+    server in a task; a state that comes while the previous one is being written waits, and
+    a newer one replaces it."""
 
     def __init__(self, nodes: _DriveNodes) -> None:
         self.nodes = nodes
+        self.aspace = nodes.face.server.iserver.aspace
         self.task: asyncio.Task[None] | None = None
         self.waiting: DriveState | None = None
 
@@ -927,13 +970,20 @@ class _Updater:
         if self.task is not None and not self.task.done():
             self.waiting = state
             return
-        self.task = asyncio.get_running_loop().create_task(self.run(state))
+        writes = self.nodes.changes(state)
+        if not writes or _write_at_once(self.aspace, writes):
+            return
+        self.task = asyncio.get_running_loop().create_task(self.run(writes))
 
-    async def run(self, state: DriveState) -> None:
-        current: DriveState | None = state
-        while current is not None:
-            await self.nodes.update(current)
-            current, self.waiting = self.waiting, None
+    async def run(self, writes: list[tuple[ua.NodeId, ua.DataValue]]) -> None:
+        server = self.nodes.face.server
+        while True:
+            for nodeid, value in writes:
+                await server.write_attribute_value(nodeid, value)
+            state, self.waiting = self.waiting, None
+            if state is None:
+                return
+            writes = self.nodes.changes(state)
 
 
 def _build_date() -> Any:

@@ -13,10 +13,11 @@ Status codes are named as OPC UA names them (``"BadTooManyArguments"``).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 from pyuss.points.parameters import ParamMeta
-from pyuss.points.state import DriveState
+from pyuss.points.state import DriveState, Health
 from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32
 
 __all__ = [
@@ -109,28 +110,63 @@ def argument_fault(given: int, expected: int) -> str | None:
 def drive_values(state: DriveState) -> dict[str, Any]:
     """The value of each variable of a drive by its name under the drive's object
     (``.StatusWord``, ``.Actual.main``, ...): NaN for a value not known."""
-    health = state.health
+    found: dict[str, Any] = {}
+    for _source, values in value_parts(state):
+        found.update(values())
+    return found
+
+
+def value_parts(state: DriveState) -> list[tuple[object, Callable[[], dict[str, Any]]]]:
+    """`drive_values` in parts, each with what it is made from: a part whose source is the
+    same (``==``) as in an earlier state has the same values."""
+    return [
+        ((state.status_word, state.control_word), lambda: _status_values(state)),
+        (state.health, lambda: _health_values(state.health)),
+        (
+            (state.actual_words, state.setpoint_words, state.reference, state.model),
+            lambda: _process_values(state),
+        ),
+        (
+            tuple(state.parameters.items()),
+            lambda: {
+                f".Parameters.{key}": math.nan if reading.value is None else float(reading.value)
+                for key, reading in state.parameters.items()
+            },
+        ),
+    ]
+
+
+def _status_values(state: DriveState) -> dict[str, Any]:
     found: dict[str, Any] = {
         ".StatusWord": state.status_word or 0,
         ".State": state.state,
         ".ControlWord": state.control_word & 0xFFFF,
+    }
+    for name, on in state.bits.items():
+        found[f".Status.{name}"] = on
+    return found
+
+
+def _health_values(health: Health) -> dict[str, Any]:
+    found: dict[str, Any] = {
         ".Health.NotSending": health.not_sending,
         ".Health.Counters": list(health.counters.words()),
         ".Health.Answers": health.answers & 0xFFFF_FFFF,
         ".Health.Timeouts": health.timeouts & 0xFFFF_FFFF,
         ".Health.LastFault": (health.last_fault or 0) & 0xFFFF_FFFF,
     }
-    for name, on in state.bits.items():
-        found[f".Status.{name}"] = on
-    for kind, values in (("Actual", state.actual), ("Setpoint", state.setpoints)):
-        for key, value in values.items():
-            found[f".{kind}.{key}"] = math.nan if value.value is None else value.value
-            found[f".{kind}Percent.{key}"] = value.percent
-    for key, reading in state.parameters.items():
-        found[f".Parameters.{key}"] = math.nan if reading.value is None else float(reading.value)
     refusal = health.last_refusal
     if refusal is not None:
         number = 8 if refusal.get("response_id") == 8 else int(refusal.get("number", -1))
         found[".Health.LastErrorNumber"] = number
         found[".Health.LastErrorPnu"] = int(refusal.get("pnu", -1))
+    return found
+
+
+def _process_values(state: DriveState) -> dict[str, Any]:
+    found: dict[str, Any] = {}
+    for kind, values in (("Actual", state.actual), ("Setpoint", state.setpoints)):
+        for key, value in values.items():
+            found[f".{kind}.{key}"] = math.nan if value.value is None else value.value
+            found[f".{kind}Percent.{key}"] = value.percent
     return found

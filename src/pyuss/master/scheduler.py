@@ -95,7 +95,13 @@ from pyuss.master.errors import MasterClosed, MirrorMismatch, NotSending
 from pyuss.master.jobs import Job, ParameterChannel, SpontaneousMessage
 from pyuss.master.process import DriveStatus
 from pyuss.master.profile import Profile, resolve_profile, response_limit
-from pyuss.master.stats import BusDiagnostics, CycleStats, Samples, SlaveDiagnostics
+from pyuss.master.stats import (
+    BusDiagnostics,
+    CycleStats,
+    Samples,
+    SlaveCounts,
+    SlaveDiagnostics,
+)
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.diagnostics import Diagnostics, FaultKind
 from pyuss.protocol.layout import Layout, NetData
@@ -230,16 +236,42 @@ class _Link:
         self.update_callbacks: list[Callable[[DriveStatus], object]] = []
         self.spontaneous_callbacks: list[Callable[[SpontaneousMessage], object]] = []
         self.drive: Drive | None = None
+        self._request_key: tuple[object, ...] | None = None
+        self._request = b""
+        """The last telegram made without a job, and what it was made from."""
 
     def pzd(self) -> list[int]:
         if not self.layout.pzd:
             return []
         return [self.control, *self.setpoints]
 
+    def request(self, now: float) -> bytes:
+        """The telegram to this slave at ``now``: the PKW area of its job (or "no job") and
+        the newest process data. Without a job open or queued the PKW area is "no job"
+        whatever the time, so the telegram is made once for the same process data (and
+        spontaneous-message toggle bit) and sent again as it is, as a cyclic master does."""
+        channel = self.channel
+        layout = self.layout
+        key: tuple[object, ...] | None = None
+        if not layout.pkw or (channel.current is None and not channel.queue):
+            key = (layout, channel.toggle, self.control, *self.setpoints)
+            if key == self._request_key:
+                return self._request
+        pkw = channel.request(now) if layout.pkw else None
+        data = layout.pack(pkw, self.pzd())
+        frame = Telegram(self.address, AddressMode.NORMAL, data).encode()
+        self._request_key, self._request = key, frame
+        return frame
+
     @property
     def wants_turn(self) -> bool:
         """Acyclic mode: a job, process data not yet answered, or an exchange asked for."""
         return self.channel.busy or self.answered_version < self.version or self.polls_wanted > 0
+
+    def counts(self, now: float) -> SlaveCounts:
+        return SlaveCounts(
+            self.diagnostics.snapshot(now), self.exchanges, self.answers, self.timeouts
+        )
 
     def snapshot(self, now: float) -> SlaveDiagnostics:
         return SlaveDiagnostics(
@@ -756,6 +788,9 @@ class Master:
     def _slave_diagnostics(self, link: _Link) -> SlaveDiagnostics:
         return link.snapshot(self._clock())
 
+    def _slave_counts(self, link: _Link) -> SlaveCounts:
+        return link.counts(self._clock())
+
     # -- the scheduler ---------------------------------------------------------------------
     async def _run(self) -> None:
         try:
@@ -906,10 +941,8 @@ class Master:
         sent = [link.version, link.control]
 
         def build() -> bytes:
-            pkw = link.channel.request(self._clock()) if link.layout.pkw else None
             sent[:] = [link.version, link.control]
-            data = link.layout.pack(pkw, link.pzd())
-            return Telegram(link.address, AddressMode.NORMAL, data).encode()
+            return link.request(self._clock())
 
         link.polls_wanted = max(0, link.polls_wanted - 1)
         result = await self._transact(

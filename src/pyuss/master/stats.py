@@ -22,6 +22,7 @@ __all__ = [
     "JobStats",
     "SampleSummary",
     "Samples",
+    "SlaveCounts",
     "SlaveDiagnostics",
 ]
 
@@ -128,6 +129,17 @@ class JobStats:
     """Telegrams each completed job took (1 = answered at the first try)."""
     latency: SampleSummary = SampleSummary()
     """Seconds from a job's first telegram to its answer."""
+
+
+@dataclass(frozen=True, slots=True)
+class SlaveCounts:
+    """The counts of `SlaveDiagnostics` without the response times and jobs, whose
+    summaries take longer to make: what a view of the slave built at every answer needs."""
+
+    counters: Counters
+    exchanges: int
+    answers: int
+    timeouts: int
 
 
 @dataclass(frozen=True, slots=True)

@@ -38,7 +38,7 @@ from pyuss.master.errors import MasterClosed
 from pyuss.master.jobs import SpontaneousMessage
 from pyuss.master.process import DriveStatus
 from pyuss.master.profile import Profile
-from pyuss.master.stats import BusDiagnostics, CycleStats, SlaveDiagnostics
+from pyuss.master.stats import BusDiagnostics, CycleStats, SlaveCounts, SlaveDiagnostics
 from pyuss.params.book import ParamBook
 from pyuss.params.model import ParamInfo, Reading
 from pyuss.protocol.broadcast import BroadcastEnableArray
@@ -298,6 +298,9 @@ class Drive:
 
     def diagnostics(self) -> SlaveDiagnostics:
         return self._bus._run(self._drive.diagnostics)
+
+    def counts(self) -> SlaveCounts:
+        return self._bus._run(self._drive.counts)
 
     def mirror(self) -> scheduler.MirrorResult:
         return self._bus._call(self._drive.mirror())

@@ -183,7 +183,7 @@ class DrivePoints:
     def _build(self) -> DriveState:
         drive = self.drive
         status = drive.status
-        diag = drive.diagnostics()
+        diag = drive.counts()
         actual_words = status.actual if status is not None else ()
         setpoint_words = drive.setpoints
         return DriveState(
