@@ -50,8 +50,22 @@ class Figure:
             return None
         return self.value >= self.goal if self.at_least else self.value <= self.goal
 
-    def show(self, value: float) -> str:
-        return f"{value:.{self.digits}f}{' ' + self.unit if self.unit else ''}"
+    def show(self, value: float, digits: int | None = None) -> str:
+        digits = self.digits if digits is None else digits
+        return f"{value:.{digits}f}{' ' + self.unit if self.unit else ''}"
+
+    def shown(self) -> str:
+        """The value, with as many more digits as it takes not to read as its goal when it
+        misses it (0.949 against 0.95 is not "0.95 NOT MET")."""
+        digits = self.digits
+        while (
+            self.goal is not None
+            and not self.met
+            and self.show(self.value, digits) == self.show(self.goal, digits)
+            and digits < self.digits + 4
+        ):
+            digits += 1
+        return self.show(self.value, digits)
 
 
 def table(figures: Sequence[Figure]) -> str:
@@ -63,7 +77,8 @@ def table(figures: Sequence[Figure]) -> str:
             continue
         goal = (">= " if f.at_least else "<= ") + f.show(f.goal)
         verdict = "met" if f.met else "NOT MET"
-        rows.append((f.name, f.show(f.value), goal, f"{f.ratio:.2f}", verdict))
+        ratio = f"{f.ratio:.2f}" if f.met or f.ratio < 0.995 else f"{f.ratio:.3f}"
+        rows.append((f.name, f.shown(), goal, ratio, verdict))
     widths = [max(len(r[i]) for r in rows) for i in range(5)]
     lines = []
     for n, row in enumerate(rows):
