@@ -6,6 +6,7 @@ of its topic."""
 
 from __future__ import annotations
 
+import functools
 import json
 import threading
 from importlib import resources
@@ -38,6 +39,7 @@ def _registry() -> Registry:
 REGISTRY = _registry()
 
 
+@functools.cache
 def validator(name: str) -> Draft202012Validator:
     """The validator of ``NAME`` (``state``) or of a definition (``command#/$defs/run``);
     references resolve to the other files by name, as they do beside each other on disk."""

@@ -212,6 +212,41 @@ async def test_a_client_sending_oversized_messages_is_closed(backend: Backend) -
         await server.close()
 
 
+async def test_a_page_left_open_does_not_hold_up_stopping_the_server(backend: Backend) -> None:
+    # Ctrl+C on `uss web` while a browser shows the page: the page is told the server goes
+    # away (1001) and the server stops, instead of waiting for the browser to leave.
+    server = await serve(backend)
+    async with aiohttp.ClientSession() as http, http.ws_connect(base(server) + "/ws") as ws:
+        first = await ws.receive()
+        assert json.loads(first.data)["type"] == "bus"
+        async with asyncio.timeout(10):  # far less than a browser stays on a page
+            await server.close()
+            while not ws.closed:
+                await ws.receive()
+        assert ws.close_code == aiohttp.WSCloseCode.GOING_AWAY
+
+
+async def test_a_request_still_running_when_the_server_stops_is_cut_off(backend: Backend) -> None:
+    # A scan of the whole line runs for seconds: stopping the page gives it the grace and
+    # then cuts it off instead of waiting for it (and for the browser that asked).
+    server = await serve(backend, shutdown_grace=0.2)
+    async with aiohttp.ClientSession() as http, http.ws_connect(base(server) + "/ws") as ws:
+        progress: list[dict[str, Any]] = []
+        listener = asyncio.create_task(collect(ws, "scan", progress))
+        scan = asyncio.create_task(
+            http.post(base(server) + "/api/scan", json={"addresses": "0-31"}, headers=WRITE)
+        )
+        async with asyncio.timeout(10):
+            while not progress:
+                await asyncio.sleep(0.02)
+        await server.close()
+        with pytest.raises(aiohttp.ClientError):
+            reply = await scan
+            await reply.read()
+        assert not any("found" in p for p in progress)  # the scan never got to its end
+        listener.cancel()
+
+
 async def collect(ws: Any, kind: str, into: list[dict[str, Any]]) -> None:
     """Keep the live messages of type ``kind`` a page receives."""
     async for message in ws:

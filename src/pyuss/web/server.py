@@ -53,7 +53,7 @@ from pyuss import __version__
 from pyuss.web import EXTRA_HINT, MissingExtra
 
 try:
-    from aiohttp import WSMsgType, web
+    from aiohttp import WSCloseCode, WSMsgType, web
 except ImportError:  # pragma: no cover - the extra is installed for the tests
     raise MissingExtra(
         f"the web page needs aiohttp, which is not installed: {EXTRA_HINT}"
@@ -95,6 +95,9 @@ MAX_PNU = 0xFFFF
 """The highest parameter number a request may name (a profile's paged numbers included)."""
 CONFIRM_AGE = 60.0
 """Seconds a checked command may wait for the person's yes before it is stale."""
+SHUTDOWN_GRACE = 2.0
+"""Seconds a request still running when the page stops (Ctrl+C) has to finish; then it is
+cut off (a scan, a parameter read over the broker waiting for its gateway)."""
 MAX_CONFIRMS = 64
 """Checked commands waiting for a yes at most (the oldest are forgotten)."""
 COOKIE = "pyuss_token"
@@ -199,6 +202,7 @@ class WebServer:
         queue_size: int = QUEUE_SIZE,
         send_timeout: float = SEND_TIMEOUT,
         confirm_age: float = CONFIRM_AGE,
+        shutdown_grace: float = SHUTDOWN_GRACE,
     ) -> None:
         if not is_loopback(host) and not token:
             raise ConfigError(
@@ -212,9 +216,12 @@ class WebServer:
         self.port = port
         self.token = token or None
         self.read_only = read_only
+        self.shutdown_grace = shutdown_grace
         self.hub = Hub(queue_size=queue_size, send_timeout=send_timeout)
         self._runner: web.AppRunner | None = None
         self._ticker: asyncio.Task[None] | None = None
+        self._sockets: set[web.WebSocketResponse] = set()
+        """The pages connected live: told the server goes away when it closes."""
         self._sent_exchange = 0
         self._confirms = Confirmations(confirm_age)
 
@@ -253,7 +260,12 @@ class WebServer:
 
     async def start(self) -> str:
         """Listen and start the live updates; returns the URL (the real port for port 0)."""
-        runner = web.AppRunner(self.app(), access_log=None, handle_signals=False)
+        runner = web.AppRunner(
+            self.app(),
+            access_log=None,
+            handle_signals=False,
+            shutdown_timeout=self.shutdown_grace,
+        )
         await runner.setup()
         site = web.TCPSite(runner, self.host, self.port, reuse_address=True)
         try:
@@ -275,6 +287,11 @@ class WebServer:
             with contextlib.suppress(asyncio.CancelledError):
                 await self._ticker
         await self.hub.close()
+        # a page left open keeps its live connection: say goodbye (1001, going away) so
+        # that stopping the server does not wait for the browser to leave
+        for ws in list(self._sockets):
+            with contextlib.suppress(Exception):
+                await ws.close(code=WSCloseCode.GOING_AWAY, message=b"the page's server stops")
         if self._runner is not None:
             await self._runner.cleanup()
             self._runner = None
@@ -527,6 +544,7 @@ class WebServer:
             return _error(503, f"{MAX_CLIENTS} pages are connected already")
         ws = web.WebSocketResponse(heartbeat=20.0, max_msg_size=4096)
         await ws.prepare(request)
+        self._sockets.add(ws)
         transport = request.transport
 
         def abort() -> None:
@@ -552,6 +570,7 @@ class WebServer:
                         )
                         self.hub.send_to(client, json.dumps({"type": "telegrams", "items": recent}))
         finally:
+            self._sockets.discard(ws)
             await self.hub.remove(client)
         return ws
 
