@@ -628,6 +628,10 @@ class Backend:
                     profile=profile,
                     progress=tick,
                 )
+            except asyncio.CancelledError:
+                # the page stops (Ctrl+C): nothing more goes on the line
+                self.scan_progress = None
+                raise
             finally:
                 if found:
                     self.baud = found[0].baud
@@ -641,8 +645,9 @@ class Backend:
                         for f in found
                         if f.baud == self.baud
                     ]
-                self.scan_progress = None
-                await self._start_master()
+                if self.scan_progress is not None:
+                    self.scan_progress = None
+                    await self._start_master()
         return [f.to_dict() for f in found]
 
     def _scan_transport(self, baud: int) -> Transport:
