@@ -845,10 +845,14 @@ class _DriveNodes:
                 writes.append((nodeid, ua.DataValue(ua.Variant(span))))
         return writes
 
-    async def update(self, state: DriveState) -> None:
+    async def write(self, writes: list[tuple[ua.NodeId, ua.DataValue]]) -> None:
+        """``writes`` through the server, which tells the clients monitoring them."""
         server = self.face.server
-        for nodeid, value in self.changes(state):
+        for nodeid, value in writes:
             await server.write_attribute_value(nodeid, value)
+
+    async def update(self, state: DriveState) -> None:
+        await self.write(self.changes(state))
 
 
 def _write_at_once(aspace: AddressSpace, writes: list[tuple[ua.NodeId, ua.DataValue]]) -> bool:
@@ -976,10 +980,8 @@ class _Updater:
         self.task = asyncio.get_running_loop().create_task(self.run(writes))
 
     async def run(self, writes: list[tuple[ua.NodeId, ua.DataValue]]) -> None:
-        server = self.nodes.face.server
         while True:
-            for nodeid, value in writes:
-                await server.write_attribute_value(nodeid, value)
+            await self.nodes.write(writes)
             state, self.waiting = self.waiting, None
             if state is None:
                 return

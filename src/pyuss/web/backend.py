@@ -620,6 +620,7 @@ class Backend:
 
             await self._stop_master()
             found: list[Found] = []
+            cut_off = False
             try:
                 found = await scan(
                     lambda baud: self._scan_transport(baud),
@@ -629,8 +630,7 @@ class Backend:
                     progress=tick,
                 )
             except asyncio.CancelledError:
-                # the page stops (Ctrl+C): nothing more goes on the line
-                self.scan_progress = None
+                cut_off = True  # the page stops (Ctrl+C): nothing more goes on the line
                 raise
             finally:
                 if found:
@@ -645,8 +645,8 @@ class Backend:
                         for f in found
                         if f.baud == self.baud
                     ]
-                if self.scan_progress is not None:
-                    self.scan_progress = None
+                self.scan_progress = None
+                if not cut_off:
                     await self._start_master()
         return [f.to_dict() for f in found]
 
