@@ -6,6 +6,7 @@ which docs/web.md shows)."""
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import pytest
@@ -260,19 +261,25 @@ def test_every_answer_reaches_the_trend(page: Any, demo: Running) -> None:
     page.goto(demo.url + "#drive/4")
     page.wait_for_function("document.querySelector('#drive-title').textContent.includes('drive 4')")
     page.evaluate(
-        "window.samples = 0; window.pyuss.socket.addEventListener('message', e => {"
+        "window.times = []; window.pyuss.socket.addEventListener('message', e => {"
         " const m = JSON.parse(e.data); if (m.type === 'tick' && m.drives['4'])"
-        " window.samples += m.drives['4'].samples.length; })"
+        " for (const s of m.drives['4'].samples) window.times.push(s[0]); })"
     )
-    start = demo.run(lambda: demo.backend.points(4).drive.diagnostics().answers)
-    page.wait_for_function("window.samples >= 30")
-    # every sample the master got is sent on (none dropped or thinned out)
-    end = demo.run(lambda: demo.backend.points(4).drive.diagnostics().answers)
-    got = page.evaluate("window.samples")
-    assert got <= end - start + 2
-    page.wait_for_timeout(300)
-    later = page.evaluate("window.samples")
-    assert later > got
+
+    def answers_now() -> tuple[int, float]:
+        # read in the drives' loop, so an answer is either counted or later than the time
+        return demo.backend.points(4).drive.diagnostics().answers, time.time()
+
+    start, since = demo.run(answers_now)
+    page.wait_for_function(f"window.times.filter(t => t > {since:.4f}).length >= 30")
+    end, until = demo.run(answers_now)
+    page.wait_for_function(f"window.times.some(t => t > {until:.4f})")
+    # every answer the master got between the two readings is sent on, once (none
+    # dropped, thinned out or repeated); a sample's time is rounded to 0.1 ms
+    got = page.evaluate(f"window.times.filter(t => t > {since:.4f} && t <= {until:.4f}).length")
+    assert abs(got - (end - start)) <= 1, (got, end - start)
+    times = page.evaluate("window.times")
+    assert times == sorted(times)
 
 
 def test_a_parameter_edit_reaches_the_drive_and_a_refusal_is_shown(
