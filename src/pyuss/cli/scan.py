@@ -9,11 +9,12 @@ answers only a telegram of its own length, so the common fixed layouts are tried
 length of its answers.
 
 Each drive is printed as soon as it is found; ``--first`` stops there. An address that stays
-silent costs its response window (20 ms by default, A 5.2.1.1) for every layout tried, so a
-scan takes about the wire time of its probes (``--baud all``: about 4 s per rate at 9600
-and above, more at the slow rates). A progress bar with the time still to go goes to stderr
-when it is a terminal. Ctrl+C stops the scan: the drives found so far stay printed (with
-``--json`` they are printed as the JSON list), exit code 130.
+silent costs, for every layout tried, its request, the response window (20 ms by default,
+A 5.2.1.1) and the 20 ms a serial adapter is allowed for handing characters over: the 32
+addresses take about 15 s at 9600 baud, a little less at the faster rates, and ``--baud all``
+some 6 to 7 minutes, most of it at the slow rates. A progress bar with the time still to go
+goes to stderr when it is a terminal. Ctrl+C stops the scan: the drives found so far stay
+printed (with ``--json`` they are printed as the JSON list), exit code 130.
 
 A rate the port cannot be opened at (a ``bus://`` line runs at one rate only) is not probed,
 with a note on stderr. A pseudo-terminal (``uss simulate --pty``) carries no baud rate at all:

@@ -75,6 +75,7 @@ security policies).
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import contextvars
 import hmac
 import logging
@@ -416,6 +417,17 @@ class _Server(Server):  # type: ignore[misc]
         except Exception:
             await self.iserver.stop()
             raise
+
+    async def stop(self) -> None:
+        # The server's clock writes CurrentTime once a second, and asyncua's stop waits for
+        # its next tick: up to a second more for every stop of the face. It ends at once.
+        clock = self.iserver.time_task
+        if clock is not None:
+            clock.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await clock
+            self.iserver.time_task = None
+        await super().stop()
 
 
 WriteHandler = Callable[[Any], Awaitable[None]]
