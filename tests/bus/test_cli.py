@@ -57,8 +57,9 @@ def test_ptys_carry_bytes_until_stopped(tmp_path: Path, sig: signal.Signals) -> 
     assert [json.loads(line)["from"] for line in lines[1:]] == ["pty1"] * 14 + ["pty2"] * 4
 
 
-def test_tcp_and_bus_endpoints_are_printed() -> None:
+def test_tcp_and_bus_endpoints_are_printed_and_a_stop_with_stations_on_is_quiet() -> None:
     proc = _start("--tcp", "127.0.0.1:0", "--bus-tcp", "127.0.0.1:0", "--duration", "30")
+    err = ""
     try:
         tcp, bus = _lines(proc, 2)
         assert tcp.startswith("tcp://127.0.0.1:")
@@ -78,10 +79,17 @@ def test_tcp_and_bus_endpoints_are_printed() -> None:
             a.reset_input_buffer()
             b.write(b"\x02\x02\x00\x00")
             assert a.read(4) == b"\x02\x02\x00\x00"
+            # stopped while both stations are still connected
+            proc.send_signal(signal.SIGINT)
+            _, err = proc.communicate(timeout=TIMEOUT)
     finally:
-        proc.send_signal(signal.SIGTERM)
-        proc.communicate(timeout=TIMEOUT)
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+            proc.communicate(timeout=TIMEOUT)
     assert proc.returncode == 0
+    # the summary, and no traceback of a station's connection ended by the stop
+    [summary] = err.splitlines()
+    assert summary.startswith("uss bus: ") and "0 collisions" in summary, err
 
 
 def _connected(sock: socket.socket) -> bool:

@@ -110,18 +110,27 @@ def test_several_addresses_on_one_pty(tmp_path: Path) -> None:
     assert (tmp_path / "drive2.store").exists()
 
 
-def test_tcp_server() -> None:
-    with simulate("--tcp", "127.0.0.1:0", "--address", "5", "--layout", "3,2") as (url, _):
-        assert url.startswith("tcp://127.0.0.1:")
-        port = int(url.rsplit(":", 1)[1])
-        with socket.create_connection(("127.0.0.1", port), timeout=TIMEOUT) as sock:
+def test_tcp_server_and_a_stop_with_a_peer_connected_is_quiet() -> None:
+    args = ("--tcp", "127.0.0.1:0", "--address", "5", "--layout", "3,2")
+    sock = None
+    try:
+        with simulate(*args, stop=signal.SIGINT) as (url, err):
+            assert url.startswith("tcp://127.0.0.1:")
+            port = int(url.rsplit(":", 1)[1])
+            sock = socket.create_connection(("127.0.0.1", port), timeout=TIMEOUT)
             sock.sendall(READ_P52)
             data = b""
             while len(data) < 14:
                 chunk = sock.recv(64)
                 assert chunk
                 data += chunk
+        # stopped while the peer is still connected: its summary lines, no traceback
+    finally:
+        if sock is not None:
+            sock.close()
     assert data.hex(" ").upper() == ANSWER_P52
+    lines = err[0].splitlines()
+    assert [line.split(":")[0] for line in lines] == ["uss simulate"] * 2, err[0]
 
 
 def test_a_peer_that_floods_the_line_and_leaves_costs_later_masters_at_most_a_telegram() -> None:

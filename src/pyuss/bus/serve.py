@@ -35,7 +35,7 @@ from pyuss.bus.wire import MAX_AHEAD, MAX_DATA, SendDecoder, encode_frame
 from pyuss.errors import ConfigError, ProtocolError, TransportError
 from pyuss.transport.base import LineError
 from pyuss.transport.pty import PtyPort
-from pyuss.transport.tcp import check_endpoint, close_writer
+from pyuss.transport.tcp import check_endpoint, close_writer, end_handlers
 
 log = logging.getLogger(__name__)
 
@@ -134,10 +134,14 @@ async def serve_tcp(
     hear their own characters; framed stations choose for themselves."""
     host, port = check_endpoint(host, port, allow_zero=True)
     writers: set[asyncio.StreamWriter] = set()
+    handlers: set[asyncio.Task[Any]] = set()
 
     async def handle(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         assert isinstance(reader, _Reader)  # made by `connection` below
         writers.add(writer)
+        task = asyncio.current_task()
+        if task is not None:
+            handlers.add(task)
         try:
             if framed:
                 await _framed_station(bus, reader, writer)
@@ -145,6 +149,8 @@ async def serve_tcp(
                 await _raw_station(bus, reader, writer, echo)
         finally:
             writers.discard(writer)
+            if task is not None:
+                handlers.discard(task)
             await close_writer(writer)
 
     def connection() -> asyncio.StreamReaderProtocol:  # as asyncio.start_server makes them
@@ -158,8 +164,7 @@ async def serve_tcp(
 
     async def closer() -> None:
         server.close()
-        for writer in list(writers):
-            writer.close()
+        await end_handlers(writers, handlers)
         with contextlib.suppress(OSError):
             await server.wait_closed()
 

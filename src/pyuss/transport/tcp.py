@@ -22,7 +22,8 @@ import contextlib
 import logging
 import socket
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
+from typing import Any
 
 from pyuss.errors import ConfigError, TransportError
 from pyuss.transport.queued import QueuedTransport
@@ -73,6 +74,32 @@ async def close_writer(writer: asyncio.StreamWriter) -> None:
     writer.close()
     with contextlib.suppress(OSError, asyncio.CancelledError):
         await writer.wait_closed()
+
+
+#: How long a closing server waits for its connections' handlers to end of themselves.
+HANDLERS_WAIT = 1.0
+
+
+async def end_handlers(
+    writers: Iterable[asyncio.StreamWriter], tasks: Iterable[asyncio.Task[Any]]
+) -> None:
+    """End a server's connection handlers (``tasks``, run by ``asyncio.start_server`` or an
+    ``asyncio.StreamReaderProtocol``) by closing their connections (``writers``) and waiting
+    for them to return; one that is still running after `HANDLERS_WAIT` is cancelled. A
+    handler left to be cancelled, as every task is when the loop ends, is logged by asyncio's
+    stream protocol as an error with a traceback (Python 3.11): stopping a server that has
+    peers connected must print nothing of the kind."""
+    for writer in list(writers):
+        writer.close()
+    running = set(tasks)
+    if not running:
+        return
+    _done, pending = await asyncio.wait(running, timeout=HANDLERS_WAIT)
+    for task in pending:
+        task.cancel()
+    for task in pending:
+        with contextlib.suppress(asyncio.CancelledError):
+            await task
 
 
 class TcpTransport(QueuedTransport):
@@ -311,12 +338,7 @@ class TcpServerTransport(QueuedTransport):
         self._mark_closed()
         if self._server is not None:
             self._server.close()
-        tasks = list(self._peer_tasks)
-        for task in tasks:
-            task.cancel()
-        for task in tasks:
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+        await end_handlers(self._peers, self._peer_tasks)
         for peer in list(self._peers):
             await close_writer(peer)
         self._peers.clear()
