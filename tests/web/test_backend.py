@@ -208,6 +208,7 @@ async def test_a_value_the_layout_cannot_carry_is_not_asked_for(backend: Backend
 async def test_the_ramp_state_follows_the_actual_value(backend: Backend) -> None:
     # The generic drive sets status bit 8 at once; the page says "ramping up" until the actual
     # value reaches the setpoint, and after OFF1 "ramping down" while operation stays enabled.
+    await backend.write(1, 462, None, "2.0")  # ramp-up time 2 s: at 80 % after 1.6 s
     await backend.command(1, "setpoint", 80)
     reply = await backend.command(1, "on")
     assert reply["taken"] and reply["motion"] == "ramping up", reply
