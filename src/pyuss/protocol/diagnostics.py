@@ -180,32 +180,41 @@ class Counters:
 
 
 class _Rate:
-    """Events per minute, kept in one-second buckets."""
+    """Events per minute, kept in one-second buckets, with their running total (the rate is
+    asked for at every answer a drive gives the gateway: no sum over the buckets then)."""
 
-    __slots__ = ("_buckets",)
+    __slots__ = ("_buckets", "_total")
 
     def __init__(self) -> None:
         self._buckets: deque[list[int]] = deque()
+        self._total = 0
+        """The sum of the buckets' counts."""
 
     def add(self, now: float) -> None:
         second = math.floor(now)
-        if self._buckets and self._buckets[-1][0] >= second:
-            self._buckets[-1][1] += 1  # same second (or a clock that stepped back)
+        self._total += 1
+        buckets = self._buckets
+        if buckets and buckets[-1][0] >= second:
+            buckets[-1][1] += 1  # same second (or a clock that stepped back)
         else:
-            self._buckets.append([second, 1])
-        self._prune(second)
+            buckets.append([second, 1])
+            self._prune(second)  # the window moves on only when a new second begins
 
     def _prune(self, second: int) -> None:
-        while self._buckets and self._buckets[0][0] <= second - _WINDOW:
-            self._buckets.popleft()
+        buckets = self._buckets
+        while buckets and buckets[0][0] <= second - _WINDOW:
+            self._total -= buckets.popleft()[1]
 
     def per_minute(self, now: float) -> int:
         second = math.floor(now)
         self._prune(second)
+        if not self._buckets or self._buckets[-1][0] <= second:
+            return self._total
         return sum(count for when, count in self._buckets if when <= second)
 
     def clear(self) -> None:
         self._buckets.clear()
+        self._total = 0
 
 
 class Diagnostics:

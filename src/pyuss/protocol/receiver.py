@@ -202,6 +202,8 @@ class Receiver:
         # byte to count as after a start pause (a start pause less what the stamps may hide).
         self._fresh_after = self.start_pause - self.tolerance
         self._first_deadline = self.timing.residual_max(MAX_NET_BYTES)
+        self._residual: dict[int, float] = {}
+        """`LineTiming.residual_max` by net byte count, as LGEs come (computed once each)."""
         self._last_end = -math.inf
         self._state = _IDLE
         self._buf = bytearray()
@@ -242,8 +244,9 @@ class Receiver:
 
     def reset(self) -> None:
         """Drop whatever is being received, without an event; the line counts as idle."""
-        self._state = _IDLE
-        self._buf = bytearray()
+        if self._state != _IDLE:
+            self._state = _IDLE
+            self._buf = bytearray()  # (when idle, the next byte begins a buffer of its own)
         self._last_end = -math.inf
 
     def feed(
@@ -392,7 +395,10 @@ class Receiver:
                 self._to_junk(FaultKind.BAD_LGE, f"LGE {lge} is out of range {MIN_LGE}..{MAX_LGE}")
             else:
                 self._need = lge + 2
-                self._deadline = self._stx_end + self.timing.residual_max(lge - 2)
+                residual = self._residual.get(lge)
+                if residual is None:
+                    residual = self._residual[lge] = self.timing.residual_max(lge - 2)
+                self._deadline = self._stx_end + residual
             return pos
         if not self._adr_checked and len(buf) >= 3:
             self._adr_checked = True
@@ -449,8 +455,8 @@ class Receiver:
             kind = self._line
             self._emit_fault(events, kind, raw, self._line_detail())
             return
-        expected = bcc(raw[:-1])
-        if expected != raw[-1]:
+        if bcc(raw):  # the BCC of a whole telegram, its own included, is 0 when it is right
+            expected = bcc(raw[:-1])
             detail = f"BCC is {raw[-1]:02X}h, expected {expected:02X}h"
             self._emit_fault(events, FaultKind.BCC, raw, detail)
             return
