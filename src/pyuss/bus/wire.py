@@ -102,6 +102,8 @@ class FrameDecoder:
 
 def encode_send(start: float, data: bytes) -> bytes:
     """A send frame (station to bus): ``data`` to start at ``start`` (0: at once)."""
+    if len(data) <= MAX_DATA:  # a telegram: one frame
+        return SEND.pack(start, len(data)) + data
     parts = []
     for i in range(0, max(len(data), 1), MAX_DATA):
         part = data[i : i + MAX_DATA]

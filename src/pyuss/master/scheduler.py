@@ -952,7 +952,8 @@ class Master:
             sent[:] = [link.version, link.control]
             return link.request(self._clock())
 
-        link.polls_wanted = max(0, link.polls_wanted - 1)
+        if link.polls_wanted > 0:
+            link.polls_wanted -= 1
         result = await self._transact(
             build,
             link.address,
@@ -1039,19 +1040,22 @@ class Master:
         else:
             status = DriveStatus(link.address, net.pzd[0], tuple(net.pzd[1:]), when, control)
         link.status = status
-        link.answered_version = max(link.answered_version, version)
-        waiters, link.update_waiters = link.update_waiters, []
-        for future in waiters:
-            if not future.done():
-                future.set_result(status)
-        keep = []
-        for wanted, future in link.version_waiters:
-            if wanted <= version:
+        if version > link.answered_version:
+            link.answered_version = version
+        if link.update_waiters:
+            waiters, link.update_waiters = link.update_waiters, []
+            for future in waiters:
                 if not future.done():
                     future.set_result(status)
-            else:
-                keep.append((wanted, future))
-        link.version_waiters = keep
+        if link.version_waiters:
+            keep = []
+            for wanted, future in link.version_waiters:
+                if wanted <= version:
+                    if not future.done():
+                        future.set_result(status)
+                else:
+                    keep.append((wanted, future))
+            link.version_waiters = keep
         for callback in list(link.update_callbacks):
             try:
                 callback(status)

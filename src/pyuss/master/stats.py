@@ -74,8 +74,10 @@ class Samples:
         self._summary = None
         self.count += 1
         self.last = value
-        self.minimum = min(self.minimum, value)
-        self.maximum = max(self.maximum, value)
+        if value < self.minimum:
+            self.minimum = value
+        if value > self.maximum:
+            self.maximum = value
         delta = value - self._mean
         self._mean += delta / self.count
         self._m2 += delta * (value - self._mean)

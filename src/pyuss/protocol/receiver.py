@@ -378,13 +378,15 @@ class Receiver:
             in_time = math.floor((self._deadline + self._eps - first_end) / ct) - pos + 1
             take = max(0, min(take, in_time))
             buf += data[pos : pos + take]
-            self._note_line_errors(flags, pos, take, len(buf) - take)
+            if flags:
+                self._note_line_errors(flags, pos, take, len(buf) - take)
             if take:
                 self._last_end = first_end + (pos + take - 1) * ct
             self._to_junk(FaultKind.RESIDUAL_TIME, self._late_detail())
             return pos + take
         buf += data[pos : pos + take]
-        self._note_line_errors(flags, pos, take, len(buf) - take)
+        if flags:
+            self._note_line_errors(flags, pos, take, len(buf) - take)
         self._last_end = first_end + last * ct
         pos += take
         if self._need == 0:

@@ -16,7 +16,6 @@ and `stats.echo_errors` counts it.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import time
 from collections import deque
 from dataclasses import dataclass
@@ -195,7 +194,7 @@ class QueuedTransport(Transport):
             await waiter
         finally:
             timer.cancel()
-            with contextlib.suppress(ValueError):
+            if entry in self._waiters:  # (a reader woken by `_signal` is out already)
                 self._waiters.remove(entry)
 
     def _signal(self, everyone: bool = True) -> None:
