@@ -104,6 +104,7 @@ from pyuss.master.stats import (
 )
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.diagnostics import Diagnostics, FaultKind
+from pyuss.protocol.frozen import builder
 from pyuss.protocol.layout import Layout, NetData
 from pyuss.protocol.pkw import Pkw
 from pyuss.protocol.receiver import Received, ReceiveFault, Receiver
@@ -178,6 +179,11 @@ class MirrorResult:
 
 
 _NORMAL = frozenset({AddressMode.NORMAL})
+
+_drive_status = builder(DriveStatus)
+_slave_counts = builder(SlaveCounts)
+"""`DriveStatus` of an answer and `SlaveCounts` of a slave, made at every answer
+(`pyuss.protocol.frozen.builder`)."""
 
 WaitBytes = Callable[[int, float], Awaitable[None]]
 """``wait_bytes(count, timeout)`` of `pyuss.transport.queued.QueuedTransport`."""
@@ -269,7 +275,7 @@ class _Link:
         return self.channel.busy or self.answered_version < self.version or self.polls_wanted > 0
 
     def counts(self, now: float) -> SlaveCounts:
-        return SlaveCounts(
+        return _slave_counts(
             self.diagnostics.snapshot(now), self.exchanges, self.answers, self.timeouts
         )
 
@@ -1036,9 +1042,9 @@ class Master:
         self, link: _Link, net: NetData, when: float, version: int, control: int
     ) -> None:
         if not net.pzd:
-            status = DriveStatus(link.address, 0, (), when, control)
+            status = _drive_status(link.address, 0, (), when, control)
         else:
-            status = DriveStatus(link.address, net.pzd[0], tuple(net.pzd[1:]), when, control)
+            status = _drive_status(link.address, net.pzd[0], net.pzd[1:], when, control)
         link.status = status
         if version > link.answered_version:
             link.answered_version = version

@@ -50,6 +50,8 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
+from pyuss.protocol.frozen import builder
+
 __all__ = ["Counters", "Diagnostics", "ErrorStatus", "FaultKind"]
 
 _WINDOW = 60
@@ -179,6 +181,10 @@ class Counters:
         )
 
 
+_counters = builder(Counters)
+"""`Counters` of the live counts (made at every answer a drive gives the gateway)."""
+
+
 class _Rate:
     """Events per minute, kept in one-second buckets, with their running total (the rate is
     asked for at every answer a drive gives the gateway: no sum over the buckets then)."""
@@ -285,20 +291,21 @@ class Diagnostics:
 
     def snapshot(self, now: float) -> Counters:
         """The 16 parameters at time ``now``."""
-        return Counters(
-            hardware_version=self.hardware_version,
-            software_version=self.software_version,
-            error_status=self.status,
-            good_per_minute=self.good_per_minute(now),
-            discarded_per_minute=self.discarded_per_minute(now),
-            good=self.good,
-            discarded=self.discarded,
-            framing=self.framing,
-            overrun=self.overrun,
-            parity=self.parity,
-            no_stx=self.no_stx,
-            residual_time=self.residual_time,
-            bcc=self.bcc,
-            bad_lge=self.bad_lge,
-            timeout=self.timeout,
+        return _counters(  # the fields of `Counters` in their order
+            self.hardware_version,
+            self.software_version,
+            0,  # reserved
+            self.status,
+            self.good_per_minute(now),
+            self.discarded_per_minute(now),
+            self.good,
+            self.discarded,
+            self.framing,
+            self.overrun,
+            self.parity,
+            self.no_stx,
+            self.residual_time,
+            self.bcc,
+            self.bad_lge,
+            self.timeout,
         )

@@ -77,6 +77,7 @@ from dataclasses import dataclass
 
 from pyuss.errors import ConfigError
 from pyuss.protocol.diagnostics import Diagnostics, FaultKind
+from pyuss.protocol.frozen import builder
 from pyuss.protocol.line import LineError
 from pyuss.protocol.telegram import (
     MAX_ADDRESS,
@@ -129,6 +130,10 @@ class ReceiveFault:
 
 
 Event = Received | ReceiveFault
+
+_received = builder(Received)
+_telegram = builder(Telegram)
+"""`Received` and `Telegram` of a telegram the receiver framed and checked (`builder`)."""
 
 
 def fixed_length_fault(adr: int, lge: int, fixed: int | None) -> str | None:
@@ -467,7 +472,7 @@ class Receiver:
         except AddressError as exc:
             self._emit_fault(events, FaultKind.BAD_ADR, raw, str(exc))
             return
-        events.append(Received(Telegram(address, mode, raw[3:-1]), raw, start, end))
+        events.append(_received(_telegram(address, mode, raw[3:-1]), raw, start, end))
         if self.diagnostics is not None:
             self.diagnostics.record_received(end)
 

@@ -21,6 +21,7 @@ from collections import deque
 from dataclasses import dataclass
 
 from pyuss.errors import ConfigError, TransportError
+from pyuss.protocol.frozen import builder
 from pyuss.protocol.timing import BAUD_RATES, BITS_PER_CHAR, char_time, check_baud
 from pyuss.transport.base import Chunk, LineError, Transport
 
@@ -65,6 +66,10 @@ def shift_errors(
     return tuple(
         (pos - start, flag) for pos, flag in errors if pos >= start and (stop is None or pos < stop)
     )
+
+
+_chunk = builder(Chunk)
+"""`Chunk` of what a backend delivered (`pyuss.protocol.frozen.builder`)."""
 
 
 def _wake(waiter: asyncio.Future[None]) -> None:
@@ -294,7 +299,7 @@ class QueuedTransport(Transport):
         stats.chunks_in += 1
         if errors:
             stats.line_errors += len(errors)
-        self._chunks.append(Chunk(data, timestamp, errors))
+        self._chunks.append(_chunk(data, timestamp, errors))
         self._queued_bytes += size
         self._signal(everyone=False)
 
