@@ -423,6 +423,8 @@ class Master:
         )
         """`QueuedTransport.read_nowait`, where the transport has it: a look for chunks
         without a coroutine (the master looks several times per telegram)."""
+        self._wait_bytes: WaitBytes | None = getattr(transport, "wait_bytes", None)
+        """`QueuedTransport.wait_bytes`, where the transport has it (`_whole_answer`)."""
         self._margin = COARSE_MARGIN
         self._write_at = _timed_writer(transport)
 
@@ -809,7 +811,7 @@ class Master:
     async def _run(self) -> None:
         try:
             while not self._closing:
-                if await self._do_specials():
+                if self._specials and await self._do_specials():
                     continue
                 if self.mode is Mode.CYCLIC:
                     await self._cycle()
@@ -854,7 +856,8 @@ class Master:
         for address in entries:
             if self._closing:
                 return
-            await self._do_specials()
+            if self._specials:  # (a coroutine per poll-list entry spared when none waits)
+                await self._do_specials()
             link = self._links.get(address)
             if link is not None:
                 await self._turn(link)
@@ -1276,12 +1279,13 @@ class Master:
         on a transport with exact timestamps that can wait for a number of bytes (the
         virtual bus, ``bus://``) and a layout of fixed length. Else None: the master is woken
         by every chunk (a virtual bus hands a telegram over in three, docs/bus.md)."""
-        wait_bytes: WaitBytes | None = getattr(self.transport, "wait_bytes", None)
-        if link is None or link.layout.lge is None or wait_bytes is None:
+        wait_bytes = self._wait_bytes
+        if link is None or wait_bytes is None:
             return None, 0
-        if not self.transport.exact_timestamps:
+        lge = link.layout.lge
+        if lge is None or not self.transport.exact_timestamps:
             return None, 0
-        return wait_bytes, link.layout.lge + 2
+        return wait_bytes, lge + 2
 
     def _finish(
         self,
