@@ -139,3 +139,31 @@ def test_sample_percentiles_are_those_of_the_recent_window(
         assert summary.count == n and summary.last == value
         assert samples.summary() is summary
     assert samples.percentile(0.5) == (samples.summary().median if values else 0.0)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(st.floats(min_value=0, max_value=1, allow_nan=False), max_size=60),
+    st.lists(st.floats(min_value=0, max_value=1, allow_nan=False), max_size=20),
+    st.integers(min_value=0, max_value=8),
+)
+def test_sample_percentiles_asked_late_are_those_of_the_recent_window(
+    before: list[float], after: list[float], window: int
+) -> None:
+    """A summary asked for only after many values (the gateway's master, whose figures are
+    read now and then) has the quantiles of the last ``window`` values, and so has every
+    summary after it."""
+    samples = Samples(window)
+    for value in before:
+        samples.add(value)
+    values = list(before)
+    for value in [None, *after]:
+        if value is not None:
+            samples.add(value)
+            values.append(value)
+        recent = sorted(values[max(0, len(values) - window) :]) if window else []
+        summary = samples.summary()
+        rank = [max(0, math.ceil(q * len(recent)) - 1) for q in (0.5, 0.99)]
+        assert summary.median == (recent[rank[0]] if recent else 0.0)
+        assert summary.p99 == (recent[rank[1]] if recent else 0.0)
+        assert summary.count == len(values)

@@ -220,7 +220,8 @@ class BusClientTransport(QueuedTransport):
             error = TransportError(f"{self.describe()}: write failed: the bus does not read")
             self._lose(error)
             raise error
-        self._arm_echo(data)
+        if self._echo:  # (what `_arm_echo` looks at first, without the call)
+            self._arm_echo(data)
         transport.write(encode_send(start, data) if self.timed else data)
         self.stats.bytes_out += len(data)
 

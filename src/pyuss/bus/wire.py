@@ -60,28 +60,50 @@ class FrameDecoder:
         self._buf = bytearray()
 
     def feed(self, data: bytes) -> list[tuple[bytes, float, tuple[tuple[int, LineError], ...]]]:
-        self._buf += data
-        out = []
-        while len(self._buf) >= HEADER.size:
-            timestamp, length, count = HEADER.unpack_from(self._buf)
+        # Frames are cut from ``data`` itself when nothing is left over from before (the
+        # usual case: the bus's frames come whole), else from the buffer it is added to.
+        if self._buf:
+            self._buf += data
+            source: bytes | bytearray = self._buf
+        else:
+            source = data
+        out: list[tuple[bytes, float, tuple[tuple[int, LineError], ...]]] = []
+        end = len(source)
+        pos = 0
+        while end - pos >= HEADER.size:
+            timestamp, length, count = HEADER.unpack_from(source, pos)
+            start = pos + HEADER.size
             size = HEADER.size + length + count * ERROR.size
-            if len(self._buf) < size:
+            if end - pos < size:
                 break
-            body = bytes(self._buf[HEADER.size : size])
-            del self._buf[:size]
-            payload = body[:length]
+            payload = bytes(source[start : start + length])
+            pos += size
+            if not count:
+                out.append((payload, timestamp, ()))
+                continue
             errors = []
             for i in range(count):
-                pos, flags = ERROR.unpack_from(body, length + i * ERROR.size)
-                if pos >= length:
-                    raise ProtocolError(f"bus frame flags position {pos} beyond {length} bytes")
-                errors.append((pos, LineError(flags)))
+                where, flags = ERROR.unpack_from(source, start + length + i * ERROR.size)
+                if where >= length:
+                    self._keep(source, pos)
+                    raise ProtocolError(f"bus frame flags position {where} beyond {length} bytes")
+                errors.append((where, LineError(flags)))
             out.append((payload, timestamp, tuple(errors)))
+        self._keep(source, pos)
         return out
+
+    def _keep(self, source: bytes | bytearray, pos: int) -> None:
+        """Keep what follows ``source[:pos]`` (the frames taken) for the next feed."""
+        if source is self._buf:
+            del self._buf[:pos]
+        elif pos < len(source):  # (else the buffer stays empty)
+            self._buf = bytearray(source[pos:])
 
 
 def encode_send(start: float, data: bytes) -> bytes:
     """A send frame (station to bus): ``data`` to start at ``start`` (0: at once)."""
+    if len(data) <= MAX_DATA:  # a telegram: one frame
+        return SEND.pack(start, len(data)) + data
     parts = []
     for i in range(0, max(len(data), 1), MAX_DATA):
         part = data[i : i + MAX_DATA]

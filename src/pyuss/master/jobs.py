@@ -56,6 +56,9 @@ from pyuss.protocol.pkw import Pkw, RequestId, ResponseId
 __all__ = ["Job", "ParameterChannel", "SpontaneousMessage", "describe_job"]
 
 _NO_JOB = RequestId.NO_JOB
+_SPONTANEOUS_FIRST = int(ResponseId.SPONTANEOUS_WORD)
+_SPONTANEOUS_LAST = int(ResponseId.SPONTANEOUS_ARRAY_DWORD)
+"""The response IDs of spontaneous messages (C 4.2.1.2), compared at every answer."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -289,7 +292,7 @@ class ParameterChannel:
         """Take the PKW area of an answer; returns a new spontaneous message, if it is one."""
         first = not self.synced
         self.synced = True
-        if ResponseId(pkw.id).is_spontaneous:
+        if _SPONTANEOUS_FIRST <= pkw.id <= _SPONTANEOUS_LAST:  # `ResponseId.is_spontaneous`
             if not first and pkw.spm_toggle == self.toggle:
                 return None  # a repeat of a message already acknowledged
             self.toggle = pkw.spm_toggle

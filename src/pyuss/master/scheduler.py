@@ -104,6 +104,7 @@ from pyuss.master.stats import (
 )
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.diagnostics import Diagnostics, FaultKind
+from pyuss.protocol.frozen import builder
 from pyuss.protocol.layout import Layout, NetData
 from pyuss.protocol.pkw import Pkw
 from pyuss.protocol.receiver import Received, ReceiveFault, Receiver
@@ -178,6 +179,11 @@ class MirrorResult:
 
 
 _NORMAL = frozenset({AddressMode.NORMAL})
+
+_drive_status = builder(DriveStatus)
+_slave_counts = builder(SlaveCounts)
+"""`DriveStatus` of an answer and `SlaveCounts` of a slave, made at every answer
+(`pyuss.protocol.frozen.builder`)."""
 
 WaitBytes = Callable[[int, float], Awaitable[None]]
 """``wait_bytes(count, timeout)`` of `pyuss.transport.queued.QueuedTransport`."""
@@ -269,7 +275,7 @@ class _Link:
         return self.channel.busy or self.answered_version < self.version or self.polls_wanted > 0
 
     def counts(self, now: float) -> SlaveCounts:
-        return SlaveCounts(
+        return _slave_counts(
             self.diagnostics.snapshot(now), self.exchanges, self.answers, self.timeouts
         )
 
@@ -409,6 +415,16 @@ class Master:
         self._closing = False
         self._rotation = 0
         self._submitted = 0
+        self._idle_at: int | None = None
+        """`_submitted` when no slave had a job open or queued: until the next job is
+        submitted none has (jobs only end meanwhile), and the slaves need not be looked at."""
+        self._read_nowait: Callable[[], Chunk | None] | None = getattr(
+            transport, "read_nowait", None
+        )
+        """`QueuedTransport.read_nowait`, where the transport has it: a look for chunks
+        without a coroutine (the master looks several times per telegram)."""
+        self._wait_bytes: WaitBytes | None = getattr(transport, "wait_bytes", None)
+        """`QueuedTransport.wait_bytes`, where the transport has it (`_whole_answer`)."""
         self._margin = COARSE_MARGIN
         self._write_at = _timed_writer(transport)
 
@@ -795,7 +811,7 @@ class Master:
     async def _run(self) -> None:
         try:
             while not self._closing:
-                if await self._do_specials():
+                if self._specials and await self._do_specials():
                     continue
                 if self.mode is Mode.CYCLIC:
                     await self._cycle()
@@ -840,7 +856,8 @@ class Master:
         for address in entries:
             if self._closing:
                 return
-            await self._do_specials()
+            if self._specials:  # (a coroutine per poll-list entry spared when none waits)
+                await self._do_specials()
             link = self._links.get(address)
             if link is not None:
                 await self._turn(link)
@@ -944,7 +961,8 @@ class Master:
             sent[:] = [link.version, link.control]
             return link.request(self._clock())
 
-        link.polls_wanted = max(0, link.polls_wanted - 1)
+        if link.polls_wanted > 0:
+            link.polls_wanted -= 1
         result = await self._transact(
             build,
             link.address,
@@ -963,25 +981,37 @@ class Master:
         on the line). Called after every exchange and at the deadlines during one, so a job
         ends at its deadline - or, when a telegram carrying it is on the line then, once that
         exchange is over - never a cycle later."""
+        busy = self._busy(exclude)
+        if not busy:
+            return
         now = self._clock()
-        for link in self._busy(exclude):
+        for link in busy:
             deadline = link.channel.deadline
             if deadline is not None and now > deadline:
                 link.channel.expire(now)
 
     def _next_deadline(self, exclude: _Link | None = None) -> float | None:
         """The earliest deadline of a job of any slave but ``exclude``."""
-        deadlines = [link.channel.deadline for link in self._busy(exclude)]
+        busy = self._busy(exclude)
+        if not busy:
+            return None
+        deadlines = [link.channel.deadline for link in busy]
         return min((d for d in deadlines if d is not None), default=None)
 
     def _busy(self, exclude: _Link | None) -> list[_Link]:
         """The slaves but ``exclude`` with a job open or queued (looked at after every
-        exchange: plain attributes, as most slaves have none)."""
-        return [
+        exchange: plain attributes, as most slaves have none; none at all while no job was
+        submitted since they were last all found without one)."""
+        if self._idle_at == self._submitted:
+            return []
+        busy = [
             link
             for link in self._links.values()
-            if (link.channel.current is not None or link.channel.queue) and link is not exclude
+            if link.channel.current is not None or link.channel.queue
         ]
+        if not busy:
+            self._idle_at = self._submitted
+        return [link for link in busy if link is not exclude]
 
     def _answer(self, link: _Link, result: _Result, version: int, control: int) -> None:
         received = result.received
@@ -1015,23 +1045,26 @@ class Master:
         self, link: _Link, net: NetData, when: float, version: int, control: int
     ) -> None:
         if not net.pzd:
-            status = DriveStatus(link.address, 0, (), when, control)
+            status = _drive_status(link.address, 0, (), when, control)
         else:
-            status = DriveStatus(link.address, net.pzd[0], tuple(net.pzd[1:]), when, control)
+            status = _drive_status(link.address, net.pzd[0], net.pzd[1:], when, control)
         link.status = status
-        link.answered_version = max(link.answered_version, version)
-        waiters, link.update_waiters = link.update_waiters, []
-        for future in waiters:
-            if not future.done():
-                future.set_result(status)
-        keep = []
-        for wanted, future in link.version_waiters:
-            if wanted <= version:
+        if version > link.answered_version:
+            link.answered_version = version
+        if link.update_waiters:
+            waiters, link.update_waiters = link.update_waiters, []
+            for future in waiters:
                 if not future.done():
                     future.set_result(status)
-            else:
-                keep.append((wanted, future))
-        link.version_waiters = keep
+        if link.version_waiters:
+            keep = []
+            for wanted, future in link.version_waiters:
+                if wanted <= version:
+                    if not future.done():
+                        future.set_result(status)
+                else:
+                    keep.append((wanted, future))
+            link.version_waiters = keep
         for callback in list(link.update_callbacks):
             try:
                 callback(status)
@@ -1075,10 +1108,15 @@ class Master:
         # On a virtual bus the telegram is handed over a moment early with its start time
         # (`timed_writer`); elsewhere the last moments of the pause pass yielding to the loop.
         ahead = max(self._margin, self.timing.char_time) if self._write_at is not None else 0.0
+        clock = self.transport.clock
+        receiver = self._receiver
         while True:
-            await self._drain()
-            due = max(self._line_free, self._receiver.last_byte_end) + pause + 1e-9
-            left = due - self._clock()
+            if self._read_nowait is not None:
+                self._drain_nowait(self._read_nowait)
+            else:
+                await self._drain()
+            due = max(self._line_free, receiver.last_byte_end) + pause + 1e-9
+            left = due - clock()
             if left <= ahead:
                 break
             sleep = left - max(ahead, self._margin)
@@ -1088,12 +1126,13 @@ class Master:
                     self._stray_events(self._feed(chunk))
             else:
                 await asyncio.sleep(0)
-        self._stray_events(self._receiver.poll(self._clock()))
-        self._receiver.reset()
+        if receiver.busy:
+            self._stray_events(receiver.poll(clock()))
+        receiver.reset()
         self._after_broadcast = False
         if callable(frame):
             frame = frame()
-        start = self._clock()
+        start = clock()
         try:
             if self._write_at is not None and due > start:
                 await self._write_at(frame, due)
@@ -1103,7 +1142,7 @@ class Master:
         except LinkDown as exc:
             log.warning("master: telegram not sent: %s", exc)
             await asyncio.sleep(min(0.1, self.latency + 0.01))
-        end = max(start + self.timing.transmit(len(frame)), self._clock())
+        end = max(start + self.timing.transmit(len(frame)), clock())
         self._line_free = end
         log_frame("tx", frame, end)
         return start, end
@@ -1113,12 +1152,22 @@ class Master:
         return self._receiver.feed(chunk.data, chunk.timestamp, chunk.errors)
 
     async def _drain(self) -> None:
+        if self._read_nowait is not None:
+            self._drain_nowait(self._read_nowait)
+            return
         while True:
             chunk = await self.transport.read(0)
             if chunk is None:
                 break
             self._stray_events(self._feed(chunk))
         self._stray_events(self._receiver.poll(self._clock() - self.latency))
+
+    def _drain_nowait(self, read_nowait: Callable[[], Chunk | None]) -> None:
+        """`_drain` on a transport with `QueuedTransport.read_nowait`: without awaiting."""
+        while (chunk := read_nowait()) is not None:
+            self._stray_events(self._feed(chunk))
+        if self._receiver.busy:
+            self._stray_events(self._receiver.poll(self._clock() - self.latency))
 
     def _stray_events(self, events: list[Received | ReceiveFault]) -> None:
         for event in events:
@@ -1166,8 +1215,10 @@ class Master:
         submitted = self._submitted
         jobs_due = self._next_deadline(exclude=link)
         whole, expected = self._whole_answer(link)
+        clock = self.transport.clock
+        read_nowait = self._read_nowait
         while True:
-            now = self._clock()
+            now = clock()
             if submitted != self._submitted:
                 submitted = self._submitted
                 jobs_due = self._next_deadline(exclude=link)
@@ -1176,9 +1227,14 @@ class Master:
                 jobs_due = self._next_deadline(exclude=link)
             # every chunk that is in is fed before time is judged (a read may time out just
             # as a chunk arrives)
-            while (chunk := await self.transport.read(0)) is not None:
-                events += self._feed(chunk)
-            events += receiver.poll(now - self.latency)
+            if read_nowait is not None:
+                while (chunk := read_nowait()) is not None:
+                    events += self._feed(chunk)
+            else:
+                while (chunk := await self.transport.read(0)) is not None:
+                    events += self._feed(chunk)
+            if receiver.busy:
+                events += receiver.poll(now - self.latency)
             found: tuple[_Outcome, Received] | None = None
             for event in events:
                 outcome = self._judge(event, address, modes, deadline, link)
@@ -1223,12 +1279,13 @@ class Master:
         on a transport with exact timestamps that can wait for a number of bytes (the
         virtual bus, ``bus://``) and a layout of fixed length. Else None: the master is woken
         by every chunk (a virtual bus hands a telegram over in three, docs/bus.md)."""
-        wait_bytes: WaitBytes | None = getattr(self.transport, "wait_bytes", None)
-        if link is None or link.layout.lge is None or wait_bytes is None:
+        wait_bytes = self._wait_bytes
+        if link is None or wait_bytes is None:
             return None, 0
-        if not self.transport.exact_timestamps:
+        lge = link.layout.lge
+        if lge is None or not self.transport.exact_timestamps:
             return None, 0
-        return wait_bytes, link.layout.lge + 2
+        return wait_bytes, lge + 2
 
     def _finish(
         self,

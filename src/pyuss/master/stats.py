@@ -1,8 +1,10 @@
 """Figures the master keeps: sample statistics and the diagnostics snapshots it hands out.
 
 `Samples` keeps a count, the extremes and the mean of everything recorded, and the most
-recent ``window`` values for the median and the 99th percentile, kept in order as well, so
-that a summary (taken with every answer a drive gives the gateway) costs no sort. The
+recent ``window`` values for the median and the 99th percentile. They are put in order the
+first time a percentile is asked for and kept in order from then on, so that a summary taken
+with every answer costs no sort, while a master whose figures nobody reads (a gateway's,
+between two looks at its diagnostics) spends nothing on the order at every answer. The
 snapshots are frozen dataclasses with a ``to_dict()`` for JSON output.
 """
 
@@ -59,8 +61,8 @@ class Samples:
 
     def __init__(self, window: int = 1000) -> None:
         self.recent: deque[float] = deque(maxlen=window)
-        self._ordered: list[float] = []
-        """The values of ``recent``, sorted."""
+        self._ordered: list[float] | None = None
+        """The values of ``recent``, sorted; None until a percentile is first asked for."""
         self._summary: SampleSummary | None = None
         """The last summary, until the next value."""
         self.count = 0
@@ -74,8 +76,10 @@ class Samples:
         self._summary = None
         self.count += 1
         self.last = value
-        self.minimum = min(self.minimum, value)
-        self.maximum = max(self.maximum, value)
+        if value < self.minimum:
+            self.minimum = value
+        if value > self.maximum:
+            self.maximum = value
         delta = value - self._mean
         self._mean += delta / self.count
         self._m2 += delta * (value - self._mean)
@@ -83,13 +87,17 @@ class Samples:
         if len(recent) == recent.maxlen:
             if not recent:
                 return  # a window of 0 keeps no values
-            del ordered[bisect.bisect_left(ordered, recent[0])]
+            if ordered is not None:
+                del ordered[bisect.bisect_left(ordered, recent[0])]
         recent.append(value)
-        bisect.insort(ordered, value)
+        if ordered is not None:
+            bisect.insort(ordered, value)
 
     def percentile(self, q: float) -> float:
         """The ``q`` quantile (0..1) of the recent values, nearest rank; 0 when empty."""
         ordered = self._ordered
+        if ordered is None:
+            ordered = self._ordered = sorted(self.recent)
         if not ordered:
             return 0.0
         rank = max(0, min(len(ordered) - 1, math.ceil(q * len(ordered)) - 1))

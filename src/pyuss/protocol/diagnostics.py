@@ -50,6 +50,8 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
+from pyuss.protocol.frozen import builder
+
 __all__ = ["Counters", "Diagnostics", "ErrorStatus", "FaultKind"]
 
 _WINDOW = 60
@@ -179,33 +181,46 @@ class Counters:
         )
 
 
-class _Rate:
-    """Events per minute, kept in one-second buckets."""
+_counters = builder(Counters)
+"""`Counters` of the live counts (made at every answer a drive gives the gateway)."""
 
-    __slots__ = ("_buckets",)
+
+class _Rate:
+    """Events per minute, kept in one-second buckets, with their running total (the rate is
+    asked for at every answer a drive gives the gateway: no sum over the buckets then)."""
+
+    __slots__ = ("_buckets", "_total")
 
     def __init__(self) -> None:
         self._buckets: deque[list[int]] = deque()
+        self._total = 0
+        """The sum of the buckets' counts."""
 
     def add(self, now: float) -> None:
         second = math.floor(now)
-        if self._buckets and self._buckets[-1][0] >= second:
-            self._buckets[-1][1] += 1  # same second (or a clock that stepped back)
+        self._total += 1
+        buckets = self._buckets
+        if buckets and buckets[-1][0] >= second:
+            buckets[-1][1] += 1  # same second (or a clock that stepped back)
         else:
-            self._buckets.append([second, 1])
-        self._prune(second)
+            buckets.append([second, 1])
+            self._prune(second)  # the window moves on only when a new second begins
 
     def _prune(self, second: int) -> None:
-        while self._buckets and self._buckets[0][0] <= second - _WINDOW:
-            self._buckets.popleft()
+        buckets = self._buckets
+        while buckets and buckets[0][0] <= second - _WINDOW:
+            self._total -= buckets.popleft()[1]
 
     def per_minute(self, now: float) -> int:
         second = math.floor(now)
         self._prune(second)
+        if not self._buckets or self._buckets[-1][0] <= second:
+            return self._total
         return sum(count for when, count in self._buckets if when <= second)
 
     def clear(self) -> None:
         self._buckets.clear()
+        self._total = 0
 
 
 class Diagnostics:
@@ -276,20 +291,21 @@ class Diagnostics:
 
     def snapshot(self, now: float) -> Counters:
         """The 16 parameters at time ``now``."""
-        return Counters(
-            hardware_version=self.hardware_version,
-            software_version=self.software_version,
-            error_status=self.status,
-            good_per_minute=self.good_per_minute(now),
-            discarded_per_minute=self.discarded_per_minute(now),
-            good=self.good,
-            discarded=self.discarded,
-            framing=self.framing,
-            overrun=self.overrun,
-            parity=self.parity,
-            no_stx=self.no_stx,
-            residual_time=self.residual_time,
-            bcc=self.bcc,
-            bad_lge=self.bad_lge,
-            timeout=self.timeout,
+        return _counters(  # the fields of `Counters` in their order
+            self.hardware_version,
+            self.software_version,
+            0,  # reserved
+            self.status,
+            self.good_per_minute(now),
+            self.discarded_per_minute(now),
+            self.good,
+            self.discarded,
+            self.framing,
+            self.overrun,
+            self.parity,
+            self.no_stx,
+            self.residual_time,
+            self.bcc,
+            self.bad_lge,
+            self.timeout,
         )

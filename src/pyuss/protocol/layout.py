@@ -29,7 +29,8 @@ from dataclasses import dataclass
 from functools import cache
 
 from pyuss.errors import ConfigError, TelegramError
-from pyuss.protocol.pkw import Pkw
+from pyuss.protocol.frozen import builder
+from pyuss.protocol.pkw import Pkw, unpacked_pkw
 
 __all__ = ["MAX_PZD", "MAX_WORDS", "PKW_VARIABLE", "Layout", "NetData"]
 
@@ -64,6 +65,10 @@ class NetData:
 
     pkw: Pkw | None
     pzd: tuple[int, ...]
+
+
+_net_data = builder(NetData)
+"""`NetData` of words unpacked from a telegram (`pyuss.protocol.frozen.builder`)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -191,5 +196,5 @@ class Layout:
                 )
             pkw_words = self.pkw
         words = _words(count).unpack(data)
-        pkw = Pkw.from_words(words[:pkw_words]) if pkw_words else None
-        return NetData(pkw, tuple(words[pkw_words:]))
+        pkw = unpacked_pkw(words[:pkw_words]) if pkw_words else None
+        return _net_data(pkw, words[pkw_words:])

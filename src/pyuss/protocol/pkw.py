@@ -28,6 +28,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 from pyuss.errors import ConfigError, TelegramError
+from pyuss.protocol.frozen import builder
 
 __all__ = [
     "INDEX_ALL",
@@ -52,6 +53,7 @@ __all__ = [
     "pwe_text",
     "pwe_word",
     "pwe_words",
+    "unpacked_pkw",
     "words_to_bytes",
     "words_to_text",
 ]
@@ -631,3 +633,14 @@ class Pkw:
             mask = 0x03FF if req is RequestId.TEXT else 0x00FF
             return (self.index & mask) == (request.index & mask)
         return True
+
+
+_pkw = builder(Pkw)
+
+
+def unpacked_pkw(words: tuple[int, ...]) -> Pkw:
+    """`Pkw.from_words` of PKE, IND and PWE words unpacked from a telegram: 16-bit words
+    make every field valid, so the checks of `Pkw` are skipped (it is made for every answer
+    with a PKW area, `pyuss.protocol.frozen.builder`)."""
+    pke = words[0]
+    return _pkw(pke >> 12, pke & MAX_PNU, words[1], bool(pke & _TOGGLE), words[2:])

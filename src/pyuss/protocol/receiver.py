@@ -77,6 +77,7 @@ from dataclasses import dataclass
 
 from pyuss.errors import ConfigError
 from pyuss.protocol.diagnostics import Diagnostics, FaultKind
+from pyuss.protocol.frozen import builder
 from pyuss.protocol.line import LineError
 from pyuss.protocol.telegram import (
     MAX_ADDRESS,
@@ -129,6 +130,10 @@ class ReceiveFault:
 
 
 Event = Received | ReceiveFault
+
+_received = builder(Received)
+_telegram = builder(Telegram)
+"""`Received` and `Telegram` of a telegram the receiver framed and checked (`builder`)."""
 
 
 def fixed_length_fault(adr: int, lge: int, fixed: int | None) -> str | None:
@@ -202,6 +207,8 @@ class Receiver:
         # byte to count as after a start pause (a start pause less what the stamps may hide).
         self._fresh_after = self.start_pause - self.tolerance
         self._first_deadline = self.timing.residual_max(MAX_NET_BYTES)
+        self._residual: dict[int, float] = {}
+        """`LineTiming.residual_max` by net byte count, as LGEs come (computed once each)."""
         self._last_end = -math.inf
         self._state = _IDLE
         self._buf = bytearray()
@@ -242,8 +249,9 @@ class Receiver:
 
     def reset(self) -> None:
         """Drop whatever is being received, without an event; the line counts as idle."""
-        self._state = _IDLE
-        self._buf = bytearray()
+        if self._state != _IDLE:
+            self._state = _IDLE
+            self._buf = bytearray()  # (when idle, the next byte begins a buffer of its own)
         self._last_end = -math.inf
 
     def feed(
@@ -375,13 +383,15 @@ class Receiver:
             in_time = math.floor((self._deadline + self._eps - first_end) / ct) - pos + 1
             take = max(0, min(take, in_time))
             buf += data[pos : pos + take]
-            self._note_line_errors(flags, pos, take, len(buf) - take)
+            if flags:
+                self._note_line_errors(flags, pos, take, len(buf) - take)
             if take:
                 self._last_end = first_end + (pos + take - 1) * ct
             self._to_junk(FaultKind.RESIDUAL_TIME, self._late_detail())
             return pos + take
         buf += data[pos : pos + take]
-        self._note_line_errors(flags, pos, take, len(buf) - take)
+        if flags:
+            self._note_line_errors(flags, pos, take, len(buf) - take)
         self._last_end = first_end + last * ct
         pos += take
         if self._need == 0:
@@ -392,7 +402,10 @@ class Receiver:
                 self._to_junk(FaultKind.BAD_LGE, f"LGE {lge} is out of range {MIN_LGE}..{MAX_LGE}")
             else:
                 self._need = lge + 2
-                self._deadline = self._stx_end + self.timing.residual_max(lge - 2)
+                residual = self._residual.get(lge)
+                if residual is None:
+                    residual = self._residual[lge] = self.timing.residual_max(lge - 2)
+                self._deadline = self._stx_end + residual
             return pos
         if not self._adr_checked and len(buf) >= 3:
             self._adr_checked = True
@@ -449,8 +462,8 @@ class Receiver:
             kind = self._line
             self._emit_fault(events, kind, raw, self._line_detail())
             return
-        expected = bcc(raw[:-1])
-        if expected != raw[-1]:
+        if bcc(raw):  # the BCC of a whole telegram, its own included, is 0 when it is right
+            expected = bcc(raw[:-1])
             detail = f"BCC is {raw[-1]:02X}h, expected {expected:02X}h"
             self._emit_fault(events, FaultKind.BCC, raw, detail)
             return
@@ -459,7 +472,7 @@ class Receiver:
         except AddressError as exc:
             self._emit_fault(events, FaultKind.BAD_ADR, raw, str(exc))
             return
-        events.append(Received(Telegram(address, mode, raw[3:-1]), raw, start, end))
+        events.append(_received(_telegram(address, mode, raw[3:-1]), raw, start, end))
         if self.diagnostics is not None:
             self.diagnostics.record_received(end)
 

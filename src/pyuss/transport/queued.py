@@ -16,12 +16,12 @@ and `stats.echo_errors` counts it.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import time
 from collections import deque
 from dataclasses import dataclass
 
 from pyuss.errors import ConfigError, TransportError
+from pyuss.protocol.frozen import builder
 from pyuss.protocol.timing import BAUD_RATES, BITS_PER_CHAR, char_time, check_baud
 from pyuss.transport.base import Chunk, LineError, Transport
 
@@ -66,6 +66,10 @@ def shift_errors(
     return tuple(
         (pos - start, flag) for pos, flag in errors if pos >= start and (stop is None or pos < stop)
     )
+
+
+_chunk = builder(Chunk)
+"""`Chunk` of what a backend delivered (`pyuss.protocol.frozen.builder`)."""
 
 
 def _wake(waiter: asyncio.Future[None]) -> None:
@@ -122,31 +126,46 @@ class QueuedTransport(Transport):
             self._ready.clear()
 
     async def read(self, timeout: float | None = None) -> Chunk | None:
-        if self._ready is None:
-            raise TransportError(f"{self.describe()} is not open")
+        chunk = self.read_nowait()
+        if chunk is not None or (timeout is not None and timeout <= 0):
+            return chunk
+        assert self._ready is not None
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
-            if self._echo_error is not None:
-                error, self._echo_error = self._echo_error, None
-                raise error
-            if self._chunks:
-                chunk = self._chunks.popleft()
-                self._queued_bytes -= len(chunk.data)
-                if not self._chunks:
-                    self._ready.clear()
-                return chunk
-            if self._failure is not None:
-                raise self._failure
-            if not self._open:
-                raise TransportError(f"{self.describe()} is closed")
             self._ready.clear()
             if deadline is None:
                 await self._ready.wait()
-                continue
-            left = deadline - time.monotonic()
-            if left <= 0:
-                return None
-            await self._wait(left, 1)
+            else:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return None
+                await self._wait(left, 1)
+            chunk = self.read_nowait()
+            if chunk is not None:
+                return chunk
+
+    def read_nowait(self) -> Chunk | None:
+        """`read` with a timeout of 0 without a coroutine: the next chunk, or None when none
+        waits (raising as `read` does: an echo error first, then, once the chunks are read, a
+        lost or closed link). A reader that looks for chunks several times per telegram (the
+        master) spares itself a coroutine each time."""
+        if self._ready is None:
+            raise TransportError(f"{self.describe()} is not open")
+        if self._echo_error is not None:
+            error, self._echo_error = self._echo_error, None
+            raise error
+        chunks = self._chunks
+        if chunks:
+            chunk = chunks.popleft()
+            self._queued_bytes -= len(chunk.data)
+            if not chunks:
+                self._ready.clear()
+            return chunk
+        if self._failure is not None:
+            raise self._failure
+        if not self._open:
+            raise TransportError(f"{self.describe()} is closed")
+        return None
 
     async def wait_bytes(self, count: int, timeout: float) -> None:
         """Return once ``count`` bytes wait to be read, the link is lost or closed, an echo
@@ -180,14 +199,15 @@ class QueuedTransport(Transport):
             await waiter
         finally:
             timer.cancel()
-            with contextlib.suppress(ValueError):
+            if entry in self._waiters:  # (a reader woken by `_signal` is out already)
                 self._waiters.remove(entry)
 
     def _signal(self, everyone: bool = True) -> None:
         """Wake the readers: all of them when the link was lost or closed or an echo error
         came (``everyone``), else those waiting for no more bytes than are queued."""
-        if self._ready is not None:
-            self._ready.set()
+        ready = self._ready
+        if ready is not None and not ready.is_set():
+            ready.set()
         if not self._waiters:
             return
         queued = self._queued_bytes
@@ -273,11 +293,14 @@ class QueuedTransport(Transport):
             data, timestamp, errors = self._strip_echo(data, timestamp, errors)
             if not data:
                 return
-        self.stats.bytes_in += len(data)
-        self.stats.chunks_in += 1
-        self.stats.line_errors += len(errors)
-        self._chunks.append(Chunk(data, timestamp, errors))
-        self._queued_bytes += len(data)
+        size = len(data)
+        stats = self.stats
+        stats.bytes_in += size
+        stats.chunks_in += 1
+        if errors:
+            stats.line_errors += len(errors)
+        self._chunks.append(_chunk(data, timestamp, errors))
+        self._queued_bytes += size
         self._signal(everyone=False)
 
     def _strip_echo(
