@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import time
 
+import pytest
+
 from pyuss.bus import BusClientTransport, VirtualBus
 from pyuss.bus.core import HOLD_MAX, RUN_HOLD, WireChar
 from pyuss.loop import run
@@ -179,3 +181,58 @@ async def test_a_held_run_is_handed_over_at_most_hold_max_characters_at_a_time()
     assert len(got) >= 600 / HOLD_MAX
     # each piece is stamped with its last character's end: the first long before the run's
     assert got[0][1] < got[-1][1] - 200 * 11 / 187500
+
+
+async def _answer_to(baud: int, answer: bytes, hold_for: float) -> tuple[list[Delivery], float]:
+    """What a ``bus://`` master got of ``answer``, sent by an in-process drive once the
+    master's request was on the line, when the master asked for its answer by ``hold_for``
+    seconds after it sent the request; and that moment."""
+    bus = VirtualBus(baud)
+    got: list[Delivery] = []
+    try:
+        host, port = await bus.serve_tcp(framed=True)
+        master = BusClientTransport(host, port, baud=baud, name="master")
+        async with master, bus.attach("drive") as drive:
+            assert master.hold_answer
+            hold_until = time.monotonic() + hold_for
+            await master.write_at(b"\x02\x02\x00\x00", 0.0, hold_until)
+            request = b""
+            while len(request) < 4:
+                chunk = await drive.read(WAIT)
+                assert chunk is not None
+                request += chunk.data
+            await drive.write(answer)
+            received = 0
+            while received < len(answer):
+                chunk = await master.read(WAIT)
+                assert chunk is not None
+                got.append((chunk.data, chunk.timestamp, time.monotonic()))
+                received += len(chunk.data)
+    finally:
+        await bus.close()
+    assert b"".join(chunk for chunk, _, _ in got) == answer
+    return got, hold_until
+
+
+async def test_a_master_is_handed_an_answer_that_ends_in_time_in_one_piece() -> None:
+    # The answer ends long before the moment its first character was due at the latest:
+    # the master's process is woken once for it, with every character's end time kept.
+    answer = bytes(range(40))  # 23 ms
+    got, _ = await _answer_to(19200, answer, 1.0)
+    assert len(got) == 1
+    _data, timestamp, delivered = got[0]
+    assert delivered >= timestamp
+
+
+async def test_an_answer_still_running_when_its_hold_ends_is_handed_its_first_part_then() -> None:
+    # 100 characters at 19200 baud take 57 ms; the master takes the answer only if its
+    # first character is in 15 ms after the request was sent: what there is of it comes
+    # then, the rest when it ends.
+    tc = 11 / 19200
+    answer = bytes(range(100))
+    got, hold_until = await _answer_to(19200, answer, 0.015)
+    assert len(got) == 2
+    (_first, first_end, first_at), (rest, rest_end, rest_at) = got
+    assert hold_until - 0.001 <= first_at < rest_end
+    assert rest_at >= rest_end
+    assert rest_end - first_end == pytest.approx(len(rest) * tc)

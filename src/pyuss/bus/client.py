@@ -128,6 +128,9 @@ class BusClientTransport(QueuedTransport):
         self.hold = hold
         self._protocol: _Protocol | None = None
         self.timed = False
+        self.hold_answer = False
+        """The bus hands this station its answers whole where the master still takes them
+        (``hold_until`` of `write_at`): one hand-over per answer instead of two."""
         """Whether the bus takes send frames (`write_at` is then exact)."""
 
     @property
@@ -172,6 +175,7 @@ class BusClientTransport(QueuedTransport):
             "listen_only": self.listen_only,
             "timed": True,
             "hold": self.hold,
+            "hold_answer": self.hold and not self._bus_echo,
         }
         try:
             protocol.transport.write(json.dumps(hello).encode() + b"\n")
@@ -191,6 +195,7 @@ class BusClientTransport(QueuedTransport):
             )
         self.name = str(answer.get("name"))
         self.timed = answer.get("timed") is True
+        self.hold_answer = answer.get("hold_answer") is True
 
     def _connection_lost(self, why: str) -> None:
         if self.is_open:
@@ -199,17 +204,20 @@ class BusClientTransport(QueuedTransport):
     async def write(self, data: bytes) -> None:
         self._send(bytes(data), 0.0)
 
-    async def write_at(self, data: bytes, start: float) -> None:
+    async def write_at(self, data: bytes, start: float, hold_until: float | None = None) -> None:
         """Like `write`, but the first character starts at ``start`` (monotonic seconds) if
-        that is later. A bus without send frames gets the bytes at that moment instead."""
+        that is later. A bus without send frames gets the bytes at that moment instead.
+        ``hold_until``: the answer to this telegram is still taken if its first character is
+        handed over by then, so the bus may hand it over whole (`hold_answer`, a bus that
+        offers it)."""
         if not self.timed:
             from pyuss.loop import sleep_until
 
             await sleep_until(start, time.monotonic)
             start = 0.0
-        self._send(bytes(data), start)
+        self._send(bytes(data), start, hold_until if self.hold_answer else None)
 
-    def _send(self, data: bytes, start: float) -> None:
+    def _send(self, data: bytes, start: float, hold_until: float | None = None) -> None:
         if self.listen_only:
             raise TransportError(f"{self.describe()} is listen-only: it cannot send")
         self._check_writable()
@@ -222,7 +230,12 @@ class BusClientTransport(QueuedTransport):
             raise error
         if self._echo:  # (what `_arm_echo` looks at first, without the call)
             self._arm_echo(data)
-        transport.write(encode_send(start, data) if self.timed else data)
+        if not self.timed:
+            transport.write(data)
+        elif hold_until is None:
+            transport.write(encode_send(start, data))
+        else:  # a send frame without characters: the moment the answer is held until
+            transport.write(encode_send(start, data) + encode_send(hold_until, b""))
         self.stats.bytes_out += len(data)
 
     async def close(self) -> None:

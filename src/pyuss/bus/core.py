@@ -19,7 +19,9 @@ gap (the rest of the sender's queued characters) are handed over together, all b
 its own end. A station waiting for an answer sees it begin at once and digests most of it while
 its last characters are on the line: three hand-overs per telegram instead of one per character
 or two. A station that holds runs (``hold=True``, every ``bus://`` client) takes the first
-character at once and the rest of the run when it ends: two, each a wake-up of its process.
+character at once and the rest of the run when it ends: two, each a wake-up of its process;
+a master among them tells the bus with each request by when its answer must be in at the
+latest (`Station.hold_answer`), and takes the answer in one piece where it ends before then.
 On a loop with fine timers (`pyuss.loop`) the bus wakes up `FINE_MARGIN` before the
 hand-over that ends a run and yields until it is due: a process that slept wakes up late. The
 chunk timestamps are the *ideal* end times, not the moment of delivery: receivers measure exact
@@ -179,6 +181,10 @@ class Station(QueuedTransport):
         self.held: list[tuple[bytes, float, tuple[tuple[int, LineError], ...]]] = []
         """What a holding station is handed when the run ends."""
         self.held_chars = 0
+        self.hold_until = 0.0
+        """A holding station's answer hold (`hold_answer`): until then (monotonic) it takes
+        the first piece of a run with the rest, not at once."""
+        self._release_at: asyncio.TimerHandle | None = None
         self.heard_end = -1.0
         """End of the last character it heard (a character starting then continues a run)."""
         self.tx_free = 0.0
@@ -219,9 +225,11 @@ class Station(QueuedTransport):
         self.stats.bytes_out += len(data)
         self.bus.send(self.name, bytes(data))
 
-    async def write_at(self, data: bytes, start: float) -> None:
+    async def write_at(self, data: bytes, start: float, hold_until: float | None = None) -> None:
         """Like `write`, but the first character starts at ``start`` (monotonic seconds) if
-        that is later: the station keeps a pause to the microsecond without waiting for it."""
+        that is later: the station keeps a pause to the microsecond without waiting for it.
+        ``hold_until`` is for stations in another process (`hold_answer`); a station in this
+        one is handed every piece at once, as it costs no wake-up of a process."""
         self._check_writable()
         if self.listen_only:
             raise TransportError(f"{self.describe()} is listen-only: it cannot send")
@@ -253,10 +261,37 @@ class Station(QueuedTransport):
                 self.release()
             return
         self.release()
+        if time.monotonic() < self.hold_until - _EPS and not run_ends:
+            # the answer a master waits for: it would still take it at `hold_until`, so its
+            # first piece waits for the rest (one wake-up of the master's process, not two),
+            # or for that moment, whichever comes first
+            self.held.append((data, timestamp, errors))
+            self.held_chars = len(data)
+            self._release_at = asyncio.get_running_loop().call_at(self.hold_until, self._hold_over)
+            return
+        self.hold_until = 0.0
         self.receive(data, timestamp, errors)
+
+    def hold_answer(self, until: float) -> None:
+        """A holding station waits for an answer that it still takes if its first character
+        is handed over by ``until`` (monotonic seconds): the first run that begins before
+        then is handed over whole when it ends - or what there is of it at ``until``, and
+        the rest when it ends. Once for the next run; a master asks again with each request
+        (the send frames of `pyuss.bus.wire`)."""
+        if self.hold:
+            self.hold_until = until
+
+    def _hold_over(self) -> None:
+        self._release_at = None
+        self.hold_until = 0.0
+        self.release()
 
     def release(self) -> None:
         """Hand the characters held over, as one piece (they follow each other)."""
+        if self._release_at is not None:
+            self._release_at.cancel()
+            self._release_at = None
+            self.hold_until = 0.0
         held, self.held = self.held, []
         self.held_chars = 0
         if not held:

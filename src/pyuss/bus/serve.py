@@ -216,9 +216,12 @@ async def _pump_in(
     station: Station,
     reader: _Reader,
     frames: SendDecoder | None = None,
+    hold_answer: bool = False,
 ) -> None:
     """Put what a station sends on the line: raw bytes, or send frames (`pyuss.bus.wire`), as
-    it arrives (`_Reader`); returns when the connection ends or breaks the frame rules."""
+    it arrives (`_Reader`); returns when the connection ends or breaks the frame rules. With
+    ``hold_answer`` a send frame without characters is the moment until which the station
+    may be handed its answer whole (`Station.hold_answer`)."""
     name = station.name
     failed: list[Exception] = []
 
@@ -231,6 +234,9 @@ async def _pump_in(
         now = time.monotonic()
         try:
             for start, part in frames.feed(data):
+                if not part and hold_answer:
+                    station.hold_answer(min(start, now + MAX_AHEAD))
+                    continue
                 if start > now + MAX_AHEAD:
                     raise ProtocolError(
                         f"a send frame asks to start {start - now:.3f} s ahead "
@@ -271,6 +277,7 @@ async def _framed_station(bus: VirtualBus, reader: _Reader, writer: asyncio.Stre
         listen_only = bool(hello.get("listen_only", False))
         timed = hello.get("timed") is True
         hold = hello.get("hold") is True
+        hold_answer = hold and timed and hello.get("hold_answer") is True
     except (TimeoutError, ValueError, OSError) as exc:
         answer({"ok": False, "error": f"bad hello: {exc}"})
         return
@@ -287,6 +294,15 @@ async def _framed_station(bus: VirtualBus, reader: _Reader, writer: asyncio.Stre
         answer({"ok": False, "error": str(exc)})
         return
     holder.append(station)
-    answer({"ok": True, "name": station.name, "baud": bus.baud, "timed": timed, "hold": hold})
+    answer(
+        {
+            "ok": True,
+            "name": station.name,
+            "baud": bus.baud,
+            "timed": timed,
+            "hold": hold,
+            "hold_answer": hold_answer,
+        }
+    )
     log.info("bus: station %s connected (bus://)", station.name)
-    await _pump_in(bus, station, reader, SendDecoder() if timed else None)
+    await _pump_in(bus, station, reader, SendDecoder() if timed else None, hold_answer)

@@ -11,14 +11,23 @@ cannot be a station of a module nobody imported), so a program on a serial port 
 from __future__ import annotations
 
 import sys
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable
+from typing import Protocol
 
 from pyuss.transport.base import Transport
 
 __all__ = ["TimedWrite", "is_station", "timed_writer"]
 
-TimedWrite = Callable[[bytes, float], Awaitable[None]]
-"""``write_at(data, start)``: send ``data``, its first character not before ``start``."""
+
+class TimedWrite(Protocol):
+    """``write_at(data, start, hold_until=None)``: send ``data``, its first character not
+    before ``start``; ``hold_until``: its answer is still taken if its first character is
+    handed over by then (the bus may then hand a station in another process the answer
+    whole, `pyuss.bus.core.Station.hold_answer`)."""
+
+    def __call__(
+        self, data: bytes, start: float, hold_until: float | None = None
+    ) -> Awaitable[None]: ...
 
 
 def is_station(transport: Transport) -> bool:

@@ -27,6 +27,12 @@ the line at ``start`` (or when the station's previous characters have left the l
 later). Nothing is put on the line before the bus received it, so the line stays causal; a
 start more than `MAX_AHEAD` seconds ahead is a protocol error. A bus that does not answer
 ``"timed": true`` (an older one) gets raw bytes, and the station keeps its times itself.
+
+A holding station may also say ``"hold_answer": true`` in its hello; a bus that answers the
+same takes a send frame with no data bytes from it as the moment (``start``) by which the
+first character of its next answer must reach it at the latest, and hands that answer over
+whole where it ends before then (`pyuss.bus.core.Station.hold_answer`): a master sends one
+after each request. A bus that does not answer it is sent none.
 """
 
 from __future__ import annotations

@@ -1099,10 +1099,16 @@ class Master:
 
     # -- the line --------------------------------------------------------------------------
     async def _send(
-        self, frame: bytes | Callable[[], bytes], pause_chars: float
+        self,
+        frame: bytes | Callable[[], bytes],
+        pause_chars: float,
+        answer_within: float | None = None,
     ) -> tuple[float, float]:
         """Keep the start pause, send ``frame`` (or what ``frame()`` builds then); returns the
-        telegram's start and end time."""
+        telegram's start and end time. ``answer_within``: the time after its end in which an
+        answer must begin (response window and tolerance): on a virtual bus the answer may
+        then be handed over whole, as long as its first character comes by the time it
+        would be handed over at the latest anyway (`TimedWrite`)."""
         pause = max(2.0, pause_chars) * self.timing.char_time
         await asyncio.sleep(0)  # let tasks woken by the last answer queue their jobs first
         # On a virtual bus the telegram is handed over a moment early with its start time
@@ -1135,7 +1141,13 @@ class Master:
         start = clock()
         try:
             if self._write_at is not None and due > start:
-                await self._write_at(frame, due)
+                hold = None
+                if answer_within is not None:
+                    # the first character of an answer that begins at the deadline ends one
+                    # character time after it: that is when it must be here at the latest
+                    end = due + self.timing.transmit(len(frame))
+                    hold = end + answer_within + self.timing.char_time
+                await self._write_at(frame, due, hold)
                 start = due
             else:
                 await self.transport.write(frame)
@@ -1205,7 +1217,7 @@ class Master:
         link: _Link | None,
     ) -> _Result:
         """Send ``frame`` and wait for the answer of ``address`` (A 5.2)."""
-        start, end = await self._send(frame, pause_chars)
+        start, end = await self._send(frame, pause_chars, limit + self.rx_tolerance)
         deadline = end + limit + self.rx_tolerance
         faulty = False
         receiver = self._receiver
