@@ -12,7 +12,7 @@ import pytest
 from pyuss.bus import BusClientTransport, VirtualBus
 from pyuss.bus.core import HOLD_MAX, RUN_HOLD, WireChar
 from pyuss.loop import run
-from pyuss.transport.base import LineError
+from pyuss.transport.base import LineError, Transport
 from transport.helpers import WAIT
 
 Delivery = tuple[bytes, float, float]
@@ -122,14 +122,19 @@ async def _held(baud: int, data: bytes, *, hold: bool = True) -> list[Delivery]:
         reader = BusClientTransport(host, port, baud=baud, name="reader", hold=hold)
         async with reader, bus.attach("master") as master:
             await master.write(data)
-            received = 0
-            while received < len(data):
-                chunk = await reader.read(WAIT)
-                assert chunk is not None
-                got.append((chunk.data, chunk.timestamp, time.monotonic()))
-                received += len(chunk.data)
+            got = await _take(reader, data)
     finally:
         await bus.close()
+    return got
+
+
+async def _take(station: Transport, data: bytes) -> list[Delivery]:
+    """The deliveries that bring ``station`` the characters ``data``."""
+    got: list[Delivery] = []
+    while sum(len(chunk) for chunk, _, _ in got) < len(data):
+        chunk = await station.read(WAIT)
+        assert chunk is not None
+        got.append((chunk.data, chunk.timestamp, time.monotonic()))
     assert b"".join(chunk for chunk, _, _ in got) == data
     return got
 
@@ -196,21 +201,11 @@ async def _answer_to(baud: int, answer: bytes, hold_for: float) -> tuple[list[De
             assert master.hold_answer
             hold_until = time.monotonic() + hold_for
             await master.write_at(b"\x02\x02\x00\x00", 0.0, hold_until)
-            request = b""
-            while len(request) < 4:
-                chunk = await drive.read(WAIT)
-                assert chunk is not None
-                request += chunk.data
+            await _take(drive, b"\x02\x02\x00\x00")
             await drive.write(answer)
-            received = 0
-            while received < len(answer):
-                chunk = await master.read(WAIT)
-                assert chunk is not None
-                got.append((chunk.data, chunk.timestamp, time.monotonic()))
-                received += len(chunk.data)
+            got = await _take(master, answer)
     finally:
         await bus.close()
-    assert b"".join(chunk for chunk, _, _ in got) == answer
     return got, hold_until
 
 
