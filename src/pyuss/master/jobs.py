@@ -51,14 +51,11 @@ from pyuss.master.errors import (
 )
 from pyuss.master.profile import Profile, answers
 from pyuss.master.stats import JobStats, Samples
-from pyuss.protocol.pkw import Pkw, RequestId, ResponseId
+from pyuss.protocol.pkw import SPONTANEOUS_IDS, Pkw, RequestId, ResponseId
 
 __all__ = ["Job", "ParameterChannel", "SpontaneousMessage", "describe_job"]
 
 _NO_JOB = RequestId.NO_JOB
-_SPONTANEOUS_FIRST = int(ResponseId.SPONTANEOUS_WORD)
-_SPONTANEOUS_LAST = int(ResponseId.SPONTANEOUS_ARRAY_DWORD)
-"""The response IDs of spontaneous messages (C 4.2.1.2), compared at every answer."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -292,7 +289,7 @@ class ParameterChannel:
         """Take the PKW area of an answer; returns a new spontaneous message, if it is one."""
         first = not self.synced
         self.synced = True
-        if _SPONTANEOUS_FIRST <= pkw.id <= _SPONTANEOUS_LAST:  # `ResponseId.is_spontaneous`
+        if pkw.id in SPONTANEOUS_IDS:
             if not first and pkw.spm_toggle == self.toggle:
                 return None  # a repeat of a message already acknowledged
             self.toggle = pkw.spm_toggle

@@ -34,6 +34,7 @@ __all__ = [
     "INDEX_ALL",
     "MAX_PNU",
     "NO_AUTHORITY_HINT",
+    "SPONTANEOUS_IDS",
     "ErrorNumber",
     "Pkw",
     "RequestId",
@@ -162,12 +163,17 @@ class ResponseId(enum.IntEnum):
     @property
     def is_spontaneous(self) -> bool:
         """A spontaneous message (9..12, C 4.2.1.2): not an answer to the current request."""
-        return ResponseId.SPONTANEOUS_WORD <= self <= ResponseId.SPONTANEOUS_ARRAY_DWORD
+        return self in SPONTANEOUS_IDS
 
     @property
     def is_negative(self) -> bool:
         """7 (refused, with an error number) or 8 (no PKW authority)."""
         return self in (ResponseId.REFUSED, ResponseId.NO_AUTHORITY)
+
+
+SPONTANEOUS_IDS = range(ResponseId.SPONTANEOUS_WORD, ResponseId.SPONTANEOUS_ARRAY_DWORD + 1)
+"""The response IDs of spontaneous messages (9..12, C 4.2.1.2), as plain numbers: a PKW
+area's ``id`` is looked up here at every answer, without making a `ResponseId` of it."""
 
 
 _REQUEST_TEXT: dict[RequestId, tuple[str, str]] = {
