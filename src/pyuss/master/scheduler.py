@@ -1117,10 +1117,7 @@ class Master:
         clock = self.transport.clock
         receiver = self._receiver
         while True:
-            if self._read_nowait is not None:
-                self._drain_nowait(self._read_nowait)
-            else:
-                await self._drain()
+            await self._drain()
             due = max(self._line_free, receiver.last_byte_end) + pause + 1e-9
             left = due - clock()
             if left <= ahead:
@@ -1138,6 +1135,7 @@ class Master:
         self._after_broadcast = False
         if callable(frame):
             frame = frame()
+        on_line = self.timing.transmit(len(frame))
         start = clock()
         try:
             if self._write_at is not None and due > start:
@@ -1145,8 +1143,7 @@ class Master:
                 if answer_within is not None:
                     # the first character of an answer that begins at the deadline ends one
                     # character time after it: that is when it must be here at the latest
-                    end = due + self.timing.transmit(len(frame))
-                    hold = end + answer_within + self.timing.char_time
+                    hold = due + on_line + answer_within + self.timing.char_time
                 await self._write_at(frame, due, hold)
                 start = due
             else:
@@ -1154,7 +1151,7 @@ class Master:
         except LinkDown as exc:
             log.warning("master: telegram not sent: %s", exc)
             await asyncio.sleep(min(0.1, self.latency + 0.01))
-        end = max(start + self.timing.transmit(len(frame)), clock())
+        end = max(start + on_line, clock())
         self._line_free = end
         log_frame("tx", frame, end)
         return start, end
