@@ -128,10 +128,10 @@ class BusClientTransport(QueuedTransport):
         self.hold = hold
         self._protocol: _Protocol | None = None
         self.timed = False
+        """Whether the bus takes send frames (`write_at` is then exact)."""
         self.hold_answer = False
         """The bus hands this station its answers whole where the master still takes them
         (``hold_until`` of `write_at`): one hand-over per answer instead of two."""
-        """Whether the bus takes send frames (`write_at` is then exact)."""
 
     @property
     def exact_timestamps(self) -> bool:

@@ -284,7 +284,8 @@ class Station(QueuedTransport):
     def _hold_over(self) -> None:
         self._release_at = None
         self.hold_until = 0.0
-        self.release()
+        if self.bus.stations.get(self.name) is self:  # (a station that left hears nothing)
+            self.release()
 
     def release(self) -> None:
         """Hand the characters held over, as one piece (they follow each other)."""

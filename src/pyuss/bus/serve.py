@@ -140,8 +140,8 @@ async def serve_tcp(
         assert isinstance(reader, _Reader)  # made by `connection` below
         writers.add(writer)
         task = asyncio.current_task()
-        if task is not None:
-            handlers.add(task)
+        assert task is not None
+        handlers.add(task)
         try:
             if framed:
                 await _framed_station(bus, reader, writer)
@@ -149,8 +149,7 @@ async def serve_tcp(
                 await _raw_station(bus, reader, writer, echo)
         finally:
             writers.discard(writer)
-            if task is not None:
-                handlers.discard(task)
+            handlers.discard(task)
             await close_writer(writer)
 
     def connection() -> asyncio.StreamReaderProtocol:  # as asyncio.start_server makes them
