@@ -12,6 +12,9 @@ import pytest
 from pyuss.bus import BusClientTransport, VirtualBus
 from pyuss.bus.core import HOLD_MAX, RUN_HOLD, WireChar
 from pyuss.loop import run
+from pyuss.master import Master
+from pyuss.master.testing import simulated_drives
+from pyuss.protocol.layout import Layout
 from pyuss.transport.base import LineError, Transport
 from transport.helpers import WAIT
 
@@ -231,3 +234,28 @@ async def test_an_answer_still_running_when_its_hold_ends_is_handed_its_first_pa
     assert hold_until - 0.001 <= first_at < rest_end
     assert rest_at >= rest_end
     assert rest_end - first_end == pytest.approx(len(rest) * tc)
+
+
+async def test_a_master_late_for_its_start_pause_is_still_handed_each_answer_whole() -> None:
+    # At 187500 baud the start pause is 117 us: a master that took longer over the last
+    # answer sends its request at once, past the pause, and must still say by when it takes
+    # the answer, or every answer wakes its process twice (its first character, the rest).
+    baud = 187500
+    bus = VirtualBus(baud)
+    layout = Layout(4, 2)
+    try:
+        host, port = await bus.serve_tcp(framed=True)
+        async with simulated_drives(bus, [(3, "generic", layout)]):
+            station = BusClientTransport(host, port, baud=baud, name="master")
+            async with Master(station, layout=layout) as master:
+                drive = master.drive(3)
+                await drive.read(52)
+                answers, chunks = drive.counts().answers, station.stats.chunks_in
+                for _ in range(50):
+                    await drive.next_update()
+                answers = drive.counts().answers - answers
+                chunks = station.stats.chunks_in - chunks
+    finally:
+        await bus.close()
+    assert answers >= 50
+    assert chunks <= answers + 1, f"{chunks} hand-overs for {answers} answers"

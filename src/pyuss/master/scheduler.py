@@ -1138,14 +1138,16 @@ class Master:
         on_line = self.timing.transmit(len(frame))
         start = clock()
         try:
-            if self._write_at is not None and due > start:
+            if self._write_at is not None:
+                # late for the pause (the last answer took longer than it): at once, and the
+                # answer's moment counted from now, so that it is still handed over whole
+                start = max(due, start)
                 hold = None
                 if answer_within is not None:
                     # the first character of an answer that begins at the deadline ends one
                     # character time after it: that is when it must be here at the latest
-                    hold = due + on_line + answer_within + self.timing.char_time
-                await self._write_at(frame, due, hold)
-                start = due
+                    hold = start + on_line + answer_within + self.timing.char_time
+                await self._write_at(frame, start, hold)
             else:
                 await self.transport.write(frame)
         except LinkDown as exc:
