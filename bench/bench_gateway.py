@@ -28,6 +28,11 @@ show. Measured over a window:
   the two start pauses of A 5.1.2 and A 5.2.1.1: 2 x 16 + 4 character times with PKW 4 + PZD 2):
   goal at least 0.95 on the slowest bus;
 - state messages on the broker per drive update (no goal here: shown beside the answers).
+
+Beside them, the floor under those figures (``bare``): ``bench/bare_exchange.py``, a process
+that only exchanges telegrams made once with the same simulator, as fast as the wire allows,
+one wake-up, one read and one write per exchange; its CPU per exchange is what no Python
+process polling drives over ``bus://`` goes under on the same machine.
 """
 
 from __future__ import annotations
@@ -39,6 +44,8 @@ import json
 import math
 import statistics
 import struct
+import subprocess
+import sys
 import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -375,6 +382,18 @@ def deployed(count: int, mqtt_port: int | None, uvloop: bool = True) -> dict[str
     }
 
 
+def bare(count: int) -> dict[str, float]:
+    """The floor under the figures as deployed: `bare_exchange.py` (a process that does
+    nothing but exchange telegrams made once) against the same simulator, in its own
+    process."""
+    with simulator_bus(BAUD, count, layout="4,2") as url:
+        script = Path(__file__).with_name("bare_exchange.py")
+        args = [sys.executable, str(script), url, str(count), str(BAUD), str(WINDOW)]
+        out = subprocess.run(args, capture_output=True, text=True, timeout=60, check=True)
+    result: dict[str, float] = json.loads(out.stdout)
+    return result
+
+
 def as_deployed() -> list[Figure]:
     figures: list[Figure] = []
     with mosquitto() as broker:
@@ -443,6 +462,26 @@ def as_deployed() -> list[Figure]:
                         3,
                     )
                 )
+        # the floor: what a process that only exchanges telegrams over bus:// takes
+        for count in DEPLOYED_COUNTS[:2]:
+            floor = bare(count)
+            limit = 1 / ((2 * TELEGRAM + 4) * char_time(BAUD))
+            print(
+                f"{count:>6} {'bare':>11} {count:>7} {1:>5} {floor['exchanges_per_s']:>9.0f} "
+                f"{floor['cpu_us'] / 1000:>8.3f}ms {'':>5} "
+                f"{floor['exchanges_per_s'] / limit:>9.2f}"
+            )
+            figures.append(
+                Figure(
+                    f"bare exchange over bus://, {_drives(count)} (no master, no faces): "
+                    "CPU per exchange",
+                    floor["cpu_us"] / 1000,
+                    None,
+                    False,
+                    "ms",
+                    3,
+                )
+            )
         for setup, loop in LOOPS.items():
             print(f"uss gateway ({setup}) ran on: {loop}")
     return figures
