@@ -6,6 +6,9 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 DEMO_STAMP := $(VENV)/.installed-demo
 STAMP  := $(VENV)/.installed
+# Most tests wait for telegrams at their baud rates, not for a core: pytest runs them in this
+# many processes (pytest-xdist); `make pytest WORKERS=1` runs them one after the other.
+WORKERS ?= 4
 
 .PHONY: demo test lint typecheck pytest bench clean venv screenshots
 
@@ -35,7 +38,7 @@ typecheck: $(STAMP)
 
 pytest: $(STAMP)
 	bash .ci/system-deps tshark chromium mosquitto mosquitto-clients mbpoll
-	$(PY) -m pytest
+	$(PY) -m pytest -n $(WORKERS)
 
 test: lint typecheck pytest
 

@@ -9,6 +9,7 @@ is served afterwards."""
 from __future__ import annotations
 
 import asyncio
+import fcntl
 import json
 import math
 import shutil
@@ -437,16 +438,22 @@ def node_opcua(
         folder = Path(cache.mkdir("node-opcua"))
     else:
         folder = tmp_path_factory.mktemp("node-opcua")
-    if not (folder / "node_modules" / "node-opcua-client").is_dir():
-        result = subprocess.run(
-            ["npm", "install", "--no-audit", "--no-fund", "--prefix", str(folder), NODE_OPCUA],
-            capture_output=True,
-            text=True,
-            timeout=600,
-            check=False,
-        )
-        if result.returncode != 0:
-            pytest.skip(f"npm could not install {NODE_OPCUA}: {result.stderr[-500:]}")
+    # `make test` runs the tests in several processes: one installs, the others wait for it
+    # (a folder that npm is still filling must not be taken for an installed client)
+    with (folder / "install.lock").open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        installed = folder / "installed"
+        if not installed.is_file() or installed.read_text(encoding="utf-8") != NODE_OPCUA:
+            result = subprocess.run(
+                ["npm", "install", "--no-audit", "--no-fund", "--prefix", str(folder), NODE_OPCUA],
+                capture_output=True,
+                text=True,
+                timeout=600,
+                check=False,
+            )
+            if result.returncode != 0:
+                pytest.skip(f"npm could not install {NODE_OPCUA}: {result.stderr[-500:]}")
+            installed.write_text(NODE_OPCUA, encoding="utf-8")
     yield folder
 
 
