@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import json
 import socket
 import time
 
@@ -149,5 +150,80 @@ async def test_an_evicted_raw_station_puts_nothing_more_on_the_line() -> None:
         await asyncio.sleep(0.1)
         assert bus.stats.chars == 0
         assert bus.queued() == 0
+    finally:
+        await bus.close()
+
+
+async def _hello(port: int, line: bytes) -> tuple[dict[str, object], bytes]:
+    """Send ``line`` as a bus:// hello; the bus's answer and what follows until it closes."""
+    reader, writer = await asyncio.open_connection("127.0.0.1", port)
+    try:
+        writer.write(line)
+        await writer.drain()
+        async with asyncio.timeout(WAIT):
+            answer = json.loads(await reader.readline())
+            rest = await reader.read() if not answer.get("ok") else b""
+    finally:
+        writer.close()
+    return answer, rest
+
+
+@pytest.mark.parametrize(
+    ("line", "named"),
+    [
+        (b"[" * 3000 + b"\n", "nested"),
+        (b"{" + b" " * 70000, "line end"),  # a line never ended
+        (b'{"name": "m", "echo": "false"}\n', "echo"),
+        (b'{"name": "m", "listen_only": "no"}\n', "listen_only"),
+        (b'{"name": "m", "timed": 1, "hold": true}\n', "timed"),
+        (b'{"name": 123}\n', "name"),
+        (b'{"name": ["m"]}\n', "name"),
+        (b'{"name": "' + b"n" * 10000 + b'"}\n', "at most"),
+        (b'{"name": "a\\nb"}\n', "printable"),
+        (b'{"name": ""}\n', "name"),
+        (b'["name", "m"]\n', "JSON object"),
+        (b'{"name": "m"', "cut off"),  # cut off: the peer left in the middle of its hello
+    ],
+    ids=[
+        "nested",
+        "never-ended",
+        "echo-string",
+        "listen-only-string",
+        "timed-number",
+        "name-number",
+        "name-list",
+        "name-10k",
+        "name-newline",
+        "name-empty",
+        "not-an-object",
+        "cut-off",
+    ],
+)
+async def test_a_bad_hello_is_refused_naming_what_was_wrong(line: bytes, named: str) -> None:
+    """A hello is checked whole: a value of the wrong type is refused, not read as something
+    the station did not ask for ("false" is no echo), and nothing is attached."""
+    bus = VirtualBus(BAUD)
+    try:
+        _, port = await bus.serve_tcp("127.0.0.1", 0, framed=True)
+        if line.endswith(b"\n"):
+            answer, rest = await _hello(port, line)
+        else:  # the peer sends part of a hello and closes its side
+            reader, writer = await asyncio.open_connection("127.0.0.1", port)
+            writer.write(line)
+            writer.write_eof()
+            async with asyncio.timeout(WAIT):
+                answer = json.loads(await reader.readline())
+            writer.close()
+            rest = b""
+        assert answer["ok"] is False
+        assert str(answer["error"]).startswith("bad hello")
+        assert named in str(answer["error"])
+        assert len(str(answer["error"])) < 200
+        assert rest == b""  # and the bus closed the connection
+        assert bus.stations == {}
+        # a good hello after it is served
+        good = {"name": "m", "echo": False, "timed": True, "hold": True, "future_key": [1]}
+        answer, _ = await _hello(port, json.dumps(good).encode() + b"\n")
+        assert answer["ok"] is True and answer["name"] == "m"
     finally:
         await bus.close()

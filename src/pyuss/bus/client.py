@@ -19,15 +19,13 @@ import json
 import time
 from typing import cast
 
-from pyuss.bus.wire import FrameDecoder, encode_send
+from pyuss.bus.wire import MAX_HELLO, FrameDecoder, check_name, encode_send
 from pyuss.errors import ConfigError, ProtocolError, TransportError
 from pyuss.transport.base import LineError
 from pyuss.transport.queued import QueuedTransport
 from pyuss.transport.tcp import check_endpoint
 
 _ANSWER_TIMEOUT = 5.0
-_MAX_HELLO = 4096
-"""The bus's answer to the hello is one short JSON line."""
 _MAX_BACKLOG = 1 << 20
 """Unsent bytes at which the bus counts as not reading (the write fails)."""
 
@@ -54,7 +52,7 @@ class _Protocol(asyncio.Protocol):
             self._head += data
             line, newline, rest = self._head.partition(b"\n")
             if not newline:
-                if len(self._head) > _MAX_HELLO:
+                if len(self._head) > MAX_HELLO:
                     self._fail("the bus's answer is too long")
                 return
             self._decoder = FrameDecoder()
@@ -119,8 +117,8 @@ class BusClientTransport(QueuedTransport):
         self.host, self.port = check_endpoint(host, port)
         if connect_timeout <= 0:
             raise ConfigError(f"connect_timeout must be > 0 seconds, not {connect_timeout!r}")
-        if name is not None and (not name or "+" in name):
-            raise ConfigError(f"station name must be non-empty without '+', not {name!r}")
+        if name is not None:
+            check_name(name)
         self._connect_timeout = connect_timeout
         self.name = name
         self._bus_echo = bus_echo or echo

@@ -58,6 +58,7 @@ from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
 
 from pyuss.bus.faults import FaultEngine, FaultPlan, frame_bits
+from pyuss.bus.wire import check_name
 from pyuss.errors import ConfigError, TransportError
 from pyuss.loop import FINE_MARGIN, fine_timers
 from pyuss.transport.base import LineError
@@ -375,8 +376,7 @@ class VirtualBus:
         most `HOLD_MAX` characters at a time), two hand-overs per telegram: a station in
         another process (``bus://``) is woken up that many times.
         """
-        if not isinstance(name, str) or not name or "+" in name:
-            raise ConfigError(f"station name must be a non-empty string without '+', not {name!r}")
+        check_name(name)
         if name in self.stations:
             raise ConfigError(f"a station named {name!r} is already on the bus")
         senders = sum(1 for s in self.stations.values() if not s.listen_only)

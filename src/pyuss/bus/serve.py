@@ -31,7 +31,7 @@ from collections.abc import Callable, Collection
 from typing import Any
 
 from pyuss.bus.core import Station, VirtualBus
-from pyuss.bus.wire import MAX_AHEAD, MAX_DATA, SendDecoder, encode_frame
+from pyuss.bus.wire import MAX_AHEAD, MAX_DATA, SendDecoder, encode_frame, read_hello
 from pyuss.errors import ConfigError, ProtocolError, TransportError
 from pyuss.transport.base import LineError
 from pyuss.transport.pty import PtyPort
@@ -267,25 +267,28 @@ async def _framed_station(bus: VirtualBus, reader: _Reader, writer: asyncio.Stre
 
     try:
         async with asyncio.timeout(_HELLO_TIMEOUT):
-            line = await reader.readline()
-        hello = json.loads(line)
-        if not isinstance(hello, dict):
-            raise ValueError("hello is not a JSON object")
-        name = hello.get("name") or _free_name(bus, "tcp")
-        echo = bool(hello.get("echo", False))
-        listen_only = bool(hello.get("listen_only", False))
-        timed = hello.get("timed") is True
-        hold = hello.get("hold") is True
-        hold_answer = hold and timed and hello.get("hold_answer") is True
-    except (TimeoutError, ValueError, OSError) as exc:
+            line = await reader.readuntil(b"\n")
+        hello = read_hello(line)
+    except TimeoutError:
+        answer({"ok": False, "error": f"bad hello: no line in {_HELLO_TIMEOUT:g} s"})
+        return
+    except asyncio.LimitOverrunError as exc:
+        answer({"ok": False, "error": f"bad hello: no line end in {exc.consumed} bytes"})
+        return
+    except asyncio.IncompleteReadError as exc:  # the peer closed in the middle of its hello
+        answer({"ok": False, "error": f"bad hello: cut off after {len(exc.partial)} bytes"})
+        return
+    except (ConfigError, OSError) as exc:
         answer({"ok": False, "error": f"bad hello: {exc}"})
         return
+    timed, hold = hello.timed, hello.hold
+    hold_answer = hold and timed and hello.hold_answer
     holder: list[Station] = []
     try:
         station = bus.attach(
-            str(name),
-            echo=echo,
-            listen_only=listen_only,
+            hello.name or _free_name(bus, "tcp"),
+            echo=hello.echo,
+            listen_only=hello.listen_only,
             sink=_socket_sink(writer, framed=True, station=holder),
             hold=hold,
         )

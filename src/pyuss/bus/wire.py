@@ -33,13 +33,21 @@ same takes a send frame with no data bytes from it as the moment (``start``) by 
 first character of its next answer must reach it at the latest, and hands that answer over
 whole where it ends before then (`pyuss.bus.core.Station.hold_answer`): a master sends one
 after each request. A bus that does not answer it is sent none.
+
+The hello is checked whole before the station is attached: ``name`` is a string or null (the
+bus picks one), at most `MAX_NAME` printable characters without ``+``; the other keys, where
+given, are ``true`` or ``false``. Any other value is refused with ``"ok": false`` and an error
+naming the key; keys the bus does not know are left aside (a newer station asks for something
+an older bus does not offer: the answer says what it does).
 """
 
 from __future__ import annotations
 
+import json
 import struct
+from dataclasses import dataclass
 
-from pyuss.errors import ProtocolError
+from pyuss.errors import ConfigError, ProtocolError
 from pyuss.transport.base import LineError
 
 HEADER = struct.Struct(">dHH")
@@ -49,6 +57,64 @@ SEND = struct.Struct(">dH")
 MAX_DATA = 65535
 MAX_AHEAD = 1.0
 """How far ahead (seconds) a send frame may ask for its start."""
+MAX_NAME = 64
+"""Characters of a station's name at most."""
+MAX_HELLO = 4096
+"""Bytes of a hello line (or of the bus's answer) at most."""
+HELLO_FLAGS = ("echo", "listen_only", "timed", "hold", "hold_answer")
+"""The yes/no keys of a hello."""
+
+
+def _shown(value: object) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:37]}..."
+
+
+def check_name(name: object) -> str:
+    """A station's name, or `ConfigError` saying what is wrong with it: a non-empty string of
+    at most `MAX_NAME` printable characters without ``+`` (which joins colliding senders)."""
+    if not isinstance(name, str) or not name:
+        raise ConfigError(f"station name must be a non-empty string, not {_shown(name)}")
+    if len(name) > MAX_NAME:
+        raise ConfigError(f"station name of {len(name)} characters: at most {MAX_NAME}")
+    if "+" in name or not name.isprintable():
+        raise ConfigError(f"station name {_shown(name)}: printable characters only, and no '+'")
+    return name
+
+
+@dataclass(frozen=True, slots=True)
+class Hello:
+    """What a station asks for in its hello (see the module docstring)."""
+
+    name: str | None = None
+    echo: bool = False
+    listen_only: bool = False
+    timed: bool = False
+    hold: bool = False
+    hold_answer: bool = False
+
+
+def read_hello(line: bytes) -> Hello:
+    """A station's hello line, checked whole (see the module docstring); `ConfigError` naming
+    what is wrong."""
+    if len(line) > MAX_HELLO:
+        raise ConfigError(f"hello of {len(line)} bytes: at most {MAX_HELLO}")
+    try:
+        hello = json.loads(line)
+    except RecursionError:
+        raise ConfigError("hello nested too deep") from None
+    except ValueError as exc:
+        raise ConfigError(f"hello is no JSON: {exc}") from None
+    if not isinstance(hello, dict):
+        raise ConfigError(f"hello is not a JSON object: {_shown(hello)}")
+    name = hello.get("name")
+    flags: dict[str, bool] = {}
+    for key in HELLO_FLAGS:
+        value = hello.get(key, False)
+        if not isinstance(value, bool):
+            raise ConfigError(f"hello: {key} must be true or false, not {_shown(value)}")
+        flags[key] = value
+    return Hello(None if name is None else check_name(name), **flags)
 
 
 def encode_frame(timestamp: float, data: bytes, errors: tuple[tuple[int, LineError], ...]) -> bytes:
