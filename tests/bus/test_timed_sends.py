@@ -115,3 +115,30 @@ async def test_a_station_that_does_not_ask_sends_raw_bytes() -> None:
 def test_other_transports_are_no_stations() -> None:
     pty = PtyPort(baud=BAUD)
     assert not is_station(pty) and timed_writer(pty) is None
+
+
+async def test_a_send_frame_without_characters_holds_nothing_back() -> None:
+    """A send frame with no characters (from a station that did not ask for ``hold_answer``:
+    there it is no answer hold) puts nothing on the line and does not move the station's
+    next telegram to the moment it named: nothing was sent that the telegram must wait for."""
+    bus = VirtualBus(BAUD)
+    host, port = await bus.serve_tcp(framed=True)
+    reader, writer = await asyncio.open_connection(host, port)
+    writer.write(json.dumps({"name": "m", "timed": True, "hold": True}).encode() + b"\n")
+    answer = json.loads(await reader.readline())
+    assert answer["ok"] and answer["hold_answer"] is False
+    ahead = time.monotonic() + MAX_AHEAD - 0.01
+    chars = asyncio.ensure_future(_first_chars(bus, "m", len(DATA)))
+    writer.write(encode_send(ahead, b"") + encode_send(0.0, DATA))
+    got = await chars
+    assert bytes(c.byte for c in got) == DATA
+    assert got[0].start < ahead  # at once, not when the empty frame said
+    async with bus.attach("local") as local:  # the same in-process
+        ahead = time.monotonic() + MAX_AHEAD
+        chars = asyncio.ensure_future(_first_chars(bus, "local", len(DATA)))
+        await local.write_at(b"", ahead)
+        await local.write(DATA)
+        assert (await chars)[0].start < ahead
+    assert bus.stats.chars == 2 * len(DATA)
+    writer.close()
+    await bus.close()

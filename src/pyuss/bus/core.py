@@ -476,6 +476,8 @@ class VirtualBus:
             raise TransportError(f"no station {sender!r} on the bus")
         now = time.monotonic()
         station.last_active = now
+        if not data:  # nothing for the line, and nothing the station's next characters wait for
+            return
         if self._dead(sender, now):
             self.stats.lost += len(data)
             return

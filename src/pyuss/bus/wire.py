@@ -25,7 +25,8 @@ A send frame lets a station keep a start pause or a response delay to the micros
 waking up at that moment: it hands its telegram over a little early, and the bus puts it on
 the line at ``start`` (or when the station's previous characters have left the line, if
 later). Nothing is put on the line before the bus received it, so the line stays causal; a
-start more than `MAX_AHEAD` seconds ahead is a protocol error. A bus that does not answer
+start more than `MAX_AHEAD` seconds ahead is a protocol error; a frame without data bytes puts
+nothing on the line (and holds nothing back). A bus that does not answer
 ``"timed": true`` (an older one) gets raw bytes, and the station keeps its times itself.
 
 A holding station may also say ``"hold_answer": true`` in its hello; a bus that answers the
