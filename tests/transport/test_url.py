@@ -75,6 +75,10 @@ def test_a_command_on_an_echoing_line_does_not_take_its_own_request_for_the_answ
         ("socket://nohost", "expected socket://HOST:PORT"),
         ("rfc2217://", "expected rfc2217://HOST:PORT"),
         ("loop://?rs485=both", "RS-485 mode 'both'"),
+        ("tcp://[::1", "expected tcp://HOST:PORT, with an IPv6 address as [::1]"),
+        ("bus://[::1:5", "expected bus://HOST:PORT, with an IPv6 address as [::1]"),
+        ("socket://[::1", "expected socket://HOST:PORT, with an IPv6 address as [::1]"),
+        ("rfc2217://[::1", "expected rfc2217://HOST:PORT, with an IPv6 address as [::1]"),
     ],
 )
 def test_a_command_given_a_bad_port_url_says_so_with_exit_2(
@@ -107,6 +111,8 @@ def test_a_command_given_a_bad_port_url_says_so_with_exit_2(
         ("tcp://127.0.0.1:4001?rs485=rts", {}, "unknown option 'rs485'"),
         ("tcp-listen://127.0.0.1:0?echo=1", {}, "unknown option 'echo'"),
         ("bus://127.0.0.1:4001?reconnect=x", {}, "reconnect='x'"),
+        ("tcp-listen://[", {}, "IPv6 address as"),
+        ("bus://127.0.0.1:4001?name=%00", {}, "printable"),
     ],
 )
 def test_bad_urls_and_settings(url: str, kwargs: dict[str, object], words: str) -> None:

@@ -21,11 +21,12 @@ caller's to check (`pyuss.transport.tcp.check_endpoint`).
 
 from __future__ import annotations
 
+import urllib.parse
 from dataclasses import dataclass
 
 from pyuss.errors import ConfigError
 
-__all__ = ["LOOPBACK", "HostPort", "parse_host_port"]
+__all__ = ["LOOPBACK", "HostPort", "parse_host_port", "split_url"]
 
 LOOPBACK = "127.0.0.1"
 """The host of an address that names none: this machine only, never every interface."""
@@ -93,3 +94,15 @@ def parse_host_port(
 
 def _digits(text: str) -> bool:
     return text.isascii() and text.isdigit()
+
+
+def split_url(url: str) -> urllib.parse.SplitResult:
+    """``urllib.parse.urlsplit`` of a port URL; `ConfigError` naming the URL where that fails
+    (an unclosed ``[`` of an IPv6 address, ``tcp://[::1``)."""
+    try:
+        return urllib.parse.urlsplit(url)
+    except ValueError as exc:
+        scheme = url.partition("://")[0] if "://" in url else "SCHEME"
+        raise ConfigError(
+            f"{url!r}: expected {scheme}://HOST:PORT, with an IPv6 address as [::1] ({exc})"
+        ) from None

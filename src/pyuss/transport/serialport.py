@@ -56,12 +56,12 @@ import struct
 import sys
 import threading
 import time
-import urllib.parse
 
 import serial
 import serial.rs485
 
 from pyuss.errors import ConfigError, TransportError
+from pyuss.transport.address import split_url
 from pyuss.transport.base import LineError
 from pyuss.transport.queued import QueuedTransport, char_time
 
@@ -164,7 +164,7 @@ def low_latency(fd: int, on: bool) -> bool | None:
 
 def _check_network_url(url: str) -> None:
     """``socket://`` and ``rfc2217://`` need HOST:PORT; say so rather than pyserial's riddle."""
-    parts = urllib.parse.urlsplit(url)
+    parts = split_url(url)
     scheme = parts.scheme.lower()
     if scheme not in ("socket", "rfc2217"):
         return

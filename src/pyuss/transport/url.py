@@ -33,7 +33,7 @@ from __future__ import annotations
 import urllib.parse
 
 from pyuss.errors import ConfigError
-from pyuss.transport.address import parse_host_port
+from pyuss.transport.address import parse_host_port, split_url
 from pyuss.transport.base import Transport
 from pyuss.transport.reconnect import ReconnectingTransport
 from pyuss.transport.serialport import RS485Mode, SerialTransport
@@ -45,7 +45,7 @@ _FALSE = {"0", "false", "no", "off"}
 
 def split_endpoint(url: str) -> tuple[str, int]:
     """``scheme://host:port`` -> (host, port); `ConfigError` naming what is missing."""
-    parts = urllib.parse.urlsplit(url)
+    parts = split_url(url)
     if parts.path not in ("", "/"):
         raise ConfigError(f"{url!r}: unexpected path {parts.path!r}")
     where = parse_host_port(
@@ -56,7 +56,7 @@ def split_endpoint(url: str) -> tuple[str, int]:
 
 def query_flags(url: str, allowed: tuple[str, ...]) -> dict[str, str]:
     """The query options of ``url``, each given once and among ``allowed``."""
-    query = urllib.parse.parse_qs(urllib.parse.urlsplit(url).query, keep_blank_values=True)
+    query = urllib.parse.parse_qs(split_url(url).query, keep_blank_values=True)
     options: dict[str, str] = {}
     for key, values in query.items():
         if key not in allowed:
@@ -122,7 +122,7 @@ def open_transport(
     if not isinstance(url, str) or not url.strip():
         raise ConfigError(f"transport URL must be a non-empty string, not {url!r}")
     url = url.strip()
-    scheme = urllib.parse.urlsplit(url).scheme.lower() if "://" in url else ""
+    scheme = split_url(url).scheme.lower() if "://" in url else ""
     port_url = url
     if scheme == "tcp":
         options = query_flags(url, ("echo", "reconnect"))
