@@ -134,6 +134,10 @@ def test_station_names_and_the_number_of_senders() -> None:
         bus.attach("master")
     with pytest.raises(ConfigError, match="name"):
         bus.attach("a+b")
+    with pytest.raises(ConfigError, match="at most 128"):
+        bus.attach("n" * 129)
+    # the name uss simulate gives the drives of every address is a name the bus takes
+    bus.attach("simulate-" + "-".join(str(a) for a in range(32)), listen_only=True)
     for i in range(31):
         bus.attach(f"slave{i}")
     with pytest.raises(ConfigError, match="32 sending stations"):

@@ -58,7 +58,7 @@ SEND = struct.Struct(">dH")
 MAX_DATA = 65535
 MAX_AHEAD = 1.0
 """How far ahead (seconds) a send frame may ask for its start."""
-MAX_NAME = 64
+MAX_NAME = 128
 """Characters of a station's name at most."""
 MAX_HELLO = 4096
 """Bytes of a hello line (or of the bus's answer) at most."""
