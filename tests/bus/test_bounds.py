@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from pyuss.bus import BusClientTransport, VirtualBus
+from pyuss.bus import BusClientTransport, VirtualBus, serve
 from pyuss.bus.core import EVICT_IDLE, MAX_QUEUE, MAX_SENDERS
 from pyuss.errors import ConfigError
 from support.waiting import eventually
@@ -226,4 +226,36 @@ async def test_a_bad_hello_is_refused_naming_what_was_wrong(line: bytes, named: 
         answer, _ = await _hello(port, json.dumps(good).encode() + b"\n")
         assert answer["ok"] is True and answer["name"] == "m"
     finally:
+        await bus.close()
+
+
+async def test_a_station_that_does_not_read_loses_what_comes_next_and_is_told(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A bus:// monitor that never reads: once its socket holds `MAX_BACKLOG` bytes (made small
+    here) it loses what comes next, counted, and the bus says so once - while a station that
+    reads gets every character."""
+    monkeypatch.setattr(serve, "MAX_BACKLOG", 1024)
+    bus = VirtualBus(187500)
+    loop = asyncio.get_running_loop()
+    sock = socket.socket()
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1024)
+    sock.setblocking(False)
+    try:
+        host, port = await bus.serve_tcp("127.0.0.1", 0, framed=True)
+        await loop.sock_connect(sock, (host, port))
+        await loop.sock_sendall(sock, b'{"name": "deaf", "listen_only": true}\n')
+        await eventually(lambda: "deaf" in bus.stations, WAIT, what="the monitor attached")
+        deaf = bus.stations["deaf"]
+        sent = 0
+        async with bus.attach("talker") as talker, bus.attach("ear") as ear:
+            while not deaf.stats.dropped_out:
+                await talker.write(bytes(MAX_QUEUE))
+                sent += MAX_QUEUE
+                assert len(joined(await read_bytes(ear, MAX_QUEUE, timeout=WAIT))) == MAX_QUEUE
+                assert sent < 100 * MAX_QUEUE, "the socket never counted as full"
+        warnings = [r for r in caplog.records if "deaf" in r.getMessage()]
+        assert len(warnings) == 1 and "does not read" in warnings[0].getMessage()
+    finally:
+        sock.close()
         await bus.close()

@@ -16,7 +16,8 @@ silent longest (at least `pyuss.bus.core.EVICT_IDLE` seconds) is disconnected to
 a new station, so idle raw connections never lock ``bus://`` masters out. What a station sends
 beyond its queue (`pyuss.bus.core.MAX_QUEUE`) is dropped; what it had not sent when it leaves
 is dropped too. A socket that does not read what the bus sends it loses what comes next once
-`MAX_BACKLOG` bytes wait in it.
+`MAX_BACKLOG` bytes wait in it (besides the kernel's `SEND_BUFFER`), counted in its station's
+``stats.dropped_out`` and logged once.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import contextlib
 import itertools
 import json
 import logging
+import socket
 import time
 from collections.abc import Callable, Collection
 from typing import Any
@@ -41,6 +43,8 @@ log = logging.getLogger(__name__)
 
 #: A station whose socket has this much unsent data loses what comes next (it does not read).
 MAX_BACKLOG = 1 << 20
+#: The kernel's send buffer of a station's socket (bytes; some seconds of a busy line).
+SEND_BUFFER = 1 << 16
 _HELLO_TIMEOUT = 5.0
 
 
@@ -138,6 +142,10 @@ async def serve_tcp(
 
     async def handle(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         assert isinstance(reader, _Reader)  # made by `connection` below
+        sock = writer.get_extra_info("socket")
+        if sock is not None:  # (else the kernel lets a peer that does not read have megabytes)
+            with contextlib.suppress(OSError):
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SEND_BUFFER)
         writers.add(writer)
         task = asyncio.current_task()
         assert task is not None
@@ -177,7 +185,15 @@ def _socket_sink(writer: asyncio.StreamWriter, *, framed: bool, station: list[St
             return
         if writer.transport.get_write_buffer_size() > MAX_BACKLOG:
             if station:
-                station[0].stats.dropped_out += len(data)
+                stats = station[0].stats
+                if not stats.dropped_out:
+                    log.warning(
+                        "bus: station %s does not read what the bus sends it: what comes next "
+                        "is dropped while %d bytes wait in its socket",
+                        station[0].name,
+                        MAX_BACKLOG,
+                    )
+                stats.dropped_out += len(data)
             return
         if not framed:
             writer.write(data)
