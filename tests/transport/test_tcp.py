@@ -8,7 +8,9 @@ import socket
 import pytest
 
 from pyuss.errors import ConfigError, TransportError
+from pyuss.transport import tcp
 from pyuss.transport.tcp import TcpServerTransport, TcpTransport
+from support.waiting import eventually
 from transport.helpers import WAIT, joined, read_bytes
 
 
@@ -163,3 +165,44 @@ async def test_echo_over_tcp_is_removed() -> None:
         await server.write(b"\x02\x02\x00\x00" + b"\x02\x02\x01\x01")
         assert joined(await read_bytes(client, 4)) == b"\x02\x02\x01\x01"
         assert client.stats.echo_bytes == 4
+
+
+async def test_new_connections_do_not_push_out_a_peer_that_talks(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A peer that connects again and again does not push a master that talks off the line: a
+    newcomer takes the place of a peer that has said nothing since it connected (or nothing
+    for `IDLE_PEER` seconds, made long here); when every peer has spoken within that time it
+    is turned away."""
+    monkeypatch.setattr(tcp, "IDLE_PEER", 3600.0)
+    async with (
+        TcpServerTransport(max_peers=2) as server,
+        TcpTransport("127.0.0.1", server.port) as master,
+    ):
+        await master.write(b"job")
+        assert joined(await read_bytes(server, 3)) == b"job"
+        crowd = [socket.create_connection(("127.0.0.1", server.port)) for _ in range(5)]
+        try:
+            await eventually(
+                lambda: server.peers_served == 6, WAIT, what="every silent newcomer served"
+            )
+            assert server.peers_replaced == 4  # each took the place of the one before
+            await master.write(b"job")  # the master is still on the line
+            assert joined(await read_bytes(server, 3)) == b"job"
+            talker = socket.create_connection(("127.0.0.1", server.port))
+            crowd.append(talker)
+            talker.sendall(b"x")  # it takes the silent one's place, and speaks
+            assert joined(await read_bytes(server, 1)) == b"x"
+            assert server.peers_replaced == 5
+            crowd += [socket.create_connection(("127.0.0.1", server.port)) for _ in range(2)]
+            await eventually(
+                lambda: server.peers_refused == 2, WAIT, what="two newcomers turned away"
+            )
+            assert server.peers == 2 and server.peers_replaced == 5
+            await master.write(b"job")  # still on the line
+            assert joined(await read_bytes(server, 3)) == b"job"
+            await server.write(b"answer")
+            assert joined(await read_bytes(master, 6)) == b"answer"
+        finally:
+            for sock in crowd:
+                sock.close()

@@ -5,10 +5,13 @@ the virtual bus's ``serve_tcp``) and moves raw bytes. `TcpServerTransport` liste
 the line to several peers at once, as a multi-connection serial device server does: what any
 peer sends goes on the line, what the owner writes goes to every peer (two masters that talk at
 once collide, as on RS-485). One idle or stuck peer never locks the others out: when all
-``max_peers`` places are taken, a new peer replaces the one that has been silent longest (its
-connection is closed), and a peer that does not read what it is sent (its socket holds more
-than `MAX_PEER_BACKLOG` bytes) is disconnected rather than allowed to hold up the line. What
-the owner writes while no peer is connected has no listener: it is counted in
+``max_peers`` places are taken, a new peer replaces an idle one (its connection is closed): the
+one that connected first of those that have sent nothing since they connected, else the one
+that has been silent longest, for `IDLE_PEER` seconds at least. When every peer has spoken
+within that time the new one is turned away, so a peer that connects again and again pushes no
+master that talks off the line. A peer that does not read what it is sent (its socket holds
+more than `MAX_PEER_BACKLOG` bytes) is disconnected rather than allowed to hold up the line.
+What the owner writes while no peer is connected has no listener: it is counted in
 ``stats.dropped_out`` and logged, like talking on an empty line.
 
 TCP knows no character timing and no line errors: chunks are stamped with ``time.monotonic()``
@@ -36,6 +39,8 @@ MAX_PEERS = 8
 """Peers a `TcpServerTransport` serves at once by default."""
 MAX_PEER_BACKLOG = 1 << 16
 """Bytes a peer may leave unread in its socket before the server disconnects it."""
+IDLE_PEER = 1.0
+"""Seconds a peer that has spoken must have been silent to give its place to a new one."""
 
 
 def check_endpoint(host: object, port: object, *, allow_zero: bool = False) -> tuple[str, int]:
@@ -206,16 +211,20 @@ class TcpServerTransport(QueuedTransport):
         self.max_peers = max_peers
         self._server: asyncio.Server | None = None
         self._peers: dict[asyncio.StreamWriter, float] = {}
-        """Connected peers and when each last sent something (monotonic)."""
+        """Connected peers and when each connected or last sent something (monotonic)."""
+        self._spoke: set[asyncio.StreamWriter] = set()
+        """The peers that have sent something."""
         self._peer_tasks: set[asyncio.Task[None]] = set()
         self._peer_event: asyncio.Event | None = None
+        self._turning_away = False
         self.peers_served = 0
         self.peers_replaced = 0
         """Peers closed to make room for a new one (they had been silent longest)."""
         self.peers_dropped = 0
         """Peers closed because they did not read what the line sent them."""
         self.peers_refused = 0
-        """Peers turned away because the server was closing."""
+        """Peers turned away: the server was closing, or every place was taken by a peer that
+        spoke within `IDLE_PEER` seconds."""
 
     @property
     def port(self) -> int:
@@ -264,7 +273,29 @@ class TcpServerTransport(QueuedTransport):
             await close_writer(writer)
             return
         if len(self._peers) >= self.max_peers:
-            idle = min(self._peers, key=self._peers.__getitem__)
+            now = time.monotonic()
+            # those that never spoke first (anonymous), then those silent longest
+            idle = min(
+                (
+                    p
+                    for p in self._peers
+                    if p not in self._spoke or now - self._peers[p] >= IDLE_PEER
+                ),
+                key=lambda p: (p in self._spoke, self._peers[p]),
+                default=None,
+            )
+            if idle is None:
+                self.peers_refused += 1
+                log.log(
+                    logging.DEBUG if self._turning_away else logging.WARNING,  # once in a row
+                    "%s: all %d places taken by peers that talk: %s turned away",
+                    self.describe(),
+                    self.max_peers,
+                    who,
+                )
+                self._turning_away = True
+                await close_writer(writer)
+                return
             self.peers_replaced += 1
             log.info(
                 "%s: %d peers connected: closed %s, silent for %.1f s, to serve %s",
@@ -279,6 +310,7 @@ class TcpServerTransport(QueuedTransport):
         _no_delay(writer)
         self._peers[writer] = time.monotonic()
         self.peers_served += 1
+        self._turning_away = False
         assert self._peer_event is not None
         self._peer_event.set()
         log.info("%s: peer %s connected", self.describe(), who)
@@ -289,6 +321,7 @@ class TcpServerTransport(QueuedTransport):
         def deliver(data: bytes, timestamp: float) -> None:
             if writer in self._peers:
                 self._peers[writer] = timestamp
+                self._spoke.add(writer)
                 self._deliver(data, timestamp)
 
         try:
@@ -301,6 +334,7 @@ class TcpServerTransport(QueuedTransport):
 
     def _forget(self, writer: asyncio.StreamWriter) -> None:
         self._peers.pop(writer, None)
+        self._spoke.discard(writer)
         if not self._peers and self._peer_event is not None:
             self._peer_event.clear()
 
