@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from pyuss.bus import BusClientTransport, VirtualBus, serve
+from pyuss.bus import BusClientTransport, VirtualBus, core, serve
 from pyuss.bus.core import EVICT_IDLE, MAX_QUEUE, MAX_SENDERS
 from pyuss.errors import ConfigError
 from support.waiting import eventually
@@ -108,7 +108,7 @@ async def test_idle_raw_connections_never_lock_a_bus_master_out() -> None:
         await bus.close()
 
 
-def test_only_idle_evictable_stations_give_their_place() -> None:
+async def test_only_idle_evictable_stations_give_their_place() -> None:
     bus = VirtualBus(BAUD)
     evicted: list[str] = []
     for i in range(MAX_SENDERS):
@@ -119,6 +119,7 @@ def test_only_idle_evictable_stations_give_their_place() -> None:
                 evicted.append(name)
 
             station.evict = evict
+            bus.send(station.name, b"\x00")  # they speak
     with pytest.raises(ConfigError, match="32 sending stations"):
         bus.attach("new")  # they just sent: not idle
     bus.stations["s31"].last_active -= EVICT_IDLE
@@ -130,6 +131,37 @@ def test_only_idle_evictable_stations_give_their_place() -> None:
     with pytest.raises(ConfigError, match="32 sending stations"):
         bus.attach("newest")  # no evictable station left: the others are not anonymous
     assert bus.stats.evicted == 2
+    await bus.close()
+
+
+async def test_new_stations_do_not_push_out_a_raw_station_that_talks(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Raw connections that come again and again take the places of those that have said
+    nothing since they connected, first come first out; a raw master that polls keeps its
+    place (one that has spoken gives it only after `EVICT_IDLE` seconds of silence, made long
+    here), and when no silent one is left the newcomer is turned away."""
+    monkeypatch.setattr(core, "EVICT_IDLE", 3600.0)
+    bus = VirtualBus(BAUD)
+    evicted: list[str] = []
+
+    def anonymous(name: str) -> None:
+        bus.attach(name).evict = lambda: evicted.append(name)
+
+    anonymous("poller")
+    bus.send("poller", b"\x02")
+    for i in range(MAX_SENDERS - 1):
+        anonymous(f"silent{i}")
+    for i in range(3):
+        anonymous(f"new{i}")  # each takes the place of the silent one that came first
+    assert evicted == ["silent0", "silent1", "silent2"] and "poller" in bus.stations
+    bus.send("new0", b"\x02")  # it speaks: it keeps its place too
+    for name in [n for n in bus.stations if n != "poller" and n != "new0"]:
+        bus.send(name, b"\x02")
+    with pytest.raises(ConfigError, match="32 sending stations"):
+        anonymous("one-more")
+    assert "poller" in bus.stations and bus.stats.evicted == 3
+    await bus.close()
 
 
 async def test_an_evicted_raw_station_puts_nothing_more_on_the_line() -> None:

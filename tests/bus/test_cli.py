@@ -104,10 +104,10 @@ def _connected(sock: socket.socket) -> bool:
 
 
 def test_silent_raw_connections_never_lock_out_a_simulator_or_a_bus_master() -> None:
-    """40 raw TCP connections that connect and stay silent: 32 take every sending place (B 1),
-    the others are turned away. 2 s later a ``uss simulate --bus`` joins and a ``bus://``
-    master (``uss read``) is answered, each in the place of the raw station silent longest;
-    the other silent raw stations stay connected."""
+    """40 raw TCP connections that connect and stay silent: 32 hold every sending place (B 1),
+    the last 8 in the places of the first 8. Then a ``uss simulate --bus`` joins and a
+    ``bus://`` master (``uss read``) is answered, each in the place of the silent raw station
+    that came first; the other silent raw stations stay connected."""
     proc = _start("--tcp", "127.0.0.1:0", "--bus-tcp", "127.0.0.1:0", "--duration", "120")
     idle: list[socket.socket] = []
     sim: subprocess.Popen[str] | None = None

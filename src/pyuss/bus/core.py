@@ -35,8 +35,9 @@ stations (monitors) cannot send. With ``echo=True`` a station hears its own char
 2-wire adapter does (raw: the station's transport does not remove them). The bus allows at
 most 32 sending stations (B 1: one master, 31 slaves); listen-only ones are not limited. When
 all 32 places are taken, a station that may be evicted (an anonymous raw TCP station, see
-`pyuss.bus.serve`) and has sent nothing for `EVICT_IDLE` seconds gives its place to the new
-one; the one silent longest goes first.
+`pyuss.bus.serve`) gives its place to the new one if it has sent nothing since it attached
+(the first attached of those goes first), else if it has sent nothing for `EVICT_IDLE`
+seconds (the one silent longest goes first).
 
 Bounds: a station has at most `MAX_QUEUE` characters waiting for or on the line; what it sends
 beyond that is dropped and counted (`Station.overflow`, `BusStats.overflow`), so a station that
@@ -70,7 +71,8 @@ log = logging.getLogger(__name__)
 MAX_SENDERS = 32
 #: Characters one station may have waiting for or on the line; the rest of a write is dropped.
 MAX_QUEUE = 4096
-#: Seconds an evictable station must have been silent to give its place to a new station.
+#: Seconds an evictable station that has sent something must have been silent to give its
+#: place to a new station (one that has sent nothing gives it at once).
 EVICT_IDLE = 1.0
 #: Seconds a character that continues a run may wait to be handed over with the rest of it.
 RUN_HOLD = 0.002
@@ -197,6 +199,8 @@ class Station(QueuedTransport):
         """When it attached (monotonic): it hears no character that ended before."""
         self.last_active = self.attached_at
         """When it attached or last sent something (monotonic)."""
+        self.spoke = False
+        """Whether it has sent something since it attached."""
         self.evict: Callable[[], None] | None = None
         """Set by whoever may take the station off the bus for a new one (raw TCP stations):
         detaches it and closes its connection."""
@@ -415,16 +419,19 @@ class VirtualBus:
         return 0 if station is None else station.queued
 
     def _make_room(self) -> bool:
-        """Evict the evictable sending station silent longest (at least `EVICT_IDLE`)."""
+        """Evict an evictable sending station: of those that never sent anything the first
+        attached, else the one silent longest (at least `EVICT_IDLE`)."""
         now = time.monotonic()
         idle = [
             s
             for s in self.stations.values()
-            if s.evict is not None and not s.listen_only and now - s.last_active >= EVICT_IDLE
+            if s.evict is not None
+            and not s.listen_only
+            and (not s.spoke or now - s.last_active >= EVICT_IDLE)
         ]
         if not idle:
             return False
-        victim = min(idle, key=lambda s: s.last_active)
+        victim = min(idle, key=lambda s: (s.spoke, s.last_active))
         log.warning(
             "bus: all %d sending places taken: station %s, silent for %.1f s, gives its place",
             MAX_SENDERS,
@@ -478,6 +485,7 @@ class VirtualBus:
         station.last_active = now
         if not data:  # nothing for the line, and nothing the station's next characters wait for
             return
+        station.spoke = True
         if self._dead(sender, now):
             self.stats.lost += len(data)
             return

@@ -11,13 +11,14 @@ named ``tcp1``, ``tcp2``, ... and carry bytes only. Framed connections (``framed
 pyuss ``bus://`` clients, see `pyuss.bus.wire`) keep the ideal timestamps and the line error
 flags of every delivery and let the client choose its name, echo and listen-only mode.
 
-Raw stations are anonymous: when all 32 sending places of the bus are taken, the raw station
-silent longest (at least `pyuss.bus.core.EVICT_IDLE` seconds) is disconnected to make room for
-a new station, so idle raw connections never lock ``bus://`` masters out. What a station sends
-beyond its queue (`pyuss.bus.core.MAX_QUEUE`) is dropped; what it had not sent when it leaves
-is dropped too. A socket that does not read what the bus sends it loses what comes next once
-`MAX_BACKLOG` bytes wait in it (besides the kernel's `SEND_BUFFER`), counted in its station's
-``stats.dropped_out`` and logged once.
+Raw stations are anonymous: when all 32 sending places of the bus are taken, a raw station that
+has sent nothing since it connected, else the one silent longest (at least
+`pyuss.bus.core.EVICT_IDLE` seconds), is disconnected to make room for a new station, so idle
+raw connections never lock ``bus://`` masters out, nor do new ones push out one that talks.
+What a station sends beyond its queue (`pyuss.bus.core.MAX_QUEUE`) is dropped; what it had not
+sent when it leaves is dropped too. A socket that does not read what the bus sends it loses
+what comes next once `MAX_BACKLOG` bytes wait in it (besides the kernel's `SEND_BUFFER`),
+counted in its station's ``stats.dropped_out`` and logged once.
 """
 
 from __future__ import annotations
