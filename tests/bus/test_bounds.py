@@ -6,6 +6,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import logging
 import socket
 import time
 
@@ -290,4 +291,40 @@ async def test_a_station_that_does_not_read_loses_what_comes_next_and_is_told(
         assert len(warnings) == 1 and "does not read" in warnings[0].getMessage()
     finally:
         sock.close()
+        await bus.close()
+
+
+async def test_connections_turned_away_one_after_another_are_logged_once(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A full bus whose raw stations all talk turns new raw connections away; a peer that
+    connects again and again gets one warning in the log, not one per connection."""
+    caplog.set_level(logging.DEBUG, logger="pyuss.bus.serve")
+    bus = VirtualBus(BAUD)
+    loop = asyncio.get_running_loop()
+    talkers: list[socket.socket] = []
+    try:
+        _, raw_port = await bus.serve_tcp("127.0.0.1", 0)
+        for _ in range(MAX_SENDERS):
+            sock = socket.create_connection(("127.0.0.1", raw_port))
+            sock.sendall(b"\x00")
+            talkers.append(sock)
+        await eventually(
+            lambda: (
+                len(bus.stations) == MAX_SENDERS and all(s.spoke for s in bus.stations.values())
+            ),
+            WAIT,
+            what="every raw station spoke",
+        )
+        for _ in range(20):
+            with socket.create_connection(("127.0.0.1", raw_port)) as sock:
+                sock.setblocking(False)
+                async with asyncio.timeout(WAIT):
+                    assert await loop.sock_recv(sock, 1) == b""  # turned away
+        turned = [r for r in caplog.records if "turned away" in r.getMessage()]
+        assert len(turned) == 20
+        assert [r.levelname for r in turned].count("WARNING") == 1
+    finally:
+        for sock in talkers:
+            sock.close()
         await bus.close()

@@ -31,6 +31,7 @@ import logging
 import socket
 import time
 from collections.abc import Callable, Collection
+from dataclasses import dataclass
 from typing import Any
 
 from pyuss.bus.core import Station, VirtualBus
@@ -140,6 +141,7 @@ async def serve_tcp(
     host, port = check_endpoint(host, port, allow_zero=True)
     writers: set[asyncio.StreamWriter] = set()
     handlers: set[asyncio.Task[Any]] = set()
+    door = _Door()
 
     async def handle(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         assert isinstance(reader, _Reader)  # made by `connection` below
@@ -155,7 +157,7 @@ async def serve_tcp(
             if framed:
                 await _framed_station(bus, reader, writer)
             else:
-                await _raw_station(bus, reader, writer, echo)
+                await _raw_station(bus, reader, writer, echo, door)
         finally:
             writers.discard(writer)
             handlers.discard(task)
@@ -207,8 +209,16 @@ def _socket_sink(writer: asyncio.StreamWriter, *, framed: bool, station: list[St
     return sink
 
 
+@dataclass(slots=True)
+class _Door:
+    """The raw stations' way in of one `serve_tcp`."""
+
+    turning_away: bool = False
+    """Whether the last raw connection was turned away (the bus was full)."""
+
+
 async def _raw_station(
-    bus: VirtualBus, reader: _Reader, writer: asyncio.StreamWriter, echo: Echo
+    bus: VirtualBus, reader: _Reader, writer: asyncio.StreamWriter, echo: Echo, door: _Door
 ) -> None:
     name = _free_name(bus, "tcp")
     holder: list[Station] = []
@@ -219,8 +229,16 @@ async def _raw_station(
             sink=_socket_sink(writer, framed=False, station=holder),
         )
     except ConfigError as exc:
-        log.warning("bus: turned away a TCP station: %s", exc)
+        # once until a station gets in again: a peer that connects again and again does
+        # not fill the log
+        log.log(
+            logging.DEBUG if door.turning_away else logging.WARNING,
+            "bus: turned away a TCP station: %s",
+            exc,
+        )
+        door.turning_away = True
         return
+    door.turning_away = False
     holder.append(station)
     station.evict = writer.close  # anonymous: gives its place when idle on a full bus
     log.info("bus: station %s connected from %s", name, writer.get_extra_info("peername"))
