@@ -3,12 +3,13 @@ the bus): it must read exactly as the sampling UART reads it."""
 
 from __future__ import annotations
 
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pyuss.bus.core import _read_levels, sample
 
 
+@settings(deadline=None)
 @given(st.integers(0, 0x7FF))
 def test_a_lone_frame_reads_as_sampled(frame: int) -> None:
     bit = 11 / 187500 / 11

@@ -28,7 +28,7 @@ def deliveries(draw: st.DrawFn) -> tuple[bytes, float, tuple[tuple[int, LineErro
     return data, timestamp, errors
 
 
-@settings(max_examples=200)
+@settings(max_examples=200, deadline=None)
 @given(st.lists(deliveries(), max_size=6), st.data())
 def test_frames_decode_to_the_deliveries_across_any_split(
     items: list[tuple[bytes, float, tuple[tuple[int, LineError], ...]]], data: st.DataObject
@@ -58,7 +58,7 @@ def test_a_delivery_too_long_for_one_frame_is_refused() -> None:
 TIMES = st.floats(0, 1e6, allow_nan=False).map(lambda t: round(t, 9))
 
 
-@settings(max_examples=300)
+@settings(max_examples=300, deadline=None)
 @given(
     t=TIMES,
     start=TIMES,

@@ -17,7 +17,7 @@ INTEGER_TYPES = [t for t in DataType if t.is_integer]
 
 
 @pytest.mark.parametrize("dtype", INTEGER_TYPES)
-@settings(max_examples=60)
+@settings(max_examples=60, deadline=None)
 @given(data=st.data())
 def test_integers_round_trip_through_words(dtype: DataType, data: st.DataObject) -> None:
     low, high = dtype.type_range
@@ -28,7 +28,7 @@ def test_integers_round_trip_through_words(dtype: DataType, data: st.DataObject)
     assert decode(dtype, words) == value
 
 
-@settings(max_examples=60)
+@settings(max_examples=60, deadline=None)
 @given(st.floats(width=32, allow_nan=False, allow_infinity=False))
 def test_floats_travel_as_ieee_bits_high_word_first(value: float) -> None:
     words = encode(DataType.FLOAT, value)
@@ -98,7 +98,7 @@ def test_text_with_invisible_characters_is_refused() -> None:
         decode(DataType.VISIBLE_STRING, [0x4107], 2)
 
 
-@settings(max_examples=40)
+@settings(max_examples=40, deadline=None)
 @given(st.binary(min_size=1, max_size=12))
 def test_octets_round_trip(data: bytes) -> None:
     words = encode(DataType.OCTET_STRING, data, len(data))

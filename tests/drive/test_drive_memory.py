@@ -223,7 +223,7 @@ def _values_of(param: ParameterSpec) -> st.SearchStrategy[object]:
     return st.integers(int(param.low), int(param.high))
 
 
-@settings(max_examples=80)
+@settings(max_examples=80, deadline=None)
 @given(data=st.data())
 def test_every_writable_value_round_trips_through_pkw_words(data: st.DataObject) -> None:
     drive = ParameterMemory(load_profile(data.draw(st.sampled_from(builtin_profiles()))))

@@ -33,7 +33,7 @@ def test_crossing_zero_ramps_down_then_up() -> None:
     assert advance(0.5, -0.5, 2.5, 0.5, 0.25) == pytest.approx(-0.25)
 
 
-@settings(max_examples=80)
+@settings(max_examples=80, deadline=None)
 @given(levels, levels, rates, rates, st.floats(0.0, 5.0), st.integers(1, 20))
 def test_result_does_not_depend_on_the_step_size(
     start: float, target: float, up: float, down: float, dt: float, pieces: int
@@ -45,7 +45,7 @@ def test_result_does_not_depend_on_the_step_size(
     assert stepped == pytest.approx(whole, abs=1e-9)
 
 
-@settings(max_examples=80)
+@settings(max_examples=80, deadline=None)
 @given(levels, levels, rates, rates)
 def test_duration_is_when_the_target_is_reached(
     start: float, target: float, up: float, down: float

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pyuss.errors import ConfigError
@@ -53,6 +53,7 @@ def test_bad_addresses_say_what_is_wrong(text: str, words: str) -> None:
     assert words in str(caught.value)
 
 
+@settings(deadline=None)
 @given(
     st.one_of(
         st.from_regex(r"[a-z][a-z0-9.-]{0,20}", fullmatch=True),
@@ -65,6 +66,7 @@ def test_what_is_written_reads_back(host: str, port: int) -> None:
     assert parse_host_port(str(where), "x") == where
 
 
+@settings(deadline=None)
 @given(st.text(max_size=30))
 def test_any_text_is_read_or_refused_with_a_config_error(text: str) -> None:
     try:

@@ -256,7 +256,7 @@ def _mark(data: bytes, bad: set[int]) -> bytes:
     return bytes(out)
 
 
-@settings(max_examples=200)
+@settings(max_examples=200, deadline=None)
 @given(st.data())
 def test_mark_decoder_undoes_kernel_marking_across_any_split(data: st.DataObject) -> None:
     payload = data.draw(st.binary(max_size=40))
