@@ -166,6 +166,27 @@ def test_bad_endpoints_are_refused(text: str, face: str) -> None:
         parse_endpoint(text, face)
 
 
+@pytest.mark.parametrize(
+    "text",
+    [
+        "0.0.0.0:502?read_only=1",
+        "modbus://127.0.0.1:5020?read_only=true",
+        "127.0.0.1:5020?",
+        "modbus://127.0.0.1:5020#read_only",
+    ],
+)
+def test_an_option_written_into_an_address_is_refused_not_left_unapplied(text: str) -> None:
+    # a face's options are its table's keys and flags: one in the address would not apply,
+    # and a face meant to refuse writes would take them
+    with pytest.raises(ConfigError, match="modbus") as error:
+        parse_config(tomllib.loads(GOOD + f'[modbus]\nlisten = "{text}"\n'))
+    assert str(error.value).startswith("modbus.listen: ")
+    with pytest.raises(ConfigError) as error:
+        own = GOOD.replace("[[bus.drive]]", f'modbus = "{text}"\n[[bus.drive]]')
+        parse_config(tomllib.loads(own + "[modbus]\n"))
+    assert str(error.value).startswith("bus[0].modbus: ")
+
+
 @given(st.integers(min_value=800, max_value=60000))
 def test_a_scaled_parameter_converts_both_ways(raw: int) -> None:
     meta = ParameterModel("generic").meta(352)  # 0.01 Hz
