@@ -126,6 +126,24 @@ def test_what_the_points_cannot_show_is_refused_with_its_key() -> None:
         parse_plant([{"port": "x", "layout": "3,2", "drive": [{"address": 1, "actual": [3]}]}])
 
 
+@pytest.mark.parametrize(
+    "setpoints",
+    [
+        [{"key": "a", "pzd": 2, "dword": True}, {"key": "b", "pzd": 3}],
+        [{"key": "a", "pzd": 3}, {"key": "b", "pzd": 2, "dword": True}],
+        [{"key": "a", "pzd": 2}, {"key": "b", "pzd": 2}],
+    ],
+)
+def test_setpoints_that_share_a_process_word_are_refused(setpoints: list[object]) -> None:
+    # a write of setpoint b would change the word setpoint a sends
+    drive = {"address": 1, "layout": "4,4", "setpoints": setpoints}
+    with pytest.raises(ConfigError, match=r"^bus\[0\]\.drive\[0\]\.setpoints\[1\]\.pzd: PZD"):
+        parse_plant([{"port": "x", "drive": [drive]}])
+    # actual values may show one word twice: reading moves nothing
+    drive = {"address": 1, "layout": "4,4", "actual": setpoints}
+    assert len(parse_plant([{"port": "x", "drive": [drive]}]).buses[0].drives[0].actual) == 2
+
+
 def test_flags_name_the_flag() -> None:
     with pytest.raises(ConfigError, match=r"^--address: 40 is not 0..31$"):
         plant_from_flags(port="x", addresses=[40])

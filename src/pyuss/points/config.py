@@ -251,6 +251,23 @@ def _process(value: object, where: Where, pzd_count: int | None) -> ProcessConfi
     return ProcessConfig(key, pzd, dword)
 
 
+def _separate(setpoints: Sequence[ProcessConfig], where: Where) -> None:
+    """Setpoints share no PZD word: a write of one would change what another one sends."""
+    owner: dict[int, str] = {}
+    for number, item in enumerate(setpoints):
+        for word in range(item.pzd, item.pzd + (2 if item.dword else 1)):
+            if word in owner:
+                raise (
+                    where.key(number)
+                    .key("pzd")
+                    .error(
+                        f"PZD{word} carries setpoint {owner[word]!r} already: a write of one "
+                        "setpoint would change the other"
+                    )
+                )
+            owner[word] = item.key
+
+
 def _reference(value: object, where: Where) -> float | ParamRef:
     if isinstance(value, str):
         try:
@@ -310,6 +327,8 @@ def _drive(value: object, where: Where, bus_layout: Layout | None) -> DriveConfi
         keys = [p.key for p in found]
         if len(set(keys)) != len(keys):
             raise where.key(kind).error("keys must differ")
+        if kind == "setpoints":
+            _separate(found, where.key(kind))
         process[kind] = tuple(found)
     reference = (
         _reference(table["reference"], where.key("reference")) if "reference" in table else None
