@@ -13,6 +13,7 @@ from collections.abc import AsyncIterator
 from typing import Any
 
 import aiomqtt
+import pytest
 
 from gateway import ha_schema
 from gateway.contract import problems
@@ -248,6 +249,55 @@ async def test_two_gateways_share_one_broker_and_one_client_commands_every_drive
         for engines, extra in ((engines1, 0), (engines2, 100)):
             assert engines[5].drive.value(3) == 500 + extra
             assert engines[6].drive.value(3) == 600 + extra
+
+
+async def test_a_second_gateway_of_the_same_bus_takes_the_session_and_the_first_never_takes_it_back(
+    broker: Broker, caplog: pytest.LogCaptureFixture
+) -> None:
+    # two gateways named alike (two lines both called "bus", say) share one client id: the
+    # broker ends the older one's connection; were it to connect again, the two would take
+    # the session from each other in turn, and a command would act on either line's drive
+    async with simulated_gateway(mqtt=broker.url) as (first, old_engines):
+        old = first.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
+        await eventually(lambda: old.connected.is_set())
+        async with simulated_gateway(mqtt=broker.url) as (second, new_engines):
+            new = second.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
+            await eventually(lambda: old.taken_over is not None)
+            assert "started after this one" in old.taken_over
+            runner = old._runner
+            assert runner is not None and runner.done()  # it tries no more
+            assert not old.connected.is_set()
+            await eventually(lambda: new.connected.is_set())
+            async with MqttClient(second) as client:
+                for address in (5, 6):
+                    await client.switch_on(address)
+                    await client.set_setpoint(address, 20.0)
+            assert new.taken_over is None and not old.connected.is_set()
+            for address in (5, 6):
+                assert new_engines[address].drive.machine.control & 1
+                assert not old_engines[address].drive.machine.control & 1
+                assert old_engines[address].drive.machine.setpoint == 0.0
+    lines = [r.getMessage() for r in caplog.records if r.name == "pyuss.gateway.mqtt"]
+    assert len([line for line in lines if "started after this one" in line]) == 1
+
+
+async def test_of_two_gateways_of_one_bus_under_their_own_client_ids_the_newer_alone_acts(
+    broker: Broker,
+) -> None:
+    # with client ids of their own both would stay connected and both would carry out every
+    # command: one command, two drives moved on two lines
+    async with simulated_gateway(mqtt=broker.url, client_id="gw-a-{bus}") as (first, old_engines):
+        old = first.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
+        await eventually(lambda: old.connected.is_set())
+        async with simulated_gateway(mqtt=broker.url, client_id="gw-b-{bus}") as (second, engines):
+            new = second.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
+            await eventually(lambda: old.taken_over is not None)
+            assert not old.connected.is_set() and new.connected.is_set()
+            async with MqttClient(second) as client:
+                await client.switch_on(5)
+            assert engines[5].drive.machine.control & 1
+            assert not old_engines[5].drive.machine.control & 1
+            assert new.taken_over is None and new.connections == 1
 
 
 async def test_stopping_the_gateway_says_offline(broker: Broker) -> None:

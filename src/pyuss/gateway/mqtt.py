@@ -31,6 +31,10 @@ this module is the client around them:
 - Its socket sends each packet at once (`send_at_once`: no Nagle delay behind the broker's
   acknowledgement of the packet before).
 - On stop it publishes ``offline`` itself and disconnects.
+- One gateway per bus on a broker: its gateway message carries when it started (the user
+  property `INSTANCE`); a face that sees the message of a gateway of its bus started after it
+  stops connecting (`TakenOver`), so two gateways never both take a bus's commands nor take
+  the session from each other in turn.
 
 Why aiomqtt: the asyncio client over paho-mqtt (the reference MQTT client for Python); it
 brings sessions, QoS 1, last will, TLS and user/password.
@@ -43,13 +47,17 @@ import contextlib
 import dataclasses
 import json
 import logging
+import secrets
 import socket
 import ssl
+import time
 from collections import OrderedDict, deque
 from typing import Any
 
 import aiomqtt
 from paho.mqtt import client as mqtt
+from paho.mqtt.packettypes import PacketTypes
+from paho.mqtt.properties import Properties
 from paho.mqtt.reasoncodes import ReasonCode
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
@@ -291,6 +299,13 @@ class MqttBusFace:
         self.attempts = 0
         """Failed tries to reach the broker since it was last connected."""
         self._lost = False
+        self.taken_over: str | None = None
+        """Why the face stopped connecting: another gateway of its bus (`TakenOver`)."""
+        self.instance = f"{time.time_ns():020d}-{secrets.token_hex(4)}"
+        """This face's token in its gateway messages (`INSTANCE`): when it started, so a
+        later gateway's token is greater, and a random part."""
+        self.gateway_topic = gateway_topic(options.prefix, bus.name)
+        self._early: list[aiomqtt.Message] = []
 
     # -- publishing ----------------------------------------------------------------------------
     async def publish(
@@ -444,16 +459,41 @@ class MqttBusFace:
         will = aiomqtt.Will(self.availability, "offline", qos=1, retain=True)
         return make_client(self.options, self.client_id, will)
 
+    def _other_gateway(self, message: aiomqtt.Message) -> None:
+        """`TakenOver` if ``message``, on the gateway topic, comes from a gateway of this bus
+        that started after this one (retained or live). One that started before, or a
+        retained message of an earlier run, is left to find this one's message: the newest
+        gateway keeps the bus, the others stop, whatever order their messages come in."""
+        instance = _instance(message)
+        if instance is None or instance <= self.instance:
+            return
+        raise TakenOver(
+            f"another gateway of bus {self.bus.name!r}, started after this one, publishes on "
+            f"this broker under the prefix {self.options.prefix!r}"
+        )
+
     async def _connected(self, client: aiomqtt.Client) -> None:
         self._client = client
         send_at_once(client)
-        for topic in subscriptions(self.options.prefix, self.bus.name):
-            granted = await client.subscribe(topic, options=SUBSCRIBE)
+        # the gateway topic first: its retained message is in before the other subscriptions
+        # are granted, so another gateway is found before this one publishes anything
+        watch = SubscribeOptions(qos=1, noLocal=False, retainAsPublished=True)
+        for topic, options in (
+            (self.gateway_topic, watch),
+            *((t, SUBSCRIBE) for t in subscriptions(self.options.prefix, self.bus.name)),
+        ):
+            granted = await client.subscribe(topic, options=options)
             if any(_failed(code) for code in granted):
                 raise aiomqtt.MqttError(f"the broker refused the subscription to {topic}")
+        self._early = _queued(client)
+        for message in self._early:
+            if message.topic.value == self.gateway_topic:
+                self._other_gateway(message)
         await client.publish(self.availability, "online", qos=1, retain=True)
+        properties = Properties(PacketTypes.PUBLISH)  # type: ignore[no-untyped-call]
+        properties.UserProperty = [(INSTANCE, self.instance)]
         await client.publish(
-            gateway_topic(self.options.prefix, self.bus.name),
+            self.gateway_topic,
             gateway_payload(
                 self.bus.name,
                 [worker.drive.model for worker in self.workers.values()],
@@ -462,6 +502,7 @@ class MqttBusFace:
             ),
             qos=1,
             retain=True,
+            properties=properties,
         )
         self.connected.set()
         self.connections += 1
@@ -475,20 +516,29 @@ class MqttBusFace:
             self._outbox.popleft()
 
     async def _consume(self, client: aiomqtt.Client) -> None:
+        early, self._early = self._early, []
+        for message in early:
+            await self._receive(message)
         async for message in client.messages:
-            try:
-                payload = message.payload
-                data = payload if isinstance(payload, bytes) else str(payload).encode()
-                await self._message(message.topic.value, data, retained=bool(message.retain))
-            except aiomqtt.MqttError:
-                raise  # the connection is lost: `run` reconnects
-            except Exception as exc:  # one message never ends the face
-                log.error(
-                    "%s: message on %s: %s",
-                    self.bus.name,
-                    show(message.topic.value, 200),
-                    show(exc, 200),
-                )
+            await self._receive(message)
+
+    async def _receive(self, message: aiomqtt.Message) -> None:
+        if message.topic.value == self.gateway_topic:
+            self._other_gateway(message)  # `TakenOver` ends the session
+            return
+        try:
+            payload = message.payload
+            data = payload if isinstance(payload, bytes) else str(payload).encode()
+            await self._message(message.topic.value, data, retained=bool(message.retain))
+        except aiomqtt.MqttError:
+            raise  # the connection is lost: `run` reconnects
+        except Exception as exc:  # one message never ends the face
+            log.error(
+                "%s: message on %s: %s",
+                self.bus.name,
+                show(message.topic.value, 200),
+                show(exc, 200),
+            )
 
     async def _session(self) -> None:
         """One connection, from connecting until it is lost (`aiomqtt.MqttError`) or `close`."""
@@ -518,7 +568,7 @@ class MqttBusFace:
                 finally:
                     stop.cancel()
                 if consume.done():
-                    consume.result()  # the connection was lost: MqttError
+                    consume.result()  # the connection was lost (MqttError), or `TakenOver`
                 # stopping: leaving the block disconnects cleanly
         finally:
             self.connected.clear()
@@ -535,6 +585,18 @@ class MqttBusFace:
             connections = self.connections
             try:
                 await self._session()
+            except TakenOver as exc:
+                # taking it back would take it from the other, which takes it back in turn:
+                # each command would act on whichever gateway holds the session at that
+                # moment, a drive of the one or of the other
+                self.taken_over = str(exc)
+                log.error(
+                    "%s: %s: this gateway takes no more commands over MQTT and does not "
+                    "connect again until it is restarted",
+                    self.bus.name,
+                    exc,
+                )
+                break
             except Exception as exc:  # MqttError, or a broker speaking nonsense
                 if self._stop.is_set():
                     break
@@ -598,6 +660,35 @@ class MqttBusFace:
                     await runner
             except (TimeoutError, aiomqtt.MqttError):
                 runner.cancel()
+
+
+class TakenOver(Exception):
+    """Another gateway of the same bus (prefix and bus name) publishes on the broker."""
+
+
+INSTANCE = "pyuss-gateway"
+"""The MQTT 5 user property of the gateway message that tells one gateway's from another's
+and the newer from the older (`MqttBusFace.instance`)."""
+
+
+def _instance(message: aiomqtt.Message) -> str | None:
+    """The token of the gateway that published ``message`` (None: none said)."""
+    for name, value in getattr(message.properties, "UserProperty", None) or ():
+        if name == INSTANCE:
+            return str(value)
+    return None
+
+
+def _queued(client: aiomqtt.Client) -> list[aiomqtt.Message]:
+    """The messages ``client`` has received and nobody has taken yet (aiomqtt's queue)."""
+    queue = getattr(client, "_queue", None)
+    taken: list[aiomqtt.Message] = []
+    while isinstance(queue, asyncio.Queue):
+        try:
+            taken.append(queue.get_nowait())
+        except asyncio.QueueEmpty:
+            break
+    return taken
 
 
 def _publish_head(topic: str, retain: bool) -> tuple[int, bytes]:
