@@ -55,6 +55,7 @@ from collections import OrderedDict, deque
 from typing import Any
 
 import aiomqtt
+from aiomqtt.exceptions import MqttConnectError
 from paho.mqtt import client as mqtt
 from paho.mqtt.packettypes import PacketTypes
 from paho.mqtt.properties import Properties
@@ -606,11 +607,10 @@ class MqttBusFace:
                 if not self._lost:
                     self._lost = True
                     log.warning(
-                        "%s: MQTT broker %s %s: %s; trying again after %g s, then up to every %g s",
+                        "%s: MQTT broker %s %s; trying again after %g s, then up to every %g s",
                         self.bus.name,
                         self.options.endpoint,
-                        "lost" if self.connections else "unreachable",
-                        show(exc, 200),
+                        _lost(exc, connected=self.connections > 0),
                         wait,
                         RECONNECT_MAX,
                     )
@@ -716,6 +716,14 @@ def _refused(bus: str, what: str, message: str) -> None:
     log.warning(
         "%s: refused %s: %s", bus, what, message if len(message) < 300 else show(message, 300)
     )
+
+
+def _lost(exc: Exception, *, connected: bool) -> str:
+    """What became of the broker, for the log line: it refused the connection (the login, the
+    client id: the CONNACK's reason), or it is lost or unreachable, and why."""
+    if isinstance(exc, MqttConnectError):
+        return f"refused the connection ({exc})"
+    return f"{'lost' if connected else 'unreachable'}: {show(exc, 200)}"
 
 
 def _retrieve(task: asyncio.Task[None]) -> None:
