@@ -4,6 +4,7 @@ the gateway; bad configuration refused before any port opens; SIGTERM stops it c
 from __future__ import annotations
 
 import json
+import os
 import struct
 import subprocess
 import sys
@@ -200,3 +201,40 @@ def test_a_bad_parameter_of_a_siemens_drive_is_named_as_its_documents_write_it(
         f"uss gateway: {config}: bus[0].drive[0].parameters[0]: r0947 (Fault numbers) is an "
         "array of 8: name an element (r0947.0)"
     )
+
+
+@pytest.mark.parametrize(
+    "flag",
+    [
+        ["--baud", "38400"],
+        ["--profile", "nord"],
+        ["--layout", "4,2"],
+        ["--cycle-time", "0.1"],
+        ["--bus-name", "line9"],
+        ["--address", "6"],
+        ["--parameter", "107"],
+        ["--port", "/dev/null"],
+    ],
+)
+def test_a_bus_flag_beside_a_configuration_file_is_refused_not_left_unapplied(
+    tmp_path: Path, flag: list[str]
+) -> None:
+    # the file's bus at 9600 baud with --baud 38400 would have run at 9600 without a word
+    config = tmp_path / "plant.toml"
+    config.write_text(
+        '[[bus]]\nport = "/dev/ttyNOPE"\n[[bus.drive]]\naddress = 5\n[modbus]\n', encoding="utf-8"
+    )
+    ways: list[tuple[list[str], dict[str, str]]] = [(["--config", str(config)], {})]
+    if flag[0] != "--port":  # --port alone means one bus from flags
+        ways.append(([], {"USS_CONFIG": str(config)}))  # the file the other commands read
+    for args, env in ways:
+        result = subprocess.run(
+            [*USS, "gateway", *args, *flag],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            env={**os.environ, **env},
+        )
+        assert result.returncode == 2, result.stderr
+        (line,) = result.stderr.splitlines()
+        assert line.startswith(f"uss gateway: {flag[0]}: ") and str(config) in line, line
