@@ -90,12 +90,29 @@ def test_bad_configuration_names_the_key(change: tuple[str, str], message: str) 
         ('[opcua]\nsecurity = ["Basic256Sha256_Sign"]\n', "opcua.security:"),
         ('[opcua]\nanonymous = "admin"\n', "opcua.anonymous:"),
         ("[gateway]\n", "gateway: unknown key"),
+        # what would be left unapplied, or applied otherwise than written
+        ('[mqtt]\nclient_id = "{bus!r:>99999999}"\n', "mqtt.client_id: "),
+        ('[mqtt]\nclient_id = "{bus.__class__}"\n', "mqtt.client_id: "),
+        (f'[mqtt]\nkey = "{__file__}"\n', "mqtt.key: is the key of a client certificate"),
+        ("[mqtt]\ninsecure = true\n", "mqtt.insecure: skips the checks of TLS"),
+        ("[mqtt]\nreconnect = 1e300\n", "mqtt.reconnect: 1e+300 s is more than"),
+        ('[mqtt]\nprefix = "$SYS/uss"\n', "mqtt.prefix: '$SYS/uss': topics that start with $"),
+        ('[mqtt]\ndiscovery_prefix = "$ha"\n', "mqtt.discovery_prefix: "),
+        ('[mqtt]\nprefix = "u\\u0000s"\n', "mqtt.prefix: 'u\\x00s': no control characters"),
     ],
 )
 def test_bad_face_options_name_the_key(extra: str, message: str) -> None:
     with pytest.raises(ConfigError) as error:
         parse_config(tomllib.loads(GOOD + extra))
     assert message in str(error.value)
+
+
+def test_face_options_that_fit_are_taken() -> None:
+    tls = (
+        f'[mqtt]\nbroker = "mqtts://b"\ninsecure = true\ncert = "{__file__}"\nkey = "{__file__}"\n'
+    )
+    for extra in (tls, '[mqtt]\nclient_id = "plant-{bus}-gw"\nreconnect = 60\n'):
+        assert parse_config(tomllib.loads(GOOD + extra)).mqtt is not None
 
 
 GENERIC = {"profile": "generic"}  # the facts refused on below are the generic profile's

@@ -62,6 +62,8 @@ __all__ = [
 DEFAULT_MODBUS = "127.0.0.1:5020"
 DEFAULT_MQTT = "mqtt://127.0.0.1:1883"
 DEFAULT_OPCUA = "opc.tcp://127.0.0.1:4840"
+RECONNECT_MAX = 60.0
+"""The longest wait between two tries to reach the MQTT broker (seconds)."""
 SECURITY_POLICIES = ("None", "Basic256Sha256_Sign", "Basic256Sha256_SignAndEncrypt")
 ANONYMOUS = ("read", "write", "none")
 
@@ -153,6 +155,10 @@ def _topic_part(value: object, where: Where, *, slashes: bool = False) -> str:
     bad = "+#" if slashes else "+#/"
     if any(c in text for c in bad) or text.startswith("/") or text.endswith("/"):
         raise where.error(f"{text!r} cannot be part of an MQTT topic (no {' '.join(bad)})")
+    if text.startswith("$"):
+        raise where.error(f"{text!r}: topics that start with $ are the broker's (MQTT 5.0 4.7.2)")
+    if any(ord(c) < 0x20 or 0x7F <= ord(c) < 0xA0 for c in text):
+        raise where.error(f"{text!r}: no control characters in an MQTT topic (MQTT 5.0 1.5.4)")
     return text
 
 
@@ -213,12 +219,24 @@ def mqtt_options(table: Mapping[str, Any], where: Where, base: Path | None = Non
     if password is not None and username is None:
         raise where.key("password").error("a password needs a username")
     client_id = where.key("client_id").text(table.get("client_id", "pyuss-{bus}"))
-    try:
-        client_id.format(bus="x")
-    except (KeyError, IndexError, ValueError):
-        raise where.key("client_id").error("may only use {bus}") from None
+    rest = client_id.replace("{bus}", "")
+    if "{" in rest or "}" in rest:
+        raise where.key("client_id").error(f"{client_id!r}: may only use {{bus}}, as it is")
+    if len(rest.encode()) > 128:
+        raise where.key("client_id").error("is longer than 128 bytes besides {bus}")
     keepalive = where.key("keepalive").integer(table.get("keepalive", 30), 5, 3600)
     reconnect = where.key("reconnect").seconds(table.get("reconnect", 1.0))
+    if reconnect > RECONNECT_MAX:
+        raise where.key("reconnect").error(
+            f"{reconnect:g} s is more than the longest wait between tries, {RECONNECT_MAX:g} s"
+        )
+    if "key" in table and "cert" not in table:
+        raise where.key("key").error("is the key of a client certificate: give cert too")
+    tls = endpoint.tls or "ca" in table or "cert" in table
+    if "insecure" in table and not tls:
+        raise where.key("insecure").error(
+            "skips the checks of TLS, which this broker's address does not use (mqtts://)"
+        )
     return MqttOptions(
         endpoint=endpoint,
         prefix=_topic_part(table.get("prefix", "uss"), where.key("prefix"), slashes=True),

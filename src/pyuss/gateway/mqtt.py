@@ -64,7 +64,7 @@ from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from pyuss.errors import ConfigError, UssError
 from pyuss.gateway.announce import gateway_payload, gateway_topic
-from pyuss.gateway.config import MqttOptions
+from pyuss.gateway.config import RECONNECT_MAX, MqttOptions
 from pyuss.gateway.topics import (
     Command,
     CommandError,
@@ -104,8 +104,6 @@ QUEUE = 100
 SUBSCRIBE = SubscribeOptions(qos=1, noLocal=True, retainAsPublished=True)
 """Command subscriptions: QoS 1; what the face publishes never comes back to it; a retained
 command keeps its retain flag whenever it is delivered."""
-RECONNECT_MAX = 60.0
-"""The longest wait between two tries to reach the broker (seconds)."""
 
 
 def _error(kind: str, message: str, failure: str = "refused") -> dict[str, Any]:
