@@ -300,6 +300,36 @@ async def test_of_two_gateways_of_one_bus_under_their_own_client_ids_the_newer_a
             assert new.taken_over is None and new.connections == 1
 
 
+async def test_a_stop_answers_every_command_and_cuts_none_off(broker: Broker) -> None:
+    # commands in flight and waiting when the gateway stops (SIGTERM): the one being carried
+    # out finishes and is answered, the waiting ones are refused, and the drive holds the
+    # value of the last write answered ok
+    replies: dict[str, dict[str, Any]] = {}
+
+    def on(topic: str, payload: bytes) -> None:
+        reply = json.loads(payload)
+        assert reply["id"] not in replies, reply  # one reply each
+        replies[reply["id"]] = reply
+
+    sent = [f"w{value}" for value in range(1, 61)]
+    async with subscribed(broker, "uss/bus/drive5/reply", on=on):
+        async with simulated_gateway(mqtt=broker.url) as (gateway, engines):
+            face = gateway.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
+            async with aiomqtt.Client("127.0.0.1", broker.port) as client:
+                for value, ident in enumerate(sent, 1):
+                    payload = json.dumps({"id": ident, "pnu": 18, "value": value})
+                    await client.publish("uss/bus/drive5/cmd/write", payload, qos=1)
+                # all in the gateway's hands, some waiting: a write takes a bus cycle or two
+                await eventually(lambda: len(face._pending) + len(face._done) == len(sent))
+                assert len(face._pending) > 1
+        await eventually(lambda: len(replies) == len(sent))
+    done = [int(ident[1:]) for ident in sent if replies[ident]["ok"]]
+    refused = [replies[ident]["error"] for ident in sent if not replies[ident]["ok"]]
+    assert done and refused
+    assert all(e["class"] == "unavailable" and "stopping" in e["message"] for e in refused)
+    assert engines[5].drive.value(18) == max(done)
+
+
 async def test_stopping_the_gateway_says_offline(broker: Broker) -> None:
     async with simulated_gateway(mqtt=broker.url) as _:
         pass

@@ -30,7 +30,9 @@ this module is the client around them:
   once (`pyuss.gateway.topics`), its reply kept for repeats (the last 1000 ids per bus).
 - Its socket sends each packet at once (`send_at_once`: no Nagle delay behind the broker's
   acknowledgement of the packet before).
-- On stop it publishes ``offline`` itself and disconnects.
+- On stop it refuses the commands that wait or come, lets each drive's command being
+  carried out finish and reply (`MqttBusFace._finish`), publishes ``offline`` itself and
+  disconnects.
 - One gateway per bus on a broker: its gateway message carries when it started (the user
   property `INSTANCE`); a face that sees the message of a gateway of its bus started after it
   stops connecting (`TakenOver`), so two gateways never both take a bus's commands nor take
@@ -101,6 +103,8 @@ OUTBOX = 1000
 """Replies kept while the broker cannot be reached (the oldest are dropped first)."""
 QUEUE = 100
 """Commands waiting per drive; more are answered with a refusal."""
+STOP_WAIT = 5.0
+"""Seconds a stop waits for the commands being carried out to finish and reply."""
 SUBSCRIBE = SubscribeOptions(qos=1, noLocal=True, retainAsPublished=True)
 """Command subscriptions: QoS 1; what the face publishes never comes back to it; a retained
 command keeps its retain flag whenever it is delivered."""
@@ -109,6 +113,11 @@ command keeps its retain flag whenever it is delivered."""
 def _error(kind: str, message: str, failure: str = "refused") -> dict[str, Any]:
     """An error of a reply that no exception stands for (same keys as `error_dict`)."""
     return {"type": kind, "message": message, "class": failure}
+
+
+def _stopping() -> dict[str, Any]:
+    """The refusal of a command that comes or waits while the gateway stops."""
+    return _error("Stopping", "the gateway is stopping: not carried out", "unavailable")
 
 
 def _tls(options: MqttOptions) -> ssl.SSLContext | None:
@@ -167,6 +176,9 @@ class _DriveWorker:
         self.published: dict[str, Any] = {}
         self.discovery_key: object = None
         self.payloads = StatePayloads()
+        self.idle = asyncio.Event()
+        """Set while no command is being carried out (and its reply sent)."""
+        self.idle.set()
 
     async def publish_state(self, state: DriveState) -> None:
         face = self.face
@@ -211,7 +223,9 @@ class _DriveWorker:
 
     async def commands(self) -> None:
         while True:
+            self.idle.set()
             command = await self.queue.get()
+            self.idle.clear()
             reply = await self.carry_out(command)
             self.face.remember(command, reply)
             try:
@@ -298,6 +312,7 @@ class MqttBusFace:
         self.attempts = 0
         """Failed tries to reach the broker since it was last connected."""
         self._lost = False
+        self._closing = False
         self.taken_over: str | None = None
         """Why the face stopped connecting: another gateway of its bus (`TakenOver`)."""
         self.instance = f"{time.time_ns():020d}-{secrets.token_hex(4)}"
@@ -435,6 +450,9 @@ class MqttBusFace:
         if retained:
             message = "a retained message never acts: publish commands without the retain flag"
             await self._refuse(command, _error("Retained", message), worker.topics.reply)
+            return
+        if self._closing:
+            await self._refuse(command, _stopping(), worker.topics.reply)
             return
         if command.id is not None:
             key = (command.drive, command.id)
@@ -626,8 +644,26 @@ class MqttBusFace:
             self._tasks.append(asyncio.create_task(worker.commands()))
         self._runner = asyncio.create_task(self.run(), name=f"mqtt {self.bus.name}")
 
+    async def _finish(self) -> None:
+        """Take no more commands, refuse those waiting and let the one being carried out of
+        each drive finish and reply (bounded by `STOP_WAIT`): a client is answered for every
+        command, and none is cut off between its check and its telegram."""
+        self._closing = True
+        for worker in self.workers.values():
+            while not worker.queue.empty():
+                command = worker.queue.get_nowait()
+                reply = reply_payload(command, error=_stopping())
+                self.remember(command, reply)
+                await self.reply(command, reply, worker.topics.reply)
+        with contextlib.suppress(TimeoutError):
+            async with asyncio.timeout(STOP_WAIT):
+                for worker in self.workers.values():
+                    await worker.idle.wait()
+
     async def close(self) -> None:
-        """Stop publishing, publish each drive's last state and ``offline``, disconnect."""
+        """Finish the commands (`_finish`), stop publishing, publish each drive's last state
+        and ``offline``, disconnect."""
+        await self._finish()
         for task in self._tasks:
             task.cancel()
         if self._tasks:
