@@ -4,6 +4,7 @@ anything is opened; endpoint addresses are parsed in one place."""
 from __future__ import annotations
 
 import tomllib
+from pathlib import Path
 
 import pytest
 from hypothesis import given
@@ -159,6 +160,28 @@ def test_setpoints_that_share_a_process_word_are_refused(setpoints: list[object]
     # actual values may show one word twice: reading moves nothing
     drive = {"address": 1, "layout": "4,4", "actual": setpoints}
     assert len(parse_plant([{"port": "x", "drive": [drive]}]).buses[0].drives[0].actual) == 2
+
+
+def test_two_buses_on_one_line_are_refused_however_the_port_is_written(tmp_path: Path) -> None:
+    # two masters on one RS-485 line: each one's telegrams garble the other's
+    device = tmp_path / "ttyUSB0"
+    device.touch()
+    link = tmp_path / "usb-FTDI-port0"
+    link.symlink_to(device)
+    for one, two in (
+        (str(device), str(link)),
+        (str(device), f"{device}?rs485=rts"),
+        ("bus://127.0.0.1:4000", "bus://127.0.0.1:4000?name=second"),
+        ("tcp://Converter:4001", "tcp://converter:4001?echo=1"),
+    ):
+        buses = [
+            {"name": "a", "port": one, "drive": [{"address": 1}]},
+            {"name": "b", "port": two, "drive": [{"address": 2}]},
+        ]
+        with pytest.raises(ConfigError, match=r"^bus\[1\]\.port: .*one master per line"):
+            parse_plant(buses)
+    buses[1]["port"] = "tcp://converter:4002"
+    assert len(parse_plant(buses).buses) == 2
 
 
 def test_flags_name_the_flag() -> None:

@@ -35,7 +35,9 @@ as the commands take a drive without ``--profile``.
 from __future__ import annotations
 
 import math
+import os
 import re
+import urllib.parse
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -405,6 +407,17 @@ def _bus(value: object, where: Where, number: int, face_keys: Sequence[str]) -> 
     )
 
 
+def _line(port: str) -> str:
+    """The line a port URL opens, to find two buses on one: a device path resolved through
+    its links (``/dev/serial/by-id/...`` is a ``/dev/ttyUSB0``), a URL without its options
+    (``?rs485=rts``, ``?name=``)."""
+    if "://" not in port:
+        path = port.split("?", 1)[0]
+        return os.path.realpath(path) if os.path.isabs(path) else path
+    parts = urllib.parse.urlsplit(port)
+    return f"{parts.scheme.lower()}://{parts.netloc.lower()}{parts.path}"
+
+
 def parse_plant(
     buses: object, where: Where | None = None, *, face_keys: Sequence[str] = ()
 ) -> PlantConfig:
@@ -421,6 +434,15 @@ def parse_plant(
                 raise where.key(number).key("name").error(f"bus name {bus.name!r} is used twice")
             if other.port == bus.port:
                 raise where.key(number).key("port").error(f"port {bus.port!r} is used twice")
+            if _line(other.port) == _line(bus.port):
+                raise (
+                    where.key(number)
+                    .key("port")
+                    .error(
+                        f"{bus.port!r} is the line of bus {other.name!r} ({other.port!r}) too: "
+                        "one master per line"
+                    )
+                )
         found.append(bus)
     return PlantConfig(tuple(found))
 
