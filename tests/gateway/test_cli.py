@@ -137,6 +137,13 @@ def test_bus_simulator_and_gateway_as_separate_processes(broker: Broker) -> None
         (["--port", "/dev/null", "--address", "5", "--modbus", "host:99999"], "--modbus:"),
         (["--port", "/dev/null", "--address", "5", "--mqtt", "ftp://x"], "--mqtt:"),
         (["--config", "/nonexistent.toml"], "cannot read the configuration"),
+        (  # two faces on one port: refused before either listens, not by the second's bind
+            [
+                *("--port", "/dev/ttyNOPE", "--address", "5", "--modbus", "127.0.0.1:5999"),
+                *("--opcua", "opc.tcp://0.0.0.0:5999"),
+            ],
+            "opcua opc.tcp://0.0.0.0:5999 and modbus modbus://127.0.0.1:5999 listen on one port",
+        ),
     ],
 )
 def test_bad_configuration_is_one_line_and_exit_code_2(args: list[str], message: str) -> None:
@@ -238,3 +245,26 @@ def test_a_bus_flag_beside_a_configuration_file_is_refused_not_left_unapplied(
         assert result.returncode == 2, result.stderr
         (line,) = result.stderr.splitlines()
         assert line.startswith(f"uss gateway: {flag[0]}: ") and str(config) in line, line
+
+
+def test_two_buses_with_one_modbus_address_are_refused_before_any_port_opens(
+    tmp_path: Path,
+) -> None:
+    config = tmp_path / "plant.toml"
+    config.write_text(
+        "".join(
+            f'[[bus]]\nname = "{name}"\nport = "/dev/ttyNOPE{name}"\nmodbus = "127.0.0.1:5998"\n'
+            f"[[bus.drive]]\naddress = {address}\n"
+            for name, address in (("line1", 5), ("line2", 6))
+        )
+        + "[modbus]\n",
+        encoding="utf-8",
+    )
+    result = subprocess.run(
+        [*USS, "gateway", "--config", str(config)], capture_output=True, text=True, timeout=60
+    )
+    assert result.returncode == 2
+    assert result.stderr.strip() == (
+        "uss gateway: modbus line2 modbus://127.0.0.1:5998 and modbus line1 "
+        "modbus://127.0.0.1:5998 listen on one port: give each face and bus an address of its own"
+    )

@@ -55,6 +55,8 @@ __all__ = [
     "ModbusOptions",
     "MqttOptions",
     "OpcuaOptions",
+    "check_listening",
+    "listening",
     "load_config",
     "parse_config",
 ]
@@ -333,6 +335,39 @@ def parse_config(data: Mapping[str, Any], base: Path | None = None) -> GatewayCo
         if name in data:
             config = config.with_face(name, spec.read(data[name], Where(name), plant, base))
     return config
+
+
+def listening(config: GatewayConfig) -> list[tuple[str, Endpoint]]:
+    """The addresses pyuss's faces listen on, each with the face's name as printed (``modbus
+    line1``: a bus's own Modbus server); a shared Modbus address no bus uses is left out."""
+    found: list[tuple[str, Endpoint]] = []
+    if config.modbus is not None:
+        own = config.modbus.bus_endpoints
+        if any(bus.name not in own for bus in config.plant.buses):
+            found.append(("modbus", config.modbus.endpoint))
+        found.extend((f"modbus {bus}", endpoint) for bus, endpoint in own.items())
+    if config.opcua is not None:
+        found.append(("opcua", config.opcua.endpoint))
+    return found
+
+
+def check_listening(config: GatewayConfig) -> None:
+    """`ConfigError` if two faces would listen on one port of one host (or one of them on
+    every interface), found before any port opens."""
+    seen: list[tuple[str, Endpoint]] = []
+    for name, endpoint in listening(config):
+        for other, there in seen:
+            wildcard = {endpoint.host, there.host} & {"0.0.0.0", "::", ""}
+            if (
+                endpoint.port
+                and endpoint.port == there.port
+                and (endpoint.host == there.host or wildcard)
+            ):
+                raise ConfigError(
+                    f"{name} {endpoint} and {other} {there} listen on one port: give each "
+                    "face and bus an address of its own"
+                )
+        seen.append((name, endpoint))
 
 
 def load_config(path: str | Path) -> GatewayConfig:
