@@ -108,6 +108,23 @@ def test_bad_face_options_name_the_key(extra: str, message: str) -> None:
     assert message in str(error.value)
 
 
+def test_a_bus_key_of_a_face_without_its_table_is_refused_not_left_unapplied() -> None:
+    own = GOOD.replace("[[bus.drive]]", 'modbus = "127.0.0.1:5021"\n[[bus.drive]]')
+    with pytest.raises(ConfigError, match=r"^bus\[0\]\.modbus: belongs to the modbus face"):
+        parse_config(tomllib.loads(own + "[mqtt]\n"))
+    assert parse_config(tomllib.loads(own + "[modbus]\n")).modbus is not None
+
+
+def test_two_drives_that_would_be_one_home_assistant_device_are_refused() -> None:
+    two = GOOD.replace('name = "line1"', 'name = "line_1"') + (
+        '[[bus]]\nname = "line"\nport = "bus://127.0.0.1:4001"\n'
+        '[[bus.drive]]\naddress = 5\nname = "1_conveyor"\n'
+    )
+    with pytest.raises(ConfigError, match=r"^bus\[1\]\.drive\[0\]\.name: .*pyuss_line_1_conveyor"):
+        parse_config(tomllib.loads(two + "[mqtt]\n"))
+    assert parse_config(tomllib.loads(two + "[mqtt]\ndiscovery = false\n")).mqtt is not None
+
+
 def test_face_options_that_fit_are_taken() -> None:
     tls = (
         f'[mqtt]\nbroker = "mqtts://b"\ninsecure = true\ncert = "{__file__}"\nkey = "{__file__}"\n'

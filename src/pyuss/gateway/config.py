@@ -334,7 +334,45 @@ def parse_config(data: Mapping[str, Any], base: Path | None = None) -> GatewayCo
     for name, spec in registry.items():
         if name in data:
             config = config.with_face(name, spec.read(data[name], Where(name), plant, base))
+            continue
+        for number, bus in enumerate(plant.buses):
+            for key in spec.bus_keys:
+                if key in bus.extra:  # would be left unapplied: no such face starts
+                    raise (
+                        Where("bus")
+                        .key(number)
+                        .key(key)
+                        .error(
+                            f"belongs to the {name} face, which has no [{name}] table: add one "
+                            "(it may be empty)"
+                        )
+                    )
+    if config.mqtt is not None and config.mqtt.discovery:
+        _distinct_devices(plant)
     return config
+
+
+def _distinct_devices(plant: PlantConfig) -> None:
+    """`ConfigError` if two drives would be one Home Assistant device (``pyuss_BUS_DRIVE``:
+    bus ``a_b`` and drive ``c`` of bus ``a`` named ``b_c``): the discovery messages of the
+    one would replace the other's."""
+    seen: dict[str, str] = {}
+    for number, bus in enumerate(plant.buses):
+        for index, drive in enumerate(bus.drives):
+            node = f"pyuss_{bus.name}_{drive.name}"
+            if node in seen:
+                raise (
+                    Where("bus")
+                    .key(number)
+                    .key("drive")
+                    .key(index)
+                    .key("name")
+                    .error(
+                        f"drive {drive.name!r} of bus {bus.name!r} and drive {seen[node]} would "
+                        f"be one Home Assistant device ({node}): rename one"
+                    )
+                )
+            seen[node] = f"{drive.name!r} of bus {bus.name!r}"
 
 
 def listening(config: GatewayConfig) -> list[tuple[str, Endpoint]]:
