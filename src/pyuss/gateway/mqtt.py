@@ -696,7 +696,7 @@ class MqttBusFace:
                 runner.cancel()
 
 
-class TakenOver(Exception):
+class TakenOver(UssError):
     """Another gateway of the same bus (prefix and bus name) publishes on the broker."""
 
 
