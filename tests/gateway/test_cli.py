@@ -268,3 +268,24 @@ def test_two_buses_with_one_modbus_address_are_refused_before_any_port_opens(
         "uss gateway: modbus line2 modbus://127.0.0.1:5998 and modbus line1 "
         "modbus://127.0.0.1:5998 listen on one port: give each face and bus an address of its own"
     )
+
+
+def test_the_mqtt_flag_beside_a_file_keeps_the_files_login(tmp_path: Path) -> None:
+    from pyuss.cli.gateway import build_config
+    from pyuss.cli.main import build_parser
+
+    config = tmp_path / "plant.toml"
+    config.write_text(
+        '[[bus]]\nport = "/dev/ttyNOPE"\n[[bus.drive]]\naddress = 5\n'
+        '[mqtt]\nbroker = "mqtt://broker.plant"\nusername = "gw"\npassword = "secret"\n',
+        encoding="utf-8",
+    )
+    parser = build_parser("gateway")
+    for url, login in (
+        ("mqtt://test-broker:1884", ("gw", "secret")),  # another broker, the same login
+        ("mqtt://other:pw@test-broker", ("other", "pw")),  # the URL's own login
+    ):
+        args = parser.parse_args(["gateway", "--config", str(config), "--mqtt", url])
+        options = build_config(args).mqtt
+        assert options.endpoint.host == "test-broker"
+        assert (options.username, options.password) == login
