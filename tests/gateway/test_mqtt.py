@@ -224,6 +224,36 @@ async def test_no_command_is_applied_twice_over_a_broker_restart(broker: Broker)
     assert engines[5].drive.value(18) == 10
 
 
+async def test_commands_waiting_when_the_broker_is_lost_never_act_and_are_answered(
+    broker: Broker,
+) -> None:
+    # the broker's last will told everyone the gateway is offline: a command that waited for
+    # its drive must not act while the gateway is away or once it is back
+    async with simulated_gateway(mqtt=broker.url) as (gateway, engines):
+        face = gateway.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
+        sent = [f"w{value}" for value in range(1, 61)]
+        async with aiomqtt.Client("127.0.0.1", broker.port) as client:
+            for value, ident in enumerate(sent, 1):
+                payload = json.dumps({"id": ident, "pnu": 18, "value": value})
+                await client.publish("uss/bus/drive5/cmd/write", payload, qos=1)
+            await eventually(lambda: len(face._pending) + len(face._done) == len(sent))
+            assert len(face._pending) > 1
+            broker.stop()
+        await eventually(lambda: not face.connected.is_set())
+        await eventually(lambda: not face._pending)  # each has its reply
+        kept = engines[5].drive.value(18)
+        broker.start()
+        await eventually(lambda: face.connections == 2, timeout=20)
+        async with MqttClient(gateway) as client:  # served again
+            assert (await client.read_parameter(5, 107))[0] == 50.0
+        assert engines[5].drive.value(18) == kept  # nothing of what waited acted since
+    replies = [face._done[("drive5", ident)] for ident in sent]
+    done = [int(r["id"][1:]) for r in replies if r["ok"]]
+    refused = [r["error"] for r in replies if not r["ok"]]
+    assert refused and all(e["class"] == "unavailable" for e in refused)
+    assert kept == max(done)
+
+
 async def test_two_gateways_share_one_broker_and_one_client_commands_every_drive(
     broker: Broker,
 ) -> None:

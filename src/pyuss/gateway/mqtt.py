@@ -8,7 +8,9 @@ this module is the client around them:
   subscribes to the command topics with QoS 1, "no local" (what it publishes itself never
   comes back to it) and "retain as published" (a command published retained is seen as
   such however it arrives). So only commands sent while it is connected reach it: the broker
-  keeps none for it while it is away, and none is delivered again after a reconnection.
+  keeps none for it while it is away, and none is delivered again after a reconnection;
+  those that wait for their drive when the connection is lost are refused, not carried out
+  while the gateway is away or once it is back.
 - A retained command never acts, nor one whose reply topic could act (`check_reply_to`);
   every message is parsed within bounds (`pyuss.gateway.topics.MAX_PAYLOAD` and the rest).
   Such a message gets an error reply and one log line; nothing a message holds ends the
@@ -113,6 +115,15 @@ command keeps its retain flag whenever it is delivered."""
 def _error(kind: str, message: str, failure: str = "refused") -> dict[str, Any]:
     """An error of a reply that no exception stands for (same keys as `error_dict`)."""
     return {"type": kind, "message": message, "class": failure}
+
+
+def _lost_link() -> dict[str, Any]:
+    """The refusal of a command that waited for its drive when the broker was lost."""
+    return _error(
+        "Disconnected",
+        "the connection to the MQTT broker was lost before it was carried out: not carried out",
+        "unavailable",
+    )
 
 
 def _stopping() -> dict[str, Any]:
@@ -592,6 +603,10 @@ class MqttBusFace:
             self._client = None
             if consume is not None and not consume.done():
                 consume.cancel()
+            if not self._closing:
+                # its sender saw offline (the last will) and may have done otherwise since:
+                # a command that waited must not act while, or after, the gateway was away
+                await self._refuse_waiting(_lost_link())
 
     async def run(self) -> None:
         """Stay connected until `close`: after a loss, try again after `MqttOptions.reconnect`
@@ -644,17 +659,22 @@ class MqttBusFace:
             self._tasks.append(asyncio.create_task(worker.commands()))
         self._runner = asyncio.create_task(self.run(), name=f"mqtt {self.bus.name}")
 
+    async def _refuse_waiting(self, error: dict[str, Any]) -> None:
+        """Refuse the commands that wait for their drive, each with a reply (sent, or kept
+        for the next connection)."""
+        for worker in self.workers.values():
+            while not worker.queue.empty():
+                command = worker.queue.get_nowait()
+                reply = reply_payload(command, error=error)
+                self.remember(command, reply)
+                await self.reply(command, reply, worker.topics.reply)
+
     async def _finish(self) -> None:
         """Take no more commands, refuse those waiting and let the one being carried out of
         each drive finish and reply (bounded by `STOP_WAIT`): a client is answered for every
         command, and none is cut off between its check and its telegram."""
         self._closing = True
-        for worker in self.workers.values():
-            while not worker.queue.empty():
-                command = worker.queue.get_nowait()
-                reply = reply_payload(command, error=_stopping())
-                self.remember(command, reply)
-                await self.reply(command, reply, worker.topics.reply)
+        await self._refuse_waiting(_stopping())
         with contextlib.suppress(TimeoutError):
             async with asyncio.timeout(STOP_WAIT):
                 for worker in self.workers.values():
