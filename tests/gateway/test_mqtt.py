@@ -224,6 +224,19 @@ async def test_no_command_is_applied_twice_over_a_broker_restart(broker: Broker)
     assert engines[5].drive.value(18) == 10
 
 
+async def writes_waiting(broker: Broker, face: Any) -> list[str]:
+    """60 writes of P18 (values 1..60, ids w1..w60) to drive 5, returned once the face has
+    them all and some still wait for the drive (a write takes a bus cycle or two)."""
+    sent = [f"w{value}" for value in range(1, 61)]
+    async with aiomqtt.Client("127.0.0.1", broker.port) as client:
+        for value, ident in enumerate(sent, 1):
+            payload = json.dumps({"id": ident, "pnu": 18, "value": value})
+            await client.publish("uss/bus/drive5/cmd/write", payload, qos=1)
+        await eventually(lambda: len(face._pending) + len(face._done) == len(sent))
+    assert len(face._pending) > 1
+    return sent
+
+
 async def test_commands_waiting_when_the_broker_is_lost_never_act_and_are_answered(
     broker: Broker,
 ) -> None:
@@ -231,14 +244,8 @@ async def test_commands_waiting_when_the_broker_is_lost_never_act_and_are_answer
     # its drive must not act while the gateway is away or once it is back
     async with simulated_gateway(mqtt=broker.url) as (gateway, engines):
         face = gateway.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
-        sent = [f"w{value}" for value in range(1, 61)]
-        async with aiomqtt.Client("127.0.0.1", broker.port) as client:
-            for value, ident in enumerate(sent, 1):
-                payload = json.dumps({"id": ident, "pnu": 18, "value": value})
-                await client.publish("uss/bus/drive5/cmd/write", payload, qos=1)
-            await eventually(lambda: len(face._pending) + len(face._done) == len(sent))
-            assert len(face._pending) > 1
-            broker.stop()
+        sent = await writes_waiting(broker, face)
+        broker.stop()
         await eventually(lambda: not face.connected.is_set())
         await eventually(lambda: not face._pending)  # each has its reply
         kept = engines[5].drive.value(18)
@@ -345,14 +352,8 @@ async def test_a_stop_answers_every_command_and_cuts_none_off(broker: Broker) ->
     async with subscribed(broker, "uss/bus/drive5/reply", on=on):
         async with simulated_gateway(mqtt=broker.url) as (gateway, engines):
             face = gateway.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
-            async with aiomqtt.Client("127.0.0.1", broker.port) as client:
-                for value, ident in enumerate(sent, 1):
-                    payload = json.dumps({"id": ident, "pnu": 18, "value": value})
-                    await client.publish("uss/bus/drive5/cmd/write", payload, qos=1)
-                # all in the gateway's hands, some waiting: a write takes a bus cycle or two
-                await eventually(lambda: len(face._pending) + len(face._done) == len(sent))
-                assert len(face._pending) > 1
-        await eventually(lambda: len(replies) == len(sent))
+            assert await writes_waiting(broker, face) == sent
+        await eventually(lambda: len(replies) == len(sent), timeout=30)
     done = [int(ident[1:]) for ident in sent if replies[ident]["ok"]]
     refused = [replies[ident]["error"] for ident in sent if not replies[ident]["ok"]]
     assert done and refused
