@@ -92,6 +92,7 @@ async def simulated_gateway(
     read_only: bool = False,
     users: dict[str, str] | None = None,
     parameters: Sequence[str] = ("107",),
+    client_id: str = "pyuss-{bus}",
 ) -> AsyncIterator[tuple[Gateway, dict[int, SlaveEngine]]]:
     """Simulated drives (generic profile, layout 4,2) on a virtual bus and a gateway over them."""
     bus = VirtualBus(BAUD)
@@ -113,7 +114,11 @@ async def simulated_gateway(
         if modbus
         else None,
         mqtt=MqttOptions(
-            parse_endpoint(mqtt, "mqtt"), read_only=read_only, reconnect=0.2, keepalive=5
+            parse_endpoint(mqtt, "mqtt"),
+            read_only=read_only,
+            reconnect=0.2,
+            keepalive=5,
+            client_id=client_id,
         )
         if mqtt
         else None,

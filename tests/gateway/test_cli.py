@@ -4,6 +4,7 @@ the gateway; bad configuration refused before any port opens; SIGTERM stops it c
 from __future__ import annotations
 
 import json
+import os
 import struct
 import subprocess
 import sys
@@ -136,6 +137,13 @@ def test_bus_simulator_and_gateway_as_separate_processes(broker: Broker) -> None
         (["--port", "/dev/null", "--address", "5", "--modbus", "host:99999"], "--modbus:"),
         (["--port", "/dev/null", "--address", "5", "--mqtt", "ftp://x"], "--mqtt:"),
         (["--config", "/nonexistent.toml"], "cannot read the configuration"),
+        (  # two faces on one port: refused before either listens, not by the second's bind
+            [
+                *("--port", "/dev/ttyNOPE", "--address", "5", "--modbus", "127.0.0.1:5999"),
+                *("--opcua", "opc.tcp://0.0.0.0:5999"),
+            ],
+            "opcua opc.tcp://0.0.0.0:5999 and modbus modbus://127.0.0.1:5999 listen on one port",
+        ),
     ],
 )
 def test_bad_configuration_is_one_line_and_exit_code_2(args: list[str], message: str) -> None:
@@ -200,3 +208,84 @@ def test_a_bad_parameter_of_a_siemens_drive_is_named_as_its_documents_write_it(
         f"uss gateway: {config}: bus[0].drive[0].parameters[0]: r0947 (Fault numbers) is an "
         "array of 8: name an element (r0947.0)"
     )
+
+
+@pytest.mark.parametrize(
+    "flag",
+    [
+        ["--baud", "38400"],
+        ["--profile", "nord"],
+        ["--layout", "4,2"],
+        ["--cycle-time", "0.1"],
+        ["--bus-name", "line9"],
+        ["--address", "6"],
+        ["--parameter", "107"],
+        ["--port", "/dev/null"],
+    ],
+)
+def test_a_bus_flag_beside_a_configuration_file_is_refused_not_left_unapplied(
+    tmp_path: Path, flag: list[str]
+) -> None:
+    # the file's bus at 9600 baud with --baud 38400 would have run at 9600 without a word
+    config = tmp_path / "plant.toml"
+    config.write_text(
+        '[[bus]]\nport = "/dev/ttyNOPE"\n[[bus.drive]]\naddress = 5\n[modbus]\n', encoding="utf-8"
+    )
+    ways: list[tuple[list[str], dict[str, str]]] = [(["--config", str(config)], {})]
+    if flag[0] != "--port":  # --port alone means one bus from flags
+        ways.append(([], {"USS_CONFIG": str(config)}))  # the file the other commands read
+    for args, env in ways:
+        result = subprocess.run(
+            [*USS, "gateway", *args, *flag],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            env={**os.environ, **env},
+        )
+        assert result.returncode == 2, result.stderr
+        (line,) = result.stderr.splitlines()
+        assert line.startswith(f"uss gateway: {flag[0]}: ") and str(config) in line, line
+
+
+def test_two_buses_with_one_modbus_address_are_refused_before_any_port_opens(
+    tmp_path: Path,
+) -> None:
+    config = tmp_path / "plant.toml"
+    config.write_text(
+        "".join(
+            f'[[bus]]\nname = "{name}"\nport = "/dev/ttyNOPE{name}"\nmodbus = "127.0.0.1:5998"\n'
+            f"[[bus.drive]]\naddress = {address}\n"
+            for name, address in (("line1", 5), ("line2", 6))
+        )
+        + "[modbus]\n",
+        encoding="utf-8",
+    )
+    result = subprocess.run(
+        [*USS, "gateway", "--config", str(config)], capture_output=True, text=True, timeout=60
+    )
+    assert result.returncode == 2
+    assert result.stderr.strip() == (
+        "uss gateway: modbus line2 modbus://127.0.0.1:5998 and modbus line1 "
+        "modbus://127.0.0.1:5998 listen on one port: give each face and bus an address of its own"
+    )
+
+
+def test_the_mqtt_flag_beside_a_file_keeps_the_files_login(tmp_path: Path) -> None:
+    from pyuss.cli.gateway import build_config
+    from pyuss.cli.main import build_parser
+
+    config = tmp_path / "plant.toml"
+    config.write_text(
+        '[[bus]]\nport = "/dev/ttyNOPE"\n[[bus.drive]]\naddress = 5\n'
+        '[mqtt]\nbroker = "mqtt://broker.plant"\nusername = "gw"\npassword = "secret"\n',
+        encoding="utf-8",
+    )
+    parser = build_parser("gateway")
+    for url, login in (
+        ("mqtt://test-broker:1884", ("gw", "secret")),  # another broker, the same login
+        ("mqtt://other:pw@test-broker", ("other", "pw")),  # the URL's own login
+    ):
+        args = parser.parse_args(["gateway", "--config", str(config), "--mqtt", url])
+        options = build_config(args).mqtt
+        assert options.endpoint.host == "test-broker"
+        assert (options.username, options.password) == login

@@ -144,6 +144,35 @@ def assert_unmoved(gateway: Gateway, engines: dict[int, SlaveEngine], taken: Tak
 
 
 # -- refused and partial writes --------------------------------------------------------------
+
+
+async def test_a_stop_lets_the_write_in_flight_go_out_whole_and_answers_it() -> None:
+    # SIGTERM between the parts of a write (its process data went out, its command not yet):
+    # the drive gets the whole request and the client its answer, never half and silence
+    async with simulated_gateway(modbus=True) as (gateway, engines):
+        taken = await standing(gateway, engines)
+        drive = engines[UNIT].drive
+        took = drive.apply_control
+        closing: list[asyncio.Task[None]] = []
+
+        def apply(control_word: int, setpoint: int | None, now: float, *, bits: int = 16) -> bool:
+            if setpoint == 0x1000 and not closing:  # the first part is on the line: stop now
+                closing.append(asyncio.get_running_loop().create_task(gateway.close()))
+            return took(control_word, setpoint, now, bits=bits)
+
+        drive.apply_control = apply  # type: ignore[method-assign]
+        async with raw(gateway) as peer:
+            request = struct.pack(">BHHB3H", 16, 0, 3, 6, STANDSTILL, 1, 0x1000)  # ..., ON
+            await peer.send(mbap(7, UNIT, request))
+            transaction, unit, pdu = await peer.answer()
+            assert (transaction, unit, pdu) == (7, UNIT, struct.pack(">BHH", 16, 0, 3))
+            assert closing
+            await closing[0]
+            assert await peer.closed()
+        assert 0x1000 in taken.setpoints()
+        assert drive.machine.control & 1  # the ON of the same request went out too
+
+
 async def test_a_refused_write_of_control_word_and_command_sends_nothing() -> None:
     # control word 047Fh with command 9 (no such command): exception 03, and 047Fh
     # never goes on the line, neither at once nor in the cycles after

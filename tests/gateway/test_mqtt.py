@@ -13,6 +13,7 @@ from collections.abc import AsyncIterator
 from typing import Any
 
 import aiomqtt
+import pytest
 
 from gateway import ha_schema
 from gateway.contract import problems
@@ -223,6 +224,43 @@ async def test_no_command_is_applied_twice_over_a_broker_restart(broker: Broker)
     assert engines[5].drive.value(18) == 10
 
 
+async def writes_waiting(broker: Broker, face: Any) -> list[str]:
+    """60 writes of P18 (values 1..60, ids w1..w60) to drive 5, returned once the face has
+    them all and some still wait for the drive (a write takes a bus cycle or two)."""
+    sent = [f"w{value}" for value in range(1, 61)]
+    async with aiomqtt.Client("127.0.0.1", broker.port) as client:
+        for value, ident in enumerate(sent, 1):
+            payload = json.dumps({"id": ident, "pnu": 18, "value": value})
+            await client.publish("uss/bus/drive5/cmd/write", payload, qos=1)
+        await eventually(lambda: len(face._pending) + len(face._done) == len(sent))
+    assert len(face._pending) > 1
+    return sent
+
+
+async def test_commands_waiting_when_the_broker_is_lost_never_act_and_are_answered(
+    broker: Broker,
+) -> None:
+    # the broker's last will told everyone the gateway is offline: a command that waited for
+    # its drive must not act while the gateway is away or once it is back
+    async with simulated_gateway(mqtt=broker.url) as (gateway, engines):
+        face = gateway.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
+        sent = await writes_waiting(broker, face)
+        broker.stop()
+        await eventually(lambda: not face.connected.is_set())
+        await eventually(lambda: not face._pending)  # each has its reply
+        kept = engines[5].drive.value(18)
+        broker.start()
+        await eventually(lambda: face.connections == 2, timeout=20)
+        async with MqttClient(gateway) as client:  # served again
+            assert (await client.read_parameter(5, 107))[0] == 50.0
+        assert engines[5].drive.value(18) == kept  # nothing of what waited acted since
+    replies = [face._done[("drive5", ident)] for ident in sent]
+    done = [int(r["id"][1:]) for r in replies if r["ok"]]
+    refused = [r["error"] for r in replies if not r["ok"]]
+    assert refused and all(e["class"] == "unavailable" for e in refused)
+    assert kept == max(done)
+
+
 async def test_two_gateways_share_one_broker_and_one_client_commands_every_drive(
     broker: Broker,
 ) -> None:
@@ -248,6 +286,79 @@ async def test_two_gateways_share_one_broker_and_one_client_commands_every_drive
         for engines, extra in ((engines1, 0), (engines2, 100)):
             assert engines[5].drive.value(3) == 500 + extra
             assert engines[6].drive.value(3) == 600 + extra
+
+
+async def test_a_second_gateway_of_the_same_bus_takes_the_session_and_the_first_never_takes_it_back(
+    broker: Broker, caplog: pytest.LogCaptureFixture
+) -> None:
+    # two gateways named alike (two lines both called "bus", say) share one client id: the
+    # broker ends the older one's connection; were it to connect again, the two would take
+    # the session from each other in turn, and a command would act on either line's drive
+    async with simulated_gateway(mqtt=broker.url) as (first, old_engines):
+        old = first.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
+        await eventually(lambda: old.connected.is_set())
+        async with simulated_gateway(mqtt=broker.url) as (second, new_engines):
+            new = second.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
+            await eventually(lambda: old.taken_over is not None)
+            assert "started after this one" in old.taken_over
+            runner = old._runner
+            assert runner is not None and runner.done()  # it tries no more
+            assert not old.connected.is_set()
+            await eventually(lambda: new.connected.is_set())
+            async with MqttClient(second) as client:
+                for address in (5, 6):
+                    await client.switch_on(address)
+                    await client.set_setpoint(address, 20.0)
+            assert new.taken_over is None and not old.connected.is_set()
+            for address in (5, 6):
+                assert new_engines[address].drive.machine.control & 1
+                assert not old_engines[address].drive.machine.control & 1
+                assert old_engines[address].drive.machine.setpoint == 0.0
+    lines = [r.getMessage() for r in caplog.records if r.name == "pyuss.gateway.mqtt"]
+    assert len([line for line in lines if "started after this one" in line]) == 1
+
+
+async def test_of_two_gateways_of_one_bus_under_their_own_client_ids_the_newer_alone_acts(
+    broker: Broker,
+) -> None:
+    # with client ids of their own both would stay connected and both would carry out every
+    # command: one command, two drives moved on two lines
+    async with simulated_gateway(mqtt=broker.url, client_id="gw-a-{bus}") as (first, old_engines):
+        old = first.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
+        await eventually(lambda: old.connected.is_set())
+        async with simulated_gateway(mqtt=broker.url, client_id="gw-b-{bus}") as (second, engines):
+            new = second.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
+            await eventually(lambda: old.taken_over is not None)
+            assert not old.connected.is_set() and new.connected.is_set()
+            async with MqttClient(second) as client:
+                await client.switch_on(5)
+            assert engines[5].drive.machine.control & 1
+            assert not old_engines[5].drive.machine.control & 1
+            assert new.taken_over is None and new.connections == 1
+
+
+async def test_a_stop_answers_every_command_and_cuts_none_off(broker: Broker) -> None:
+    # commands in flight and waiting when the gateway stops (SIGTERM): the one being carried
+    # out finishes and is answered, the waiting ones are refused, and the drive holds the
+    # value of the last write answered ok
+    replies: dict[str, dict[str, Any]] = {}
+
+    def on(topic: str, payload: bytes) -> None:
+        reply = json.loads(payload)
+        assert reply["id"] not in replies, reply  # one reply each
+        replies[reply["id"]] = reply
+
+    sent = [f"w{value}" for value in range(1, 61)]
+    async with subscribed(broker, "uss/bus/drive5/reply", on=on):
+        async with simulated_gateway(mqtt=broker.url) as (gateway, engines):
+            face = gateway.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
+            assert await writes_waiting(broker, face) == sent
+        await eventually(lambda: len(replies) == len(sent), timeout=30)
+    done = [int(ident[1:]) for ident in sent if replies[ident]["ok"]]
+    refused = [replies[ident]["error"] for ident in sent if not replies[ident]["ok"]]
+    assert done and refused
+    assert all(e["class"] == "unavailable" and "stopping" in e["message"] for e in refused)
+    assert engines[5].drive.value(18) == max(done)
 
 
 async def test_stopping_the_gateway_says_offline(broker: Broker) -> None:

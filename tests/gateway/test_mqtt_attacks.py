@@ -303,3 +303,31 @@ async def test_an_unreachable_broker_is_one_warning_and_the_face_connects_once_i
     assert len(warnings) == 4, warnings  # lost, back, lost, back
     assert "unreachable" in warnings[0] and "back" in warnings[1]
     assert "lost" in warnings[2] and "back" in warnings[3]
+
+
+async def test_a_broker_refusing_the_login_is_one_warning_naming_its_reason(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    caplog.set_level(logging.INFO, logger="pyuss.gateway.mqtt")
+    broker = Broker(tmp_path)
+    (tmp_path / "passwords").write_text("", encoding="utf-8")
+    text = broker.config.read_text(encoding="utf-8")
+    broker.config.write_text(
+        text.replace(
+            "allow_anonymous true", f"allow_anonymous false\npassword_file {tmp_path}/passwords"
+        ),
+        encoding="utf-8",
+    )
+    broker.start()
+    try:
+        async with simulated_gateway(mqtt=broker.url) as (gateway, engines):
+            face = face_of(gateway)
+            await eventually(lambda: face.attempts >= 3)
+            assert not face.connected.is_set()
+            assert all(not e.drive.machine.control & 1 for e in engines.values())
+    finally:
+        broker.stop()
+    lines = [r for r in caplog.records if r.name == "pyuss.gateway.mqtt"]
+    (warning,) = [r.getMessage() for r in lines if r.levelno >= logging.WARNING]
+    assert "refused the connection" in warning and "not authori" in warning.lower(), warning
+    assert "unreachable" not in warning

@@ -4,6 +4,7 @@ anything is opened; endpoint addresses are parsed in one place."""
 from __future__ import annotations
 
 import tomllib
+from pathlib import Path
 
 import pytest
 from hypothesis import given
@@ -90,12 +91,46 @@ def test_bad_configuration_names_the_key(change: tuple[str, str], message: str) 
         ('[opcua]\nsecurity = ["Basic256Sha256_Sign"]\n', "opcua.security:"),
         ('[opcua]\nanonymous = "admin"\n', "opcua.anonymous:"),
         ("[gateway]\n", "gateway: unknown key"),
+        # what would be left unapplied, or applied otherwise than written
+        ('[mqtt]\nclient_id = "{bus!r:>99999999}"\n', "mqtt.client_id: "),
+        ('[mqtt]\nclient_id = "{bus.__class__}"\n', "mqtt.client_id: "),
+        (f'[mqtt]\nkey = "{__file__}"\n', "mqtt.key: is the key of a client certificate"),
+        ("[mqtt]\ninsecure = true\n", "mqtt.insecure: skips the checks of TLS"),
+        ("[mqtt]\nreconnect = 1e300\n", "mqtt.reconnect: 1e+300 s is more than"),
+        ('[mqtt]\nprefix = "$SYS/uss"\n', "mqtt.prefix: '$SYS/uss': topics that start with $"),
+        ('[mqtt]\ndiscovery_prefix = "$ha"\n', "mqtt.discovery_prefix: "),
+        ('[mqtt]\nprefix = "u\\u0000s"\n', "mqtt.prefix: 'u\\x00s': no control characters"),
     ],
 )
 def test_bad_face_options_name_the_key(extra: str, message: str) -> None:
     with pytest.raises(ConfigError) as error:
         parse_config(tomllib.loads(GOOD + extra))
     assert message in str(error.value)
+
+
+def test_a_bus_key_of_a_face_without_its_table_is_refused_not_left_unapplied() -> None:
+    own = GOOD.replace("[[bus.drive]]", 'modbus = "127.0.0.1:5021"\n[[bus.drive]]')
+    with pytest.raises(ConfigError, match=r"^bus\[0\]\.modbus: belongs to the modbus face"):
+        parse_config(tomllib.loads(own + "[mqtt]\n"))
+    assert parse_config(tomllib.loads(own + "[modbus]\n")).modbus is not None
+
+
+def test_two_drives_that_would_be_one_home_assistant_device_are_refused() -> None:
+    two = GOOD.replace('name = "line1"', 'name = "line_1"') + (
+        '[[bus]]\nname = "line"\nport = "bus://127.0.0.1:4001"\n'
+        '[[bus.drive]]\naddress = 5\nname = "1_conveyor"\n'
+    )
+    with pytest.raises(ConfigError, match=r"^bus\[1\]\.drive\[0\]\.name: .*pyuss_line_1_conveyor"):
+        parse_config(tomllib.loads(two + "[mqtt]\n"))
+    assert parse_config(tomllib.loads(two + "[mqtt]\ndiscovery = false\n")).mqtt is not None
+
+
+def test_face_options_that_fit_are_taken() -> None:
+    tls = (
+        f'[mqtt]\nbroker = "mqtts://b"\ninsecure = true\ncert = "{__file__}"\nkey = "{__file__}"\n'
+    )
+    for extra in (tls, '[mqtt]\nclient_id = "plant-{bus}-gw"\nreconnect = 60\n'):
+        assert parse_config(tomllib.loads(GOOD + extra)).mqtt is not None
 
 
 GENERIC = {"profile": "generic"}  # the facts refused on below are the generic profile's
@@ -124,6 +159,46 @@ def test_what_the_points_cannot_show_is_refused_with_its_key() -> None:
         resolve(plant)
     with pytest.raises(ConfigError, match=r"actual\[0\].pzd: PZD3"):
         parse_plant([{"port": "x", "layout": "3,2", "drive": [{"address": 1, "actual": [3]}]}])
+
+
+@pytest.mark.parametrize(
+    "setpoints",
+    [
+        [{"key": "a", "pzd": 2, "dword": True}, {"key": "b", "pzd": 3}],
+        [{"key": "a", "pzd": 3}, {"key": "b", "pzd": 2, "dword": True}],
+        [{"key": "a", "pzd": 2}, {"key": "b", "pzd": 2}],
+    ],
+)
+def test_setpoints_that_share_a_process_word_are_refused(setpoints: list[object]) -> None:
+    # a write of setpoint b would change the word setpoint a sends
+    drive = {"address": 1, "layout": "4,4", "setpoints": setpoints}
+    with pytest.raises(ConfigError, match=r"^bus\[0\]\.drive\[0\]\.setpoints\[1\]\.pzd: PZD"):
+        parse_plant([{"port": "x", "drive": [drive]}])
+    # actual values may show one word twice: reading moves nothing
+    drive = {"address": 1, "layout": "4,4", "actual": setpoints}
+    assert len(parse_plant([{"port": "x", "drive": [drive]}]).buses[0].drives[0].actual) == 2
+
+
+def test_two_buses_on_one_line_are_refused_however_the_port_is_written(tmp_path: Path) -> None:
+    # two masters on one RS-485 line: each one's telegrams garble the other's
+    device = tmp_path / "ttyUSB0"
+    device.touch()
+    link = tmp_path / "usb-FTDI-port0"
+    link.symlink_to(device)
+    for one, two in (
+        (str(device), str(link)),
+        (str(device), f"{device}?rs485=rts"),
+        ("bus://127.0.0.1:4000", "bus://127.0.0.1:4000?name=second"),
+        ("tcp://Converter:4001", "tcp://converter:4001?echo=1"),
+    ):
+        buses = [
+            {"name": "a", "port": one, "drive": [{"address": 1}]},
+            {"name": "b", "port": two, "drive": [{"address": 2}]},
+        ]
+        with pytest.raises(ConfigError, match=r"^bus\[1\]\.port: .*one master per line"):
+            parse_plant(buses)
+    buses[1]["port"] = "tcp://converter:4002"
+    assert len(parse_plant(buses).buses) == 2
 
 
 def test_flags_name_the_flag() -> None:
@@ -164,6 +239,27 @@ def test_endpoints_default_to_loopback_and_the_face_port(text: str, face: str, u
 def test_bad_endpoints_are_refused(text: str, face: str) -> None:
     with pytest.raises(ConfigError):
         parse_endpoint(text, face)
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "0.0.0.0:502?read_only=1",
+        "modbus://127.0.0.1:5020?read_only=true",
+        "127.0.0.1:5020?",
+        "modbus://127.0.0.1:5020#read_only",
+    ],
+)
+def test_an_option_written_into_an_address_is_refused_not_left_unapplied(text: str) -> None:
+    # a face's options are its table's keys and flags: one in the address would not apply,
+    # and a face meant to refuse writes would take them
+    with pytest.raises(ConfigError, match="modbus") as error:
+        parse_config(tomllib.loads(GOOD + f'[modbus]\nlisten = "{text}"\n'))
+    assert str(error.value).startswith("modbus.listen: ")
+    with pytest.raises(ConfigError) as error:
+        own = GOOD.replace("[[bus.drive]]", f'modbus = "{text}"\n[[bus.drive]]')
+        parse_config(tomllib.loads(own + "[modbus]\n"))
+    assert str(error.value).startswith("bus[0].modbus: ")
 
 
 @given(st.integers(min_value=800, max_value=60000))

@@ -63,7 +63,7 @@ def register(subparsers: Any) -> None:
         metavar="N",
         help="a drive's address 0..31 (repeat for more drives)",
     )
-    one.add_argument("--baud", type=int, default=9600, help="baud rate (default 9600)")
+    one.add_argument("--baud", type=int, help="baud rate (default 9600)")
     one.add_argument(
         "--profile",
         help="device profile (default: none, drives of unknown kind - parameters as words, "
@@ -80,7 +80,7 @@ def register(subparsers: Any) -> None:
     one.add_argument(
         "--cycle-time", type=float, metavar="S", help="bus cycle in seconds (default: fastest)"
     )
-    one.add_argument("--bus-name", default="bus", help="the bus's name in topics and nodes")
+    one.add_argument("--bus-name", help="the bus's name in topics and nodes (default bus)")
     faces = parser.add_argument_group("faces")
     for spec in registry().values():
         if spec.flag is not None:
@@ -97,6 +97,20 @@ def register(subparsers: Any) -> None:
         "--duration", type=float, metavar="S", help="stop after S seconds (default: run on)"
     )
     parser.set_defaults(func=run)
+
+
+ONE_BUS = (
+    ("--port", "port"),
+    ("--address", "address"),
+    ("--baud", "baud"),
+    ("--profile", "profile"),
+    ("--layout", "layout"),
+    ("--parameter", "parameter"),
+    ("--cycle-time", "cycle_time"),
+    ("--bus-name", "bus_name"),
+)
+"""The flags of one bus without a configuration file: with one, each is refused, never
+left unapplied (a gateway at another baud rate or with other drives than asked)."""
 
 
 def build_config(args: argparse.Namespace) -> Any:
@@ -116,17 +130,21 @@ def build_config(args: argparse.Namespace) -> Any:
             )
         path = str(found)
     if path is not None:
-        if args.port is not None or args.address or args.parameter:
-            raise ConfigError("--config: give the buses in the file, not with --port/--address")
+        given = [flag for flag, dest in ONE_BUS if getattr(args, dest) not in (None, [])]
+        if given:
+            raise ConfigError(
+                f"{given[0]}: the buses come from the configuration file {path}: give "
+                f"{', '.join(given)} there (in its [[bus]] tables), not as flags"
+            )
         config = load_config(path)
     else:
         plant = plant_from_flags(
             port=args.port,
             addresses=args.address,
-            baud=args.baud,
+            baud=9600 if args.baud is None else args.baud,
             profile=args.profile,
             layout=args.layout,
-            name=args.bus_name,
+            name="bus" if args.bus_name is None else args.bus_name,
             cycle_time=args.cycle_time,
             parameters=args.parameter,
         )

@@ -55,6 +55,8 @@ __all__ = [
     "ModbusOptions",
     "MqttOptions",
     "OpcuaOptions",
+    "check_listening",
+    "listening",
     "load_config",
     "parse_config",
 ]
@@ -62,6 +64,8 @@ __all__ = [
 DEFAULT_MODBUS = "127.0.0.1:5020"
 DEFAULT_MQTT = "mqtt://127.0.0.1:1883"
 DEFAULT_OPCUA = "opc.tcp://127.0.0.1:4840"
+RECONNECT_MAX = 60.0
+"""The longest wait between two tries to reach the MQTT broker (seconds)."""
 SECURITY_POLICIES = ("None", "Basic256Sha256_Sign", "Basic256Sha256_SignAndEncrypt")
 ANONYMOUS = ("read", "write", "none")
 
@@ -153,6 +157,10 @@ def _topic_part(value: object, where: Where, *, slashes: bool = False) -> str:
     bad = "+#" if slashes else "+#/"
     if any(c in text for c in bad) or text.startswith("/") or text.endswith("/"):
         raise where.error(f"{text!r} cannot be part of an MQTT topic (no {' '.join(bad)})")
+    if text.startswith("$"):
+        raise where.error(f"{text!r}: topics that start with $ are the broker's (MQTT 5.0 4.7.2)")
+    if any(ord(c) < 0x20 or 0x7F <= ord(c) < 0xA0 for c in text):
+        raise where.error(f"{text!r}: no control characters in an MQTT topic (MQTT 5.0 1.5.4)")
     return text
 
 
@@ -213,12 +221,24 @@ def mqtt_options(table: Mapping[str, Any], where: Where, base: Path | None = Non
     if password is not None and username is None:
         raise where.key("password").error("a password needs a username")
     client_id = where.key("client_id").text(table.get("client_id", "pyuss-{bus}"))
-    try:
-        client_id.format(bus="x")
-    except (KeyError, IndexError, ValueError):
-        raise where.key("client_id").error("may only use {bus}") from None
+    rest = client_id.replace("{bus}", "")
+    if "{" in rest or "}" in rest:
+        raise where.key("client_id").error(f"{client_id!r}: may only use {{bus}}, as it is")
+    if len(rest.encode()) > 128:
+        raise where.key("client_id").error("is longer than 128 bytes besides {bus}")
     keepalive = where.key("keepalive").integer(table.get("keepalive", 30), 5, 3600)
     reconnect = where.key("reconnect").seconds(table.get("reconnect", 1.0))
+    if reconnect > RECONNECT_MAX:
+        raise where.key("reconnect").error(
+            f"{reconnect:g} s is more than the longest wait between tries, {RECONNECT_MAX:g} s"
+        )
+    if "key" in table and "cert" not in table:
+        raise where.key("key").error("is the key of a client certificate: give cert too")
+    tls = endpoint.tls or "ca" in table or "cert" in table
+    if "insecure" in table and not tls:
+        raise where.key("insecure").error(
+            "skips the checks of TLS, which this broker's address does not use (mqtts://)"
+        )
     return MqttOptions(
         endpoint=endpoint,
         prefix=_topic_part(table.get("prefix", "uss"), where.key("prefix"), slashes=True),
@@ -314,7 +334,78 @@ def parse_config(data: Mapping[str, Any], base: Path | None = None) -> GatewayCo
     for name, spec in registry.items():
         if name in data:
             config = config.with_face(name, spec.read(data[name], Where(name), plant, base))
+            continue
+        for number, bus in enumerate(plant.buses):
+            for key in spec.bus_keys:
+                if key in bus.extra:  # would be left unapplied: no such face starts
+                    raise (
+                        Where("bus")
+                        .key(number)
+                        .key(key)
+                        .error(
+                            f"belongs to the {name} face, which has no [{name}] table: add one "
+                            "(it may be empty)"
+                        )
+                    )
+    if config.mqtt is not None and config.mqtt.discovery:
+        _distinct_devices(plant)
     return config
+
+
+def _distinct_devices(plant: PlantConfig) -> None:
+    """`ConfigError` if two drives would be one Home Assistant device (``pyuss_BUS_DRIVE``:
+    bus ``a_b`` and drive ``c`` of bus ``a`` named ``b_c``): the discovery messages of the
+    one would replace the other's."""
+    seen: dict[str, str] = {}
+    for number, bus in enumerate(plant.buses):
+        for index, drive in enumerate(bus.drives):
+            node = f"pyuss_{bus.name}_{drive.name}"
+            if node in seen:
+                raise (
+                    Where("bus")
+                    .key(number)
+                    .key("drive")
+                    .key(index)
+                    .key("name")
+                    .error(
+                        f"drive {drive.name!r} of bus {bus.name!r} and drive {seen[node]} would "
+                        f"be one Home Assistant device ({node}): rename one"
+                    )
+                )
+            seen[node] = f"{drive.name!r} of bus {bus.name!r}"
+
+
+def listening(config: GatewayConfig) -> list[tuple[str, Endpoint]]:
+    """The addresses pyuss's faces listen on, each with the face's name as printed (``modbus
+    line1``: a bus's own Modbus server); a shared Modbus address no bus uses is left out."""
+    found: list[tuple[str, Endpoint]] = []
+    if config.modbus is not None:
+        own = config.modbus.bus_endpoints
+        if any(bus.name not in own for bus in config.plant.buses):
+            found.append(("modbus", config.modbus.endpoint))
+        found.extend((f"modbus {bus}", endpoint) for bus, endpoint in own.items())
+    if config.opcua is not None:
+        found.append(("opcua", config.opcua.endpoint))
+    return found
+
+
+def check_listening(config: GatewayConfig) -> None:
+    """`ConfigError` if two faces would listen on one port of one host (or one of them on
+    every interface), found before any port opens."""
+    seen: list[tuple[str, Endpoint]] = []
+    for name, endpoint in listening(config):
+        for other, there in seen:
+            wildcard = {endpoint.host, there.host} & {"0.0.0.0", "::", ""}
+            if (
+                endpoint.port
+                and endpoint.port == there.port
+                and (endpoint.host == there.host or wildcard)
+            ):
+                raise ConfigError(
+                    f"{name} {endpoint} and {other} {there} listen on one port: give each "
+                    "face and bus an address of its own"
+                )
+        seen.append((name, endpoint))
 
 
 def load_config(path: str | Path) -> GatewayConfig:

@@ -182,9 +182,13 @@ def _modbus_flag(options: ModbusOptions | None, text: str) -> ModbusOptions:
 
 
 def _mqtt_flag(options: MqttOptions | None, text: str) -> MqttOptions:
+    """The broker of ``--mqtt URL``; the file's user and password stay unless the URL names
+    a user of its own (a login the file gives is never dropped without a word)."""
     where = parse_endpoint(text, "mqtt")
     user, password = where.username, where.password
     if options:
+        if user is None:
+            user, password = options.username, options.password
         return dataclasses.replace(options, endpoint=where, username=user, password=password)
     return MqttOptions(where, username=user, password=password)
 

@@ -18,7 +18,8 @@ request (protocol id not 0, length beyond 254) leaves nothing to resynchronise o
 stream: the connection is closed. A connection that completes no request for
 ``idle_timeout`` seconds is closed, and beyond ``max_connections`` the connection that has
 been quiet longest, of the host holding the most, makes room for a new one, so silent peers
-cannot lock others out.
+cannot lock others out. A stop lets the request being carried out finish and be answered
+(`ModbusFace.close`), and starts none after it.
 
 Why a server of its own and not pymodbus's: the gateway must answer every request of a
 connection in order, refuse unknown function codes instead of serving the library's own
@@ -53,6 +54,9 @@ MAX_CONNECTIONS = 32
 
 IDLE_TIMEOUT = 60.0
 """Seconds a connection may go without completing a request (default)."""
+
+STOP_WAIT = 5.0
+"""Seconds a stop waits for the requests being carried out to finish and be answered."""
 
 _HEADER = struct.Struct(">HHHB")  # transaction id, protocol id, length, unit id
 _MAX_LENGTH = 254  # unit id + PDU of at most 253 bytes
@@ -179,6 +183,7 @@ class ModbusFace:
         self.units = units
         self.connections: set[_Connection] = set()
         self._server: asyncio.Server | None = None
+        self._closing = False
 
     async def start(self) -> None:
         try:
@@ -195,10 +200,19 @@ class ModbusFace:
         )
 
     async def close(self) -> None:
+        """Stop taking connections and requests; a request being carried out finishes (up to
+        `STOP_WAIT` seconds) and is answered, so no write is cut between its parts and no
+        client is left without the answer to one that went out; then close every
+        connection."""
         server, self._server = self._server, None
         if server is None:
             return
         server.close()
+        self._closing = True
+        busy = [c.task for c in self.connections if c.busy and c.task is not None]
+        if busy:
+            # each returns once its answer is written (`_serve`)
+            await asyncio.wait(busy, timeout=STOP_WAIT)
         tasks = [c.task for c in self.connections if c.task is not None]
         for connection in list(self.connections):
             self._drop(connection)
@@ -271,6 +285,8 @@ class ModbusFace:
                     )
                     return
                 pdu = await reader.readexactly(length - 1)
+            if self._closing:
+                return  # the face closes: no request starts now
             connection.busy = True
             try:
                 response = await self._answer(unit, pdu)
@@ -278,6 +294,8 @@ class ModbusFace:
                 connection.busy = False
                 connection.last_active = loop.time()
             writer.write(_HEADER.pack(transaction, 0, len(response) + 1, unit) + response)
+            if self._closing:
+                return  # answered; the face closes (`close`)
             async with asyncio.timeout(self.idle_timeout):
                 await writer.drain()
 

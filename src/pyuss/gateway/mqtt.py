@@ -8,7 +8,9 @@ this module is the client around them:
   subscribes to the command topics with QoS 1, "no local" (what it publishes itself never
   comes back to it) and "retain as published" (a command published retained is seen as
   such however it arrives). So only commands sent while it is connected reach it: the broker
-  keeps none for it while it is away, and none is delivered again after a reconnection.
+  keeps none for it while it is away, and none is delivered again after a reconnection;
+  those that wait for their drive when the connection is lost are refused, not carried out
+  while the gateway is away or once it is back.
 - A retained command never acts, nor one whose reply topic could act (`check_reply_to`);
   every message is parsed within bounds (`pyuss.gateway.topics.MAX_PAYLOAD` and the rest).
   Such a message gets an error reply and one log line; nothing a message holds ends the
@@ -30,7 +32,13 @@ this module is the client around them:
   once (`pyuss.gateway.topics`), its reply kept for repeats (the last 1000 ids per bus).
 - Its socket sends each packet at once (`send_at_once`: no Nagle delay behind the broker's
   acknowledgement of the packet before).
-- On stop it publishes ``offline`` itself and disconnects.
+- On stop it refuses the commands that wait or come, lets each drive's command being
+  carried out finish and reply (`MqttBusFace._finish`), publishes ``offline`` itself and
+  disconnects.
+- One gateway per bus on a broker: its gateway message carries when it started (the user
+  property `INSTANCE`); a face that sees the message of a gateway of its bus started after it
+  stops connecting (`TakenOver`), so two gateways never both take a bus's commands nor take
+  the session from each other in turn.
 
 Why aiomqtt: the asyncio client over paho-mqtt (the reference MQTT client for Python); it
 brings sessions, QoS 1, last will, TLS and user/password.
@@ -43,19 +51,24 @@ import contextlib
 import dataclasses
 import json
 import logging
+import secrets
 import socket
 import ssl
+import time
 from collections import OrderedDict, deque
 from typing import Any
 
 import aiomqtt
+from aiomqtt.exceptions import MqttConnectError
 from paho.mqtt import client as mqtt
+from paho.mqtt.packettypes import PacketTypes
+from paho.mqtt.properties import Properties
 from paho.mqtt.reasoncodes import ReasonCode
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from pyuss.errors import ConfigError, UssError
 from pyuss.gateway.announce import gateway_payload, gateway_topic
-from pyuss.gateway.config import MqttOptions
+from pyuss.gateway.config import RECONNECT_MAX, MqttOptions
 from pyuss.gateway.topics import (
     Command,
     CommandError,
@@ -92,16 +105,30 @@ OUTBOX = 1000
 """Replies kept while the broker cannot be reached (the oldest are dropped first)."""
 QUEUE = 100
 """Commands waiting per drive; more are answered with a refusal."""
+STOP_WAIT = 5.0
+"""Seconds a stop waits for the commands being carried out to finish and reply."""
 SUBSCRIBE = SubscribeOptions(qos=1, noLocal=True, retainAsPublished=True)
 """Command subscriptions: QoS 1; what the face publishes never comes back to it; a retained
 command keeps its retain flag whenever it is delivered."""
-RECONNECT_MAX = 60.0
-"""The longest wait between two tries to reach the broker (seconds)."""
 
 
 def _error(kind: str, message: str, failure: str = "refused") -> dict[str, Any]:
     """An error of a reply that no exception stands for (same keys as `error_dict`)."""
     return {"type": kind, "message": message, "class": failure}
+
+
+def _lost_link() -> dict[str, Any]:
+    """The refusal of a command that waited for its drive when the broker was lost."""
+    return _error(
+        "Disconnected",
+        "the connection to the MQTT broker was lost before it was carried out: not carried out",
+        "unavailable",
+    )
+
+
+def _stopping() -> dict[str, Any]:
+    """The refusal of a command that comes or waits while the gateway stops."""
+    return _error("Stopping", "the gateway is stopping: not carried out", "unavailable")
 
 
 def _tls(options: MqttOptions) -> ssl.SSLContext | None:
@@ -160,6 +187,9 @@ class _DriveWorker:
         self.published: dict[str, Any] = {}
         self.discovery_key: object = None
         self.payloads = StatePayloads()
+        self.idle = asyncio.Event()
+        """Set while no command is being carried out (and its reply sent)."""
+        self.idle.set()
 
     async def publish_state(self, state: DriveState) -> None:
         face = self.face
@@ -204,7 +234,9 @@ class _DriveWorker:
 
     async def commands(self) -> None:
         while True:
+            self.idle.set()
             command = await self.queue.get()
+            self.idle.clear()
             reply = await self.carry_out(command)
             self.face.remember(command, reply)
             try:
@@ -291,6 +323,14 @@ class MqttBusFace:
         self.attempts = 0
         """Failed tries to reach the broker since it was last connected."""
         self._lost = False
+        self._closing = False
+        self.taken_over: str | None = None
+        """Why the face stopped connecting: another gateway of its bus (`TakenOver`)."""
+        self.instance = f"{time.time_ns():020d}-{secrets.token_hex(4)}"
+        """This face's token in its gateway messages (`INSTANCE`): when it started, so a
+        later gateway's token is greater, and a random part."""
+        self.gateway_topic = gateway_topic(options.prefix, bus.name)
+        self._early: list[aiomqtt.Message] = []
 
     # -- publishing ----------------------------------------------------------------------------
     async def publish(
@@ -422,6 +462,9 @@ class MqttBusFace:
             message = "a retained message never acts: publish commands without the retain flag"
             await self._refuse(command, _error("Retained", message), worker.topics.reply)
             return
+        if self._closing:
+            await self._refuse(command, _stopping(), worker.topics.reply)
+            return
         if command.id is not None:
             key = (command.drive, command.id)
             if key in self._done:
@@ -444,16 +487,41 @@ class MqttBusFace:
         will = aiomqtt.Will(self.availability, "offline", qos=1, retain=True)
         return make_client(self.options, self.client_id, will)
 
+    def _other_gateway(self, message: aiomqtt.Message) -> None:
+        """`TakenOver` if ``message``, on the gateway topic, comes from a gateway of this bus
+        that started after this one (retained or live). One that started before, or a
+        retained message of an earlier run, is left to find this one's message: the newest
+        gateway keeps the bus, the others stop, whatever order their messages come in."""
+        instance = _instance(message)
+        if instance is None or instance <= self.instance:
+            return
+        raise TakenOver(
+            f"another gateway of bus {self.bus.name!r}, started after this one, publishes on "
+            f"this broker under the prefix {self.options.prefix!r}"
+        )
+
     async def _connected(self, client: aiomqtt.Client) -> None:
         self._client = client
         send_at_once(client)
-        for topic in subscriptions(self.options.prefix, self.bus.name):
-            granted = await client.subscribe(topic, options=SUBSCRIBE)
+        # the gateway topic first: its retained message is in before the other subscriptions
+        # are granted, so another gateway is found before this one publishes anything
+        watch = SubscribeOptions(qos=1, noLocal=False, retainAsPublished=True)
+        for topic, options in (
+            (self.gateway_topic, watch),
+            *((t, SUBSCRIBE) for t in subscriptions(self.options.prefix, self.bus.name)),
+        ):
+            granted = await client.subscribe(topic, options=options)
             if any(_failed(code) for code in granted):
                 raise aiomqtt.MqttError(f"the broker refused the subscription to {topic}")
+        self._early = _queued(client)
+        for message in self._early:
+            if message.topic.value == self.gateway_topic:
+                self._other_gateway(message)
         await client.publish(self.availability, "online", qos=1, retain=True)
+        properties = Properties(PacketTypes.PUBLISH)  # type: ignore[no-untyped-call]
+        properties.UserProperty = [(INSTANCE, self.instance)]
         await client.publish(
-            gateway_topic(self.options.prefix, self.bus.name),
+            self.gateway_topic,
             gateway_payload(
                 self.bus.name,
                 [worker.drive.model for worker in self.workers.values()],
@@ -462,6 +530,7 @@ class MqttBusFace:
             ),
             qos=1,
             retain=True,
+            properties=properties,
         )
         self.connected.set()
         self.connections += 1
@@ -475,20 +544,29 @@ class MqttBusFace:
             self._outbox.popleft()
 
     async def _consume(self, client: aiomqtt.Client) -> None:
+        early, self._early = self._early, []
+        for message in early:
+            await self._receive(message)
         async for message in client.messages:
-            try:
-                payload = message.payload
-                data = payload if isinstance(payload, bytes) else str(payload).encode()
-                await self._message(message.topic.value, data, retained=bool(message.retain))
-            except aiomqtt.MqttError:
-                raise  # the connection is lost: `run` reconnects
-            except Exception as exc:  # one message never ends the face
-                log.error(
-                    "%s: message on %s: %s",
-                    self.bus.name,
-                    show(message.topic.value, 200),
-                    show(exc, 200),
-                )
+            await self._receive(message)
+
+    async def _receive(self, message: aiomqtt.Message) -> None:
+        if message.topic.value == self.gateway_topic:
+            self._other_gateway(message)  # `TakenOver` ends the session
+            return
+        try:
+            payload = message.payload
+            data = payload if isinstance(payload, bytes) else str(payload).encode()
+            await self._message(message.topic.value, data, retained=bool(message.retain))
+        except aiomqtt.MqttError:
+            raise  # the connection is lost: `run` reconnects
+        except Exception as exc:  # one message never ends the face
+            log.error(
+                "%s: message on %s: %s",
+                self.bus.name,
+                show(message.topic.value, 200),
+                show(exc, 200),
+            )
 
     async def _session(self) -> None:
         """One connection, from connecting until it is lost (`aiomqtt.MqttError`) or `close`."""
@@ -518,13 +596,17 @@ class MqttBusFace:
                 finally:
                     stop.cancel()
                 if consume.done():
-                    consume.result()  # the connection was lost: MqttError
+                    consume.result()  # the connection was lost (MqttError), or `TakenOver`
                 # stopping: leaving the block disconnects cleanly
         finally:
             self.connected.clear()
             self._client = None
             if consume is not None and not consume.done():
                 consume.cancel()
+            if not self._closing:
+                # its sender saw offline (the last will) and may have done otherwise since:
+                # a command that waited must not act while, or after, the gateway was away
+                await self._refuse_waiting(_lost_link())
 
     async def run(self) -> None:
         """Stay connected until `close`: after a loss, try again after `MqttOptions.reconnect`
@@ -535,6 +617,18 @@ class MqttBusFace:
             connections = self.connections
             try:
                 await self._session()
+            except TakenOver as exc:
+                # taking it back would take it from the other, which takes it back in turn:
+                # each command would act on whichever gateway holds the session at that
+                # moment, a drive of the one or of the other
+                self.taken_over = str(exc)
+                log.error(
+                    "%s: %s: this gateway takes no more commands over MQTT and does not "
+                    "connect again until it is restarted",
+                    self.bus.name,
+                    exc,
+                )
+                break
             except Exception as exc:  # MqttError, or a broker speaking nonsense
                 if self._stop.is_set():
                     break
@@ -544,11 +638,10 @@ class MqttBusFace:
                 if not self._lost:
                     self._lost = True
                     log.warning(
-                        "%s: MQTT broker %s %s: %s; trying again after %g s, then up to every %g s",
+                        "%s: MQTT broker %s %s; trying again after %g s, then up to every %g s",
                         self.bus.name,
                         self.options.endpoint,
-                        "lost" if self.connections else "unreachable",
-                        show(exc, 200),
+                        _lost(exc, connected=self.connections > 0),
                         wait,
                         RECONNECT_MAX,
                     )
@@ -566,8 +659,31 @@ class MqttBusFace:
             self._tasks.append(asyncio.create_task(worker.commands()))
         self._runner = asyncio.create_task(self.run(), name=f"mqtt {self.bus.name}")
 
+    async def _refuse_waiting(self, error: dict[str, Any]) -> None:
+        """Refuse the commands that wait for their drive, each with a reply (sent, or kept
+        for the next connection)."""
+        for worker in self.workers.values():
+            while not worker.queue.empty():
+                command = worker.queue.get_nowait()
+                reply = reply_payload(command, error=error)
+                self.remember(command, reply)
+                await self.reply(command, reply, worker.topics.reply)
+
+    async def _finish(self) -> None:
+        """Take no more commands, refuse those waiting and let the one being carried out of
+        each drive finish and reply (bounded by `STOP_WAIT`): a client is answered for every
+        command, and none is cut off between its check and its telegram."""
+        self._closing = True
+        await self._refuse_waiting(_stopping())
+        with contextlib.suppress(TimeoutError):
+            async with asyncio.timeout(STOP_WAIT):
+                for worker in self.workers.values():
+                    await worker.idle.wait()
+
     async def close(self) -> None:
-        """Stop publishing, publish each drive's last state and ``offline``, disconnect."""
+        """Finish the commands (`_finish`), stop publishing, publish each drive's last state
+        and ``offline``, disconnect."""
+        await self._finish()
         for task in self._tasks:
             task.cancel()
         if self._tasks:
@@ -600,6 +716,35 @@ class MqttBusFace:
                 runner.cancel()
 
 
+class TakenOver(UssError):
+    """Another gateway of the same bus (prefix and bus name) publishes on the broker."""
+
+
+INSTANCE = "pyuss-gateway"
+"""The MQTT 5 user property of the gateway message that tells one gateway's from another's
+and the newer from the older (`MqttBusFace.instance`)."""
+
+
+def _instance(message: aiomqtt.Message) -> str | None:
+    """The token of the gateway that published ``message`` (None: none said)."""
+    for name, value in getattr(message.properties, "UserProperty", None) or ():
+        if name == INSTANCE:
+            return str(value)
+    return None
+
+
+def _queued(client: aiomqtt.Client) -> list[aiomqtt.Message]:
+    """The messages ``client`` has received and nobody has taken yet (aiomqtt's queue)."""
+    queue = getattr(client, "_queue", None)
+    taken: list[aiomqtt.Message] = []
+    while isinstance(queue, asyncio.Queue):
+        try:
+            taken.append(queue.get_nowait())
+        except asyncio.QueueEmpty:
+            break
+    return taken
+
+
 def _publish_head(topic: str, retain: bool) -> tuple[int, bytes]:
     """The first byte of an MQTT 5 PUBLISH packet of QoS 0 (MQTT 5.0 3.3.1), and what follows
     its remaining length up to the payload: the topic name and no properties (3.3.2)."""
@@ -625,6 +770,14 @@ def _refused(bus: str, what: str, message: str) -> None:
     log.warning(
         "%s: refused %s: %s", bus, what, message if len(message) < 300 else show(message, 300)
     )
+
+
+def _lost(exc: Exception, *, connected: bool) -> str:
+    """What became of the broker, for the log line: it refused the connection (the login, the
+    client id: the CONNACK's reason), or it is lost or unreachable, and why."""
+    if isinstance(exc, MqttConnectError):
+        return f"refused the connection ({exc})"
+    return f"{'lost' if connected else 'unreachable'}: {show(exc, 200)}"
 
 
 def _retrieve(task: asyncio.Task[None]) -> None:

@@ -1,7 +1,8 @@
 """`Gateway`: a plant and its faces, started and stopped together.
 
 The faces configured are built first, in the order of the registry (`pyuss.gateway.faces`;
-each checks that its library is installed, `pyuss.gateway.extras`, and its configuration), so
+each checks that its library is installed, `pyuss.gateway.extras`, and its configuration),
+and two faces listening on one port are refused (`pyuss.gateway.config.check_listening`), so
 bad configuration fails before any port opens. `start` starts the
 faces and then the buses - the OPC UA server's start takes the event loop for a moment, which
 would otherwise delay the first telegrams -, `close` stops the faces first (MQTT says
@@ -15,7 +16,7 @@ from collections.abc import Mapping
 from types import TracebackType
 from typing import Any
 
-from pyuss.gateway.config import GatewayConfig
+from pyuss.gateway.config import GatewayConfig, check_listening
 from pyuss.gateway.extras import require
 from pyuss.gateway.faces import Face, FaceSpec, faces
 from pyuss.points.model import resolve
@@ -42,6 +43,7 @@ class Gateway:
         ]
         for spec, _options in configured:
             require(spec.name)
+        check_listening(config)
         self.plant = Plant(resolve(config.plant), transports=transports)
         self.faces: dict[str, Face] = {}
         """Every face started, by the name it is printed under (``modbus line1``: a bus's

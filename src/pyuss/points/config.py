@@ -35,7 +35,9 @@ as the commands take a drive without ``--profile``.
 from __future__ import annotations
 
 import math
+import os
 import re
+import urllib.parse
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -251,6 +253,23 @@ def _process(value: object, where: Where, pzd_count: int | None) -> ProcessConfi
     return ProcessConfig(key, pzd, dword)
 
 
+def _separate(setpoints: Sequence[ProcessConfig], where: Where) -> None:
+    """Setpoints share no PZD word: a write of one would change what another one sends."""
+    owner: dict[int, str] = {}
+    for number, item in enumerate(setpoints):
+        for word in range(item.pzd, item.pzd + (2 if item.dword else 1)):
+            if word in owner:
+                raise (
+                    where.key(number)
+                    .key("pzd")
+                    .error(
+                        f"PZD{word} carries setpoint {owner[word]!r} already: a write of one "
+                        "setpoint would change the other"
+                    )
+                )
+            owner[word] = item.key
+
+
 def _reference(value: object, where: Where) -> float | ParamRef:
     if isinstance(value, str):
         try:
@@ -310,6 +329,8 @@ def _drive(value: object, where: Where, bus_layout: Layout | None) -> DriveConfi
         keys = [p.key for p in found]
         if len(set(keys)) != len(keys):
             raise where.key(kind).error("keys must differ")
+        if kind == "setpoints":
+            _separate(found, where.key(kind))
         process[kind] = tuple(found)
     reference = (
         _reference(table["reference"], where.key("reference")) if "reference" in table else None
@@ -386,6 +407,17 @@ def _bus(value: object, where: Where, number: int, face_keys: Sequence[str]) -> 
     )
 
 
+def _line(port: str) -> str:
+    """The line a port URL opens, to find two buses on one: a device path resolved through
+    its links (``/dev/serial/by-id/...`` is a ``/dev/ttyUSB0``), a URL without its options
+    (``?rs485=rts``, ``?name=``)."""
+    if "://" not in port:
+        path = port.split("?", 1)[0]
+        return os.path.realpath(path) if os.path.isabs(path) else path
+    parts = urllib.parse.urlsplit(port)
+    return f"{parts.scheme.lower()}://{parts.netloc.lower()}{parts.path}"
+
+
 def parse_plant(
     buses: object, where: Where | None = None, *, face_keys: Sequence[str] = ()
 ) -> PlantConfig:
@@ -402,6 +434,15 @@ def parse_plant(
                 raise where.key(number).key("name").error(f"bus name {bus.name!r} is used twice")
             if other.port == bus.port:
                 raise where.key(number).key("port").error(f"port {bus.port!r} is used twice")
+            if _line(other.port) == _line(bus.port):
+                raise (
+                    where.key(number)
+                    .key("port")
+                    .error(
+                        f"{bus.port!r} is the line of bus {other.name!r} ({other.port!r}) too: "
+                        "one master per line"
+                    )
+                )
         found.append(bus)
     return PlantConfig(tuple(found))
 

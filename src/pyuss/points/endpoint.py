@@ -15,8 +15,10 @@ address                            meaning
 =================================  =========================================================
 
 Listening faces (Modbus, OPC UA, web) bind to the host given; nothing binds to every interface
-unless the address says so (``0.0.0.0``, ``::``). Query options (``?read_only=1``) are
-returned as they are, for the face to check against the options it knows.
+unless the address says so (``0.0.0.0``, ``::``). An address carries no options: a query
+(``?read_only=1``) is refused naming it, since a face's options are its table's keys and
+flags, and one written in the address would otherwise be left unapplied without a word (a
+Modbus face taking writes that was meant to refuse them).
 """
 
 from __future__ import annotations
@@ -58,6 +60,7 @@ class Endpoint:
     username: str | None = None
     password: str | None = field(default=None, repr=False)
     options: Mapping[str, str] = field(default_factory=dict)
+    """Always empty: `parse_endpoint` refuses options in an address."""
 
     @property
     def tls(self) -> bool:
@@ -122,12 +125,14 @@ def parse_endpoint(text: object, face: str) -> Endpoint:
         path = ""
     if (parts.username or parts.password) and face != "mqtt":
         raise ConfigError(f"{text!r}: user and password belong in the {face} options, not here")
-    query = urllib.parse.parse_qs(parts.query, keep_blank_values=True)
-    options: dict[str, str] = {}
-    for key, values in query.items():
-        if len(values) != 1:
-            raise ConfigError(f"{text!r}: option {key!r} given more than once")
-        options[key] = values[0]
+    if "?" in raw:
+        names = ", ".join(repr(k) for k in urllib.parse.parse_qs(parts.query, True))
+        raise ConfigError(
+            f"{text!r}: a {face} address takes no options{f' ({names})' if names else ''}: "
+            f"give them in the [{face}] table or as flags"
+        )
+    if parts.fragment:
+        raise ConfigError(f"{text!r}: unexpected fragment {parts.fragment!r}")
     return Endpoint(
         scheme=scheme,
         host=host,
@@ -135,5 +140,4 @@ def parse_endpoint(text: object, face: str) -> Endpoint:
         path=path,
         username=urllib.parse.unquote(parts.username) if parts.username else None,
         password=urllib.parse.unquote(parts.password) if parts.password is not None else None,
-        options=options,
     )
