@@ -9,6 +9,7 @@ import contextlib
 import json
 import selectors
 import socket
+import time
 from collections.abc import AsyncIterator
 from typing import Any
 
@@ -335,6 +336,35 @@ async def test_of_two_gateways_of_one_bus_under_their_own_client_ids_the_newer_a
             assert engines[5].drive.machine.control & 1
             assert not old_engines[5].drive.machine.control & 1
             assert new.taken_over is None and new.connections == 1
+
+
+async def test_a_gateway_message_left_by_an_earlier_run_with_a_clock_ahead_stops_nothing(
+    broker: Broker,
+) -> None:
+    # an edge device without a real-time clock may start with its clock behind that of its
+    # last run: the retained gateway message of that run must not stop the new one's face
+    from paho.mqtt.packettypes import PacketTypes
+    from paho.mqtt.properties import Properties
+
+    from pyuss.gateway.announce import gateway_payload
+    from pyuss.gateway.mqtt import INSTANCE
+
+    ahead = f"{time.time_ns() + 3600 * 10**9:020d}-00000000"  # an hour ahead
+    properties = Properties(PacketTypes.PUBLISH)  # type: ignore[no-untyped-call]
+    properties.UserProperty = [(INSTANCE, ahead)]
+    async with aiomqtt.Client(
+        "127.0.0.1", broker.port, protocol=aiomqtt.ProtocolVersion.V5
+    ) as earlier:
+        payload = gateway_payload("bus", [], read_only=False, keepalive=30)
+        await earlier.publish("uss/bus/gateway", payload, qos=1, retain=True, properties=properties)
+    async with simulated_gateway(mqtt=broker.url) as (gateway, engines):
+        face = gateway.faces["mqtt"].buses["bus"]  # type: ignore[attr-defined]
+        await eventually(lambda: face.connected.is_set())
+        assert face.instance > ahead  # one generation beyond it
+        async with MqttClient(gateway) as client:
+            await client.switch_on(5)
+        assert face.taken_over is None and face.connected.is_set()
+        assert engines[5].drive.machine.control & 1
 
 
 async def test_a_stop_answers_every_command_and_cuts_none_off(broker: Broker) -> None:

@@ -35,10 +35,12 @@ this module is the client around them:
 - On stop it refuses the commands that wait or come, lets each drive's command being
   carried out finish and reply (`MqttBusFace._finish`), publishes ``offline`` itself and
   disconnects.
-- One gateway per bus on a broker: its gateway message carries when it started (the user
-  property `INSTANCE`); a face that sees the message of a gateway of its bus started after it
-  stops connecting (`TakenOver`), so two gateways never both take a bus's commands nor take
-  the session from each other in turn.
+- One gateway per bus on a broker: its gateway message carries its generation (the user
+  property `INSTANCE`): one more than that of the gateway message of its bus it finds retained
+  when it first connects, so a gateway started later has the greater one, whatever the
+  machines' clocks say; a face that sees the message of a gateway of its bus of a greater
+  generation stops connecting (`TakenOver`), so two gateways never both take a bus's commands
+  nor take the session from each other in turn.
 
 Why aiomqtt: the asyncio client over paho-mqtt (the reference MQTT client for Python); it
 brings sessions, QoS 1, last will, TLS and user/password.
@@ -54,7 +56,6 @@ import logging
 import secrets
 import socket
 import ssl
-import time
 from collections import OrderedDict, deque
 from typing import Any
 
@@ -326,9 +327,11 @@ class MqttBusFace:
         self._closing = False
         self.taken_over: str | None = None
         """Why the face stopped connecting: another gateway of its bus (`TakenOver`)."""
-        self.instance = f"{time.time_ns():020d}-{secrets.token_hex(4)}"
-        """This face's token in its gateway messages (`INSTANCE`): when it started, so a
-        later gateway's token is greater, and a random part."""
+        self.instance = ""
+        """This face's token in its gateway messages (`INSTANCE`), set when it first
+        connects: its generation (one more than the greatest it finds retained then: a later
+        gateway's is greater, and a restart of this one finds its own) and a random part
+        (two gateways that start at once differ, and the greater keeps the bus)."""
         self.gateway_topic = gateway_topic(options.prefix, bus.name)
         self._early: list[aiomqtt.Message] = []
 
@@ -489,9 +492,10 @@ class MqttBusFace:
 
     def _other_gateway(self, message: aiomqtt.Message) -> None:
         """`TakenOver` if ``message``, on the gateway topic, comes from a gateway of this bus
-        that started after this one (retained or live). One that started before, or a
-        retained message of an earlier run, is left to find this one's message: the newest
-        gateway keeps the bus, the others stop, whatever order their messages come in."""
+        of a greater generation (retained or live): one started after this one. One of an
+        earlier generation, or a retained message of an earlier run, is left to find this
+        one's message: the newest gateway keeps the bus, the others stop, whatever order
+        their messages come in."""
         instance = _instance(message)
         if instance is None or instance <= self.instance:
             return
@@ -514,6 +518,10 @@ class MqttBusFace:
             if any(_failed(code) for code in granted):
                 raise aiomqtt.MqttError(f"the broker refused the subscription to {topic}")
         self._early = _queued(client)
+        if not self.instance:  # the first connection: one generation after the newest found
+            found = [_instance(m) for m in self._early if m.topic.value == self.gateway_topic]
+            generation = 1 + max((_generation(i) for i in found if i is not None), default=0)
+            self.instance = f"{generation:020d}-{secrets.token_hex(4)}"
         for message in self._early:
             if message.topic.value == self.gateway_topic:
                 self._other_gateway(message)
@@ -731,6 +739,14 @@ def _instance(message: aiomqtt.Message) -> str | None:
         if name == INSTANCE:
             return str(value)
     return None
+
+
+def _generation(instance: str) -> int:
+    """The generation of a gateway's `INSTANCE` token (0: none that can be read)."""
+    digits = instance.partition("-")[0]
+    if len(digits) != 20 or not (digits.isascii() and digits.isdigit()):
+        return 0
+    return min(int(digits), 10**20 - 2)  # (one more must still be 20 digits)
 
 
 def _queued(client: aiomqtt.Client) -> list[aiomqtt.Message]:
