@@ -63,7 +63,7 @@ from pyuss.bus.wire import check_name
 from pyuss.errors import ConfigError, TransportError
 from pyuss.loop import FINE_MARGIN, fine_timers
 from pyuss.transport.base import LineError
-from pyuss.transport.queued import QueuedTransport, char_time, check_baud
+from pyuss.transport.queued import QueuedTransport, char_time, check_baud, shift_errors
 
 log = logging.getLogger(__name__)
 
@@ -254,6 +254,20 @@ class Station(QueuedTransport):
         takes the first piece of a run at once and keeps the rest until the run ends."""
         if not self.hold:
             self.receive(data, timestamp, errors)
+            return
+        if len(data) > HOLD_MAX:  # a hand-over come late (a loaded machine): in pieces
+            tc = (timestamp - start) / len(data)
+            for i in range(0, len(data), HOLD_MAX):
+                part = data[i : i + HOLD_MAX]
+                end = start + (i + len(part)) * tc
+                last = i + HOLD_MAX >= len(data)
+                self.hand(
+                    part,
+                    end - len(part) * tc,
+                    end,
+                    shift_errors(errors, i, i + len(part)),
+                    run_ends and last,
+                )
             return
         continues = start <= self.heard_end + _EPS
         self.heard_end = timestamp
