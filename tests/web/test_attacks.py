@@ -201,3 +201,27 @@ async def test_a_confirmation_acts_once_fresh_and_for_the_command_checked(
     finally:
         await stale.close()
         await server.close()
+
+
+async def test_a_command_that_takes_no_value_refuses_one(backend: Backend) -> None:
+    # "on" with a setpoint beside it: the drive would start at whatever setpoint is in
+    # force, not at the one the request names; refused whole, checked or not
+    server = await serve(backend)
+    before = moving(backend)
+    try:
+        async with aiohttp.ClientSession() as http:
+            url = f"http://127.0.0.1:{server.port}/api/drive/1/command"
+            for body in (
+                {"name": "on", "value": 40},
+                {"name": "on", "value": 40, "check": True},
+                {"name": "jog1", "value": {"value": "10", "unit": "Hz"}},
+                {"name": "off1", "value": None},
+            ):
+                status, reply = await post(http, url, body)
+                assert status == 400, (body, reply)
+                assert reply["error"].startswith(f"{body['name']} takes no value"), reply
+            assert moving(backend) == before
+            await still_served(backend, http, f"http://127.0.0.1:{server.port}")
+    finally:
+        await server.close()
+

@@ -413,6 +413,13 @@ class WebServer:
         name, value = data.get("name"), data.get("value")
         if not isinstance(name, str):
             raise ConfigError('"name" must be a command name: ' + ", ".join(Backend.COMMANDS))
+        if "value" in data and name != "setpoint":
+            # "on" with a speed beside it would start the drive at the setpoint in force,
+            # not at the one the request names: only partly valid, so refused whole
+            raise ConfigError(
+                f"{_cut(name)[1:-1]} takes no value: only setpoint does "
+                '(send the setpoint first, {"name": "setpoint", "value": ...})'
+            )
         check = data.get("check", False)
         if not isinstance(check, bool):
             raise ConfigError('"check" must be true or false')
