@@ -7,7 +7,9 @@ well-behaved client is served as before: the server and the drives' workers run 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
+from collections.abc import AsyncIterator
 from typing import Any
 
 import aiohttp
@@ -203,25 +205,47 @@ async def test_a_confirmation_acts_once_fresh_and_for_the_command_checked(
         await server.close()
 
 
-async def test_a_command_that_takes_no_value_refuses_one(backend: Backend) -> None:
-    # "on" with a setpoint beside it: the drive would start at whatever setpoint is in
-    # force, not at the one the request names; refused whole, checked or not
+@contextlib.asynccontextmanager
+async def attacked(backend: Backend) -> AsyncIterator[tuple[aiohttp.ClientSession, str]]:
+    """A client and the address of a server for ``backend``; when the attack is over,
+    nothing that moves a drive went out and a well-behaved client is served as before."""
     server = await serve(backend)
     before = moving(backend)
     try:
         async with aiohttp.ClientSession() as http:
-            url = f"http://127.0.0.1:{server.port}/api/drive/1/command"
-            for body in (
-                {"name": "on", "value": 40},
-                {"name": "on", "value": 40, "check": True},
-                {"name": "jog1", "value": {"value": "10", "unit": "Hz"}},
-                {"name": "off1", "value": None},
-            ):
-                status, reply = await post(http, url, body)
-                assert status == 400, (body, reply)
-                assert reply["error"].startswith(f"{body['name']} takes no value"), reply
+            base = f"http://127.0.0.1:{server.port}"
+            yield http, base
             assert moving(backend) == before
-            await still_served(backend, http, f"http://127.0.0.1:{server.port}")
+            await still_served(backend, http, base)
     finally:
         await server.close()
 
+
+async def test_a_command_that_takes_no_value_refuses_one(backend: Backend) -> None:
+    # "on" with a setpoint beside it: the drive would start at whatever setpoint is in
+    # force, not at the one the request names; refused whole, checked or not
+    async with attacked(backend) as (http, base):
+        for body in (
+            {"name": "on", "value": 40},
+            {"name": "on", "value": 40, "check": True},
+            {"name": "jog1", "value": {"value": "10", "unit": "Hz"}},
+            {"name": "off1", "value": None},
+        ):
+            status, reply = await post(http, base + "/api/drive/1/command", body)
+            assert status == 400, (body, reply)
+            assert reply["error"].startswith(f"{body['name']} takes no value"), reply
+
+
+async def test_a_malformed_host_or_origin_gets_a_clear_refusal(backend: Backend) -> None:
+    async with attacked(backend) as (http, base):
+        for headers, words in (
+            ({"Host": "[::1"}, "not this machine"),
+            ({"Origin": "http://["}, "are not accepted"),
+            ({"Origin": "http://127.0.0.1:99999"}, "are not accepted"),
+        ):
+            for method, path in (("GET", "/api/bus"), ("POST", "/api/drive/1/command")):
+                async with http.request(
+                    method, base + path, json={"name": "on"}, headers={**JSON, **headers}
+                ) as reply:
+                    assert reply.status == 403, (method, headers)
+                    assert words in (await reply.json())["error"]

@@ -139,6 +139,16 @@ def _ref(text: object) -> tuple[int, int | None]:
     return int(pnu), (int(index) if dot else None)
 
 
+def _netloc(url: str, part: str) -> str:
+    """The ``netloc`` or ``hostname`` of ``url``; empty for what is no URL (``http://[``,
+    a ``Host`` header of a broken IPv6 address), which is then no host of this machine."""
+    try:
+        split = urlsplit(url)
+    except ValueError:
+        return ""
+    return str(getattr(split, part) or "")
+
+
 def _cut(value: object) -> str:
     """A client's value in an error message, cut short."""
     text = repr(value)
@@ -310,14 +320,13 @@ class WebServer:
 
     @web.middleware
     async def _guard(self, request: web.Request, handler: Handler) -> web.StreamResponse:
-        host = urlsplit(f"//{request.host}").hostname or ""
-        if is_loopback(self.host) and not is_loopback(host):
-            return _error(403, f"host {request.host!r} is not this machine")
+        if is_loopback(self.host) and not is_loopback(_netloc(f"//{request.host}", "hostname")):
+            return _error(403, f"host {_cut(request.host)} is not this machine")
         if not self._token_ok(request):
             return _error(401, "the page needs its token: open the URL uss web printed")
         origin = request.headers.get("Origin")
-        if origin is not None and urlsplit(origin).netloc != request.host:
-            return _error(403, f"requests from {origin} are not accepted")
+        if origin is not None and _netloc(origin, "netloc") != request.host:
+            return _error(403, f"requests from {_cut(origin)} are not accepted")
         changing = request.method not in ("GET", "HEAD", "OPTIONS")
         if changing and request.headers.get("X-Pyuss") != "1":
             return _error(403, "a change needs the X-Pyuss header (sent by the page)")
