@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import contextlib
 import json
 import os
 import socket
@@ -193,6 +194,61 @@ async def test_a_client_that_does_not_read_is_dropped_and_holds_up_nobody(
             raise ConnectionResetError
     finally:
         hostile.close()
+        await server.close()
+
+
+def _closed_by_server(sock: socket.socket) -> bytes:
+    """What the server sent before it closed ``sock`` (waits for the close, at most 60 s)."""
+    sock.settimeout(60)
+    got = b""
+    try:
+        while part := sock.recv(65536):
+            got += part
+    except ConnectionResetError:
+        pass
+    return got
+
+
+async def test_a_connection_that_sends_no_whole_request_is_closed(backend: Backend) -> None:
+    # idle connections and heads or bodies sent a byte at a time (slowloris) hold a
+    # connection each: they are closed, and a page is served meanwhile and afterwards
+    server = await serve(backend, idle_timeout=1.0, body_timeout=1.0)
+    head = f"POST /api/drive/1/command HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\n"
+    idle = socket.create_connection(("127.0.0.1", server.port))
+    slow = socket.create_connection(("127.0.0.1", server.port))
+    body = socket.create_connection(("127.0.0.1", server.port))
+    stop = asyncio.Event()
+
+    async def drip() -> None:  # a byte of the head every 0.2 s, never its end
+        with contextlib.suppress(OSError):
+            for byte in (head + "X-Pyuss: 1\r\n" + "X" * 10_000).encode():
+                if stop.is_set():
+                    return
+                slow.send(bytes([byte]))
+                await asyncio.sleep(0.2)
+
+    dripping = asyncio.create_task(drip())
+    try:
+        body.sendall((head + 'X-Pyuss: 1\r\nContent-Length: 100\r\n\r\n{"name": "o').encode())
+        async with aiohttp.ClientSession() as http, http.ws_connect(base(server) + "/ws") as ws:
+            async with http.get(base(server) + "/api/bus") as reply:
+                assert reply.status == 200
+            for sock in (idle, slow):
+                assert await asyncio.to_thread(_closed_by_server, sock) == b""
+            answer = await asyncio.to_thread(_closed_by_server, body)
+            assert answer.startswith(b"HTTP/1.1 408"), answer[:200]
+            assert b"the request body did not come within 1 s" in answer
+            # a live connection is no idle one: it stays, and the page is served
+            assert not ws.closed
+            assert (await ws.receive_json(timeout=10))["type"] in ("tick", "bus")
+            async with http.get(base(server) + "/api/bus") as reply:
+                assert reply.status == 200
+        assert backend.points(1).drive.control == 0  # nothing half-received acted
+    finally:
+        stop.set()
+        await dripping
+        for sock in (idle, slow, body):
+            sock.close()
         await server.close()
 
 

@@ -98,6 +98,12 @@ CONFIRM_AGE = 60.0
 SHUTDOWN_GRACE = 2.0
 """Seconds a request still running when the page stops (Ctrl+C) has to finish; then it is
 cut off (a scan, a parameter read over the broker waiting for its gateway)."""
+IDLE_TIMEOUT = 10.0
+"""Seconds a connection may go without a whole request head (the first one, or the next
+one on a kept-alive connection) before it is closed: idle connections and heads sent a byte
+at a time (slowloris) do not pile up."""
+BODY_TIMEOUT = 60.0
+"""Seconds a request body (a command, a backup file) may take to come in whole."""
 MAX_CONFIRMS = 64
 """Checked commands waiting for a yes at most (the oldest are forgotten)."""
 COOKIE = "pyuss_token"
@@ -213,6 +219,8 @@ class WebServer:
         send_timeout: float = SEND_TIMEOUT,
         confirm_age: float = CONFIRM_AGE,
         shutdown_grace: float = SHUTDOWN_GRACE,
+        idle_timeout: float = IDLE_TIMEOUT,
+        body_timeout: float = BODY_TIMEOUT,
     ) -> None:
         if not is_loopback(host) and not token:
             raise ConfigError(
@@ -227,9 +235,16 @@ class WebServer:
         self.token = token or None
         self.read_only = read_only
         self.shutdown_grace = shutdown_grace
+        self.idle_timeout = idle_timeout
+        self.body_timeout = body_timeout
         self.hub = Hub(queue_size=queue_size, send_timeout=send_timeout)
         self._runner: web.AppRunner | None = None
         self._ticker: asyncio.Task[None] | None = None
+        self._sweeper: asyncio.Task[None] | None = None
+        self._opened: dict[web.RequestHandler, float] = {}
+        """Connections by their handler, with when they were first seen."""
+        self._begun: set[object] = set()
+        """The transports of connections that sent at least one whole request head."""
         self._sockets: set[web.WebSocketResponse] = set()
         """The pages connected live: told the server goes away when it closes."""
         self._sent_exchange = 0
@@ -275,6 +290,7 @@ class WebServer:
             access_log=None,
             handle_signals=False,
             shutdown_timeout=self.shutdown_grace,
+            keepalive_timeout=self.idle_timeout,
         )
         await runner.setup()
         site = web.TCPSite(runner, self.host, self.port, reuse_address=True)
@@ -289,13 +305,15 @@ class WebServer:
         if self.port == 0 and runner.addresses:
             self.port = int(runner.addresses[0][1])
         self._ticker = asyncio.create_task(self._tick())
+        self._sweeper = asyncio.create_task(self._sweep(runner.server))
         return self.url
 
     async def close(self) -> None:
-        if self._ticker is not None:
-            self._ticker.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._ticker
+        for task in (self._ticker, self._sweeper):
+            if task is not None:
+                task.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await task
         await self.hub.close()
         # a page left open keeps its live connection: say goodbye (1001, going away) so
         # that stopping the server does not wait for the browser to leave
@@ -305,6 +323,29 @@ class WebServer:
         if self._runner is not None:
             await self._runner.cleanup()
             self._runner = None
+
+    async def _sweep(self, server: web.Server | None) -> None:
+        """Close every connection that has not sent a whole request head within
+        `idle_timeout` seconds of opening (between two requests aiohttp's keep-alive
+        timeout, the same, does it)."""
+        while server is not None:
+            await asyncio.sleep(min(1.0, self.idle_timeout / 2))
+            now = time.monotonic()
+            handlers = server.connections
+            transports = {h.transport for h in handlers}
+            self._begun &= transports
+            self._opened = {h: self._opened.get(h, now) for h in handlers}
+            for handler, since in self._opened.items():
+                transport = handler.transport
+                if (
+                    transport is not None
+                    and transport not in self._begun
+                    and now - since > self.idle_timeout
+                ):
+                    log.info(
+                        "web connection closed: no whole request within %g s", self.idle_timeout
+                    )
+                    transport.close()
 
     # -- guard --------------------------------------------------------------------------------
     def _token_ok(self, request: web.Request) -> bool:
@@ -320,6 +361,7 @@ class WebServer:
 
     @web.middleware
     async def _guard(self, request: web.Request, handler: Handler) -> web.StreamResponse:
+        self._begun.add(request.transport)
         if is_loopback(self.host) and not is_loopback(_netloc(f"//{request.host}", "hostname")):
             return _error(403, f"host {_cut(request.host)} is not this machine")
         if not self._token_ok(request):
@@ -370,18 +412,26 @@ class WebServer:
             return text
         raise ConfigError(f"drive {_cut(text)} is not on the page")
 
-    @staticmethod
-    async def _json(request: web.Request, keys: tuple[str, ...] = ()) -> dict[str, Any]:
+    async def _body(self, request: web.Request, read: Awaitable[bytes]) -> bytes:
+        """The request's body as ``read`` reads it, within `body_timeout` seconds."""
+        try:
+            async with asyncio.timeout(self.body_timeout):
+                return await read
+        except TimeoutError:
+            raise web.HTTPRequestTimeout(
+                text=json.dumps(
+                    {"error": f"the request body did not come within {self.body_timeout:g} s"}
+                ),
+                content_type="application/json",
+                headers={"Connection": "close"},
+            ) from None
+
+    async def _json(self, request: web.Request, keys: tuple[str, ...] = ()) -> dict[str, Any]:
         """The request's JSON object, read and parsed within bounds (`MAX_JSON` bytes, nesting
         `MAX_DEPTH`); with ``keys``, no other key may be in it."""
         if request.content_length is not None and request.content_length > MAX_JSON:
             raise ConfigError(f"the request body is larger than {MAX_JSON} bytes")
-        body = bytearray()
-        while len(body) <= MAX_JSON:
-            part = await request.content.read(MAX_JSON + 1 - len(body))
-            if not part:
-                break
-            body += part
+        body = await self._body(request, _read_up_to(request, MAX_JSON + 1))
         if len(body) > MAX_JSON:
             raise ConfigError(f"the request body is larger than {MAX_JSON} bytes")
         data = parse_json(bytes(body))
@@ -493,13 +543,12 @@ class WebServer:
             headers={"Content-Disposition": f'attachment; filename="{name}"'},
         )
 
-    @staticmethod
-    async def _upload(request: web.Request) -> tuple[bytes, str]:
+    async def _upload(self, request: web.Request) -> tuple[bytes, str]:
         """The backup file a page sends as the request body, and its name (``name=``)."""
         name = request.query.get("name", "").strip() or "the file"
         if len(name) > 200 or any(c in name for c in "\r\n\0"):
             raise ConfigError("the file name is too long or not a name")
-        data = await request.read()
+        data = await self._body(request, request.read())
         if not data:
             raise ConfigError(f"{name} is empty: choose a backup file (TOML or JSON)")
         return data, name
@@ -627,6 +676,17 @@ class WebServer:
                 message = {"type": "telegrams", "items": items, "left_out": left_out}
                 self.hub.send(json.dumps(message), monitor_only=True)
             self._sent_exchange = newest
+
+
+async def _read_up_to(request: web.Request, size: int) -> bytes:
+    """The request's body, or its first ``size`` bytes when it is longer."""
+    body = bytearray()
+    while len(body) < size:
+        part = await request.content.read(size - len(body))
+        if not part:
+            break
+        body += part
+    return bytes(body)
 
 
 def _addresses(text: str) -> list[int]:
