@@ -63,6 +63,32 @@ async def test_off_loopback_every_request_needs_the_token(backend: Backend) -> N
         await server.close()
 
 
+def _raw_get(port: int, headers: bytes) -> bytes:
+    """The status line of a GET of /api/bus with ``headers`` as raw bytes."""
+    with socket.create_connection(("127.0.0.1", port), timeout=30) as sock:
+        sock.sendall(b"GET /api/bus HTTP/1.1\r\nHost: 127.0.0.1\r\n" + headers + b"\r\n")
+        answer = b""
+        while b"\r\n" not in answer:
+            answer += sock.recv(4096) or b"\r\n"
+        return answer.split(b"\r\n")[0]
+
+
+async def test_a_token_that_is_no_text_is_a_wrong_token(backend: Backend) -> None:
+    server = await serve(backend, host="0.0.0.0", token="s3cret-token")
+    try:
+        for headers in (
+            b"X-Pyuss-Token: \xff\xfe\r\n",
+            b"Cookie: pyuss_token=\xff\r\n",
+            b"Cookie: pyuss_token=s3cret-token\xff\r\n",
+        ):
+            status = await asyncio.to_thread(_raw_get, server.port, headers)
+            assert status == b"HTTP/1.1 401 Unauthorized", headers
+        status = await asyncio.to_thread(_raw_get, server.port, b"X-Pyuss-Token: s3cret-token\r\n")
+        assert status == b"HTTP/1.1 200 OK"
+    finally:
+        await server.close()
+
+
 async def test_a_web_site_cannot_reach_the_page_on_loopback(backend: Backend) -> None:
     server = await serve(backend)
     try:

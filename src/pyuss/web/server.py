@@ -357,7 +357,9 @@ class WebServer:
             or request.cookies.get(COOKIE)
             or ""
         )
-        return hmac.compare_digest(given.encode(), self.token.encode())
+        # a header or cookie of bytes that are no UTF-8 comes as lone surrogates: kept as
+        # the bytes they were, and so a wrong token, never an error
+        return hmac.compare_digest(given.encode("utf-8", "surrogateescape"), self.token.encode())
 
     @web.middleware
     async def _guard(self, request: web.Request, handler: Handler) -> web.StreamResponse:
