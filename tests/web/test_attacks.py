@@ -249,3 +249,34 @@ async def test_a_malformed_host_or_origin_gets_a_clear_refusal(backend: Backend)
                 ) as reply:
                     assert reply.status == 403, (method, headers)
                     assert words in (await reply.json())["error"]
+
+
+async def test_a_confirmation_is_for_its_drive_and_the_drives_of_its_time(
+    backend: Backend,
+) -> None:
+    # the yes a person gave for drive 1 never switches on drive 4, and none given before a
+    # scan (the drives of before are gone, another may stand at the same address) acts after
+    async with attacked(backend) as (http, base):
+        url = base + "/api/drive/{}/command"
+        for name in ("on", "jog1"):
+            status, check = await post(http, url.format(1), {"name": name, "check": True})
+            assert status == 200
+            status, reply = await post(
+                http, url.format(4), {"name": name, "confirm": check["confirm"]}
+            )
+            assert (status, "not the one confirmed" in reply["error"]) == (409, True), reply
+        ten = {"name": "setpoint", "value": 10}
+        status, check = await post(http, url.format(1), {**ten, "check": True})
+        status, reply = await post(http, url.format(9), {**ten, "confirm": check["confirm"]})
+        assert (status, "not the one confirmed" in reply["error"]) == (409, True), reply
+        status, check = await post(http, url.format(1), {"name": "on", "check": True})
+        status, scan = await post(http, base + "/api/scan", {"addresses": "1,4,7,9"})
+        assert status == 200, scan
+        async with asyncio.timeout(20):  # the drives found answer again
+            while backend.addresses() != [1, 4, 7, 9] or backend.bus()["drives"][0]["state"] in (
+                None,
+                "does not send",
+            ):
+                await asyncio.sleep(0.05)
+        status, reply = await post(http, url.format(1), {"name": "on", "confirm": check["confirm"]})
+        assert (status, "check it again" in reply["error"]) == (409, True), reply

@@ -172,32 +172,39 @@ class Confirmations:
     """Commands a page checked and asks a person about: each yes carries the ``confirm``
     of its check, which is good once, for `CONFIRM_AGE` seconds, and for exactly the command
     checked (the same drive, name and words): a replayed, stale or changed request is refused
-    before anything is sent."""
+    before anything is sent. A scan forgets them all (`forget`): the drives they were given
+    for are gone, another may stand at the same address."""
 
     def __init__(self, age: float = CONFIRM_AGE) -> None:
         self.age = age
         self._open: dict[str, tuple[float, str]] = {}
 
     @staticmethod
-    def _what(checked: dict[str, Any]) -> str:
-        return json.dumps(checked, sort_keys=True)
+    def _what(drive: object, checked: dict[str, Any]) -> str:
+        return json.dumps({"drive": str(drive), "checked": checked}, sort_keys=True)
 
-    def issue(self, checked: dict[str, Any]) -> str:
+    def issue(self, drive: object, checked: dict[str, Any]) -> str:
         token = secrets.token_urlsafe(18)
-        self._open[token] = (time.monotonic(), self._what(checked))
+        self._open[token] = (time.monotonic(), self._what(drive, checked))
         while len(self._open) > MAX_CONFIRMS:
             del self._open[next(iter(self._open))]
         return token
 
-    def redeem(self, token: object, checked: dict[str, Any]) -> None:
+    def forget(self) -> None:
+        self._open.clear()
+
+    def redeem(self, token: object, drive: object, checked: dict[str, Any]) -> None:
         entry = self._open.pop(token, None) if isinstance(token, str) else None
         if entry is None:
             raise _conflict("this command was confirmed before or never checked: check it again")
         when, what = entry
         if time.monotonic() - when > self.age:
             raise _conflict(f"the confirmation is older than {self.age:g} s: check it again")
-        if what != self._what(checked):
-            raise _conflict("the command is not the one confirmed (or means another setpoint now)")
+        if what != self._what(drive, checked):
+            raise _conflict(
+                "the command is not the one confirmed (another drive, command or value, "
+                "or it means another setpoint now)"
+            )
 
 
 def _conflict(message: str) -> web.HTTPConflict:
@@ -486,9 +493,9 @@ class WebServer:
             raise ConfigError('"check" must be true or false')
         checked = self.backend.check(address, name, value)  # refused here: nothing is sent
         if check:
-            return web.json_response({**checked, "confirm": self._confirms.issue(checked)})
+            return web.json_response({**checked, "confirm": self._confirms.issue(address, checked)})
         if "confirm" in data:
-            self._confirms.redeem(data["confirm"], checked)
+            self._confirms.redeem(data["confirm"], address, checked)
         return web.json_response(await self.backend.command(address, name, value))
 
     async def _actuals(self, request: web.Request) -> web.Response:
@@ -590,9 +597,13 @@ class WebServer:
         def progress(done: int, total: int) -> None:
             self.hub.send(json.dumps({"type": "scan", "done": done, "total": total}))
 
-        found = await self.backend.scan(
-            addresses, profile=None if profile == UNKNOWN_KIND else profile, progress=progress
-        )
+        self._confirms.forget()  # each yes given was for a drive of before the scan
+        try:
+            found = await self.backend.scan(
+                addresses, profile=None if profile == UNKNOWN_KIND else profile, progress=progress
+            )
+        finally:
+            self._confirms.forget()
         self.hub.send(json.dumps({"type": "scan", "done": 1, "total": 1, "found": found}))
         return web.json_response({"found": found})
 
