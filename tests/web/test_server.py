@@ -7,6 +7,7 @@ import asyncio
 import base64
 import contextlib
 import json
+import logging
 import os
 import socket
 from typing import Any
@@ -87,6 +88,26 @@ async def test_a_token_that_is_no_text_is_a_wrong_token(backend: Backend) -> Non
         assert status == b"HTTP/1.1 200 OK"
     finally:
         await server.close()
+
+
+async def test_a_malformed_request_is_one_line_in_the_log_not_a_traceback(
+    backend: Backend, caplog: pytest.LogCaptureFixture
+) -> None:
+    # a client's bad HTTP (a header beyond 8 kB, no HTTP at all) is the client's fault: a
+    # flood of it must not fill the engineer's terminal with tracebacks
+    caplog.set_level(logging.DEBUG, logger="pyuss.web")
+    server = await serve(backend)
+    try:
+        for raw in (b"X-Big: " + b"a" * 20_000 + b"\r\n", b"X-Bad\x01: 1\r\n"):
+            status = await asyncio.to_thread(_raw_get, server.port, raw)
+            assert status.split()[1] == b"400", status
+        async with aiohttp.ClientSession() as http, http.get(base(server) + "/api/bus") as r:
+            assert r.status == 200
+    finally:
+        await server.close()
+    loud = [r for r in caplog.records if r.levelno >= logging.INFO or r.exc_info]
+    assert not loud, [r.getMessage() for r in loud]
+    assert any("bad request from 127.0.0.1: 400" in r.getMessage() for r in caplog.records)
 
 
 async def test_a_web_site_cannot_reach_the_page_on_loopback(backend: Backend) -> None:

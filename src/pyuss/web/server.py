@@ -54,6 +54,7 @@ from pyuss.web import EXTRA_HINT, MissingExtra
 
 try:
     from aiohttp import WSCloseCode, WSMsgType, web
+    from aiohttp.http_exceptions import HttpProcessingError
 except ImportError:  # pragma: no cover - the extra is installed for the tests
     raise MissingExtra(
         f"the web page needs aiohttp, which is not installed: {EXTRA_HINT}"
@@ -122,6 +123,24 @@ def is_loopback(host: str) -> bool:
         return ipaddress.ip_address(host.strip("[]")).is_loopback
     except ValueError:
         return False
+
+
+class _ClientFaults(logging.Filter):
+    """aiohttp logs a request it cannot parse (a header beyond 8 kB, no HTTP at all) with a
+    traceback at ERROR: that is the client's fault, answered with 400, so it is one line at
+    DEBUG instead. The server's own failures keep their traceback."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        fault = record.exc_info[1] if record.exc_info else None
+        if isinstance(fault, HttpProcessingError) and fault.code < 500:
+            peer = record.args[0] if isinstance(record.args, tuple) and record.args else "?"
+            log.debug("bad request from %s: %s %s", peer, fault.code, fault.message[:100])
+            return False
+        return True
+
+
+SERVER_LOG = logging.getLogger("pyuss.web.http")
+SERVER_LOG.addFilter(_ClientFaults())
 
 
 def _error(status: int, message: str, **extra: Any) -> web.Response:
@@ -298,6 +317,7 @@ class WebServer:
             handle_signals=False,
             shutdown_timeout=self.shutdown_grace,
             keepalive_timeout=self.idle_timeout,
+            logger=SERVER_LOG,
         )
         await runner.setup()
         site = web.TCPSite(runner, self.host, self.port, reuse_address=True)
