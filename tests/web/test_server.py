@@ -315,6 +315,45 @@ async def test_a_client_sending_oversized_messages_is_closed(backend: Backend) -
         await server.close()
 
 
+async def test_a_flood_of_monitor_messages_does_not_hold_up_the_server(
+    backend: Backend,
+) -> None:
+    # each "show me the monitor" used to decode the last 500 telegrams anew: 2000 of them
+    # from one page held the event loop - the page, the others and the drives' cyclic
+    # traffic - for seconds
+    decoded = 0
+    exchanges_since = backend.exchanges_since
+
+    def counted(seq: int, limit: int) -> tuple[list[dict[str, Any]], int]:
+        nonlocal decoded
+        decoded += 1
+        return exchanges_since(seq, limit)
+
+    backend.exchanges_since = counted  # type: ignore[method-assign]
+    server = await serve(backend)
+    try:
+        async with aiohttp.ClientSession() as http, http.ws_connect(base(server) + "/ws") as ws:
+            recent: list[dict[str, Any]] = []
+            listener = asyncio.create_task(collect(ws, "telegrams", recent))
+            for _ in range(2000):
+                await ws.send_str('{"monitor": true}')
+            await ws.send_str('{"ping": 1}')  # the last one: once it is read, all were
+            async with asyncio.timeout(30):
+                while not recent or server.hub.clients[0].monitor is not True:
+                    await asyncio.sleep(0.05)
+            # the monitor was asked for once and is shown: its telegrams came once
+            assert len([r for r in recent if "left_out" not in r]) == 1
+            for n in range(2000):  # on, off, on, ...: each "on" is served from one decoding
+                await ws.send_str(json.dumps({"monitor": n % 2 == 0}))
+            async with http.get(base(server) + "/api/bus") as reply:
+                assert reply.status == 200
+            listener.cancel()
+        assert decoded < 500, decoded
+    finally:
+        backend.exchanges_since = exchanges_since  # type: ignore[method-assign]
+        await server.close()
+
+
 async def test_a_page_left_open_does_not_hold_up_stopping_the_server(backend: Backend) -> None:
     # Ctrl+C on `uss web` while a browser shows the page: the page is told the server goes
     # away (1001) and the server stops, instead of waiting for the browser to leave.

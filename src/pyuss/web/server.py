@@ -274,6 +274,8 @@ class WebServer:
         self._sockets: set[web.WebSocketResponse] = set()
         """The pages connected live: told the server goes away when it closes."""
         self._sent_exchange = 0
+        self._recent: tuple[int, str] | None = None
+        """The last telegrams for a page opening the monitor, and the newest among them."""
         self._confirms = Confirmations(confirm_age)
 
     # -- life cycle ---------------------------------------------------------------------------
@@ -654,6 +656,8 @@ class WebServer:
         self.hub.send_to(client, json.dumps({"type": "bus", "bus": self.backend.bus()}))
         try:
             async for message in ws:
+                if client.closed:
+                    break  # cut off (fallen behind): what it sent meanwhile is not read
                 if message.type != WSMsgType.TEXT:
                     continue
                 try:
@@ -661,16 +665,22 @@ class WebServer:
                 except ConfigError:
                     continue
                 if isinstance(data, dict) and "monitor" in data:
-                    client.monitor = bool(data["monitor"])
-                    if client.monitor:
-                        recent, _ = self.backend.exchanges_since(
-                            self.backend.last_exchange - RECENT_TELEGRAMS, RECENT_TELEGRAMS
-                        )
-                        self.hub.send_to(client, json.dumps({"type": "telegrams", "items": recent}))
+                    shown, client.monitor = client.monitor, bool(data["monitor"])
+                    if client.monitor and not shown:
+                        self.hub.send_to(client, self._recent_telegrams())
         finally:
             self._sockets.discard(ws)
             await self.hub.remove(client)
         return ws
+
+    def _recent_telegrams(self) -> str:
+        """The message with the last `RECENT_TELEGRAMS` telegrams for a page that opens the
+        monitor view; decoded once for every page that opens it before the next telegram."""
+        newest = self.backend.last_exchange
+        if self._recent is None or self._recent[0] != newest:
+            items, _ = self.backend.exchanges_since(newest - RECENT_TELEGRAMS, RECENT_TELEGRAMS)
+            self._recent = (newest, json.dumps({"type": "telegrams", "items": items}))
+        return self._recent[1]
 
     async def _tick(self) -> None:
         count = 0
