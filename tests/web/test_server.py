@@ -126,6 +126,24 @@ async def test_a_web_site_cannot_reach_the_page_on_loopback(backend: Backend) ->
                 assert reply.status == 403
             with pytest.raises(aiohttp.WSServerHandshakeError):
                 await http.ws_connect(base(server) + "/ws", origin="http://evil.example")
+            # an image or script tag of another site sends no Origin, but the browser says
+            # where the request comes from: no backup or fault read for it; a link to the
+            # page itself opens it
+            foreign = {"Sec-Fetch-Site": "cross-site", "Sec-Fetch-Mode": "no-cors"}
+            for path in ("/api/drive/1/backup", "/api/drive/1/faults", "/static/app.js"):
+                async with http.get(base(server) + path, headers=foreign) as reply:
+                    assert reply.status == 403, path
+                    assert "another site" in (await reply.json())["error"]
+            link = {"Sec-Fetch-Site": "cross-site", "Sec-Fetch-Mode": "navigate"}
+            async with http.get(base(server) + "/", headers=link) as reply:
+                assert reply.status == 200
+            async with http.get(base(server) + "/api/bus", headers=link) as reply:
+                assert reply.status == 403
+            for site in ("same-origin", "none"):
+                async with http.get(
+                    base(server) + "/api/bus", headers={"Sec-Fetch-Site": site}
+                ) as reply:
+                    assert reply.status == 200, site
             assert backend.points(1).drive.control == 0  # nothing reached the drive
             own = {**WRITE, "Origin": base(server)}
             async with http.post(command, json={"name": "off1"}, headers=own) as reply:

@@ -27,7 +27,9 @@ required (`WebServer` refuses to start without one) and every request must carry
 ``X-Pyuss-Token`` header or that cookie. On a loopback address the ``Host`` header must name
 a loopback host (a web site cannot reach the page through a DNS name of its own). Requests
 that change something must carry the ``X-Pyuss`` header (a web site's form cannot add it) and
-no ``Origin`` of another site; a WebSocket from another origin is refused. ``read_only``
+no ``Origin`` of another site; a WebSocket from another origin is refused. What a browser
+says comes from another site (``Sec-Fetch-Site``: an image or script tag, which sends no
+``Origin``) is refused too, but a link to the page itself. ``read_only``
 refuses every change and the page hides its controls. Every JSON body is read and parsed
 within bounds (`MAX_JSON` bytes, nesting `MAX_DEPTH`, no NaN or Infinity), every key and
 type checked; a bad request gets one JSON error with a 4xx status and never reaches a drive.
@@ -400,6 +402,15 @@ class WebServer:
         origin = request.headers.get("Origin")
         if origin is not None and _netloc(origin, "netloc") != request.host:
             return _error(403, f"requests from {_cut(origin)} are not accepted")
+        fetched_from = request.headers.get("Sec-Fetch-Site", "same-origin")
+        if fetched_from not in ("same-origin", "none") and not (
+            request.path == "/" and request.headers.get("Sec-Fetch-Mode") == "navigate"
+        ):
+            # an image, script or frame of another site (which sends no Origin): a link to
+            # the page opens it, nothing else of it is for another site
+            return _error(
+                403, f"requests from another site ({_cut(fetched_from)}) are not accepted"
+            )
         changing = request.method not in ("GET", "HEAD", "OPTIONS")
         if changing and request.headers.get("X-Pyuss") != "1":
             return _error(403, "a change needs the X-Pyuss header (sent by the page)")
