@@ -176,6 +176,41 @@ async def test_read_only_refuses_every_change(backend: Backend) -> None:
         await server.close()
 
 
+async def test_a_page_of_an_earlier_start_changes_nothing(backend: Backend) -> None:
+    # a browser tab left open while uss web was started again (perhaps on another line,
+    # where drive 1 is another machine): its buttons act on what it shows, so they act not
+    earlier = await serve(backend)
+    async with (
+        aiohttp.ClientSession(headers=WRITE) as http,
+        http.get(base(earlier) + "/api/config") as reply,
+    ):
+        start = (await reply.json())["start"]
+    await earlier.close()
+    server = await serve(backend)
+    try:
+        async with aiohttp.ClientSession(headers=WRITE) as http:
+            url = base(server)
+            async with http.get(url + "/api/config") as reply:
+                now = (await reply.json())["start"]
+            assert now != start
+            for path, body in (
+                ("/api/drive/1/command", {"name": "on"}),
+                ("/api/drive/1/command", {"name": "on", "check": True}),
+                ("/api/drive/1/params/write", {"id": "462", "value": "2"}),
+            ):
+                headers = {"X-Pyuss-Start": start}
+                async with http.post(url + path, json=body, headers=headers) as reply:
+                    assert reply.status == 409, path
+                    assert "reload the page" in (await reply.json())["error"]
+            assert backend.points(1).drive.control == 0
+            async with http.post(
+                url + "/api/drive/1/command", json={"name": "off1"}, headers={"X-Pyuss-Start": now}
+            ) as reply:
+                assert reply.status == 200
+    finally:
+        await server.close()
+
+
 async def test_bad_requests_get_one_clear_line(backend: Backend) -> None:
     server = await serve(backend)
     try:

@@ -26,7 +26,9 @@ required (`WebServer` refuses to start without one) and every request must carry
 ``token`` query parameter of the first request (the page then keeps it in a cookie), the
 ``X-Pyuss-Token`` header or that cookie. On a loopback address the ``Host`` header must name
 a loopback host (a web site cannot reach the page through a DNS name of its own). Requests
-that change something must carry the ``X-Pyuss`` header (a web site's form cannot add it) and
+that change something must carry the ``X-Pyuss`` header (a web site's form cannot add it)
+and, from the page, ``X-Pyuss-Start``: the start of the server the page was loaded from
+(`WebServer.start_id`; a page of an earlier start changes nothing), and
 no ``Origin`` of another site; a WebSocket from another origin is refused. What a browser
 says comes from another site (``Sec-Fetch-Site``: an image or script tag, which sends no
 ``Origin``) is refused too, but a link to the page itself. ``read_only``
@@ -279,6 +281,10 @@ class WebServer:
         self._recent: tuple[int, str] | None = None
         """The last telegrams for a page opening the monitor, and the newest among them."""
         self._confirms = Confirmations(confirm_age)
+        self.start_id = secrets.token_urlsafe(9)
+        """This start of the server: a page sends it with every change (``X-Pyuss-Start``),
+        so that a page loaded from an earlier start - which may show other drives - changes
+        nothing."""
 
     # -- life cycle ---------------------------------------------------------------------------
     @property
@@ -414,6 +420,12 @@ class WebServer:
         changing = request.method not in ("GET", "HEAD", "OPTIONS")
         if changing and request.headers.get("X-Pyuss") != "1":
             return _error(403, "a change needs the X-Pyuss header (sent by the page)")
+        if changing and request.headers.get("X-Pyuss-Start", self.start_id) != self.start_id:
+            return _error(
+                409,
+                "the page was loaded from an earlier start of uss web and may show other "
+                "drives than there are now: nothing sent, reload the page",
+            )
         try:
             response = await handler(request)
         except web.HTTPException as exc:
@@ -492,6 +504,7 @@ class WebServer:
         return web.json_response(
             {
                 "version": __version__,
+                "start": self.start_id,
                 "read_only": self.read_only,
                 "plant": not isinstance(self.backend, Backend),
                 "moves": sorted(Backend.MOVES),
