@@ -280,3 +280,41 @@ async def test_a_confirmation_is_for_its_drive_and_the_drives_of_its_time(
                 await asyncio.sleep(0.05)
         status, reply = await post(http, url.format(1), {"name": "on", "confirm": check["confirm"]})
         assert (status, "check it again" in reply["error"]) == (409, True), reply
+
+
+async def test_a_restore_writes_what_the_person_said_yes_to_or_nothing(
+    backend: Backend,
+) -> None:
+    # the page asks with the writes of the comparison; the drive changed meanwhile (another
+    # engineer, another page): the restore would write another list, so it writes nothing
+    async with attacked(backend) as (http, base):
+        url = base + "/api/drive/1"
+        async with http.get(url + "/backup?format=json") as reply:
+            body = await reply.read()
+        await backend.write(1, 464, None, "3")
+        try:
+            async with http.post(url + "/compare?name=d1.json", data=body, headers=WRITE) as r:
+                compared = await r.json()
+            assert [w["change"] for w in compared["writes"]] == [
+                "P464 (Ramp-down time): 3.0 s -> 10.0 s"
+            ]
+            await backend.write(1, 462, None, "4")  # now two writes, one not asked about
+            restore = url + "/restore?name=d1.json&confirm=" + compared["confirm"]
+            async with http.post(restore, data=body, headers=WRITE) as reply:
+                assert reply.status == 409
+                assert "not the one confirmed" in (await reply.json())["error"]
+            status, read = await post(http, url + "/params/read", {"ids": ["462", "464"]})
+            assert [r["value"] for r in read] == ["4.0 s", "3.0 s"]  # nothing written
+            async with http.post(url + "/compare?name=d1.json", data=body, headers=WRITE) as r:
+                compared = await r.json()
+            assert len(compared["writes"]) == 2
+            restore = url + "/restore?name=d1.json&confirm=" + compared["confirm"]
+            async with http.post(restore, data=body, headers=WRITE) as reply:
+                assert reply.status == 200
+                assert (await reply.json())["message"] == "drive 1: 2 of 2 written"
+            await backend.write(1, 464, None, "3")
+            async with http.post(restore, data=body, headers=WRITE) as reply:
+                assert reply.status == 409  # a yes acts once
+        finally:
+            await backend.write(1, 462, None, "10")
+            await backend.write(1, 464, None, "10")

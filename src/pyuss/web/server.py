@@ -614,12 +614,21 @@ class WebServer:
         reply = await self.backend.compare(
             address, data, name, progress=self._progress(address, "compare")
         )
+        # the page asks with these writes; its yes carries this (`_restore`)
+        reply["confirm"] = self._confirms.issue(address, {"restore": reply["writes"]})
         return web.json_response(reply)
 
     async def _restore(self, request: web.Request) -> web.Response:
         self._writable()
         address = self._address(request)
         data, name = await self._upload(request)
+        approve = None
+        if "confirm" in request.query:
+            # the yes of a person to a comparison's writes: the same writes, or none
+
+            def approve(writes: list[dict[str, Any]]) -> None:
+                self._confirms.redeem(request.query["confirm"], address, {"restore": writes})
+
         reply = await self.backend.restore(
             address,
             data,
@@ -627,6 +636,7 @@ class WebServer:
             force=request.query.get("force") == "1",
             eeprom=request.query.get("eeprom") == "1",
             progress=self._progress(address, "restore"),
+            approve=approve,
         )
         return web.json_response(reply)
 
