@@ -304,6 +304,7 @@ async def test_a_restore_writes_what_the_person_said_yes_to_or_nothing(
                 assert reply.status == 409
                 assert "not the one confirmed" in (await reply.json())["error"]
             status, read = await post(http, url + "/params/read", {"ids": ["462", "464"]})
+            assert status == 200
             assert [r["value"] for r in read] == ["4.0 s", "3.0 s"]  # nothing written
             async with http.post(url + "/compare?name=d1.json", data=body, headers=WRITE) as r:
                 compared = await r.json()
