@@ -7,7 +7,9 @@ well-behaved client is served as before: the server and the drives' workers run 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
+from collections.abc import AsyncIterator
 from typing import Any
 
 import aiohttp
@@ -201,3 +203,119 @@ async def test_a_confirmation_acts_once_fresh_and_for_the_command_checked(
     finally:
         await stale.close()
         await server.close()
+
+
+@contextlib.asynccontextmanager
+async def attacked(backend: Backend) -> AsyncIterator[tuple[aiohttp.ClientSession, str]]:
+    """A client and the address of a server for ``backend``; when the attack is over,
+    nothing that moves a drive went out and a well-behaved client is served as before."""
+    server = await serve(backend)
+    before = moving(backend)
+    try:
+        async with aiohttp.ClientSession() as http:
+            base = f"http://127.0.0.1:{server.port}"
+            yield http, base
+            assert moving(backend) == before
+            await still_served(backend, http, base)
+    finally:
+        await server.close()
+
+
+async def test_a_command_that_takes_no_value_refuses_one(backend: Backend) -> None:
+    # "on" with a setpoint beside it: the drive would start at whatever setpoint is in
+    # force, not at the one the request names; refused whole, checked or not
+    async with attacked(backend) as (http, base):
+        for body in (
+            {"name": "on", "value": 40},
+            {"name": "on", "value": 40, "check": True},
+            {"name": "jog1", "value": {"value": "10", "unit": "Hz"}},
+            {"name": "off1", "value": None},
+        ):
+            status, reply = await post(http, base + "/api/drive/1/command", body)
+            assert status == 400, (body, reply)
+            assert reply["error"].startswith(f"{body['name']} takes no value"), reply
+
+
+async def test_a_malformed_host_or_origin_gets_a_clear_refusal(backend: Backend) -> None:
+    async with attacked(backend) as (http, base):
+        for headers, words in (
+            ({"Host": "[::1"}, "not this machine"),
+            ({"Origin": "http://["}, "are not accepted"),
+            ({"Origin": "http://127.0.0.1:99999"}, "are not accepted"),
+        ):
+            for method, path in (("GET", "/api/bus"), ("POST", "/api/drive/1/command")):
+                async with http.request(
+                    method, base + path, json={"name": "on"}, headers={**JSON, **headers}
+                ) as reply:
+                    assert reply.status == 403, (method, headers)
+                    assert words in (await reply.json())["error"]
+
+
+async def test_a_confirmation_is_for_its_drive_and_the_drives_of_its_time(
+    backend: Backend,
+) -> None:
+    # the yes a person gave for drive 1 never switches on drive 4, and none given before a
+    # scan (the drives of before are gone, another may stand at the same address) acts after
+    async with attacked(backend) as (http, base):
+        url = base + "/api/drive/{}/command"
+        for name in ("on", "jog1"):
+            status, check = await post(http, url.format(1), {"name": name, "check": True})
+            assert status == 200
+            status, reply = await post(
+                http, url.format(4), {"name": name, "confirm": check["confirm"]}
+            )
+            assert (status, "not the one confirmed" in reply["error"]) == (409, True), reply
+        ten = {"name": "setpoint", "value": 10}
+        status, check = await post(http, url.format(1), {**ten, "check": True})
+        status, reply = await post(http, url.format(9), {**ten, "confirm": check["confirm"]})
+        assert (status, "not the one confirmed" in reply["error"]) == (409, True), reply
+        status, check = await post(http, url.format(1), {"name": "on", "check": True})
+        status, scan = await post(http, base + "/api/scan", {"addresses": "1,4,7,9"})
+        assert status == 200, scan
+        async with asyncio.timeout(20):  # the drives found answer again
+            while backend.addresses() != [1, 4, 7, 9] or backend.bus()["drives"][0]["state"] in (
+                None,
+                "does not send",
+            ):
+                await asyncio.sleep(0.05)
+        status, reply = await post(http, url.format(1), {"name": "on", "confirm": check["confirm"]})
+        assert (status, "check it again" in reply["error"]) == (409, True), reply
+
+
+async def test_a_restore_writes_what_the_person_said_yes_to_or_nothing(
+    backend: Backend,
+) -> None:
+    # the page asks with the writes of the comparison; the drive changed meanwhile (another
+    # engineer, another page): the restore would write another list, so it writes nothing
+    async with attacked(backend) as (http, base):
+        url = base + "/api/drive/1"
+        async with http.get(url + "/backup?format=json") as reply:
+            body = await reply.read()
+        await backend.write(1, 464, None, "3")
+        try:
+            async with http.post(url + "/compare?name=d1.json", data=body, headers=WRITE) as r:
+                compared = await r.json()
+            assert [w["change"] for w in compared["writes"]] == [
+                "P464 (Ramp-down time): 3.0 s -> 10.0 s"
+            ]
+            await backend.write(1, 462, None, "4")  # now two writes, one not asked about
+            restore = url + "/restore?name=d1.json&confirm=" + compared["confirm"]
+            async with http.post(restore, data=body, headers=WRITE) as reply:
+                assert reply.status == 409
+                assert "not the one confirmed" in (await reply.json())["error"]
+            status, read = await post(http, url + "/params/read", {"ids": ["462", "464"]})
+            assert status == 200
+            assert [r["value"] for r in read] == ["4.0 s", "3.0 s"]  # nothing written
+            async with http.post(url + "/compare?name=d1.json", data=body, headers=WRITE) as r:
+                compared = await r.json()
+            assert len(compared["writes"]) == 2
+            restore = url + "/restore?name=d1.json&confirm=" + compared["confirm"]
+            async with http.post(restore, data=body, headers=WRITE) as reply:
+                assert reply.status == 200
+                assert (await reply.json())["message"] == "drive 1: 2 of 2 written"
+            await backend.write(1, 464, None, "3")
+            async with http.post(restore, data=body, headers=WRITE) as reply:
+                assert reply.status == 409  # a yes acts once
+        finally:
+            await backend.write(1, 462, None, "10")
+            await backend.write(1, 464, None, "10")

@@ -636,3 +636,36 @@ def test_read_only_hides_every_control(browser: Any, demo: Running) -> None:
         page.context.close()
     finally:
         demo.call(server.close())
+
+
+def test_a_page_of_an_earlier_start_of_the_server_changes_nothing(
+    browser: Any, demo: Running
+) -> None:
+    # a tab left open while uss web was started again on the same address (perhaps on
+    # another line): it reconnects, and its buttons are refused with what to do
+    from pyuss.web.server import WebServer
+
+    earlier = WebServer(demo.backend, port=0)
+    url = demo.call(earlier.start())
+    page = open_page(browser, url + "#drive/1")
+    page.wait_for_function("document.querySelector('#drive-state').textContent !== '-'")
+    demo.call(earlier.close())
+    again = WebServer(demo.backend, port=earlier.port)
+    demo.call(again.start())
+    try:
+        page.wait_for_function("document.querySelector('#link').textContent === 'live'")
+        control = demo.run(lambda: demo.backend.points(1).drive.control)
+        page.click("[data-cmd=off1]")
+        page.wait_for_function(
+            "document.querySelector('#drive-message').textContent.includes('reload the page')"
+        )
+        assert demo.run(lambda: demo.backend.points(1).drive.control) == control
+        page.reload()
+        page.wait_for_function("document.querySelector('#drive-state').textContent !== '-'")
+        page.click("[data-cmd=off1]")
+        page.wait_for_function(
+            "document.querySelector('#drive-message').textContent.startsWith('off1: done')"
+        )
+        page.context.close()
+    finally:
+        demo.call(again.close())

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import contextlib
 import json
+import logging
 import os
 import socket
 from typing import Any
@@ -62,6 +64,52 @@ async def test_off_loopback_every_request_needs_the_token(backend: Backend) -> N
         await server.close()
 
 
+def _raw_get(port: int, headers: bytes) -> bytes:
+    """The status line of a GET of /api/bus with ``headers`` as raw bytes."""
+    with socket.create_connection(("127.0.0.1", port), timeout=30) as sock:
+        sock.sendall(b"GET /api/bus HTTP/1.1\r\nHost: 127.0.0.1\r\n" + headers + b"\r\n")
+        answer = b""
+        while b"\r\n" not in answer:
+            answer += sock.recv(4096) or b"\r\n"
+        return answer.split(b"\r\n")[0]
+
+
+async def test_a_token_that_is_no_text_is_a_wrong_token(backend: Backend) -> None:
+    server = await serve(backend, host="0.0.0.0", token="s3cret-token")
+    try:
+        for headers in (
+            b"X-Pyuss-Token: \xff\xfe\r\n",
+            b"Cookie: pyuss_token=\xff\r\n",
+            b"Cookie: pyuss_token=s3cret-token\xff\r\n",
+        ):
+            status = await asyncio.to_thread(_raw_get, server.port, headers)
+            assert status == b"HTTP/1.1 401 Unauthorized", headers
+        status = await asyncio.to_thread(_raw_get, server.port, b"X-Pyuss-Token: s3cret-token\r\n")
+        assert status == b"HTTP/1.1 200 OK"
+    finally:
+        await server.close()
+
+
+async def test_a_malformed_request_is_one_line_in_the_log_not_a_traceback(
+    backend: Backend, caplog: pytest.LogCaptureFixture
+) -> None:
+    # a client's bad HTTP (a header beyond 8 kB, no HTTP at all) is the client's fault: a
+    # flood of it must not fill the engineer's terminal with tracebacks
+    caplog.set_level(logging.DEBUG, logger="pyuss.web")
+    server = await serve(backend)
+    try:
+        for raw in (b"X-Big: " + b"a" * 20_000 + b"\r\n", b"X-Bad\x01: 1\r\n"):
+            status = await asyncio.to_thread(_raw_get, server.port, raw)
+            assert status.split()[1] == b"400", status
+        async with aiohttp.ClientSession() as http, http.get(base(server) + "/api/bus") as r:
+            assert r.status == 200
+    finally:
+        await server.close()
+    loud = [r for r in caplog.records if r.levelno >= logging.INFO or r.exc_info]
+    assert not loud, [r.getMessage() for r in loud]
+    assert any("bad request from 127.0.0.1: 400" in r.getMessage() for r in caplog.records)
+
+
 async def test_a_web_site_cannot_reach_the_page_on_loopback(backend: Backend) -> None:
     server = await serve(backend)
     try:
@@ -78,6 +126,24 @@ async def test_a_web_site_cannot_reach_the_page_on_loopback(backend: Backend) ->
                 assert reply.status == 403
             with pytest.raises(aiohttp.WSServerHandshakeError):
                 await http.ws_connect(base(server) + "/ws", origin="http://evil.example")
+            # an image or script tag of another site sends no Origin, but the browser says
+            # where the request comes from: no backup or fault read for it; a link to the
+            # page itself opens it
+            foreign = {"Sec-Fetch-Site": "cross-site", "Sec-Fetch-Mode": "no-cors"}
+            for path in ("/api/drive/1/backup", "/api/drive/1/faults", "/static/app.js"):
+                async with http.get(base(server) + path, headers=foreign) as reply:
+                    assert reply.status == 403, path
+                    assert "another site" in (await reply.json())["error"]
+            link = {"Sec-Fetch-Site": "cross-site", "Sec-Fetch-Mode": "navigate"}
+            async with http.get(base(server) + "/", headers=link) as reply:
+                assert reply.status == 200
+            async with http.get(base(server) + "/api/bus", headers=link) as reply:
+                assert reply.status == 403
+            for site in ("same-origin", "none"):
+                async with http.get(
+                    base(server) + "/api/bus", headers={"Sec-Fetch-Site": site}
+                ) as reply:
+                    assert reply.status == 200, site
             assert backend.points(1).drive.control == 0  # nothing reached the drive
             own = {**WRITE, "Origin": base(server)}
             async with http.post(command, json={"name": "off1"}, headers=own) as reply:
@@ -106,6 +172,41 @@ async def test_read_only_refuses_every_change(backend: Backend) -> None:
             async with http.get(url + "/api/config") as reply:
                 assert (await reply.json())["read_only"] is True
         assert backend.points(1).drive.control == 0
+    finally:
+        await server.close()
+
+
+async def test_a_page_of_an_earlier_start_changes_nothing(backend: Backend) -> None:
+    # a browser tab left open while uss web was started again (perhaps on another line,
+    # where drive 1 is another machine): its buttons act on what it shows, so they act not
+    earlier = await serve(backend)
+    async with (
+        aiohttp.ClientSession(headers=WRITE) as http,
+        http.get(base(earlier) + "/api/config") as reply,
+    ):
+        start = (await reply.json())["start"]
+    await earlier.close()
+    server = await serve(backend)
+    try:
+        async with aiohttp.ClientSession(headers=WRITE) as http:
+            url = base(server)
+            async with http.get(url + "/api/config") as reply:
+                now = (await reply.json())["start"]
+            assert now != start
+            for path, body in (
+                ("/api/drive/1/command", {"name": "on"}),
+                ("/api/drive/1/command", {"name": "on", "check": True}),
+                ("/api/drive/1/params/write", {"id": "462", "value": "2"}),
+            ):
+                headers = {"X-Pyuss-Start": start}
+                async with http.post(url + path, json=body, headers=headers) as reply:
+                    assert reply.status == 409, path
+                    assert "reload the page" in (await reply.json())["error"]
+            assert backend.points(1).drive.control == 0
+            async with http.post(
+                url + "/api/drive/1/command", json={"name": "off1"}, headers={"X-Pyuss-Start": now}
+            ) as reply:
+                assert reply.status == 200
     finally:
         await server.close()
 
@@ -196,6 +297,61 @@ async def test_a_client_that_does_not_read_is_dropped_and_holds_up_nobody(
         await server.close()
 
 
+def _closed_by_server(sock: socket.socket) -> bytes:
+    """What the server sent before it closed ``sock`` (waits for the close, at most 60 s)."""
+    sock.settimeout(60)
+    got = b""
+    try:
+        while part := sock.recv(65536):
+            got += part
+    except ConnectionResetError:
+        pass
+    return got
+
+
+async def test_a_connection_that_sends_no_whole_request_is_closed(backend: Backend) -> None:
+    # idle connections and heads or bodies sent a byte at a time (slowloris) hold a
+    # connection each: they are closed, and a page is served meanwhile and afterwards
+    server = await serve(backend, idle_timeout=1.0, body_timeout=1.0)
+    head = f"POST /api/drive/1/command HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\n"
+    idle = socket.create_connection(("127.0.0.1", server.port))
+    slow = socket.create_connection(("127.0.0.1", server.port))
+    body = socket.create_connection(("127.0.0.1", server.port))
+    stop = asyncio.Event()
+
+    async def drip() -> None:  # a byte of the head every 0.2 s, never its end
+        with contextlib.suppress(OSError):
+            for byte in (head + "X-Pyuss: 1\r\n" + "X" * 10_000).encode():
+                if stop.is_set():
+                    return
+                slow.send(bytes([byte]))
+                await asyncio.sleep(0.2)
+
+    dripping = asyncio.create_task(drip())
+    try:
+        body.sendall((head + 'X-Pyuss: 1\r\nContent-Length: 100\r\n\r\n{"name": "o').encode())
+        async with aiohttp.ClientSession() as http, http.ws_connect(base(server) + "/ws") as ws:
+            async with http.get(base(server) + "/api/bus") as reply:
+                assert reply.status == 200
+            for sock in (idle, slow):
+                assert await asyncio.to_thread(_closed_by_server, sock) == b""
+            answer = await asyncio.to_thread(_closed_by_server, body)
+            assert answer.startswith(b"HTTP/1.1 408"), answer[:200]
+            assert b"the request body did not come within 1 s" in answer
+            # a live connection is no idle one: it stays, and the page is served
+            assert not ws.closed
+            assert (await ws.receive_json(timeout=10))["type"] in ("tick", "bus")
+            async with http.get(base(server) + "/api/bus") as reply:
+                assert reply.status == 200
+        assert backend.points(1).drive.control == 0  # nothing half-received acted
+    finally:
+        stop.set()
+        await dripping
+        for sock in (idle, slow, body):
+            sock.close()
+        await server.close()
+
+
 async def test_a_client_sending_oversized_messages_is_closed(backend: Backend) -> None:
     server = await serve(backend)
     try:
@@ -209,6 +365,45 @@ async def test_a_client_sending_oversized_messages_is_closed(backend: Backend) -
             while server.hub.clients:
                 await asyncio.sleep(0.05)
     finally:
+        await server.close()
+
+
+async def test_a_flood_of_monitor_messages_does_not_hold_up_the_server(
+    backend: Backend,
+) -> None:
+    # each "show me the monitor" used to decode the last 500 telegrams anew: 2000 of them
+    # from one page held the event loop - the page, the others and the drives' cyclic
+    # traffic - for seconds
+    decoded = 0
+    exchanges_since = backend.exchanges_since
+
+    def counted(seq: int, limit: int) -> tuple[list[dict[str, Any]], int]:
+        nonlocal decoded
+        decoded += 1
+        return exchanges_since(seq, limit)
+
+    backend.exchanges_since = counted  # type: ignore[method-assign]
+    server = await serve(backend)
+    try:
+        async with aiohttp.ClientSession() as http, http.ws_connect(base(server) + "/ws") as ws:
+            recent: list[dict[str, Any]] = []
+            listener = asyncio.create_task(collect(ws, "telegrams", recent))
+            for _ in range(2000):
+                await ws.send_str('{"monitor": true}')
+            await ws.send_str('{"ping": 1}')  # the last one: once it is read, all were
+            async with asyncio.timeout(30):
+                while not recent or server.hub.clients[0].monitor is not True:
+                    await asyncio.sleep(0.05)
+            # the monitor was asked for once and is shown: its telegrams came once
+            assert len([r for r in recent if "left_out" not in r]) == 1
+            for n in range(2000):  # on, off, on, ...: each "on" is served from one decoding
+                await ws.send_str(json.dumps({"monitor": n % 2 == 0}))
+            async with http.get(base(server) + "/api/bus") as reply:
+                assert reply.status == 200
+            listener.cancel()
+        assert decoded < 500, decoded
+    finally:
+        backend.exchanges_since = exchanges_since  # type: ignore[method-assign]
         await server.close()
 
 

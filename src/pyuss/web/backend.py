@@ -93,6 +93,9 @@ LINE = "page"
 """The name of the page's one bus in its `pyuss.points.Plant`."""
 
 Progress = Callable[[int, int, str], object]
+Approve = Callable[[list[dict[str, Any]]], object]
+"""Told the writes a restore is about to make (as a comparison lists them), before the
+first: it raises to write nothing (the person said yes to another list)."""
 """``progress(done, total, label)`` of a backup, compare or restore."""
 
 
@@ -573,6 +576,7 @@ class Backend:
         force: bool = False,
         eeprom: bool = False,
         progress: Progress | None = None,
+        approve: Approve | None = None,
     ) -> dict[str, Any]:
         """Write an uploaded backup file back (`pyuss.commission.plan` and ``restore``): only
         the writable parameters that differ, in the profile's order, each value checked first
@@ -584,6 +588,8 @@ class Backend:
         if stranger is not None and not force:
             raise ConfigError(stranger)
         writes, skips = plan(wanted, now, drive.params, _named(drive))
+        if approve is not None:
+            approve(planned(writes))
         outcomes = await restore(drive, writes, eeprom=eeprom, progress=progress)
         points = self.points(address)
         if any(o.ok and points.is_reference(o.write.pnu, o.write.index) for o in outcomes):
@@ -802,7 +808,7 @@ def compared(
     except ConfigError as exc:
         reply["refused"] = str(exc)
     else:
-        reply["writes"] = [_write_dict(w) for w in writes]
+        reply["writes"] = planned(writes)
         reply["skipped"] = [_skip_dict(s) for s in skips]
     return reply
 
@@ -979,6 +985,11 @@ def _shown_reading(reading: Reading) -> dict[str, Any]:
         "value": format_value(reading.info, reading.value),
         "input": _input(reading),
     }
+
+
+def planned(writes: Sequence[Write]) -> list[dict[str, Any]]:
+    """The writes of a restore as a comparison lists them and a person says yes to."""
+    return [_write_dict(w) for w in writes]
 
 
 def _write_dict(write: Write) -> dict[str, Any]:

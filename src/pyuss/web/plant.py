@@ -34,6 +34,7 @@ from pyuss.points.state import ProcessValue, state_name
 from pyuss.points.view import KEY_ACTUALS, TAKE_TIME, fault_history, motion_of
 from pyuss.protocol.pzd import StatusWord
 from pyuss.web.backend import (
+    Approve,
     Backend,
     _id,
     _label,
@@ -43,6 +44,7 @@ from pyuss.web.backend import (
     _status_bits,
     _unit_given,
     compared,
+    planned,
     read_rows,
     restored,
 )
@@ -556,6 +558,7 @@ class PlantBackend:
         force: bool = False,
         eeprom: bool = False,
         progress: Progress | None = None,
+        approve: Approve | None = None,
     ) -> dict[str, Any]:
         """`Backend.restore` over the broker: every value checked first (`plan`), then written
         one request at a time; each refusal comes back with its number and meaning."""
@@ -565,6 +568,8 @@ class PlantBackend:
         if stranger is not None and not force:
             raise ConfigError(stranger)
         writes, skips = plan(wanted, now, params.params, params.named_profile)
+        if approve is not None:
+            approve(planned(writes))
         drive: Any = params
         outcomes = await restore(drive, writes, eeprom=eeprom, progress=progress)
         where = f"drive {params.remote.key}"

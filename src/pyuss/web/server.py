@@ -26,8 +26,12 @@ required (`WebServer` refuses to start without one) and every request must carry
 ``token`` query parameter of the first request (the page then keeps it in a cookie), the
 ``X-Pyuss-Token`` header or that cookie. On a loopback address the ``Host`` header must name
 a loopback host (a web site cannot reach the page through a DNS name of its own). Requests
-that change something must carry the ``X-Pyuss`` header (a web site's form cannot add it) and
-no ``Origin`` of another site; a WebSocket from another origin is refused. ``read_only``
+that change something must carry the ``X-Pyuss`` header (a web site's form cannot add it)
+and, from the page, ``X-Pyuss-Start``: the start of the server the page was loaded from
+(`WebServer.start_id`; a page of an earlier start changes nothing), and
+no ``Origin`` of another site; a WebSocket from another origin is refused. What a browser
+says comes from another site (``Sec-Fetch-Site``: an image or script tag, which sends no
+``Origin``) is refused too, but a link to the page itself. ``read_only``
 refuses every change and the page hides its controls. Every JSON body is read and parsed
 within bounds (`MAX_JSON` bytes, nesting `MAX_DEPTH`, no NaN or Infinity), every key and
 type checked; a bad request gets one JSON error with a 4xx status and never reaches a drive.
@@ -54,6 +58,7 @@ from pyuss.web import EXTRA_HINT, MissingExtra
 
 try:
     from aiohttp import WSCloseCode, WSMsgType, web
+    from aiohttp.http_exceptions import HttpProcessingError
 except ImportError:  # pragma: no cover - the extra is installed for the tests
     raise MissingExtra(
         f"the web page needs aiohttp, which is not installed: {EXTRA_HINT}"
@@ -98,6 +103,12 @@ CONFIRM_AGE = 60.0
 SHUTDOWN_GRACE = 2.0
 """Seconds a request still running when the page stops (Ctrl+C) has to finish; then it is
 cut off (a scan, a parameter read over the broker waiting for its gateway)."""
+IDLE_TIMEOUT = 10.0
+"""Seconds a connection may go without a whole request head (the first one, or the next
+one on a kept-alive connection) before it is closed: idle connections and heads sent a byte
+at a time (slowloris) do not pile up."""
+BODY_TIMEOUT = 60.0
+"""Seconds a request body (a command, a backup file) may take to come in whole."""
 MAX_CONFIRMS = 64
 """Checked commands waiting for a yes at most (the oldest are forgotten)."""
 COOKIE = "pyuss_token"
@@ -116,6 +127,24 @@ def is_loopback(host: str) -> bool:
         return ipaddress.ip_address(host.strip("[]")).is_loopback
     except ValueError:
         return False
+
+
+class _ClientFaults(logging.Filter):
+    """aiohttp logs a request it cannot parse (a header beyond 8 kB, no HTTP at all) with a
+    traceback at ERROR: that is the client's fault, answered with 400, so it is one line at
+    DEBUG instead. The server's own failures keep their traceback."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        fault = record.exc_info[1] if record.exc_info else None
+        if isinstance(fault, HttpProcessingError) and fault.code < 500:
+            peer = record.args[0] if isinstance(record.args, tuple) and record.args else "?"
+            log.debug("bad request from %s: %s %s", peer, fault.code, fault.message[:100])
+            return False
+        return True
+
+
+SERVER_LOG = logging.getLogger("pyuss.web.http")
+SERVER_LOG.addFilter(_ClientFaults())
 
 
 def _error(status: int, message: str, **extra: Any) -> web.Response:
@@ -139,6 +168,16 @@ def _ref(text: object) -> tuple[int, int | None]:
     return int(pnu), (int(index) if dot else None)
 
 
+def _netloc(url: str, part: str) -> str:
+    """The ``netloc`` or ``hostname`` of ``url``; empty for what is no URL (``http://[``,
+    a ``Host`` header of a broken IPv6 address), which is then no host of this machine."""
+    try:
+        split = urlsplit(url)
+    except ValueError:
+        return ""
+    return str(getattr(split, part) or "")
+
+
 def _cut(value: object) -> str:
     """A client's value in an error message, cut short."""
     text = repr(value)
@@ -156,32 +195,39 @@ class Confirmations:
     """Commands a page checked and asks a person about: each yes carries the ``confirm``
     of its check, which is good once, for `CONFIRM_AGE` seconds, and for exactly the command
     checked (the same drive, name and words): a replayed, stale or changed request is refused
-    before anything is sent."""
+    before anything is sent. A scan forgets them all (`forget`): the drives they were given
+    for are gone, another may stand at the same address."""
 
     def __init__(self, age: float = CONFIRM_AGE) -> None:
         self.age = age
         self._open: dict[str, tuple[float, str]] = {}
 
     @staticmethod
-    def _what(checked: dict[str, Any]) -> str:
-        return json.dumps(checked, sort_keys=True)
+    def _what(drive: object, checked: dict[str, Any]) -> str:
+        return json.dumps({"drive": str(drive), "checked": checked}, sort_keys=True)
 
-    def issue(self, checked: dict[str, Any]) -> str:
+    def issue(self, drive: object, checked: dict[str, Any]) -> str:
         token = secrets.token_urlsafe(18)
-        self._open[token] = (time.monotonic(), self._what(checked))
+        self._open[token] = (time.monotonic(), self._what(drive, checked))
         while len(self._open) > MAX_CONFIRMS:
             del self._open[next(iter(self._open))]
         return token
 
-    def redeem(self, token: object, checked: dict[str, Any]) -> None:
+    def forget(self) -> None:
+        self._open.clear()
+
+    def redeem(self, token: object, drive: object, checked: dict[str, Any]) -> None:
         entry = self._open.pop(token, None) if isinstance(token, str) else None
         if entry is None:
             raise _conflict("this command was confirmed before or never checked: check it again")
         when, what = entry
         if time.monotonic() - when > self.age:
             raise _conflict(f"the confirmation is older than {self.age:g} s: check it again")
-        if what != self._what(checked):
-            raise _conflict("the command is not the one confirmed (or means another setpoint now)")
+        if what != self._what(drive, checked):
+            raise _conflict(
+                "the command is not the one confirmed (another drive, command or value, "
+                "or it means another setpoint now)"
+            )
 
 
 def _conflict(message: str) -> web.HTTPConflict:
@@ -203,6 +249,8 @@ class WebServer:
         send_timeout: float = SEND_TIMEOUT,
         confirm_age: float = CONFIRM_AGE,
         shutdown_grace: float = SHUTDOWN_GRACE,
+        idle_timeout: float = IDLE_TIMEOUT,
+        body_timeout: float = BODY_TIMEOUT,
     ) -> None:
         if not is_loopback(host) and not token:
             raise ConfigError(
@@ -217,13 +265,26 @@ class WebServer:
         self.token = token or None
         self.read_only = read_only
         self.shutdown_grace = shutdown_grace
+        self.idle_timeout = idle_timeout
+        self.body_timeout = body_timeout
         self.hub = Hub(queue_size=queue_size, send_timeout=send_timeout)
         self._runner: web.AppRunner | None = None
         self._ticker: asyncio.Task[None] | None = None
+        self._sweeper: asyncio.Task[None] | None = None
+        self._opened: dict[web.RequestHandler, float] = {}
+        """Connections by their handler, with when they were first seen."""
+        self._begun: set[object] = set()
+        """The transports of connections that sent at least one whole request head."""
         self._sockets: set[web.WebSocketResponse] = set()
         """The pages connected live: told the server goes away when it closes."""
         self._sent_exchange = 0
+        self._recent: tuple[int, str] | None = None
+        """The last telegrams for a page opening the monitor, and the newest among them."""
         self._confirms = Confirmations(confirm_age)
+        self.start_id = secrets.token_urlsafe(9)
+        """This start of the server: a page sends it with every change (``X-Pyuss-Start``),
+        so that a page loaded from an earlier start - which may show other drives - changes
+        nothing."""
 
     # -- life cycle ---------------------------------------------------------------------------
     @property
@@ -265,6 +326,8 @@ class WebServer:
             access_log=None,
             handle_signals=False,
             shutdown_timeout=self.shutdown_grace,
+            keepalive_timeout=self.idle_timeout,
+            logger=SERVER_LOG,
         )
         await runner.setup()
         site = web.TCPSite(runner, self.host, self.port, reuse_address=True)
@@ -279,13 +342,15 @@ class WebServer:
         if self.port == 0 and runner.addresses:
             self.port = int(runner.addresses[0][1])
         self._ticker = asyncio.create_task(self._tick())
+        self._sweeper = asyncio.create_task(self._sweep(runner.server))
         return self.url
 
     async def close(self) -> None:
-        if self._ticker is not None:
-            self._ticker.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._ticker
+        for task in (self._ticker, self._sweeper):
+            if task is not None:
+                task.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await task
         await self.hub.close()
         # a page left open keeps its live connection: say goodbye (1001, going away) so
         # that stopping the server does not wait for the browser to leave
@@ -295,6 +360,29 @@ class WebServer:
         if self._runner is not None:
             await self._runner.cleanup()
             self._runner = None
+
+    async def _sweep(self, server: web.Server | None) -> None:
+        """Close every connection that has not sent a whole request head within
+        `idle_timeout` seconds of opening (between two requests aiohttp's keep-alive
+        timeout, the same, does it)."""
+        while server is not None:
+            await asyncio.sleep(min(1.0, self.idle_timeout / 2))
+            now = time.monotonic()
+            handlers = server.connections
+            transports = {h.transport for h in handlers}
+            self._begun &= transports
+            self._opened = {h: self._opened.get(h, now) for h in handlers}
+            for handler, since in self._opened.items():
+                transport = handler.transport
+                if (
+                    transport is not None
+                    and transport not in self._begun
+                    and now - since > self.idle_timeout
+                ):
+                    log.info(
+                        "web connection closed: no whole request within %g s", self.idle_timeout
+                    )
+                    transport.close()
 
     # -- guard --------------------------------------------------------------------------------
     def _token_ok(self, request: web.Request) -> bool:
@@ -306,21 +394,38 @@ class WebServer:
             or request.cookies.get(COOKIE)
             or ""
         )
-        return hmac.compare_digest(given.encode(), self.token.encode())
+        # a header or cookie of bytes that are no UTF-8 comes as lone surrogates: kept as
+        # the bytes they were, and so a wrong token, never an error
+        return hmac.compare_digest(given.encode("utf-8", "surrogateescape"), self.token.encode())
 
     @web.middleware
     async def _guard(self, request: web.Request, handler: Handler) -> web.StreamResponse:
-        host = urlsplit(f"//{request.host}").hostname or ""
-        if is_loopback(self.host) and not is_loopback(host):
-            return _error(403, f"host {request.host!r} is not this machine")
+        self._begun.add(request.transport)
+        if is_loopback(self.host) and not is_loopback(_netloc(f"//{request.host}", "hostname")):
+            return _error(403, f"host {_cut(request.host)} is not this machine")
         if not self._token_ok(request):
             return _error(401, "the page needs its token: open the URL uss web printed")
         origin = request.headers.get("Origin")
-        if origin is not None and urlsplit(origin).netloc != request.host:
-            return _error(403, f"requests from {origin} are not accepted")
+        if origin is not None and _netloc(origin, "netloc") != request.host:
+            return _error(403, f"requests from {_cut(origin)} are not accepted")
+        fetched_from = request.headers.get("Sec-Fetch-Site", "same-origin")
+        if fetched_from not in ("same-origin", "none") and not (
+            request.path == "/" and request.headers.get("Sec-Fetch-Mode") == "navigate"
+        ):
+            # an image, script or frame of another site (which sends no Origin): a link to
+            # the page opens it, nothing else of it is for another site
+            return _error(
+                403, f"requests from another site ({_cut(fetched_from)}) are not accepted"
+            )
         changing = request.method not in ("GET", "HEAD", "OPTIONS")
         if changing and request.headers.get("X-Pyuss") != "1":
             return _error(403, "a change needs the X-Pyuss header (sent by the page)")
+        if changing and request.headers.get("X-Pyuss-Start", self.start_id) != self.start_id:
+            return _error(
+                409,
+                "the page was loaded from an earlier start of uss web and may show other "
+                "drives than there are now: nothing sent, reload the page",
+            )
         try:
             response = await handler(request)
         except web.HTTPException as exc:
@@ -361,18 +466,26 @@ class WebServer:
             return text
         raise ConfigError(f"drive {_cut(text)} is not on the page")
 
-    @staticmethod
-    async def _json(request: web.Request, keys: tuple[str, ...] = ()) -> dict[str, Any]:
+    async def _body(self, request: web.Request, read: Awaitable[bytes]) -> bytes:
+        """The request's body as ``read`` reads it, within `body_timeout` seconds."""
+        try:
+            async with asyncio.timeout(self.body_timeout):
+                return await read
+        except TimeoutError:
+            raise web.HTTPRequestTimeout(
+                text=json.dumps(
+                    {"error": f"the request body did not come within {self.body_timeout:g} s"}
+                ),
+                content_type="application/json",
+                headers={"Connection": "close"},
+            ) from None
+
+    async def _json(self, request: web.Request, keys: tuple[str, ...] = ()) -> dict[str, Any]:
         """The request's JSON object, read and parsed within bounds (`MAX_JSON` bytes, nesting
         `MAX_DEPTH`); with ``keys``, no other key may be in it."""
         if request.content_length is not None and request.content_length > MAX_JSON:
             raise ConfigError(f"the request body is larger than {MAX_JSON} bytes")
-        body = bytearray()
-        while len(body) <= MAX_JSON:
-            part = await request.content.read(MAX_JSON + 1 - len(body))
-            if not part:
-                break
-            body += part
+        body = await self._body(request, _read_up_to(request, MAX_JSON + 1))
         if len(body) > MAX_JSON:
             raise ConfigError(f"the request body is larger than {MAX_JSON} bytes")
         data = parse_json(bytes(body))
@@ -391,6 +504,7 @@ class WebServer:
         return web.json_response(
             {
                 "version": __version__,
+                "start": self.start_id,
                 "read_only": self.read_only,
                 "plant": not isinstance(self.backend, Backend),
                 "moves": sorted(Backend.MOVES),
@@ -413,14 +527,21 @@ class WebServer:
         name, value = data.get("name"), data.get("value")
         if not isinstance(name, str):
             raise ConfigError('"name" must be a command name: ' + ", ".join(Backend.COMMANDS))
+        if "value" in data and name != "setpoint":
+            # "on" with a speed beside it would start the drive at the setpoint in force,
+            # not at the one the request names: only partly valid, so refused whole
+            raise ConfigError(
+                f"{_cut(name)[1:-1]} takes no value: only setpoint does "
+                '(send the setpoint first, {"name": "setpoint", "value": ...})'
+            )
         check = data.get("check", False)
         if not isinstance(check, bool):
             raise ConfigError('"check" must be true or false')
         checked = self.backend.check(address, name, value)  # refused here: nothing is sent
         if check:
-            return web.json_response({**checked, "confirm": self._confirms.issue(checked)})
+            return web.json_response({**checked, "confirm": self._confirms.issue(address, checked)})
         if "confirm" in data:
-            self._confirms.redeem(data["confirm"], checked)
+            self._confirms.redeem(data["confirm"], address, checked)
         return web.json_response(await self.backend.command(address, name, value))
 
     async def _actuals(self, request: web.Request) -> web.Response:
@@ -477,13 +598,12 @@ class WebServer:
             headers={"Content-Disposition": f'attachment; filename="{name}"'},
         )
 
-    @staticmethod
-    async def _upload(request: web.Request) -> tuple[bytes, str]:
+    async def _upload(self, request: web.Request) -> tuple[bytes, str]:
         """The backup file a page sends as the request body, and its name (``name=``)."""
         name = request.query.get("name", "").strip() or "the file"
         if len(name) > 200 or any(c in name for c in "\r\n\0"):
             raise ConfigError("the file name is too long or not a name")
-        data = await request.read()
+        data = await self._body(request, request.read())
         if not data:
             raise ConfigError(f"{name} is empty: choose a backup file (TOML or JSON)")
         return data, name
@@ -494,12 +614,21 @@ class WebServer:
         reply = await self.backend.compare(
             address, data, name, progress=self._progress(address, "compare")
         )
+        # the page asks with these writes; its yes carries this (`_restore`)
+        reply["confirm"] = self._confirms.issue(address, {"restore": reply["writes"]})
         return web.json_response(reply)
 
     async def _restore(self, request: web.Request) -> web.Response:
         self._writable()
         address = self._address(request)
         data, name = await self._upload(request)
+        approve = None
+        if "confirm" in request.query:
+            # the yes of a person to a comparison's writes: the same writes, or none
+
+            def approve(writes: list[dict[str, Any]]) -> None:
+                self._confirms.redeem(request.query["confirm"], address, {"restore": writes})
+
         reply = await self.backend.restore(
             address,
             data,
@@ -507,6 +636,7 @@ class WebServer:
             force=request.query.get("force") == "1",
             eeprom=request.query.get("eeprom") == "1",
             progress=self._progress(address, "restore"),
+            approve=approve,
         )
         return web.json_response(reply)
 
@@ -523,9 +653,13 @@ class WebServer:
         def progress(done: int, total: int) -> None:
             self.hub.send(json.dumps({"type": "scan", "done": done, "total": total}))
 
-        found = await self.backend.scan(
-            addresses, profile=None if profile == UNKNOWN_KIND else profile, progress=progress
-        )
+        self._confirms.forget()  # each yes given was for a drive of before the scan
+        try:
+            found = await self.backend.scan(
+                addresses, profile=None if profile == UNKNOWN_KIND else profile, progress=progress
+            )
+        finally:
+            self._confirms.forget()
         self.hub.send(json.dumps({"type": "scan", "done": 1, "total": 1, "found": found}))
         return web.json_response({"found": found})
 
@@ -556,6 +690,8 @@ class WebServer:
         self.hub.send_to(client, json.dumps({"type": "bus", "bus": self.backend.bus()}))
         try:
             async for message in ws:
+                if client.closed:
+                    break  # cut off (fallen behind): what it sent meanwhile is not read
                 if message.type != WSMsgType.TEXT:
                     continue
                 try:
@@ -563,16 +699,22 @@ class WebServer:
                 except ConfigError:
                     continue
                 if isinstance(data, dict) and "monitor" in data:
-                    client.monitor = bool(data["monitor"])
-                    if client.monitor:
-                        recent, _ = self.backend.exchanges_since(
-                            self.backend.last_exchange - RECENT_TELEGRAMS, RECENT_TELEGRAMS
-                        )
-                        self.hub.send_to(client, json.dumps({"type": "telegrams", "items": recent}))
+                    shown, client.monitor = client.monitor, bool(data["monitor"])
+                    if client.monitor and not shown:
+                        self.hub.send_to(client, self._recent_telegrams())
         finally:
             self._sockets.discard(ws)
             await self.hub.remove(client)
         return ws
+
+    def _recent_telegrams(self) -> str:
+        """The message with the last `RECENT_TELEGRAMS` telegrams for a page that opens the
+        monitor view; decoded once for every page that opens it before the next telegram."""
+        newest = self.backend.last_exchange
+        if self._recent is None or self._recent[0] != newest:
+            items, _ = self.backend.exchanges_since(newest - RECENT_TELEGRAMS, RECENT_TELEGRAMS)
+            self._recent = (newest, json.dumps({"type": "telegrams", "items": items}))
+        return self._recent[1]
 
     async def _tick(self) -> None:
         count = 0
@@ -611,6 +753,17 @@ class WebServer:
                 message = {"type": "telegrams", "items": items, "left_out": left_out}
                 self.hub.send(json.dumps(message), monitor_only=True)
             self._sent_exchange = newest
+
+
+async def _read_up_to(request: web.Request, size: int) -> bytes:
+    """The request's body, or its first ``size`` bytes when it is longer."""
+    body = bytearray()
+    while len(body) < size:
+        part = await request.content.read(size - len(body))
+        if not part:
+            break
+        body += part
+    return bytes(body)
 
 
 def _addresses(text: str) -> list[int]:

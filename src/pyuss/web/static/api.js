@@ -2,9 +2,17 @@
 // server printed; the server keeps it in a cookie as well, this sends it in a header too.
 const token = new URLSearchParams(location.search).get("token");
 
+// The start of the server this page was loaded from (/api/config): every change carries
+// it, so a page left open while uss web was started again (perhaps on another line) changes
+// nothing; the server says to reload it.
+let start = null;
+
+export function setStart(id) { start = id; }
+
 function headers(extra = {}) {
   const h = { "X-Pyuss": "1", ...extra };
   if (token) h["X-Pyuss-Token"] = token;
+  if (start) h["X-Pyuss-Start"] = start;
   return h;
 }
 

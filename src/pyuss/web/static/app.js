@@ -1,5 +1,5 @@
 // The page: one live connection, four views (bus, drive, parameters, monitor).
-import { get, socketUrl } from "./api.js";
+import { get, setStart, socketUrl } from "./api.js";
 import { BusView } from "./bus.js";
 import { DriveView } from "./drive.js";
 import { ParamsView } from "./params.js";
@@ -107,6 +107,7 @@ function connect() {
 
 async function main() {
   state.config = await get("/api/config");
+  setStart(state.config.start);
   document.body.classList.toggle("read-only", state.config.read_only);
   document.body.classList.toggle("plant", Boolean(state.config.plant));
   document.getElementById("ro-badge").hidden = !state.config.read_only;

@@ -266,7 +266,10 @@ export class ParamsView {
       this.note.textContent = "Nothing written.";
       return;
     }
-    const query = `name=${encodeURIComponent(file.name)}${reply.stranger ? "&force=1" : ""}${eeprom ? "&eeprom=1" : ""}`;
+    // The yes carries the comparison's "confirm": the server writes exactly the writes asked
+    // about, or nothing (the drive changed since: compare again).
+    const query = `name=${encodeURIComponent(file.name)}${reply.stranger ? "&force=1" : ""}` +
+      `${eeprom ? "&eeprom=1" : ""}&confirm=${encodeURIComponent(reply.confirm)}`;
     await this.job("Restore", async () => {
       try {
         const done = await upload(`/api/drive/${address}/restore?${query}`, file);
