@@ -105,7 +105,9 @@ async def test_a_malformed_request_is_one_line_in_the_log_not_a_traceback(
             assert r.status == 200
     finally:
         await server.close()
-    loud = [r for r in caplog.records if r.levelno >= logging.INFO or r.exc_info]
+    # (the web server's records: the simulated drives may have their say on a loaded machine)
+    web_records = [r for r in caplog.records if r.name.startswith(("pyuss.web", "aiohttp"))]
+    loud = [r for r in web_records if r.levelno >= logging.INFO or r.exc_info]
     assert not loud, [r.getMessage() for r in loud]
     assert any("bad request from 127.0.0.1: 400" in r.getMessage() for r in caplog.records)
 
