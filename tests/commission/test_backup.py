@@ -69,6 +69,18 @@ def test_a_backup_replaces_a_file_only_with_force(mm4: Simulator, tmp_path: Path
     assert load(file).find(1120) is not None
 
 
+def test_a_backup_never_replaces_a_device_or_a_pipe(mm4: Simulator, tmp_path: Path) -> None:
+    pipe = tmp_path / "to-the-logger"
+    os.mkfifo(pipe)
+    code, out = uss(["backup", "3", "-o", str(pipe), "--format", "toml", "--force", *opts(mm4)])
+    assert code == 2
+    assert out == (
+        f"uss backup: {pipe} is no regular file (a device, a pipe or a socket): "
+        "a backup goes into a file of its own\n"
+    )
+    assert pipe.is_fifo()
+
+
 def test_a_failing_parameter_is_recorded_and_the_backup_goes_on(
     mm4: Simulator, tmp_path: Path
 ) -> None:

@@ -553,8 +553,14 @@ def dumps(backup: Backup, fmt: str) -> str:
 
 def check_new(path: str | Path, *, overwrite: bool = False) -> None:
     """`ConfigError` naming ``path`` when a backup cannot be written there: a folder, a folder
-    missing, or (unless ``overwrite``) a file that is there already."""
+    missing, a device, pipe or socket (never replaced, even with ``overwrite``: the file would
+    take its place), or (unless ``overwrite``) a file that is there already."""
     target = check_target(path, "the backup")
+    if target.exists() and not target.is_file():
+        raise ConfigError(
+            f"{target} is no regular file (a device, a pipe or a socket): "
+            "a backup goes into a file of its own"
+        )
     if not overwrite and (target.exists() or target.is_symlink()):
         raise ConfigError(f"{target} exists: --force replaces it, or give another file name")
 
