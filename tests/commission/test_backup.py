@@ -4,6 +4,7 @@ profile and identity checks, and the file codec's round trip (hypothesis)."""
 
 from __future__ import annotations
 
+import asyncio
 import json
 import os
 import signal
@@ -11,7 +12,7 @@ import subprocess
 import sys
 import time
 import tomllib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -19,7 +20,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from commission.test_docs import uss
-from pyuss.commission.backup import Backup, Entry, dumps, load, loads
+from commission.test_restore_order import drive_of
+from pyuss.commission.backup import Backup, Entry, dumps, load, loads, take
 from pyuss.commission.compare import plan
 from pyuss.errors import ConfigError
 from pyuss.params.book import ParamBook
@@ -433,3 +435,96 @@ def test_a_backup_written_before_reads_and_names_as_the_family_writes(tmp_path: 
     assert "parameter 1: field 'pnu': 'P21x' is not a parameter number" in str(info.value)
     with pytest.raises(ConfigError, match="names index 1, 'index' 2"):
         loads(OLD_BACKUP.replace("pnu = 947\nindex = 1\n", 'pnu = "r0947[1]"\nindex = 2\n'))
+
+
+V20 = Path(__file__).resolve().parents[2] / "src/pyuss/profiles/data/sinamics-v20.toml"
+
+
+def v20_opts(sim: Simulator) -> list[str]:
+    return ["--port", sim.path, "--baud", "38400", "--profile", "sinamics-v20"]
+
+
+def restore_cut_short(
+    tmp_path: Path, cut: Callable[[Simulator, subprocess.Popen[str]], None], *timeout: str
+) -> tuple[int, list[str], Simulator]:
+    """A V20 set up, its factory backup restored in a process of its own, which ``cut``
+    cuts short once the writes begin: the exit code, the lines on stderr, the simulator."""
+
+    async def factory() -> Backup:  # a V20 as it leaves the factory, the parameters used
+        async with drive_of("sinamics-v20") as drive:
+            return await take(drive, pnus=[305, 307, 1120, 1121])
+
+    file = tmp_path / "factory.json"
+    file.write_text(dumps(asyncio.run(factory()), "json"), encoding="utf-8")
+    sim = start(V20, "--profile", "sinamics-v20", "--latency-time", "60")
+    try:
+        for name, value in [("P0010", "1"), ("P0305.0", "3.2"), ("P0307.0", "1.5")]:
+            assert uss(["write", "5", name, value, *v20_opts(sim)])[0] == 0
+        for name, value in [("P0010", "0"), ("P1120.0", "2"), ("P1121.0", "2")]:
+            assert uss(["write", "5", name, value, *v20_opts(sim)])[0] == 0
+        process = subprocess.Popen(
+            [*USS, "restore", "5", str(file), "--yes", *timeout, *v20_opts(sim)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        )
+        assert process.stdout is not None
+        planned = [process.stdout.readline() for _ in range(6)]  # printed before the writes
+        assert planned[-1].startswith("P1121.0 (Ramp-down time)"), planned
+        cut(sim, process)
+        _, err = process.communicate(timeout=30)
+    except BaseException:
+        stop(sim)
+        raise
+    return process.returncode, err.splitlines(), sim
+
+
+def says_what_was_written(lines: list[str]) -> None:
+    """The lines name how many were written, the write under way, and how to go on."""
+    done = next(line for line in lines if " of 6 written" in line)
+    assert int(done.split()[2]) < 6
+    assert (
+        lines[-1]
+        == "uss restore: the same uss restore again writes the rest (only what still differs)"
+    )
+    assert any(line.endswith("under way, the drive may or may not have taken it") for line in lines)
+
+
+def test_a_restore_interrupted_says_what_it_wrote_and_goes_on_when_run_again(
+    tmp_path: Path,
+) -> None:
+    def interrupt(sim: Simulator, process: subprocess.Popen[str]) -> None:
+        time.sleep(0.15)  # a write or two made, at 60 ms an answer
+        process.send_signal(signal.SIGINT)
+
+    code, lines, sim = restore_cut_short(tmp_path, interrupt, "--timeout", "30")
+    try:
+        assert code == 130
+        assert lines[0] == "uss restore: interrupted: drive 5 not fully restored"
+        says_what_was_written(lines)
+        file = str(tmp_path / "factory.json")
+        assert uss(["restore", "5", file, "--yes", *v20_opts(sim)])[0] == 0
+        if any("in quick commissioning" in line for line in lines):
+            assert uss(["write", "5", "P0010", "0", *v20_opts(sim)])[0] == 0
+        assert uss(["diff", "5", file, *v20_opts(sim)])[0] == 0
+        assert uss(["read", "5", "P0010", *v20_opts(sim)])[1].startswith("P0010 = 0 [ready]")
+    finally:
+        stop(sim)
+
+
+def test_a_drive_gone_mid_restore_is_told_with_what_was_written(tmp_path: Path) -> None:
+    def silence(sim: Simulator, process: subprocess.Popen[str]) -> None:
+        sim.process.send_signal(signal.SIGSTOP)
+        process.wait(30)
+        sim.process.send_signal(signal.SIGCONT)
+
+    code, lines, sim = restore_cut_short(tmp_path, silence, "--timeout", "0.3")
+    try:
+        assert code == 1
+        assert lines[0].startswith("uss restore: slave 5 does not answer")
+        assert lines[0].endswith(": drive 5 not fully restored")
+        says_what_was_written(lines)
+        assert any(line.startswith("uss restore: not written: ") for line in lines)
+    finally:
+        stop(sim)
