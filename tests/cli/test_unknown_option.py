@@ -72,3 +72,12 @@ def test_values_and_abbreviations_are_not_unknown_options(
     argv = ["write", "5", "18", "-1", "--po", "/dev/nonexistent-uss-port", "--lay", "3,2"]
     code, _, err = _uss(capsys, *argv)
     assert code == 1 and "cannot open" in err and "unknown option" not in err
+
+
+def test_a_word_too_many_is_named_by_the_command_it_was_given_to(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    code, out, err = _uss(capsys, "write", "3", "1120", "2.5", "s", "--port", "/dev/x")
+    assert code == 2 and not out
+    assert err.splitlines()[0].startswith("usage: uss write ")
+    assert err.splitlines()[-1] == "uss write: error: unrecognized arguments: s"

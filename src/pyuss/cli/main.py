@@ -101,6 +101,9 @@ class _Parser(argparse.ArgumentParser):
     command: str | None = None
 
     def error(self, message: str) -> NoReturn:
+        owner = self._command_parser()
+        if owner is not None:  # words left over: the command's, with its usage
+            owner.error(message)
         if _Parser.json_errors:
             from pyuss.cli._output import failure, print_json, usage_error
 
@@ -110,6 +113,17 @@ class _Parser(argparse.ArgumentParser):
             print_json(failure(_Parser.command, usage_error(f"{prog}: {message}")))
             self.exit(EXIT_USAGE)
         super().error(message)
+
+    def _command_parser(self) -> argparse.ArgumentParser | None:
+        """The parser of the command on the line, when this is the parser of `uss` itself
+        (argparse leaves the words no parser took to the top one)."""
+        if self.prog != "uss" or not _Parser.command:
+            return None
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                found = action.choices.get(_Parser.command)
+                return found if isinstance(found, argparse.ArgumentParser) else None
+        return None
 
 
 def build_parser(command: str | None = None, *, lazy: bool = False) -> argparse.ArgumentParser:
