@@ -99,6 +99,25 @@ class _Parser(argparse.ArgumentParser):
 
     json_errors = False
     command: str | None = None
+    _intermixing = False
+
+    def parse_known_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> tuple[argparse.Namespace, list[str]]:
+        """A command's words and options in any order (``uss read 3 1120 --port X 1121``):
+        argparse's intermixed parsing for the commands, whose parsers hold no sub-commands."""
+        if self.prog == "uss" or _Parser._intermixing or self._subcommands():
+            return super().parse_known_args(args, namespace)
+        _Parser._intermixing = True
+        try:
+            return self.parse_known_intermixed_args(args, namespace)
+        except TypeError:  # a kind of argument intermixed parsing does not take
+            return super().parse_known_args(args, namespace)
+        finally:
+            _Parser._intermixing = False
+
+    def _subcommands(self) -> bool:
+        return any(isinstance(a, argparse._SubParsersAction) for a in self._actions)
 
     def error(self, message: str) -> NoReturn:
         owner = self._command_parser()
