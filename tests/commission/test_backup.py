@@ -529,3 +529,19 @@ def test_a_drive_gone_mid_restore_is_told_with_what_was_written(tmp_path: Path) 
         assert any(line.startswith("uss restore: not written: ") for line in lines)
     finally:
         stop(sim)
+
+
+def test_a_parameter_the_drive_cannot_have_is_refused_naming_the_file(
+    mm4: Simulator, tmp_path: Path
+) -> None:
+    file = tmp_path / "set.json"
+    assert uss(["backup", "3", "-o", str(file), *opts(mm4)])[0] == 0
+    data = json.loads(file.read_text(encoding="utf-8"))
+    element = {**next(p for p in data["parameter"] if p["pnu"] == 2010), "index": 5, "value": 7}
+    element["label"], element["raw"] = "P2010.5", "0007"
+    data["parameter"].append(element)
+    data["count"] += 1
+    file.write_text(json.dumps(data), encoding="utf-8")
+    said = f"{file}: P2010 (USS baudrate) has 2 element(s): index 0..1, not 5\n"
+    assert uss(["restore", "3", str(file), "--yes", *opts(mm4)]) == (2, f"uss restore: {said}")
+    assert uss(["diff", "3", str(file), *opts(mm4)]) == (2, f"uss diff: {said}")

@@ -84,9 +84,7 @@ def main(args: argparse.Namespace) -> int:
                 raise ConfigError(f"{stranger} (--force to restore anyway)")
             progress = _params.Progress("reading", enabled=None if not args.json else False)
             try:
-                now = await backups.read_parameters(
-                    drive, [(e.pnu, e.index) for e in wanted.entries], progress=progress
-                )
+                now = await backups.read_entries(drive, wanted, progress=progress)
             finally:
                 progress.close()
             current = backups.Backup(args.address, backups.kind_of(drive), now)

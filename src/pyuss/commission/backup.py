@@ -56,6 +56,7 @@ __all__ = [
     "identity_parameters",
     "kind_of",
     "load",
+    "read_entries",
     "read_parameters",
     "save",
     "take",
@@ -445,6 +446,23 @@ async def read_parameters(
     if progress is not None:
         progress(len(wanted), len(wanted), "")
     return entries
+
+
+async def read_entries(
+    drive: Drive,
+    backup: Backup,
+    entries: Sequence[Entry] | None = None,
+    *,
+    progress: Progress | None = None,
+) -> list[Entry]:
+    """What ``drive`` holds now of the parameters of ``backup``'s ``entries`` (default: all
+    of them), as `read_parameters`; a parameter the drive's book cannot take (a number beyond
+    the family's, an index beyond the array) is a `ConfigError` naming the file."""
+    wanted = backup.entries if entries is None else entries
+    try:
+        return await read_parameters(drive, [(e.pnu, e.index) for e in wanted], progress=progress)
+    except ConfigError as exc:
+        raise ConfigError(f"{backup.source or 'the backup'}: {exc}") from None
 
 
 async def scan(drive: Drive, pnus: Iterable[int], *, progress: Progress | None = None) -> list[int]:

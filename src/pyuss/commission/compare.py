@@ -34,7 +34,7 @@ from pyuss.commission.backup import (
     Entry,
     error_dict,
     kind_of,
-    read_parameters,
+    read_entries,
 )
 from pyuss.drive.datatypes import DataType
 from pyuss.errors import ConfigError, UssError, UssTimeout
@@ -169,7 +169,7 @@ def _differences(left: Backup, right: Backup) -> list[Difference]:
 async def another_drive(wanted: Backup, drive: Drive) -> str | None:
     """Why ``wanted`` is another drive's file: the first of its identity parameters (firmware,
     device type) the drive holds otherwise, in words; None when they all agree. Reads them."""
-    found = await read_parameters(drive, [(e.pnu, e.index) for e in wanted.identity])
+    found = await read_entries(drive, wanted, wanted.identity)
     words = wanted.profile != kind_of(drive)
     for old, new in zip(wanted.identity, found, strict=True):
         if not same_entry(old, new, words=words):
