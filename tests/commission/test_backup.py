@@ -545,3 +545,23 @@ def test_a_parameter_the_drive_cannot_have_is_refused_naming_the_file(
     said = f"{file}: P2010 (USS baudrate) has 2 element(s): index 0..1, not 5\n"
     assert uss(["restore", "3", str(file), "--yes", *opts(mm4)]) == (2, f"uss restore: {said}")
     assert uss(["diff", "3", str(file), *opts(mm4)]) == (2, f"uss diff: {said}")
+
+
+def test_a_cache_file_that_cannot_be_kept_is_refused_before_the_write(
+    mm4: Simulator, tmp_path: Path
+) -> None:
+    """A ``--params-cache`` in a folder that is not there, or a pipe (whose reading would wait
+    for a writer forever), is bad input before anything is written, not after the write."""
+    pipe = tmp_path / "pipe.json"
+    os.mkfifo(pipe)
+    for cache, message in [
+        (
+            tmp_path / "gone" / "cache.json",
+            f"cannot write the description cache to {tmp_path / 'gone' / 'cache.json'}: "
+            f"folder {tmp_path / 'gone'} does not exist",
+        ),
+        (pipe, f"{pipe} is no regular file (a device, a pipe or a socket): give a file"),
+    ]:
+        code, out = uss(["write", "3", "1120", "3", *opts(mm4), "--params-cache", str(cache)])
+        assert (code, out) == (2, f"uss write: {message}\n")
+        assert uss(["read", "3", "1120", *opts(mm4)])[1] == "P1120 = 10.00 s (Ramp-up time)\n"
