@@ -565,3 +565,14 @@ def test_a_cache_file_that_cannot_be_kept_is_refused_before_the_write(
         code, out = uss(["write", "3", "1120", "3", *opts(mm4), "--params-cache", str(cache)])
         assert (code, out) == (2, f"uss write: {message}\n")
         assert uss(["read", "3", "1120", *opts(mm4)])[1] == "P1120 = 10.00 s (Ramp-up time)\n"
+
+
+def test_a_scan_beyond_the_drives_numbers_is_refused_before_it_starts(
+    mm4: Simulator, tmp_path: Path
+) -> None:
+    said = "--scan '31995-32005': the parameter numbers of profile micromaster4 are 0..31999\n"
+    code, out = uss(["params", "3", "--scan", "31995-32005", *opts(mm4)])
+    assert (code, out) == (2, f"uss params: {said}")
+    file = tmp_path / "set.toml"
+    code, out = uss(["backup", "3", "-o", str(file), "--scan", "31995-32005", *opts(mm4)])
+    assert (code, out) == (2, f"uss backup: {said}") and not file.exists()

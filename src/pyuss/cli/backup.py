@@ -62,6 +62,7 @@ def main(args: argparse.Namespace) -> int:
             try:
                 pnus = None
                 if span is not None:
+                    span = pnu_range(args.scan, drive)  # within the drive's numbers
                     found = await backups.scan(drive, span, progress=progress)
                     pnus = sorted({*drive.params.pnus(), *found})
                     progress.close()
