@@ -121,3 +121,17 @@ def test_on_a_pty_the_note_says_rates_cannot_be_told_apart(sim: str) -> None:
     assert [f["baud"] for f in json.loads(done.stdout)] == [9600, 19200]  # both "answer"
     assert "pseudo-terminal" in done.stderr
     assert "cannot be told apart" in done.stderr
+
+
+@pytest.mark.parametrize("text", ["3-", "-1", "a", "1,,2"])
+def test_a_bad_address_range_is_answered_with_an_example_that_is_right(text: str) -> None:
+    done = subprocess.run(
+        [*USS, "scan", "--port", "/dev/no-such-port", "--address", text],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 2 and not done.stdout
+    assert done.stderr == (
+        f"uss scan: --address {text!r}: expected addresses 0..31 and ranges, e.g. 0-31 or 1,5,7-9\n"
+    )

@@ -72,3 +72,25 @@ def test_values_and_abbreviations_are_not_unknown_options(
     argv = ["write", "5", "18", "-1", "--po", "/dev/nonexistent-uss-port", "--lay", "3,2"]
     code, _, err = _uss(capsys, *argv)
     assert code == 1 and "cannot open" in err and "unknown option" not in err
+
+
+def test_a_word_too_many_is_named_by_the_command_it_was_given_to(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    code, out, err = _uss(capsys, "write", "3", "1120", "2.5", "s", "--port", "/dev/x")
+    assert code == 2 and not out
+    assert err.splitlines()[0].startswith("usage: uss write ")
+    assert err.splitlines()[-1] == "uss write: error: unrecognized arguments: s"
+
+
+def test_options_may_stand_between_the_words_of_a_command(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    code, out, err = _uss(capsys, "read", "3", "1120", "--port", "/dev/no-such-port", "1121")
+    assert code == 1 and "unrecognized" not in err  # both parameters taken: the port is tried
+    assert err.startswith("uss read: cannot open serial port /dev/no-such-port")
+    code, out, err = _uss(
+        capsys, "params", "--profile", "micromaster4", "3", "--port", "/dev/no-such-port", "ramp"
+    )
+    assert code == 1 and not out
+    assert err.startswith("uss params: cannot open serial port /dev/no-such-port")

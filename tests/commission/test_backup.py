@@ -4,6 +4,7 @@ profile and identity checks, and the file codec's round trip (hypothesis)."""
 
 from __future__ import annotations
 
+import asyncio
 import json
 import os
 import signal
@@ -11,7 +12,7 @@ import subprocess
 import sys
 import time
 import tomllib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -19,7 +20,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from commission.test_docs import uss
-from pyuss.commission.backup import Backup, Entry, dumps, load, loads
+from commission.test_restore_order import drive_of
+from pyuss.commission.backup import Backup, Entry, dumps, load, loads, take
 from pyuss.commission.compare import plan
 from pyuss.errors import ConfigError
 from pyuss.params.book import ParamBook
@@ -67,6 +69,18 @@ def test_a_backup_replaces_a_file_only_with_force(mm4: Simulator, tmp_path: Path
     assert file.read_text(encoding="utf-8") == "the backup of yesterday\n"
     assert uss(["backup", "3", "-o", str(file), "--force", *opts(mm4)])[0] == 0
     assert load(file).find(1120) is not None
+
+
+def test_a_backup_never_replaces_a_device_or_a_pipe(mm4: Simulator, tmp_path: Path) -> None:
+    pipe = tmp_path / "to-the-logger"
+    os.mkfifo(pipe)
+    code, out = uss(["backup", "3", "-o", str(pipe), "--format", "toml", "--force", *opts(mm4)])
+    assert code == 2
+    assert out == (
+        f"uss backup: {pipe} is no regular file (a device, a pipe or a socket): "
+        "a backup goes into a file of its own\n"
+    )
+    assert pipe.is_fifo()
 
 
 def test_a_failing_parameter_is_recorded_and_the_backup_goes_on(
@@ -421,3 +435,144 @@ def test_a_backup_written_before_reads_and_names_as_the_family_writes(tmp_path: 
     assert "parameter 1: field 'pnu': 'P21x' is not a parameter number" in str(info.value)
     with pytest.raises(ConfigError, match="names index 1, 'index' 2"):
         loads(OLD_BACKUP.replace("pnu = 947\nindex = 1\n", 'pnu = "r0947[1]"\nindex = 2\n'))
+
+
+V20 = Path(__file__).resolve().parents[2] / "src/pyuss/profiles/data/sinamics-v20.toml"
+
+
+def v20_opts(sim: Simulator) -> list[str]:
+    return ["--port", sim.path, "--baud", "38400", "--profile", "sinamics-v20"]
+
+
+def restore_cut_short(
+    tmp_path: Path, cut: Callable[[Simulator, subprocess.Popen[str]], None], *timeout: str
+) -> tuple[int, list[str], Simulator]:
+    """A V20 set up, its factory backup restored in a process of its own, which ``cut``
+    cuts short once the writes begin: the exit code, the lines on stderr, the simulator."""
+
+    async def factory() -> Backup:  # a V20 as it leaves the factory, the parameters used
+        async with drive_of("sinamics-v20") as drive:
+            return await take(drive, pnus=[305, 307, 1120, 1121])
+
+    file = tmp_path / "factory.json"
+    file.write_text(dumps(asyncio.run(factory()), "json"), encoding="utf-8")
+    sim = start(V20, "--profile", "sinamics-v20", "--latency-time", "60")
+    try:
+        for name, value in [("P0010", "1"), ("P0305.0", "3.2"), ("P0307.0", "1.5")]:
+            assert uss(["write", "5", name, value, *v20_opts(sim)])[0] == 0
+        for name, value in [("P0010", "0"), ("P1120.0", "2"), ("P1121.0", "2")]:
+            assert uss(["write", "5", name, value, *v20_opts(sim)])[0] == 0
+        process = subprocess.Popen(
+            [*USS, "restore", "5", str(file), "--yes", *timeout, *v20_opts(sim)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        )
+        assert process.stdout is not None
+        planned = [process.stdout.readline() for _ in range(6)]  # printed before the writes
+        if not planned[-1].startswith("P1121.0 (Ramp-down time)"):
+            raise AssertionError([*planned, *process.communicate(timeout=30)])
+        cut(sim, process)
+        _, err = process.communicate(timeout=30)
+    except BaseException:
+        stop(sim)
+        raise
+    return process.returncode, err.splitlines(), sim
+
+
+def says_what_was_written(lines: list[str]) -> None:
+    """The lines name how many were written, the write under way, and how to go on."""
+    done = next(line for line in lines if " of 6 written" in line)
+    assert int(done.split()[2]) < 6
+    assert (
+        lines[-1]
+        == "uss restore: the same uss restore again writes the rest (only what still differs)"
+    )
+    assert any(line.endswith("under way, the drive may or may not have taken it") for line in lines)
+
+
+def test_a_restore_interrupted_says_what_it_wrote_and_goes_on_when_run_again(
+    tmp_path: Path,
+) -> None:
+    def interrupt(sim: Simulator, process: subprocess.Popen[str]) -> None:
+        time.sleep(0.15)  # a write or two made, at 60 ms an answer
+        process.send_signal(signal.SIGINT)
+
+    code, lines, sim = restore_cut_short(tmp_path, interrupt, "--timeout", "30")
+    try:
+        assert code == 130
+        assert lines[0] == "uss restore: interrupted: drive 5 not fully restored"
+        says_what_was_written(lines)
+        file = str(tmp_path / "factory.json")
+        assert uss(["restore", "5", file, "--yes", *v20_opts(sim)])[0] == 0
+        if any("in quick commissioning" in line for line in lines):
+            assert uss(["write", "5", "P0010", "0", *v20_opts(sim)])[0] == 0
+        assert uss(["diff", "5", file, *v20_opts(sim)])[0] == 0
+        assert uss(["read", "5", "P0010", *v20_opts(sim)])[1].startswith("P0010 = 0 [ready]")
+    finally:
+        stop(sim)
+
+
+def test_a_drive_gone_mid_restore_is_told_with_what_was_written(tmp_path: Path) -> None:
+    def silence(sim: Simulator, process: subprocess.Popen[str]) -> None:
+        sim.process.send_signal(signal.SIGSTOP)
+        process.wait(30)
+        sim.process.send_signal(signal.SIGCONT)
+
+    code, lines, sim = restore_cut_short(tmp_path, silence, "--timeout", "1")
+    try:
+        assert code == 1
+        assert lines[0].startswith("uss restore: slave 5 does not answer")
+        assert lines[0].endswith(": drive 5 not fully restored")
+        says_what_was_written(lines)
+        assert any(line.startswith("uss restore: not written: ") for line in lines)
+    finally:
+        stop(sim)
+
+
+def test_a_parameter_the_drive_cannot_have_is_refused_naming_the_file(
+    mm4: Simulator, tmp_path: Path
+) -> None:
+    file = tmp_path / "set.json"
+    assert uss(["backup", "3", "-o", str(file), *opts(mm4)])[0] == 0
+    data = json.loads(file.read_text(encoding="utf-8"))
+    element = {**next(p for p in data["parameter"] if p["pnu"] == 2010), "index": 5, "value": 7}
+    element["label"], element["raw"] = "P2010.5", "0007"
+    data["parameter"].append(element)
+    data["count"] += 1
+    file.write_text(json.dumps(data), encoding="utf-8")
+    said = f"{file}: P2010 (USS baudrate) has 2 element(s): index 0..1, not 5\n"
+    assert uss(["restore", "3", str(file), "--yes", *opts(mm4)]) == (2, f"uss restore: {said}")
+    assert uss(["diff", "3", str(file), *opts(mm4)]) == (2, f"uss diff: {said}")
+
+
+def test_a_cache_file_that_cannot_be_kept_is_refused_before_the_write(
+    mm4: Simulator, tmp_path: Path
+) -> None:
+    """A ``--params-cache`` in a folder that is not there, or a pipe (whose reading would wait
+    for a writer forever), is bad input before anything is written, not after the write."""
+    pipe = tmp_path / "pipe.json"
+    os.mkfifo(pipe)
+    for cache, message in [
+        (
+            tmp_path / "gone" / "cache.json",
+            f"cannot write the description cache to {tmp_path / 'gone' / 'cache.json'}: "
+            f"folder {tmp_path / 'gone'} does not exist",
+        ),
+        (pipe, f"{pipe} is no regular file (a device, a pipe or a socket): give a file"),
+    ]:
+        code, out = uss(["write", "3", "1120", "3", *opts(mm4), "--params-cache", str(cache)])
+        assert (code, out) == (2, f"uss write: {message}\n")
+        assert uss(["read", "3", "1120", *opts(mm4)])[1] == "P1120 = 10.00 s (Ramp-up time)\n"
+
+
+def test_a_scan_beyond_the_drives_numbers_is_refused_before_it_starts(
+    mm4: Simulator, tmp_path: Path
+) -> None:
+    said = "--scan '31995-32005': the parameter numbers of profile micromaster4 are 0..31999\n"
+    code, out = uss(["params", "3", "--scan", "31995-32005", *opts(mm4)])
+    assert (code, out) == (2, f"uss params: {said}")
+    file = tmp_path / "set.toml"
+    code, out = uss(["backup", "3", "-o", str(file), "--scan", "31995-32005", *opts(mm4)])
+    assert (code, out) == (2, f"uss backup: {said}") and not file.exists()

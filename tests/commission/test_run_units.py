@@ -36,3 +36,13 @@ def test_jog_runs_at_the_drives_jog_setpoint(mm4: Simulator) -> None:  # noqa: F
     top = max(s["actual"] for s in samples)
     assert abs(top - 5.0) < 50 / 0x4000  # P1058 jog frequency right: 5 Hz, to one PZD step
     assert samples[-1]["state"] != "operation enabled"
+
+
+def test_a_setpoint_that_is_no_number_is_named_so_before_the_port_opens() -> None:
+    gone = ["--port", "/dev/no-such-port", "--profile", "micromaster4", "--duration", "1"]
+    for text in ("50 %%", "1_0", "25 -Hz", "\u0665\u0660", "garbage"):
+        code, out = uss(["run", "3", "--setpoint", text, *gone])
+        assert (code, out) == (
+            2,
+            f"uss run: --setpoint {text!r}: setpoint {text!r} is not a number\n",
+        ), out

@@ -51,3 +51,21 @@ def test_only_the_fault_number_parameter_gets_a_fault_text(
     shown = {p["label"]: p for p in data["parameters"]}
     assert shown["r0002"]["value"] == 1 and shown["r0002"]["fault_text"] is None
     assert shown["r0947.0"]["value"] == 0 and shown["r0947.0"]["fault_text"] is None
+
+
+def test_a_reference_the_drive_refuses_leaves_the_rest_of_the_look(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """A MICROMASTER 4 looked at as a SINAMICS V20 (whose reference P2000 is an array): the
+    drive refuses P2000.0, and the look shows the status word, the actual value in percent
+    and what went wrong, with the likely cause, instead of ending on the refusal."""
+    with SimulatorThread([(3, "micromaster4", None)]) as sim:
+        argv = ["status", "3", "--port", sim.paths[0], "--baud", str(sim.baud)]
+        assert main([*argv, "--profile", "sinamics-v20"]) == 0
+        text = capsys.readouterr().out.splitlines()
+    assert text[:2] == ["drive 3: switch-on inhibited", "status word 0240h"], text
+    assert "actual value (PZD2) 0.00 %" in text
+    assert (
+        "the reference parameter P2000.0 (100 % of the actual value) could not be read: error "
+        "4: parameter is not an array; is --profile sinamics-v20 this drive's family?"
+    ) in text

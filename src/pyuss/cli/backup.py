@@ -10,10 +10,10 @@ what the scan finds, as words). The file (TOML for
 header: address, profile, date, the drive's identity parameters where it has them. A parameter
 that cannot be read is recorded with its error and the backup goes on; a drive that stops
 answering ends it (nothing written). An existing FILE is refused before the drive is read
-(exit code 2) unless ``--force``, which replaces it. A progress bar with the time left shows
-on a terminal. The file is written atomically: a backup killed half way leaves no
-half-written file. Exit code 0 when every parameter was read, 1 when some were not (the file
-says which).
+(exit code 2) unless ``--force``, which replaces it (a device or a pipe is never replaced).
+A progress bar with the time left shows on a terminal. The file is written atomically: a
+backup killed half way leaves no half-written file. Exit code 0 when every parameter was
+read, 1 when some were not (the file says which).
 """
 
 from __future__ import annotations
@@ -62,6 +62,7 @@ def main(args: argparse.Namespace) -> int:
             try:
                 pnus = None
                 if span is not None:
+                    span = pnu_range(args.scan, drive)  # within the drive's numbers
                     found = await backups.scan(drive, span, progress=progress)
                     pnus = sorted({*drive.params.pnus(), *found})
                     progress.close()

@@ -74,8 +74,7 @@ def main(args: argparse.Namespace) -> int:
             async with open_master(args) as bus:
                 drive = bus.drive(where)
                 _params.setup(args, drive)
-                wanted = [(e.pnu, e.index) for e in right.entries]
-                entries = await backups.read_parameters(drive, wanted)
+                entries = await backups.read_entries(drive, right)
                 book = drive.params
             left = backups.Backup(where, backups.kind_of(drive), entries, source=f"drive {where}")
             left_name = f"drive {where}"

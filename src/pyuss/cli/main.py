@@ -99,8 +99,30 @@ class _Parser(argparse.ArgumentParser):
 
     json_errors = False
     command: str | None = None
+    _intermixing = False
+
+    def parse_known_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> tuple[argparse.Namespace, list[str]]:
+        """A command's words and options in any order (``uss read 3 1120 --port X 1121``):
+        argparse's intermixed parsing for the commands, whose parsers hold no sub-commands."""
+        if self.prog == "uss" or _Parser._intermixing or self._subcommands():
+            return super().parse_known_args(args, namespace)
+        _Parser._intermixing = True
+        try:
+            return self.parse_known_intermixed_args(args, namespace)
+        except TypeError:  # a kind of argument intermixed parsing does not take
+            return super().parse_known_args(args, namespace)
+        finally:
+            _Parser._intermixing = False
+
+    def _subcommands(self) -> bool:
+        return any(isinstance(a, argparse._SubParsersAction) for a in self._actions)
 
     def error(self, message: str) -> NoReturn:
+        owner = self._command_parser()
+        if owner is not None:  # words left over: the command's, with its usage
+            owner.error(message)
         if _Parser.json_errors:
             from pyuss.cli._output import failure, print_json, usage_error
 
@@ -110,6 +132,17 @@ class _Parser(argparse.ArgumentParser):
             print_json(failure(_Parser.command, usage_error(f"{prog}: {message}")))
             self.exit(EXIT_USAGE)
         super().error(message)
+
+    def _command_parser(self) -> argparse.ArgumentParser | None:
+        """The parser of the command on the line, when this is the parser of `uss` itself
+        (argparse leaves the words no parser took to the top one)."""
+        if self.prog != "uss" or not _Parser.command:
+            return None
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                found = action.choices.get(_Parser.command)
+                return found if isinstance(found, argparse.ArgumentParser) else None
+        return None
 
 
 def build_parser(command: str | None = None, *, lazy: bool = False) -> argparse.ArgumentParser:

@@ -32,8 +32,10 @@ from pyuss.cli._master import (
     use_lines,
 )
 from pyuss.errors import ConfigError, UssError
+from pyuss.master.drive import Drive
 from pyuss.params.book import ParamBook
 from pyuss.params.model import ParamInfo
+from pyuss.params.names import MAX_PNU
 from pyuss.params.values import format_value, physical
 from pyuss.profiles import get_profile, profile_names
 
@@ -87,16 +89,27 @@ OFFLINE_PROFILE = "generic"
 profile. A drive asked (``--port``) without ``--profile`` is of unknown kind instead."""
 
 
-def pnu_range(text: str) -> range:
-    """``FROM-TO`` (both included) or one number."""
+def pnu_range(text: str, drive: Drive | None = None) -> range:
+    """``FROM-TO`` (both included) or one number; with ``drive``, within the numbers its
+    profile can address (checked before the scan sends anything)."""
     first, dash, last = text.partition("-")
     try:
         low = int(first, 0)
         high = int(last, 0) if dash else low
     except ValueError:
         raise ConfigError(f"--scan {text!r}: give FROM-TO, for example 0-999") from None
-    if not 0 <= low <= high or high - low > 65535:
+    if not 0 <= low <= high:
         raise ConfigError(f"--scan {text!r}: FROM must be <= TO, both >= 0")
+    most = MAX_PNU if drive is None else drive.profile.max_pnu
+    if high > most:
+        whose = (
+            ""
+            if drive is None
+            else f" of profile {drive.profile.name}"
+            if drive.profile_named
+            else " of this drive"
+        )
+        raise ConfigError(f"--scan {text!r}: the parameter numbers{whose} are 0..{most}")
     return range(low, high + 1)
 
 
@@ -164,7 +177,7 @@ def main(args: argparse.Namespace) -> int:
             if args.scan:
                 progress = _params.Progress("scan", enabled=None if not args.json else False)
                 try:
-                    there = await scan(drive, pnu_range(args.scan), progress=progress)
+                    there = await scan(drive, pnu_range(args.scan, drive), progress=progress)
                 finally:
                     progress.close()
                 if not words:  # found by their values: nothing known but that they are there

@@ -11,12 +11,16 @@ after a ``y`` (or ``--yes``) only the writable parameters that differ are writte
 the profile gives (the access level and commissioning parameters first), with ``--eeprom``
 through the EEPROM requests (C Table 4.1). A refusal is reported with its error number and
 meaning and the restore goes on. ``--dry-run`` shows what would be written and writes nothing.
-Exit code 0 when every write was taken, 1 when any was refused.
+A restore cut short (Ctrl+C, exit code 130; the drive gone, exit code 1) says what it wrote,
+the write under way, what it did not write, and a drive it may have left in quick
+commissioning; run again, it writes the rest. Exit code 0 when every write was taken, 1 when
+any was refused.
 """
 
 from __future__ import annotations
 
 import argparse
+import asyncio
 import sys
 from typing import Any
 
@@ -27,13 +31,14 @@ from pyuss.cli._master import (
     EXIT_USAGE,
     command,
     emit,
+    error_dict,
     finish,
     open_master,
     run,
 )
 from pyuss.commission import backup as backups
-from pyuss.commission.compare import another_drive, plan, restore
-from pyuss.errors import ConfigError
+from pyuss.commission.compare import Outcome, another_drive, cut_short, plan, restore
+from pyuss.errors import ConfigError, UssError
 
 
 def register(subparsers: Any) -> None:
@@ -79,9 +84,7 @@ def main(args: argparse.Namespace) -> int:
                 raise ConfigError(f"{stranger} (--force to restore anyway)")
             progress = _params.Progress("reading", enabled=None if not args.json else False)
             try:
-                now = await backups.read_parameters(
-                    drive, [(e.pnu, e.index) for e in wanted.entries], progress=progress
-                )
+                now = await backups.read_entries(drive, wanted, progress=progress)
             finally:
                 progress.close()
             current = backups.Backup(args.address, backups.kind_of(drive), now)
@@ -103,8 +106,19 @@ def main(args: argparse.Namespace) -> int:
                 print("nothing written")
                 return EXIT_USAGE
             progress = _params.Progress("restore", enabled=None if not args.json else False)
+            outcomes: list[Outcome] = []
             try:
-                outcomes = await restore(drive, writes, eeprom=args.eeprom, progress=progress)
+                await restore(
+                    drive, writes, eeprom=args.eeprom, progress=progress, outcomes=outcomes
+                )
+            except asyncio.CancelledError:  # Ctrl+C: say what was written, then stop
+                progress.close()
+                stopped(args, "interrupted", writes, skips, outcomes, None)
+                raise
+            except UssError as exc:  # the drive gone: what was written is not lost
+                progress.close()
+                stopped(args, str(exc), writes, skips, outcomes, exc)
+                return EXIT_FAILED
             finally:
                 progress.close()
             _params.save(args, drive)
@@ -122,6 +136,32 @@ def main(args: argparse.Namespace) -> int:
         return EXIT_FAILED if failed else EXIT_OK
 
     return run("restore", args, body)
+
+
+def stopped(
+    args: argparse.Namespace,
+    why: str,
+    writes: list[Any],
+    skips: list[Any],
+    outcomes: list[Outcome],
+    exc: UssError | None,
+) -> None:
+    """A restore cut short after ``outcomes``: what it wrote, what it did not, how to go on
+    (stderr; with ``--json`` the report with the results so far and the error)."""
+    if args.json:
+        data = report(args, writes, skips, outcomes)
+        data["error"] = (
+            error_dict(exc) if exc is not None else {"type": "Interrupted", "message": why}
+        )
+        emit(args, data, "")
+        return
+    for outcome in outcomes:
+        if not outcome.ok:
+            print(f"{outcome.write.label}: refused: {outcome.error_text()}")
+    sys.stdout.flush()
+    print(f"uss restore: {why}: drive {args.address} not fully restored", file=sys.stderr)
+    for line in cut_short(writes, outcomes):
+        print(f"uss restore: {line}", file=sys.stderr)
 
 
 def check_kind(args: argparse.Namespace, wanted: backups.Backup, kind: str) -> None:

@@ -107,13 +107,27 @@ Reference = tuple[float, str] | None
 """The reference parameter's value and unit (100 % = 4000h), where the profile names one."""
 
 
+def split_setpoint(text: str) -> tuple[str, str]:
+    """A ``--setpoint``'s number and unit (``%`` when none): ``25 Hz``, ``1500 1/min``, in ASCII
+    digits; inf and nan go on to the model's check of a setpoint, which refuses them by name;
+    anything else (``50 %%``, ``1_0``, a word) is no number (`ConfigError`)."""
+    match = re.fullmatch(
+        r"\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(%|[a-z]\S*|1/\S+)?\s*",
+        text,
+        re.ASCII | re.IGNORECASE,
+    )
+    if match:
+        return match.group(1), match.group(2) or "%"
+    if text.strip().lower().lstrip("+-") in ("inf", "infinity", "nan"):
+        return text, "%"
+    raise ConfigError(f"--setpoint {text[:40]!r}: setpoint {text[:40]!r} is not a number")
+
+
 def setpoint_percent(text: str, reference: Reference, profile: str | None) -> float:
     """A ``--setpoint`` in percent: ``50`` / ``50 %`` as they are, ``25 Hz`` through the
     reference parameter; checked by the drive model's one check of a setpoint
     (`pyuss.points.checked_setpoint`: finite, within the word's range), as sent."""
-    match = re.fullmatch(r"\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(\S*)\s*", text)
-    # anything else (inf, nan, a word) is the model's to refuse, in percent
-    value, unit = (match.group(1), match.group(2) or "%") if match else (text, "%")
+    value, unit = split_setpoint(text)
     if unit != "%" and (reference is None or unit.casefold() != reference[1].casefold()):
         where = (
             f"the reference parameter is in {reference[1]}"
@@ -251,7 +265,7 @@ def main(args: argparse.Namespace) -> int:
             raise ConfigError(f"--stop-timeout {args.stop_timeout}: must be > 0 seconds")
         if args.interval is not None and not args.interval > 0:
             raise ConfigError(f"--interval {args.interval}: must be > 0 seconds")
-        if args.setpoint is not None and not re.search(r"[A-Za-z]", args.setpoint):
+        if args.setpoint is not None and split_setpoint(args.setpoint)[1] == "%":
             setpoint_percent(args.setpoint, None, args.profile)  # bad input before the port opens
         loop = asyncio.get_running_loop()
         stop = asyncio.Event()

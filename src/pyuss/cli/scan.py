@@ -86,7 +86,8 @@ def ranges(text: str) -> list[int]:
             last = int(high, 0) if dash else first
         except ValueError:
             raise ConfigError(
-                f"--address {text!r}: expected numbers and ranges like 0-31,40"
+                f"--address {text!r}: expected addresses 0..{MAX_ADDRESS} and ranges, e.g. 0-31 or "
+                "1,5,7-9"
             ) from None
         if not 0 <= first <= last <= MAX_ADDRESS:
             raise ConfigError(f"--address {text!r}: addresses are 0..{MAX_ADDRESS}, low to high")

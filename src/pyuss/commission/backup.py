@@ -56,6 +56,7 @@ __all__ = [
     "identity_parameters",
     "kind_of",
     "load",
+    "read_entries",
     "read_parameters",
     "save",
     "take",
@@ -447,6 +448,23 @@ async def read_parameters(
     return entries
 
 
+async def read_entries(
+    drive: Drive,
+    backup: Backup,
+    entries: Sequence[Entry] | None = None,
+    *,
+    progress: Progress | None = None,
+) -> list[Entry]:
+    """What ``drive`` holds now of the parameters of ``backup``'s ``entries`` (default: all
+    of them), as `read_parameters`; a parameter the drive's book cannot take (a number beyond
+    the family's, an index beyond the array) is a `ConfigError` naming the file."""
+    wanted = backup.entries if entries is None else entries
+    try:
+        return await read_parameters(drive, [(e.pnu, e.index) for e in wanted], progress=progress)
+    except ConfigError as exc:
+        raise ConfigError(f"{backup.source or 'the backup'}: {exc}") from None
+
+
 async def scan(drive: Drive, pnus: Iterable[int], *, progress: Progress | None = None) -> list[int]:
     """The parameters of ``pnus`` the drive has. Known ones are not asked for. The others are
     found as `Drive.info` finds what is known of a parameter: by their descriptions (C 6),
@@ -553,8 +571,14 @@ def dumps(backup: Backup, fmt: str) -> str:
 
 def check_new(path: str | Path, *, overwrite: bool = False) -> None:
     """`ConfigError` naming ``path`` when a backup cannot be written there: a folder, a folder
-    missing, or (unless ``overwrite``) a file that is there already."""
+    missing, a device, pipe or socket (never replaced, even with ``overwrite``: the file would
+    take its place), or (unless ``overwrite``) a file that is there already."""
     target = check_target(path, "the backup")
+    if target.exists() and not target.is_file():
+        raise ConfigError(
+            f"{target} is no regular file (a device, a pipe or a socket): "
+            "a backup goes into a file of its own"
+        )
     if not overwrite and (target.exists() or target.is_symlink()):
         raise ConfigError(f"{target} exists: --force replaces it, or give another file name")
 

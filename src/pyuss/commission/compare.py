@@ -34,7 +34,7 @@ from pyuss.commission.backup import (
     Entry,
     error_dict,
     kind_of,
-    read_parameters,
+    read_entries,
 )
 from pyuss.drive.datatypes import DataType
 from pyuss.errors import ConfigError, UssError, UssTimeout
@@ -52,6 +52,7 @@ __all__ = [
     "another_drive",
     "changed_values",
     "compare",
+    "cut_short",
     "plan",
     "restore",
 ]
@@ -168,7 +169,7 @@ def _differences(left: Backup, right: Backup) -> list[Difference]:
 async def another_drive(wanted: Backup, drive: Drive) -> str | None:
     """Why ``wanted`` is another drive's file: the first of its identity parameters (firmware,
     device type) the drive holds otherwise, in words; None when they all agree. Reads them."""
-    found = await read_parameters(drive, [(e.pnu, e.index) for e in wanted.identity])
+    found = await read_entries(drive, wanted, wanted.identity)
     words = wanted.profile != kind_of(drive)
     for old, new in zip(wanted.identity, found, strict=True):
         if not same_entry(old, new, words=words):
@@ -250,6 +251,10 @@ def _order(profile: Profile | None, book: ParamBook) -> Callable[[Write], tuple[
     return key
 
 
+COMMISSIONING = "(commissioning)"
+"""The ``before`` of the writes that enter and leave quick commissioning around a restore."""
+
+
 def _with_commissioning(
     writes: list[Write], profile: Profile | None, book: ParamBook
 ) -> list[Write]:
@@ -263,8 +268,8 @@ def _with_commissioning(
         return writes
     start = next(i for i, w in enumerate(writes) if commissioning_only(w.info))
     end = max(i for i, w in enumerate(writes) if commissioning_only(w.info)) + 1
-    enter = Write(rule.parameter, None, info, rule.quick, (), "(commissioning)")
-    leave = Write(rule.parameter, None, info, 0, (), "(commissioning)")
+    enter = Write(rule.parameter, None, info, rule.quick, (), COMMISSIONING)
+    leave = Write(rule.parameter, None, info, 0, (), COMMISSIONING)
     return [*writes[:start], enter, *writes[start:end], leave, *writes[end:]]
 
 
@@ -393,11 +398,14 @@ async def restore(
     *,
     eeprom: bool = False,
     progress: Callable[[int, int, str], object] | None = None,
+    outcomes: list[Outcome] | None = None,
 ) -> list[Outcome]:
     """Make ``writes`` in order; a refusal is recorded with its number and meaning and the
     others are still written. Stops with `UssTimeout` when the drive answered `MAX_TIMEOUTS`
-    jobs in a row with nothing."""
-    outcomes = []
+    jobs in a row with nothing. ``outcomes``: the list the outcomes are added to as they
+    come, so that a restore cut short (interrupted, the drive gone) still tells what it wrote:
+    ``writes[len(outcomes)]`` was under way (`cut_short`)."""
+    outcomes = [] if outcomes is None else outcomes
     silent = 0
     for done, write in enumerate(writes):
         if progress is not None:
@@ -425,3 +433,37 @@ async def restore(
     if progress is not None:
         progress(len(writes), len(writes), "")
     return outcomes
+
+
+def cut_short(writes: Sequence[Write], outcomes: Sequence[Outcome]) -> list[str]:
+    """What a restore stopped after ``outcomes`` of ``writes`` has done, in lines: how many
+    were written, the write under way (sent or not, the drive may have taken it), those not
+    written, a commissioning parameter left in quick commissioning (its entry was written,
+    its end was not), and how to go on."""
+    taken = [o.write.label for o in outcomes if o.ok]
+    refused = [o.write.label for o in outcomes if not o.ok]
+    lines = [
+        f"{len(taken)} of {len(writes)} written"
+        + (f" ({', '.join(taken)})" if taken else "")
+        + (f", {len(refused)} refused ({', '.join(refused)})" if refused else "")
+    ]
+    rest = list(writes[len(outcomes) :])
+    if rest:
+        lines.append(f"{rest[0].label}: under way, the drive may or may not have taken it")
+    if len(rest) > 1:
+        lines.append(f"not written: {', '.join(w.label for w in rest[1:])}")
+    entered = [o.write for o in outcomes if o.ok and o.write.before == COMMISSIONING]
+    if (
+        entered
+        and entered[-1].value != 0
+        and rest
+        and any(w.before == COMMISSIONING and w.value == 0 for w in rest)
+    ):
+        info = entered[-1].info
+        name = f" ({info.name})" if info is not None else ""
+        lines.append(
+            f"{entered[-1].label}{name} may be left at {entered[-1].value}, in quick "
+            f"commissioning: write {entered[-1].label} 0 to end it"
+        )
+    lines.append("the same uss restore again writes the rest (only what still differs)")
+    return lines

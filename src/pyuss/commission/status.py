@@ -6,7 +6,9 @@ instead) and reads the parameters the profile's file names for the purpose (``[d
 state, actual, setpoint, fault, warning, and the reference that is 100 % of setpoints and
 actual values, 4000h). The main actual value is shown in percent and, where the profile names
 the reference parameter, in its unit (Hz, rpm). Fault and warning numbers come with the text
-the profile gives them where it has one. A drive of unknown kind (no profile named) shows what
+the profile gives them where it has one. A reference parameter the drive refuses (a drive
+looked at with another family's profile) leaves the actual value in percent, and a note says
+why (`Look.notes`). A drive of unknown kind (no profile named) shows what
 its telegram says - state, status word, the bits' meanings by the USS specification (C Table
 5.5; bits 11..15 are the device's own), the actual value in percent - and `Look.unknown_kind`
 says that its parameters, texts and reference are not known: no family's are put in their
@@ -19,6 +21,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from pyuss.commission.backup import Entry, read_parameters
+from pyuss.errors import DriveRefusal
 from pyuss.master.drive import Drive
 from pyuss.master.process import DriveStatus, state_of
 from pyuss.protocol.pzd import STATUS_BITS, describe_bits, raw16_to_percent
@@ -92,6 +95,8 @@ class Look:
     """What the device-specific status bits 11..15 show on this family (its profile)."""
     unknown_kind: bool = False
     """No profile was named: the drive's parameters, fault texts and reference are unknown."""
+    notes: list[str] = field(default_factory=list)
+    """What could not be seen, and why (a reference parameter the drive refused)."""
 
     def _text_of(self, entry: Entry) -> str | None:
         if not entry.ok or not isinstance(entry.value, int) or entry.value == 0:
@@ -125,6 +130,7 @@ class Look:
                 text += f" ({meaning})"
             name = f" ({entry.name})" if entry.name else ""
             out.append(f"{entry.label}{name} = {text}")
+        out += self.notes
         if self.unknown_kind:
             out.append(UNKNOWN_KIND_NOTE)
         return out
@@ -140,6 +146,7 @@ class Look:
             "actual": self.actual,
             "unit": self.unit,
             "unknown_kind": self.unknown_kind,
+            "notes": self.notes,
             "parameters": [
                 {
                     **e.to_dict(),
@@ -193,7 +200,16 @@ async def look(drive: Drive, *, timeout: float | None = None) -> Look:
     )
     if status is not None and status.actual:
         result.actual_percent = raw16_to_percent(status.actual[0])
-        reference = await reference_value(drive)
+        try:
+            reference = await reference_value(drive)
+        except DriveRefusal as exc:  # the rest of the look is still worth having
+            reference = None
+            where = "" if exc.pnu is None else f" {drive.params.label(exc.pnu, exc.index)}"
+            result.notes.append(
+                f"the reference parameter{where} (100 % of the actual value) could not be "
+                f"read: error {exc.number}: {exc.meaning}; is --profile {drive.profile.name} "
+                "this drive's family?"
+            )
         if reference is not None:
             result.actual = result.actual_percent / 100 * reference[0]
             result.unit = reference[1]

@@ -32,7 +32,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from pyuss.atomicfile import write_atomically
+from pyuss.atomicfile import check_target, write_atomically
 from pyuss.drive.database import NameStyle, ParameterDatabase, load_database
 from pyuss.errors import ConfigError
 from pyuss.params.model import (
@@ -252,8 +252,8 @@ class ParamBook:
 
     def load_cache(self, path: str | Path, key: str) -> None:
         """Take the descriptions kept for drive ``key`` in the cache file ``path`` (a missing
-        file is an empty cache)."""
-        path = Path(path)
+        file is an empty cache; `check_cache` first says whether it can be kept there)."""
+        path = check_cache(path)
         if not path.exists():
             return
         text = read_text(path, "the description cache")
@@ -265,7 +265,7 @@ class ParamBook:
     def save_cache(self, path: str | Path, key: str) -> None:
         """Keep this book's descriptions for drive ``key`` in ``path`` (other drives' entries in
         the file stay), written atomically."""
-        path = Path(path)
+        path = check_cache(path)
         if path.exists():
             data = _cache_file(read_text(path, "the description cache"), path)
         else:
@@ -274,6 +274,22 @@ class ParamBook:
         write_atomically(
             path, (json.dumps(data, indent=1) + "\n").encode(), "the description cache"
         )
+
+
+def check_cache(path: str | Path) -> Path:
+    """``path`` as a `Path` if a description cache can be read and kept there; `ConfigError`
+    naming it if not: a folder, a folder missing or not writable, or a device, pipe or socket
+    (reading a pipe would wait for a writer forever, and keeping the cache would put a file in
+    its place)."""
+    target = Path(path)
+    if target.is_dir():  # as every file pyuss reads says it
+        raise ConfigError(f"{target}: cannot read the description cache: it is a folder")
+    check_target(target, "the description cache")
+    if target.exists() and not target.is_file():
+        raise ConfigError(
+            f"{target} is no regular file (a device, a pipe or a socket): give a file"
+        )
+    return target
 
 
 def _cache_file(text: str, path: Path) -> dict[str, Any]:
