@@ -192,6 +192,8 @@ def test_what_a_user_types_is_read_by_the_parameters_type() -> None:
         (BAUD, "2", "is outside 3..13"),
         (BAUD, "115200 BAUD", "is not a number nor one of 9600 BAUD, 19200 BAUD"),
         (info(DataType.INT16), "2.5", "takes a whole number"),
+        (info(DataType.UINT16), "\u0661\u0660", "is not a number"),  # 10 in Arabic-Indic digits
+        (RAMP, "\uff15 s", "is not a number"),  # a full-width 5
         (info(DataType.V2), "0x4000", "bit field"),
         (info(DataType.VISIBLE_STRING, length=4), "too long", "at most 4"),
         (info(DataType.UINT16, allowed=(0, 3, 4, 127)), "5", "is not one of 0, 3, 4, 127"),

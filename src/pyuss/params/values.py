@@ -224,7 +224,7 @@ _NUMBER = re.compile(
     r"""^(?P<number>[+-]?(?:0[xX][0-9a-fA-F_]+|0[bB][01_]+|0[oO][0-7_]+
         |(?:\d[\d_]*(?:\.[\d_]*)?|\.\d[\d_]*)(?:[eE][+-]?\d+)?))
         \s*(?P<unit>.*?)\s*$""",
-    re.VERBOSE,
+    re.VERBOSE | re.ASCII,  # digits 0-9: another script's digits are no number here
 )
 
 
@@ -314,7 +314,7 @@ def parse_unknown(text: str) -> int | float:
 
 def _decimal(text: str) -> int | float:
     clean = text.replace("_", "")
-    if re.fullmatch(r"[+-]?\d+", clean):
+    if re.fullmatch(r"[+-]?[0-9]+", clean):
         return int(clean)
     return float(clean)
 
