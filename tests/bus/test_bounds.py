@@ -7,8 +7,10 @@ import asyncio
 import contextlib
 import json
 import logging
+import os
 import socket
 import time
+import tty
 
 import pytest
 
@@ -327,4 +329,38 @@ async def test_connections_turned_away_one_after_another_are_logged_once(
     finally:
         for sock in talkers:
             sock.close()
+        await bus.close()
+
+
+async def test_a_program_that_floods_a_pty_and_leaves_costs_the_line_one_telegram_at_most() -> None:
+    # The bus holds each pty open itself, so it cannot see a program that wrote 12 kB into
+    # one and left: what waits of it is bounded by one telegram of the longest, 256
+    # characters (0.3 s at 9600 baud), not 4096 (4.7 s), and a master on the other pty is
+    # served at once after that
+    bus = VirtualBus(BAUD)
+    try:
+        flooded, _other = await bus.serve_pty(2)
+        most = 0
+
+        def watch(_char: object) -> None:
+            nonlocal most
+            most = max(most, bus.queued())
+
+        bus.on_char.append(watch)
+        fd = os.open(flooded, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+        try:
+            tty.setraw(fd)
+            data = bytes(12 * 1024)
+            while data:
+                try:
+                    data = data[os.write(fd, data) :]
+                except BlockingIOError:
+                    await asyncio.sleep(0.01)  # the bus reads the pty
+        finally:
+            os.close(fd)
+        stats = bus.stats
+        await eventually(lambda: stats.overflow + stats.chars + bus.queued() >= 12 * 1024, WAIT)
+        assert most <= serve.PTY_QUEUE
+        assert stats.overflow >= 12 * 1024 - serve.PTY_QUEUE - stats.chars
+    finally:
         await bus.close()

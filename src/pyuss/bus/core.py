@@ -192,7 +192,10 @@ class Station(QueuedTransport):
         """End of the last character it heard (a character starting then continues a run)."""
         self.tx_free = 0.0
         self.queued = 0
-        """Characters of this station waiting for or on the line (at most `MAX_QUEUE`)."""
+        """Characters of this station waiting for or on the line (at most `max_queue`)."""
+        self.max_queue = MAX_QUEUE
+        """Characters it may have waiting for or on the line; what it sends beyond is dropped
+        (less for a pty, whose program the bus cannot see leave: `pyuss.bus.serve`)."""
         self.overflow = 0
         """Characters this station sent beyond `MAX_QUEUE`: dropped."""
         self.attached_at = time.monotonic()
@@ -503,7 +506,7 @@ class VirtualBus:
         if self._dead(sender, now):
             self.stats.lost += len(data)
             return
-        room = MAX_QUEUE - station.queued
+        room = station.max_queue - station.queued
         if len(data) > room:
             over = len(data) - max(room, 0)
             log.log(
@@ -512,7 +515,7 @@ class VirtualBus:
                 "(it may have %d waiting)",
                 sender,
                 over,
-                MAX_QUEUE,
+                station.max_queue,
             )
             station.overflow += over
             self.stats.overflow += over

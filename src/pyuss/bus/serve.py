@@ -15,10 +15,10 @@ Raw stations are anonymous: when all 32 sending places of the bus are taken, a r
 has sent nothing since it connected, else the one silent longest (at least
 `pyuss.bus.core.EVICT_IDLE` seconds), is disconnected to make room for a new station, so idle
 raw connections never lock ``bus://`` masters out, nor do new ones push out one that talks.
-What a station sends beyond its queue (`pyuss.bus.core.MAX_QUEUE`) is dropped; what it had not
-sent when it leaves is dropped too. A socket that does not read what the bus sends it loses
-what comes next once `MAX_BACKLOG` bytes wait in it (besides the kernel's `SEND_BUFFER`),
-counted in its station's ``stats.dropped_out`` and logged once.
+What a station sends beyond its queue (`pyuss.bus.core.MAX_QUEUE`, `PTY_QUEUE` for a pty)
+is dropped; what it had not sent when it leaves is dropped too. A socket that does not read
+what the bus sends it loses what comes next once `MAX_BACKLOG` bytes wait in it (besides the
+kernel's `SEND_BUFFER`), counted in its station's ``stats.dropped_out`` and logged once.
 """
 
 from __future__ import annotations
@@ -43,6 +43,11 @@ from pyuss.transport.tcp import check_endpoint, close_writer, end_handlers
 
 log = logging.getLogger(__name__)
 
+#: Characters a pty station may have waiting for or on the line: one telegram of the longest
+#: (STX, LGE, ADR, 252 net bytes, BCC). The bus cannot see a pty's program leave (it holds the
+#: pty open itself), so what a program wrote and did not wait for costs later ones at most
+#: one telegram time; a USS station sends one telegram at a time.
+PTY_QUEUE = 256
 #: A station whose socket has this much unsent data loses what comes next (it does not read).
 MAX_BACKLOG = 1 << 20
 #: The kernel's send buffer of a station's socket (bytes; some seconds of a busy line).
@@ -99,7 +104,8 @@ async def serve_pty(bus: VirtualBus, n: int, *, echo: Echo = False) -> list[str]
             if pty.is_open:
                 pty.write_nowait(data)
 
-        bus.attach(name, echo=_hears_own(echo, name), sink=sink)
+        station = bus.attach(name, echo=_hears_own(echo, name), sink=sink)
+        station.max_queue = PTY_QUEUE
         task = asyncio.create_task(_pty_in(bus, name, pty), name=f"uss bus {name}")
 
         async def closer(
