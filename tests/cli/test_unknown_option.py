@@ -94,3 +94,16 @@ def test_options_may_stand_between_the_words_of_a_command(
     )
     assert code == 1 and not out
     assert err.startswith("uss params: cannot open serial port /dev/no-such-port")
+
+
+@pytest.mark.parametrize(
+    ("option", "value"),
+    [("--timeout", "inf"), ("--timeout", "0"), ("--response-delay", "inf"), ("--tolerance", "inf")],
+)
+def test_a_time_that_never_ends_is_refused_before_the_port_opens(
+    capsys: pytest.CaptureFixture[str], option: str, value: str
+) -> None:
+    # an endless time would keep the command waiting for ever on a silent drive
+    code, out, err = _uss(capsys, "read", "3", "52", "--port", "/dev/no-such-port", option, value)
+    assert code == 2 and not out
+    assert err.startswith(f"uss read: {option} {float(value)}: must be a number of")

@@ -21,6 +21,7 @@ import argparse
 import asyncio
 import contextlib
 import json
+import math
 import sys
 from collections.abc import Awaitable, Callable, Coroutine
 from typing import Any, TypeVar
@@ -298,17 +299,18 @@ def master_options(args: argparse.Namespace) -> dict[str, Any]:
     """Keyword arguments for `Master` from the shared options (`ConfigError` if bad); no
     ``--profile``: ``profile`` None, a drive of unknown kind."""
     options: dict[str, Any] = {"profile": args.profile, "job_timeout": args.timeout}
-    if not args.timeout > 0:
-        raise ConfigError(f"--timeout {args.timeout}: must be > 0 seconds")
+    # (inf is no time: a silent drive would keep the command waiting for ever)
+    if not 0 < args.timeout < math.inf:
+        raise ConfigError(f"--timeout {args.timeout}: must be a number of seconds > 0")
     if isinstance(args.layout, str):
         options["layout"] = Layout.parse(args.layout)
     if args.response_delay is not None:
-        if not args.response_delay > 0:
-            raise ConfigError(f"--response-delay {args.response_delay}: must be > 0 ms")
+        if not 0 < args.response_delay < math.inf:
+            raise ConfigError(f"--response-delay {args.response_delay}: must be a number of ms > 0")
         options["response_delay"] = args.response_delay / 1000
     if args.tolerance is not None:
-        if not args.tolerance >= 0:
-            raise ConfigError(f"--tolerance {args.tolerance}: must be >= 0 ms")
+        if not 0 <= args.tolerance < math.inf:
+            raise ConfigError(f"--tolerance {args.tolerance}: must be a number of ms >= 0")
         options["rx_tolerance"] = args.tolerance / 1000
     return options
 
