@@ -70,3 +70,10 @@ class DriveRefusal(UssError):
         where = "" if label is None else f" ({label})"
         todo = f"; {hint}" if hint else ""
         super().__init__(f"drive refused the job{where}: error {number}: {meaning}{todo}")
+
+
+def cut(value: object, width: int = 40) -> str:
+    """``repr(value)`` for an error message, cut short at ``width`` characters (what a user
+    or a peer sent may be a 400-digit number or a name of 10 kB)."""
+    text = repr(value)
+    return text if len(text) <= width else text[: width - 3] + "..."

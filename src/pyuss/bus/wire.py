@@ -48,7 +48,7 @@ import json
 import struct
 from dataclasses import dataclass
 
-from pyuss.errors import ConfigError, ProtocolError
+from pyuss.errors import ConfigError, ProtocolError, cut
 from pyuss.transport.base import LineError
 
 HEADER = struct.Struct(">dHH")
@@ -66,20 +66,15 @@ HELLO_FLAGS = ("echo", "listen_only", "timed", "hold", "hold_answer")
 """The yes/no keys of a hello."""
 
 
-def _shown(value: object) -> str:
-    text = repr(value)
-    return text if len(text) <= 40 else f"{text[:37]}..."
-
-
 def check_name(name: object) -> str:
     """A station's name, or `ConfigError` saying what is wrong with it: a non-empty string of
     at most `MAX_NAME` printable characters without ``+`` (which joins colliding senders)."""
     if not isinstance(name, str) or not name:
-        raise ConfigError(f"station name must be a non-empty string, not {_shown(name)}")
+        raise ConfigError(f"station name must be a non-empty string, not {cut(name)}")
     if len(name) > MAX_NAME:
         raise ConfigError(f"station name of {len(name)} characters: at most {MAX_NAME}")
     if "+" in name or not name.isprintable():
-        raise ConfigError(f"station name {_shown(name)}: printable characters only, and no '+'")
+        raise ConfigError(f"station name {cut(name)}: printable characters only, and no '+'")
     return name
 
 
@@ -107,13 +102,13 @@ def read_hello(line: bytes) -> Hello:
     except ValueError as exc:
         raise ConfigError(f"hello is no JSON: {exc}") from None
     if not isinstance(hello, dict):
-        raise ConfigError(f"hello is not a JSON object: {_shown(hello)}")
+        raise ConfigError(f"hello is not a JSON object: {cut(hello)}")
     name = hello.get("name")
     flags: dict[str, bool] = {}
     for key in HELLO_FLAGS:
         value = hello.get(key, False)
         if not isinstance(value, bool):
-            raise ConfigError(f"hello: {key} must be true or false, not {_shown(value)}")
+            raise ConfigError(f"hello: {key} must be true or false, not {cut(value)}")
         flags[key] = value
     return Hello(None if name is None else check_name(name), **flags)
 

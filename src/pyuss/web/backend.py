@@ -39,7 +39,7 @@ from pyuss.commission.compare import (
     plan,
     restore,
 )
-from pyuss.errors import ConfigError, UssError
+from pyuss.errors import ConfigError, UssError, cut
 from pyuss.monitor.core import Monitor, default_gap
 from pyuss.monitor.infer import LayoutBook
 from pyuss.monitor.model import Exchange
@@ -289,7 +289,7 @@ class Backend:
         try:
             return self._drives[address]
         except KeyError:
-            raise ConfigError(f"drive {_shown(address)} is not on the page") from None
+            raise ConfigError(f"drive {cut(address)} is not on the page") from None
 
     def take_samples(self) -> dict[int, list[Sample]]:
         """The samples of every drive since the last call (at most `SAMPLE_BUFFER` each):
@@ -409,7 +409,7 @@ class Backend:
                 "text": f"set the setpoint to {_setpoint_text(checked, _unit_given(value))}",
             }
         if not isinstance(name, str) or name not in COMMAND_TABLE:
-            raise ConfigError(f"unknown command {_shown(name)}: one of {', '.join(self.COMMANDS)}")
+            raise ConfigError(f"unknown command {cut(name)}: one of {', '.join(self.COMMANDS)}")
         return {"name": name, "text": name}
 
     @staticmethod
@@ -850,12 +850,6 @@ def restored(
 
 def _skip_dict(skip: Skip) -> dict[str, Any]:
     return {"label": skip.entry.label, "name": skip.entry.name, "reason": skip.reason}
-
-
-def _shown(value: object) -> str:
-    """A client's value in an error message, cut short (a 400-digit number, a long text)."""
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _unit_given(value: object) -> object:

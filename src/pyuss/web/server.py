@@ -64,7 +64,7 @@ except ImportError:  # pragma: no cover - the extra is installed for the tests
         f"the web page needs aiohttp, which is not installed: {EXTRA_HINT}"
     ) from None
 
-from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
+from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout, cut
 from pyuss.points import NoWriteAuthority, state_name
 from pyuss.profiles import UNKNOWN_KIND, profile_names
 from pyuss.userfile import parse_message
@@ -155,16 +155,16 @@ def _ref(text: object) -> tuple[int, int | None]:
     """``52`` or ``4.2`` (also ``P4.2``, or the number 52) as PNU and index."""
     if isinstance(text, int) and not isinstance(text, bool):
         if not 0 <= text <= MAX_PNU:
-            raise ConfigError(f"{_cut(text)} is not a parameter: a number is 0..{MAX_PNU}")
+            raise ConfigError(f"{cut(text)} is not a parameter: a number is 0..{MAX_PNU}")
         text = str(text)
     if not isinstance(text, str) or len(text) > 16:
-        raise ConfigError(f"{_cut(text)} is not a parameter (52 or 4.2)")
+        raise ConfigError(f"{cut(text)} is not a parameter (52 or 4.2)")
     body = text.strip().lstrip("Pp").replace("[", ".").rstrip("]")
     pnu, dot, index = body.partition(".")
     if not pnu.isdigit() or (dot and not index.isdigit()):
-        raise ConfigError(f"{_cut(text)} is not a parameter (52 or 4.2)")
+        raise ConfigError(f"{cut(text)} is not a parameter (52 or 4.2)")
     if int(pnu) > MAX_PNU or (dot and int(index) > 255):
-        raise ConfigError(f"{_cut(text)}: a parameter number is 0..{MAX_PNU}, an index 0..255")
+        raise ConfigError(f"{cut(text)}: a parameter number is 0..{MAX_PNU}, an index 0..255")
     return int(pnu), (int(index) if dot else None)
 
 
@@ -176,12 +176,6 @@ def _netloc(url: str, part: str) -> str:
     except ValueError:
         return ""
     return str(getattr(split, part) or "")
-
-
-def _cut(value: object) -> str:
-    """A client's value in an error message, cut short."""
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def parse_json(body: bytes) -> Any:
@@ -402,21 +396,19 @@ class WebServer:
     async def _guard(self, request: web.Request, handler: Handler) -> web.StreamResponse:
         self._begun.add(request.transport)
         if is_loopback(self.host) and not is_loopback(_netloc(f"//{request.host}", "hostname")):
-            return _error(403, f"host {_cut(request.host)} is not this machine")
+            return _error(403, f"host {cut(request.host)} is not this machine")
         if not self._token_ok(request):
             return _error(401, "the page needs its token: open the URL uss web printed")
         origin = request.headers.get("Origin")
         if origin is not None and _netloc(origin, "netloc") != request.host:
-            return _error(403, f"requests from {_cut(origin)} are not accepted")
+            return _error(403, f"requests from {cut(origin)} are not accepted")
         fetched_from = request.headers.get("Sec-Fetch-Site", "same-origin")
         if fetched_from not in ("same-origin", "none") and not (
             request.path == "/" and request.headers.get("Sec-Fetch-Mode") == "navigate"
         ):
             # an image, script or frame of another site (which sends no Origin): a link to
             # the page opens it, nothing else of it is for another site
-            return _error(
-                403, f"requests from another site ({_cut(fetched_from)}) are not accepted"
-            )
+            return _error(403, f"requests from another site ({cut(fetched_from)}) are not accepted")
         changing = request.method not in ("GET", "HEAD", "OPTIONS")
         if changing and request.headers.get("X-Pyuss") != "1":
             return _error(403, "a change needs the X-Pyuss header (sent by the page)")
@@ -464,7 +456,7 @@ class WebServer:
             return int(text)  # no drive has a longer address; a huge number is never parsed
         if not isinstance(self.backend, Backend) and len(text) <= 70:
             return text
-        raise ConfigError(f"drive {_cut(text)} is not on the page")
+        raise ConfigError(f"drive {cut(text)} is not on the page")
 
     async def _body(self, request: web.Request, read: Awaitable[bytes]) -> bytes:
         """The request's body as ``read`` reads it, within `body_timeout` seconds."""
@@ -531,7 +523,7 @@ class WebServer:
             # "on" with a speed beside it would start the drive at the setpoint in force,
             # not at the one the request names: only partly valid, so refused whole
             raise ConfigError(
-                f"{_cut(name)[1:-1]} takes no value: only setpoint does "
+                f"{cut(name)[1:-1]} takes no value: only setpoint does "
                 '(send the setpoint first, {"name": "setpoint", "value": ...})'
             )
         check = data.get("check", False)
@@ -567,10 +559,10 @@ class WebServer:
         pnu, index = _ref(data.get("id", ""))
         value = data.get("value", "")
         if isinstance(value, bool) or not isinstance(value, str | int | float):
-            raise ConfigError(f"value must be the value as text (or a number), not {_cut(value)}")
+            raise ConfigError(f"value must be the value as text (or a number), not {cut(value)}")
         eeprom = data.get("eeprom", False)
         if not isinstance(eeprom, bool):
-            raise ConfigError(f"eeprom must be true or false, not {_cut(eeprom)}")
+            raise ConfigError(f"eeprom must be true or false, not {cut(eeprom)}")
         result = await self.backend.write(
             self._address(request), pnu, index, str(value), eeprom=eeprom
         )
@@ -647,7 +639,7 @@ class WebServer:
         if not isinstance(addresses, str) or len(addresses) > 200:
             raise ConfigError("addresses must be a short text: 0-31, 1,4,7 or 1-5,9")
         if profile != UNKNOWN_KIND and profile not in profile_names():
-            raise ConfigError(f"profile {_cut(profile)} is not one of {', '.join(profile_names())}")
+            raise ConfigError(f"profile {cut(profile)} is not one of {', '.join(profile_names())}")
         addresses = _addresses(addresses)
 
         def progress(done: int, total: int) -> None:
