@@ -68,6 +68,14 @@ def check_target(path: str | os.PathLike[str], what: str) -> Path:
     return target
 
 
+def check_regular(target: Path, advice: str) -> None:
+    """`ConfigError` naming ``target`` if it is there and is no regular file (a device, a
+    pipe or a socket): a file written there would take its place (``advice``: what to give
+    instead)."""
+    if target.exists() and not target.is_file():
+        raise ConfigError(f"{target} is no regular file (a device, a pipe or a socket): {advice}")
+
+
 class AtomicWriter:
     """A file written under a temporary name and renamed into place by `close`.
 

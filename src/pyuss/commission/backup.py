@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from pyuss import profiles
-from pyuss.atomicfile import check_target, write_atomically
+from pyuss.atomicfile import check_regular, check_target, write_atomically
 from pyuss.drive.database import NameStyle
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
 from pyuss.master.drive import Drive
@@ -574,11 +574,7 @@ def check_new(path: str | Path, *, overwrite: bool = False) -> None:
     missing, a device, pipe or socket (never replaced, even with ``overwrite``: the file would
     take its place), or (unless ``overwrite``) a file that is there already."""
     target = check_target(path, "the backup")
-    if target.exists() and not target.is_file():
-        raise ConfigError(
-            f"{target} is no regular file (a device, a pipe or a socket): "
-            "a backup goes into a file of its own"
-        )
+    check_regular(target, "a backup goes into a file of its own")
     if not overwrite and (target.exists() or target.is_symlink()):
         raise ConfigError(f"{target} exists: --force replaces it, or give another file name")
 

@@ -32,7 +32,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from pyuss.atomicfile import check_target, write_atomically
+from pyuss.atomicfile import check_regular, check_target, write_atomically
 from pyuss.drive.database import NameStyle, ParameterDatabase, load_database
 from pyuss.errors import ConfigError
 from pyuss.params.model import (
@@ -285,10 +285,7 @@ def check_cache(path: str | Path) -> Path:
     if target.is_dir():  # as every file pyuss reads says it
         raise ConfigError(f"{target}: cannot read the description cache: it is a folder")
     check_target(target, "the description cache")
-    if target.exists() and not target.is_file():
-        raise ConfigError(
-            f"{target} is no regular file (a device, a pipe or a socket): give a file"
-        )
+    check_regular(target, "give a file")
     return target
 
 
