@@ -517,14 +517,16 @@ class MqttBusFace:
             granted = await client.subscribe(topic, options=options)
             if any(_failed(code) for code in granted):
                 raise aiomqtt.MqttError(f"the broker refused the subscription to {topic}")
-        self._early = _queued(client)
+        early = _queued(client)
+        gateways = [m for m in early if m.topic.value == self.gateway_topic]
         if not self.instance:  # the first connection: one generation after the newest found
-            found = [_instance(m) for m in self._early if m.topic.value == self.gateway_topic]
-            generation = 1 + max((_generation(i) for i in found if i is not None), default=0)
+            found = [i for i in map(_instance, gateways) if i is not None]
+            generation = 1 + max(map(_generation, found), default=0)
             self.instance = f"{generation:020d}-{secrets.token_hex(4)}"
-        for message in self._early:
-            if message.topic.value == self.gateway_topic:
-                self._other_gateway(message)
+        for message in gateways:
+            self._other_gateway(message)
+        # the rest for `_consume`, the gateway messages found here having been looked at
+        self._early = [m for m in early if m.topic.value != self.gateway_topic]
         await client.publish(self.availability, "online", qos=1, retain=True)
         properties = Properties(PacketTypes.PUBLISH)  # type: ignore[no-untyped-call]
         properties.UserProperty = [(INSTANCE, self.instance)]
