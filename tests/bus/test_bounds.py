@@ -11,6 +11,7 @@ import os
 import socket
 import time
 import tty
+from collections.abc import Callable
 
 import pytest
 
@@ -21,6 +22,19 @@ from support.waiting import eventually
 from transport.helpers import WAIT, joined, read_bytes
 
 BAUD = 9600
+
+
+def _most_queued(bus: VirtualBus) -> Callable[[], int]:
+    """The most characters the bus has had waiting since this call, watched at every
+    character it puts on the line."""
+    most = 0
+
+    def watch(_char: object) -> None:
+        nonlocal most
+        most = max(most, bus.queued())
+
+    bus.on_char.append(watch)
+    return lambda: most
 
 
 async def _send_and_leave(port: int, size: int) -> None:
@@ -39,13 +53,7 @@ async def test_a_flooding_station_is_bounded_and_its_rest_dropped_when_it_leaves
     try:
         _, raw_port = await bus.serve_tcp("127.0.0.1", 0)
         host, port = await bus.serve_tcp("127.0.0.1", 0, framed=True)
-        most = 0
-
-        def watch(_char: object) -> None:
-            nonlocal most
-            most = max(most, bus.queued())
-
-        bus.on_char.append(watch)
+        most = _most_queued(bus)
         stats = bus.stats
         await _send_and_leave(raw_port, size)
         await eventually(
@@ -54,7 +62,7 @@ async def test_a_flooding_station_is_bounded_and_its_rest_dropped_when_it_leaves
             what="every byte was taken, dropped or sent",
         )
         await eventually(lambda: stats.unsent, WAIT, what="the station left")
-        assert most <= MAX_QUEUE
+        assert most() <= MAX_QUEUE
         assert stats.overflow >= size - MAX_QUEUE - stats.chars  # room freed as chars went out
         assert bus.queued() <= 2  # at most what was on the wire as it left
         # the line is free at once: two bus:// stations talk as if nothing had happened
@@ -335,18 +343,11 @@ async def test_connections_turned_away_one_after_another_are_logged_once(
 async def test_a_program_that_floods_a_pty_and_leaves_costs_the_line_one_telegram_at_most() -> None:
     # The bus holds each pty open itself, so it cannot see a program that wrote 12 kB into
     # one and left: what waits of it is bounded by one telegram of the longest, 256
-    # characters (0.3 s at 9600 baud), not 4096 (4.7 s), and a master on the other pty is
-    # served at once after that
+    # characters (0.3 s at 9600 baud), not 4096 (4.7 s)
     bus = VirtualBus(BAUD)
     try:
         flooded, _other = await bus.serve_pty(2)
-        most = 0
-
-        def watch(_char: object) -> None:
-            nonlocal most
-            most = max(most, bus.queued())
-
-        bus.on_char.append(watch)
+        most = _most_queued(bus)
         fd = os.open(flooded, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
         try:
             tty.setraw(fd)
@@ -360,7 +361,7 @@ async def test_a_program_that_floods_a_pty_and_leaves_costs_the_line_one_telegra
             os.close(fd)
         stats = bus.stats
         await eventually(lambda: stats.overflow + stats.chars + bus.queued() >= 12 * 1024, WAIT)
-        assert most <= serve.PTY_QUEUE
+        assert most() <= serve.PTY_QUEUE
         assert stats.overflow >= 12 * 1024 - serve.PTY_QUEUE - stats.chars
     finally:
         await bus.close()
