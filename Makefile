@@ -7,8 +7,11 @@ PY     := $(VENV)/bin/python
 DEMO_STAMP := $(VENV)/.installed-demo
 STAMP  := $(VENV)/.installed
 # Most tests wait for telegrams at their baud rates, not for a core: pytest runs them in this
-# many processes (pytest-xdist); `make pytest WORKERS=1` runs them one after the other.
+# many processes (pytest-xdist); `make pytest WORKERS=1` runs them one after the other. The
+# browser tests run after them, one at a time: a Chromium beside three other test processes
+# left the page's simulated drives answering late on a two-core machine.
 WORKERS ?= 4
+BROWSER_TESTS := tests/web/test_page.py tests/web/test_plant.py
 
 .PHONY: demo test lint typecheck pytest bench clean venv screenshots
 
@@ -38,7 +41,8 @@ typecheck: $(STAMP)
 
 pytest: $(STAMP)
 	bash .ci/system-deps tshark chromium mosquitto mosquitto-clients mbpoll
-	$(PY) -m pytest -n $(WORKERS)
+	$(PY) -m pytest -n $(WORKERS) $(addprefix --ignore=,$(BROWSER_TESTS))
+	$(PY) -m pytest $(BROWSER_TESTS)
 
 test: lint typecheck pytest
 
