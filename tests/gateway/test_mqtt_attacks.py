@@ -202,7 +202,9 @@ BAD = [
     ("param/P107/set", b'{"value": ' + b"9" * 400 + b"}", "characters"),
     ("cmd/setpoint", b'{"value": 1e999}', "finite"),
     ("cmd/setpoint", b'{"value": NaN}', "finite"),
-    ("cmd/setpoint", b"0x" + b"F" * 20, "out of range"),
+    ("cmd/setpoint", b"0x" + b"F" * 20, "hexadecimal"),
+    ("cmd/setpoint", b"0x10", "hexadecimal"),  # not 16 Hz: who writes hex means a word
+    ("cmd/setpoint_percent", b"1_0", "not a number"),
     ("cmd/setpoint", b'{"value": true}', "number"),
     ("cmd/setpoint", b'{"value": 20, "key": 5}', "key"),
     ("cmd/run", b'{"value": "maybe"}', "ON or OFF"),

@@ -156,6 +156,45 @@ def test_the_one_check_of_a_setpoint_serves_every_face_alike() -> None:
     assert checked_setpoint(25, "value", reference=50.0, unit="Hz").raw == 0x2000
 
 
+@pytest.mark.parametrize(
+    ("text", "kind", "raw"),
+    [
+        ("25", "percent", 0x1000),
+        (" -12.5 ", "percent", -0x800),
+        ("1e1", "percent", 0x666),
+        (".5", "percent", 82),
+        ("0x2000", "raw", 0x2000),
+        ("-0x10", "raw", -16),
+        ("16384", "raw", 0x4000),
+    ],
+)
+def test_a_setpoint_as_text_is_read_as_written(text: str, kind: str, raw: int) -> None:
+    assert checked_setpoint(text, kind, reference=None, unit="%").raw == raw
+
+
+@pytest.mark.parametrize(
+    ("text", "kind", "words"),
+    [
+        # 0x10 % would be 16 %: who types hexadecimal means the word itself (0.1 %)
+        ("0x10", "percent", "hexadecimal number is taken as a raw word only"),
+        ("0x10", "value", "hexadecimal number is taken as a raw word only"),
+        ("1_0", "percent", "is not a number"),  # Python's digit grouping: 10
+        ("0b101", "raw", "is not a number"),
+        ("0o17", "raw", "is not a number"),
+        ("\u0661\u0662", "percent", "is not a number"),  # Arabic-Indic digits: 12 to float()
+        ("\uff11\uff10", "percent", "is not a number"),  # full-width digits
+        ("nan", "percent", "finite number"),
+        ("-Infinity", "percent", "finite number"),
+        ("1e400", "percent", "finite number"),
+    ],
+)
+def test_a_setpoint_as_text_is_refused_where_it_could_be_misread(
+    text: str, kind: str, words: str
+) -> None:
+    with pytest.raises(ConfigError, match=words):
+        checked_setpoint(text, kind, reference=None, unit="%")
+
+
 async def test_every_face_gets_the_refusal_with_what_to_do(plant: Plant) -> None:
     """The faces' one error shape (`error_dict`: the MQTT reply's ``error``, the page's) keeps
     its keys; its message carries the family's hint (Baumueller: P126)."""

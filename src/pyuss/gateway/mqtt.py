@@ -275,7 +275,8 @@ class _DriveWorker:
             state = await drive.command("on" if switch_value(command.value) else "off1")
         elif name in ("setpoint", "setpoint_percent"):
             unit = "percent" if name == "setpoint_percent" else "value"
-            state = await drive.set_setpoint(number(command.value, name), command.key, unit=unit)
+            # the drive model reads the number (text too): one reading of a setpoint
+            state = await drive.set_setpoint(command.value, command.key, unit=unit)
         elif name == "control_word":
             word = number(command.value, name)
             if not isinstance(word, int):

@@ -43,6 +43,7 @@ import contextlib
 import datetime
 import logging
 import math
+import re
 import time
 from collections import deque
 from collections.abc import AsyncIterator, Callable, Mapping, Sequence
@@ -812,7 +813,7 @@ def checked_setpoint(
     bits with ``dword``; C 5.2.2). Returns the setpoint as it would be sent; `ConfigError`
     names what is wrong."""
     bits = 32 if dword else 16
-    number = _number(value, "setpoint")
+    number = _number(value, "setpoint", raw=kind == "raw")
     if kind == "raw":
         if number != int(number):
             raise ConfigError(f"a raw setpoint is a whole number, not {number!r}")
@@ -857,11 +858,15 @@ def _shown(value: object) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-def _number(value: object, what: str) -> int | float:
-    """A finite number, or a number as text (at most `MAX_TEXT` characters: ``25``,
-    ``-12.5``, ``0x2000``)."""
+_DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?", re.ASCII)
+_HEX = re.compile(r"[+-]?0[xX][0-9a-fA-F]+", re.ASCII)
+
+
+def _number(value: object, what: str, *, raw: bool = False) -> int | float:
+    """A finite number, or a number as text (at most `MAX_TEXT` characters, ASCII digits:
+    ``25``, ``-12.5``, ``1e2``; a ``raw`` one in hexadecimal too: ``0x2000``)."""
     if isinstance(value, str):
-        value = _parse_number(value.strip(), what)
+        value = _parse_number(value.strip(), what, raw=raw)
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ConfigError(f"{what} must be a finite number, not {_shown(value)}")
     if isinstance(value, float) and not math.isfinite(value):
@@ -869,10 +874,17 @@ def _number(value: object, what: str) -> int | float:
     return value
 
 
-def _parse_number(text: str, what: str) -> int | float:
+def _parse_number(text: str, what: str, *, raw: bool) -> int | float:
     if len(text) <= MAX_TEXT:
-        for parse in (lambda t: int(t, 0), float):
-            with contextlib.suppress(ValueError):
-                number: int | float = parse(text)
-                return number
+        if _HEX.fullmatch(text):
+            if raw:
+                return int(text, 16)
+            raise ConfigError(
+                f"{what} {_shown(text)}: a hexadecimal number is taken as a raw word only; "
+                "give percent or the unit in decimal"
+            )
+        if text.lower().lstrip("+-") in ("inf", "infinity", "nan"):
+            raise ConfigError(f"{what} must be a finite number, not {text}")
+        if _DECIMAL.fullmatch(text):
+            return int(text) if text.lstrip("+-").isdigit() else float(text)
     raise ConfigError(f"{what} {_shown(text)} is not a number")
