@@ -15,6 +15,7 @@ from pyuss.errors import ConfigError
 from pyuss.master.testing import simulated_drives
 from pyuss.protocol.layout import Layout
 from pyuss.web.backend import Backend, DriveSpec
+from support.waiting import eventually
 
 
 async def test_the_monitor_sees_the_masters_own_traffic() -> None:
@@ -67,6 +68,25 @@ async def test_a_scan_finds_the_drives_and_reports_progress() -> None:
         # the master runs again after the scan
         status = await backend.command(1, "off1")
         assert status["state"]
+    finally:
+        await backend.close()
+
+
+async def test_a_scan_is_refused_while_a_drive_is_switched_on() -> None:
+    # the scan stops the telegrams to every drive, and with them the page's only way of
+    # stopping one: while a drive is told to run, or runs, it is refused and changes nothing
+    backend = Backend(demo=True)
+    await backend.start()
+    try:
+        await backend.command(1, "on")
+        with pytest.raises(ConfigError, match="drive 1 is switched on: switch it off"):
+            await backend.scan(range(10))
+        assert backend.scan_progress is None and backend.addresses() == [1, 4, 7, 9]
+        assert backend.points(1).snapshot().control_word & 1  # still told to run, still heard
+        await backend.command(1, "off1")
+        await eventually(lambda: not backend.points(1).snapshot().running, what="drive 1 stopped")
+        found = await backend.scan([1, 4])
+        assert [f["address"] for f in found] == [1, 4]
     finally:
         await backend.close()
 

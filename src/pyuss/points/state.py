@@ -17,7 +17,13 @@ from pyuss.points.model import STATUS_BIT_NAMES, DriveModel
 from pyuss.points.parameters import ParamMeta
 from pyuss.profiles import UNKNOWN_KIND
 from pyuss.protocol.diagnostics import Counters
-from pyuss.protocol.pzd import StatusWord, join_dword, raw16_to_percent, raw32_to_percent
+from pyuss.protocol.pzd import (
+    ControlWord,
+    StatusWord,
+    join_dword,
+    raw16_to_percent,
+    raw32_to_percent,
+)
 
 __all__ = [
     "COUNTER_FIELDS",
@@ -247,6 +253,13 @@ class DriveState:
     @property
     def running(self) -> bool:
         return bool((self.status_word or 0) & StatusWord.OPERATION_ENABLED)
+
+    @property
+    def told_to_run(self) -> bool:
+        """The control word sent tells the drive to run (ON, or a jog bit), or the drive,
+        answering, says it runs (operation enabled)."""
+        told = self.control_word & (ControlWord.ON | ControlWord.JOG1 | ControlWord.JOG2)
+        return bool(told) or (self.online and self.running)
 
     def signature(self) -> tuple[object, ...]:
         """What a subscriber is told about when it changes (not the running counters)."""

@@ -278,7 +278,7 @@ class Backend:
         await self._stack.aclose()
 
     def _line(self) -> Plant:
-        if self._plant is None:
+        if self._plant is None or self.scan_progress is not None:
             raise ConfigError("the line is busy (a scan is running)")
         return self._plant
 
@@ -617,7 +617,12 @@ class Backend:
         if self._lock.locked():
             raise ConfigError("a scan is running already")
         async with self._lock:
-            self.scan_progress = (0, 1)
+            self.scan_progress = (0, 1)  # the line is busy: nothing new is sent from here on
+            try:
+                self._check_all_off()
+            except ConfigError:
+                self.scan_progress = None
+                raise
 
             def tick(done: int, total: int) -> None:
                 self.scan_progress = (done, total)
@@ -655,6 +660,17 @@ class Backend:
                 if not cut_off:
                     await self._start_master()
         return [f.to_dict() for f in found]
+
+    def _check_all_off(self) -> None:
+        """A scan stops the cyclic telegrams, and with them every way of stopping a drive from
+        the page, and its drives start again switched off: refused while a drive is told to
+        run or, answering, runs (`DriveState.told_to_run`)."""
+        for address, points in sorted(self._drives.items()):
+            if points.snapshot().told_to_run:
+                raise ConfigError(
+                    f"drive {address} is switched on: switch it off before a scan (the scan "
+                    "stops the telegrams to every drive, and with them the page's control)"
+                )
 
     def _scan_transport(self, baud: int) -> Transport:
         if self.demo:
