@@ -76,21 +76,25 @@ async def test_a_station_that_attaches_hears_nothing_that_ended_before() -> None
         early = bus.attach("early")
         await early.open()
         async with bus.attach("master") as master:
-            await master.write(bytes(200))  # 11.7 ms
-            while bus.queued() > 150:
+            await master.write(bytes(2000))  # 117 ms: a loaded machine joins in time
+            while bus.queued() > 1800:
                 await master.read(0.001)
             joined_at = time.monotonic()
             late = bus.attach("late")
+            left = bus.queued()
             await late.open()
             await bus.drain(timeout=WAIT)
         heard_early = b""
         while (chunk := await early.read(0.05)) is not None:
             heard_early += chunk.data
-        stamps = []
+        stamps, heard_late = [], 0
         while (chunk := await late.read(0.05)) is not None:
             stamps.append(chunk.timestamp - (len(chunk.data) - 1) * bus.char_time)
-        assert heard_early == bytes(200)
-        assert stamps and all(first_end > joined_at for first_end in stamps)
+            heard_late += len(chunk.data)
+        assert heard_early == bytes(2000)
+        assert all(first_end > joined_at for first_end in stamps)
+        assert heard_late <= left
+        assert stamps or left < 10  # joined before the end of the run: heard the rest of it
     finally:
         await bus.close()
 
