@@ -38,6 +38,32 @@ def test_a_target_that_cannot_be_written_is_refused_before_any_work(
     assert os.listdir(tmp_path) == []
 
 
+@pytest.mark.parametrize("link", [False, True])
+def test_a_pipe_or_device_is_never_replaced_by_a_file(tmp_path: Path, link: bool) -> None:
+    # the rename would put a file where the pipe (or, for root, /dev/null) was
+    pipe = tmp_path / "pipe"
+    os.mkfifo(pipe)
+    target = pipe
+    if link:
+        target = tmp_path / "capture.pcapng"
+        target.symlink_to(pipe)
+    with pytest.raises(ConfigError, match=r"no regular file .* give a file"):
+        AtomicWriter(target, "a capture")
+    with pytest.raises(ConfigError, match="no regular file"):
+        write_atomically(target, b"data", "the GSD file")
+    assert stat.S_ISFIFO(pipe.stat().st_mode)
+    assert sorted(os.listdir(tmp_path)) == sorted({"pipe", target.name})
+
+
+def test_gsd_onto_a_pipe_is_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    os.mkfifo(tmp_path / "pipe")
+    code = main(["ksvario", "gsd", "--output", str(tmp_path / "pipe")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and "no regular file" in err, err
+    assert stat.S_ISFIFO((tmp_path / "pipe").stat().st_mode)
+
+
 def test_a_failed_rename_keeps_what_was_written(tmp_path: Path) -> None:
     target = tmp_path / "capture.pcapng"
     writer = AtomicWriter(target, "a capture")

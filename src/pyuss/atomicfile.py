@@ -6,8 +6,10 @@ in the target's folder, flushed and fsynced, renamed over the target, then the f
 fsynced. A crash leaves either the old file or the new one, never half of one.
 
 `AtomicWriter` checks the target when it is created, before any work is done: a target that is
-a folder, or a folder that does not exist or cannot be written, is a `ConfigError` naming the
-file (bad input, exit code 2 in the commands), so a long recording is never made for nothing.
+a folder, a device, a pipe or a socket (the rename would put a file in its place, even
+``/dev/null`` for root), or a folder that does not exist or cannot be written, is a
+`ConfigError` naming the file (bad input, exit code 2 in the commands), so a long recording
+is never made for nothing.
 Should finishing still fail (the disk is full, the target turned into a folder meanwhile, ...),
 a streamed file (a recording, a capture) keeps its temporary file and the error names it: no
 data lost. `write_atomically`, whose caller still holds the data, removes it instead.
@@ -93,6 +95,11 @@ class AtomicWriter:
         keep_on_failure: bool = True,
     ) -> None:
         self.path = check_target(path, what)
+        if self.path.exists() and not self.path.is_file():
+            raise ConfigError(
+                f"cannot write {what} to {self.path}: it is no regular file (a device, a pipe "
+                "or a socket), and the file written would take its place: give a file"
+            )
         self.what = what
         self.keep_on_failure = keep_on_failure
         try:
