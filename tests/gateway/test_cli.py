@@ -136,6 +136,10 @@ def test_bus_simulator_and_gateway_as_separate_processes(broker: Broker) -> None
         (["--port", "/dev/null", "--address", "5"], "no face"),
         (["--port", "/dev/null", "--address", "5", "--modbus", "host:99999"], "--modbus:"),
         (["--port", "/dev/null", "--address", "5", "--mqtt", "ftp://x"], "--mqtt:"),
+        (  # drives without a telegram for ages
+            ["--port", "/dev/null", "--address", "5", "--modbus", ":0", "--cycle-time", "1e300"],
+            "--cycle-time: 1e+300 seconds is more than the 60 allowed",
+        ),
         (["--config", "/nonexistent.toml"], "cannot read the configuration"),
         (  # two faces on one port: refused before either listens, not by the second's bind
             [

@@ -7,6 +7,7 @@ import asyncio
 import dataclasses
 import itertools
 import json
+import math
 
 import pytest
 
@@ -237,6 +238,9 @@ async def test_master_validates_its_arguments() -> None:
         Master(bus.attach("a"), baud=19200)
     with pytest.raises(ConfigError, match="cycle time"):
         Master(bus.attach("b"), cycle_time=0)
+    for n, endless in enumerate((1e300, math.inf, 61)):  # no drive would hear a telegram so long
+        with pytest.raises(ConfigError, match="at most 60"):
+            Master(bus.attach(f"b{n}"), cycle_time=endless)
     master = Master(bus.attach("c"))
     with pytest.raises(ConfigError, match="address"):
         master.drive(32)

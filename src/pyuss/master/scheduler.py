@@ -303,6 +303,11 @@ class _Special:
     future: asyncio.Future[object]
 
 
+MAX_CYCLE_TIME = 60.0
+"""The longest fixed cycle time (seconds): every drive goes that long without a telegram, and a
+drive's telegram monitoring is set to seconds, not minutes."""
+
+
 class Master:
     """A USS bus master (see the module docstring). Use it as an async context manager::
 
@@ -355,10 +360,11 @@ class Master:
         if cycle_time is not None and not (
             isinstance(cycle_time, int | float)
             and not isinstance(cycle_time, bool)
-            and cycle_time > 0
+            and 0 < cycle_time <= MAX_CYCLE_TIME
         ):
             raise ConfigError(
-                f"cycle time must be a positive number of seconds, not {cycle_time!r}"
+                f"cycle time must be a number of seconds above 0 and at most {MAX_CYCLE_TIME:g} "
+                f"(a drive's telegram monitoring waits seconds), not {cycle_time!r}"
             )
         for name, value in (("job_timeout", job_timeout), ("response_delay", response_delay)):
             if value is not None and (isinstance(value, bool) or not value > 0):

@@ -44,6 +44,7 @@ from typing import Any
 
 from pyuss.drive.database import ParamRef
 from pyuss.errors import ConfigError
+from pyuss.master.scheduler import MAX_CYCLE_TIME
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import MAX_ADDRESS
 from pyuss.protocol.timing import check_baud
@@ -163,11 +164,13 @@ class Where:
             raise self.error(f"{value} is not {low}..{high}")
         return value
 
-    def seconds(self, value: object, *, zero: bool = False) -> float:
+    def seconds(self, value: object, *, zero: bool = False, most: float | None = None) -> float:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.error(f"expected a number of seconds, not {value!r}")
         if not math.isfinite(value) or value < 0 or (value == 0 and not zero):
             raise self.error(f"{value!r} is not a {'' if zero else 'positive '}number of seconds")
+        if most is not None and value > most:
+            raise self.error(f"{value!r} seconds is more than the {most:g} allowed")
         return float(value)
 
     def text(self, value: object) -> str:
@@ -369,7 +372,11 @@ def _bus(value: object, where: Where, number: int, face_keys: Sequence[str]) -> 
         raise where.key("baud").error(str(exc)) from None
     profile = where.key("profile").profile(table["profile"]) if "profile" in table else None
     layout = where.key("layout").layout(table["layout"]) if "layout" in table else None
-    cycle = where.key("cycle_time").seconds(table["cycle_time"]) if "cycle_time" in table else None
+    cycle = (
+        where.key("cycle_time").seconds(table["cycle_time"], most=MAX_CYCLE_TIME)
+        if "cycle_time" in table
+        else None
+    )
     timeout = where.key("job_timeout").seconds(table.get("job_timeout", 2.0))
     drives_value = table.get("drive", [])
     if not isinstance(drives_value, list) or not drives_value:
