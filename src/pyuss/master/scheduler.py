@@ -411,6 +411,10 @@ class Master:
         self._broadcasts = 0
         self._answered_broadcasts = 0
         self._stray = 0
+        self._own_heard = 0
+        self._exact = self.transport.exact_timestamps
+        self._sent_frame = b""
+        self._sent_end = -math.inf
         self._cycles = Samples()
         self._cycle_count = 0
         self._overruns = 0
@@ -804,6 +808,7 @@ class Master:
             broadcasts=self._broadcasts,
             answered_broadcasts=self._answered_broadcasts,
             stray=self._stray,
+            own_heard=self._own_heard,
             slaves=tuple(self._links[a].snapshot(now) for a in sorted(self._links)),
         )
 
@@ -1161,6 +1166,9 @@ class Master:
             await asyncio.sleep(min(0.1, self.latency + 0.01))
         end = max(start + on_line, clock())
         self._line_free = end
+        # the model's end, not the clock's: a master woken late must not take an answer
+        # that began after its request for one that began before
+        self._sent_frame, self._sent_end = frame, start + on_line
         log_frame("tx", frame, end)
         return start, end
 
@@ -1186,9 +1194,37 @@ class Master:
         if self._receiver.busy:
             self._stray_events(self._receiver.poll(self._clock() - self.latency))
 
+    def _own(self, event: Received, mirror: bool = False) -> bool:
+        """Whether ``event`` is the master's own telegram heard back (a line that echoes: a
+        2-wire adapter without echo suppression, ``loop://``), never an answer. Counted, and
+        told once (`BusDiagnostics.own_heard`).
+
+        On a line that stamps characters exactly (the virtual bus, ``bus://``): a telegram
+        that began before the request had left the line. Elsewhere (a serial port, a pty, a
+        TCP converter: no wire time, or stamps as late as the driver hands characters over)
+        time cannot tell, the bytes do: the request's very bytes, unless all its net data are
+        zero (a drive answers a zero request of a PKW-only layout with the same bytes) or it
+        is a mirror telegram, whose answer is the same bytes by design."""
+        if self._exact:
+            if event.start >= self._sent_end - 1e-6:
+                return False
+        elif mirror or event.raw != self._sent_frame or not any(event.telegram.data):
+            return False
+        self._own_heard += 1
+        log_frame("rx", event.raw, event.end, "the master's own telegram heard back")
+        if self._own_heard == 1:
+            log.warning(
+                "the master hears its own telegrams back (the line echoes: a 2-wire adapter "
+                "without echo suppression?): they are not taken as answers; add echo=1 to "
+                "the port URL to have the echo checked and removed"
+            )
+        return True
+
     def _stray_events(self, events: list[Received | ReceiveFault]) -> None:
         for event in events:
             if isinstance(event, Received):
+                if self._own(event):
+                    continue
                 log_frame("rx", event.raw, event.end, "stray")
                 if self._after_broadcast:
                     self._answered_broadcasts += 1
@@ -1330,6 +1366,8 @@ class Master:
             if link is not None:
                 link.diagnostics.record_fault(event.kind, event.end)
             return _Outcome.FAULT
+        if self._own(event, AddressMode.MIRROR in modes):
+            return None
         telegram = event.telegram
         if telegram.address != address or telegram.mode not in modes:
             log_frame("rx", event.raw, event.end, f"discarded: not the answer of {address}")

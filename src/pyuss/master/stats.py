@@ -203,6 +203,8 @@ class BusDiagnostics:
     stray: int
     """Telegrams received while no answer was awaited."""
     slaves: tuple[SlaveDiagnostics, ...]
+    own_heard: int = 0
+    """The master's own telegrams heard back (a line that echoes), not taken as answers."""
 
     def to_dict(self) -> dict[str, Any]:
         data = asdict(self)

@@ -1,0 +1,67 @@
+"""A line that echoes (a 2-wire RS-485 adapter without echo suppression, ``loop://``): the
+master never takes its own telegram, heard back, for the drive's answer."""
+
+from __future__ import annotations
+
+import logging
+
+import pytest
+
+from pyuss.bus import VirtualBus
+from pyuss.cli.main import main
+from pyuss.errors import DriveRefusal
+from pyuss.master import Master, NotSending
+from pyuss.master.testing import simulated_drives
+from pyuss.protocol.layout import Layout
+
+
+async def test_the_masters_own_telegram_heard_back_is_no_answer(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # the echo of "read P52" reads as "P52 = 0", of the request's control word as the status
+    # word: the values are the drive's own, and its refusal comes through as a refusal
+    bus = VirtualBus(19200)
+    try:
+        async with (
+            simulated_drives(bus, [(5, "generic", Layout(3, 2))]) as engines,
+            Master(bus.attach("master", echo=True), layout="3,2") as master,
+        ):
+            drive = master.drive(5)
+            with caplog.at_level(logging.WARNING, logger="pyuss.master"):
+                assert await drive.read(52) == 16384
+                with pytest.raises(DriveRefusal, match="illegal parameter number"):
+                    await drive.write(60, 1)  # no P60 in this drive
+                status = await master.exchange(5)
+            assert status.word == engines[5].drive.status_word() != 0
+            diagnostics = master.diagnostics()
+            assert diagnostics.own_heard >= 3 and diagnostics.stray == 0
+            assert diagnostics.slaves[0].counters.framing == 0  # no request collided
+            told = [r for r in caplog.records if "hears its own telegrams" in r.message]
+            assert len(told) == 1 and "echo=1" in told[0].message
+    finally:
+        await bus.close()
+
+
+async def test_no_drive_is_made_up_from_the_echo_of_a_request_to_an_empty_address() -> None:
+    # a mirror telegram comes back unchanged from the slave, and from the echo: on a line
+    # that stamps characters exactly, the echo is known by when it began
+    bus = VirtualBus(19200)
+    try:
+        async with (
+            simulated_drives(bus, [(5, "generic", Layout(3, 2))]),
+            Master(bus.attach("master", echo=True), layout="3,2") as master,
+        ):
+            assert (await master.mirror(5)).response_time > 0  # the answer, after the request
+            with pytest.raises(NotSending):
+                await master.mirror(6)
+    finally:
+        await bus.close()
+
+
+def test_a_read_over_loop_is_no_answer_of_a_drive(capsys: pytest.CaptureFixture[str]) -> None:
+    # pyserial's loop:// gives back what is written: no drive is on it, and none answers;
+    # without exact timestamps the bytes tell the echo of the read from an answer
+    code = main(["read", "--port", "loop://", "--layout", "3,2", "--timeout", "0.3", "5", "107"])
+    out, err = capsys.readouterr()
+    assert code == 1 and out == "", out
+    assert err.startswith("P107: slave 5 ") and "no reply to read parameter value P107" in err
