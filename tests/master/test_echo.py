@@ -65,3 +65,22 @@ def test_a_read_over_loop_is_no_answer_of_a_drive(capsys: pytest.CaptureFixture[
     out, err = capsys.readouterr()
     assert code == 1 and out == "", out
     assert err.startswith("P107: slave 5 ") and "no reply to read parameter value P107" in err
+
+
+async def test_a_line_that_does_not_echo_is_never_said_to(caplog: pytest.LogCaptureFixture) -> None:
+    bus = VirtualBus(187500)
+    try:
+        async with (
+            simulated_drives(bus, [(a, "generic", Layout(3, 2)) for a in (1, 2, 3)]),
+            Master(bus.attach("master"), layout="3,2") as master,
+        ):
+            for address in (1, 2, 3):
+                master.drive(address)
+            with caplog.at_level(logging.WARNING, logger="pyuss.master"):
+                for _ in range(20):
+                    for address in (1, 2, 3):
+                        await master.exchange(address)
+            assert master.diagnostics().own_heard == 0
+            assert not [r for r in caplog.records if "own telegrams" in r.message]
+    finally:
+        await bus.close()

@@ -1195,21 +1195,30 @@ class Master:
             self._stray_events(self._receiver.poll(self._clock() - self.latency))
 
     def _own(self, event: Received, mirror: bool = False) -> bool:
-        """Whether ``event`` is the master's own telegram heard back (a line that echoes: a
-        2-wire adapter without echo suppression, ``loop://``), never an answer. Counted, and
-        told once (`BusDiagnostics.own_heard`).
+        """Whether ``event`` cannot be the answer to the request just sent: it is the master's
+        own telegram heard back (a line that echoes: a 2-wire adapter without echo
+        suppression, ``loop://``; counted and told once, `BusDiagnostics.own_heard`), or it
+        began before the request had left the line.
 
-        On a line that stamps characters exactly (the virtual bus, ``bus://``): a telegram
-        that began before the request had left the line. Elsewhere (a serial port, a pty, a
-        TCP converter: no wire time, or stamps as late as the driver hands characters over)
-        time cannot tell, the bytes do: the request's very bytes, unless all its net data are
-        zero (a drive answers a zero request of a PKW-only layout with the same bytes) or it
-        is a mirror telegram, whose answer is the same bytes by design."""
+        On a line that stamps characters exactly (the virtual bus, ``bus://``) the time tells:
+        an answer begins after the request. Elsewhere (a serial port, a pty, a TCP converter:
+        no wire time, or stamps as late as the driver hands characters over) the bytes do: the
+        request's very bytes are its echo, unless all its net data are zero (a drive answers
+        that request of a PKW-only layout with the same bytes) or it is a mirror telegram,
+        which the slave returns unchanged by design."""
+        same = event.raw == self._sent_frame
         if self._exact:
             if event.start >= self._sent_end - 1e-6:
                 return False
-        elif mirror or event.raw != self._sent_frame or not any(event.telegram.data):
+            if not same:
+                log_frame("rx", event.raw, event.end, "began before the request ended")
+                return True
+        elif mirror or not same or not any(event.telegram.data):
             return False
+        self._heard_own(event)
+        return True
+
+    def _heard_own(self, event: Received) -> None:
         self._own_heard += 1
         log_frame("rx", event.raw, event.end, "the master's own telegram heard back")
         if self._own_heard == 1:
@@ -1218,12 +1227,14 @@ class Master:
                 "without echo suppression?): they are not taken as answers; add echo=1 to "
                 "the port URL to have the echo checked and removed"
             )
-        return True
 
     def _stray_events(self, events: list[Received | ReceiveFault]) -> None:
         for event in events:
             if isinstance(event, Received):
-                if self._own(event):
+                if event.raw == self._sent_frame and (
+                    event.start < self._sent_end if self._exact else any(event.telegram.data)
+                ):
+                    self._heard_own(event)
                     continue
                 log_frame("rx", event.raw, event.end, "stray")
                 if self._after_broadcast:
@@ -1367,6 +1378,8 @@ class Master:
                 link.diagnostics.record_fault(event.kind, event.end)
             return _Outcome.FAULT
         if self._own(event, AddressMode.MIRROR in modes):
+            if link is not None and event.raw != self._sent_frame:
+                link.diagnostics.record_discarded(event.end)  # overlapped the request
             return None
         telegram = event.telegram
         if telegram.address != address or telegram.mode not in modes:
