@@ -13,6 +13,7 @@ from pyuss.errors import DriveRefusal
 from pyuss.master import Master, NotSending
 from pyuss.master.testing import simulated_drives
 from pyuss.protocol.layout import Layout
+from support.buses import SimulatorThread
 
 
 async def test_the_masters_own_telegram_heard_back_is_no_answer(
@@ -84,3 +85,14 @@ async def test_a_line_that_does_not_echo_is_never_said_to(caplog: pytest.LogCapt
             assert not [r for r in caplog.records if "own telegrams" in r.message]
     finally:
         await bus.close()
+
+
+async def test_a_pkw_only_answer_with_the_requests_bytes_is_the_drives_over_a_pty() -> None:
+    # PKW only, the read of a zero value: the drive answers with the request's very bytes;
+    # without exact timestamps nothing tells it from an echo, and it is taken as the answer
+    with SimulatorThread([(3, "generic", Layout(3, 0))]) as sim:
+        async with Master(sim.paths[0], baud=sim.baud, layout=Layout(3, 0)) as master:
+            drive = master.drive(3)
+            sim.call(lambda s: s.engines[3].drive.update(52, 0))
+            assert await drive.read(52) == 0
+            assert master.diagnostics().own_heard == 0

@@ -1194,7 +1194,7 @@ class Master:
         if self._receiver.busy:
             self._stray_events(self._receiver.poll(self._clock() - self.latency))
 
-    def _own(self, event: Received, mirror: bool = False) -> bool:
+    def _own(self, event: Received, mirror: bool = False, process_data: bool = False) -> bool:
         """Whether ``event`` cannot be the answer to the request just sent: it is the master's
         own telegram heard back (a line that echoes: a 2-wire adapter without echo
         suppression, ``loop://``; counted and told once, `BusDiagnostics.own_heard`), or it
@@ -1202,10 +1202,11 @@ class Master:
 
         On a line that stamps characters exactly (the virtual bus, ``bus://``) the time tells:
         an answer begins after the request. Elsewhere (a serial port, a pty, a TCP converter:
-        no wire time, or stamps as late as the driver hands characters over) the bytes do: the
-        request's very bytes are its echo, unless all its net data are zero (a drive answers
-        that request of a PKW-only layout with the same bytes) or it is a mirror telegram,
-        which the slave returns unchanged by design."""
+        no wire time, or stamps as late as the driver hands characters over) the bytes do, where
+        the answer carries ``process_data``: the request's very bytes are its echo (a drive's
+        status word is not the control word it was sent), unless all its net data are zero.
+        Without process data a drive answers a read of a zero value with the request's bytes,
+        and a mirror telegram is returned unchanged by design: there only ``echo=1`` tells."""
         same = event.raw == self._sent_frame
         if self._exact:
             if event.start >= self._sent_end - 1e-6:
@@ -1213,7 +1214,7 @@ class Master:
             if not same:
                 log_frame("rx", event.raw, event.end, "began before the request ended")
                 return True
-        elif mirror or not same or not any(event.telegram.data):
+        elif mirror or not process_data or not same or not any(event.telegram.data):
             return False
         self._heard_own(event)
         return True
@@ -1377,7 +1378,7 @@ class Master:
             if link is not None:
                 link.diagnostics.record_fault(event.kind, event.end)
             return _Outcome.FAULT
-        if self._own(event, AddressMode.MIRROR in modes):
+        if self._own(event, AddressMode.MIRROR in modes, link is not None and link.layout.pzd > 0):
             if link is not None and event.raw != self._sent_frame:
                 link.diagnostics.record_discarded(event.end)  # overlapped the request
             return None
