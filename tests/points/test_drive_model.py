@@ -16,12 +16,15 @@ from pyuss.points import (
     COMMAND_TABLE,
     MOVES,
     DrivePoints,
+    NotInControl,
     Plant,
     checked_setpoint,
+    error_dict,
     line_model,
     simulated_drives,
 )
 from pyuss.protocol.layout import Layout
+from support.line import LineRecord
 from support.waiting import eventually
 
 BAUD = 38400
@@ -98,6 +101,50 @@ async def test_the_commands_come_from_one_table(plant: Plant) -> None:
     assert not drive.drive.control & 0x0300
     state = await drive.command("off1")
     assert state.state in ("ready to switch on", "switch-on inhibited")
+
+
+async def test_a_master_started_again_stops_no_running_drive_by_an_acknowledge_or_a_jog() -> None:
+    """A gateway or page started again sends 0000h (no control by the interface) until a
+    command, so the drive runs on; an acknowledge or a jog then would start from 047Eh, OFF1,
+    and stop it: refused, nothing sent. ON and OFF1 say what the drive is to do, and take it."""
+    bus = VirtualBus(BAUD)
+    try:
+        async with simulated_drives(bus, DRIVES[:1]) as engines:
+            machine = engines[1].drive.machine
+            model = line_model("line", DRIVES[:1], baud=BAUD)
+            async with Plant(model, transports={"line": bus.attach("first")}) as first:
+                drive = first.drive("line", 1)
+                await eventually(lambda: drive.state.answered)
+                await drive.set_setpoint(50, unit="%")
+                await drive.command("on")
+                await eventually(lambda: drive.state.state == "operation enabled")
+            async with Plant(model, transports={"line": bus.attach("again")}) as again:
+                drive = again.drive("line", 1)
+                await eventually(lambda: drive.state.answered)
+                assert drive.state.state == "operation enabled"  # 0000h stopped nothing
+                for name in ("acknowledge", "jog1", "jog2", "jog_off"):
+                    with pytest.raises(NotInControl, match=f"{name} refused: the drive is switc"):
+                        await drive.command(name)
+                    assert error_dict(NotInControl("x"))["class"] == "refused"
+                record = LineRecord(engines[1])
+                await record.telegrams()
+                record.close()
+                assert {words[0] for words in record.pzd} == {0}  # nothing of them went out
+                assert (machine.control, machine.state.name) == (0x047F, "OPERATION")
+                assert drive.state.state == "operation enabled"
+                await drive.command("off1")  # asked for: taken
+                await eventually(lambda: drive.state.state == "ready to switch on")
+                await drive.command("acknowledge")  # in control now: only the edge of bit 7
+                assert drive.drive.control == 0x047E
+            # a faulted drive is not switched on: the acknowledge a new master sends is taken
+            machine.raise_fault(65, machine.time)
+            async with Plant(model, transports={"line": bus.attach("third")}) as third:
+                drive = third.drive("line", 1)
+                await eventually(lambda: drive.state.state == "fault")
+                await drive.command("acknowledge")
+                await eventually(lambda: drive.state.state != "fault")
+    finally:
+        await bus.close()
 
 
 async def test_process_data_become_values_in_one_place(plant: Plant) -> None:

@@ -9,6 +9,10 @@ reaches the line that was not checked here first. The rules every face relies on
   `pyuss.points.model.COMMAND_TABLE`), a control word, raw process words, a parameter value
   (its type, limits and access, `write_value` / `write_parameter`) - each raises
   `ConfigError` (or `UnknownPoint`) before the master is told anything.
+- Until a command the master sends 0000h, no control by the interface, so a face started
+  again stops no running drive; a command that changes bits of the word in force
+  (acknowledge, jog) would take control with OFF1 then and is refused (`NotInControl`) on a
+  drive that is switched on or has not answered.
 - Process data become values in one place: `pyuss.points.state.process_value` on the
   `pyuss.protocol.pzd` helpers (a double word joined and split once), the other words of an
   answer through the parameters the profile maps them to (`actual_row`); the status bits and
@@ -60,8 +64,15 @@ from pyuss.params import ParamInfo, ValueRefused, decode, parse
 from pyuss.params.model import Reading, param_label
 from pyuss.params.values import parse_unknown
 from pyuss.points.config import ProcessConfig
-from pyuss.points.errors import UnknownPoint, error_dict
-from pyuss.points.model import COMMAND_TABLE, BusModel, DriveModel, PlantModel, line_model
+from pyuss.points.errors import NotInControl, UnknownPoint, error_dict
+from pyuss.points.model import (
+    COMMAND_TABLE,
+    BusModel,
+    Command,
+    DriveModel,
+    PlantModel,
+    line_model,
+)
 from pyuss.points.parameters import ParameterModel, ParamMeta
 from pyuss.points.state import (
     DriveState,
@@ -74,6 +85,7 @@ from pyuss.points.state import (
     signed,
 )
 from pyuss.protocol.pzd import (
+    ControlWord,
     StatusWord,
     percent_to_raw16,
     percent_to_raw32,
@@ -308,9 +320,34 @@ class DrivePoints:
             raise UnknownPoint(
                 f"unknown command {_shown(name)} (known: {', '.join(COMMAND_TABLE)})"
             )
+        self._check_takeover(command)
         await getattr(self.drive, command.method)(*command.args, timeout=timeout)
         self._changed()
         return self._state
+
+    def _check_takeover(self, command: Command) -> None:
+        """Refuse a command that changes bits of the control word in force (acknowledge,
+        jog) while this master has sent no control word yet and the drive may be switched
+        on: the master starts such a command from 047Eh, OFF1, and takes control with the
+        setpoints set here, so a drive switched on by a master before this one (a gateway
+        or page started again) would be stopped by an acknowledge nobody meant as a stop."""
+        if command.whole or self.drive.control & ControlWord.CONTROL_BY_PLC:
+            return
+        status = self.drive.status
+        if status is None or self.drive.not_sending:
+            why = "has not answered yet, so whether it runs is not known"
+        elif status.word & (StatusWord.READY | StatusWord.OPERATION_ENABLED) and not (
+            status.word & StatusWord.FAULT
+        ):
+            why = f"is switched on ({status.state})"
+        else:
+            return
+        raise NotInControl(
+            f"{self.key}: {command.name} refused: the drive {why}, and this master has sent "
+            "it no control word yet (0000h: no control by the interface), so "
+            f"{command.name} would take control with OFF1 (047Eh) and the setpoints set "
+            "here; send on (it runs on with the setpoint set here) or off1 first"
+        )
 
     async def set_control_word(self, word: int) -> DriveState:
         if isinstance(word, bool) or not isinstance(word, int) or not 0 <= word <= 0xFFFF:
