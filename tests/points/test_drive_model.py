@@ -103,10 +103,11 @@ async def test_the_commands_come_from_one_table(plant: Plant) -> None:
     assert state.state in ("ready to switch on", "switch-on inhibited")
 
 
-async def test_a_master_started_again_stops_no_running_drive_by_an_acknowledge_or_a_jog() -> None:
+async def test_a_master_started_again_changes_no_running_drive_nobody_asked_to_change() -> None:
     """A gateway or page started again sends 0000h (no control by the interface) until a
-    command, so the drive runs on; an acknowledge or a jog then would start from 047Eh, OFF1,
-    and stop it: refused, nothing sent. ON and OFF1 say what the drive is to do, and take it."""
+    command, so the drive runs on with what it had. An acknowledge or a jog then would
+    start from 047Eh, OFF1, and stop it; an ON would set it to setpoint 0, which nobody set
+    here: refused, nothing sent. ON once the setpoint was set, and OFF1, are taken."""
     bus = VirtualBus(BAUD)
     try:
         async with simulated_drives(bus, DRIVES[:1]) as engines:
@@ -122,27 +123,41 @@ async def test_a_master_started_again_stops_no_running_drive_by_an_acknowledge_o
                 drive = again.drive("line", 1)
                 await eventually(lambda: drive.state.answered)
                 assert drive.state.state == "operation enabled"  # 0000h stopped nothing
-                for name in ("acknowledge", "jog1", "jog2", "jog_off"):
-                    with pytest.raises(NotInControl, match=f"{name} refused: the drive is switc"):
+                for name, words in [
+                    ("acknowledge", "acknowledge refused: the drive is switched on"),
+                    ("jog1", "would take control with OFF1"),
+                    ("jog2", "would take control with OFF1"),
+                    ("jog_off", "would take control with OFF1"),
+                    ("on", "on refused: .* with setpoint main 0, which nobody set here"),
+                ]:
+                    with pytest.raises(NotInControl, match=words):
                         await drive.command(name)
-                    assert error_dict(NotInControl("x"))["class"] == "refused"
+                assert error_dict(NotInControl("x"))["class"] == "refused"
                 record = LineRecord(engines[1])
                 await record.telegrams()
                 record.close()
                 assert {words[0] for words in record.pzd} == {0}  # nothing of them went out
-                assert (machine.control, machine.state.name) == (0x047F, "OPERATION")
+                assert (machine.control, machine.setpoint) == (0x047F, 0.5)
                 assert drive.state.state == "operation enabled"
-                await drive.command("off1")  # asked for: taken
+                await drive.set_setpoint(25, unit="%")
+                await drive.command("on")  # the setpoint set here: taken, it runs on
+                assert (machine.control, machine.setpoint) == (0x047F, 0.25)
+                await drive.command("off1")
                 await eventually(lambda: drive.state.state == "ready to switch on")
                 await drive.command("acknowledge")  # in control now: only the edge of bit 7
                 assert drive.drive.control == 0x047E
-            # a faulted drive is not switched on: the acknowledge a new master sends is taken
+            # a drive that is not switched on cannot be stopped: what a new master sends acts
             machine.raise_fault(65, machine.time)
             async with Plant(model, transports={"line": bus.attach("third")}) as third:
                 drive = third.drive("line", 1)
                 await eventually(lambda: drive.state.state == "fault")
                 await drive.command("acknowledge")
                 await eventually(lambda: drive.state.state != "fault")
+            async with Plant(model, transports={"line": bus.attach("fourth")}) as fourth:
+                drive = fourth.drive("line", 1)
+                await eventually(lambda: drive.state.answered)
+                await drive.command("on")  # ready to switch on: ON at setpoint 0 moves nothing
+                assert machine.control == 0x047F
     finally:
         await bus.close()
 

@@ -10,9 +10,9 @@ reaches the line that was not checked here first. The rules every face relies on
   (its type, limits and access, `write_value` / `write_parameter`) - each raises
   `ConfigError` (or `UnknownPoint`) before the master is told anything.
 - Until a command the master sends 0000h, no control by the interface, so a face started
-  again stops no running drive; a command that changes bits of the word in force
-  (acknowledge, jog) would take control with OFF1 then and is refused (`NotInControl`) on a
-  drive that is switched on or has not answered.
+  again stops no running drive. On a drive that is switched on (or has not answered) a
+  command that changes bits of the word in force (acknowledge, jog) would take control
+  with OFF1 then, and ON with setpoints nobody set here: refused (`NotInControl`).
 - Process data become values in one place: `pyuss.points.state.process_value` on the
   `pyuss.protocol.pzd` helpers (a double word joined and split once), the other words of an
   answer through the parameters the profile maps them to (`actual_row`); the status bits and
@@ -133,6 +133,8 @@ class DrivePoints:
         self._last_fault: int | None = None
         self._last_fault_time: datetime.datetime | None = None
         self._last_refusal: dict[str, object] | None = None
+        self._given: set[int] = set()
+        """The PZD words (2..16) a face has set since the start."""
         self._callbacks: list[Callable[[DriveState], object]] = []
         self._watches: list[_Watch] = []
         self._quick: tuple[object, ...] | None = None
@@ -326,12 +328,16 @@ class DrivePoints:
         return self._state
 
     def _check_takeover(self, command: Command) -> None:
-        """Refuse a command that changes bits of the control word in force (acknowledge,
-        jog) while this master has sent no control word yet and the drive may be switched
-        on: the master starts such a command from 047Eh, OFF1, and takes control with the
-        setpoints set here, so a drive switched on by a master before this one (a gateway
-        or page started again) would be stopped by an acknowledge nobody meant as a stop."""
-        if command.whole or self.drive.control & ControlWord.CONTROL_BY_PLC:
+        """Refuse a command that would take over a drive switched on by a master before
+        this one (a gateway or page started again) with what nobody asked for: while this
+        master has sent no control word (0000h) the drive runs on the process data it had,
+        and a command takes control with the setpoints of this master. Acknowledge and jog
+        change bits of the word in force and start from 047Eh, OFF1: they would stop it. ON
+        would set it to setpoints nobody set here (0 after a start): refused until every
+        setpoint of the drive was set here. OFF1/2/3 stop it, as asked."""
+        if self.drive.control & ControlWord.CONTROL_BY_PLC:
+            return
+        if command.whole and not (command.moves and self._unset_setpoints()):
             return
         status = self.drive.status
         if status is None or self.drive.not_sending:
@@ -342,12 +348,26 @@ class DrivePoints:
             why = f"is switched on ({status.state})"
         else:
             return
+        if command.whole:
+            would = f"with setpoint {', '.join(self._unset_setpoints())} 0, which nobody set here"
+            advice = "set the setpoint first (on sends it), or send off1"
+        else:
+            would = "with OFF1 (047Eh)"
+            advice = "set the setpoint and send on, or send off1 first"
         raise NotInControl(
             f"{self.key}: {command.name} refused: the drive {why}, and this master has sent "
-            "it no control word yet (0000h: no control by the interface), so "
-            f"{command.name} would take control with OFF1 (047Eh) and the setpoints set "
-            "here; send on (it runs on with the setpoint set here) or off1 first"
+            "it no control word yet (0000h: no control by the interface, the drive keeps "
+            f"the process data it had), so {command.name} would take control {would}; "
+            f"{advice}"
         )
+
+    def _unset_setpoints(self) -> list[str]:
+        """The setpoints of the drive whose words no face has set since the start."""
+        return [
+            item.key
+            for item in self.model.setpoints
+            if not {item.pzd, item.pzd + item.dword} <= self._given
+        ]
 
     async def set_control_word(self, word: int) -> DriveState:
         if isinstance(word, bool) or not isinstance(word, int) or not 0 <= word <= 0xFFFF:
@@ -369,6 +389,7 @@ class DrivePoints:
             if not 2 <= number <= self.model.layout.pzd:
                 raise UnknownPoint(f"{self.key}: PZD{number} is not in layout {self.model.layout}")
             self.drive.set_pzd(number, value)
+            self._given.add(number)
         await self.drive.control_word(self.drive.control if control is None else control)
         self._changed()
         return self._state
@@ -431,6 +452,7 @@ class DrivePoints:
         carrying it was answered."""
         checked = self.check_setpoint(value, key, unit=unit)
         _, dword = self.setpoint_point(key)
+        self._given.update((checked.pzd, checked.pzd + dword))
         await self.drive.setpoint(raw=checked.raw, pzd=checked.pzd, dword=dword, timeout=timeout)
         self._changed()
         return self._state
