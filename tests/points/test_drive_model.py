@@ -162,6 +162,26 @@ async def test_a_master_started_again_changes_no_running_drive_nobody_asked_to_c
         await bus.close()
 
 
+async def test_process_words_are_checked_whole_and_a_refused_request_changes_nothing(
+    plant: Plant,
+) -> None:
+    drive = plant.drive("line", 1)  # layout 4,2: PZD2 is its one setpoint word
+    before = sent(drive)
+    for control, words, message in [
+        (0x047F, {2: 0x1000, 3: 1}, "PZD3 is not in layout 4,2"),
+        (None, {2: 0x1000, 3: 1}, "PZD3 is not in layout 4,2"),
+        (0x047F, {2: 0x10000}, "PZD2 must be a 16-bit value"),
+        (None, {2: 0x1000, "3": 1}, "PZD number must be a whole number"),
+        (None, {2: True}, "PZD2 must be a 16-bit value"),
+        (0x10000, {2: 0x1000}, "control word must be 0..65535"),
+    ]:
+        with pytest.raises(ConfigError, match=message):
+            await drive.set_process(control=control, words=words)  # type: ignore[dict-item]
+        assert sent(drive) == before  # no part of it reaches the line
+    await drive.set_process(words={2: 0x1000})
+    assert sent(drive) == (before[0], (0x1000,))
+
+
 async def test_process_data_become_values_in_one_place(plant: Plant) -> None:
     drive = plant.drive("line", 1)
     drive.keep_samples(100)

@@ -379,15 +379,22 @@ class DrivePoints:
     async def set_process(
         self, *, control: int | None = None, words: Mapping[int, int] | None = None
     ) -> DriveState:
-        """Set the control word and raw PZD words (``{number: word}``, 2..16) together;
-        returns once a telegram carrying all of them was answered."""
+        """Set the control word and raw PZD words (``{number: word}``, 2..16, 0..FFFFh)
+        together, all checked before any is set (a refused request changes no word); returns
+        once a telegram carrying all of them was answered."""
         if control is not None and (
             isinstance(control, bool) or not isinstance(control, int) or not 0 <= control <= 0xFFFF
         ):
             raise ConfigError(f"control word must be 0..65535 (0..FFFFh), not {control!r}")
-        for number, value in (words or {}).items():
+        words = dict(words or {})
+        for number, value in words.items():  # all checked before any is set
+            if isinstance(number, bool) or not isinstance(number, int):
+                raise ConfigError(f"PZD number must be a whole number, not {_shown(number)}")
             if not 2 <= number <= self.model.layout.pzd:
                 raise UnknownPoint(f"{self.key}: PZD{number} is not in layout {self.model.layout}")
+            if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 0xFFFF:
+                raise ConfigError(f"PZD{number} must be a 16-bit value, not {_shown(value)}")
+        for number, value in words.items():
             self.drive.set_pzd(number, value)
             self._given.add(number)
         await self.drive.control_word(self.drive.control if control is None else control)
