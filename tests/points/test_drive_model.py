@@ -182,6 +182,52 @@ async def test_process_words_are_checked_whole_and_a_refused_request_changes_not
     assert sent(drive) == (before[0], (0x1000,))
 
 
+@pytest.mark.parametrize("lost", ["fault", "power"])
+async def test_a_jog_a_fault_or_a_lost_drive_ended_does_not_start_again_by_itself(
+    lost: str,
+) -> None:
+    """A MICROMASTER 4 jogs from "ready to switch on" while its jog bit is set. A fault, or
+    the drive lost (a power cut), ends the jog: the master drops the jog bit, so the
+    acknowledge of the fault, or the drive back from its power cut, does not set the motor
+    turning again - which the standing bit did, nobody asking."""
+    drives = [(3, "micromaster4", None)]
+    bus = VirtualBus(BAUD)
+    try:
+        async with simulated_drives(bus, drives) as engines:
+            model = line_model("line", drives, baud=BAUD)
+            async with Plant(model, transports={"line": bus.attach("master")}) as plant:
+                drive = plant.drive("line", 3)
+                await eventually(lambda: drive.state.answered)
+                await drive.command("off1")
+                await drive.command("jog1")
+                await eventually(lambda: engines[3].drive.machine.state.name == "JOG")
+                if lost == "fault":
+                    machine = engines[3].drive.machine
+                    machine.raise_fault(7, machine.time)
+                    await eventually(lambda: drive.state.state == "fault")
+                    await eventually(lambda: not drive.drive.control & 0x0300)
+                    await drive.command("acknowledge")
+                else:
+                    engine = engines[3]
+                    handle = engine.handle
+                    engine.handle = lambda telegram, now: None  # type: ignore[method-assign]
+                    await eventually(lambda: drive.drive.not_sending)
+                    await eventually(lambda: not drive.drive.control & 0x0300)
+                    engine.drive.machine = type(engine.drive.machine)(
+                        engine.drive.machine.time, engine.drive.machine.motion
+                    )  # powered up again
+                    engine.handle = handle  # type: ignore[method-assign]
+                    await eventually(lambda: not drive.drive.not_sending)
+                record = LineRecord(engines[3])
+                await record.telegrams()
+                record.close()
+                machine = engines[3].drive.machine
+                assert machine.state.name in ("SWITCH_ON_INHIBIT", "READY_TO_SWITCH_ON")
+                assert not drive.snapshot().told_to_run
+    finally:
+        await bus.close()
+
+
 async def test_process_data_become_values_in_one_place(plant: Plant) -> None:
     drive = plant.drive("line", 1)
     drive.keep_samples(100)

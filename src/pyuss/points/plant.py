@@ -13,6 +13,8 @@ reaches the line that was not checked here first. The rules every face relies on
   again stops no running drive. On a drive that is switched on (or has not answered) a
   command that changes bits of the word in force (acknowledge, jog) would take control
   with OFF1 then, and ON with setpoints nobody set here: refused (`NotInControl`).
+- A fault or the drive lost ends a jog: the jog bits are dropped (`_end_jog`), so an
+  acknowledge or the drive's return does not set the motor turning again.
 - Process data become values in one place: `pyuss.points.state.process_value` on the
   `pyuss.protocol.pzd` helpers (a double word joined and split once), the other words of an
   answer through the parameters the profile maps them to (`actual_row`); the status bits and
@@ -240,6 +242,8 @@ class DrivePoints:
             watch.put(state)
 
     def _on_update(self, status: DriveStatus) -> None:
+        if status.word & StatusWord.FAULT:
+            self._end_jog("faulted")
         if self._samples is not None:
             self._samples.append(Sample(time.time(), status.word, self.actual_row(status.actual)))
         quick = (status.word, status.actual, self.drive.control, self.drive.setpoints)
@@ -275,7 +279,21 @@ class DrivePoints:
 
     def check_health(self) -> None:
         """Tell subscribers if "does not send" changed (no answer reports that)."""
+        if self.drive.not_sending:
+            self._end_jog("does not send")
         if self.drive.not_sending != self._state.health.not_sending:
+            self._changed()
+
+    def _end_jog(self, why: str) -> None:
+        """A jog runs while its bit is held; a fault or a drive lost (a power cut) ends it:
+        the jog bits are dropped from the control word, so that the acknowledge of the fault
+        or the drive's return does not set the motor turning again (a family that jogs from
+        "ready to switch on" would, with the bit still set)."""
+        word = self.drive.control
+        jog = int(ControlWord.JOG1 | ControlWord.JOG2)
+        if word & jog:
+            self.drive.set_control(word & ~jog)
+            log.warning("%s: jog ended: the drive %s", self.key, why)
             self._changed()
 
     # -- subscribers -------------------------------------------------------------------------
