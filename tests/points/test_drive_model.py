@@ -11,7 +11,7 @@ from collections.abc import AsyncIterator
 import pytest
 
 from pyuss.bus import VirtualBus
-from pyuss.errors import ConfigError
+from pyuss.errors import ConfigError, UssError
 from pyuss.points import (
     COMMAND_TABLE,
     MOVES,
@@ -224,6 +224,49 @@ async def test_a_jog_a_fault_or_a_lost_drive_ended_does_not_start_again_by_itsel
                 machine = engines[3].drive.machine
                 assert machine.state.name in ("SWITCH_ON_INHIBIT", "READY_TO_SWITCH_ON")
                 assert not drive.snapshot().told_to_run
+    finally:
+        await bus.close()
+
+
+async def test_process_data_a_request_did_not_get_through_with_do_not_act_later() -> None:
+    """A control word or setpoint whose request failed - the master not started yet (a
+    gateway's face listens before its bus starts), or the drive not answering - is taken
+    back: the master sends the words of before, so the drive that answers again later does
+    not start on a request its client was told failed."""
+    drives = DRIVES[:1]
+    bus = VirtualBus(BAUD)
+    try:
+        async with simulated_drives(bus, drives) as engines:
+            engine = engines[1]
+            model = line_model("line", drives, baud=BAUD, job_timeout=0.3)
+            plant = Plant(model, transports={"line": bus.attach("master")})
+            drive = plant.drive("line", 1)
+            with pytest.raises(UssError, match="not started"):
+                await drive.set_control_word(0x047F)
+            with pytest.raises(UssError, match="not started"):
+                await drive.set_setpoint(50, unit="%")
+            assert sent(drive) == (0, (0,))
+            async with plant:
+                await eventually(lambda: drive.state.answered)
+                await drive.command("off1")
+                await eventually(lambda: drive.state.state == "ready to switch on")
+                handle = engine.handle
+                engine.handle = lambda telegram, now: None  # type: ignore[method-assign]
+                for request in (
+                    drive.set_control_word(0x047F),
+                    drive.set_setpoint(50, unit="%"),
+                    drive.set_process(control=0x047F, words={2: 0x2000}),
+                    drive.command("on"),
+                ):
+                    with pytest.raises(UssError, match="no answer"):
+                        await request
+                    assert sent(drive) == (0x047E, (0,))
+                engine.handle = handle  # type: ignore[method-assign]
+                record = LineRecord(engine)
+                await record.telegrams()
+                record.close()
+                assert set(record.pzd) == {(0x047E, 0)}
+                assert drive.state.state == "ready to switch on"
     finally:
         await bus.close()
 

@@ -13,6 +13,8 @@ reaches the line that was not checked here first. The rules every face relies on
   again stops no running drive. On a drive that is switched on (or has not answered) a
   command that changes bits of the word in force (acknowledge, jog) would take control
   with OFF1 then, and ON with setpoints nobody set here: refused (`NotInControl`).
+- Process data whose request failed are taken back (`_taken_back`): the words of before
+  are sent again, so a request its client was told failed does not act later.
 - A fault or the drive lost ends a jog: the jog bits are dropped (`_end_jog`), so an
   acknowledge or the drive's return does not set the motor turning again.
 - Process data become values in one place: `pyuss.points.state.process_value` on the
@@ -137,6 +139,8 @@ class DrivePoints:
         self._last_refusal: dict[str, object] | None = None
         self._given: set[int] = set()
         """The PZD words (2..16) a face has set since the start."""
+        self._serial = 0
+        """Counts the changes of process data (`_taken_back`)."""
         self._callbacks: list[Callable[[DriveState], object]] = []
         self._watches: list[_Watch] = []
         self._quick: tuple[object, ...] | None = None
@@ -292,6 +296,7 @@ class DrivePoints:
         word = self.drive.control
         jog = int(ControlWord.JOG1 | ControlWord.JOG2)
         if word & jog:
+            self._serial += 1  # a request under way is not to take it back
             self.drive.set_control(word & ~jog)
             log.warning("%s: jog ended: the drive %s", self.key, why)
             self._changed()
@@ -341,9 +346,31 @@ class DrivePoints:
                 f"unknown command {_shown(name)} (known: {', '.join(COMMAND_TABLE)})"
             )
         self._check_takeover(command)
-        await getattr(self.drive, command.method)(*command.args, timeout=timeout)
+        async with self._taken_back():
+            await getattr(self.drive, command.method)(*command.args, timeout=timeout)
         self._changed()
         return self._state
+
+    @contextlib.asynccontextmanager
+    async def _taken_back(self) -> AsyncIterator[None]:
+        """Process data that did not get through are taken back: when the request fails (the
+        master not started, closed or failed, the drive not answering, the request cut off)
+        the control word and setpoints are set back to those of before, unless a later
+        request changed them meanwhile - so a request its client was told failed does not
+        act later, when the master starts or the drive answers again."""
+        self._serial += 1
+        serial = self._serial
+        control, setpoints, given = self.drive.control, self.drive.setpoints, set(self._given)
+        try:
+            yield
+        except BaseException:
+            if serial == self._serial:
+                self.drive.set_control(control)
+                for number, word in enumerate(setpoints, start=2):
+                    self.drive.set_pzd(number, word)
+                self._given = given
+                self._changed()
+            raise
 
     def _check_takeover(self, command: Command) -> None:
         """Refuse a command that would take over a drive switched on by a master before
@@ -357,8 +384,8 @@ class DrivePoints:
             return
         if command.whole and not (command.moves and self._unset_setpoints()):
             return
-        status = self.drive.status
-        if status is None or self.drive.not_sending:
+        status = self.drive.status  # the last answer, also of a drive that does not send now
+        if status is None:
             why = "has not answered yet, so whether it runs is not known"
         elif status.word & (StatusWord.READY | StatusWord.OPERATION_ENABLED) and not (
             status.word & StatusWord.FAULT
@@ -390,7 +417,8 @@ class DrivePoints:
     async def set_control_word(self, word: int) -> DriveState:
         if isinstance(word, bool) or not isinstance(word, int) or not 0 <= word <= 0xFFFF:
             raise ConfigError(f"control word must be 0..65535 (0..FFFFh), not {word!r}")
-        await self.drive.control_word(word)
+        async with self._taken_back():
+            await self.drive.control_word(word)
         self._changed()
         return self._state
 
@@ -412,10 +440,11 @@ class DrivePoints:
                 raise UnknownPoint(f"{self.key}: PZD{number} is not in layout {self.model.layout}")
             if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 0xFFFF:
                 raise ConfigError(f"PZD{number} must be a 16-bit value, not {_shown(value)}")
-        for number, value in words.items():
-            self.drive.set_pzd(number, value)
-            self._given.add(number)
-        await self.drive.control_word(self.drive.control if control is None else control)
+        async with self._taken_back():
+            for number, value in words.items():
+                self.drive.set_pzd(number, value)
+                self._given.add(number)
+            await self.drive.control_word(self.drive.control if control is None else control)
         self._changed()
         return self._state
 
@@ -477,8 +506,11 @@ class DrivePoints:
         carrying it was answered."""
         checked = self.check_setpoint(value, key, unit=unit)
         _, dword = self.setpoint_point(key)
-        self._given.update((checked.pzd, checked.pzd + dword))
-        await self.drive.setpoint(raw=checked.raw, pzd=checked.pzd, dword=dword, timeout=timeout)
+        async with self._taken_back():
+            self._given.update((checked.pzd, checked.pzd + dword))
+            await self.drive.setpoint(
+                raw=checked.raw, pzd=checked.pzd, dword=dword, timeout=timeout
+            )
         self._changed()
         return self._state
 
