@@ -271,6 +271,32 @@ async def test_process_data_a_request_did_not_get_through_with_do_not_act_later(
         await bus.close()
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason="pyuss.master.Drive.acknowledge (and jog, enable) start from 047Eh, OFF1, while "
+    "the master has sent no control word: uss ack stops a drive another master switched on",
+)
+async def test_the_drive_handle_acknowledges_a_running_drive_without_stopping_it() -> None:
+    """What the points refuse (`NotInControl`), the master's own acknowledge does: ``uss
+    ack`` on a line whose drive a gateway, stopped since, left running sends 04FEh, 047Eh."""
+    bus = VirtualBus(BAUD)
+    try:
+        async with simulated_drives(bus, DRIVES[:1]) as engines:
+            model = line_model("line", DRIVES[:1], baud=BAUD)
+            async with Plant(model, transports={"line": bus.attach("first")}) as first:
+                drive = first.drive("line", 1)
+                await eventually(lambda: drive.state.answered)
+                await drive.set_setpoint(50, unit="%")
+                await drive.command("on")
+            async with Plant(model, transports={"line": bus.attach("ack")}) as again:
+                handle = again.drive("line", 1).drive
+                await handle.next_update()
+                await handle.acknowledge()
+                assert engines[1].drive.machine.control & 0x0001  # still ON
+    finally:
+        await bus.close()
+
+
 async def test_process_data_become_values_in_one_place(plant: Plant) -> None:
     drive = plant.drive("line", 1)
     drive.keep_samples(100)
