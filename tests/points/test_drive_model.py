@@ -18,6 +18,7 @@ from pyuss.points import (
     DrivePoints,
     NotInControl,
     Plant,
+    PlantModel,
     checked_setpoint,
     error_dict,
     line_model,
@@ -103,6 +104,17 @@ async def test_the_commands_come_from_one_table(plant: Plant) -> None:
     assert state.state in ("ready to switch on", "switch-on inhibited")
 
 
+async def switched_on_and_left(bus: VirtualBus, model: PlantModel) -> None:
+    """A master switches drive 1 on at 50 % and goes away (a gateway stopped), the drive
+    running on."""
+    async with Plant(model, transports={"line": bus.attach("first")}) as first:
+        drive = first.drive("line", 1)
+        await eventually(lambda: drive.state.answered)
+        await drive.set_setpoint(50, unit="%")
+        await drive.command("on")
+        await eventually(lambda: drive.state.state == "operation enabled")
+
+
 async def test_a_master_started_again_changes_no_running_drive_nobody_asked_to_change() -> None:
     """A gateway or page started again sends 0000h (no control by the interface) until a
     command, so the drive runs on with what it had. An acknowledge or a jog then would
@@ -113,12 +125,7 @@ async def test_a_master_started_again_changes_no_running_drive_nobody_asked_to_c
         async with simulated_drives(bus, DRIVES[:1]) as engines:
             machine = engines[1].drive.machine
             model = line_model("line", DRIVES[:1], baud=BAUD)
-            async with Plant(model, transports={"line": bus.attach("first")}) as first:
-                drive = first.drive("line", 1)
-                await eventually(lambda: drive.state.answered)
-                await drive.set_setpoint(50, unit="%")
-                await drive.command("on")
-                await eventually(lambda: drive.state.state == "operation enabled")
+            await switched_on_and_left(bus, model)
             async with Plant(model, transports={"line": bus.attach("again")}) as again:
                 drive = again.drive("line", 1)
                 await eventually(lambda: drive.state.answered)
@@ -283,11 +290,7 @@ async def test_the_drive_handle_acknowledges_a_running_drive_without_stopping_it
     try:
         async with simulated_drives(bus, DRIVES[:1]) as engines:
             model = line_model("line", DRIVES[:1], baud=BAUD)
-            async with Plant(model, transports={"line": bus.attach("first")}) as first:
-                drive = first.drive("line", 1)
-                await eventually(lambda: drive.state.answered)
-                await drive.set_setpoint(50, unit="%")
-                await drive.command("on")
+            await switched_on_and_left(bus, model)
             async with Plant(model, transports={"line": bus.attach("ack")}) as again:
                 handle = again.drive("line", 1).drive
                 await handle.next_update()
