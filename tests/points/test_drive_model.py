@@ -140,15 +140,23 @@ async def test_a_master_started_again_changes_no_running_drive_nobody_asked_to_c
                     with pytest.raises(NotInControl, match=words):
                         await drive.command(name)
                 assert error_dict(NotInControl("x"))["class"] == "refused"
+                for request in (  # ON in a control word of the face's own: the same
+                    drive.set_control_word(0x047F),
+                    drive.set_process(control=0x057E),
+                ):
+                    with pytest.raises(NotInControl, match=r"control word 0[0-9A-F]{3}h refused"):
+                        await request
                 record = LineRecord(engines[1])
                 await record.telegrams()
                 record.close()
                 assert {words[0] for words in record.pzd} == {0}  # nothing of them went out
                 assert (machine.control, machine.setpoint) == (0x047F, 0.5)
                 assert drive.state.state == "operation enabled"
-                await drive.set_setpoint(25, unit="%")
-                await drive.command("on")  # the setpoint set here: taken, it runs on
+                await drive.set_process(control=0x047F, words={2: 0x1000})  # with its setpoint
                 assert (machine.control, machine.setpoint) == (0x047F, 0.25)
+                await drive.set_setpoint(75, unit="%")
+                await drive.command("on")  # the setpoint set here: taken, it runs on
+                assert (machine.control, machine.setpoint) == (0x047F, 0.75)
                 await drive.command("off1")
                 await eventually(lambda: drive.state.state == "ready to switch on")
                 await drive.command("acknowledge")  # in control now: only the edge of bit 7
@@ -249,7 +257,7 @@ async def test_process_data_a_request_did_not_get_through_with_do_not_act_later(
             plant = Plant(model, transports={"line": bus.attach("master")})
             drive = plant.drive("line", 1)
             with pytest.raises(UssError, match="not started"):
-                await drive.set_control_word(0x047F)
+                await drive.set_control_word(0x047E)
             with pytest.raises(UssError, match="not started"):
                 await drive.set_setpoint(50, unit="%")
             assert sent(drive) == (0, (0,))

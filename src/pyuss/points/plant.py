@@ -372,7 +372,16 @@ class DrivePoints:
                 self._changed()
             raise
 
-    def _check_takeover(self, command: Command) -> None:
+    def _check_word(self, word: int, words: set[int]) -> None:
+        """`_check_takeover` for a control word a face sends itself (with the PZD words
+        ``words`` of the same request): one with control by the interface (bit 10) and ON
+        or a jog bit is an ON."""
+        if word & ControlWord.CONTROL_BY_PLC:
+            moves = bool(word & (ControlWord.ON | ControlWord.JOG1 | ControlWord.JOG2))
+            command = Command(f"control word {word:04X}h", "control_word", moves=moves)
+            self._check_takeover(command, words)
+
+    def _check_takeover(self, command: Command, given: set[int] | None = None) -> None:
         """Refuse a command that would take over a drive switched on by a master before
         this one (a gateway or page started again) with what nobody asked for: while this
         master has sent no control word (0000h) the drive runs on the process data it had,
@@ -382,7 +391,8 @@ class DrivePoints:
         setpoint of the drive was set here. OFF1/2/3 stop it, as asked."""
         if self.drive.control & ControlWord.CONTROL_BY_PLC:
             return
-        if command.whole and not (command.moves and self._unset_setpoints()):
+        unset = self._unset_setpoints(given or set())
+        if command.whole and not (command.moves and unset):
             return
         status = self.drive.status  # the last answer, also of a drive that does not send now
         if status is None:
@@ -394,7 +404,7 @@ class DrivePoints:
         else:
             return
         if command.whole:
-            would = f"with setpoint {', '.join(self._unset_setpoints())} 0, which nobody set here"
+            would = f"with setpoint {', '.join(unset)} 0, which nobody set here"
             advice = "set the setpoint first (on sends it), or send off1"
         else:
             would = "with OFF1 (047Eh)"
@@ -406,17 +416,19 @@ class DrivePoints:
             f"{advice}"
         )
 
-    def _unset_setpoints(self) -> list[str]:
-        """The setpoints of the drive whose words no face has set since the start."""
+    def _unset_setpoints(self, given: set[int]) -> list[str]:
+        """The setpoints of the drive whose words no face has set since the start (nor
+        sets now: the PZD numbers ``given``)."""
         return [
             item.key
             for item in self.model.setpoints
-            if not {item.pzd, item.pzd + item.dword} <= self._given
+            if not {item.pzd, item.pzd + item.dword} <= self._given | given
         ]
 
     async def set_control_word(self, word: int) -> DriveState:
         if isinstance(word, bool) or not isinstance(word, int) or not 0 <= word <= 0xFFFF:
             raise ConfigError(f"control word must be 0..65535 (0..FFFFh), not {word!r}")
+        self._check_word(word, set())
         async with self._taken_back():
             await self.drive.control_word(word)
         self._changed()
@@ -440,6 +452,8 @@ class DrivePoints:
                 raise UnknownPoint(f"{self.key}: PZD{number} is not in layout {self.model.layout}")
             if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 0xFFFF:
                 raise ConfigError(f"PZD{number} must be a 16-bit value, not {_shown(value)}")
+        if control is not None:
+            self._check_word(control, set(words))
         async with self._taken_back():
             for number, value in words.items():
                 self.drive.set_pzd(number, value)
