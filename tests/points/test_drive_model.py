@@ -11,17 +11,21 @@ from collections.abc import AsyncIterator
 import pytest
 
 from pyuss.bus import VirtualBus
-from pyuss.errors import ConfigError
+from pyuss.errors import ConfigError, UssError
 from pyuss.points import (
     COMMAND_TABLE,
     MOVES,
     DrivePoints,
+    NotInControl,
     Plant,
+    PlantModel,
     checked_setpoint,
+    error_dict,
     line_model,
     simulated_drives,
 )
 from pyuss.protocol.layout import Layout
+from support.line import LineRecord
 from support.waiting import eventually
 
 BAUD = 38400
@@ -98,6 +102,210 @@ async def test_the_commands_come_from_one_table(plant: Plant) -> None:
     assert not drive.drive.control & 0x0300
     state = await drive.command("off1")
     assert state.state in ("ready to switch on", "switch-on inhibited")
+
+
+async def switched_on_and_left(bus: VirtualBus, model: PlantModel) -> None:
+    """A master switches drive 1 on at 50 % and goes away (a gateway stopped), the drive
+    running on."""
+    async with Plant(model, transports={"line": bus.attach("first")}) as first:
+        drive = first.drive("line", 1)
+        await eventually(lambda: drive.state.answered)
+        await drive.set_setpoint(50, unit="%")
+        await drive.command("on")
+        await eventually(lambda: drive.state.state == "operation enabled")
+
+
+async def test_a_master_started_again_changes_no_running_drive_nobody_asked_to_change() -> None:
+    """A gateway or page started again sends 0000h (no control by the interface) until a
+    command, so the drive runs on with what it had. An acknowledge or a jog then would
+    start from 047Eh, OFF1, and stop it; an ON would set it to setpoint 0, which nobody set
+    here: refused, nothing sent. ON once the setpoint was set, and OFF1, are taken."""
+    bus = VirtualBus(BAUD)
+    try:
+        async with simulated_drives(bus, DRIVES[:1]) as engines:
+            machine = engines[1].drive.machine
+            model = line_model("line", DRIVES[:1], baud=BAUD)
+            await switched_on_and_left(bus, model)
+            async with Plant(model, transports={"line": bus.attach("again")}) as again:
+                drive = again.drive("line", 1)
+                await eventually(lambda: drive.state.answered)
+                assert drive.state.state == "operation enabled"  # 0000h stopped nothing
+                for name, words in [
+                    ("acknowledge", "acknowledge refused: the drive is switched on"),
+                    ("jog1", "would take control with OFF1"),
+                    ("jog2", "would take control with OFF1"),
+                    ("jog_off", "would take control with OFF1"),
+                    ("on", "on refused: .* with setpoint main 0, which nobody set here"),
+                ]:
+                    with pytest.raises(NotInControl, match=words):
+                        await drive.command(name)
+                assert error_dict(NotInControl("x"))["class"] == "refused"
+                for request in (  # ON in a control word of the face's own: the same
+                    drive.set_control_word(0x047F),
+                    drive.set_process(control=0x057E),
+                ):
+                    with pytest.raises(NotInControl, match=r"control word 0[0-9A-F]{3}h refused"):
+                        await request
+                record = LineRecord(engines[1])
+                await record.telegrams()
+                record.close()
+                assert {words[0] for words in record.pzd} == {0}  # nothing of them went out
+                assert (machine.control, machine.setpoint) == (0x047F, 0.5)
+                assert drive.state.state == "operation enabled"
+                await drive.set_process(control=0x047F, words={2: 0x1000})  # with its setpoint
+                assert (machine.control, machine.setpoint) == (0x047F, 0.25)
+                await drive.set_setpoint(75, unit="%")
+                await drive.command("on")  # the setpoint set here: taken, it runs on
+                assert (machine.control, machine.setpoint) == (0x047F, 0.75)
+                await drive.command("off1")
+                await eventually(lambda: drive.state.state == "ready to switch on")
+                await drive.command("acknowledge")  # in control now: only the edge of bit 7
+                assert drive.drive.control == 0x047E
+            # a drive that is not switched on cannot be stopped: what a new master sends acts
+            machine.raise_fault(65, machine.time)
+            async with Plant(model, transports={"line": bus.attach("third")}) as third:
+                drive = third.drive("line", 1)
+                await eventually(lambda: drive.state.state == "fault")
+                await drive.command("acknowledge")
+                await eventually(lambda: drive.state.state != "fault")
+            async with Plant(model, transports={"line": bus.attach("fourth")}) as fourth:
+                drive = fourth.drive("line", 1)
+                await eventually(lambda: drive.state.answered)
+                await drive.command("on")  # ready to switch on: ON at setpoint 0 moves nothing
+                assert machine.control == 0x047F
+    finally:
+        await bus.close()
+
+
+async def test_process_words_are_checked_whole_and_a_refused_request_changes_nothing(
+    plant: Plant,
+) -> None:
+    drive = plant.drive("line", 1)  # layout 4,2: PZD2 is its one setpoint word
+    before = sent(drive)
+    for control, words, message in [
+        (0x047F, {2: 0x1000, 3: 1}, "PZD3 is not in layout 4,2"),
+        (None, {2: 0x1000, 3: 1}, "PZD3 is not in layout 4,2"),
+        (0x047F, {2: 0x10000}, "PZD2 must be a 16-bit value"),
+        (None, {2: 0x1000, "3": 1}, "PZD number must be a whole number"),
+        (None, {2: True}, "PZD2 must be a 16-bit value"),
+        (0x10000, {2: 0x1000}, "control word must be 0..65535"),
+    ]:
+        with pytest.raises(ConfigError, match=message):
+            await drive.set_process(control=control, words=words)  # type: ignore[dict-item]
+        assert sent(drive) == before  # no part of it reaches the line
+    await drive.set_process(words={2: 0x1000})
+    assert sent(drive) == (before[0], (0x1000,))
+
+
+@pytest.mark.parametrize("lost", ["fault", "power"])
+async def test_a_jog_a_fault_or_a_lost_drive_ended_does_not_start_again_by_itself(
+    lost: str,
+) -> None:
+    """A MICROMASTER 4 jogs from "ready to switch on" while its jog bit is set. A fault, or
+    the drive lost (a power cut), ends the jog: the master drops the jog bit, so the
+    acknowledge of the fault, or the drive back from its power cut, does not set the motor
+    turning again - which the standing bit did, nobody asking."""
+    drives = [(3, "micromaster4", None)]
+    bus = VirtualBus(BAUD)
+    try:
+        async with simulated_drives(bus, drives) as engines:
+            model = line_model("line", drives, baud=BAUD)
+            async with Plant(model, transports={"line": bus.attach("master")}) as plant:
+                drive = plant.drive("line", 3)
+                await eventually(lambda: drive.state.answered)
+                await drive.command("off1")
+                await drive.command("jog1")
+                await eventually(lambda: engines[3].drive.machine.state.name == "JOG")
+                if lost == "fault":
+                    machine = engines[3].drive.machine
+                    machine.raise_fault(7, machine.time)
+                    await eventually(lambda: drive.state.state == "fault")
+                    await eventually(lambda: not drive.drive.control & 0x0300)
+                    await drive.command("acknowledge")
+                else:
+                    engine = engines[3]
+                    handle = engine.handle
+                    engine.handle = lambda telegram, now: None  # type: ignore[method-assign]
+                    await eventually(lambda: drive.drive.not_sending)
+                    await eventually(lambda: not drive.drive.control & 0x0300)
+                    engine.drive.machine = type(engine.drive.machine)(
+                        engine.drive.machine.time, engine.drive.machine.motion
+                    )  # powered up again
+                    engine.handle = handle  # type: ignore[method-assign]
+                    await eventually(lambda: not drive.drive.not_sending)
+                record = LineRecord(engines[3])
+                await record.telegrams()
+                record.close()
+                machine = engines[3].drive.machine
+                assert machine.state.name in ("SWITCH_ON_INHIBIT", "READY_TO_SWITCH_ON")
+                assert not drive.snapshot().told_to_run
+    finally:
+        await bus.close()
+
+
+async def test_process_data_a_request_did_not_get_through_with_do_not_act_later() -> None:
+    """A control word or setpoint whose request failed - the master not started yet (a
+    gateway's face listens before its bus starts), or the drive not answering - is taken
+    back: the master sends the words of before, so the drive that answers again later does
+    not start on a request its client was told failed."""
+    drives = DRIVES[:1]
+    bus = VirtualBus(BAUD)
+    try:
+        async with simulated_drives(bus, drives) as engines:
+            engine = engines[1]
+            model = line_model("line", drives, baud=BAUD, job_timeout=0.3)
+            plant = Plant(model, transports={"line": bus.attach("master")})
+            drive = plant.drive("line", 1)
+            with pytest.raises(UssError, match="not started"):
+                await drive.set_control_word(0x047E)
+            with pytest.raises(UssError, match="not started"):
+                await drive.set_setpoint(50, unit="%")
+            assert sent(drive) == (0, (0,))
+            async with plant:
+                await eventually(lambda: drive.state.answered)
+                await drive.command("off1")
+                await eventually(lambda: drive.state.state == "ready to switch on")
+                handle = engine.handle
+                engine.handle = lambda telegram, now: None  # type: ignore[method-assign]
+                for request in (
+                    drive.set_control_word(0x047F),
+                    drive.set_setpoint(50, unit="%"),
+                    drive.set_process(control=0x047F, words={2: 0x2000}),
+                    drive.command("on"),
+                ):
+                    with pytest.raises(UssError, match="no answer"):
+                        await request
+                    assert sent(drive) == (0x047E, (0,))
+                engine.handle = handle  # type: ignore[method-assign]
+                record = LineRecord(engine)
+                await record.telegrams()
+                record.close()
+                assert set(record.pzd) == {(0x047E, 0)}
+                assert drive.state.state == "ready to switch on"
+    finally:
+        await bus.close()
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="pyuss.master.Drive.acknowledge (and jog, enable) start from 047Eh, OFF1, while "
+    "the master has sent no control word: uss ack stops a drive another master switched on",
+)
+async def test_the_drive_handle_acknowledges_a_running_drive_without_stopping_it() -> None:
+    """What the points refuse (`NotInControl`), the master's own acknowledge does: ``uss
+    ack`` on a line whose drive a gateway, stopped since, left running sends 04FEh, 047Eh."""
+    bus = VirtualBus(BAUD)
+    try:
+        async with simulated_drives(bus, DRIVES[:1]) as engines:
+            model = line_model("line", DRIVES[:1], baud=BAUD)
+            await switched_on_and_left(bus, model)
+            async with Plant(model, transports={"line": bus.attach("ack")}) as again:
+                handle = again.drive("line", 1).drive
+                await handle.next_update()
+                await handle.acknowledge()
+                assert engines[1].drive.machine.control & 0x0001  # still ON
+    finally:
+        await bus.close()
 
 
 async def test_process_data_become_values_in_one_place(plant: Plant) -> None:

@@ -26,6 +26,7 @@ from pyuss.points.config import (
 from pyuss.points.endpoint import Endpoint, parse_endpoint
 from pyuss.points.errors import (
     Failure,
+    NotInControl,
     NoWriteAuthority,
     ReadOnly,
     UnknownPoint,
@@ -67,6 +68,7 @@ __all__ = [
     "Found",
     "Health",
     "NoWriteAuthority",
+    "NotInControl",
     "ParamMeta",
     "ParamValue",
     "ParameterConfig",

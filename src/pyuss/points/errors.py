@@ -15,7 +15,8 @@ is one (`error_dict`).
                    or the drive answered error 2 (limit), 5 (type) or 6 (only reset)
 ``REFUSED``        the drive refused for another reason: error 1 (not changeable),
                    7, 11 (no operator rights), 12 (keyword), 17 (not in this state),
-                   device numbers above 100
+                   device numbers above 100; or the points refused a command that
+                   would take a running drive over with OFF1 (`NotInControl`)
 ``NO_AUTHORITY``   response 8: another interface holds the write authority
 ``READ_ONLY``      the face is configured read-only, or the client may only read
 ``NO_ANSWER``      the drive does not send, or the job got no answer in time
@@ -31,7 +32,15 @@ from typing import Any
 from pyuss.errors import ConfigError, DriveRefusal, TransportError, UssError, UssTimeout
 from pyuss.master.errors import NoWriteAuthority
 
-__all__ = ["Failure", "NoWriteAuthority", "ReadOnly", "UnknownPoint", "classify", "error_dict"]
+__all__ = [
+    "Failure",
+    "NoWriteAuthority",
+    "NotInControl",
+    "ReadOnly",
+    "UnknownPoint",
+    "classify",
+    "error_dict",
+]
 
 
 class ReadOnly(UssError, PermissionError):
@@ -40,6 +49,12 @@ class ReadOnly(UssError, PermissionError):
 
 class UnknownPoint(ConfigError, LookupError):
     """No such drive, point or parameter in the gateway's configuration."""
+
+
+class NotInControl(UssError):
+    """A command that changes bits of the control word in force (acknowledge, jog) was
+    refused: this master has sent no control word yet and the drive is switched on (or has
+    not answered), so the command would take it over with OFF1."""
 
 
 class Failure(enum.Enum):
@@ -66,6 +81,8 @@ def classify(exc: BaseException) -> Failure:
         return Failure.REFUSED
     if isinstance(exc, NoWriteAuthority):
         return Failure.NO_AUTHORITY
+    if isinstance(exc, NotInControl):
+        return Failure.REFUSED
     if isinstance(exc, ReadOnly):
         return Failure.READ_ONLY
     if isinstance(exc, UnknownPoint):

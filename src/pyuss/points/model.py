@@ -61,6 +61,11 @@ class Command:
     args: tuple[int | None, ...] = ()
     moves: bool = False
     """It can set a motor turning: a face that asks a person asks before it sends it."""
+    whole: bool = True
+    """It sends a whole control word of its own (ON, OFF1/2/3); the others (acknowledge,
+    jog) change bits of the word in force, and while the master has sent none yet (0000h:
+    no control by the interface) they start from 047Eh, OFF1 (`pyuss.points.DrivePoints.command`
+    refuses them then on a drive that is switched on)."""
 
 
 COMMAND_TABLE: dict[str, Command] = {
@@ -70,10 +75,10 @@ COMMAND_TABLE: dict[str, Command] = {
         Command("off1", "off1"),  # ramp down, control bit 0 = 0
         Command("off2", "off2"),  # pulses off, the motor coasts: bit 1 = 0
         Command("off3", "off3"),  # quick stop: bit 2 = 0
-        Command("acknowledge", "acknowledge"),  # a rising edge of bit 7
-        Command("jog1", "jog", (1,), moves=True),  # bit 8
-        Command("jog2", "jog", (2,), moves=True),  # bit 9
-        Command("jog_off", "jog", (None,)),
+        Command("acknowledge", "acknowledge", whole=False),  # a rising edge of bit 7
+        Command("jog1", "jog", (1,), moves=True, whole=False),  # bit 8
+        Command("jog2", "jog", (2,), moves=True, whole=False),  # bit 9
+        Command("jog_off", "jog", (None,), whole=False),
     )
 }
 """Every drive command of the points, by name: the one table the faces' commands come from."""

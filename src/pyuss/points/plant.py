@@ -9,6 +9,14 @@ reaches the line that was not checked here first. The rules every face relies on
   `pyuss.points.model.COMMAND_TABLE`), a control word, raw process words, a parameter value
   (its type, limits and access, `write_value` / `write_parameter`) - each raises
   `ConfigError` (or `UnknownPoint`) before the master is told anything.
+- Until a command the master sends 0000h, no control by the interface, so a face started
+  again stops no running drive. On a drive that is switched on (or has not answered) a
+  command that changes bits of the word in force (acknowledge, jog) would take control
+  with OFF1 then, and ON with setpoints nobody set here: refused (`NotInControl`).
+- Process data whose request failed are taken back (`_taken_back`): the words of before
+  are sent again, so a request its client was told failed does not act later.
+- A fault or the drive lost ends a jog: the jog bits are dropped (`_end_jog`), so an
+  acknowledge or the drive's return does not set the motor turning again.
 - Process data become values in one place: `pyuss.points.state.process_value` on the
   `pyuss.protocol.pzd` helpers (a double word joined and split once), the other words of an
   answer through the parameters the profile maps them to (`actual_row`); the status bits and
@@ -60,8 +68,15 @@ from pyuss.params import ParamInfo, ValueRefused, decode, parse
 from pyuss.params.model import Reading, param_label
 from pyuss.params.values import parse_unknown
 from pyuss.points.config import ProcessConfig
-from pyuss.points.errors import UnknownPoint, error_dict
-from pyuss.points.model import COMMAND_TABLE, BusModel, DriveModel, PlantModel, line_model
+from pyuss.points.errors import NotInControl, UnknownPoint, error_dict
+from pyuss.points.model import (
+    COMMAND_TABLE,
+    BusModel,
+    Command,
+    DriveModel,
+    PlantModel,
+    line_model,
+)
 from pyuss.points.parameters import ParameterModel, ParamMeta
 from pyuss.points.state import (
     DriveState,
@@ -74,6 +89,7 @@ from pyuss.points.state import (
     signed,
 )
 from pyuss.protocol.pzd import (
+    ControlWord,
     StatusWord,
     percent_to_raw16,
     percent_to_raw32,
@@ -121,6 +137,10 @@ class DrivePoints:
         self._last_fault: int | None = None
         self._last_fault_time: datetime.datetime | None = None
         self._last_refusal: dict[str, object] | None = None
+        self._given: set[int] = set()
+        """The PZD words (2..16) a face has set since the start."""
+        self._serial = 0
+        """Counts the changes of process data (`_taken_back`)."""
         self._callbacks: list[Callable[[DriveState], object]] = []
         self._watches: list[_Watch] = []
         self._quick: tuple[object, ...] | None = None
@@ -226,6 +246,8 @@ class DrivePoints:
             watch.put(state)
 
     def _on_update(self, status: DriveStatus) -> None:
+        if status.word & StatusWord.FAULT:
+            self._end_jog("faulted")
         if self._samples is not None:
             self._samples.append(Sample(time.time(), status.word, self.actual_row(status.actual)))
         quick = (status.word, status.actual, self.drive.control, self.drive.setpoints)
@@ -261,7 +283,22 @@ class DrivePoints:
 
     def check_health(self) -> None:
         """Tell subscribers if "does not send" changed (no answer reports that)."""
+        if self.drive.not_sending:
+            self._end_jog("does not send")
         if self.drive.not_sending != self._state.health.not_sending:
+            self._changed()
+
+    def _end_jog(self, why: str) -> None:
+        """A jog runs while its bit is held; a fault or a drive lost (a power cut) ends it:
+        the jog bits are dropped from the control word, so that the acknowledge of the fault
+        or the drive's return does not set the motor turning again (a family that jogs from
+        "ready to switch on" would, with the bit still set)."""
+        word = self.drive.control
+        jog = int(ControlWord.JOG1 | ControlWord.JOG2)
+        if word & jog:
+            self._serial += 1  # a request under way is not to take it back
+            self.drive.set_control(word & ~jog)
+            log.warning("%s: jog ended: the drive %s", self.key, why)
             self._changed()
 
     # -- subscribers -------------------------------------------------------------------------
@@ -308,31 +345,120 @@ class DrivePoints:
             raise UnknownPoint(
                 f"unknown command {_shown(name)} (known: {', '.join(COMMAND_TABLE)})"
             )
-        await getattr(self.drive, command.method)(*command.args, timeout=timeout)
+        self._check_takeover(command)
+        async with self._taken_back():
+            await getattr(self.drive, command.method)(*command.args, timeout=timeout)
         self._changed()
         return self._state
+
+    @contextlib.asynccontextmanager
+    async def _taken_back(self) -> AsyncIterator[None]:
+        """Process data that did not get through are taken back: when the request fails (the
+        master not started, closed or failed, the drive not answering, the request cut off)
+        the control word and setpoints are set back to those of before, unless a later
+        request changed them meanwhile - so a request its client was told failed does not
+        act later, when the master starts or the drive answers again."""
+        self._serial += 1
+        serial = self._serial
+        control, setpoints, given = self.drive.control, self.drive.setpoints, set(self._given)
+        try:
+            yield
+        except BaseException:
+            if serial == self._serial:
+                self.drive.set_control(control)
+                for number, word in enumerate(setpoints, start=2):
+                    self.drive.set_pzd(number, word)
+                self._given = given
+                self._changed()
+            raise
+
+    def _check_word(self, word: int, words: set[int]) -> None:
+        """`_check_takeover` for a control word a face sends itself (with the PZD words
+        ``words`` of the same request): one with control by the interface (bit 10) and ON
+        or a jog bit is an ON."""
+        if word & ControlWord.CONTROL_BY_PLC:
+            moves = bool(word & (ControlWord.ON | ControlWord.JOG1 | ControlWord.JOG2))
+            command = Command(f"control word {word:04X}h", "control_word", moves=moves)
+            self._check_takeover(command, words)
+
+    def _check_takeover(self, command: Command, given: set[int] | None = None) -> None:
+        """Refuse a command that would take over a drive switched on by a master before
+        this one (a gateway or page started again) with what nobody asked for: while this
+        master has sent no control word (0000h) the drive runs on the process data it had,
+        and a command takes control with the setpoints of this master. Acknowledge and jog
+        change bits of the word in force and start from 047Eh, OFF1: they would stop it. ON
+        would set it to setpoints nobody set here (0 after a start): refused until every
+        setpoint of the drive was set here. OFF1/2/3 stop it, as asked."""
+        if self.drive.control & ControlWord.CONTROL_BY_PLC:
+            return
+        unset = self._unset_setpoints(given or set())
+        if command.whole and not (command.moves and unset):
+            return
+        status = self.drive.status  # the last answer, also of a drive that does not send now
+        if status is None:
+            why = "has not answered yet, so whether it runs is not known"
+        elif status.word & (StatusWord.READY | StatusWord.OPERATION_ENABLED) and not (
+            status.word & StatusWord.FAULT
+        ):
+            why = f"is switched on ({status.state})"
+        else:
+            return
+        if command.whole:
+            would = f"with setpoint {', '.join(unset)} 0, which nobody set here"
+            advice = "set the setpoint first (on sends it), or send off1"
+        else:
+            would = "with OFF1 (047Eh)"
+            advice = "set the setpoint and send on, or send off1 first"
+        raise NotInControl(
+            f"{self.key}: {command.name} refused: the drive {why}, and this master has sent "
+            "it no control word yet (0000h: no control by the interface, the drive keeps "
+            f"the process data it had), so {command.name} would take control {would}; "
+            f"{advice}"
+        )
+
+    def _unset_setpoints(self, given: set[int]) -> list[str]:
+        """The setpoints of the drive whose words no face has set since the start (nor
+        sets now: the PZD numbers ``given``)."""
+        return [
+            item.key
+            for item in self.model.setpoints
+            if not {item.pzd, item.pzd + item.dword} <= self._given | given
+        ]
 
     async def set_control_word(self, word: int) -> DriveState:
         if isinstance(word, bool) or not isinstance(word, int) or not 0 <= word <= 0xFFFF:
             raise ConfigError(f"control word must be 0..65535 (0..FFFFh), not {word!r}")
-        await self.drive.control_word(word)
+        self._check_word(word, set())
+        async with self._taken_back():
+            await self.drive.control_word(word)
         self._changed()
         return self._state
 
     async def set_process(
         self, *, control: int | None = None, words: Mapping[int, int] | None = None
     ) -> DriveState:
-        """Set the control word and raw PZD words (``{number: word}``, 2..16) together;
-        returns once a telegram carrying all of them was answered."""
+        """Set the control word and raw PZD words (``{number: word}``, 2..16, 0..FFFFh)
+        together, all checked before any is set (a refused request changes no word); returns
+        once a telegram carrying all of them was answered."""
         if control is not None and (
             isinstance(control, bool) or not isinstance(control, int) or not 0 <= control <= 0xFFFF
         ):
             raise ConfigError(f"control word must be 0..65535 (0..FFFFh), not {control!r}")
-        for number, value in (words or {}).items():
+        words = dict(words or {})
+        for number, value in words.items():  # all checked before any is set
+            if isinstance(number, bool) or not isinstance(number, int):
+                raise ConfigError(f"PZD number must be a whole number, not {_shown(number)}")
             if not 2 <= number <= self.model.layout.pzd:
                 raise UnknownPoint(f"{self.key}: PZD{number} is not in layout {self.model.layout}")
-            self.drive.set_pzd(number, value)
-        await self.drive.control_word(self.drive.control if control is None else control)
+            if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 0xFFFF:
+                raise ConfigError(f"PZD{number} must be a 16-bit value, not {_shown(value)}")
+        if control is not None:
+            self._check_word(control, set(words))
+        async with self._taken_back():
+            for number, value in words.items():
+                self.drive.set_pzd(number, value)
+                self._given.add(number)
+            await self.drive.control_word(self.drive.control if control is None else control)
         self._changed()
         return self._state
 
@@ -394,7 +520,11 @@ class DrivePoints:
         carrying it was answered."""
         checked = self.check_setpoint(value, key, unit=unit)
         _, dword = self.setpoint_point(key)
-        await self.drive.setpoint(raw=checked.raw, pzd=checked.pzd, dword=dword, timeout=timeout)
+        async with self._taken_back():
+            self._given.update((checked.pzd, checked.pzd + dword))
+            await self.drive.setpoint(
+                raw=checked.raw, pzd=checked.pzd, dword=dword, timeout=timeout
+            )
         self._changed()
         return self._state
 
