@@ -415,6 +415,8 @@ class Master:
         self._exact = self.transport.exact_timestamps
         self._sent_frame = b""
         self._sent_end = -math.inf
+        self._echo_in = False
+        """The echo of the latest request was heard (a line that echoes gives back one copy)."""
         self._cycles = Samples()
         self._cycle_count = 0
         self._overruns = 0
@@ -1169,6 +1171,7 @@ class Master:
         # the model's end, not the clock's: a master woken late must not take an answer
         # that began after its request for one that began before
         self._sent_frame, self._sent_end = frame, start + on_line
+        self._echo_in = False
         log_frame("tx", frame, end)
         return start, end
 
@@ -1202,14 +1205,23 @@ class Master:
         On a line that stamps characters exactly (the virtual bus, ``bus://``): a telegram
         that began before the request had left the line. Elsewhere (a serial port, a pty, a
         TCP converter: no wire time, or stamps as late as the driver hands characters over)
-        time cannot tell, the bytes do: the request's very bytes, unless all its net data are
-        zero (a drive answers a zero request of a PKW-only layout with the same bytes) or it
-        is a mirror telegram, whose answer is the same bytes by design."""
+        time rarely tells, the bytes do: the request's very bytes. A mirror telegram, and a
+        request whose net data are all zero (a drive answers that one of a PKW-only layout,
+        and a scan's probe of a drive whose status word is zero, with the same bytes), are
+        answered with their very bytes too: their copy is the echo only when it was in
+        before the request had left the line (stamps are never early), or when the line has
+        been heard echoing and it is the first copy since the request (the echo is on the
+        line while the request is sent, the answer only after it)."""
         if self._exact:
             if event.start >= self._sent_end - 1e-6:
                 return False
-        elif mirror or event.raw != self._sent_frame or not any(event.telegram.data):
+        elif event.raw != self._sent_frame or (
+            (mirror or not any(event.telegram.data))
+            and event.end >= self._sent_end
+            and (self._own_heard == 0 or self._echo_in)
+        ):
             return False
+        self._echo_in = True
         self._own_heard += 1
         log_frame("rx", event.raw, event.end, "the master's own telegram heard back")
         if self._own_heard == 1:
