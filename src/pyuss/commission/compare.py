@@ -39,9 +39,10 @@ from pyuss.commission.backup import (
 from pyuss.drive.datatypes import DataType
 from pyuss.errors import ConfigError, UssError, UssTimeout
 from pyuss.master.drive import Drive
+from pyuss.master.errors import ValueDiffers
 from pyuss.params.book import ParamBook
-from pyuss.params.model import ParamInfo, param_label
-from pyuss.params.values import ValueRefused, encode, format_value
+from pyuss.params.model import ParamInfo, Reading, param_label
+from pyuss.params.values import ValueRefused, encode, format_value, words_text
 from pyuss.profiles import Profile
 
 __all__ = [
@@ -361,11 +362,18 @@ class Outcome:
     def ok(self) -> bool:
         return self.error is None
 
+    @property
+    def differs(self) -> bool:
+        """The drive took the write but answered with another value (`ValueDiffers`)."""
+        return self.error is not None and self.error.get("type") == ValueDiffers.__name__
+
     def error_text(self) -> str:
         """``error 12: keyword missing; <what to do>`` for a refusal, else the error's
         message."""
         if self.error is None:
             return ""
+        if self.differs:
+            return str(self.error["message"])
         if "number" in self.error:
             hint = self.error.get("hint")
             todo = f"; {hint}" if hint else ""
@@ -375,6 +383,8 @@ class Outcome:
     def text(self) -> str:
         if self.error is None:
             return f"{self.write.label} = {self.answer}"
+        if self.differs:
+            return self.error_text()
         return f"{self.write.label}: {self.error_text()}"
 
     def to_dict(self) -> dict[str, Any]:
@@ -413,12 +423,15 @@ async def restore(
         try:
             if write.info is None:
                 words = await drive.write_raw(write.pnu, write.raw, write.index, eeprom=eeprom)
-                answer = " ".join(f"{w:04X}h" for w in words)
+                reading = Reading(write.pnu, write.index, None, words, 0, write.raw)
+                answer = words_text(words)
+                written = words_text(write.raw)
             else:
                 reading = await drive.write_param(
                     write.pnu, write.value, write.index, eeprom=eeprom
                 )
                 answer = format_value(reading.info, reading.value)
+                written = reading.written_text()
         except ConfigError as exc:
             outcomes.append(Outcome(write, {"type": type(exc).__name__, "message": str(exc)}))
             continue
@@ -429,6 +442,11 @@ async def restore(
             outcomes.append(Outcome(write, error_dict(exc)))
             continue
         silent = 0
+        if reading.differs:  # the drive holds another value than the file's
+            name = f" ({write.info.name})" if write.info is not None and write.info.name else ""
+            differs = ValueDiffers(f"{write.label}{name}", written, answer)
+            outcomes.append(Outcome(write, error_dict(differs), answer))
+            continue
         outcomes.append(Outcome(write, None, answer))
     if progress is not None:
         progress(len(writes), len(writes), "")
@@ -441,11 +459,17 @@ def cut_short(writes: Sequence[Write], outcomes: Sequence[Outcome]) -> list[str]
     written, a commissioning parameter left in quick commissioning (its entry was written,
     its end was not), and how to go on."""
     taken = [o.write.label for o in outcomes if o.ok]
-    refused = [o.write.label for o in outcomes if not o.ok]
+    refused = [o.write.label for o in outcomes if not o.ok and not o.differs]
+    otherwise = [o.write.label for o in outcomes if o.differs]
     lines = [
         f"{len(taken)} of {len(writes)} written"
         + (f" ({', '.join(taken)})" if taken else "")
         + (f", {len(refused)} refused ({', '.join(refused)})" if refused else "")
+        + (
+            f", {len(otherwise)} answered with another value ({', '.join(otherwise)})"
+            if otherwise
+            else ""
+        )
     ]
     rest = list(writes[len(outcomes) :])
     if rest:
