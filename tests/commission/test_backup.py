@@ -26,6 +26,7 @@ from pyuss.commission.compare import plan
 from pyuss.errors import ConfigError
 from pyuss.params.book import ParamBook
 from pyuss.profiles import get_profile
+from support.processes import simulator_pty
 from support.typed import Simulator, start, stop
 from test_userfile import bad_files, refuses
 
@@ -576,3 +577,25 @@ def test_a_scan_beyond_the_drives_numbers_is_refused_before_it_starts(
     file = tmp_path / "set.toml"
     code, out = uss(["backup", "3", "-o", str(file), "--scan", "31995-32005", *opts(mm4)])
     assert (code, out) == (2, f"uss backup: {said}") and not file.exists()
+
+
+def test_a_parameter_read_on_neither_side_is_not_compared(tmp_path: Path) -> None:
+    # P4 and the other 32-bit and text parameters do not fit PKW 3: neither the backup nor
+    # the drive now gives their values, so nothing says they agree
+    options = ("--profile", "generic", "--address", "5", "--layout", "3,2", "--baud", "38400")
+    with simulator_pty(*options) as path:
+        port = ["--port", path, "--baud", "38400", "--layout", "3,2", "--profile", "generic"]
+        backup = str(tmp_path / "b.json")
+        assert uss(["backup", "5", "-o", backup, *port])[0] == 1  # 5 not read
+        code, out = uss(["diff", "5", backup, *port])
+        assert code == 1, out
+        lines = out.splitlines()
+        assert lines[0].startswith("not compared, read on neither side: P4 (")
+        assert "P90 (" in lines[0] and "P107 (" in lines[0]
+        assert lines[-1] == f"drive 5 and {backup} agree in the parameters both hold"
+        code, out = uss(["diff", backup, backup])
+        assert code == 0 and out.startswith("not compared, read on neither side: P4 (")
+        code, out = uss(["diff", "5", backup, *port, "--json"])
+        data = json.loads(out)
+        assert data["differences"] == []
+        assert [e["pnu"] for e in data["not_compared"]] == [4, 90, 91, 107, 825]

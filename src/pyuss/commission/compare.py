@@ -54,6 +54,7 @@ __all__ = [
     "changed_values",
     "compare",
     "cut_short",
+    "not_compared",
     "plan",
     "restore",
 ]
@@ -148,6 +149,17 @@ def changed_values(left: Backup, right: Backup) -> list[Difference]:
     """The read-only values (measured or shown by the drive) that differ between two parameter
     sets: shown apart from the settings, never restored."""
     return [d for d in _differences(left, right) if d.read_only]
+
+
+def not_compared(left: Backup, right: Backup) -> list[Difference]:
+    """The parameters neither set holds a value of (both could not read them): nothing says
+    whether they agree, so they are no difference and no agreement."""
+    rights = {(e.pnu, e.index): e for e in right.entries}
+    return [
+        Difference(a.pnu, a.index, a, b)
+        for a in left.entries
+        if not a.ok and (b := rights.get((a.pnu, a.index))) is not None and not b.ok
+    ]
 
 
 def _differences(left: Backup, right: Backup) -> list[Difference]:
