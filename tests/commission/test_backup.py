@@ -599,3 +599,23 @@ def test_a_parameter_read_on_neither_side_is_not_compared(tmp_path: Path) -> Non
         data = json.loads(out)
         assert data["differences"] == []
         assert [e["pnu"] for e in data["not_compared"]] == [4, 90, 91, 107, 825]
+
+
+def test_an_identity_read_on_one_side_only_is_no_other_drive(
+    mm4: Simulator, tmp_path: Path
+) -> None:
+    # the backup could not read the drive's product type: nothing says it is another drive's
+    # file, and nothing says it is this one's - refused without --force, in those words
+    file = tmp_path / "set.json"
+    assert uss(["backup", "3", "-o", str(file), *opts(mm4)])[0] == 0
+    data = json.loads(file.read_text(encoding="utf-8"))
+    error = {"type": "JobTimeout", "message": "slave 3 does not answer"}
+    data["identity"] = [{"pnu": 2010, "name": "USS baudrate", "error": error}]
+    unread = tmp_path / "unread.json"
+    unread.write_text(json.dumps(data), encoding="utf-8")
+    code, out = uss(["restore", "3", str(unread), "--yes", *opts(mm4)])
+    assert code == 2, out
+    assert "another drive" not in out
+    assert f"cannot tell whether {unread} is this drive's: P2010 (USS baudrate)" in out
+    assert "not read there" in out and "--force" in out
+    assert uss(["restore", "3", str(unread), "--yes", "--force", *opts(mm4)])[0] == 0

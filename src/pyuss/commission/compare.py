@@ -180,16 +180,27 @@ def _differences(left: Backup, right: Backup) -> list[Difference]:
 
 
 async def another_drive(wanted: Backup, drive: Drive) -> str | None:
-    """Why ``wanted`` is another drive's file: the first of its identity parameters (firmware,
-    device type) the drive holds otherwise, in words; None when they all agree. Reads them."""
+    """Why ``wanted`` may be another drive's file: the first of its identity parameters
+    (firmware, device type) the drive holds otherwise, in words - or, where one side has no
+    value of it (not read), that this cannot be told: a failed read is no value, neither a
+    match nor another drive's. None when they agree. Reads them."""
     found = await read_entries(drive, wanted, wanted.identity)
     words = wanted.profile != kind_of(drive)
+    source = wanted.source or "the backup"
     for old, new in zip(wanted.identity, found, strict=True):
-        if not same_entry(old, new, words=words):
+        if same_entry(old, new, words=words):
+            continue
+        if old.ok and new.ok:
             return (
-                f"{wanted.source or 'the backup'} is from another drive: {old.label} "
-                f"({old.name}) is {old.text()} there, {new.text()} here"
+                f"{source} is from another drive: {old.label} ({old.name}) is {old.text()} "
+                f"there, {new.text()} here"
             )
+        where = "there" if not old.ok else "here"
+        error = (old if not old.ok else new).error or {}
+        return (
+            f"cannot tell whether {source} is this drive's: {old.label} ({old.name}) was not "
+            f"read {where} ({error.get('message', 'error')})"
+        )
     return None
 
 
