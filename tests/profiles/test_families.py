@@ -471,3 +471,28 @@ def test_profile_auto_takes_a_drive_that_shows_no_family_as_one_of_unknown_kind(
         "uss read: address 2: the drive shows no family known here; it is taken as one of"
         " unknown kind (its parameters as words; --profile NAME gives a family's)"
     ]
+
+
+def test_profile_auto_says_when_it_knows_the_kind_but_not_the_family() -> None:
+    """A SINAMICS G120 shows it is a Siemens drive of the MICROMASTER 4 kind (r0964.0 = 42),
+    but no product type known here: `--profile auto` reads it with the micromaster4 file,
+    and says so, since that file's parameters, units and limits are not the drive's word."""
+    proc, url = _simulate("--profile", "sinamics-g120", "--address", "2", "--tcp", "127.0.0.1:0")
+    try:
+        done = subprocess.run(
+            [*USS, "read", "2", "964.0", "--port", url, "--profile", "auto", "--timeout", "0.5"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=20)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().startswith("r0964.0 = 42")
+    assert done.stderr.strip().splitlines() == [
+        "uss read: address 2: Siemens, MICROMASTER 4 kind, product type 0: its family is not"
+        " known here; its parameters, units and limits are taken from the micromaster4"
+        " profile's file, not from the drive (--profile NAME gives its family's)"
+    ]
