@@ -161,3 +161,19 @@ def test_a_restore_answered_with_another_value_says_so(
         assert out.strip().endswith("drive 5: 0 of 1 written, 1 answered with another value")
         code, out, _ = _uss(capsys, "diff", "5", backup, *port)
         assert code == 1 and "P18 (Fixed setpoint): 1000 -> 5000" in out
+
+
+def test_verify_of_a_drive_that_limits_the_value_does_not_say_it_did_nothing(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # the answer to "P18 = 5000" is lost; the drive took the write and holds 1000: reading
+    # back shows another value, which is no proof that the write was not carried out
+    with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
+        _limits_p18(sim, 1000)
+        _on_write_telegram(sim, lambda at: sim.bus.make_deaf("pty1", 0.5, start=at))  # type: ignore[union-attr]
+        argv = ["write", "5", "18", "5000", "--verify", "--timeout", "0.4", *_port(sim)]
+        code, out, err = _uss(capsys, *argv)
+        assert code == 1 and not out
+        assert "reading it back shows 1000 (3E8h): the drive does not hold the value" in err
+        assert "or it holds a value of its own (it limits or rounds)" in err
+        assert sim.call(lambda s: s.engines[5].drive.value(18)) == 1000
