@@ -206,8 +206,8 @@ def test_status_and_acknowledge(mm4: Simulator) -> None:
     data = json.loads(out)
     assert code == 0 and data["state"] == "switch-on inhibited" and data["unit"] == "Hz"
     assert [p["label"] for p in data["parameters"]] == ["r0002", "r0021", "r0947.0"]
-    code, out = uss(["ack", "3", *opts(mm4)])
-    assert code == 0 and out.startswith("drive 3: acknowledged: ready to switch on")
+    code, out = uss(["ack", "3", *opts(mm4)])  # the drive reported no fault before
+    assert code == 0 and out.startswith("drive 3: no fault to acknowledge: ready to switch on")
 
 
 values = st.one_of(
