@@ -417,6 +417,8 @@ class Master:
         self._sent_end = -math.inf
         self._echo_in = False
         """The echo of the latest request was heard (a line that echoes gives back one copy)."""
+        self._loopback = str(getattr(self.transport, "url", "")).startswith("loop://")
+        """pyserial's loopback: every copy of a request is its echo."""
         self._cycles = Samples()
         self._cycle_count = 0
         self._overruns = 0
@@ -1205,19 +1207,20 @@ class Master:
         On a line that stamps characters exactly (the virtual bus, ``bus://``): a telegram
         that began before the request had left the line. Elsewhere (a serial port, a pty, a
         TCP converter: no wire time, or stamps as late as the driver hands characters over)
-        time rarely tells, the bytes do: the request's very bytes. A mirror telegram, and a
-        request whose net data are all zero (a drive answers that one of a PKW-only layout,
-        and a scan's probe of a drive whose status word is zero, with the same bytes), are
-        answered with their very bytes too: their copy is the echo only when it was in
-        before the request had left the line (stamps are never early), or when the line has
-        been heard echoing and it is the first copy since the request (the echo is on the
-        line while the request is sent, the answer only after it)."""
+        time cannot tell (a peer behind a pty answers at its own rate, sooner than the line
+        of the master's would bring it), the bytes do: the request's very bytes. A mirror
+        telegram, and a request whose net data are all zero (a drive answers that one of a
+        PKW-only layout, and a scan's probe of a drive whose status word is zero, with the
+        same bytes), are answered with their very bytes too: their copy is the echo on
+        pyserial's ``loop://`` (a loopback: no drive is on it), or when the line has been
+        heard echoing and it is the first copy since the request (the echo is on the line
+        while the request is sent, the answer only after it)."""
         if self._exact:
             if event.start >= self._sent_end - 1e-6:
                 return False
         elif event.raw != self._sent_frame or (
             (mirror or not any(event.telegram.data))
-            and event.end >= self._sent_end
+            and not self._loopback
             and (self._own_heard == 0 or self._echo_in)
         ):
             return False
