@@ -3,16 +3,18 @@ master never takes its own telegram, heard back, for the drive's answer."""
 
 from __future__ import annotations
 
+import asyncio
 import logging
 
 import pytest
 
-from pyuss.bus import VirtualBus
+from pyuss.bus import FaultPlan, VirtualBus
 from pyuss.cli.main import main
 from pyuss.errors import DriveRefusal
 from pyuss.master import Master, NotSending
 from pyuss.master.testing import simulated_drives
 from pyuss.protocol.layout import Layout
+from support.buses import SimulatorThread
 
 
 async def test_the_masters_own_telegram_heard_back_is_no_answer(
@@ -87,3 +89,17 @@ def test_a_scan_over_loop_finds_no_drive(capsys: pytest.CaptureFixture[str]) -> 
     assert code == 1, out
     assert "no drive answered" in out + err
     assert "9600" not in out
+
+
+async def test_a_late_answer_to_a_mirror_telegram_is_no_echo() -> None:
+    # the drive's answer to the first mirror telegram comes after the master gave it up: it
+    # is the drive's, not the master's own telegram heard back, and the line does not echo
+    # for that: the next mirror telegram's answer is taken
+    late = FaultPlan.parse(["delay:station=drive5,seconds=0.3,nth=1,count=1"])
+    with SimulatorThread([(5, "generic", Layout(3, 2))], faults=late) as sim:
+        async with Master(sim.paths[0], baud=sim.baud, layout="3,2") as master:
+            with pytest.raises(NotSending):
+                await master.mirror(5)
+            await asyncio.sleep(0.6)  # the late answer is in
+            assert (await master.mirror(5)).round_trip > 0
+            assert master.diagnostics().own_heard == 0

@@ -134,6 +134,8 @@ DEFAULT_JOB_TIMEOUT = 2.0
 _JOB_CHECK = 0.05
 """Longest wait for the line during an exchange before the jobs of other slaves are looked at
 (only a long response delay limit waits longer than this at once)."""
+_MIRROR_BIT = int(AddressMode.MIRROR)
+"""ADR bit 6: a mirror telegram (A 5.3), byte 2 of a telegram."""
 
 
 class Mode(enum.Enum):
@@ -417,6 +419,7 @@ class Master:
         self._sent_end = -math.inf
         self._echo_in = False
         """The echo of the latest request was heard (a line that echoes gives back one copy)."""
+        self._sent_mirror = False
         self._loopback = str(getattr(self.transport, "url", "")).startswith("loop://")
         """pyserial's loopback: every copy of a request is its echo."""
         self._cycles = Samples()
@@ -1173,6 +1176,7 @@ class Master:
         # the model's end, not the clock's: a master woken late must not take an answer
         # that began after its request for one that began before
         self._sent_frame, self._sent_end = frame, start + on_line
+        self._sent_mirror = len(frame) > 2 and bool(frame[2] & _MIRROR_BIT)
         self._echo_in = False
         log_frame("tx", frame, end)
         return start, end
@@ -1199,7 +1203,7 @@ class Master:
         if self._receiver.busy:
             self._stray_events(self._receiver.poll(self._clock() - self.latency))
 
-    def _own(self, event: Received, mirror: bool = False) -> bool:
+    def _own(self, event: Received) -> bool:
         """Whether ``event`` is the master's own telegram heard back (a line that echoes: a
         2-wire adapter without echo suppression, ``loop://``), never an answer. Counted, and
         told once (`BusDiagnostics.own_heard`).
@@ -1214,12 +1218,14 @@ class Master:
         same bytes), are answered with their very bytes too: their copy is the echo on
         pyserial's ``loop://`` (a loopback: no drive is on it), or when the line has been
         heard echoing and it is the first copy since the request (the echo is on the line
-        while the request is sent, the answer only after it)."""
+        while the request is sent, the answer only after it). Whether the request was a
+        mirror telegram its ADR byte says (bit 6), also for a copy that comes after the
+        exchange (a late answer)."""
         if self._exact:
             if event.start >= self._sent_end - 1e-6:
                 return False
         elif event.raw != self._sent_frame or (
-            (mirror or not any(event.telegram.data))
+            (self._sent_mirror or not any(event.telegram.data))
             and not self._loopback
             and (self._own_heard == 0 or self._echo_in)
         ):
@@ -1381,7 +1387,7 @@ class Master:
             if link is not None:
                 link.diagnostics.record_fault(event.kind, event.end)
             return _Outcome.FAULT
-        if self._own(event, AddressMode.MIRROR in modes):
+        if self._own(event):
             return None
         telegram = event.telegram
         if telegram.address != address or telegram.mode not in modes:
