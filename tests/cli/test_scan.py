@@ -135,3 +135,23 @@ def test_a_bad_address_range_is_answered_with_an_example_that_is_right(text: str
     assert done.stderr == (
         f"uss scan: --address {text!r}: expected addresses 0..31 and ranges, e.g. 0-31 or 1,5,7-9\n"
     )
+
+
+def test_a_response_time_no_line_could_give_is_not_printed(
+    sim: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # behind a pty the answer is read long before a line at 300 baud could have brought it
+    # (the simulator answers at its own rate): no response time was measured, none is shown
+    from pyuss.cli.main import main
+
+    argv = ["scan", "--port", sim, "--baud", "300", "--address", "2", "--layout", "3,2"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    (row,) = [line for line in out.splitlines() if line.split()[:1] == ["2"]]
+    assert row.split()[4:] == ["-", "-"], row  # response, family
+    assert main([*argv, "--json"]) == 0
+    (found,) = json.loads(capsys.readouterr().out)
+    assert found["response_time"] is None
+    code = main(["mirror", "2", "--port", sim, "--baud", "300", "--layout", "3,2", "--count", "1"])
+    out = capsys.readouterr().out
+    assert code == 0 and out.startswith("mirror 1: ok, 14 bytes, response -, round trip "), out

@@ -306,7 +306,7 @@ def test_run_takes_percent_and_refuses_a_unit_it_cannot_know(
     assert all(ln["setpoint"] == pytest.approx(20.0, abs=0.01) for ln in lines)
     assert lines[-1]["state"] != "operation enabled"  # switched off again
     code, out, _ = uss(capsys, "ack", "0", *at[:-2])
-    assert code == 0 and out.startswith("drive 0: acknowledged")
+    assert code == 0 and out.startswith("drive 0: no fault to acknowledge")  # none reported
 
 
 def test_mirror_and_scan_find_the_drive_and_name_no_family(
@@ -497,3 +497,17 @@ def test_backup_says_the_kind_is_unknown_and_restore_writes_the_words_back(
     finally:
         uss(capsys, "write", "0", "150", "1200", *at)
     assert uss(capsys, "read", "0", "150", *at)[1] == "P150 = 1200 (04B0h)\n"
+
+
+def test_a_backup_that_would_hold_nothing_is_refused(
+    pump: PumpBus, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # of a drive of unknown kind nothing is known: a backup of it would be an empty file
+    # reported as taken; it is refused before anything is sent, saying what gives parameters
+    file = tmp_path / "pump.json"
+    at = [*pump.port("pty"), "--layout", "4,6"]
+    code, out, err = uss(capsys, "backup", "0", "-o", str(file), *at)
+    assert (code, out) == (2, "")
+    assert err.startswith("uss backup: no parameter of drive 0 is known (a drive of unknown kind")
+    assert "--scan FROM-TO" in err and "--params FILE" in err and "--profile" in err
+    assert not file.exists()

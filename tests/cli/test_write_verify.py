@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
+from pathlib import Path
 
 import pytest
 
@@ -102,3 +103,77 @@ def test_json_says_how_the_value_is_known(capsys: pytest.CaptureFixture[str]) ->
         error = json.loads(out)["error"]
         assert code == 1 and error["outcome"] == "unknown" and error["may_have_applied"] is True
         assert error["sent"] >= 1 and error["timeout"] == 0.3
+
+
+def _limits_p18(sim: SimulatorThread, highest: int) -> None:
+    """The drive holds at most ``highest`` in P18 and answers a write with what it holds, as
+    drives that limit or round a value do."""
+
+    def patch(s: SimulatorThread) -> None:
+        drive = s.engines[5].drive
+        original = drive.write_words
+
+        def write_words(pnu: int, words: tuple[int, ...], *a: object, **k: object) -> object:
+            if pnu == 18:
+                words = (min(words[0], highest),)
+            return original(pnu, words, *a, **k)
+
+        drive.write_words = write_words  # type: ignore[method-assign,assignment]
+
+    sim.call(patch)
+
+
+def test_a_write_answered_with_another_value_is_not_done(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
+        _limits_p18(sim, 1000)
+        code, out, err = _uss(
+            capsys, "write", "5", "18", "5000", *_port(sim), "--profile", "generic"
+        )
+        assert code == 1, out
+        assert out.strip() == "P18 = 1000 (Fixed setpoint)"  # what the drive holds
+        assert err.startswith("uss write: P18 (Fixed setpoint): the drive answered 1000, not")
+        assert "5000" in err and len(err.splitlines()) == 1
+        code, out, err = _uss(capsys, "write", "5", "18", "5000", "--raw", *_port(sim), "--json")
+        assert code == 1 and not err
+        data = json.loads(out)
+        assert data["raw"] == [1000] and data["written"] == [5000]
+        assert data["error"]["type"] == "ValueDiffers" and data["error"]["exit_code"] == 1
+        code, out, _ = _uss(capsys, "write", "5", "18", "700", *_port(sim))
+        assert (code, out.strip()) == (0, "P18 = 700 (02BCh)")
+
+
+def test_a_restore_answered_with_another_value_says_so(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
+        port = [*_port(sim), "--profile", "generic"]
+        assert _uss(capsys, "write", "5", "18", "5000", *port)[0] == 0
+        backup = str(tmp_path / "b.json")
+        assert _uss(capsys, "backup", "5", "-o", backup, *port)[0] == 1  # 32 bits: not in PKW 3
+        assert _uss(capsys, "write", "5", "18", "0", *port)[0] == 0
+        _limits_p18(sim, 1000)
+        code, out, err = _uss(capsys, "restore", "5", backup, "--yes", *port)
+        assert code == 1, out + err
+        assert "P18 (Fixed setpoint): the drive answered 1000, not 5000: it holds another" in out
+        assert "refused" not in out
+        assert out.strip().endswith("drive 5: 0 of 1 written, 1 answered with another value")
+        code, out, _ = _uss(capsys, "diff", "5", backup, *port)
+        assert code == 1 and "P18 (Fixed setpoint): 1000 -> 5000" in out
+
+
+def test_verify_of_a_drive_that_limits_the_value_does_not_say_it_did_nothing(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # the answer to "P18 = 5000" is lost; the drive took the write and holds 1000: reading
+    # back shows another value, which is no proof that the write was not carried out
+    with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
+        _limits_p18(sim, 1000)
+        _on_write_telegram(sim, lambda at: sim.bus.make_deaf("pty1", 0.5, start=at))  # type: ignore[union-attr]
+        argv = ["write", "5", "18", "5000", "--verify", "--timeout", "0.4", *_port(sim)]
+        code, out, err = _uss(capsys, *argv)
+        assert code == 1 and not out
+        assert "reading it back shows 1000 (3E8h): the drive does not hold the value" in err
+        assert "or it holds a value of its own (it limits or rounds)" in err
+        assert sim.call(lambda s: s.engines[5].drive.value(18)) == 1000

@@ -26,6 +26,7 @@ from pyuss.commission.compare import plan
 from pyuss.errors import ConfigError
 from pyuss.params.book import ParamBook
 from pyuss.profiles import get_profile
+from support.processes import simulator_pty
 from support.typed import Simulator, start, stop
 from test_userfile import bad_files, refuses
 
@@ -205,8 +206,8 @@ def test_status_and_acknowledge(mm4: Simulator) -> None:
     data = json.loads(out)
     assert code == 0 and data["state"] == "switch-on inhibited" and data["unit"] == "Hz"
     assert [p["label"] for p in data["parameters"]] == ["r0002", "r0021", "r0947.0"]
-    code, out = uss(["ack", "3", *opts(mm4)])
-    assert code == 0 and out.startswith("drive 3: acknowledged: ready to switch on")
+    code, out = uss(["ack", "3", *opts(mm4)])  # the drive reported no fault before
+    assert code == 0 and out.startswith("drive 3: no fault to acknowledge: ready to switch on")
 
 
 values = st.one_of(
@@ -576,3 +577,45 @@ def test_a_scan_beyond_the_drives_numbers_is_refused_before_it_starts(
     file = tmp_path / "set.toml"
     code, out = uss(["backup", "3", "-o", str(file), "--scan", "31995-32005", *opts(mm4)])
     assert (code, out) == (2, f"uss backup: {said}") and not file.exists()
+
+
+def test_a_parameter_read_on_neither_side_is_not_compared(tmp_path: Path) -> None:
+    # P4 and the other 32-bit and text parameters do not fit PKW 3: neither the backup nor
+    # the drive now gives their values, so nothing says they agree
+    options = ("--profile", "generic", "--address", "5", "--layout", "3,2", "--baud", "38400")
+    with simulator_pty(*options) as path:
+        port = ["--port", path, "--baud", "38400", "--layout", "3,2", "--profile", "generic"]
+        backup = str(tmp_path / "b.json")
+        assert uss(["backup", "5", "-o", backup, *port])[0] == 1  # 5 not read
+        code, out = uss(["diff", "5", backup, *port])
+        assert code == 1, out
+        lines = out.splitlines()
+        assert lines[0].startswith("not compared, read on neither side: P4 (")
+        assert "P90 (" in lines[0] and "P107 (" in lines[0]
+        assert lines[-1] == f"drive 5 and {backup} agree in the parameters both hold"
+        code, out = uss(["diff", backup, backup])
+        assert code == 0 and out.startswith("not compared, read on neither side: P4 (")
+        code, out = uss(["diff", "5", backup, *port, "--json"])
+        data = json.loads(out)
+        assert data["differences"] == []
+        assert [e["pnu"] for e in data["not_compared"]] == [4, 90, 91, 107, 825]
+
+
+def test_an_identity_read_on_one_side_only_is_no_other_drive(
+    mm4: Simulator, tmp_path: Path
+) -> None:
+    # the backup could not read the drive's product type: nothing says it is another drive's
+    # file, and nothing says it is this one's - refused without --force, in those words
+    file = tmp_path / "set.json"
+    assert uss(["backup", "3", "-o", str(file), *opts(mm4)])[0] == 0
+    data = json.loads(file.read_text(encoding="utf-8"))
+    error = {"type": "JobTimeout", "message": "slave 3 does not answer"}
+    data["identity"] = [{"pnu": 2010, "name": "USS baudrate", "error": error}]
+    unread = tmp_path / "unread.json"
+    unread.write_text(json.dumps(data), encoding="utf-8")
+    code, out = uss(["restore", "3", str(unread), "--yes", *opts(mm4)])
+    assert code == 2, out
+    assert "another drive" not in out
+    assert f"cannot tell whether {unread} is this drive's: P2010 (USS baudrate)" in out
+    assert "not read there" in out and "--force" in out
+    assert uss(["restore", "3", str(unread), "--yes", "--force", *opts(mm4)])[0] == 0

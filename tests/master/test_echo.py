@@ -3,11 +3,12 @@ master never takes its own telegram, heard back, for the drive's answer."""
 
 from __future__ import annotations
 
+import asyncio
 import logging
 
 import pytest
 
-from pyuss.bus import VirtualBus
+from pyuss.bus import FaultPlan, VirtualBus
 from pyuss.cli.main import main
 from pyuss.errors import DriveRefusal
 from pyuss.master import Master, NotSending
@@ -61,11 +62,13 @@ async def test_no_drive_is_made_up_from_the_echo_of_a_request_to_an_empty_addres
 
 def test_a_read_over_loop_is_no_answer_of_a_drive(capsys: pytest.CaptureFixture[str]) -> None:
     # pyserial's loop:// gives back what is written: no drive is on it, and none answers;
-    # without exact timestamps the bytes tell the echo of the read from an answer
+    # without exact timestamps the bytes tell the echo of the read from an answer, and the
+    # echo of the "no job" before it (net data zero) came back before it had left the line:
+    # the drive answered nothing at all, not "stopped answering"
     code = main(["read", "--port", "loop://", "--layout", "3,2", "--timeout", "0.3", "5", "107"])
     out, err = capsys.readouterr()
     assert code == 1 and out == "", out
-    assert err.startswith("P107: slave 5 ") and "no reply to read parameter value P107" in err
+    assert err.startswith("P107: slave 5 does not answer (no reply within 0.3 s)"), err
 
 
 async def test_a_line_that_does_not_echo_is_never_said_to(caplog: pytest.LogCaptureFixture) -> None:
@@ -95,4 +98,37 @@ async def test_a_pkw_only_answer_with_the_requests_bytes_is_the_drives_over_a_pt
             drive = master.drive(3)
             sim.call(lambda s: s.engines[3].drive.update(52, 0))
             assert await drive.read(52) == 0
+
+
+def test_a_mirror_test_over_loop_is_no_drive(capsys: pytest.CaptureFixture[str]) -> None:
+    # a mirror telegram's answer is its very bytes: the echo came back before the request had
+    # left the line, so it is none, and the line echoes from then on
+    code = main(["mirror", "5", "--port", "loop://", "--layout", "3,2", "--count", "3"])
+    out, err = capsys.readouterr()
+    assert code == 1, out
+    assert "0 of 3 came back unchanged" in out and ": ok" not in out
+    assert "slave 5 does not send" in err
+
+
+def test_a_scan_over_loop_finds_no_drive(capsys: pytest.CaptureFixture[str]) -> None:
+    # the scan's probes ("no job", process data zero) are answered by a drive of a PKW-only
+    # layout with their very bytes: heard back, they are no drives at every address
+    code = main(["scan", "--port", "loop://", "--address", "1-3", "--baud", "9600"])
+    out, err = capsys.readouterr()
+    assert code == 1, out
+    assert "no drive answered" in out + err
+    assert "9600" not in out
+
+
+async def test_a_late_answer_to_a_mirror_telegram_is_no_echo() -> None:
+    # the drive's answer to the first mirror telegram comes after the master gave it up: it
+    # is the drive's, not the master's own telegram heard back, and the line does not echo
+    # for that: the next mirror telegram's answer is taken
+    late = FaultPlan.parse(["delay:station=drive5,seconds=0.3,nth=1,count=1"])
+    with SimulatorThread([(5, "generic", Layout(3, 2))], faults=late) as sim:
+        async with Master(sim.paths[0], baud=sim.baud, layout="3,2") as master:
+            with pytest.raises(NotSending):
+                await master.mirror(5)
+            await asyncio.sleep(0.6)  # the late answer is in
+            assert (await master.mirror(5)).round_trip > 0
             assert master.diagnostics().own_heard == 0

@@ -424,6 +424,22 @@ def test_interface_parameters_set_the_simulated_interface(name: str, tmp_path: P
     assert profile.fault_text(code)
 
 
+def _read_auto(profile: str, parameter: str) -> subprocess.CompletedProcess[str]:
+    """``uss read 2 PARAMETER --profile auto`` of a drive simulated with ``profile``."""
+    proc, url = _simulate("--profile", profile, "--address", "2", "--tcp", "127.0.0.1:0")
+    try:
+        return subprocess.run(
+            [*USS, "read", "2", parameter, "--port", url, "--profile", "auto", "--timeout", "0.5"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=20)
+
+
 @pytest.mark.parametrize(
     ("name", "parameter", "expected"),
     [
@@ -434,18 +450,7 @@ def test_interface_parameters_set_the_simulated_interface(name: str, tmp_path: P
 def test_profile_auto_reads_with_the_family_the_drive_shows(
     name: str, parameter: str, expected: str
 ) -> None:
-    proc, url = _simulate("--profile", name, "--address", "2", "--tcp", "127.0.0.1:0")
-    try:
-        done = subprocess.run(
-            [*USS, "read", "2", parameter, "--port", url, "--profile", "auto", "--timeout", "0.5"],
-            capture_output=True,
-            text=True,
-            timeout=60,
-            check=False,
-        )
-    finally:
-        proc.send_signal(signal.SIGTERM)
-        proc.communicate(timeout=20)
+    done = _read_auto(name, parameter)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == expected
 
@@ -453,21 +458,24 @@ def test_profile_auto_reads_with_the_family_the_drive_shows(
 def test_profile_auto_takes_a_drive_that_shows_no_family_as_one_of_unknown_kind() -> None:
     """`--profile auto` assumes nothing the drive did not say: a drive that answers but shows
     no family is read as without a profile (its words), with one line saying so."""
-    proc, url = _simulate("--profile", "generic", "--address", "2", "--tcp", "127.0.0.1:0")
-    try:
-        done = subprocess.run(
-            [*USS, "read", "2", "52", "--port", url, "--profile", "auto", "--timeout", "0.5"],
-            capture_output=True,
-            text=True,
-            timeout=60,
-            check=False,
-        )
-    finally:
-        proc.send_signal(signal.SIGTERM)
-        proc.communicate(timeout=20)
+    done = _read_auto("generic", "52")
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "P52 = 16384 (4000h)"
     assert done.stderr.strip().splitlines() == [
         "uss read: address 2: the drive shows no family known here; it is taken as one of"
         " unknown kind (its parameters as words; --profile NAME gives a family's)"
+    ]
+
+
+def test_profile_auto_says_when_it_knows_the_kind_but_not_the_family() -> None:
+    """A SINAMICS G120 shows it is a Siemens drive of the MICROMASTER 4 kind (r0964.0 = 42),
+    but no product type known here: `--profile auto` reads it with the micromaster4 file,
+    and says so, since that file's parameters, units and limits are not the drive's word."""
+    done = _read_auto("sinamics-g120", "964.0")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().startswith("r0964.0 = 42")
+    assert done.stderr.strip().splitlines() == [
+        "uss read: address 2: Siemens, MICROMASTER 4 kind, product type 0: its family is not"
+        " known here; its parameters, units and limits are taken from the micromaster4"
+        " profile's file, not from the drive (--profile NAME gives its family's)"
     ]

@@ -1,8 +1,9 @@
 """Acknowledge a drive's fault: uss ack ADDRESS
 
 A rising edge of control word bit 7 (C Table 5.4): the word with bit 7 set, then cleared, each
-answered by the drive. Prints the state the drive reports afterwards. A drive that still
-reports a fault (its cause is still there) gives exit code 1.
+answered by the drive. Prints the state the drive reports afterwards: "acknowledged" when it
+reported a fault before and none after, "no fault to acknowledge" when it reported none before
+either. A drive that still reports a fault (its cause is still there) gives exit code 1.
 """
 
 from __future__ import annotations
@@ -38,7 +39,11 @@ def main(args: argparse.Namespace) -> int:
             "status": status.word,
             "status_hex": f"{status.word:04X}",
         }
-        verdict = "still in fault" if status.fault else "acknowledged"
+        # what the drive's answers say: a fault before and none after is acknowledged
+        if status.fault:
+            verdict = "still in fault" if before.fault else "in fault"
+        else:
+            verdict = "acknowledged" if before.fault else "no fault to acknowledge"
         emit(
             args,
             data,

@@ -25,6 +25,7 @@ from pyuss.cli import _params
 from pyuss.cli._master import EXIT_FAILED, EXIT_OK, command, emit, finish, open_master, run
 from pyuss.cli.params import pnu_range
 from pyuss.commission import backup as backups
+from pyuss.errors import ConfigError
 
 
 def register(subparsers: Any) -> None:
@@ -67,6 +68,13 @@ def main(args: argparse.Namespace) -> int:
                     pnus = sorted({*drive.params.pnus(), *found})
                     progress.close()
                     progress = _params.Progress("backup", enabled=None if not args.json else False)
+                if pnus is None and not drive.params.pnus():
+                    kind = "" if drive.profile_named else " (a drive of unknown kind: no --profile)"
+                    raise ConfigError(
+                        f"no parameter of drive {args.address} is known{kind}: a backup would "
+                        "hold nothing; --scan FROM-TO finds its parameters, --params FILE names "
+                        "them, --profile NAME gives its family's"
+                    )
                 taken = await backups.take(drive, pnus=pnus, port=args.port, progress=progress)
             finally:
                 progress.close()

@@ -6,8 +6,11 @@ kind and read as words; against a file of a named profile (or two files of diffe
 the parameters are compared by their raw words. Each setting that differs prints as one line
 with the parameter's name and unit: ``P1120 (Ramp-up time): 10.00 s -> 2.50 s`` (left ->
 right). Read-only values (status words, actual values) that differ follow apart: the drive
-measures or shows them, they are no settings and no restore writes them. Exit code 0 when the
-settings agree, 1 when they differ (as diff does), 2 for a file that is no backup.
+measures or shows them, they are no settings and no restore writes them. A parameter neither
+side has a value of (not read by the backup, nor now) is not compared: a line names them first,
+and the settings agree only "in the parameters both hold". Exit code 0 when the settings
+agree, 1 when they differ (as diff does) or the drive gave no value of a parameter, 2 for a
+file that is no backup.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ from pyuss.cli._master import (
     use_lines,
 )
 from pyuss.commission import backup as backups
-from pyuss.commission.compare import changed_values, compare
+from pyuss.commission.compare import changed_values, compare, not_compared
 from pyuss.errors import ConfigError
 from pyuss.lines import is_address
 from pyuss.params.book import ParamBook
@@ -52,7 +55,8 @@ def register(subparsers: Any) -> None:
             action.required = False
     _params.add_options(parser)
     parser.epilog = (
-        "exit codes:\n  0    the settings agree\n  1    settings differ\n  2    bad input"
+        "exit codes:\n  0    the settings agree\n  1    settings differ, or the drive gave no "
+        "value of one\n  2    bad input"
     )
 
 
@@ -78,12 +82,15 @@ def main(args: argparse.Namespace) -> int:
                 book = drive.params
             left = backups.Backup(where, backups.kind_of(drive), entries, source=f"drive {where}")
             left_name = f"drive {where}"
+            live = True
         else:
             left = backups.load(args.left)
             left_name = args.left
+            live = False
             book = book_for(right.profile)
         differences = compare(left, right)
         values = changed_values(left, right)
+        unknown = not_compared(left, right)
         if args.json:
             emit(
                 args,
@@ -92,10 +99,16 @@ def main(args: argparse.Namespace) -> int:
                     "right": args.right,
                     "differences": [d.to_dict() for d in differences],
                     "read_only": [d.to_dict() for d in values],
+                    "not_compared": [d.to_dict() for d in unknown],
                 },
                 "",
             )
         else:
+            if unknown:
+                print(
+                    "not compared, read on neither side: "
+                    + ", ".join(f"{d.label} ({d.name})" if d.name else d.label for d in unknown)
+                )
             for difference in differences:
                 print(difference.text(book))
             count = len(differences)
@@ -104,6 +117,7 @@ def main(args: argparse.Namespace) -> int:
                 f" between {left_name} and {args.right}"
                 if count
                 else f"{left_name} and {args.right} agree"
+                + (" in the parameters both hold" if unknown else "")
             )
             if values:
                 print(
@@ -111,6 +125,7 @@ def main(args: argparse.Namespace) -> int:
                 )
                 for value in values:
                     print(f"  {value.text(book)}")
-        return EXIT_FAILED if differences else EXIT_OK
+        # a parameter the drive gave no value of now could not be read (exit code 1)
+        return EXIT_FAILED if differences or (unknown and live) else EXIT_OK
 
     return run("diff", args, body)

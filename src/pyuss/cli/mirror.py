@@ -65,19 +65,22 @@ def main(args: argparse.Namespace) -> int:
                     if not args.json:
                         print(f"mirror {n}: {exc}", file=sys.stderr)
                     continue
+                # 0 or less: not measured (an answer read sooner than a line brings it, over
+                # a pty or a socket); a slave keeps the start pause first (A 5.2.1.1)
+                measured = result.response_time if result.response_time > 0 else None
                 tries.append(
                     {
                         "ok": True,
-                        "response_time": result.response_time,
+                        "response_time": measured,
                         "round_trip": result.round_trip,
                         "sent": result.sent.hex(" ").upper(),
                     }
                 )
                 if not args.json:
+                    response = "-" if measured is None else f"{measured * 1000:.2f} ms"
                     print(
-                        f"mirror {n}: ok, {len(result.sent)} bytes, response "
-                        f"{result.response_time * 1000:.2f} ms, round trip "
-                        f"{result.round_trip * 1000:.2f} ms"
+                        f"mirror {n}: ok, {len(result.sent)} bytes, response {response}, "
+                        f"round trip {result.round_trip * 1000:.2f} ms"
                     )
         good = sum(1 for t in tries if t["ok"])
         emit(

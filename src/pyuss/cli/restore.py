@@ -123,13 +123,15 @@ def main(args: argparse.Namespace) -> int:
                 progress.close()
             _params.save(args, drive)
         failed = [o for o in outcomes if not o.ok]
+        otherwise = sum(o.differs for o in failed)
         if not args.json:
-            for outcome in failed:
-                print(f"{outcome.write.label}: refused: {outcome.error_text()}")
+            print_failed(failed)
             stored = " and stored in EEPROM" if args.eeprom else ""
             print(
                 f"drive {args.address}: {len(outcomes) - len(failed)} of {len(outcomes)} "
-                f"written{stored}" + (f", {len(failed)} refused" if failed else "")
+                f"written{stored}"
+                + (f", {len(failed) - otherwise} refused" if len(failed) > otherwise else "")
+                + (f", {otherwise} answered with another value" if otherwise else "")
             )
         if args.json:
             emit(args, report(args, writes, skips, outcomes), "")
@@ -155,13 +157,21 @@ def stopped(
         )
         emit(args, data, "")
         return
-    for outcome in outcomes:
-        if not outcome.ok:
-            print(f"{outcome.write.label}: refused: {outcome.error_text()}")
+    print_failed([o for o in outcomes if not o.ok])
     sys.stdout.flush()
     print(f"uss restore: {why}: drive {args.address} not fully restored", file=sys.stderr)
     for line in cut_short(writes, outcomes):
         print(f"uss restore: {line}", file=sys.stderr)
+
+
+def print_failed(failed: list[Outcome]) -> None:
+    """The writes the drive refused, and those it answered with another value than the
+    file's (it holds that one), one line each."""
+    for outcome in failed:
+        if outcome.differs:
+            print(outcome.error_text())
+        else:
+            print(f"{outcome.write.label}: refused: {outcome.error_text()}")
 
 
 def check_kind(args: argparse.Namespace, wanted: backups.Backup, kind: str) -> None:

@@ -157,10 +157,8 @@ IDENTIFY_TIMEOUT = 1.0
 def row(f: Found, family: str = "-") -> str:
     """The line of one drive in the table."""
     status = "-" if f.status is None else f"{f.status:04X}h"
-    return (
-        f"{f.address:>7}  {f.baud:<6}  {f.layout!s:<6}  {status:<6}  "
-        f"{f.response_time * 1000:.2f} ms  {family}"
-    )
+    response = "-" if f.measured is None else f"{f.measured * 1000:.2f} ms"
+    return f"{f.address:>7}  {f.baud:<6}  {f.layout!s:<6}  {status:<6}  {response:<8}  {family}"
 
 
 def render(found: list[Found], families: dict[int, tuple[str, str]] | None = None) -> str:

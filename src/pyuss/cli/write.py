@@ -11,7 +11,9 @@ parameter nothing is known of takes an integer (a word if it fits -32768..65535,
 word) or a float: so does every parameter of a drive of unknown kind (without ``--profile``)
 that ``--params FILE`` does not know, and what the drive does not take the drive refuses (exit
 1). Requests 2/3 (array element: 7/8, C 4.2.2); ``--eeprom`` stores the value in the drive's
-non-volatile memory as well (14/13, 12/11). Prints the value the drive answered with.
+non-volatile memory as well (14/13, 12/11). Prints the value the drive answered with; when
+that is another value than the one written (the drive limits or rounds it), says so on stderr
+and exits 1 (``--json``: ``written``, the words sent, and an ``error`` of type ``ValueDiffers``).
 
 When no answer to the write comes in time (``--timeout``) the drive may still have carried it
 out: only its answer may have been lost on the line. ``uss write`` then says so and exits 1;
@@ -25,6 +27,7 @@ object carries ``outcome`` (``not_sent``, ``unknown``, ``not_applied``) and
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from pyuss.cli import _params
@@ -33,6 +36,7 @@ from pyuss.cli._master import (
     EXIT_OK,
     command,
     emit,
+    error_dict,
     finish,
     open_master,
     outcome,
@@ -41,10 +45,10 @@ from pyuss.cli._master import (
 )
 from pyuss.errors import ConfigError
 from pyuss.master.drive import Drive
-from pyuss.master.errors import JobTimeout
+from pyuss.master.errors import JobTimeout, ValueDiffers
 from pyuss.master.verify import read_back
 from pyuss.params.model import Reading
-from pyuss.params.values import words_text
+from pyuss.params.values import format_value, words_text
 from pyuss.protocol.pkw import pwe_dword, pwe_word
 
 
@@ -109,7 +113,7 @@ async def write(args: argparse.Namespace, drive: Drive, pnu: int, index: int | N
         size = info.words if info is not None and not info.dtype.is_string else None
         words = raw_words(args.value, size, args.dword)
         answer = await drive.write_raw(pnu, words, index, eeprom=args.eeprom)
-        return Reading(pnu, index, None, answer, words_text(answer))
+        return Reading(pnu, index, None, answer, words_text(answer), words)
     if args.dword:
         raise ConfigError("--dword goes with --raw; a typed value has the parameter's own size")
     value: object = (
@@ -161,14 +165,32 @@ def main(args: argparse.Namespace) -> int:
         stored = " (stored in EEPROM)" if args.eeprom else ""
         if how == READ_BACK:
             stored += " (its answer was lost; read back: the drive holds it)"
+        label = drive.params.label(pnu, index)
         if args.raw:
-            data.update(label=drive.params.label(pnu, index), raw=list(answer.words))
-            text = f"{drive.params.label(pnu, index)} = {words_text(answer.words)}{stored}"
+            data.update(label=label, raw=list(answer.words))
+            text = f"{label} = {words_text(answer.words)}{stored}"
         else:
             data.update(answer.to_dict())
             text = answer.text() + stored
         data["eeprom"] = args.eeprom
+        if not answer.differs:
+            emit(args, data, text)
+            return EXIT_OK
+        # the drive holds another value than the one written (it limits or rounds): no
+        # write done as asked, though the drive took one
+        assert answer.sent is not None
+        name = answer.info.name if answer.info is not None and answer.info.name else ""
+        sent, held = (
+            (words_text(answer.sent), words_text(answer.words))
+            if args.raw
+            else (answer.written_text(), format_value(answer.info, answer.value))
+        )
+        differs = ValueDiffers(f"{label} ({name})" if name else label, sent, held)
+        data["written"] = list(answer.sent)
+        data["error"] = error_dict(differs)
         emit(args, data, text)
-        return EXIT_OK
+        if not args.json:
+            print(f"uss write: {differs}", file=sys.stderr)
+        return EXIT_FAILED
 
     return run("write", args, body)

@@ -39,9 +39,10 @@ from pyuss.commission.backup import (
 from pyuss.drive.datatypes import DataType
 from pyuss.errors import ConfigError, UssError, UssTimeout
 from pyuss.master.drive import Drive
+from pyuss.master.errors import ValueDiffers
 from pyuss.params.book import ParamBook
-from pyuss.params.model import ParamInfo, param_label
-from pyuss.params.values import ValueRefused, encode, format_value
+from pyuss.params.model import ParamInfo, Reading, param_label
+from pyuss.params.values import ValueRefused, encode, format_value, words_text
 from pyuss.profiles import Profile
 
 __all__ = [
@@ -53,6 +54,7 @@ __all__ = [
     "changed_values",
     "compare",
     "cut_short",
+    "not_compared",
     "plan",
     "restore",
 ]
@@ -149,6 +151,17 @@ def changed_values(left: Backup, right: Backup) -> list[Difference]:
     return [d for d in _differences(left, right) if d.read_only]
 
 
+def not_compared(left: Backup, right: Backup) -> list[Difference]:
+    """The parameters neither set holds a value of (both could not read them): nothing says
+    whether they agree, so they are no difference and no agreement."""
+    rights = {(e.pnu, e.index): e for e in right.entries}
+    return [
+        Difference(a.pnu, a.index, a, b)
+        for a in left.entries
+        if not a.ok and (b := rights.get((a.pnu, a.index))) is not None and not b.ok
+    ]
+
+
 def _differences(left: Backup, right: Backup) -> list[Difference]:
     words = left.profile != right.profile
     lefts = {(e.pnu, e.index): e for e in left.entries}
@@ -167,16 +180,27 @@ def _differences(left: Backup, right: Backup) -> list[Difference]:
 
 
 async def another_drive(wanted: Backup, drive: Drive) -> str | None:
-    """Why ``wanted`` is another drive's file: the first of its identity parameters (firmware,
-    device type) the drive holds otherwise, in words; None when they all agree. Reads them."""
+    """Why ``wanted`` may be another drive's file: the first of its identity parameters
+    (firmware, device type) the drive holds otherwise, in words - or, where one side has no
+    value of it (not read), that this cannot be told: a failed read is no value, neither a
+    match nor another drive's. None when they agree. Reads them."""
     found = await read_entries(drive, wanted, wanted.identity)
     words = wanted.profile != kind_of(drive)
+    source = wanted.source or "the backup"
     for old, new in zip(wanted.identity, found, strict=True):
-        if not same_entry(old, new, words=words):
+        if same_entry(old, new, words=words):
+            continue
+        if old.ok and new.ok:
             return (
-                f"{wanted.source or 'the backup'} is from another drive: {old.label} "
-                f"({old.name}) is {old.text()} there, {new.text()} here"
+                f"{source} is from another drive: {old.label} ({old.name}) is {old.text()} "
+                f"there, {new.text()} here"
             )
+        where = "there" if not old.ok else "here"
+        error = (old if not old.ok else new).error or {}
+        return (
+            f"cannot tell whether {source} is this drive's: {old.label} ({old.name}) was not "
+            f"read {where} ({error.get('message', 'error')})"
+        )
     return None
 
 
@@ -361,11 +385,18 @@ class Outcome:
     def ok(self) -> bool:
         return self.error is None
 
+    @property
+    def differs(self) -> bool:
+        """The drive took the write but answered with another value (`ValueDiffers`)."""
+        return self.error is not None and self.error.get("type") == ValueDiffers.__name__
+
     def error_text(self) -> str:
         """``error 12: keyword missing; <what to do>`` for a refusal, else the error's
         message."""
         if self.error is None:
             return ""
+        if self.differs:
+            return str(self.error["message"])
         if "number" in self.error:
             hint = self.error.get("hint")
             todo = f"; {hint}" if hint else ""
@@ -375,6 +406,8 @@ class Outcome:
     def text(self) -> str:
         if self.error is None:
             return f"{self.write.label} = {self.answer}"
+        if self.differs:
+            return self.error_text()
         return f"{self.write.label}: {self.error_text()}"
 
     def to_dict(self) -> dict[str, Any]:
@@ -413,12 +446,15 @@ async def restore(
         try:
             if write.info is None:
                 words = await drive.write_raw(write.pnu, write.raw, write.index, eeprom=eeprom)
-                answer = " ".join(f"{w:04X}h" for w in words)
+                reading = Reading(write.pnu, write.index, None, words, 0, write.raw)
+                answer = words_text(words)
+                written = words_text(write.raw)
             else:
                 reading = await drive.write_param(
                     write.pnu, write.value, write.index, eeprom=eeprom
                 )
                 answer = format_value(reading.info, reading.value)
+                written = reading.written_text()
         except ConfigError as exc:
             outcomes.append(Outcome(write, {"type": type(exc).__name__, "message": str(exc)}))
             continue
@@ -429,6 +465,11 @@ async def restore(
             outcomes.append(Outcome(write, error_dict(exc)))
             continue
         silent = 0
+        if reading.differs:  # the drive holds another value than the file's
+            name = f" ({write.info.name})" if write.info is not None and write.info.name else ""
+            differs = ValueDiffers(f"{write.label}{name}", written, answer)
+            outcomes.append(Outcome(write, error_dict(differs), answer))
+            continue
         outcomes.append(Outcome(write, None, answer))
     if progress is not None:
         progress(len(writes), len(writes), "")
@@ -441,11 +482,17 @@ def cut_short(writes: Sequence[Write], outcomes: Sequence[Outcome]) -> list[str]
     written, a commissioning parameter left in quick commissioning (its entry was written,
     its end was not), and how to go on."""
     taken = [o.write.label for o in outcomes if o.ok]
-    refused = [o.write.label for o in outcomes if not o.ok]
+    refused = [o.write.label for o in outcomes if not o.ok and not o.differs]
+    otherwise = [o.write.label for o in outcomes if o.differs]
     lines = [
         f"{len(taken)} of {len(writes)} written"
         + (f" ({', '.join(taken)})" if taken else "")
         + (f", {len(refused)} refused ({', '.join(refused)})" if refused else "")
+        + (
+            f", {len(otherwise)} answered with another value ({', '.join(otherwise)})"
+            if otherwise
+            else ""
+        )
     ]
     rest = list(writes[len(outcomes) :])
     if rest:

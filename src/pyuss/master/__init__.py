@@ -26,6 +26,7 @@ if TYPE_CHECKING:
         NotSending,
         NoWriteAuthority,
         StatusTimeout,
+        ValueDiffers,
     )
     from pyuss.master.jobs import SpontaneousMessage
     from pyuss.master.process import OPERATE, DriveStatus
@@ -65,6 +66,7 @@ __all__ = [
     "SlaveDiagnostics",
     "SpontaneousMessage",
     "StatusTimeout",
+    "ValueDiffers",
     "resolve_profile",
 ]
 
@@ -85,6 +87,7 @@ __getattr__, __dir__ = lazy_exports(
             "NotSending",
             "NoWriteAuthority",
             "StatusTimeout",
+            "ValueDiffers",
         ),
         "pyuss.master.jobs": ("SpontaneousMessage",),
         "pyuss.master.process": (

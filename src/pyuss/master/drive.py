@@ -487,7 +487,7 @@ class Drive:
             typed: Value = (
                 _float(answer) if isinstance(value, float) else _untyped(answer, signed=_neg(value))
             )
-            return Reading(pnu, index, None, answer, typed)
+            return Reading(pnu, index, None, answer, typed, words)
         if info.array is not None and index is None:
             raise ConfigError(
                 f"{info.label()} ({info.name}) is an array: give the element's index "
@@ -500,7 +500,7 @@ class Drive:
         answer = await self.write_raw(
             pnu, words, index, eeprom=eeprom, dword=dword, timeout=timeout, verify=verify
         )
-        return Reading(pnu, index, info, answer, decode(info, answer, index))
+        return Reading(pnu, index, info, answer, decode(info, answer, index), words)
 
     async def write(
         self,

@@ -16,6 +16,8 @@
   (`Drive.wait_until`) in time; it carries the last status.
 - `MirrorMismatch`: a mirror telegram came back changed (A 5.3).
 - `MasterClosed`: the master was closed while the operation waited.
+- `ValueDiffers`: the drive answered a write with another value than the one written (it
+  limits or rounds): it holds that one, not the one asked for.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ __all__ = [
     "NoWriteAuthority",
     "NotSending",
     "StatusTimeout",
+    "ValueDiffers",
 ]
 
 
@@ -215,3 +218,18 @@ class MirrorMismatch(ProtocolError):
 
 class MasterClosed(TransportError):
     """The master was closed (or its transport failed) while the operation waited."""
+
+
+class ValueDiffers(UssError):
+    """The drive answered a write with another value than the one written (C 4.2.1.1: the
+    answer to a change job carries the value the drive now holds): it limited or rounded it,
+    or changed it by a rule of its own. ``written`` and ``answered``: the values as printed."""
+
+    def __init__(self, label: str, written: str, answered: str) -> None:
+        self.label = label
+        self.written = written
+        self.answered = answered
+        super().__init__(
+            f"{label}: the drive answered {answered}, not {written}: it holds another value "
+            "than the one written (it limits or rounds it): read it, and write a value it takes"
+        )

@@ -25,6 +25,7 @@ from pyuss.transport.base import Transport
 
 __all__ = [
     "AUTO_LAYOUTS",
+    "KIND_ONLY",
     "UNKNOWN_FAMILY",
     "auto_master",
     "identify_drive",
@@ -42,6 +43,14 @@ UNKNOWN_FAMILY = (
     " kind (its parameters as words; --profile NAME gives a family's)"
 )
 """What `auto_master` tells of a drive that answers but shows no family."""
+
+KIND_ONLY = (
+    "address {address}: {what}: its family is not known here; its parameters, units and "
+    "limits are taken from the {profile} profile's file, not from the drive (--profile NAME "
+    "gives its family's)"
+)
+"""What `auto_master` tells of a drive that shows its kind (a Siemens drive of the
+MICROMASTER 4 kind) but no family known here: the kind's profile file is a guess."""
 
 IDENTIFY_PROFILE = "micromaster4"
 """The numbering the identification reads with."""
@@ -109,10 +118,15 @@ async def auto_master(
     (``--profile auto``): `identify_family` finds it; then the master is opened with the
     family's profile (and the layout the drive answered). A drive that answers but shows no
     family is taken as one of unknown kind (the master has no profile: its parameters travel
-    as words), and ``unknown`` is told so in one sentence (`UNKNOWN_FAMILY`)."""
-    profile, answered = await identify_family(transport, address, layout, job_timeout=job_timeout)
-    if profile is None and unknown is not None:
-        unknown(UNKNOWN_FAMILY.format(address=address))
+    as words), and ``unknown`` is told so in one sentence (`UNKNOWN_FAMILY`); so is one that
+    shows only its kind, whose kind's profile is then used (`KIND_ONLY`)."""
+    identity, answered = await _identify(transport, address, layout, job_timeout=job_timeout)
+    profile = identity.profile
+    if unknown is not None:
+        if profile is None:
+            unknown(UNKNOWN_FAMILY.format(address=address))
+        elif identity.family is None:
+            unknown(KIND_ONLY.format(address=address, what=identity.text, profile=profile))
     async with Master(
         transport(), profile=profile, layout=answered, job_timeout=job_timeout, **options
     ) as master:
@@ -131,6 +145,18 @@ async def identify_family(
     that answers but shows no family known here has the profile None (a drive of unknown
     kind: nothing is assumed of it that it did not say); one that answers in no layout is a
     `UssTimeout` naming the address."""
+    identity, answered = await _identify(transport, address, layout, job_timeout=job_timeout)
+    return identity.profile, answered
+
+
+async def _identify(
+    transport: Callable[[], Transport],
+    address: int,
+    layout: Layout | None,
+    *,
+    job_timeout: float,
+) -> tuple[Identity, Layout]:
+    """`identify_family` with the whole `Identity`."""
     found = None
     for candidate in (layout,) if layout is not None else AUTO_LAYOUTS:
         async with Master(
@@ -145,5 +171,4 @@ async def identify_family(
             break
     if found is None:
         raise UssTimeout(f"address {address}: no answer to identify the drive's family")
-    identity, answered = found
-    return identity.profile, answered
+    return found

@@ -64,6 +64,15 @@ class Found:
     status: int | None
     """PZD1 of its answer (the status word), None without PZD."""
     response_time: float
+    """From the end of the probe to the start of the answer; 0 where none was measured (an
+    answer read sooner than a line brings it: a pty or a socket whose peer writes it at once,
+    `measured`)."""
+
+    @property
+    def measured(self) -> float | None:
+        """The response time, or None where it was not measured: a slave keeps the start pause
+        before it answers (A 5.2.1.1), so an estimate of 0 or less is no time of the drive's."""
+        return self.response_time if self.response_time > 0 else None
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -72,7 +81,7 @@ class Found:
             "layout": str(self.layout),
             "variable": self.layout.variable,
             "status": self.status,
-            "response_time": self.response_time,
+            "response_time": self.measured,
         }
 
 

@@ -134,6 +134,8 @@ DEFAULT_JOB_TIMEOUT = 2.0
 _JOB_CHECK = 0.05
 """Longest wait for the line during an exchange before the jobs of other slaves are looked at
 (only a long response delay limit waits longer than this at once)."""
+_MIRROR_BIT = int(AddressMode.MIRROR)
+"""ADR bit 6: a mirror telegram (A 5.3), byte 2 of a telegram."""
 
 
 class Mode(enum.Enum):
@@ -415,6 +417,11 @@ class Master:
         self._exact = self.transport.exact_timestamps
         self._sent_frame = b""
         self._sent_end = -math.inf
+        self._echo_in = False
+        """The echo of the latest request was heard (a line that echoes gives back one copy)."""
+        self._sent_mirror = False
+        self._loopback = str(getattr(self.transport, "url", "")).startswith("loop://")
+        """pyserial's loopback: every copy of a request is its echo."""
         self._cycles = Samples()
         self._cycle_count = 0
         self._overruns = 0
@@ -1169,6 +1176,8 @@ class Master:
         # the model's end, not the clock's: a master woken late must not take an answer
         # that began after its request for one that began before
         self._sent_frame, self._sent_end = frame, start + on_line
+        self._sent_mirror = len(frame) > 2 and bool(frame[2] & _MIRROR_BIT)
+        self._echo_in = False
         log_frame("tx", frame, end)
         return start, end
 
@@ -1194,7 +1203,7 @@ class Master:
         if self._receiver.busy:
             self._stray_events(self._receiver.poll(self._clock() - self.latency))
 
-    def _own(self, event: Received, mirror: bool = False, process_data: bool = False) -> bool:
+    def _own(self, event: Received, process_data: bool = False) -> bool:
         """Whether ``event`` cannot be the answer to the request just sent: it is the master's
         own telegram heard back (a line that echoes: a 2-wire adapter without echo
         suppression, ``loop://``; counted and told once, `BusDiagnostics.own_heard`), or it
@@ -1202,11 +1211,17 @@ class Master:
 
         On a line that stamps characters exactly (the virtual bus, ``bus://``) the time tells:
         an answer begins after the request. Elsewhere (a serial port, a pty, a TCP converter:
-        no wire time, or stamps as late as the driver hands characters over) the bytes do, where
-        the answer carries ``process_data``: the request's very bytes are its echo (a drive's
-        status word is not the control word it was sent), unless all its net data are zero.
-        Without process data a drive answers a read of a zero value with the request's bytes,
-        and a mirror telegram is returned unchanged by design: there only ``echo=1`` tells."""
+        no wire time, or stamps as late as the driver hands characters over; a peer behind a
+        pty answers at its own rate, sooner than the master's line would bring it) the bytes
+        do: the request's very bytes are its echo where the answer carries ``process_data``
+        (a drive's status word is not the control word it was sent). A mirror telegram, a
+        request whose net data are all zero, and a request without process data (a PKW-only
+        layout: the read of a zero value; a scan's probe) are answered with their very bytes
+        too: their copy is the echo on pyserial's ``loop://`` (a loopback: no drive is on
+        it), or when the line has been heard echoing and it is the first copy since the
+        request (the echo is on the line while the request is sent, the answer only after
+        it). Whether the request was a mirror telegram its ADR byte says (bit 6), also for a
+        copy that comes after the exchange (a late answer)."""
         same = event.raw == self._sent_frame
         if self._exact:
             if event.start >= self._sent_end - 1e-6:
@@ -1214,8 +1229,13 @@ class Master:
             if not same:
                 log_frame("rx", event.raw, event.end, "began before the request ended")
                 return True
-        elif mirror or not process_data or not same or not any(event.telegram.data):
+        elif not same or (
+            (self._sent_mirror or not process_data or not any(event.telegram.data))
+            and not self._loopback
+            and (self._own_heard == 0 or self._echo_in)
+        ):
             return False
+        self._echo_in = True
         self._heard_own(event)
         return True
 
@@ -1232,8 +1252,13 @@ class Master:
     def _stray_events(self, events: list[Received | ReceiveFault]) -> None:
         for event in events:
             if isinstance(event, Received):
+                # a copy of the request: its echo where time tells, or where nothing else
+                # could send it (a loopback; a broadcast, which no slave answers, and an
+                # answer would carry the slave's address); else a late answer (a mirror)
                 if event.raw == self._sent_frame and (
-                    event.start < self._sent_end if self._exact else any(event.telegram.data)
+                    event.start < self._sent_end
+                    if self._exact
+                    else self._loopback or event.telegram.mode.is_broadcast
                 ):
                     self._heard_own(event)
                     continue
@@ -1378,7 +1403,7 @@ class Master:
             if link is not None:
                 link.diagnostics.record_fault(event.kind, event.end)
             return _Outcome.FAULT
-        if self._own(event, AddressMode.MIRROR in modes, link is not None and link.layout.pzd > 0):
+        if self._own(event, link is not None and link.layout.pzd > 0):
             if link is not None and event.raw != self._sent_frame:
                 link.diagnostics.record_discarded(event.end)  # overlapped the request
             return None

@@ -8,7 +8,9 @@ description element, text) the job wrote and compares it with what the job sent,
 (so a word in PWE2 of a 4-word PKW area compares with the same word read back in PWE1).
 
 The drive works through one job at a time, so once it has answered the read, the lost write
-is behind it: a value that differs means the write was not carried out, and will not be.
+is behind it: a value that differs means the write was not carried out, and will not be - or
+that the drive holds a value of its own for it (a drive that limits or rounds answers a write
+with the value it holds; the message says both).
 A value that was already there before the write reads as `JobOutcome.APPLIED` too: either way
 the drive holds it.
 
@@ -105,6 +107,7 @@ async def read_back(drive: Drive, error: JobTimeout, *, timeout: float | None = 
     what = describe_job(write, write.pnu if error.pnu is None else error.pnu, error.index)
     error.args = (
         f"slave {error.address}: no answer to {what} within {error.timeout:g} s, and reading "
-        f"it back shows {shown}: the drive did not carry it out (it may be repeated)",
+        f"it back shows {shown}: the drive does not hold the value written: it did not carry "
+        "it out (it may be repeated), or it holds a value of its own (it limits or rounds)",
     )
     raise error

@@ -22,6 +22,7 @@ from typing import Any, Protocol
 
 from pyuss.drive.database import Access, NameStyle, Parameter
 from pyuss.drive.datatypes import DataType, Value
+from pyuss.errors import UssError
 from pyuss.params.names import param_name
 
 __all__ = [
@@ -399,7 +400,8 @@ class Reading:
     """One value read from a drive: the words it sent and what they mean.
 
     ``index`` is None for a simple parameter and for a whole array (then ``value`` and
-    ``words`` hold every element, ``value`` as a list).
+    ``words`` hold every element, ``value`` as a list). ``sent``: for the answer to a write,
+    the words written (None for a read).
     """
 
     pnu: int
@@ -407,6 +409,40 @@ class Reading:
     info: ParamInfo | None
     words: tuple[int, ...]
     value: Value | list[Value]
+    sent: tuple[int, ...] | None = None
+
+    @property
+    def differs(self) -> bool:
+        """The answer to a write carries other words than were written: the drive holds
+        another value than the one asked for (it limits or rounds). A text is compared
+        without the blanks that pad it."""
+        if self.sent is None or tuple(self.sent) == tuple(self.words):
+            return False
+        if self.info is not None and self.info.dtype is DataType.VISIBLE_STRING:
+            return self.written_text() != self.text_value()
+        return True
+
+    def text_value(self) -> str:
+        """The value as printed."""
+        from pyuss.params.values import format_value
+
+        return format_value(self.info, self.value)
+
+    def written_text(self) -> str:
+        """The value written, as printed (``""`` for a read)."""
+        from pyuss.params.values import decode, format_value, words_text
+
+        if self.sent is None:
+            return ""
+        if self.info is None:
+            if len(self.sent) > 2:
+                return words_text(self.sent)
+            number = self.sent[0] if len(self.sent) == 1 else self.sent[0] << 16 | self.sent[1]
+            return format_value(None, number)
+        try:
+            return format_value(self.info, decode(self.info, self.sent, self.index))
+        except UssError:
+            return words_text(self.sent)
 
     @property
     def label(self) -> str:
