@@ -5,13 +5,15 @@ values in units, parameters typed through `pyuss.params`, backup, compare and re
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import re
+from collections.abc import AsyncIterator
 
 import pytest
 
 from pyuss.bus import VirtualBus
 from pyuss.commission.backup import loads as load_text
-from pyuss.errors import ConfigError
+from pyuss.errors import ConfigError, UssError
 from pyuss.master.testing import simulated_drives
 from pyuss.protocol.layout import Layout
 from pyuss.web.backend import Backend, DriveSpec
@@ -242,3 +244,31 @@ async def test_the_ramp_state_follows_the_actual_value(backend: Backend) -> None
     assert reply["taken"] and reply["state"] == "operation enabled"
     assert reply["motion"] == "OFF1 active, ramping down"
     assert "off1: done" in reply["text"] and "ramping down" in reply["text"]
+
+
+@contextlib.asynccontextmanager
+async def drive_that_stops_answering() -> AsyncIterator[Backend]:
+    """A backend whose drive 5 (generic, 4,2) answered, was switched on at 50 %, ran up, and
+    then stopped answering (its simulated drive left the bus)."""
+    bus = VirtualBus(38400)
+    backend = Backend(transport=bus.attach("master"), baud=38400, job_timeout=0.3,
+                      drives=[DriveSpec(5, "generic", Layout(4, 2))])  # fmt: skip
+    try:
+        async with simulated_drives(bus, [(5, "generic", Layout(4, 2))]):
+            await backend.start()
+            await backend.command(5, "setpoint", 50)
+            await backend.command(5, "on")
+            await eventually(lambda: backend.motion(5) == "at setpoint", 30, what="at setpoint")
+        await eventually(lambda: backend.summary(5)["not_sending"], what="does not send")
+        yield backend
+    finally:
+        await backend.close()
+        await bus.close()
+
+
+async def test_a_drive_that_stops_answering_has_no_fault_history_read() -> None:
+    # a fault history that could not be read is no empty one: the page must not say "none
+    # recorded" (nor "no fault") of a drive that does not answer
+    async with drive_that_stops_answering() as backend:
+        with pytest.raises(UssError, match=r"(?i)answer|time"):
+            await backend.faults(5)

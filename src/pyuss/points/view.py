@@ -28,6 +28,7 @@ from typing import Any, Protocol
 from pyuss.errors import ConfigError, UssError
 from pyuss.params import ParamBook
 from pyuss.params.model import Reading
+from pyuss.points.errors import Failure, classify
 from pyuss.points.plant import DrivePoints
 from pyuss.points.state import DriveState, ProcessValue
 from pyuss.profiles.base import Profile
@@ -287,7 +288,9 @@ async def _elements(
     reader: ParamReader, pnu: int, timeout: float | None
 ) -> list[tuple[int | None, object]] | None:
     """Every element of ``pnu`` as ``(index, value)`` (None: the family has no such
-    parameter); an element the drive refuses is left out."""
+    parameter); an element the drive refuses is left out. A job without an answer (the drive
+    does not send, the line or gateway is gone) is raised: what could not be read is no
+    empty history."""
     book = reader.params
     info = book.get(pnu)
     if info is None:
@@ -295,9 +298,13 @@ async def _elements(
     indexes: list[int | None] = [None] if info.array is None else list(book.indices(info))
     out: list[tuple[int | None, object]] = []
     for index in indexes:
-        with contextlib.suppress(UssError):
+        try:
             reading = await reader.read_param(pnu, index, timeout=timeout)
-            out.append((index, reading.value))
+        except UssError as exc:
+            if classify(exc) in (Failure.NO_ANSWER, Failure.UNAVAILABLE):
+                raise
+            continue
+        out.append((index, reading.value))
     return out
 
 

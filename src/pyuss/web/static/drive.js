@@ -170,6 +170,12 @@ export class DriveView {
     try {
       panel = await get(`/api/drive/${address}/faults`);
     } catch (error) {
+      if (this.state.address !== address) return;
+      // what could not be read is not shown as read: no "no fault", no history of before
+      const fault = document.getElementById("fault-now");
+      fault.textContent = "not known";
+      fault.className = "error";
+      document.querySelector("#fault-table tbody").replaceChildren();
       document.getElementById("fault-note").textContent = `Faults not read: ${error.message}`;
       return;
     }
