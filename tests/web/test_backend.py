@@ -272,3 +272,15 @@ async def test_a_drive_that_stops_answering_has_no_fault_history_read() -> None:
     async with drive_that_stops_answering() as backend:
         with pytest.raises(UssError, match=r"(?i)answer|time"):
             await backend.faults(5)
+
+
+async def test_a_drive_that_stops_answering_shows_nothing_of_before_as_current() -> None:
+    # it ran at setpoint when it fell silent: neither its last status word, state, ramp
+    # state nor actual value is shown as what it is now (the bus row and the JSON alike)
+    async with drive_that_stops_answering() as backend:
+        summary = backend.summary(5)
+        assert summary["status"] is None and summary["actual"] == []
+        assert summary["state"] == "does not send" and summary["motion"] == "does not send"
+        assert not summary["fault"] and not summary["warning"]
+        assert backend.motion(5) == "does not send"
+        assert backend.bus()["drives"][0]["status"] is None

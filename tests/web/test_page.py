@@ -14,7 +14,7 @@ import pytest
 from pyuss.drive.states import DriveState
 from pyuss.monitor.capture import read_capture
 from pyuss.profiles import profile_names
-from support.web import Running, open_page, screenshot
+from support.web import Running, open_page, screenshot, serve
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
@@ -568,10 +568,68 @@ def test_the_buttons_are_disabled_while_no_drive_answers(browser: Any, demo: Run
         for selector in ("[data-cmd=on]", "[data-cmd=jog1]", "#setpoint-form button", "#fault-ack"):
             assert page.locator(selector).is_disabled(), selector
         assert page.locator("[data-cmd=on]").get_attribute("title") == "the drive does not answer"
+        # nothing is known of its status bits: none is shown as 0 or 1
+        bits = page.locator("#drive-bits li").all_inner_texts()
+        assert len(bits) == 16 and all(" = -: " in text for text in bits), bits
         page.context.close()
     finally:
         demo.call(server.close())
         demo.call(backend.close())
+
+
+def test_a_drive_that_stops_answering_shows_nothing_of_before_as_now(
+    browser: Any, demo: Running
+) -> None:
+    from contextlib import AsyncExitStack
+
+    from pyuss.bus import VirtualBus
+    from pyuss.master.testing import simulated_drives
+    from pyuss.protocol.layout import Layout
+    from pyuss.web.backend import Backend, DriveSpec
+
+    drives = AsyncExitStack()
+    bus = VirtualBus(38400)
+
+    async def start() -> Backend:
+        await drives.enter_async_context(simulated_drives(bus, [(5, "generic", Layout(4, 2))]))
+        backend = Backend(transport=bus.attach("master"), baud=38400, job_timeout=0.3,
+                          drives=[DriveSpec(5, "generic", Layout(4, 2))])  # fmt: skip
+        await backend.start()
+        return backend
+
+    backend = demo.call(start())
+    server = demo.call(serve(backend))
+    url = server.url
+    try:
+        page = open_page(browser, url + "#drive/5")
+        demo.call(backend.command(5, "on"))
+        page.wait_for_function(
+            "document.querySelector('#drive-bits li.on') && "
+            "document.querySelector('#drive-bits li[data-bit=\"2\"]').classList.contains('on')"
+        )
+        assert page.locator("#drive-status").inner_text() != "----"
+        demo.call(drives.aclose())  # the drive leaves the bus, switched on
+        page.wait_for_function(
+            "document.querySelector('#drive-state').textContent === 'does not send'"
+        )
+        assert page.locator("#drive-status").inner_text() == "----"
+        assert page.locator("#drive-bits li.on").count() == 0
+        assert all(" = -: " in t for t in page.locator("#drive-bits li").all_inner_texts())
+        assert page.locator("#drive-motion").inner_text() == "-"
+        # the bus view's row alike: no status word, no actual value of before
+        page.goto(url + "#bus")
+        page.wait_for_function(
+            "(r => r && r.textContent.includes('does not send'))"
+            "(document.querySelector('#bus-table tbody tr'))"
+        )
+        cells = page.locator("#bus-table tbody tr").first.locator("td").all_inner_texts()
+        assert cells[4] == "----" and cells[5] == "-", cells
+        page.context.close()
+    finally:
+        demo.call(server.close())
+        demo.call(backend.close())
+        demo.call(drives.aclose())
+        demo.call(bus.close())
 
 
 def test_a_drive_of_unknown_kind_shows_a_parameter_typed_by_number_as_words(

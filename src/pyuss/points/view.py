@@ -121,7 +121,10 @@ def motion(state: DriveState) -> str:
     ``OFF1 active, ramping down``, ``at setpoint``, ``ramping up``, ``ramping down``. OFF1
     keeps a drive in "operation enabled" while it ramps down (control bit 0 = 0, status bit 2
     still 1). The main actual value against the setpoint in force tells the ramp (within
-    `AT_SETPOINT`: at setpoint); status bit 8 only where either is missing."""
+    `AT_SETPOINT`: at setpoint); status bit 8 only where either is missing. A drive marked
+    "does not send" (A 5.2.1.1) is ``does not send``: its last answer tells nothing of now."""
+    if state.answered and state.health.not_sending:
+        return "does not send"
     actual = _main(state.actual)
     setpoint = _main(state.setpoints)
     return motion_of(

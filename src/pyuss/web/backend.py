@@ -327,9 +327,12 @@ class Backend:
         }
 
     def summary(self, address: int) -> dict[str, Any]:
-        """State, fault, communication health of one drive (A 5.2.3 counters included)."""
+        """State, fault, communication health of one drive (A 5.2.3 counters included). A
+        drive that does not send (A 5.2.1.1) shows no status word, state, fault or actual
+        value: its last answer is not what it is now."""
         points = self.points(address)
         state = points.snapshot()
+        live = state.online
         diagnostics = points.drive.diagnostics()
         counters = diagnostics.counters
         return {
@@ -340,14 +343,14 @@ class Backend:
             "control": state.control_word,
             "control_in_force": _control_in_force(points),
             "setpoints": list(state.setpoint_words),
-            "status": state.status_word,
-            "state": state.state if state.answered else "no answer yet",
+            "status": state.status_word if live else None,
+            "state": state.state if live else motion(state) if state.answered else "no answer yet",
             "motion": motion(state),
             "setpoint": _setpoint_in_force(state),
             "sent_setpoint": self._sent.get(address),
-            "fault": state.fault,
-            "warning": state.warning,
-            "actual": list(points.actual_row(state.actual_words)) if state.answered else [],
+            "fault": live and state.fault,
+            "warning": live and state.warning,
+            "actual": list(points.actual_row(state.actual_words)) if live else [],
             "actual_unit": points.model.unit if points.reference is not None else "%",
             "health": {
                 "exchanges": diagnostics.exchanges,
@@ -371,7 +374,7 @@ class Backend:
 
     def motion(self, address: int) -> str:
         """The ramp state of drive ``address`` now (`pyuss.points.view.motion`)."""
-        return motion(self.points(address).state)
+        return motion(self.points(address).snapshot())
 
     def bus(self) -> dict[str, Any]:
         """The line: port, baud rate, the drives and the line's own counters."""

@@ -19,8 +19,10 @@ function clock(t) {
   return [d.getHours(), d.getMinutes(), d.getSeconds()].map((n) => String(n).padStart(2, "0")).join(":");
 }
 
-// A status bit as a panel shows it: the meaning now, or the family's text with the bit's value.
+// A status bit as a panel shows it: the meaning now, or the family's text with the bit's value;
+// on == null: not known (no answer yet, or the drive does not send), its value shown as "-".
 function bitText(b, on) {
+  if (on == null) return `${b.bit} = -: ${b.text || b.set}`;
   return b.text ? `${b.bit} = ${on ? 1 : 0}: ${b.text}` : `${b.bit}: ${on ? b.set : b.clear}`;
 }
 
@@ -81,7 +83,7 @@ export class DriveView {
     document.getElementById("drive-title").textContent =
       `drive ${address} · ${info.title} · layout ${info.layout}`;
     document.getElementById("drive-bits").replaceChildren(
-      ...info.status_bits.map((b) => el("li", { dataset: { bit: b.bit } }, bitText(b, false))));
+      ...info.status_bits.map((b) => el("li", { dataset: { bit: b.bit } }, bitText(b, null))));
     const rows = info.actuals.map((a) => el("tr", {},
       el("td", {}, `${a.name} (PZD${a.pzd})`),
       el("td", { dataset: { pzd: a.pzd } }, "-")));
@@ -269,8 +271,9 @@ export class DriveView {
     if (d.not_sending) {
       stateEl.textContent = d.offline || "does not send";
       stateEl.className = "state lost";
-      // nothing of before is shown as live: no status word, no values
+      // nothing of before is shown as live: no status word, no status bits, no values
       document.getElementById("drive-status").textContent = hex4(null);
+      if (this.info) this.showBits(null);
       for (const cell of document.querySelectorAll("#drive-actuals td[data-pzd]")) cell.textContent = "-";
     } else if (this.state.config.plant && d.status != null && this.info) {
       // a gateway sends a drive's state when it changes: a drive at rest sends none, so
@@ -329,18 +332,22 @@ export class DriveView {
     const stateEl = document.getElementById("drive-state");
     stateEl.textContent = state;
     stateEl.className = `state ${STATE_WORDS[state] || ""}`;
-    for (const li of document.querySelectorAll("#drive-bits li")) {
-      const bit = Number(li.dataset.bit);
-      const on = Boolean((word >> bit) & 1);
-      const info = this.info.status_bits[bit];
-      li.classList.toggle("on", on);
-      li.textContent = bitText(info, on);
-    }
+    this.showBits(word);
     for (const cell of document.querySelectorAll("#drive-actuals td[data-pzd]")) {
       const pzd = Number(cell.dataset.pzd);
       const a = this.info.actuals.find((x) => x.pzd === pzd);
       const v = values[pzd - 2];
       cell.textContent = v == null ? "-" : `${v.toFixed(2)} ${a.unit}`;
+    }
+  }
+
+  // The 16 status bits of ``word`` (null: not known, none shown as set).
+  showBits(word) {
+    for (const li of document.querySelectorAll("#drive-bits li")) {
+      const bit = Number(li.dataset.bit);
+      const on = word == null ? null : Boolean((word >> bit) & 1);
+      li.classList.toggle("on", Boolean(on));
+      li.textContent = bitText(this.info.status_bits[bit], on);
     }
   }
 
