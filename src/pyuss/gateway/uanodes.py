@@ -5,7 +5,12 @@ with asyncua).
 - `percent_range`, `parameter_range`: the EURange of process values and parameters;
 - `may_change`: whether a session may write and call the methods that change a drive;
 - `argument_fault`: Part 4's status for a method call with a wrong number of arguments;
-- `drive_values`: the value of each variable of a drive, by node name, from its state.
+- `drive_values`: the value of each variable of a drive, by node name, from its state;
+- `value_status`: the StatusCode each of them carries (Part 4 7.39): a value of the drive's
+  answers is ``BadWaitingForInitialData`` until the drive answered (a parameter: until it
+  was read) and ``UncertainLastUsableValue`` while the drive does not send (A 5.2.1.1): its
+  last answer is no measurement of now. What the gateway sends (control word, setpoints) and
+  its health are its own, and Good.
 
 Status codes are named as OPC UA names them (``"BadTooManyArguments"``).
 """
@@ -29,6 +34,7 @@ __all__ = [
     "parameter_range",
     "percent_range",
     "unit_id",
+    "value_status",
 ]
 
 UNECE = {
@@ -170,3 +176,24 @@ def _process_values(state: DriveState) -> dict[str, Any]:
             found[f".{kind}.{key}"] = math.nan if value.value is None else value.value
             found[f".{kind}Percent.{key}"] = value.percent
     return found
+
+
+WAITING = "BadWaitingForInitialData"
+LAST_USABLE = "UncertainLastUsableValue"
+
+_ANSWERED = (".StatusWord", ".State", ".Status.", ".Actual.", ".ActualPercent.")
+"""The variables made of the drive's answers (with ``.Parameters.``: of its parameter jobs)."""
+
+
+def value_status(state: DriveState, key: str) -> str | None:
+    """The StatusCode of variable ``key`` in ``state`` (None: Good); see the module
+    docstring."""
+    if key.startswith(".Parameters."):
+        reading = state.parameters.get(key[len(".Parameters.") :])
+        if reading is None or reading.value is None:
+            return WAITING
+    elif not key.startswith(_ANSWERED):
+        return None
+    elif not state.answered:
+        return WAITING
+    return LAST_USABLE if state.health.not_sending else None
