@@ -258,7 +258,10 @@ class PlantBackend:
         counters = dict(health.get("counters") or {})
         word = state.get("status_word")
         why = None
-        if not bus.online:
+        if not self.plant.connected.is_set():
+            # nothing is known of the gateway and its drives now, "offline" least of all
+            why = f"the MQTT broker {self.plant.broker} is not connected"
+        elif not bus.online:
             why = f"gateway {drive.bus} offline"
         elif not drive.available:
             why = "the drive does not answer its gateway"
