@@ -284,3 +284,15 @@ async def test_a_drive_that_stops_answering_shows_nothing_of_before_as_current()
         assert not summary["fault"] and not summary["warning"]
         assert backend.motion(5) == "does not send"
         assert backend.bus()["drives"][0]["status"] is None
+
+
+def test_a_drive_in_local_operation_is_not_judged_by_the_words_the_bus_sends() -> None:
+    # status bit 9 = 0: local operation only (C Table 5.5), the control word and setpoint
+    # sent are not in force; a drive running so is neither "OFF1 active, ramping down" (the
+    # bus sends no ON) nor "ramping down" towards a setpoint it does not take
+    from pyuss.points.view import motion_of
+
+    running_locally = 0x0037  # ready, operation enabled, no OFF2/OFF3, bit 9 = 0
+    assert motion_of(running_locally, 0x047E, 50.0, 0.0) == "running (local operation)"
+    assert motion_of(running_locally, 0x047F, 50.0, 20.0) == "running (local operation)"
+    assert motion_of(running_locally | 0x0200, 0x047E, 50.0, 0.0).startswith("OFF1 active")

@@ -118,7 +118,8 @@ GENERAL_ADVICE = (
 
 def motion(state: DriveState) -> str:
     """The ramp state a panel shows: ``stopped`` (or the state, when not running), ``jogging``,
-    ``OFF1 active, ramping down``, ``at setpoint``, ``ramping up``, ``ramping down``. OFF1
+    ``OFF1 active, ramping down``, ``at setpoint``, ``ramping up``, ``ramping down``;
+    ``running (local operation)`` while status bit 9 says the bus's words are not in force. OFF1
     keeps a drive in "operation enabled" while it ramps down (control bit 0 = 0, status bit 2
     still 1). The main actual value against the setpoint in force tells the ramp (within
     `AT_SETPOINT`: at setpoint); status bit 8 only where either is missing. A drive marked
@@ -142,6 +143,9 @@ def motion_of(word: int | None, control: int, actual: float | None, setpoint: fl
         return "no answer"
     if not word & StatusWord.OPERATION_ENABLED:
         return "stopped" if not word & StatusWord.FAULT else "fault"
+    if not word & StatusWord.CONTROL_REQUESTED:
+        # local operation only (C Table 5.5 bit 9): the words the bus sends are not in force
+        return "running (local operation)"
     turning = actual is not None and abs(actual) >= AT_REST
     if control & (ControlWord.JOG1 | ControlWord.JOG2):
         return "jogging"
