@@ -283,6 +283,9 @@ async def test_a_drive_that_stops_answering_shows_nothing_of_before_as_current()
         assert summary["state"] == "does not send" and summary["motion"] == "does not send"
         assert not summary["fault"] and not summary["warning"]
         assert backend.motion(5) == "does not send"
+        # nor is the control word its last answer answered in force in a drive that hears
+        # nothing (its telegram monitoring may have stopped it)
+        assert summary["control_in_force"] is None and summary["control"] == 0x047F
         assert backend.bus()["drives"][0]["status"] is None
 
 

@@ -341,7 +341,7 @@ class Backend:
             "layout": str(points.model.layout),
             "not_sending": state.health.not_sending,
             "control": state.control_word,
-            "control_in_force": _control_in_force(points),
+            "control_in_force": _control_in_force(points) if live else None,
             "setpoints": list(state.setpoint_words),
             "status": state.status_word if live else None,
             "state": state.state if live else motion(state) if state.answered else "no answer yet",
