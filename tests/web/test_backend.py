@@ -299,3 +299,14 @@ def test_a_drive_in_local_operation_is_not_judged_by_the_words_the_bus_sends() -
     assert motion_of(running_locally, 0x047E, 50.0, 0.0) == "running (local operation)"
     assert motion_of(running_locally, 0x047F, 50.0, 20.0) == "running (local operation)"
     assert motion_of(running_locally | 0x0200, 0x047E, 50.0, 0.0).startswith("OFF1 active")
+
+
+async def test_a_key_actual_value_reads_as_the_parameter_list_and_uss_read_show_it(
+    backend: Backend,
+) -> None:
+    # r0026 of the V20: one value, one text on the page: the drive view's key actual values
+    # said 565.69 V where the parameter list (and uss read) said 565.6854 V
+    (listed,) = await backend.read(9, [(26, None)])
+    polled = await backend.key_actuals(9)
+    (dc_link,) = [v for v in polled["values"] if v["pnu"] == 26]
+    assert dc_link["text"] == listed["value"] == "565.6854 V"

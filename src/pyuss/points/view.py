@@ -28,6 +28,7 @@ from typing import Any, Protocol
 from pyuss.errors import ConfigError, UssError
 from pyuss.params import ParamBook
 from pyuss.params.model import Reading
+from pyuss.params.values import format_value
 from pyuss.points.errors import Failure, classify
 from pyuss.points.plant import DrivePoints
 from pyuss.points.state import DriveState, ProcessValue
@@ -41,6 +42,7 @@ __all__ = [
     "command_outcome",
     "fault_history",
     "fault_panel",
+    "key_actual",
     "key_actuals",
     "motion",
     "read_key_actuals",
@@ -430,7 +432,14 @@ async def read_key_actuals(
         except UssError as exc:
             out.append({**item, "error": str(exc)})
             continue
-        value = reading.value
-        number = float(value) if isinstance(value, int | float) else None
-        out.append({**item, "value": number})
+        out.append(key_actual(item, reading))
     return out
+
+
+def key_actual(item: dict[str, Any], reading: Reading) -> dict[str, Any]:
+    """A key actual value ``item`` as read: ``value`` (a number in ``unit``, for the trend)
+    and ``text``, the value as the parameter list and `uss read` show it (the digits of its
+    parameter, with the unit)."""
+    value = reading.value
+    number = float(value) if isinstance(value, int | float) else None
+    return {**item, "value": number, "text": format_value(reading.info, value)}

@@ -31,7 +31,7 @@ from pyuss.plant.remote import GatewayRefusal, RemoteDrive, RemoteParams, Remote
 from pyuss.points import COMMAND_TABLE, Sample
 from pyuss.points.plant import checked_setpoint
 from pyuss.points.state import ProcessValue, state_name
-from pyuss.points.view import KEY_ACTUALS, TAKE_TIME, fault_history, motion_of
+from pyuss.points.view import KEY_ACTUALS, TAKE_TIME, fault_history, key_actual, motion_of
 from pyuss.protocol.pzd import StatusWord
 from pyuss.web.backend import (
     Approve,
@@ -432,10 +432,7 @@ class PlantBackend:
             except UssError as exc:
                 values.append({**item, "error": str(exc)})
                 continue
-            number = reading.value
-            values.append(
-                {**item, "value": float(number) if isinstance(number, int | float) else None}
-            )
+            values.append(key_actual(item, reading))
         return {"time": time.time(), "values": values}
 
     async def faults(self, key: object) -> dict[str, Any]:

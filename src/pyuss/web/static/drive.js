@@ -151,7 +151,7 @@ export class DriveView {
       });
       for (const v of reply.values) {
         const cell = document.querySelector(`#drive-actuals td[data-pnu="${v.pnu}"]`);
-        if (cell) cell.textContent = v.error ? "not read" : `${v.value.toFixed(2)} ${v.unit}`;
+        if (cell) cell.textContent = v.error ? "not read" : v.text;
         if (cell && v.error) cell.title = v.error;
       }
       this.insert(reply.time, row);
