@@ -310,3 +310,15 @@ async def test_a_key_actual_value_reads_as_the_parameter_list_and_uss_read_show_
     polled = await backend.key_actuals(9)
     (dc_link,) = [v for v in polled["values"] if v["pnu"] == 26]
     assert dc_link["text"] == listed["value"] == "565.6854 V"
+
+
+def test_a_drive_turning_against_its_new_setpoint_is_ramping_down() -> None:
+    # at +30 % told -50 %: it slows down through standstill before it runs up the other way;
+    # "ramping up" (|30| < |-50|) was said of a motor that was slowing down
+    from pyuss.points.view import motion_of
+
+    running = 0x0237  # operation enabled, bit 9: under bus control
+    assert motion_of(running, 0x047F, 30.0, -50.0) == "ramping down"
+    assert motion_of(running, 0x047F, -30.0, 50.0) == "ramping down"
+    assert motion_of(running, 0x047F, -30.0, -50.0) == "ramping up"
+    assert motion_of(running, 0x047F, -49.5, -50.0) == "at setpoint"

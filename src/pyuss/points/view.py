@@ -157,6 +157,8 @@ def motion_of(word: int | None, control: int, actual: float | None, setpoint: fl
         return "at setpoint" if word & StatusWord.IN_TOLERANCE else "running"
     if abs(actual - setpoint) <= AT_SETPOINT:
         return "at setpoint"
+    if turning and actual * setpoint < 0:
+        return "ramping down"  # towards standstill, to run up the other way
     if abs(actual) < abs(setpoint):
         return "ramping up"
     return "ramping down"
