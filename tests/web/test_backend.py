@@ -322,3 +322,25 @@ def test_a_drive_turning_against_its_new_setpoint_is_ramping_down() -> None:
     assert motion_of(running, 0x047F, -30.0, 50.0) == "ramping down"
     assert motion_of(running, 0x047F, -30.0, -50.0) == "ramping up"
     assert motion_of(running, 0x047F, -49.5, -50.0) == "at setpoint"
+
+
+async def test_a_line_whose_port_failed_shows_no_drive_as_answering() -> None:
+    # the port fails (a TCP adapter gone, without reconnect=1): the master stops, and the
+    # page must not go on showing the drives' last answers as now
+    bus = VirtualBus(38400)
+    station = bus.attach("master")
+    backend = Backend(transport=station, baud=38400, job_timeout=0.3,
+                      drives=[DriveSpec(5, "generic", Layout(4, 2))])  # fmt: skip
+    try:
+        async with simulated_drives(bus, [(5, "generic", Layout(4, 2))]):
+            await backend.start()
+            await eventually(lambda: backend.summary(5)["status"] is not None, what="answer")
+            await station.close()
+            await eventually(lambda: backend.summary(5)["status"] is None, what="no status")
+            summary = backend.summary(5)
+            assert summary["not_sending"] and summary["actual"] == []
+            assert summary["state"] == summary["offline"]
+            assert summary["offline"].startswith("the line failed: ")
+    finally:
+        await backend.close()
+        await bus.close()

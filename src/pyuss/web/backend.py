@@ -332,20 +332,23 @@ class Backend:
         value: its last answer is not what it is now."""
         points = self.points(address)
         state = points.snapshot()
-        live = state.online
+        failed = self._line_failed()
+        live = state.online and failed is None
         diagnostics = points.drive.diagnostics()
         counters = diagnostics.counters
         return {
             "address": address,
             "profile": points.model.profile or backups.UNKNOWN_KIND,
             "layout": str(points.model.layout),
-            "not_sending": state.health.not_sending,
+            "not_sending": state.health.not_sending or failed is not None,
+            "offline": failed,
             "control": state.control_word,
             "control_in_force": _control_in_force(points) if live else None,
             "setpoints": list(state.setpoint_words),
             "status": state.status_word if live else None,
-            "state": state.state if live else motion(state) if state.answered else "no answer yet",
-            "motion": motion(state),
+            "state": failed
+            or (state.state if live else motion(state) if state.answered else "no answer yet"),
+            "motion": failed or motion(state),
             "setpoint": _setpoint_in_force(state),
             "sent_setpoint": self._sent.get(address),
             "fault": live and state.fault,
@@ -366,6 +369,14 @@ class Backend:
                 },
             },
         }
+
+    def _line_failed(self) -> str | None:
+        """Why no drive of the line answers any more: its master stopped (the port failed, a
+        TCP adapter went away without ``reconnect=1``); None while it runs."""
+        plant = self._plant
+        if plant is None or plant.bus(LINE).master.running:
+            return None
+        return f"the line failed: {self.port} is closed or gone (the log says why)"
 
     def setpoint_value(self, address: int) -> float | None:
         """The main setpoint sent to drive ``address`` now, in the unit of its main actual
