@@ -25,7 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from pyuss.errors import ConfigError, UssError
+from pyuss.errors import ConfigError, UssError, UssTimeout
 from pyuss.params import ParamBook
 from pyuss.params.model import Reading
 from pyuss.params.values import format_value
@@ -358,6 +358,12 @@ async def fault_panel(points: DrivePoints, *, timeout: float | None = None) -> d
     ``history`` and ``warnings`` are None where the family's parameter file has no such
     parameter."""
     state = points.snapshot()
+    if state.answered and state.health.not_sending:
+        # its last status word is no "no fault" of now, and a family without a fault
+        # history would read nothing that could say so
+        raise UssTimeout(
+            f"drive {points.address} does not send (A 5.2.1.1): its faults are not known"
+        )
     return await fault_history(
         points.drive, fault=state.fault, warning=state.warning, timeout=timeout
     )
