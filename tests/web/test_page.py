@@ -6,7 +6,9 @@ which docs/web.md shows)."""
 
 from __future__ import annotations
 
+import contextlib
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -577,30 +579,49 @@ def test_the_buttons_are_disabled_while_no_drive_answers(browser: Any, demo: Run
         demo.call(backend.close())
 
 
-def test_a_drive_that_stops_answering_shows_nothing_of_before_as_now(
-    browser: Any, demo: Running
-) -> None:
-    from contextlib import AsyncExitStack
-
+@contextlib.contextmanager
+def _line_of_drive_5(demo: Running, *, answering: bool) -> Iterator[tuple[Any, str, Any]]:
+    """A page over drive 5 (generic, 4,2) of a virtual bus, started in the demo's loop: its
+    backend, its address and ``join(on)``, which brings the simulated drive onto the bus
+    (True) or takes it off (False); it is there at the start if ``answering``."""
     from pyuss.bus import VirtualBus
     from pyuss.master.testing import simulated_drives
     from pyuss.protocol.layout import Layout
     from pyuss.web.backend import Backend, DriveSpec
 
-    drives = AsyncExitStack()
+    drives = contextlib.AsyncExitStack()
     bus = VirtualBus(38400)
 
+    def join(on: bool) -> None:
+        if on:
+            simulated = simulated_drives(bus, [(5, "generic", Layout(4, 2))])
+            demo.call(drives.enter_async_context(simulated))
+        else:
+            demo.call(drives.aclose())
+
     async def start() -> Backend:
-        await drives.enter_async_context(simulated_drives(bus, [(5, "generic", Layout(4, 2))]))
         backend = Backend(transport=bus.attach("master"), baud=38400, job_timeout=0.3,
                           drives=[DriveSpec(5, "generic", Layout(4, 2))])  # fmt: skip
         await backend.start()
         return backend
 
+    if answering:
+        join(True)
     backend = demo.call(start())
     server = demo.call(serve(backend))
-    url = server.url
     try:
+        yield backend, server.url, join
+    finally:
+        demo.call(server.close())
+        demo.call(backend.close())
+        join(False)
+        demo.call(bus.close())
+
+
+def test_a_drive_that_stops_answering_shows_nothing_of_before_as_now(
+    browser: Any, demo: Running
+) -> None:
+    with _line_of_drive_5(demo, answering=True) as (backend, url, join):
         page = open_page(browser, url + "#drive/5")
         demo.call(backend.command(5, "on"))
         page.wait_for_function(
@@ -608,7 +629,7 @@ def test_a_drive_that_stops_answering_shows_nothing_of_before_as_now(
             "document.querySelector('#drive-bits li[data-bit=\"2\"]').classList.contains('on')"
         )
         assert page.locator("#drive-status").inner_text() != "----"
-        demo.call(drives.aclose())  # the drive leaves the bus, switched on
+        join(False)  # the drive leaves the bus, switched on
         page.wait_for_function(
             "document.querySelector('#drive-state').textContent === 'does not send'"
         )
@@ -625,11 +646,27 @@ def test_a_drive_that_stops_answering_shows_nothing_of_before_as_now(
         cells = page.locator("#bus-table tbody tr").first.locator("td").all_inner_texts()
         assert cells[4] == "----" and cells[5] == "-", cells
         page.context.close()
-    finally:
-        demo.call(server.close())
-        demo.call(backend.close())
-        demo.call(drives.aclose())
-        demo.call(bus.close())
+
+
+def test_the_units_follow_a_reference_read_after_the_view_opened(
+    browser: Any, demo: Running
+) -> None:
+    # a drive powered on after the page: its reference (P352) is read once it answers, and
+    # from then on its values are in Hz; the view opened before says Hz too, not % of them
+    with _line_of_drive_5(demo, answering=False) as (_, url, join):
+        page = open_page(browser, url + "#drive/5")
+        page.wait_for_function("document.querySelector('#drive-title').textContent !== ''")
+        assert "Main actual value [%]" in page.locator("#trend-choice").inner_text()
+        join(True)
+        page.wait_for_function(
+            "document.querySelector('#trend-choice').textContent.includes('Main actual value [Hz]')"
+        )
+        page.wait_for_function(
+            "document.querySelector('#drive-actuals td[data-pzd=\"2\"]').textContent"
+            ".endsWith(' Hz')"
+        )
+        assert page.locator("#setpoint-unit option").all_inner_texts() == ["%", "Hz"]
+        page.context.close()
 
 
 def test_a_drive_of_unknown_kind_shows_a_parameter_typed_by_number_as_words(

@@ -266,6 +266,14 @@ export class DriveView {
     const d = bus.drives.find((x) => x.address === this.state.address);
     if (!d) return;
     this.summary = d;
+    const main = this.info && this.info.actuals.find((a) => a.pzd === 2);
+    if (main && d.actual_unit && main.unit !== d.actual_unit && !this.reloading) {
+      // the reference was read since the view opened: the values come in its unit now, so
+      // the names, units and trend are made anew (a trend of % and Hz in one line is none)
+      this.reloading = true;
+      this.driveChanged(this.state.address).finally(() => { this.reloading = false; });
+      return;
+    }
     const stateEl = document.getElementById("drive-state");
     const silent = d.not_sending || d.status == null;
     if (d.not_sending) {
