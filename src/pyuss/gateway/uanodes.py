@@ -10,7 +10,8 @@ with asyncua).
   answers is ``BadWaitingForInitialData`` until the drive answered (a parameter: until it
   was read) and ``UncertainLastUsableValue`` while the drive does not send (A 5.2.1.1): its
   last answer is no measurement of now. What the gateway sends (control word, setpoints) and
-  its health are its own, and Good.
+  its health are its own, and Good; a process value in the drive's unit (``.Actual.main``,
+  ``.Setpoint.main``) is ``BadWaitingForInitialData`` until its reference was read.
 
 Status codes are named as OPC UA names them (``"BadTooManyArguments"``).
 """
@@ -187,7 +188,10 @@ _ANSWERED = (".StatusWord", ".State", ".Status.", ".Actual.", ".ActualPercent.")
 
 def value_status(state: DriveState, key: str) -> str | None:
     """The StatusCode of variable ``key`` in ``state`` (None: Good); see the module
-    docstring."""
+    docstring. A process value in the drive's unit waits for its reference as well."""
+    in_unit = key.startswith((".Actual.", ".Setpoint."))
+    if in_unit and state.reference is None and state.model.unit != "%":
+        return WAITING  # NaN: the physical value of 100 % is not read yet
     if key.startswith(".Parameters."):
         reading = state.parameters.get(key[len(".Parameters.") :])
         if reading is None or reading.value is None:
