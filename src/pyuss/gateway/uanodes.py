@@ -10,8 +10,10 @@ with asyncua).
   answers is ``BadWaitingForInitialData`` until the drive answered (a parameter: until it
   was read) and ``UncertainLastUsableValue`` while the drive does not send (A 5.2.1.1): its
   last answer is no measurement of now. What the gateway sends (control word, setpoints) and
-  its health are its own, and Good; a process value in the drive's unit (``.Actual.main``,
-  ``.Setpoint.main``) is ``BadWaitingForInitialData`` until its reference was read.
+  its health are its own, and Good; a parameter whose last poll failed is
+  ``UncertainLastUsableValue`` (the value read before); a process value in the drive's unit
+  (``.Actual.main``, ``.Setpoint.main``) is ``BadWaitingForInitialData`` until its
+  reference was read.
 
 Status codes are named as OPC UA names them (``"BadTooManyArguments"``).
 """
@@ -196,6 +198,8 @@ def value_status(state: DriveState, key: str) -> str | None:
         reading = state.parameters.get(key[len(".Parameters.") :])
         if reading is None or reading.value is None:
             return WAITING
+        if reading.error is not None:
+            return LAST_USABLE  # its last poll failed: the value is the one read before
     elif not key.startswith(_ANSWERED):
         return None
     elif not state.answered:
