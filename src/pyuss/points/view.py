@@ -200,7 +200,11 @@ async def command_outcome(
     """After command ``name`` was answered: wait (at most ``within`` seconds) for the state
     the command leads to (`GOALS`); an Outcome says whether the drive took it, and when not,
     what it shows instead and what to do."""
-    what, goal = GOALS[name]
+    what, aim = GOALS[name]
+
+    def goal(before: DriveState, now: DriveState) -> bool:
+        return now.online and aim(before, now)  # a silent drive's last word tells nothing
+
     deadline = time.monotonic() + within
     state = points.snapshot()
     while not goal(before, state):
@@ -212,6 +216,12 @@ async def command_outcome(
         state = points.snapshot()
     if goal(before, state):
         return Outcome(name, True, f"{name}: done, the drive is {_motion_text(state)}.", state)
+    if state.answered and not state.online:
+        said = (
+            f"{name}: the drive does not send (A 5.2.1.1): whether it took the command is not "
+            "known. What to do: check the drive's power supply and the line"
+        )
+        return Outcome(name, False, f"{said}.", state)
     unchanged = state.status_word == before.status_word
     said = (
         f"the drive did not take it: its status word stayed {_shown(state)}"
