@@ -370,10 +370,14 @@ async def fault_panel(points: DrivePoints, *, timeout: float | None = None) -> d
     state = points.snapshot()
     if state.answered and state.health.not_sending:
         # its last status word is no "no fault" of now, and a family without a fault
-        # history would read nothing that could say so
-        raise UssTimeout(
-            f"drive {points.address} does not send (A 5.2.1.1): its faults are not known"
-        )
+        # history would read nothing that could say so: its next answer is waited for
+        with contextlib.suppress(TimeoutError, UssError):
+            await points.drive.next_update(timeout=timeout or TAKE_TIME)
+        state = points.snapshot()
+        if not state.online:
+            raise UssTimeout(
+                f"drive {points.address} does not send (A 5.2.1.1): its faults are not known"
+            )
     return await fault_history(
         points.drive, fault=state.fault, warning=state.warning, timeout=timeout
     )
