@@ -266,11 +266,14 @@ export class DriveView {
     const d = bus.drives.find((x) => x.address === this.state.address);
     if (!d) return;
     this.summary = d;
-    const main = this.info && this.info.actuals.find((a) => a.pzd === 2);
-    if (main && d.actual_unit && main.unit !== d.actual_unit && !this.reloading) {
+    const main = this.info && this.info.actuals[0];  // the column actual_unit is of
+    const unitOf = `${d.address} ${d.actual_unit}`;  // made anew once per drive and unit
+    if (main && d.actual_unit && main.unit !== d.actual_unit && !this.reloading
+        && this.reloadedFor !== unitOf) {
       // the reference was read since the view opened: the values come in its unit now, so
       // the names, units and trend are made anew (a trend of % and Hz in one line is none)
       this.reloading = true;
+      this.reloadedFor = unitOf;
       this.driveChanged(this.state.address).finally(() => { this.reloading = false; });
       return;
     }
