@@ -637,6 +637,16 @@ def test_a_drive_that_stops_answering_shows_nothing_of_before_as_now(
         assert page.locator("#drive-bits li.on").count() == 0
         assert all(" = -: " in t for t in page.locator("#drive-bits li").all_inner_texts())
         assert page.locator("#drive-motion").inner_text() == "-"
+        # nor the fault panel read before: "no fault" was then
+        assert page.locator("#fault-now").inner_text() == "not known"
+        join(True)  # a drive answers again: the panel is read anew
+        page.wait_for_function(
+            "document.querySelector('#fault-now').textContent === 'no fault, no warning'"
+        )
+        join(False)
+        page.wait_for_function(
+            "document.querySelector('#drive-state').textContent === 'does not send'"
+        )
         # the bus view's row alike: no status word, no actual value of before
         page.goto(url + "#bus")
         page.wait_for_function(

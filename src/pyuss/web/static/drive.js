@@ -70,6 +70,7 @@ export class DriveView {
 
   async driveChanged(address) {
     this.info = null;
+    this.silent = undefined;
     this.setpointShown = false;
     document.getElementById("setpoint-value").value = "";
     // nothing of the drive shown before stays until this one's state comes
@@ -172,13 +173,7 @@ export class DriveView {
     try {
       panel = await get(`/api/drive/${address}/faults`);
     } catch (error) {
-      if (this.state.address !== address) return;
-      // what could not be read is not shown as read: no "no fault", no history of before
-      const fault = document.getElementById("fault-now");
-      fault.textContent = "not known";
-      fault.className = "error";
-      document.querySelector("#fault-table tbody").replaceChildren();
-      document.getElementById("fault-note").textContent = `Faults not read: ${error.message}`;
+      if (this.state.address === address) this.faultsNotKnown(error.message);
       return;
     }
     if (this.state.address !== address) return;
@@ -202,6 +197,15 @@ export class DriveView {
     document.getElementById("fault-note").textContent = kept.length
       ? `Read from ${kept.join(", ")}${rows.length ? "" : ": none recorded"}.`
       : "This drive family keeps no fault history in its parameters: the status word shows fault and warning.";
+  }
+
+  // What could not be read is not shown as read: no "no fault", no history of before.
+  faultsNotKnown(why) {
+    const fault = document.getElementById("fault-now");
+    fault.textContent = "not known";
+    fault.className = "error";
+    document.querySelector("#fault-table tbody").replaceChildren();
+    document.getElementById("fault-note").textContent = `Faults not read: ${why}`;
   }
 
   build() {
@@ -291,6 +295,13 @@ export class DriveView {
       // the bus messages show its state too (after an offline spell, say)
       this.showStatus(d.status, d.state, d.actual);
     }
+    // The fault panel read before is not what a silent drive shows now; read it anew once
+    // the drive answers again.
+    if (silent !== this.silent && this.info) {
+      if (silent) this.faultsNotKnown("the drive does not send");
+      else if (this.silent !== undefined) this.readFaults();
+    }
+    this.silent = silent;
     // No drive answering: nothing to command (a command would only time out).
     for (const button of document.querySelectorAll("#view-drive .controls button, #setpoint-form button, #fault-ack")) {
       button.disabled = silent;
