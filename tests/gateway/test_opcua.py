@@ -96,6 +96,46 @@ async def _reads_above(node: Any, value: float) -> None:
             await asyncio.sleep(0.01)
 
 
+async def _status(node: Any) -> str:
+    value = await node.read_data_value(raise_on_bad_status=False)
+    name: str = value.StatusCode.name
+    return name
+
+
+async def _status_becomes(node: Any, name: str) -> None:
+    """Read ``node`` until its StatusCode is ``name`` (bounded as `eventually` is)."""
+    async with asyncio.timeout(15.0):
+        while await _status(node) != name:
+            await asyncio.sleep(0.01)
+
+
+async def test_a_drive_that_stops_answering_shows_its_values_as_last_usable() -> None:
+    # OPC UA Part 4 7.39: a value whose source stopped updating it is UncertainLastUsableValue
+    # (a client must not take a silent drive's last status word or speed for now), one not
+    # known yet BadWaitingForInitialData; what the gateway sends, and the health, stay Good
+    async with simulated_gateway(opcua=True) as (gateway, engines), OpcuaClient(gateway) as client:
+        await client.set_setpoint(5, 10.0)
+        await client.switch_on(5)
+        await _reads_above(client.node(5, ".Actual.main"), 1.0)
+        drives = [".StatusWord", ".State", ".Status.operation_enabled", ".Actual.main",
+                  ".ActualPercent.main"]  # fmt: skip
+        ours = [".ControlWord", ".Setpoint.main", ".SetpointPercent.main", ".Health.NotSending"]
+        for path in drives + ours:  # (a loaded machine may miss an answer: then Uncertain)
+            await _status_becomes(client.node(5, path), "Good")
+        assert await _status(client.node(5, ".Parameters.P107")) == "BadWaitingForInitialData"
+        engines[5].address = 31  # drive 5 answers no more
+        await _status_becomes(client.node(5, ".StatusWord"), "UncertainLastUsableValue")
+        assert await client.node(5, ".Health.NotSending").read_value() is True
+        for path in drives:
+            assert await _status(client.node(5, path)) == "UncertainLastUsableValue", path
+        for path in ours:
+            assert await _status(client.node(5, path)) == "Good", path
+        await _status_becomes(client.node(6, ".StatusWord"), "Good")  # the other one answers
+        engines[5].address = 5  # it answers again
+        for path in drives:
+            await _status_becomes(client.node(5, path), "Good")
+
+
 async def test_anonymous_clients_read_but_may_not_write_or_command() -> None:
     async with simulated_gateway(opcua=True) as (gateway, engines):
         async with OpcuaClient(gateway, user=None) as anonymous:

@@ -11,6 +11,8 @@ import contextlib
 import math
 from typing import Any
 
+import pytest
+
 from pyuss.bus import VirtualBus
 from pyuss.errors import UssError
 from pyuss.gateway.topics import StatePayloads, state_payload
@@ -92,3 +94,32 @@ async def test_the_opcua_values_made_from_the_parts_that_changed_are_the_whole_s
 
 def _both_nan(a: Any, b: Any) -> bool:
     return isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="pyuss.points.plant: when a bus's master stops (its port failed, the bus:// "
+    "server went away) its drives' states stay online and not 'does not send', so every "
+    "face shows their last answer as now (Modbus health bit 0 clear, MQTT availability "
+    "online, OPC UA Good, the page's values); the states should say so once the master "
+    "stopped",
+)
+async def test_the_drives_of_a_bus_whose_port_failed_are_not_shown_as_answering() -> None:
+    bus = VirtualBus(BAUD)
+    config = plant_from_flags(
+        port="bus://simulated:1", addresses=[5], baud=BAUD, layout="4,2", name="line",
+        profile="generic",
+    )  # fmt: skip
+    async with simulated_drives(bus, [(5, "generic", Layout.parse("4,2"))]):
+        station = bus.attach("gateway")
+        plant = Plant(resolve(config), transports={"line": station})
+        await plant.start()
+        try:
+            drive = plant.drives[0]
+            await drive.drive.next_update(timeout=5)
+            assert drive.snapshot().online
+            await station.close()  # the port fails: the master stops
+            await eventually(lambda: not plant.bus("line").master.running, what="master stopped")
+            await eventually(lambda: not drive.state.online, timeout=3, what="drive not online")
+        finally:
+            await plant.close()

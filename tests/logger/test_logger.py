@@ -22,6 +22,7 @@ import pytest
 from cli.test_simulate import _first_line, _start
 from pyuss.bus import VirtualBus
 from pyuss.datalog import NO_ANSWER, CsvLog, DataLogger, parse_values
+from pyuss.datalog.logger import LogResult, rate_text
 from pyuss.master import Master
 from pyuss.master.testing import simulated_drives
 from pyuss.protocol.layout import Layout
@@ -79,6 +80,14 @@ async def test_a_drive_that_stops_answering_is_logged_as_silent(tmp_path: Path) 
     assert set(comm[:first_silent]) == {"ok"}
     assert set(comm[first_silent:back]) == {NO_ANSWER}
     assert result.no_answer == comm.count(NO_ANSWER) > 0
+    # a silent drive gives a row every half second, not 20: the slots it skips are its own,
+    # not those of a line too slow for the rate
+    assert result.short and result.silent_skipped > 0
+    said = rate_text(result)
+    assert f"{result.silent_skipped} " in said and "while the drive did not answer" in said
+    assert "the line is slower" not in rate_text(
+        LogResult(rows=10, no_answer=5, rate=5, slots=30, silent_skipped=20)
+    )
     for row in table:
         values = [row[name] for name in list(row)[1:-1]]
         if row["comm"] == NO_ANSWER:

@@ -6,7 +6,9 @@ which docs/web.md shows)."""
 
 from __future__ import annotations
 
+import contextlib
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -14,7 +16,7 @@ import pytest
 from pyuss.drive.states import DriveState
 from pyuss.monitor.capture import read_capture
 from pyuss.profiles import profile_names
-from support.web import Running, open_page, screenshot
+from support.web import Running, open_page, screenshot, serve
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
@@ -568,10 +570,113 @@ def test_the_buttons_are_disabled_while_no_drive_answers(browser: Any, demo: Run
         for selector in ("[data-cmd=on]", "[data-cmd=jog1]", "#setpoint-form button", "#fault-ack"):
             assert page.locator(selector).is_disabled(), selector
         assert page.locator("[data-cmd=on]").get_attribute("title") == "the drive does not answer"
+        # nothing is known of its status bits: none is shown as 0 or 1
+        bits = page.locator("#drive-bits li").all_inner_texts()
+        assert len(bits) == 16 and all(" = -: " in text for text in bits), bits
         page.context.close()
     finally:
         demo.call(server.close())
         demo.call(backend.close())
+
+
+@contextlib.contextmanager
+def _line_of_drive_5(demo: Running, *, answering: bool) -> Iterator[tuple[Any, str, Any]]:
+    """A page over drive 5 (generic, 4,2) of a virtual bus, started in the demo's loop: its
+    backend, its address and ``join(on)``, which brings the simulated drive onto the bus
+    (True) or takes it off (False); it is there at the start if ``answering``."""
+    from pyuss.bus import VirtualBus
+    from pyuss.master.testing import simulated_drives
+    from pyuss.protocol.layout import Layout
+    from pyuss.web.backend import Backend, DriveSpec
+
+    drives = contextlib.AsyncExitStack()
+    bus = VirtualBus(38400)
+
+    def join(on: bool) -> None:
+        if on:
+            simulated = simulated_drives(bus, [(5, "generic", Layout(4, 2))])
+            demo.call(drives.enter_async_context(simulated))
+        else:
+            demo.call(drives.aclose())
+
+    async def start() -> Backend:
+        backend = Backend(transport=bus.attach("master"), baud=38400, job_timeout=0.3,
+                          drives=[DriveSpec(5, "generic", Layout(4, 2))])  # fmt: skip
+        await backend.start()
+        return backend
+
+    if answering:
+        join(True)
+    backend = demo.call(start())
+    server = demo.call(serve(backend))
+    try:
+        yield backend, server.url, join
+    finally:
+        demo.call(server.close())
+        demo.call(backend.close())
+        join(False)
+        demo.call(bus.close())
+
+
+def test_a_drive_that_stops_answering_shows_nothing_of_before_as_now(
+    browser: Any, demo: Running
+) -> None:
+    with _line_of_drive_5(demo, answering=True) as (backend, url, join):
+        page = open_page(browser, url + "#drive/5")
+        demo.call(backend.command(5, "on"))
+        page.wait_for_function(
+            "document.querySelector('#drive-bits li.on') && "
+            "document.querySelector('#drive-bits li[data-bit=\"2\"]').classList.contains('on')"
+        )
+        assert page.locator("#drive-status").inner_text() != "----"
+        join(False)  # the drive leaves the bus, switched on
+        page.wait_for_function(
+            "document.querySelector('#drive-state').textContent === 'does not send'"
+        )
+        assert page.locator("#drive-status").inner_text() == "----"
+        assert page.locator("#drive-bits li.on").count() == 0
+        assert all(" = -: " in t for t in page.locator("#drive-bits li").all_inner_texts())
+        assert page.locator("#drive-motion").inner_text() == "-"
+        # nor the fault panel read before: "no fault" was then
+        assert page.locator("#fault-now").inner_text() == "not known"
+        join(True)  # a drive answers again: the panel is read anew
+        page.wait_for_function(
+            "document.querySelector('#fault-now').textContent === 'no fault, no warning'"
+        )
+        join(False)
+        page.wait_for_function(
+            "document.querySelector('#drive-state').textContent === 'does not send'"
+        )
+        # the bus view's row alike: no status word, no actual value of before
+        page.goto(url + "#bus")
+        page.wait_for_function(
+            "(r => r && r.textContent.includes('does not send'))"
+            "(document.querySelector('#bus-table tbody tr'))"
+        )
+        cells = page.locator("#bus-table tbody tr").first.locator("td").all_inner_texts()
+        assert cells[4] == "----" and cells[5] == "-", cells
+        page.context.close()
+
+
+def test_the_units_follow_a_reference_read_after_the_view_opened(
+    browser: Any, demo: Running
+) -> None:
+    # a drive powered on after the page: its reference (P352) is read once it answers, and
+    # from then on its values are in Hz; the view opened before says Hz too, not % of them
+    with _line_of_drive_5(demo, answering=False) as (_, url, join):
+        page = open_page(browser, url + "#drive/5")
+        page.wait_for_function("document.querySelector('#drive-title').textContent !== ''")
+        assert "Main actual value [%]" in page.locator("#trend-choice").inner_text()
+        join(True)
+        page.wait_for_function(
+            "document.querySelector('#trend-choice').textContent.includes('Main actual value [Hz]')"
+        )
+        page.wait_for_function(
+            "document.querySelector('#drive-actuals td[data-pzd=\"2\"]').textContent"
+            ".endsWith(' Hz')"
+        )
+        assert page.locator("#setpoint-unit option").all_inner_texts() == ["%", "Hz"]
+        page.context.close()
 
 
 def test_a_drive_of_unknown_kind_shows_a_parameter_typed_by_number_as_words(

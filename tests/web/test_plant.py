@@ -578,3 +578,38 @@ def test_the_worked_example_of_the_doc_runs(tmp_path: Path) -> None:
         for process in reversed(started):
             stop_uss(process, signal.SIGINT)
         broker.stop()
+
+
+def test_a_page_that_lost_its_broker_says_so_not_that_the_drives_are_silent(
+    tmp_path: Path,
+) -> None:
+    # the page knows nothing of the gateways and drives while it is not connected: it must
+    # neither show a gateway "online" nor say that a drive "does not send" (A 5.2.1.1), which
+    # is a diagnosis of the drive; it says that its broker is not connected
+    broker = Broker(tmp_path)
+    broker.start()
+    line = Line("line1", broker.url, tmp_path)
+    page: Page | None = None
+    try:
+        line.start_gateway()
+        page = Page(broker.url)
+        shown = page
+
+        def view() -> dict[str, Any]:
+            status, data = shown.api("/api/bus")
+            assert status == 200
+            return dict(data)
+
+        eventually_sync(lambda: [d["online"] for d in view()["drives"]] == [True, True], "live")
+        broker.stop()
+        eventually_sync(lambda: not view()["connected"], "the page's broker lost")
+        shown_now = view()
+        assert [g["online"] for g in shown_now["gateways"]] == [False]
+        for item in shown_now["drives"]:
+            assert item["offline"] == f"the MQTT broker {broker.url} is not connected", item
+            assert item["state"] == item["offline"] and item["status"] is None
+    finally:
+        if page is not None:
+            page.stop()
+        line.stop()
+        broker.stop()

@@ -77,7 +77,11 @@ class LogResult:
     rate: float = 0.0
     """Samples a second asked."""
     slots: int = 0
-    """Slots that passed: rows written plus slots skipped because the line was slower."""
+    """Slots that passed: rows written plus slots skipped because the line was slower or
+    while a sample waited for a drive that did not answer."""
+    silent_skipped: int = 0
+    """Of the slots skipped, those that passed while a sample waited for a drive that did not
+    answer (`MIN_WAIT`): the drive's silence, not the line's speed."""
 
     @property
     def reached(self) -> float:
@@ -110,10 +114,14 @@ def cell(info: ParamInfo | None, value: Value | Sequence[Value]) -> str:
 
 def rate_text(result: LogResult) -> str:
     """What a log that falls short of its rate says of it (no comma: a CSV cell unquoted)."""
-    return (
-        f"{result.reached:.3g} samples a second reached of the {result.rate:g} asked: "
-        f"the line is slower ({result.slots - result.rows} of {result.slots} slots skipped)"
-    )
+    reached = f"{result.reached:.3g} samples a second reached of the {result.rate:g} asked"
+    skipped = result.slots - result.rows
+    silent = result.silent_skipped
+    silence = "while the drive did not answer"
+    if silent >= skipped:
+        return f"{reached}: {skipped} of {result.slots} slots skipped {silence}"
+    line = f"{reached}: the line is slower ({skipped - silent} of {result.slots} slots skipped"
+    return line + (f"; {silent} more {silence})" if silent else ")")
 
 
 def write_comment(log: CsvLog, text: str) -> None:
@@ -295,7 +303,7 @@ class DataLogger:
         period = 1.0 / self.rate
         start = time.monotonic()
         end = math.inf if duration is None else start + duration
-        rows = silent = 0
+        rows = silent = silent_skipped = 0
         slot = 0
         judged = on_short is None
         while not stop.is_set() and (count is None or rows < count):
@@ -318,10 +326,13 @@ class DataLogger:
             rows += 1
             silent += not answered
             # the next slot after now: skipped slots are not made up for
-            slot = max(slot + 1, math.floor((time.monotonic() - start) / period) + 1)
+            after = max(slot + 1, math.floor((time.monotonic() - start) / period) + 1)
+            if not answered:
+                silent_skipped += after - slot - 1
+            slot = after
             if not judged and slot >= SHORT_AFTER:
                 judged = True
-                so_far = LogResult(rows, silent, self.rate, slot)
+                so_far = LogResult(rows, silent, self.rate, slot, silent_skipped)
                 if so_far.short and on_short is not None:
                     on_short(so_far)
-        return LogResult(rows, silent, self.rate, slot)
+        return LogResult(rows, silent, self.rate, slot, silent_skipped)

@@ -36,10 +36,12 @@ in the drive's unit, set once the reference is known; BadWaitingForInitialData u
 a parameter's limits from the parameter file, else what its word(s) can carry.
 
 Variables change when the drive's state changes (`pyuss.points.plant`), so subscriptions get
-changes at the bus cycle. Writes to ControlWord and Setpoint return once the telegram
-carrying them was answered; writes to parameters and WriteParameter once the job was
-answered; a refusal is the status code of `STATUS_CODES`, with the drive's number in
-Health/LastErrorNumber.
+changes at the bus cycle. The values of the drive's answers carry BadWaitingForInitialData
+before its first answer and UncertainLastUsableValue while it does not send
+(`pyuss.gateway.uanodes.value_status`), with the time of the answer as SourceTimestamp.
+Writes to ControlWord and Setpoint return once the telegram carrying them was answered;
+writes to parameters and WriteParameter once the job was answered; a refusal is the status
+code of `STATUS_CODES`, with the drive's number in Health/LastErrorNumber.
 
 Every request is checked whole before anything goes on the line (OPC UA Part 4):
 
@@ -106,6 +108,7 @@ from pyuss.gateway.uanodes import (
     percent_range,
     unit_id,
     value_parts,
+    value_status,
 )
 from pyuss.points.errors import Failure, classify
 from pyuss.points.model import STATUS_BIT_NAMES
@@ -552,6 +555,11 @@ class _DriveNodes:
         self.drive = drive
         self.nodes: dict[str, tuple[ua.NodeId, ua.VariantType]] = {}
         self.last: dict[str, Any] = {}
+        self.statuses: dict[str, str | None] = {}
+        """The StatusCode each variable was last written with (`value_status`; None: Good,
+        as every variable starts)."""
+        self.quality: tuple[bool, bool] | None = None
+        """Whether the drive had answered and whether it did not send, at the last write."""
         self.sources: list[object] = []
         """What each of `value_parts` was last made from."""
         self.reference: float | None = None
@@ -825,29 +833,50 @@ class _DriveNodes:
 
     def changes(self, state: DriveState) -> list[tuple[ua.NodeId, ua.DataValue]]:
         """The writes that bring the nodes to ``state``: the values that changed (NaN
-        stays NaN), and the EURanges when the reference changed. What is returned counts as
-        written."""
+        stays NaN) or whose StatusCode did (`value_status`: the drive answered for the first
+        time, fell silent, answers again), and the EURanges when the reference changed. What
+        is returned counts as written."""
         writes = []
-        nodes, last, sources = self.nodes, self.last, self.sources
+        nodes, last, sources, statuses = self.nodes, self.last, self.sources, self.statuses
+        quality = (state.answered, state.health.not_sending)
+        same_quality = quality == self.quality
+        self.quality = quality
         parts = value_parts(state)
         for part, (source, values) in enumerate(parts):
-            if part < len(sources) and sources[part] == source:
+            if same_quality and part < len(sources) and sources[part] == source:
                 continue  # the same values as last time
             for key, value in values().items():
                 node = nodes.get(key)
                 if node is None:
                     continue
+                status = value_status(state, key)
                 old = last.get(key)
-                if old == value or (
-                    isinstance(old, float)
-                    and isinstance(value, float)
-                    and math.isnan(old)
-                    and math.isnan(value)
+                if statuses.get(key) == status and (
+                    old == value
+                    or (
+                        isinstance(old, float)
+                        and isinstance(value, float)
+                        and math.isnan(old)
+                        and math.isnan(value)
+                    )
                 ):
                     continue
                 nodeid, vtype = node
                 last[key] = value
-                writes.append((nodeid, ua.DataValue(ua.Variant(value, vtype))))
+                statuses[key] = status
+                code = ua.StatusCode(0 if status is None else getattr(ua.StatusCodes, status))
+                stamp = state.time
+                writes.append(
+                    (
+                        nodeid,
+                        ua.DataValue(
+                            ua.Variant(value, vtype),
+                            StatusCode=code,
+                            SourceTimestamp=stamp,
+                            ServerTimestamp=stamp,
+                        ),
+                    )
+                )
         self.sources = [source for source, _values in parts]
         reference = state.reference
         if reference is not None and reference != self.reference and self.drive.model.unit != "%":

@@ -5,7 +5,15 @@ with asyncua).
 - `percent_range`, `parameter_range`: the EURange of process values and parameters;
 - `may_change`: whether a session may write and call the methods that change a drive;
 - `argument_fault`: Part 4's status for a method call with a wrong number of arguments;
-- `drive_values`: the value of each variable of a drive, by node name, from its state.
+- `drive_values`: the value of each variable of a drive, by node name, from its state;
+- `value_status`: the StatusCode each of them carries (Part 4 7.39): a value of the drive's
+  answers is ``BadWaitingForInitialData`` until the drive answered (a parameter: until it
+  was read) and ``UncertainLastUsableValue`` while the drive does not send (A 5.2.1.1): its
+  last answer is no measurement of now. What the gateway sends (control word, setpoints) and
+  its health are its own, and Good; a parameter whose last poll failed is
+  ``UncertainLastUsableValue`` (the value read before); a process value in the drive's unit
+  (``.Actual.main``, ``.Setpoint.main``) is ``BadWaitingForInitialData`` until its
+  reference was read.
 
 Status codes are named as OPC UA names them (``"BadTooManyArguments"``).
 """
@@ -29,6 +37,7 @@ __all__ = [
     "parameter_range",
     "percent_range",
     "unit_id",
+    "value_status",
 ]
 
 UNECE = {
@@ -170,3 +179,29 @@ def _process_values(state: DriveState) -> dict[str, Any]:
             found[f".{kind}.{key}"] = math.nan if value.value is None else value.value
             found[f".{kind}Percent.{key}"] = value.percent
     return found
+
+
+WAITING = "BadWaitingForInitialData"
+LAST_USABLE = "UncertainLastUsableValue"
+
+_ANSWERED = (".StatusWord", ".State", ".Status.", ".Actual.", ".ActualPercent.")
+"""The variables made of the drive's answers (with ``.Parameters.``: of its parameter jobs)."""
+
+
+def value_status(state: DriveState, key: str) -> str | None:
+    """The StatusCode of variable ``key`` in ``state`` (None: Good); see the module
+    docstring. A process value in the drive's unit waits for its reference as well."""
+    in_unit = key.startswith((".Actual.", ".Setpoint."))
+    if in_unit and state.reference is None and state.model.unit != "%":
+        return WAITING  # NaN: the physical value of 100 % is not read yet
+    if key.startswith(".Parameters."):
+        reading = state.parameters.get(key[len(".Parameters.") :])
+        if reading is None or reading.value is None:
+            return WAITING
+        if reading.error is not None:
+            return LAST_USABLE  # its last poll failed: the value is the one read before
+    elif not key.startswith(_ANSWERED):
+        return None
+    elif not state.answered:
+        return WAITING
+    return LAST_USABLE if state.health.not_sending else None

@@ -25,9 +25,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from pyuss.errors import ConfigError, UssError
+from pyuss.errors import ConfigError, UssError, UssTimeout
 from pyuss.params import ParamBook
 from pyuss.params.model import Reading
+from pyuss.params.values import format_value
+from pyuss.points.errors import Failure, classify
 from pyuss.points.plant import DrivePoints
 from pyuss.points.state import DriveState, ProcessValue
 from pyuss.profiles.base import Profile
@@ -40,6 +42,7 @@ __all__ = [
     "command_outcome",
     "fault_history",
     "fault_panel",
+    "key_actual",
     "key_actuals",
     "motion",
     "read_key_actuals",
@@ -117,10 +120,14 @@ GENERAL_ADVICE = (
 
 def motion(state: DriveState) -> str:
     """The ramp state a panel shows: ``stopped`` (or the state, when not running), ``jogging``,
-    ``OFF1 active, ramping down``, ``at setpoint``, ``ramping up``, ``ramping down``. OFF1
+    ``OFF1 active, ramping down``, ``at setpoint``, ``ramping up``, ``ramping down``;
+    ``running (local operation)`` while status bit 9 says the bus's words are not in force. OFF1
     keeps a drive in "operation enabled" while it ramps down (control bit 0 = 0, status bit 2
     still 1). The main actual value against the setpoint in force tells the ramp (within
-    `AT_SETPOINT`: at setpoint); status bit 8 only where either is missing."""
+    `AT_SETPOINT`: at setpoint); status bit 8 only where either is missing. A drive marked
+    "does not send" (A 5.2.1.1) is ``does not send``: its last answer tells nothing of now."""
+    if state.answered and state.health.not_sending:
+        return "does not send"
     actual = _main(state.actual)
     setpoint = _main(state.setpoints)
     return motion_of(
@@ -138,6 +145,9 @@ def motion_of(word: int | None, control: int, actual: float | None, setpoint: fl
         return "no answer"
     if not word & StatusWord.OPERATION_ENABLED:
         return "stopped" if not word & StatusWord.FAULT else "fault"
+    if not word & StatusWord.CONTROL_REQUESTED:
+        # local operation only (C Table 5.5 bit 9): the words the bus sends are not in force
+        return "running (local operation)"
     turning = actual is not None and abs(actual) >= AT_REST
     if control & (ControlWord.JOG1 | ControlWord.JOG2):
         return "jogging"
@@ -147,6 +157,8 @@ def motion_of(word: int | None, control: int, actual: float | None, setpoint: fl
         return "at setpoint" if word & StatusWord.IN_TOLERANCE else "running"
     if abs(actual - setpoint) <= AT_SETPOINT:
         return "at setpoint"
+    if turning and actual * setpoint < 0:
+        return "ramping down"  # towards standstill, to run up the other way
     if abs(actual) < abs(setpoint):
         return "ramping up"
     return "ramping down"
@@ -188,7 +200,11 @@ async def command_outcome(
     """After command ``name`` was answered: wait (at most ``within`` seconds) for the state
     the command leads to (`GOALS`); an Outcome says whether the drive took it, and when not,
     what it shows instead and what to do."""
-    what, goal = GOALS[name]
+    what, aim = GOALS[name]
+
+    def goal(before: DriveState, now: DriveState) -> bool:
+        return now.online and aim(before, now)  # a silent drive's last word tells nothing
+
     deadline = time.monotonic() + within
     state = points.snapshot()
     while not goal(before, state):
@@ -200,6 +216,12 @@ async def command_outcome(
         state = points.snapshot()
     if goal(before, state):
         return Outcome(name, True, f"{name}: done, the drive is {_motion_text(state)}.", state)
+    if state.answered and not state.online:
+        said = (
+            f"{name}: the drive does not send (A 5.2.1.1): whether it took the command is not "
+            "known. What to do: check the drive's power supply and the line"
+        )
+        return Outcome(name, False, f"{said}.", state)
     unchanged = state.status_word == before.status_word
     said = (
         f"the drive did not take it: its status word stayed {_shown(state)}"
@@ -287,7 +309,9 @@ async def _elements(
     reader: ParamReader, pnu: int, timeout: float | None
 ) -> list[tuple[int | None, object]] | None:
     """Every element of ``pnu`` as ``(index, value)`` (None: the family has no such
-    parameter); an element the drive refuses is left out."""
+    parameter); an element the drive refuses is left out. A job without an answer (the drive
+    does not send, the line or gateway is gone) is raised: what could not be read is no
+    empty history."""
     book = reader.params
     info = book.get(pnu)
     if info is None:
@@ -295,9 +319,13 @@ async def _elements(
     indexes: list[int | None] = [None] if info.array is None else list(book.indices(info))
     out: list[tuple[int | None, object]] = []
     for index in indexes:
-        with contextlib.suppress(UssError):
+        try:
             reading = await reader.read_param(pnu, index, timeout=timeout)
-            out.append((index, reading.value))
+        except UssError as exc:
+            if classify(exc) in (Failure.NO_ANSWER, Failure.UNAVAILABLE):
+                raise
+            continue
+        out.append((index, reading.value))
     return out
 
 
@@ -340,6 +368,16 @@ async def fault_panel(points: DrivePoints, *, timeout: float | None = None) -> d
     ``history`` and ``warnings`` are None where the family's parameter file has no such
     parameter."""
     state = points.snapshot()
+    if state.answered and state.health.not_sending:
+        # its last status word is no "no fault" of now, and a family without a fault
+        # history would read nothing that could say so: its next answer is waited for
+        with contextlib.suppress(TimeoutError, UssError):
+            await points.drive.next_update(timeout=timeout or TAKE_TIME)
+        state = points.snapshot()
+        if not state.online:
+            raise UssTimeout(
+                f"drive {points.address} does not send (A 5.2.1.1): its faults are not known"
+            )
     return await fault_history(
         points.drive, fault=state.fault, warning=state.warning, timeout=timeout
     )
@@ -416,7 +454,14 @@ async def read_key_actuals(
         except UssError as exc:
             out.append({**item, "error": str(exc)})
             continue
-        value = reading.value
-        number = float(value) if isinstance(value, int | float) else None
-        out.append({**item, "value": number})
+        out.append(key_actual(item, reading))
     return out
+
+
+def key_actual(item: dict[str, Any], reading: Reading) -> dict[str, Any]:
+    """A key actual value ``item`` as read: ``value`` (a number in ``unit``, for the trend)
+    and ``text``, the value as the parameter list and `uss read` show it (the digits of its
+    parameter, with the unit)."""
+    value = reading.value
+    number = float(value) if isinstance(value, int | float) else None
+    return {**item, "value": number, "text": format_value(reading.info, value)}

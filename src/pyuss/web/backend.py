@@ -327,27 +327,33 @@ class Backend:
         }
 
     def summary(self, address: int) -> dict[str, Any]:
-        """State, fault, communication health of one drive (A 5.2.3 counters included)."""
+        """State, fault, communication health of one drive (A 5.2.3 counters included). A
+        drive that does not send (A 5.2.1.1) shows no status word, state, fault or actual
+        value: its last answer is not what it is now."""
         points = self.points(address)
         state = points.snapshot()
+        failed = self._line_failed()
+        live = state.online and failed is None
         diagnostics = points.drive.diagnostics()
         counters = diagnostics.counters
         return {
             "address": address,
             "profile": points.model.profile or backups.UNKNOWN_KIND,
             "layout": str(points.model.layout),
-            "not_sending": state.health.not_sending,
+            "not_sending": state.health.not_sending or failed is not None,
+            "offline": failed,
             "control": state.control_word,
-            "control_in_force": _control_in_force(points),
+            "control_in_force": _control_in_force(points) if live else None,
             "setpoints": list(state.setpoint_words),
-            "status": state.status_word,
-            "state": state.state if state.answered else "no answer yet",
-            "motion": motion(state),
+            "status": state.status_word if live else None,
+            "state": failed
+            or (state.state if live else motion(state) if state.answered else "no answer yet"),
+            "motion": failed or motion(state),
             "setpoint": _setpoint_in_force(state),
             "sent_setpoint": self._sent.get(address),
-            "fault": state.fault,
-            "warning": state.warning,
-            "actual": list(points.actual_row(state.actual_words)) if state.answered else [],
+            "fault": live and state.fault,
+            "warning": live and state.warning,
+            "actual": list(points.actual_row(state.actual_words)) if live else [],
             "actual_unit": points.model.unit if points.reference is not None else "%",
             "health": {
                 "exchanges": diagnostics.exchanges,
@@ -364,6 +370,14 @@ class Backend:
             },
         }
 
+    def _line_failed(self) -> str | None:
+        """Why no drive of the line answers any more: its master stopped (the port failed, a
+        TCP adapter went away without ``reconnect=1``); None while it runs."""
+        plant = self._plant
+        if plant is None or plant.bus(LINE).master.running:
+            return None
+        return f"the line failed: {self.port} is closed or gone (the log says why)"
+
     def setpoint_value(self, address: int) -> float | None:
         """The main setpoint sent to drive ``address`` now, in the unit of its main actual
         value (`pyuss.points.DrivePoints.setpoint_value`)."""
@@ -371,7 +385,7 @@ class Backend:
 
     def motion(self, address: int) -> str:
         """The ramp state of drive ``address`` now (`pyuss.points.view.motion`)."""
-        return motion(self.points(address).state)
+        return motion(self.points(address).snapshot())
 
     def bus(self) -> dict[str, Any]:
         """The line: port, baud rate, the drives and the line's own counters."""

@@ -31,7 +31,7 @@ from pyuss.plant.remote import GatewayRefusal, RemoteDrive, RemoteParams, Remote
 from pyuss.points import COMMAND_TABLE, Sample
 from pyuss.points.plant import checked_setpoint
 from pyuss.points.state import ProcessValue, state_name
-from pyuss.points.view import KEY_ACTUALS, TAKE_TIME, fault_history, motion_of
+from pyuss.points.view import KEY_ACTUALS, TAKE_TIME, fault_history, key_actual, motion_of
 from pyuss.protocol.pzd import StatusWord
 from pyuss.web.backend import (
     Approve,
@@ -258,7 +258,10 @@ class PlantBackend:
         counters = dict(health.get("counters") or {})
         word = state.get("status_word")
         why = None
-        if not bus.online:
+        if not self.plant.connected.is_set():
+            # nothing is known of the gateway and its drives now, "offline" least of all
+            why = f"the MQTT broker {self.plant.broker} is not connected"
+        elif not bus.online:
             why = f"gateway {drive.bus} offline"
         elif not drive.available:
             why = "the drive does not answer its gateway"
@@ -429,10 +432,7 @@ class PlantBackend:
             except UssError as exc:
                 values.append({**item, "error": str(exc)})
                 continue
-            number = reading.value
-            values.append(
-                {**item, "value": float(number) if isinstance(number, int | float) else None}
-            )
+            values.append(key_actual(item, reading))
         return {"time": time.time(), "values": values}
 
     async def faults(self, key: object) -> dict[str, Any]:

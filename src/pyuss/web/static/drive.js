@@ -19,8 +19,10 @@ function clock(t) {
   return [d.getHours(), d.getMinutes(), d.getSeconds()].map((n) => String(n).padStart(2, "0")).join(":");
 }
 
-// A status bit as a panel shows it: the meaning now, or the family's text with the bit's value.
+// A status bit as a panel shows it: the meaning now, or the family's text with the bit's value;
+// on == null: not known (no answer yet, or the drive does not send), its value shown as "-".
 function bitText(b, on) {
+  if (on == null) return `${b.bit} = -: ${b.text || b.set}`;
   return b.text ? `${b.bit} = ${on ? 1 : 0}: ${b.text}` : `${b.bit}: ${on ? b.set : b.clear}`;
 }
 
@@ -68,6 +70,7 @@ export class DriveView {
 
   async driveChanged(address) {
     this.info = null;
+    this.silent = undefined;
     this.setpointShown = false;
     document.getElementById("setpoint-value").value = "";
     // nothing of the drive shown before stays until this one's state comes
@@ -81,7 +84,7 @@ export class DriveView {
     document.getElementById("drive-title").textContent =
       `drive ${address} · ${info.title} · layout ${info.layout}`;
     document.getElementById("drive-bits").replaceChildren(
-      ...info.status_bits.map((b) => el("li", { dataset: { bit: b.bit } }, bitText(b, false))));
+      ...info.status_bits.map((b) => el("li", { dataset: { bit: b.bit } }, bitText(b, null))));
     const rows = info.actuals.map((a) => el("tr", {},
       el("td", {}, `${a.name} (PZD${a.pzd})`),
       el("td", { dataset: { pzd: a.pzd } }, "-")));
@@ -149,7 +152,7 @@ export class DriveView {
       });
       for (const v of reply.values) {
         const cell = document.querySelector(`#drive-actuals td[data-pnu="${v.pnu}"]`);
-        if (cell) cell.textContent = v.error ? "not read" : `${v.value.toFixed(2)} ${v.unit}`;
+        if (cell) cell.textContent = v.error ? "not read" : v.text;
         if (cell && v.error) cell.title = v.error;
       }
       this.insert(reply.time, row);
@@ -170,7 +173,7 @@ export class DriveView {
     try {
       panel = await get(`/api/drive/${address}/faults`);
     } catch (error) {
-      document.getElementById("fault-note").textContent = `Faults not read: ${error.message}`;
+      if (this.state.address === address) this.faultsNotKnown(error.message);
       return;
     }
     if (this.state.address !== address) return;
@@ -194,6 +197,15 @@ export class DriveView {
     document.getElementById("fault-note").textContent = kept.length
       ? `Read from ${kept.join(", ")}${rows.length ? "" : ": none recorded"}.`
       : "This drive family keeps no fault history in its parameters: the status word shows fault and warning.";
+  }
+
+  // What could not be read is not shown as read: no "no fault", no history of before.
+  faultsNotKnown(why) {
+    const fault = document.getElementById("fault-now");
+    fault.textContent = "not known";
+    fault.className = "error";
+    document.querySelector("#fault-table tbody").replaceChildren();
+    document.getElementById("fault-note").textContent = `Faults not read: ${why}`;
   }
 
   build() {
@@ -258,19 +270,38 @@ export class DriveView {
     const d = bus.drives.find((x) => x.address === this.state.address);
     if (!d) return;
     this.summary = d;
+    const main = this.info && this.info.actuals[0];  // the column actual_unit is of
+    const unitOf = `${d.address} ${d.actual_unit}`;  // made anew once per drive and unit
+    if (main && d.actual_unit && main.unit !== d.actual_unit && !this.reloading
+        && this.reloadedFor !== unitOf) {
+      // the reference was read since the view opened: the values come in its unit now, so
+      // the names, units and trend are made anew (a trend of % and Hz in one line is none)
+      this.reloading = true;
+      this.reloadedFor = unitOf;
+      this.driveChanged(this.state.address).finally(() => { this.reloading = false; });
+      return;
+    }
     const stateEl = document.getElementById("drive-state");
     const silent = d.not_sending || d.status == null;
     if (d.not_sending) {
       stateEl.textContent = d.offline || "does not send";
       stateEl.className = "state lost";
-      // nothing of before is shown as live: no status word, no values
+      // nothing of before is shown as live: no status word, no status bits, no values
       document.getElementById("drive-status").textContent = hex4(null);
+      if (this.info) this.showBits(null);
       for (const cell of document.querySelectorAll("#drive-actuals td[data-pzd]")) cell.textContent = "-";
     } else if (this.state.config.plant && d.status != null && this.info) {
       // a gateway sends a drive's state when it changes: a drive at rest sends none, so
       // the bus messages show its state too (after an offline spell, say)
       this.showStatus(d.status, d.state, d.actual);
     }
+    // The fault panel read before is not what a silent drive shows now; read it anew once
+    // the drive answers again.
+    if (silent !== this.silent && this.info) {
+      if (silent) this.faultsNotKnown("the drive does not send");
+      else if (this.silent !== undefined) this.readFaults();
+    }
+    this.silent = silent;
     // No drive answering: nothing to command (a command would only time out).
     for (const button of document.querySelectorAll("#view-drive .controls button, #setpoint-form button, #fault-ack")) {
       button.disabled = silent;
@@ -323,18 +354,22 @@ export class DriveView {
     const stateEl = document.getElementById("drive-state");
     stateEl.textContent = state;
     stateEl.className = `state ${STATE_WORDS[state] || ""}`;
-    for (const li of document.querySelectorAll("#drive-bits li")) {
-      const bit = Number(li.dataset.bit);
-      const on = Boolean((word >> bit) & 1);
-      const info = this.info.status_bits[bit];
-      li.classList.toggle("on", on);
-      li.textContent = bitText(info, on);
-    }
+    this.showBits(word);
     for (const cell of document.querySelectorAll("#drive-actuals td[data-pzd]")) {
       const pzd = Number(cell.dataset.pzd);
       const a = this.info.actuals.find((x) => x.pzd === pzd);
       const v = values[pzd - 2];
       cell.textContent = v == null ? "-" : `${v.toFixed(2)} ${a.unit}`;
+    }
+  }
+
+  // The 16 status bits of ``word`` (null: not known, none shown as set).
+  showBits(word) {
+    for (const li of document.querySelectorAll("#drive-bits li")) {
+      const bit = Number(li.dataset.bit);
+      const on = word == null ? null : Boolean((word >> bit) & 1);
+      li.classList.toggle("on", Boolean(on));
+      li.textContent = bitText(this.info.status_bits[bit], on);
     }
   }
 
