@@ -11,8 +11,6 @@ import contextlib
 import math
 from typing import Any
 
-import pytest
-
 from pyuss.bus import VirtualBus
 from pyuss.errors import UssError
 from pyuss.gateway.topics import StatePayloads, state_payload
@@ -96,14 +94,6 @@ def _both_nan(a: Any, b: Any) -> bool:
     return isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="pyuss.points.plant: when a bus's master stops (its port failed, the bus:// "
-    "server went away) its drives' states stay online and not 'does not send', so every "
-    "face shows their last answer as now (Modbus health bit 0 clear, MQTT availability "
-    "online, OPC UA Good, the page's values); the states should say so once the master "
-    "stopped",
-)
 async def test_the_drives_of_a_bus_whose_port_failed_are_not_shown_as_answering() -> None:
     bus = VirtualBus(BAUD)
     config = plant_from_flags(

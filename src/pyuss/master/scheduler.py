@@ -841,12 +841,21 @@ class Master:
                         await self._turn(link)
         except TransportError as exc:
             log.error("master stopped: %s", exc)
+            self._stopped_hearing()
             self._fail(exc)
         except asyncio.CancelledError:
             raise
         except Exception as exc:  # a bug must not leave waiters hanging
             log.exception("master stopped by an internal error")
+            self._stopped_hearing()
             self._fail(MasterClosed(f"the master stopped: {exc!r}"))
+
+    def _stopped_hearing(self) -> None:
+        """The master stopped on its own (the port failed): nothing is heard of any slave any
+        more, so each does not send (A 5.2.1.1) and no face shows its last answer as now."""
+        for link in self._links.values():
+            link.not_sending = True
+            link.channel.not_sending = True
 
     async def _sleep(self, timeout: float | None) -> None:
         assert self._wake is not None
