@@ -286,14 +286,12 @@ async def test_process_data_a_request_did_not_get_through_with_do_not_act_later(
         await bus.close()
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="pyuss.master.Drive.acknowledge (and jog, enable) start from 047Eh, OFF1, while "
-    "the master has sent no control word: uss ack stops a drive another master switched on",
-)
-async def test_the_drive_handle_acknowledges_a_running_drive_without_stopping_it() -> None:
-    """What the points refuse (`NotInControl`), the master's own acknowledge does: ``uss
-    ack`` on a line whose drive a gateway, stopped since, left running sends 04FEh, 047Eh."""
+async def test_the_drive_handle_refuses_to_acknowledge_a_running_drive_it_does_not_control() -> (
+    None
+):
+    """What the points refuse (`NotInControl`), the master's own acknowledge refuses too:
+    ``uss ack`` on a line whose drive a gateway, stopped since, left running sent 04FEh,
+    047Eh, and the motor ramped down."""
     bus = VirtualBus(BAUD)
     try:
         async with simulated_drives(bus, DRIVES[:1]) as engines:
@@ -302,7 +300,11 @@ async def test_the_drive_handle_acknowledges_a_running_drive_without_stopping_it
             async with Plant(model, transports={"line": bus.attach("ack")}) as again:
                 handle = again.drive("line", 1).drive
                 await handle.next_update()
-                await handle.acknowledge()
+                for command in (handle.acknowledge(), handle.jog(1), handle.enable()):
+                    with pytest.raises(NotInControl, match="refused: the drive is switched on"):
+                        await command
+                assert handle.control == 0  # nothing taken over
+                await handle.next_update()
                 assert engines[1].drive.machine.control & 0x0001  # still ON
     finally:
         await bus.close()

@@ -35,7 +35,9 @@ Process data (C 5): the control word and setpoints are sent in every telegram to
 from the moment they are set. The commands return once a telegram carrying them was answered,
 with the status of that answer: `on` (047Eh then 047Fh), `off1` (047Eh), `off2` (047Ch),
 `off3` (047Ah), and, changing the current word, `enable` (bit 3), `acknowledge` (a rising edge
-of bit 7: set, then cleared), `jog` (bits 8, 9); `setpoint` (percent with
+of bit 7: set, then cleared), `jog` (bits 8, 9) - refused (`NotInControl`) on a drive that is
+switched on while this master has sent no control word, since they would start from OFF1;
+`setpoint` (percent with
 4000h = 100 %, or raw; 16 or 32 bits), `control_word`. `status` is the latest answer's
 process data, `next_update` waits for the next, `on_update` registers a callback.
 Parameter jobs never touch the process data: reading a parameter leaves the control word as
@@ -61,7 +63,7 @@ from pyuss.master.description import (
     decode_element,
     element_size,
 )
-from pyuss.master.errors import JobTimeout, NotSending, StatusTimeout
+from pyuss.master.errors import JobTimeout, NotInControl, NotSending, StatusTimeout
 from pyuss.master.jobs import SpontaneousMessage
 from pyuss.master.process import OPERATE, DriveStatus
 from pyuss.master.profile import Profile, description_style, index_base
@@ -84,7 +86,13 @@ from pyuss.protocol.pkw import (
     pwe_word,
     words_to_text,
 )
-from pyuss.protocol.pzd import ControlWord, percent_to_raw16, percent_to_raw32, split_dword
+from pyuss.protocol.pzd import (
+    ControlWord,
+    StatusWord,
+    percent_to_raw16,
+    percent_to_raw32,
+    split_dword,
+)
 
 if TYPE_CHECKING:
     from pyuss.master.scheduler import Master, MirrorResult, _Link
@@ -768,10 +776,28 @@ class Drive:
             values = {pzd: value & 0xFFFF}
         return await self._send(None, values, timeout)
 
-    def _base(self) -> int:
-        """The current control word, or 047Eh if the master does not control the drive yet."""
+    def _base(self, what: str) -> int:
+        """The control word in force, for a command (``what``) that changes bits of it; 047Eh
+        (OFF1) where this master has sent none yet (0000h: no control by the interface).
+        There, on a drive switched on (by another master, or one started again) or not
+        answered yet, the command would stop it: `NotInControl`, nothing sent."""
         word = self._link.control
-        return word if word & ControlWord.CONTROL_BY_PLC else int(OPERATE)
+        if word & ControlWord.CONTROL_BY_PLC:
+            return word
+        status = self._link.status
+        if status is None:
+            why = "has not answered yet, so whether it runs is not known"
+        elif status.word & (StatusWord.READY | StatusWord.OPERATION_ENABLED) and not (
+            status.word & StatusWord.FAULT
+        ):
+            why = f"is switched on ({status.state})"
+        else:
+            return int(OPERATE)
+        raise NotInControl(
+            f"slave {self.address}: {what} refused: the drive {why}, and this master has sent "
+            f"it no control word yet, so {what} would take control with OFF1 (047Eh) and stop "
+            "it; send on or off1 first"
+        )
 
     async def on(self, *, timeout: float | None = None) -> DriveStatus:
         """Switch on: 047Eh (OFF1 with every enable: leaves "switch-on inhibited"), then 047Fh
@@ -799,7 +825,7 @@ class Drive:
     async def enable(self, enabled: bool = True, *, timeout: float | None = None) -> DriveStatus:
         """Enable (or inhibit) operation: control bit 3."""
         self._need_pzd()
-        word = self._base()
+        word = self._base("enable" if enabled else "inhibit")
         word = (
             word | ControlWord.ENABLE_OPERATION
             if enabled
@@ -810,7 +836,7 @@ class Drive:
     async def acknowledge(self, *, timeout: float | None = None) -> DriveStatus:
         """Acknowledge a fault: a rising edge of control bit 7 (set, answered, cleared)."""
         self._need_pzd()
-        word = self._base() & ~int(ControlWord.ACKNOWLEDGE_FAULT)
+        word = self._base("acknowledge") & ~int(ControlWord.ACKNOWLEDGE_FAULT)
         await self._send(word | ControlWord.ACKNOWLEDGE_FAULT, timeout=timeout)
         return await self._send(word, timeout=timeout)
 
@@ -819,7 +845,7 @@ class Drive:
         self._need_pzd()
         if which not in (None, 0, 1, 2):
             raise ConfigError(f"jog takes 1, 2 or None, got {which!r}")
-        word = self._base() & ~int(ControlWord.JOG1 | ControlWord.JOG2)
+        word = self._base("jog") & ~int(ControlWord.JOG1 | ControlWord.JOG2)
         if which == 1:
             word |= ControlWord.JOG1
         elif which == 2:

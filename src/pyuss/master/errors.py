@@ -38,6 +38,7 @@ __all__ = [
     "MasterClosed",
     "MirrorMismatch",
     "NoWriteAuthority",
+    "NotInControl",
     "NotSending",
     "StatusTimeout",
     "ValueDiffers",
@@ -214,6 +215,14 @@ class MirrorMismatch(ProtocolError):
             f"slave {address}: mirror telegram came back changed: sent "
             f"{sent.hex(' ').upper()}, received {received.hex(' ').upper()}"
         )
+
+
+class NotInControl(UssError):
+    """A command that changes bits of the control word in force (acknowledge, jog, enable),
+    or one that would take control with process data nobody set here, was refused: this
+    master has sent no control word yet (0000h: no control by the interface) and the drive
+    is switched on, or has not answered, so the command would take the drive over with
+    OFF1 (047Eh). Nothing was sent."""
 
 
 class MasterClosed(TransportError):

@@ -30,7 +30,7 @@ import enum
 from typing import Any
 
 from pyuss.errors import ConfigError, DriveRefusal, TransportError, UssError, UssTimeout
-from pyuss.master.errors import NoWriteAuthority
+from pyuss.master.errors import NotInControl, NoWriteAuthority
 
 __all__ = [
     "Failure",
@@ -49,12 +49,6 @@ class ReadOnly(UssError, PermissionError):
 
 class UnknownPoint(ConfigError, LookupError):
     """No such drive, point or parameter in the gateway's configuration."""
-
-
-class NotInControl(UssError):
-    """A command that changes bits of the control word in force (acknowledge, jog) was
-    refused: this master has sent no control word yet and the drive is switched on (or has
-    not answered), so the command would take it over with OFF1."""
 
 
 class Failure(enum.Enum):
