@@ -776,6 +776,20 @@ class Drive:
             values = {pzd: value & 0xFFFF}
         return await self._send(None, values, timeout)
 
+    def running_elsewhere(self) -> str | None:
+        """Why a command that takes control would change what the drive does, while this
+        master has sent it no control word (0000h: the drive keeps the process data it had):
+        its last answer says it is switched on (READY or operation enabled, no fault), or it
+        has not answered yet; None if neither (it is off, or in fault)."""
+        status = self._link.status  # the last answer, also of a drive that does not send now
+        if status is None:
+            return "has not answered yet, so whether it runs is not known"
+        if status.word & (StatusWord.READY | StatusWord.OPERATION_ENABLED) and not (
+            status.word & StatusWord.FAULT
+        ):
+            return f"is switched on ({status.state})"
+        return None
+
     def _base(self, what: str) -> int:
         """The control word in force, for a command (``what``) that changes bits of it; 047Eh
         (OFF1) where this master has sent none yet (0000h: no control by the interface).
@@ -784,14 +798,8 @@ class Drive:
         word = self._link.control
         if word & ControlWord.CONTROL_BY_PLC:
             return word
-        status = self._link.status
-        if status is None:
-            why = "has not answered yet, so whether it runs is not known"
-        elif status.word & (StatusWord.READY | StatusWord.OPERATION_ENABLED) and not (
-            status.word & StatusWord.FAULT
-        ):
-            why = f"is switched on ({status.state})"
-        else:
+        why = self.running_elsewhere()
+        if why is None:
             return int(OPERATE)
         raise NotInControl(
             f"slave {self.address}: {what} refused: the drive {why}, and this master has sent "

@@ -394,14 +394,8 @@ class DrivePoints:
         unset = self._unset_setpoints(given or set())
         if command.whole and not (command.moves and unset):
             return
-        status = self.drive.status  # the last answer, also of a drive that does not send now
-        if status is None:
-            why = "has not answered yet, so whether it runs is not known"
-        elif status.word & (StatusWord.READY | StatusWord.OPERATION_ENABLED) and not (
-            status.word & StatusWord.FAULT
-        ):
-            why = f"is switched on ({status.state})"
-        else:
+        why = self.drive.running_elsewhere()
+        if why is None:
             return
         if command.whole:
             would = f"with setpoint {', '.join(unset)} 0, which nobody set here"
