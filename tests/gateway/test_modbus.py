@@ -160,3 +160,28 @@ async def test_the_mailbox_carries_the_drives_word_or_the_value_times_a_stated_f
             device_id=5,
         )
         assert box.registers == ModbusClient.floats(50.0)
+
+
+async def test_a_request_with_a_part_that_would_take_a_drive_over_is_refused_whole() -> None:
+    # raw setpoint word and acknowledge in one request to a drive that has not answered yet
+    # (whether it runs is not known): the acknowledge would take control with OFF1, so the
+    # whole request is refused before its setpoint went out (it was sent first, then the
+    # acknowledge was refused)
+    from pyuss.bus import VirtualBus
+    from pyuss.points import Plant
+    from pyuss.points.model import line_model
+    from pyuss.protocol.layout import Layout
+
+    bus = VirtualBus(38400)
+    model = line_model("line", [(1, "generic", Layout(3, 2))], baud=38400)
+    try:
+        async with Plant(model, transports={"line": bus.attach("gateway")}) as plant:
+            points = plant.drive("line", 1)
+            registers = DriveRegisters(points)
+            before = (points.drive.control, points.drive.setpoints)
+            with pytest.raises(RegisterError, match="acknowledge refused") as error:
+                await registers.write_holding(1, [5, 0x2000])
+            assert error.value.code is ModbusException.SERVER_DEVICE_FAILURE
+            assert (points.drive.control, points.drive.setpoints) == before
+    finally:
+        await bus.close()

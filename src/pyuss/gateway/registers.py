@@ -89,7 +89,7 @@ from dataclasses import dataclass, field
 from pyuss.errors import ConfigError, DriveRefusal, UssError
 from pyuss.points import NoWriteAuthority
 from pyuss.points.config import ProcessConfig
-from pyuss.points.errors import Failure, classify
+from pyuss.points.errors import Failure, NotInControl, classify
 from pyuss.points.parameters import ParamMeta
 from pyuss.points.plant import DrivePoints
 from pyuss.points.state import DriveState, ProcessValue
@@ -496,6 +496,10 @@ class DriveRegisters:
                     ModbusException.ILLEGAL_DATA_VALUE,
                     f"command {words[1]} is not 1..5 (ON, OFF1, OFF2, OFF3, acknowledge)",
                 )
+        try:  # a command or control word that would take a running drive over: refused whole
+            self.drive.check_takeover(command=command, control=words.get(0), words=list(pzd))
+        except NotInControl as exc:
+            raise RegisterError(EXCEPTIONS[classify(exc)], str(exc)) from exc
         mailbox, job = self._plan_mailbox(words)
         return WritePlan(
             control=words.get(0),

@@ -372,6 +372,27 @@ class DrivePoints:
                 self._changed()
             raise
 
+    def check_takeover(
+        self, *, command: str | None = None, control: int | None = None, words: Sequence[int] = ()
+    ) -> None:
+        """The takeover check of `command` and `set_process` for a request a face carries out
+        in parts (a Modbus write: process data, then the command), made before any part is
+        sent: the control word ``control`` and the PZD words ``words`` it sets, then
+        ``command`` on the word that leaves in force. `NotInControl` if a part would be
+        refused; nothing is sent or changed."""
+        given = set(words)
+        if control is not None:
+            self._check_word(control, given)
+            if control & ControlWord.CONTROL_BY_PLC:
+                return  # the command then changes the word this request put in force
+        if command is not None:
+            found = COMMAND_TABLE.get(command)
+            if found is None:
+                raise UnknownPoint(
+                    f"unknown command {_shown(command)} (known: {', '.join(COMMAND_TABLE)})"
+                )
+            self._check_takeover(found, given)
+
     def _check_word(self, word: int, words: set[int]) -> None:
         """`_check_takeover` for a control word a face sends itself (with the PZD words
         ``words`` of the same request): one with control by the interface (bit 10) and ON
