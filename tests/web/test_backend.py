@@ -357,3 +357,30 @@ async def test_whether_a_drive_that_fell_silent_took_a_command_is_not_known() ->
         outcome = await command_outcome(points, "on", points.snapshot(), within=0.3)
         assert not outcome.taken and "done" not in outcome.text
         assert outcome.text.startswith("on: the drive does not send (A 5.2.1.1)")
+
+
+async def test_a_write_the_drive_answers_with_another_value_says_what_it_holds() -> None:
+    # the drive limits P18 to 1000: the page shows what it holds, and what was written
+    bus = VirtualBus(19200)
+    try:
+        async with simulated_drives(bus, [(5, "generic", Layout(3, 2))]) as engines:
+            drive = engines[5].drive
+            original = drive.write_words
+
+            def write_words(pnu: int, words: tuple[int, ...], *a: object, **k: object) -> object:
+                if pnu == 18:
+                    words = (min(words[0], 1000),)
+                return original(pnu, words, *a, **k)
+
+            drive.write_words = write_words  # type: ignore[method-assign,assignment]
+            backend = Backend(transport=bus.attach("master"), baud=19200,
+                              drives=[DriveSpec(5, "generic", Layout(3, 2))])  # fmt: skip
+            await backend.start()
+            try:
+                shown = await backend.write(5, 18, None, "5000")
+                assert (shown["value"], shown["written"]) == ("1000", "5000")
+                assert "written" not in await backend.write(5, 18, None, "700")
+            finally:
+                await backend.close()
+    finally:
+        await bus.close()

@@ -524,7 +524,8 @@ class Backend:
         """Write a value as the user typed it (``2.5``, ``2.5 s``, ``0x7000``, a value text):
         checked by the points against the parameter's type, limits and access before anything
         is sent (`DrivePoints.write_value`); the drive's refusal raises `DriveRefusal`.
-        Returns the value the drive answered with, as `read` does."""
+        Returns the value the drive answered with, as `read` does, and ``written``, the value
+        written, where the drive answered another (it limits or rounds)."""
         drive = self.points(address).drive
         needs = backups.beyond_layout(drive.layout, drive.params.get(pnu))
         if needs is not None:
@@ -532,7 +533,10 @@ class Backend:
         reading = await self.points(address).write_value(
             pnu, index, text, eeprom=eeprom, timeout=self.job_timeout
         )
-        return {"id": _id(pnu, index), **_shown_reading(reading)}
+        shown = {"id": _id(pnu, index), **_shown_reading(reading)}
+        if reading.differs:  # the drive limited or rounded it: it holds what it answered
+            shown["written"] = reading.written_text()
+        return shown
 
     # -- backup, compare, restore -------------------------------------------------------------
     async def backup(

@@ -163,7 +163,10 @@ export class ParamsView {
       });
       this.values.set(row.id, result);
       this.render();
-      this.note.textContent = `P${row.id} is now ${result.value}.`;
+      this.note.textContent = result.written === undefined
+        ? `P${row.id} is now ${result.value}.`
+        : `P${row.id} is now ${result.value}: the drive answered this, not ${result.written} ` +
+          "(it limits or rounds the value).";
       document.getElementById("edit").close();
     } catch (e) {
       error.textContent = e.message;
