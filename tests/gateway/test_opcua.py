@@ -160,3 +160,32 @@ async def test_a_wrong_password_is_refused() -> None:
         with pytest.raises((ua.UaError, asyncio.TimeoutError, OSError)):
             async with client:
                 pass
+
+
+async def test_a_stop_answers_the_write_being_carried_out_and_takes_no_new_one() -> None:
+    # the drive takes 1 s to answer a parameter job: the gateway stopped meanwhile waits for
+    # the answer and gives it to the client (it said "Connection is closed", the write going
+    # out on the line all the same); a write that comes during the stop gets BadShutdown
+    from asyncua import ua
+
+    from pyuss.slave import JobLatency
+
+    async with (
+        simulated_gateway(opcua=True) as (gateway, engines),
+        OpcuaClient(gateway) as client,
+        OpcuaClient(gateway) as late,
+    ):
+        engines[5].latency = JobLatency(seconds=1.0)
+        write = asyncio.create_task(client.write_parameter(5, 107, 55.0))
+        face = next(f for f in gateway._started if hasattr(f, "acting"))
+        await eventually(lambda: face._acting > 0, what="the write under way")
+        closing = asyncio.create_task(face.close())
+        await eventually(lambda: face.stopping, what="the stop begun")
+        with pytest.raises(ua.UaStatusCodeError) as refused:
+            await late.node(5, ".Setpoint.main").write_value(
+                ua.DataValue(ua.Variant(10.0, ua.VariantType.Double))
+            )
+        assert type(refused.value).__name__ == "BadShutdown"
+        assert await write == pytest.approx(55.0)
+        await closing
+    assert engines[5].drive.value(107) == 55

@@ -64,6 +64,9 @@ __all__ = [
 DEFAULT_MODBUS = "127.0.0.1:5020"
 DEFAULT_MQTT = "mqtt://127.0.0.1:1883"
 DEFAULT_OPCUA = "opc.tcp://127.0.0.1:4840"
+STOP_WAIT = 5.0
+"""Seconds a face's stop waits for the requests being carried out to finish and be answered
+(Modbus, MQTT, OPC UA alike): no write is cut between its parts, none is left unanswered."""
 RECONNECT_MAX = 60.0
 """The longest wait between two tries to reach the MQTT broker (seconds)."""
 SECURITY_POLICIES = ("None", "Basic256Sha256_Sign", "Basic256Sha256_SignAndEncrypt")

@@ -38,6 +38,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from pyuss.errors import ConfigError
+from pyuss.gateway.config import STOP_WAIT
 from pyuss.gateway.registers import DriveRegisters, ModbusException, RegisterError, WordOrder
 from pyuss.points.endpoint import Endpoint
 from pyuss.points.plant import Plant
@@ -55,8 +56,6 @@ MAX_CONNECTIONS = 32
 IDLE_TIMEOUT = 60.0
 """Seconds a connection may go without completing a request (default)."""
 
-STOP_WAIT = 5.0
-"""Seconds a stop waits for the requests being carried out to finish and be answered."""
 
 _HEADER = struct.Struct(">HHHB")  # transaction id, protocol id, length, unit id
 _MAX_LENGTH = 254  # unit id + PDU of at most 253 bytes

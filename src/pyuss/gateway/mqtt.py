@@ -69,7 +69,7 @@ from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from pyuss.errors import ConfigError, UssError
 from pyuss.gateway.announce import gateway_payload, gateway_topic
-from pyuss.gateway.config import RECONNECT_MAX, MqttOptions
+from pyuss.gateway.config import RECONNECT_MAX, STOP_WAIT, MqttOptions
 from pyuss.gateway.topics import (
     Command,
     CommandError,
@@ -106,8 +106,6 @@ OUTBOX = 1000
 """Replies kept while the broker cannot be reached (the oldest are dropped first)."""
 QUEUE = 100
 """Commands waiting per drive; more are answered with a refusal."""
-STOP_WAIT = 5.0
-"""Seconds a stop waits for the commands being carried out to finish and reply."""
 SUBSCRIBE = SubscribeOptions(qos=1, noLocal=True, retainAsPublished=True)
 """Command subscriptions: QoS 1; what the face publishes never comes back to it; a retained
 command keeps its retain flag whenever it is delivered."""

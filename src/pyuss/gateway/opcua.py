@@ -85,7 +85,7 @@ import math
 import secrets
 import time
 from collections import deque
-from collections.abc import Awaitable, Callable, Sequence
+from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -100,7 +100,7 @@ from asyncua.ua.ua_binary import struct_from_binary
 
 from pyuss import __version__
 from pyuss.errors import ConfigError, DriveRefusal, UssError
-from pyuss.gateway.config import OpcuaOptions
+from pyuss.gateway.config import STOP_WAIT, OpcuaOptions
 from pyuss.gateway.uanodes import (
     argument_fault,
     may_change,
@@ -508,8 +508,11 @@ class _Attributes(AttributeService):  # type: ignore[misc]
         if wrong is not None:
             log.info("write to %s refused: %r is not a %s", where, value.Value, writable.vtype)
             return _status(wrong)
+        if self.face.stopping:
+            return _status(ua.StatusCodes.BadShutdown)
         try:
-            await writable.handler(value.Value.Value)
+            async with self.face.acting():
+                await writable.handler(value.Value.Value)
         except (UssError, ValueError, TypeError) as exc:
             log.info("write to %s refused: %s", where, exc)
             return status_of(exc)
@@ -541,8 +544,11 @@ class _Method:
                 StatusCode=_status(ua.StatusCodes.BadInvalidArgument),
                 InputArgumentResults=[ua.StatusCode(code or 0) for code in checks],
             )
+        if self.face.stopping:
+            return _status(ua.StatusCodes.BadShutdown)
         try:
-            return await self.body(*(a.Value for a in args))
+            async with self.face.acting():
+                return await self.body(*(a.Value for a in args))
         except (UssError, ValueError) as exc:
             return status_of(exc)
 
@@ -932,6 +938,11 @@ class OpcuaFace:
         self.drives = [_DriveNodes(self, drive) for drive in plant.drives]
         self._removers: list[Callable[[], None]] = []
         self._started = False
+        self.stopping = False
+        """The face is stopping: no new write or call is carried out."""
+        self._acting = 0
+        self._idle = asyncio.Event()
+        self._idle.set()
 
     def may_write(self, user: User | None) -> bool:
         """Whether ``user`` (None: no activated session) may write and call the methods that
@@ -990,10 +1001,29 @@ class OpcuaFace:
     def _updater(self, nodes: _DriveNodes) -> Callable[[DriveState], object]:
         return _Updater(nodes).changed
 
+    @contextlib.asynccontextmanager
+    async def acting(self) -> AsyncIterator[None]:
+        """A write or a method call being carried out: a stop waits for it (`close`)."""
+        self._acting += 1
+        self._idle.clear()
+        try:
+            yield
+        finally:
+            self._acting -= 1
+            if not self._acting:
+                self._idle.set()
+
     async def close(self) -> None:
+        """Stop: new writes and calls get BadShutdown; those being carried out finish and
+        are answered (at most `STOP_WAIT` seconds), then the server stops."""
+        self.stopping = True
         for remove in self._removers:
             remove()
         self._removers.clear()
+        if self._acting:
+            with contextlib.suppress(TimeoutError):
+                async with asyncio.timeout(STOP_WAIT):
+                    await self._idle.wait()
         if self._started:
             self._started = False
             await self.server.stop()
