@@ -296,6 +296,9 @@ class Drive:
     def setpoints(self) -> tuple[int, ...]:
         return self._drive.setpoints
 
+    def running_elsewhere(self) -> str | None:
+        return self._drive.running_elsewhere()
+
     def diagnostics(self) -> SlaveDiagnostics:
         return self._bus._run(self._drive.diagnostics)
 
