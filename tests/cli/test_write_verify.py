@@ -17,6 +17,7 @@ from pyuss.bus.core import WireChar
 from pyuss.cli.main import main
 from pyuss.protocol.layout import Layout
 from support.buses import SimulatorThread
+from support.limits import limit_writes
 
 GAP = 1.5  # character times: a longer idle gap starts a new telegram
 
@@ -110,15 +111,7 @@ def _limits_p18(sim: SimulatorThread, highest: int) -> None:
     drives that limit or round a value do."""
 
     def patch(s: SimulatorThread) -> None:
-        drive = s.engines[5].drive
-        original = drive.write_words
-
-        def write_words(pnu: int, words: tuple[int, ...], *a: object, **k: object) -> object:
-            if pnu == 18:
-                words = (min(words[0], highest),)
-            return original(pnu, words, *a, **k)
-
-        drive.write_words = write_words  # type: ignore[method-assign,assignment]
+        limit_writes(s.engines[5].drive, 18, highest)
 
     sim.call(patch)
 

@@ -22,6 +22,7 @@ from gateway.harness import Broker, MqttClient, simulated_gateway, subscribed
 from pyuss.gateway.mqtt import MqttFace
 from pyuss.gateway.topics import decimals, param_value
 from pyuss.points.parameters import ParamMeta
+from support.limits import limit_writes
 from support.waiting import eventually
 
 
@@ -500,3 +501,21 @@ async def face_socket(gateway: Any) -> tuple[Any, socket.socket]:
     sock = client._client.socket()
     assert isinstance(sock, socket.socket)
     return bus, sock
+
+
+async def test_a_write_the_drive_answers_with_another_value_says_what_was_written(
+    broker: Broker,
+) -> None:
+    # the drive holds at most 1000 in P18: the reply gives what it holds, and what was written
+    async with (
+        simulated_gateway(mqtt=broker.url) as (gateway, engines),
+        MqttClient(gateway) as client,
+    ):
+        limit_writes(engines[5].drive, 18, 1000)
+        for ident, value in (("big", 5000), ("small", 700)):
+            payload = json.dumps({"id": ident, "pnu": 18, "value": value})
+            await client.client.publish("uss/bus/drive5/cmd/write", payload, qos=1)
+            await eventually(lambda ident=ident: ident in client.replies)  # type: ignore[misc]
+        big, small = client.replies["big"]["result"], client.replies["small"]["result"]
+    assert (big["value"], big["written"]) == (1000, 5000)
+    assert small["value"] == 700 and "written" not in small

@@ -17,6 +17,7 @@ from pyuss.errors import ConfigError, UssError
 from pyuss.master.testing import simulated_drives
 from pyuss.protocol.layout import Layout
 from pyuss.web.backend import Backend, DriveSpec
+from support.limits import limit_writes
 from support.waiting import eventually
 
 
@@ -364,15 +365,7 @@ async def test_a_write_the_drive_answers_with_another_value_says_what_it_holds()
     bus = VirtualBus(19200)
     try:
         async with simulated_drives(bus, [(5, "generic", Layout(3, 2))]) as engines:
-            drive = engines[5].drive
-            original = drive.write_words
-
-            def write_words(pnu: int, words: tuple[int, ...], *a: object, **k: object) -> object:
-                if pnu == 18:
-                    words = (min(words[0], 1000),)
-                return original(pnu, words, *a, **k)
-
-            drive.write_words = write_words  # type: ignore[method-assign,assignment]
+            limit_writes(engines[5].drive, 18, 1000)
             backend = Backend(transport=bus.attach("master"), baud=19200,
                               drives=[DriveSpec(5, "generic", Layout(3, 2))])  # fmt: skip
             await backend.start()

@@ -91,6 +91,15 @@ class ParamMeta:
         return int(whole)
 
 
+def differs(meta: ParamMeta, written: float, answered: float) -> bool:
+    """Whether the drive answered a write of ``written`` with another value (it limits or
+    rounds): by more than half a step of an integer parameter, by more than a float's own
+    rounding for a float one."""
+    if meta.is_float:
+        return not math.isclose(answered, written, rel_tol=1e-6, abs_tol=1e-30)
+    return abs(answered - written) > (meta.scaling or 1) / 2
+
+
 def _finite(value: object) -> bool:
     return not isinstance(value, bool) and isinstance(value, int | float) and math.isfinite(value)
 

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import datetime
 import logging
 import math
@@ -77,7 +78,7 @@ from pyuss.points.model import (
     PlantModel,
     line_model,
 )
-from pyuss.points.parameters import ParameterModel, ParamMeta
+from pyuss.points.parameters import ParameterModel, ParamMeta, differs
 from pyuss.points.state import (
     DriveState,
     Health,
@@ -646,7 +647,8 @@ class DrivePoints:
         self, pnu: int, value: float, index: int | None = None, *, eeprom: bool = False
     ) -> ParamValue:
         """Write ``value`` (in the parameter's unit) as a parameter job; returns what the
-        drive answered."""
+        drive answered, with ``written`` where it answered another value (it limits or
+        rounds)."""
         meta = self.meta(pnu, index)
         try:
             answered = await self.parameter_model.write(self.drive, meta, value, eeprom=eeprom)
@@ -659,6 +661,8 @@ class DrivePoints:
             self._changed()
         if self.is_reference(pnu, index):
             self._take_reference(answered)
+        if differs(meta, value, answered):
+            return dataclasses.replace(reading, written=value)
         return reading
 
     async def read_value(

@@ -145,6 +145,9 @@ class ParamValue:
     value: int | float | None = None
     time: datetime.datetime | None = None
     error: dict[str, Any] | None = None
+    written: int | float | None = None
+    """For the answer to a write the drive answered with another value (it limits or
+    rounds): the value written; ``value`` is what the drive holds."""
 
     @property
     def text(self) -> str | None:
@@ -166,6 +169,8 @@ class ParamValue:
             item["text"] = self.text
         if self.error is not None:
             item["error"] = self.error
+        if self.written is not None:
+            item["written"] = self.written
         return item
 
 
