@@ -176,7 +176,8 @@ export class DriveView {
       if (this.state.address === address) this.faultsNotKnown(error.message);
       return;
     }
-    if (this.state.address !== address) return;
+    // a drive that fell silent while it was read: what it answered then is not what it is now
+    if (this.state.address !== address || this.silent) return;
     const now = [panel.fault ? "fault active" : "no fault", panel.warning ? "warning active" : "no warning"];
     const fault = document.getElementById("fault-now");
     fault.textContent = now.join(", ");
