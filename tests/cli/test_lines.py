@@ -336,6 +336,11 @@ def test_uss_web_profile_auto_asks_each_drive_its_family() -> None:
     drives, stderr = auto_page("generic", "3")
     assert [(d["address"], d["profile"]) for d in drives] == [(3, "unknown")]
     assert "address 3: the drive shows no family known here" in stderr
+    # one that shows only its kind: read with its kind's file, and the page says so
+    drives, stderr = auto_page("sinamics-g120", "4")
+    assert [(d["address"], d["profile"]) for d in drives] == [(4, "micromaster4")]
+    assert "address 4: Siemens, MICROMASTER 4 kind" in stderr
+    assert "taken from the micromaster4 profile's file, not from the drive" in stderr
     done = subprocess.run(
         [*USS, "web", "--port", "/dev/null", "--profile", "auto", "--listen", "127.0.0.1:0"],
         capture_output=True,

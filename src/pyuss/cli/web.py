@@ -308,14 +308,16 @@ async def _drives(args: argparse.Namespace) -> list[tuple[int, str | None, Layou
         layout = Layout.parse(text) if text else None
         profile = args.profile or profile  # None: a drive of unknown kind
         if profile == "auto":
-            from pyuss.master.identify import UNKNOWN_FAMILY, identify_family
+            from pyuss.master.identify import identify_family
             from pyuss.transport.url import open_transport
 
             profile, layout = await identify_family(
-                lambda: open_transport(port, baud=baud), number, layout, job_timeout=args.timeout
+                lambda: open_transport(port, baud=baud),
+                number,
+                layout,
+                job_timeout=args.timeout,
+                unknown=lambda text: print(f"uss web: {text}", file=sys.stderr),
             )
-            if profile is None:
-                print(f"uss web: {UNKNOWN_FAMILY.format(address=number)}", file=sys.stderr)
         found.append((number, profile, layout))
     if args.profile == "auto" and not found:
         raise ConfigError("--profile auto: give the drives (--address, or a line with drives)")

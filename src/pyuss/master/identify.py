@@ -122,11 +122,7 @@ async def auto_master(
     shows only its kind, whose kind's profile is then used (`KIND_ONLY`)."""
     identity, answered = await _identify(transport, address, layout, job_timeout=job_timeout)
     profile = identity.profile
-    if unknown is not None:
-        if profile is None:
-            unknown(UNKNOWN_FAMILY.format(address=address))
-        elif identity.family is None:
-            unknown(KIND_ONLY.format(address=address, what=identity.text, profile=profile))
+    _tell(unknown, address, identity)
     async with Master(
         transport(), profile=profile, layout=answered, job_timeout=job_timeout, **options
     ) as master:
@@ -139,14 +135,27 @@ async def identify_family(
     layout: Layout | None = None,
     *,
     job_timeout: float = 2.0,
+    unknown: Callable[[str], None] | None = None,
 ) -> tuple[str | None, Layout]:
     """The profile of the drive at ``address`` and the layout it answered with: a master on
     ``transport()`` identifies it, with ``layout`` or each of `AUTO_LAYOUTS` in turn. A drive
     that answers but shows no family known here has the profile None (a drive of unknown
     kind: nothing is assumed of it that it did not say); one that answers in no layout is a
-    `UssTimeout` naming the address."""
+    `UssTimeout` naming the address. ``unknown`` is told, as by `auto_master`, of a drive of
+    unknown kind (`UNKNOWN_FAMILY`) and of one that shows only its kind (`KIND_ONLY`)."""
     identity, answered = await _identify(transport, address, layout, job_timeout=job_timeout)
+    _tell(unknown, address, identity)
     return identity.profile, answered
+
+
+def _tell(unknown: Callable[[str], None] | None, address: int, identity: Identity) -> None:
+    """Tell ``unknown`` what of a drive's family is a guess or not known, if anything."""
+    if unknown is None:
+        return
+    if identity.profile is None:
+        unknown(UNKNOWN_FAMILY.format(address=address))
+    elif identity.family is None:
+        unknown(KIND_ONLY.format(address=address, what=identity.text, profile=identity.profile))
 
 
 async def _identify(
