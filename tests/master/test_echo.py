@@ -15,6 +15,7 @@ from pyuss.master import Master, NotSending
 from pyuss.master.testing import simulated_drives
 from pyuss.protocol.layout import Layout
 from support.buses import SimulatorThread
+from support.waiting import eventually
 
 
 async def test_the_masters_own_telegram_heard_back_is_no_answer(
@@ -132,3 +133,29 @@ async def test_a_late_answer_to_a_mirror_telegram_is_no_echo() -> None:
             await asyncio.sleep(0.6)  # the late answer is in
             assert (await master.mirror(5)).round_trip > 0
             assert master.diagnostics().own_heard == 0
+
+
+async def test_a_second_master_on_the_line_is_told_of_once(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # a page and a gateway on one line: each hears the other's telegrams, which it did not
+    # ask for; USS has one master (A 2), so each says so, once
+    bus = VirtualBus(187500)
+    try:
+        async with (
+            simulated_drives(bus, [(a, "generic", Layout(3, 2)) for a in (1, 2)]),
+            Master(bus.attach("page"), layout="3,2") as page,
+            Master(bus.attach("gateway"), layout="3,2") as gateway,
+        ):
+            page.drive(1)
+            gateway.drive(2)
+            with caplog.at_level(logging.WARNING, logger="pyuss.master"):
+
+                def told() -> list[logging.LogRecord]:
+                    return [r for r in caplog.records if "another master on the line" in r.message]
+
+                await eventually(lambda: len(told()) == 2, what="both masters told")
+                await asyncio.sleep(0.5)  # more of them: told once
+            assert len(told()) == 2
+    finally:
+        await bus.close()

@@ -82,6 +82,7 @@ import contextlib
 import enum
 import logging
 import math
+from collections import deque
 from collections.abc import Awaitable, Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass
 from types import TracebackType
@@ -134,6 +135,9 @@ DEFAULT_JOB_TIMEOUT = 2.0
 _JOB_CHECK = 0.05
 """Longest wait for the line during an exchange before the jobs of other slaves are looked at
 (only a long response delay limit waits longer than this at once)."""
+STRAY_ALARM = 10
+"""Telegrams nobody asked for that, within `STRAY_WINDOW` seconds, are told of (once)."""
+STRAY_WINDOW = 10.0
 _MIRROR_BIT = int(AddressMode.MIRROR)
 """ADR bit 6: a mirror telegram (A 5.3), byte 2 of a telegram."""
 
@@ -413,6 +417,8 @@ class Master:
         self._broadcasts = 0
         self._answered_broadcasts = 0
         self._stray = 0
+        self._stray_times: deque[float] = deque(maxlen=STRAY_ALARM)
+        self._stray_told = False
         self._own_heard = 0
         self._exact = self.transport.exact_timestamps
         self._sent_frame = b""
@@ -1237,6 +1243,7 @@ class Master:
                 return False
             if not same:
                 log_frame("rx", event.raw, event.end, "began before the request ended")
+                self._stray_seen(event.end)
                 return True
         elif not same or (
             (self._sent_mirror or not process_data or not any(event.telegram.data))
@@ -1280,8 +1287,31 @@ class Master:
                     )
                 else:
                     self._stray += 1
+                    self._stray_seen(event.end)
             else:
                 log_frame("rx", event.raw, event.end, f"fault {event.kind.name}")
+
+    def _stray_seen(self, when: float) -> None:
+        """Tell once when what nobody asked for keeps coming (`STRAY_ALARM` within
+        `STRAY_WINDOW` seconds): telegrams between exchanges or from another address than the
+        one awaited, and - where time tells - characters sent while the master sent. Another
+        master on the line - USS has one (A 2), and two make their telegrams collide - or a
+        drive answering after its window."""
+        times = self._stray_times
+        times.append(when)
+        if (
+            not self._stray_told
+            and len(times) == STRAY_ALARM
+            and times[-1] - times[0] <= STRAY_WINDOW
+        ):
+            self._stray_told = True
+            log.warning(
+                "telegrams this master did not ask for, or sent while it sent, keep coming (%d "
+                "in %.1f s): is another master on the line? USS has one master (A 2); two "
+                "make their telegrams collide. Or a drive answers after its response window.",
+                STRAY_ALARM,
+                times[-1] - times[0],
+            )
 
     async def _listen(self, until: float) -> None:
         """Take in what arrives until ``until`` (plus latency) and the line is quiet."""
@@ -1409,6 +1439,8 @@ class Master:
         """Classify one event while the answer of ``address`` is awaited."""
         if isinstance(event, ReceiveFault):
             log_frame("rx", event.raw, event.end, f"fault {event.kind.name}: {event.detail}")
+            if self._exact and event.start < self._sent_end - 1e-6:
+                self._stray_seen(event.end)  # sent while the request was: a collision
             if link is not None:
                 link.diagnostics.record_fault(event.kind, event.end)
             return _Outcome.FAULT
@@ -1419,6 +1451,7 @@ class Master:
         telegram = event.telegram
         if telegram.address != address or telegram.mode not in modes:
             log_frame("rx", event.raw, event.end, f"discarded: not the answer of {address}")
+            self._stray_seen(event.end)
             if link is not None:
                 link.wrong_address += 1
                 link.diagnostics.record_discarded(event.end)
