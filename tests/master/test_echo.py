@@ -4,7 +4,9 @@ master never takes its own telegram, heard back, for the drive's answer."""
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
+from collections.abc import AsyncIterator, Sequence
 
 import pytest
 
@@ -14,8 +16,31 @@ from pyuss.errors import DriveRefusal
 from pyuss.master import Master, NotSending
 from pyuss.master.testing import simulated_drives
 from pyuss.protocol.layout import Layout
+from pyuss.slave import SlaveEngine
 from support.buses import SimulatorThread
 from support.waiting import eventually
+
+
+@contextlib.asynccontextmanager
+async def line(
+    baud: int, addresses: Sequence[int], *stations: tuple[str, bool]
+) -> AsyncIterator[tuple[dict[int, SlaveEngine], list[Master]]]:
+    """Simulated drives (generic, PKW 3 + PZD 2) at ``addresses`` on a virtual bus, and a
+    master per station ``(name, echo)``: with ``echo`` the bus gives the station its own
+    characters back, as a 2-wire adapter without echo suppression does."""
+    bus = VirtualBus(baud)
+    try:
+        async with contextlib.AsyncExitStack() as stack:
+            engines = await stack.enter_async_context(
+                simulated_drives(bus, [(a, "generic", Layout(3, 2)) for a in addresses])
+            )
+            masters = [
+                await stack.enter_async_context(Master(bus.attach(name, echo=echo), layout="3,2"))
+                for name, echo in stations
+            ]
+            yield engines, masters
+    finally:
+        await bus.close()
 
 
 async def test_the_masters_own_telegram_heard_back_is_no_answer(
@@ -23,42 +48,28 @@ async def test_the_masters_own_telegram_heard_back_is_no_answer(
 ) -> None:
     # the echo of "read P52" reads as "P52 = 0", of the request's control word as the status
     # word: the values are the drive's own, and its refusal comes through as a refusal
-    bus = VirtualBus(19200)
-    try:
-        async with (
-            simulated_drives(bus, [(5, "generic", Layout(3, 2))]) as engines,
-            Master(bus.attach("master", echo=True), layout="3,2") as master,
-        ):
-            drive = master.drive(5)
-            with caplog.at_level(logging.WARNING, logger="pyuss.master"):
-                assert await drive.read(52) == 16384
-                with pytest.raises(DriveRefusal, match="illegal parameter number"):
-                    await drive.write(60, 1)  # no P60 in this drive
-                status = await master.exchange(5)
-            assert status.word == engines[5].drive.status_word() != 0
-            diagnostics = master.diagnostics()
-            assert diagnostics.own_heard >= 3 and diagnostics.stray == 0
-            assert diagnostics.slaves[0].counters.framing == 0  # no request collided
-            told = [r for r in caplog.records if "hears its own telegrams" in r.message]
-            assert len(told) == 1 and "echo=1" in told[0].message
-    finally:
-        await bus.close()
+    async with line(19200, [5], ("master", True)) as (engines, (master,)):
+        drive = master.drive(5)
+        with caplog.at_level(logging.WARNING, logger="pyuss.master"):
+            assert await drive.read(52) == 16384
+            with pytest.raises(DriveRefusal, match="illegal parameter number"):
+                await drive.write(60, 1)  # no P60 in this drive
+            status = await master.exchange(5)
+        assert status.word == engines[5].drive.status_word() != 0
+        diagnostics = master.diagnostics()
+        assert diagnostics.own_heard >= 3 and diagnostics.stray == 0
+        assert diagnostics.slaves[0].counters.framing == 0  # no request collided
+        told = [r for r in caplog.records if "hears its own telegrams" in r.message]
+        assert len(told) == 1 and "echo=1" in told[0].message
 
 
 async def test_no_drive_is_made_up_from_the_echo_of_a_request_to_an_empty_address() -> None:
     # a mirror telegram comes back unchanged from the slave, and from the echo: on a line
     # that stamps characters exactly, the echo is known by when it began
-    bus = VirtualBus(19200)
-    try:
-        async with (
-            simulated_drives(bus, [(5, "generic", Layout(3, 2))]),
-            Master(bus.attach("master", echo=True), layout="3,2") as master,
-        ):
-            assert (await master.mirror(5)).response_time > 0  # the answer, after the request
-            with pytest.raises(NotSending):
-                await master.mirror(6)
-    finally:
-        await bus.close()
+    async with line(19200, [5], ("master", True)) as (_, (master,)):
+        assert (await master.mirror(5)).response_time > 0  # the answer, after the request
+        with pytest.raises(NotSending):
+            await master.mirror(6)
 
 
 def test_a_read_over_loop_is_no_answer_of_a_drive(capsys: pytest.CaptureFixture[str]) -> None:
@@ -73,22 +84,16 @@ def test_a_read_over_loop_is_no_answer_of_a_drive(capsys: pytest.CaptureFixture[
 
 
 async def test_a_line_that_does_not_echo_is_never_said_to(caplog: pytest.LogCaptureFixture) -> None:
-    bus = VirtualBus(187500)
-    try:
-        async with (
-            simulated_drives(bus, [(a, "generic", Layout(3, 2)) for a in (1, 2, 3)]),
-            Master(bus.attach("master"), layout="3,2") as master,
-        ):
-            for address in (1, 2, 3):
-                master.drive(address)
-            with caplog.at_level(logging.WARNING, logger="pyuss.master"):
-                for _ in range(20):
-                    for address in (1, 2, 3):
-                        await master.exchange(address)
-            assert master.diagnostics().own_heard == 0
-            assert not [r for r in caplog.records if "own telegrams" in r.message]
-    finally:
-        await bus.close()
+    async with line(187500, [1, 2, 3], ("master", False)) as (_, (master,)):
+        for address in (1, 2, 3):
+            master.drive(address)
+        with caplog.at_level(logging.WARNING, logger="pyuss.master"):
+            for _ in range(20):
+                for address in (1, 2, 3):
+                    await master.exchange(address)
+        assert master.diagnostics().own_heard == 0
+        assert not [r for r in caplog.records if "own telegrams" in r.message]
+        assert not [r for r in caplog.records if "another master" in r.message]
 
 
 async def test_a_pkw_only_answer_with_the_requests_bytes_is_the_drives_over_a_pty() -> None:
@@ -140,22 +145,15 @@ async def test_a_second_master_on_the_line_is_told_of_once(
 ) -> None:
     # a page and a gateway on one line: each hears the other's telegrams, which it did not
     # ask for; USS has one master (A 2), so each says so, once
-    bus = VirtualBus(187500)
-    try:
-        async with (
-            simulated_drives(bus, [(a, "generic", Layout(3, 2)) for a in (1, 2)]),
-            Master(bus.attach("page"), layout="3,2") as page,
-            Master(bus.attach("gateway"), layout="3,2") as gateway,
-        ):
-            page.drive(1)
-            gateway.drive(2)
-            with caplog.at_level(logging.WARNING, logger="pyuss.master"):
+    async with line(187500, [1, 2], ("page", False), ("gateway", False)) as (_, masters):
+        page, gateway = masters
+        page.drive(1)
+        gateway.drive(2)
+        with caplog.at_level(logging.WARNING, logger="pyuss.master"):
 
-                def told() -> list[logging.LogRecord]:
-                    return [r for r in caplog.records if "another master on the line" in r.message]
+            def told() -> list[logging.LogRecord]:
+                return [r for r in caplog.records if "another master on the line" in r.message]
 
-                await eventually(lambda: len(told()) == 2, what="both masters told")
-                await asyncio.sleep(0.5)  # more of them: told once
-            assert len(told()) == 2
-    finally:
-        await bus.close()
+            await eventually(lambda: len(told()) == 2, what="both masters told")
+            await asyncio.sleep(0.5)  # more of them: told once
+        assert len(told()) == 2
