@@ -1445,8 +1445,11 @@ class Master:
                 link.diagnostics.record_fault(event.kind, event.end)
             return _Outcome.FAULT
         if self._own(event, link is not None and link.layout.pzd > 0):
-            if link is not None and event.raw != self._sent_frame:
-                link.diagnostics.record_discarded(event.end)  # overlapped the request
+            if link is not None and event.raw != self._sent_frame:  # overlapped the request
+                telegram = event.telegram
+                if telegram.address != address or telegram.mode not in modes:
+                    link.wrong_address += 1  # counted as such wherever it began
+                link.diagnostics.record_discarded(event.end)
             return None
         telegram = event.telegram
         if telegram.address != address or telegram.mode not in modes:
