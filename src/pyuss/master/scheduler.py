@@ -425,7 +425,6 @@ class Master:
         self._sent_end = -math.inf
         self._echo_in = False
         """The echo of the latest request was heard (a line that echoes gives back one copy)."""
-        self._sent_mirror = False
         self._loopback = str(getattr(self.transport, "url", "")).startswith("loop://")
         """pyserial's loopback: every copy of a request is its echo."""
         self._cycles = Samples()
@@ -1191,7 +1190,6 @@ class Master:
         # the model's end, not the clock's: a master woken late must not take an answer
         # that began after its request for one that began before
         self._sent_frame, self._sent_end = frame, start + on_line
-        self._sent_mirror = len(frame) > 2 and bool(frame[2] & _MIRROR_BIT)
         self._echo_in = False
         log_frame("tx", frame, end)
         return start, end
@@ -1218,35 +1216,38 @@ class Master:
         if self._receiver.busy:
             self._stray_events(self._receiver.poll(self._clock() - self.latency))
 
-    def _own(self, event: Received, process_data: bool = False) -> bool:
-        """Whether ``event`` cannot be the answer to the request just sent: it is the master's
-        own telegram heard back (a line that echoes: a 2-wire adapter without echo
-        suppression, ``loop://``; counted and told once, `BusDiagnostics.own_heard`), or it
-        began before the request had left the line.
+    def _overlaps(self, start: float) -> bool:
+        """Whether what began at ``start`` was on the line while the request just sent was:
+        known on a line that stamps characters exactly (the virtual bus, ``bus://``) only.
+        No answer begins before its request ended."""
+        return self._exact and start < self._sent_end - 1e-6
 
-        On a line that stamps characters exactly (the virtual bus, ``bus://``) the time tells:
-        an answer begins after the request. Elsewhere (a serial port, a pty, a TCP converter:
-        no wire time, or stamps as late as the driver hands characters over; a peer behind a
-        pty answers at its own rate, sooner than the master's line would bring it) the bytes
-        do: the request's very bytes are its echo where the answer carries ``process_data``
-        (a drive's status word is not the control word it was sent). A mirror telegram, a
-        request whose net data are all zero, and a request without process data (a PKW-only
-        layout: the read of a zero value; a scan's probe) are answered with their very bytes
-        too: their copy is the echo on pyserial's ``loop://`` (a loopback: no drive is on
-        it), or when the line has been heard echoing and it is the first copy since the
-        request (the echo is on the line while the request is sent, the answer only after
-        it). Whether the request was a mirror telegram its ADR byte says (bit 6), also for a
-        copy that comes after the exchange (a late answer)."""
-        same = event.raw == self._sent_frame
+    def _own(self, event: Received, process_data: bool = False) -> bool:
+        """Whether ``event`` is the master's own telegram heard back (a line that echoes: a
+        2-wire adapter without echo suppression, ``loop://``), never an answer; counted and
+        told once (`BusDiagnostics.own_heard`).
+
+        On a line that stamps characters exactly the time tells (`_overlaps`). Elsewhere (a
+        serial port, a pty, a TCP converter: no wire time, or stamps as late as the driver
+        hands characters over; a peer behind a pty answers at its own rate, sooner than the
+        master's line would bring it) the bytes do: the request's very bytes are its echo
+        where the answer carries ``process_data`` (a drive's status word is not the control
+        word it was sent). A mirror telegram, a request whose net data are all zero, and a
+        request without process data (a PKW-only layout: the read of a zero value; a scan's
+        probe) are answered with their very bytes too: their copy is the echo on pyserial's
+        ``loop://`` (a loopback: no drive is on it), or when the line has been heard echoing
+        and it is the first copy since the request (the echo is on the line while the
+        request is sent, the answer only after it). Whether the request was a mirror
+        telegram its ADR byte says (bit 6), also for a copy that comes after the exchange (a
+        late answer)."""
+        sent = self._sent_frame
+        if event.raw != sent:
+            return False
         if self._exact:
-            if event.start >= self._sent_end - 1e-6:
+            if not self._overlaps(event.start):
                 return False
-            if not same:
-                log_frame("rx", event.raw, event.end, "began before the request ended")
-                self._stray_seen(event.end)
-                return True
-        elif not same or (
-            (self._sent_mirror or not process_data or not any(event.telegram.data))
+        elif (
+            (bool(sent[2] & _MIRROR_BIT) or not process_data or not any(event.telegram.data))
             and not self._loopback
             and (self._own_heard == 0 or self._echo_in)
         ):
@@ -1272,7 +1273,7 @@ class Master:
                 # could send it (a loopback; a broadcast, which no slave answers, and an
                 # answer would carry the slave's address); else a late answer (a mirror)
                 if event.raw == self._sent_frame and (
-                    event.start < self._sent_end
+                    self._overlaps(event.start)
                     if self._exact
                     else self._loopback or event.telegram.mode.is_broadcast
                 ):
@@ -1439,24 +1440,22 @@ class Master:
         """Classify one event while the answer of ``address`` is awaited."""
         if isinstance(event, ReceiveFault):
             log_frame("rx", event.raw, event.end, f"fault {event.kind.name}: {event.detail}")
-            if self._exact and event.start < self._sent_end - 1e-6:
+            if self._overlaps(event.start):
                 self._stray_seen(event.end)  # sent while the request was: a collision
             if link is not None:
                 link.diagnostics.record_fault(event.kind, event.end)
             return _Outcome.FAULT
         if self._own(event, link is not None and link.layout.pzd > 0):
-            if link is not None and event.raw != self._sent_frame:  # overlapped the request
-                telegram = event.telegram
-                if telegram.address != address or telegram.mode not in modes:
-                    link.wrong_address += 1  # counted as such wherever it began
-                link.diagnostics.record_discarded(event.end)
             return None
         telegram = event.telegram
-        if telegram.address != address or telegram.mode not in modes:
-            log_frame("rx", event.raw, event.end, f"discarded: not the answer of {address}")
+        wrong = telegram.address != address or telegram.mode not in modes
+        if wrong or self._overlaps(event.start):
+            # another's telegram, or one that began while the request was on the line
+            why = f"not the answer of {address}" if wrong else "began before the request ended"
+            log_frame("rx", event.raw, event.end, f"discarded: {why}")
             self._stray_seen(event.end)
             if link is not None:
-                link.wrong_address += 1
+                link.wrong_address += wrong
                 link.diagnostics.record_discarded(event.end)
             return None
         log_frame("rx", event.raw, event.end)
