@@ -55,6 +55,7 @@ from pyuss.master.errors import DriveFault
 from pyuss.master.process import DriveStatus
 from pyuss.master.scheduler import CYCLIC
 from pyuss.points import checked_setpoint
+from pyuss.points.plant import DECIMAL, NOT_FINITE
 
 
 def register(subparsers: Any) -> None:
@@ -112,13 +113,11 @@ def split_setpoint(text: str) -> tuple[str, str]:
     digits; inf and nan go on to the model's check of a setpoint, which refuses them by name;
     anything else (``50 %%``, ``1_0``, a word) is no number (`ConfigError`)."""
     match = re.fullmatch(
-        r"\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(%|[a-z]\S*|1/\S+)?\s*",
-        text,
-        re.ASCII | re.IGNORECASE,
+        rf"\s*({DECIMAL})\s*(%|[a-z]\S*|1/\S+)?\s*", text, re.ASCII | re.IGNORECASE
     )
     if match:
         return match.group(1), match.group(2) or "%"
-    if text.strip().lower().lstrip("+-") in ("inf", "infinity", "nan"):
+    if text.strip().lower().lstrip("+-") in NOT_FINITE:
         return text, "%"
     raise ConfigError(f"--setpoint {text[:40]!r}: setpoint {text[:40]!r} is not a number")
 

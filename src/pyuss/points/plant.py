@@ -341,11 +341,7 @@ class DrivePoints:
         """One of `pyuss.points.model.COMMAND_TABLE`: ``on``, ``off1``, ``off2``, ``off3``,
         ``acknowledge``, ``jog1``, ``jog2``, ``jog_off``. Returns once a telegram carrying it
         was answered."""
-        command = COMMAND_TABLE.get(name) if isinstance(name, str) else None
-        if command is None:
-            raise UnknownPoint(
-                f"unknown command {_shown(name)} (known: {', '.join(COMMAND_TABLE)})"
-            )
+        command = _command(name)
         self._check_takeover(command)
         async with self._taken_back():
             await getattr(self.drive, command.method)(*command.args, timeout=timeout)
@@ -387,12 +383,7 @@ class DrivePoints:
             if control & ControlWord.CONTROL_BY_PLC:
                 return  # the command then changes the word this request put in force
         if command is not None:
-            found = COMMAND_TABLE.get(command)
-            if found is None:
-                raise UnknownPoint(
-                    f"unknown command {_shown(command)} (known: {', '.join(COMMAND_TABLE)})"
-                )
-            self._check_takeover(found, given)
+            self._check_takeover(_command(command), given)
 
     def _check_word(self, word: int, words: set[int]) -> None:
         """`_check_takeover` for a control word a face sends itself (with the PZD words
@@ -1001,13 +992,25 @@ def checked_setpoint(
     )
 
 
+def _command(name: object) -> Command:
+    """The command of `COMMAND_TABLE` named ``name``; `UnknownPoint` naming the known ones."""
+    command = COMMAND_TABLE.get(name) if isinstance(name, str) else None
+    if command is None:
+        raise UnknownPoint(f"unknown command {_shown(name)} (known: {', '.join(COMMAND_TABLE)})")
+    return command
+
+
 def _shown(value: object) -> str:
     """A client's value in an error message, cut short (a 400-digit number, a long text)."""
     text = repr(value)
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-_DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?", re.ASCII)
+DECIMAL = r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
+"""A number as a setpoint is written (``25``, ``-12.5``, ``.5``, ``1e1``): ASCII digits."""
+NOT_FINITE = ("inf", "infinity", "nan")
+"""Words a float reads as a number that is none (signs and case aside)."""
+_DECIMAL = re.compile(DECIMAL, re.ASCII)
 _HEX = re.compile(r"[+-]?0[xX][0-9a-fA-F]+", re.ASCII)
 
 
@@ -1032,7 +1035,7 @@ def _parse_number(text: str, what: str, *, raw: bool) -> int | float:
                 f"{what} {_shown(text)}: a hexadecimal number is taken as a raw word only; "
                 "give percent or the unit in decimal"
             )
-        if text.lower().lstrip("+-") in ("inf", "infinity", "nan"):
+        if text.lower().lstrip("+-") in NOT_FINITE:
             raise ConfigError(f"{what} must be a finite number, not {text}")
         if _DECIMAL.fullmatch(text):
             return int(text) if text.lstrip("+-").isdigit() else float(text)
