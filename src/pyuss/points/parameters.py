@@ -91,15 +91,6 @@ class ParamMeta:
         return int(whole)
 
 
-def differs(meta: ParamMeta, written: float, answered: float) -> bool:
-    """Whether the drive answered a write of ``written`` with another value (it limits or
-    rounds): by more than half a step of an integer parameter, by more than a float's own
-    rounding for a float one."""
-    if meta.is_float:
-        return not math.isclose(answered, written, rel_tol=1e-6, abs_tol=1e-30)
-    return abs(answered - written) > (meta.scaling or 1) / 2
-
-
 def _finite(value: object) -> bool:
     return not isinstance(value, bool) and isinstance(value, int | float) and math.isfinite(value)
 
@@ -193,14 +184,16 @@ class ParameterModel:
 
     async def write(
         self, drive: Drive, meta: ParamMeta, value: float, *, eeprom: bool = False
-    ) -> int | float:
+    ) -> tuple[int | float, bool]:
         """Write ``value`` (in the unit) as a parameter job; returns the value the drive
-        answered with, in the unit."""
+        answered with, in the unit, and whether it is another value than the one written (the
+        drive limits or rounds it: `pyuss.params.Reading.differs`, the words compared)."""
         if not meta.writable:
             raise ConfigError(f"{meta.key} ({meta.name}) is read-only")
         raw = meta.raw(value)  # refuses what is not a number, between steps, beyond limits
         send = float(value) if meta.is_float or meta.scaling is not None else int(raw)
-        answered = await drive.write(meta.pnu, send, meta.index, eeprom=eeprom)
+        reading = await drive.write_param(meta.pnu, send, meta.index, eeprom=eeprom)
+        answered = reading.value
         if isinstance(answered, bool) or not isinstance(answered, int | float):
             raise ConfigError(f"{meta.key}: the drive answered {answered!r}, not a number")
-        return answered
+        return answered, reading.differs

@@ -78,7 +78,7 @@ from pyuss.points.model import (
     PlantModel,
     line_model,
 )
-from pyuss.points.parameters import ParameterModel, ParamMeta, differs
+from pyuss.points.parameters import ParameterModel, ParamMeta
 from pyuss.points.state import (
     DriveState,
     Health,
@@ -642,7 +642,9 @@ class DrivePoints:
         rounds)."""
         meta = self.meta(pnu, index)
         try:
-            answered = await self.parameter_model.write(self.drive, meta, value, eeprom=eeprom)
+            answered, differs = await self.parameter_model.write(
+                self.drive, meta, value, eeprom=eeprom
+            )
         except (DriveRefusal, NoWriteAuthority) as exc:
             self._refused(exc)
             raise
@@ -652,7 +654,7 @@ class DrivePoints:
             self._changed()
         if self.is_reference(pnu, index):
             self._take_reference(answered)
-        if differs(meta, value, answered):
+        if differs:
             return dataclasses.replace(reading, written=value)
         return reading
 
