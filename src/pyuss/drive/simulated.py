@@ -54,12 +54,9 @@ from pyuss.drive.datatypes import DataType, Value, round_float
 from pyuss.drive.faults import ParameterFault
 from pyuss.drive.memory import ParameterMemory
 from pyuss.drive.states import WAIT_FOREVER, DriveState, DriveStateMachine, Motion
-from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32, ControlWord
+from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32, SWITCHES_ON
 
 _DEFAULTS = Motion()
-
-_SWITCHES_ON = int(ControlWord.ON | ControlWord.JOG1 | ControlWord.JOG2)
-"""Control bits that switch a drive on (jog 1 and 2 do on some families)."""
 
 _PLAIN_DISPLAYS = ("state", "fault", "warning", "control_word", "status_word")
 _LEVEL_DISPLAYS = ("setpoint", "actual")
@@ -205,7 +202,7 @@ class SimulatedDrive(ParameterMemory):
         """
         self.machine.motion = self._motion()
         if self.commissioning_active():
-            control_word &= ~_SWITCHES_ON  # in commissioning the drive does not switch on
+            control_word &= ~SWITCHES_ON  # in commissioning the drive does not switch on
         fraction = None if setpoint is None else _fraction_of_raw(setpoint, bits)
         reverse = self.db.words.reverse
         if reverse is not None and control_word >> 10 & 1:

@@ -90,6 +90,7 @@ from pyuss.points.state import (
     signed,
 )
 from pyuss.protocol.pzd import (
+    SWITCHES_ON,
     ControlWord,
     StatusWord,
     percent_to_raw16,
@@ -390,7 +391,7 @@ class DrivePoints:
         ``words`` of the same request): one with control by the interface (bit 10) and ON
         or a jog bit is an ON."""
         if word & ControlWord.CONTROL_BY_PLC:
-            moves = bool(word & (ControlWord.ON | ControlWord.JOG1 | ControlWord.JOG2))
+            moves = bool(word & SWITCHES_ON)
             command = Command(f"control word {word:04X}h", "control_word", moves=moves)
             self._check_takeover(command, words)
 

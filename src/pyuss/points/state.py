@@ -18,7 +18,7 @@ from pyuss.points.parameters import ParamMeta
 from pyuss.profiles import UNKNOWN_KIND
 from pyuss.protocol.diagnostics import Counters
 from pyuss.protocol.pzd import (
-    ControlWord,
+    SWITCHES_ON,
     StatusWord,
     join_dword,
     raw16_to_percent,
@@ -263,8 +263,7 @@ class DriveState:
     def told_to_run(self) -> bool:
         """The control word sent tells the drive to run (ON, or a jog bit), or the drive,
         answering, says it runs (operation enabled)."""
-        told = self.control_word & (ControlWord.ON | ControlWord.JOG1 | ControlWord.JOG2)
-        return bool(told) or (self.online and self.running)
+        return bool(self.control_word & SWITCHES_ON) or (self.online and self.running)
 
     def signature(self) -> tuple[object, ...]:
         """What a subscriber is told about when it changes (not the running counters)."""

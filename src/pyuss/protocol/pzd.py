@@ -35,6 +35,7 @@ __all__ = [
     "FULL_SCALE_16",
     "FULL_SCALE_32",
     "STATUS_BITS",
+    "SWITCHES_ON",
     "ControlWord",
     "StatusWord",
     "describe_bits",
@@ -85,6 +86,11 @@ class ControlWord(enum.IntFlag):
     DEVICE_15 = 1 << 15
     NO_COAST_STOP = NO_OFF2
     NO_QUICK_STOP = NO_OFF3
+
+
+SWITCHES_ON = ControlWord.ON | ControlWord.JOG1 | ControlWord.JOG2
+"""The control bits of which each can set a motor turning: ON, and jog 1 and 2 (which switch a
+drive on in some families)."""
 
 
 class StatusWord(enum.IntFlag):
