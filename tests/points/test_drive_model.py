@@ -5,7 +5,10 @@ writes it."""
 
 from __future__ import annotations
 
+import itertools
 import math
+import statistics
+import time
 from collections.abc import AsyncIterator
 
 import pytest
@@ -24,7 +27,10 @@ from pyuss.points import (
     line_model,
     simulated_drives,
 )
+from pyuss.points.state import DriveState
 from pyuss.protocol.layout import Layout
+from pyuss.protocol.timing import start_pause
+from support.buses import scripted_bus
 from support.line import LineRecord
 from support.waiting import eventually
 
@@ -453,3 +459,40 @@ async def test_the_fault_panel_shows_when_a_micromaster_440_tripped() -> None:
         await bus.close()
     assert panel["parameters"]["times"] == 948
     assert [(f["index"], f["number"], f["time"]) for f in panel["history"]] == [(2, 3, 70000)]
+
+
+async def test_what_the_faces_do_with_an_answer_keeps_no_telegram_off_the_line() -> None:
+    # A face's work on a drive's new state (a state built, a message published, nodes
+    # written) is done while the master's next telegram is on the line, not before it: the
+    # start pause stays that of A 5.1.2, however long the faces take, and the bus keeps its
+    # pace with every face attached.
+    baud = 9600
+    pause = start_pause(baud)  # 2.3 ms
+    busy = 0.005  # each new state costs its subscriber twice the start pause
+    async with scripted_bus((1, 2), baud=baud, layout=Layout(3, 2), record=True) as env:
+        told: list[int] = []
+
+        def slow(state: DriveState) -> None:
+            end = time.perf_counter() + busy
+            while time.perf_counter() < end:
+                pass
+            told.append(state.model.address)
+            slave = env.slaves[state.model.address]
+            slave.actual = (slave.actual + 1) & 0xFFFF  # its next answer is a new state
+
+        points = [DrivePoints.around(env.master.drive(a)) for a in (1, 2)]
+        for drive in points:
+            drive.subscribe(slow)
+        await eventually(lambda: len(told) >= 20, timeout=20)
+        for drive in points:
+            drive.close()
+    assert env.recorder is not None
+    gaps = [
+        cur.start - prev.t
+        for prev, cur in itertools.pairwise(env.recorder.records)
+        if cur.sender == "master" and prev.sender != "master" and cur.byte == 0x02
+    ]
+    assert len(gaps) >= 20
+    assert min(gaps) >= pause - 1e-9
+    # the subscribers' 5 ms are not in the pauses (a loaded machine may be late now and then)
+    assert statistics.median(gaps) < pause + 0.001

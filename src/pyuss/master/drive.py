@@ -893,7 +893,10 @@ class Drive:
 
     def on_update(self, callback: Callable[[DriveStatus], object]) -> Callable[[], None]:
         """Call ``callback`` with the process data of every answer; returns a function that
-        removes it. Callbacks run in the master's task and must not block."""
+        removes it. Callbacks run in the master's task, before the tasks waiting for the
+        update and before the next telegram: they must not block, and what takes time is
+        better left to the loop's next turn (``loop.call_soon``), when the next telegram is
+        on its way (`pyuss.points` does so)."""
         callbacks = self._link.update_callbacks
         callbacks.append(callback)
 

@@ -449,6 +449,8 @@ class Master:
         """`QueuedTransport.wait_bytes`, where the transport has it (`_whole_answer`)."""
         self._margin = COARSE_MARGIN
         self._write_at = _timed_writer(transport)
+        self._answered: _Link | None = None
+        """The slave whose process data came last (`_send`'s early hand-over)."""
 
     # -- life cycle ------------------------------------------------------------------------
     async def __aenter__(self) -> Master:
@@ -1002,6 +1004,7 @@ class Master:
             link.response_delay,
             link.profile.start_pause_chars,
             link,
+            early=link is not self._answered,
         )
         link.exchanges += 1
         if result.outcome is _Outcome.ANSWER and result.received is not None:
@@ -1083,6 +1086,14 @@ class Master:
         link.status = status
         if version > link.answered_version:
             link.answered_version = version
+        self._answered = link
+        # the subscribers first: what they leave for later (`call_soon`) is done before the
+        # tasks woken below look at it
+        for callback in list(link.update_callbacks):
+            try:
+                callback(status)
+            except Exception:
+                log.exception("slave %d: process data callback failed", link.address)
         if link.update_waiters:
             waiters, link.update_waiters = link.update_waiters, []
             for future in waiters:
@@ -1097,11 +1108,6 @@ class Master:
                 else:
                     keep.append((wanted, future))
             link.version_waiters = keep
-        for callback in list(link.update_callbacks):
-            try:
-                callback(status)
-            except Exception:
-                log.exception("slave %d: process data callback failed", link.address)
 
     def _deliver_spontaneous(self, link: _Link, message: SpontaneousMessage) -> None:
         log.info(
@@ -1135,17 +1141,27 @@ class Master:
         frame: bytes | Callable[[], bytes],
         pause_chars: float,
         answer_within: float | None = None,
+        early: bool = False,
     ) -> tuple[float, float]:
         """Keep the start pause, send ``frame`` (or what ``frame()`` builds then); returns the
         telegram's start and end time. ``answer_within``: the time after its end in which an
         answer must begin (response window and tolerance): on a virtual bus the answer may
         then be handed over whole, as long as its first character comes by the time it
-        would be handed over at the latest anyway (`TimedWrite`)."""
+        would be handed over at the latest anyway (`TimedWrite`).
+
+        ``early`` (a telegram to another slave than the one that answered last): on a
+        virtual bus it is handed over at once, the start pause still ahead, before the tasks
+        woken by the last answer and what its subscribers left for later run - they take
+        their time while it is on the line, not before. Else those run first (a task woken by a
+        slave's answer may have a job for its next telegram)."""
         pause = max(2.0, pause_chars) * self.timing.char_time
-        await asyncio.sleep(0)  # let tasks woken by the last answer queue their jobs first
         # On a virtual bus the telegram is handed over a moment early with its start time
         # (`timed_writer`); elsewhere the last moments of the pause pass yielding to the loop.
-        ahead = max(self._margin, self.timing.char_time) if self._write_at is not None else 0.0
+        ahead = 0.0
+        if self._write_at is not None:
+            ahead = max(self._margin, self.timing.char_time, pause if early else 0.0)
+        if not early or self._write_at is None:
+            await asyncio.sleep(0)  # let tasks woken by the last answer queue their jobs first
         clock = self.transport.clock
         receiver = self._receiver
         while True:
@@ -1333,9 +1349,12 @@ class Master:
         limit: float,
         pause_chars: float,
         link: _Link | None,
+        *,
+        early: bool = False,
     ) -> _Result:
-        """Send ``frame`` and wait for the answer of ``address`` (A 5.2)."""
-        start, end = await self._send(frame, pause_chars, limit + self.rx_tolerance)
+        """Send ``frame`` and wait for the answer of ``address`` (A 5.2); ``early``: see
+        `_send`."""
+        start, end = await self._send(frame, pause_chars, limit + self.rx_tolerance, early)
         deadline = end + limit + self.rx_tolerance
         faulty = False
         receiver = self._receiver

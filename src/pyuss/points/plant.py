@@ -30,7 +30,11 @@ keeps a `DrivePoints` per drive, which
 - builds a new `DriveState` from every answer of the drive (the master's ``on_update``
   callback) and tells its subscribers when the state changed - so the faces publish at the
   bus cycle, and not at all while nothing changes; the running counters alone are no change
-  (`DriveState.signature`), `DrivePoints.snapshot` gives them fresh;
+  (`DriveState.signature`), `DrivePoints.snapshot` gives them fresh. The state is built in
+  the loop's next turn, once the master has handed its next telegram over (on a virtual bus
+  it does so before yielding): the faces' work is done while that telegram is on the line,
+  and does not keep it off (what must not wait - the end of a jog on a fault - is done at
+  once);
 - watches "does not send" (A 5.2.1.1), which no answer reports, on a short timer;
 - reads the reference (the physical value of 100 %) once it can, the fault number when the
   fault bit rises, and the polled parameters when due;
@@ -40,8 +44,9 @@ keeps a `DrivePoints` per drive, which
   with the drive's error number, `NoWriteAuthority`) and kept as the drive's last refusal.
 
 Subscribers: `DrivePoints.subscribe` / `Plant.subscribe` take a callback (called in the
-master's task: it must not block), `DrivePoints.updates` is an async iterator that always
-yields the newest state and skips what a slow reader missed, so memory stays bounded.
+loop's task that changed the state, or in the turn after an answer: it must not block),
+`DrivePoints.updates` is an async iterator that always yields the newest state and skips
+what a slow reader missed, so memory stays bounded.
 """
 
 from __future__ import annotations
@@ -146,6 +151,8 @@ class DrivePoints:
         self._callbacks: list[Callable[[DriveState], object]] = []
         self._watches: list[_Watch] = []
         self._quick: tuple[object, ...] | None = None
+        self._change_due = False
+        """A state to build from an answer in the loop's next turn (`_on_update`)."""
         self._fault_task: asyncio.Task[None] | None = None
         self._samples: deque[Sample] | None = None
         self._state = self._build()
@@ -263,6 +270,12 @@ class DrivePoints:
             and self.model.fault is not None
         ):
             self._read_fault_soon()
+        if not self._change_due:
+            self._change_due = True
+            asyncio.get_running_loop().call_soon(self._answer_changed)
+
+    def _answer_changed(self) -> None:
+        self._change_due = False
         self._changed()
 
     def _read_fault_soon(self) -> None:
