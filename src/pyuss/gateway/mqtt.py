@@ -57,6 +57,7 @@ import secrets
 import socket
 import ssl
 from collections import OrderedDict, deque
+from collections.abc import Callable
 from typing import Any
 
 import aiomqtt
@@ -176,7 +177,12 @@ def send_at_once(client: aiomqtt.Client) -> None:
 
 
 class _DriveWorker:
-    """Publishes one drive's states and carries out its commands in order."""
+    """Publishes one drive's states and carries out its commands in order.
+
+    A new state that changes nothing but the state message - most of them, while a drive
+    runs - is written at once from the drive model's callback (`on_state`), no task woken;
+    the rest (availability, a parameter, discovery; a state while not connected or while
+    the task publishes) is left to the task (`states`), which publishes the newest."""
 
     def __init__(self, face: MqttBusFace, drive: DrivePoints) -> None:
         self.face = face
@@ -189,6 +195,36 @@ class _DriveWorker:
         self.idle = asyncio.Event()
         """Set while no command is being carried out (and its reply sent)."""
         self.idle.set()
+        self.latest: DriveState | None = None
+        """The newest state the task is to publish (`on_state`)."""
+        self.wake = asyncio.Event()
+        self.publishing = False
+
+    def on_state(self, state: DriveState) -> None:
+        """The drive model's subscriber (see the class docstring)."""
+        if (
+            self.publishing
+            or self.wake.is_set()
+            or not self._state_alone(state)
+            or not self.face.publish_now(self.topics.state, self.payloads.payload(state))
+        ):
+            self.latest = state
+            self.wake.set()
+
+    def _state_alone(self, state: DriveState) -> bool:
+        """Whether ``state`` needs nothing published but its state message."""
+        if self.published.get("availability") != ("online" if state.online else "offline"):
+            return False
+        for key, reading in state.parameters.items():
+            if reading.time is not None and self.published.get(key) != (
+                reading.value,
+                reading.time,
+            ):
+                return False
+        return not self.face.options.discovery or self.discovery_key == (
+            state.reference,
+            state.model.unit,
+        )
 
     async def publish_state(self, state: DriveState) -> None:
         face = self.face
@@ -227,9 +263,18 @@ class _DriveWorker:
         return ok
 
     async def states(self) -> None:
-        async for state in self.drive.updates():
+        while True:
+            await self.wake.wait()
             await self.face.connected.wait()
-            await self.publish_state(state)
+            self.wake.clear()
+            state, self.latest = self.latest, None
+            if state is None:
+                continue
+            self.publishing = True
+            try:
+                await self.publish_state(state)
+            finally:
+                self.publishing = False
 
     async def commands(self) -> None:
         while True:
@@ -316,6 +361,7 @@ class MqttBusFace:
         self._outbox: deque[tuple[str, bytes]] = deque(maxlen=OUTBOX)
         self._heads: dict[tuple[str, bool], tuple[int, bytes]] = {}
         self._tasks: list[asyncio.Task[None]] = []
+        self._removers: list[Callable[[], None]] = []
         self._stop = asyncio.Event()
         self._runner: asyncio.Task[None] | None = None
         self.connections = 0
@@ -335,6 +381,19 @@ class MqttBusFace:
         self._early: list[aiomqtt.Message] = []
 
     # -- publishing ----------------------------------------------------------------------------
+    def publish_now(self, topic: str, payload: bytes | str) -> bool:
+        """A retained QoS 0 message written in this turn of the loop, if connected and
+        nothing else waits to be written; False: not sent (`publish` it)."""
+        client = self._client
+        if client is None or not self.connected.is_set():
+            return False
+        paho = getattr(client, "_client", None)  # aiomqtt's paho client
+        if not isinstance(paho, mqtt.Client) or paho.want_write():
+            return False
+        return self._write_now(paho, topic, payload, True) or self._publish_now(
+            paho, topic, payload, True
+        )
+
     async def publish(
         self, topic: str, payload: bytes | str, *, qos: int = 1, retain: bool = False
     ) -> bool:
@@ -664,6 +723,7 @@ class MqttBusFace:
 
     async def start(self) -> None:
         for worker in self.workers.values():
+            self._removers.append(worker.drive.subscribe(worker.on_state))
             self._tasks.append(asyncio.create_task(worker.states()))
             self._tasks.append(asyncio.create_task(worker.commands()))
         self._runner = asyncio.create_task(self.run(), name=f"mqtt {self.bus.name}")
@@ -693,6 +753,9 @@ class MqttBusFace:
         """Finish the commands (`_finish`), stop publishing, publish each drive's last state
         and ``offline``, disconnect."""
         await self._finish()
+        for remove in self._removers:
+            remove()
+        self._removers.clear()
         for task in self._tasks:
             task.cancel()
         if self._tasks:

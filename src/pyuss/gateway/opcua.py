@@ -92,7 +92,7 @@ from typing import Any
 from asyncua import Server, ua
 from asyncua.common.utils import ServiceError
 from asyncua.crypto.permission_rules import USER_TYPES, PermissionRuleset, User, UserRole
-from asyncua.server.address_space import AddressSpace, AttributeService
+from asyncua.server.address_space import AttributeService, AttributeValue
 from asyncua.server.binary_server_asyncio import BinaryServer, OPCUAProtocol
 from asyncua.server.uaprocessor import PublishRequestData, UaProcessor
 from asyncua.server.user_managers import UserManager
@@ -892,6 +892,12 @@ class _DriveNodes:
                 writes.append((nodeid, ua.DataValue(ua.Variant(span))))
         return writes
 
+    def value_nodes(self) -> list[ua.NodeId]:
+        """The nodes `changes` writes: the variables and the EURanges."""
+        return [nodeid for nodeid, _ in self.nodes.values()] + [
+            nodeid for nodeid, _low, _high in self.ranges.values()
+        ]
+
     async def write(self, writes: list[tuple[ua.NodeId, ua.DataValue]]) -> None:
         """``writes`` through the server, which tells the clients monitoring them."""
         server = self.face.server
@@ -900,28 +906,6 @@ class _DriveNodes:
 
     async def update(self, state: DriveState) -> None:
         await self.write(self.changes(state))
-
-
-def _write_at_once(aspace: AddressSpace, writes: list[tuple[ua.NodeId, ua.DataValue]]) -> bool:
-    """Store ``writes`` in the address space as its own write does (asyncua's
-    ``AddressSpace.write_attribute_value``), without awaiting: possible, and done, when no
-    value has a data change callback (no client monitors it) or a setter of its own. False:
-    nothing was written, the writes are to go through the server (`_DriveNodes.update`)."""
-    values = []
-    for nodeid, value in writes:
-        node = aspace.get(nodeid)
-        attribute = None if node is None else node.attributes.get(ua.AttributeIds.Value)
-        if (
-            attribute is None
-            or attribute.datachange_callbacks
-            or attribute.value_setter is not None
-        ):
-            return False
-        values.append((attribute, value))
-    for attribute, value in values:
-        attribute.value = value
-        attribute.value_callback = None
-    return True
 
 
 class OpcuaFace:
@@ -1030,25 +1014,82 @@ class OpcuaFace:
 
 
 class _Updater:
-    """Writes a drive's changed states into its nodes in order, newest first: the values
-    that changed, at once where no client monitors them (`_write_at_once`), else through the
-    server in a task; a state that comes while the previous one is being written waits, and
-    a newer one replaces it."""
+    """Keeps a drive's nodes at its newest state.
+
+    While no client monitors any of them, a state is only noted: the values are made from
+    it when a client reads one (a value callback on each node, which asyncua's
+    ``read_attribute_value`` calls), so an answer nobody looks at costs nothing here; a
+    value read then carries the time of the newest answer. Else the values that changed
+    are written, at once where no client monitors them (`_write_at_once`), else through the
+    server in a task, which tells the subscriptions; a state that comes while the previous
+    one is being written waits, and a newer one replaces it."""
 
     def __init__(self, nodes: _DriveNodes) -> None:
         self.nodes = nodes
-        self.aspace = nodes.face.server.iserver.aspace
+        aspace = nodes.face.server.iserver.aspace
+        self.attributes: dict[ua.NodeId, AttributeValue] = {}
+        for nodeid in nodes.value_nodes():
+            node = aspace.get(nodeid)
+            attribute = None if node is None else node.attributes.get(ua.AttributeIds.Value)
+            if attribute is not None:
+                self.attributes[nodeid] = attribute
+        self.values = tuple(self.attributes.values())
         self.task: asyncio.Task[None] | None = None
         self.waiting: DriveState | None = None
+        self.pending: DriveState | None = None
+        """The state the values are to be made of when read."""
+        self.reading = False
+        """Whether the nodes make their values when read (their value callbacks are set)."""
 
     def changed(self, state: DriveState) -> None:
         if self.task is not None and not self.task.done():
             self.waiting = state
             return
+        for attribute in self.values:  # (a loop: no generator to step through)
+            if attribute.datachange_callbacks:
+                break  # a client monitors one of them
+        else:
+            self.pending = state
+            if not self.reading:  # (a write through the server took the callback away)
+                self.reading = True
+                for attribute in self.values:
+                    if attribute.value_setter is None:
+                        attribute.value_callback = self.read
+            return
+        self.reading = False
+        self.pending = None
         writes = self.nodes.changes(state)
-        if not writes or _write_at_once(self.aspace, writes):
+        if not writes or self._write_at_once(writes):
             return
         self.task = asyncio.get_running_loop().create_task(self.run(writes))
+
+    def read(self, nodeid: ua.NodeId, _attribute: ua.AttributeIds) -> ua.DataValue:
+        """A node's value callback: its value, the noted state made into values first."""
+        state, self.pending = self.pending, None
+        if state is not None:
+            for written, value in self.nodes.changes(state):
+                self.attributes[written].value = value
+        value = self.attributes[nodeid].value
+        assert value is not None
+        return value
+
+    def _write_at_once(self, writes: list[tuple[ua.NodeId, ua.DataValue]]) -> bool:
+        """Store ``writes`` in the address space as its own write does (asyncua's
+        ``AddressSpace.write_attribute_value``), without awaiting: possible, and done, when
+        no value has a data change callback (no client monitors it) or a setter of its own.
+        False: nothing was written, the writes are to go through the server."""
+        attributes = self.attributes
+        for nodeid, _value in writes:
+            attribute = attributes.get(nodeid)
+            if (
+                attribute is None
+                or attribute.datachange_callbacks
+                or attribute.value_setter is not None
+            ):
+                return False
+        for nodeid, value in writes:
+            attributes[nodeid].value = value
+        return True
 
     async def run(self, writes: list[tuple[ua.NodeId, ua.DataValue]]) -> None:
         while True:

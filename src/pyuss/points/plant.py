@@ -318,8 +318,8 @@ class DrivePoints:
 
     # -- subscribers -------------------------------------------------------------------------
     def subscribe(self, callback: Callable[[DriveState], object]) -> Callable[[], None]:
-        """Call ``callback`` with every changed state (in the master's task: do not block);
-        returns a function that removes it."""
+        """Call ``callback`` with every changed state (it must not block: see the module
+        docstring); returns a function that removes it."""
         self._callbacks.append(callback)
 
         def remove() -> None:
