@@ -449,8 +449,9 @@ class Master:
         """`QueuedTransport.wait_bytes`, where the transport has it (`_whole_answer`)."""
         self._margin = COARSE_MARGIN
         self._write_at = _timed_writer(transport)
-        self._answered: _Link | None = None
-        """The slave whose process data came last (`_send`'s early hand-over)."""
+        self._woken: _Link | None = None
+        """The slave whose last answer woke tasks waiting for it (`_send`'s early
+        hand-over)."""
 
     # -- life cycle ------------------------------------------------------------------------
     async def __aenter__(self) -> Master:
@@ -1004,7 +1005,7 @@ class Master:
             link.response_delay,
             link.profile.start_pause_chars,
             link,
-            early=link is not self._answered,
+            early=link is not self._woken,
         )
         link.exchanges += 1
         if result.outcome is _Outcome.ANSWER and result.received is not None:
@@ -1086,7 +1087,7 @@ class Master:
         link.status = status
         if version > link.answered_version:
             link.answered_version = version
-        self._answered = link
+        self._woken = link if link.update_waiters or link.version_waiters else None
         # the subscribers first: what they leave for later (`call_soon`) is done before the
         # tasks woken below look at it
         for callback in list(link.update_callbacks):
@@ -1149,11 +1150,11 @@ class Master:
         then be handed over whole, as long as its first character comes by the time it
         would be handed over at the latest anyway (`TimedWrite`).
 
-        ``early`` (a telegram to another slave than the one that answered last): on a
-        virtual bus it is handed over at once, the start pause still ahead, before the tasks
-        woken by the last answer and what its subscribers left for later run - they take
-        their time while it is on the line, not before. Else those run first (a task woken by a
-        slave's answer may have a job for its next telegram)."""
+        ``early`` (a telegram to another slave than the one whose last answer woke tasks
+        waiting for it): on a virtual bus it is handed over at once, the start pause still
+        ahead, before what the last answer's subscribers left for later runs - the faces'
+        work is done while the telegram is on the line, not before it. Else the woken tasks
+        run first: one may have a job for this very telegram."""
         pause = max(2.0, pause_chars) * self.timing.char_time
         # On a virtual bus the telegram is handed over a moment early with its start time
         # (`timed_writer`); elsewhere the last moments of the pause pass yielding to the loop.
