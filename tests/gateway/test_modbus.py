@@ -20,6 +20,7 @@ from pyuss.gateway.registers import (
     to_registers,
 )
 from pyuss.points.errors import Failure
+from support.limits import limit_writes
 from support.waiting import eventually
 
 
@@ -185,3 +186,24 @@ async def test_a_request_with_a_part_that_would_take_a_drive_over_is_refused_who
             assert (points.drive.control, points.drive.setpoints) == before
     finally:
         await bus.close()
+
+
+async def test_a_mailbox_write_the_drive_answers_with_another_value_says_so() -> None:
+    # A drive limits or rounds a value: the write is done, but the drive holds another value
+    # than the one written, and the mailbox's status says so (4), not "done" (1).
+    async with (
+        simulated_gateway(modbus=True) as (gateway, engines),
+        ModbusClient(gateway) as client,
+    ):
+        limit_writes(engines[5].drive, 18, 1000)
+        statuses = []
+        for value in (5000, 700):
+            response = await client.client.readwrite_registers(
+                read_address=206,
+                read_count=5,
+                write_address=200,
+                values=[18, 0xFFFF, 2, 0, value, 2],  # P18 as a signed 16-bit word
+                device_id=5,
+            )
+            statuses.append((response.registers[0], response.registers[4]))
+    assert statuses == [(4, 1000), (1, 700)]

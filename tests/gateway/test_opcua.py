@@ -10,6 +10,7 @@ import pytest
 from asyncua import ua
 
 from gateway.harness import OpcuaClient, simulated_gateway
+from support.limits import limit_writes
 from support.waiting import eventually
 
 
@@ -189,3 +190,24 @@ async def test_a_stop_answers_the_write_being_carried_out_and_takes_no_new_one()
         assert await write == pytest.approx(55.0)
         await closing
     assert engines[5].drive.value(107) == 55
+
+
+async def test_a_write_parameter_the_drive_answers_with_another_value_is_clamped() -> None:
+    # A drive limits or rounds a value: WriteParameter returns what the drive holds, with
+    # GoodClamped (OPC UA Part 4 7.39), not Good, where that is not the value written.
+    async with simulated_gateway(opcua=True) as (gateway, engines), OpcuaClient(gateway) as op:
+        limit_writes(engines[5].drive, 18, 1000)
+        results = []
+        for value in (5000.0, 700.0):
+            request = ua.CallMethodRequest(
+                ObjectId=ua.NodeId("bus.drive5", op.ns),
+                MethodId=ua.NodeId("bus.drive5.WriteParameter", op.ns),
+                InputArguments=[
+                    ua.Variant(18, ua.VariantType.UInt16),
+                    ua.Variant(-1, ua.VariantType.Int16),
+                    ua.Variant(value, ua.VariantType.Double),
+                ],
+            )
+            (result,) = await op.client.uaclient.call([request])
+            results.append((result.StatusCode.value, result.OutputArguments[0].Value))
+    assert results == [(ua.StatusCodes.GoodClamped, 1000.0), (ua.StatusCodes.Good, 700.0)]

@@ -28,6 +28,8 @@ configured names)::
           On(), Off1(), Off2(), Off3(), Acknowledge()
           ReadParameter(Pnu UInt16, Index Int16 = -1) -> (Value Double, Unit String)
           WriteParameter(Pnu UInt16, Index Int16, Value Double) -> Value Double
+                                                  (the drive's; GoodClamped where it holds
+                                                  another value than the one written)
 
 Variables with a unit (Actual, ActualPercent, Setpoint, SetpointPercent, parameters with a
 unit) are AnalogItemType (OPC UA Part 8 5.3.2) with the properties EngineeringUnits (UNECE
@@ -823,7 +825,13 @@ class _DriveNodes:
         async def write(pnu: int, index: int, value: float) -> Any:
             reading = await drive.write_parameter(pnu, value, index_of(index))
             answered = math.nan if reading.value is None else float(reading.value)
-            return [ua.Variant(answered, ua.VariantType.Double)]
+            outputs = [ua.Variant(answered, ua.VariantType.Double)]
+            if reading.written is None:
+                return outputs
+            # the drive holds another value than the one written (it limits or rounds)
+            return ua.CallMethodResult(
+                StatusCode=_status(ua.StatusCodes.GoodClamped), OutputArguments=outputs
+            )
 
         await self._method(
             obj, "ReadParameter", read, [pnu_arg, index_arg], [value_arg, unit_arg], changes=False

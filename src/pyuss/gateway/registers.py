@@ -228,6 +228,9 @@ class MailboxStatus(enum.IntEnum):
     DONE = 1
     REFUSED = 2
     FAILED = 3
+    DIFFERS = 4
+    """A write the drive answered with another value (it limits or rounds): the result
+    registers hold what it holds."""
 
 
 def param_kind(meta: ParamMeta) -> str:
@@ -597,7 +600,7 @@ class DriveRegisters:
             box.status = MailboxStatus.FAILED
             box.result = (0, 0)
             raise RegisterError(EXCEPTIONS[classify(exc)], str(exc)) from exc
-        box.status = MailboxStatus.DONE
+        box.status = MailboxStatus.DONE if reading.written is None else MailboxStatus.DIFFERS
         box.result = self._mailbox_result(reading.value, job.fmt, meta)
 
     def _mailbox_value(
