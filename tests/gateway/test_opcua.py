@@ -195,7 +195,10 @@ async def test_a_stop_answers_the_write_being_carried_out_and_takes_no_new_one()
 async def test_a_write_parameter_the_drive_answers_with_another_value_is_clamped() -> None:
     # A drive limits or rounds a value: WriteParameter returns what the drive holds, with
     # GoodClamped (OPC UA Part 4 7.39), not Good, where that is not the value written.
-    async with simulated_gateway(opcua=True) as (gateway, engines), OpcuaClient(gateway) as op:
+    async with (
+        simulated_gateway(opcua=True, parameters=("18",)) as (gateway, engines),
+        OpcuaClient(gateway) as op,
+    ):
         limit_writes(engines[5].drive, 18, 1000)
         results = []
         for value in (5000.0, 700.0):
@@ -210,4 +213,16 @@ async def test_a_write_parameter_the_drive_answers_with_another_value_is_clamped
             )
             (result,) = await op.client.uaclient.call([request])
             results.append((result.StatusCode.value, result.OutputArguments[0].Value))
+        # so is a write to the parameter's variable (P18 is one of the configured)
+        node = op.node(5, ".Parameters.P18")
+        written = []
+        for value in (6000.0, 800.0):
+            item = ua.WriteValue(
+                NodeId=node.nodeid,
+                AttributeId=ua.AttributeIds.Value,
+                Value=ua.DataValue(ua.Variant(value, ua.VariantType.Double)),
+            )
+            (status,) = await op.client.uaclient.write(ua.WriteParameters(NodesToWrite=[item]))
+            written.append((status.value, engines[5].drive.value(18)))
     assert results == [(ua.StatusCodes.GoodClamped, 1000.0), (ua.StatusCodes.Good, 700.0)]
+    assert written == [(ua.StatusCodes.GoodClamped, 1000), (ua.StatusCodes.Good, 800)]

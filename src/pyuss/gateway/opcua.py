@@ -435,7 +435,8 @@ class _Server(Server):  # type: ignore[misc]
         await super().stop()
 
 
-WriteHandler = Callable[[Any], Awaitable[None]]
+WriteHandler = Callable[[Any], Awaitable[ua.StatusCode | None]]
+"""Carries a checked value out; returns the write's status where it is not Good."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -514,11 +515,11 @@ class _Attributes(AttributeService):  # type: ignore[misc]
             return _status(ua.StatusCodes.BadShutdown)
         try:
             async with self.face.acting():
-                await writable.handler(value.Value.Value)
+                status = await writable.handler(value.Value.Value)
         except (UssError, ValueError, TypeError) as exc:
             log.info("write to %s refused: %s", where, exc)
             return status_of(exc)
-        return ua.StatusCode()
+        return ua.StatusCode() if status is None else status
 
 
 @dataclass(frozen=True, slots=True)
@@ -729,8 +730,11 @@ class _DriveNodes:
             meta = point.meta
 
             def param_writer(pnu: int, index: int | None) -> WriteHandler:
-                async def write(value: Any) -> None:
-                    await drive.write_parameter(pnu, float(value), index)
+                async def write(value: Any) -> ua.StatusCode | None:
+                    reading = await drive.write_parameter(pnu, float(value), index)
+                    if reading.written is None:
+                        return None
+                    return _status(ua.StatusCodes.GoodClamped)  # the drive holds another
 
                 return write
 
