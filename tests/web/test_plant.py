@@ -270,22 +270,33 @@ def test_messages_beyond_bounds_or_of_another_version_are_dropped() -> None:
     assert page.drives == {} and page.buses == {}
 
 
-def test_replies_that_answer_no_request_are_dropped(plant: Plant) -> None:
-    # A bus with no gateway behind it: this test answers in its place.
-    gateway = {
-        "v": 1, "bus": "ghost", "version": "1", "read_only": False, "keepalive": 5,
+def ghost_online(client: paho.Client, gateway: dict[str, Any]) -> None:
+    """Publish, retained, ``gateway`` and that it and its drive d5 are online."""
+    bus = gateway["bus"]
+    client.publish(f"uss/{bus}/gateway", json.dumps(gateway), qos=1, retain=True)
+    client.publish(f"uss/{bus}/availability", "online", qos=1, retain=True)
+    client.publish(f"uss/{bus}/d5/availability", "online", qos=1, retain=True)
+
+
+def ghost_gateway(bus: str) -> dict[str, Any]:
+    """The gateway message of a bus with drive d5 (5) and no gateway behind it."""
+    return {
+        "v": 1, "bus": bus, "version": "1", "read_only": False, "keepalive": 5,
         "drives": [{"name": "d5", "address": 5, "profile": "generic", "layout": "4,2",
                     "unit": "%", "setpoints": [{"key": "main", "pzd": 2, "dword": False}],
                     "actual": [{"key": "main", "pzd": 2, "dword": False}]}],
         "time": "2026-11-27T00:00:00.000Z",
     }  # fmt: skip
+
+
+def test_replies_that_answer_no_request_are_dropped(plant: Plant) -> None:
+    # A bus with no gateway behind it: this test answers in its place.
+    gateway = ghost_gateway("ghost")
     assert problems("gateway", gateway) == []
     ghost = Watcher(plant.broker.port, "uss/ghost/d5/cmd/#")
     page = plant.page
     try:
-        ghost.client.publish("uss/ghost/gateway", json.dumps(gateway), qos=1, retain=True)
-        ghost.client.publish("uss/ghost/availability", "online", qos=1, retain=True)
-        ghost.client.publish("uss/ghost/d5/availability", "online", qos=1, retain=True)
+        ghost_online(ghost.client, gateway)
         eventually_sync(
             lambda: "ghost.5" in page.plant.drives and page.plant.buses["ghost"].online, "ghost"
         )
@@ -330,6 +341,49 @@ def test_replies_that_answer_no_request_are_dropped(plant: Plant) -> None:
         for topic in ("gateway", "availability", "d5/availability"):
             ghost.client.publish(f"uss/ghost/{topic}", b"", qos=1, retain=True)
         ghost.stop()
+
+
+def test_a_command_whose_gateway_goes_offline_says_nothing_of_the_drive(plant: Plant) -> None:
+    # The gateway answers a command and goes away before the drive's state shows it taken:
+    # the last state it published is no news of the drive, and the page says so, not "done"
+    # or "did not take it".
+    gateway = ghost_gateway("ghost2")
+    ghost = Watcher(plant.broker.port, "uss/ghost2/d5/cmd/#")
+    page = plant.page
+    try:
+        ghost_online(ghost.client, gateway)
+        eventually_sync(
+            lambda: (
+                "ghost2.5" in page.plant.drives and page.plant.live(page.plant.drives["ghost2.5"])
+            ),
+            "ghost2.5 live",
+        )
+        status, checked = page.api("/api/drive/ghost2.5/command", {"name": "off2", "check": True})
+        assert status == 200, checked
+        done: Future[Any] = Future()
+        body = {"name": "off2", "confirm": checked["confirm"]}
+        threading.Thread(
+            target=lambda: done.set_result(page.api("/api/drive/ghost2.5/command", body))
+        ).start()
+        eventually_sync(lambda: ghost.messages, "the command on the broker")
+        sent = json.loads(ghost.messages[0][1])
+        result = {"status_word": 0x0231, "state": "switch-on inhibited", "control_word": 0x047C,
+                  "setpoint": {}}  # fmt: skip
+        reply = {"v": 1, "id": sent["id"], "command": "off2", "drive": "d5", "ok": True,
+                 "result": result}  # fmt: skip
+        ghost.client.publish(sent["reply_to"], json.dumps(reply), 1)
+        time.sleep(0.3)  # the reply is in, the page waits for the drive's state to show it
+        ghost.client.publish("uss/ghost2/availability", "offline", qos=1, retain=True)
+        status, said = done.result(30)
+    finally:
+        for topic in ("gateway", "availability", "d5/availability"):
+            ghost.client.publish(f"uss/ghost2/{topic}", b"", qos=1, retain=True)
+        ghost.stop()
+    assert status == 200
+    assert said["taken"] is False and said["state"] == "not known", said
+    assert said["text"] == (
+        "off2: sent, but whether the drive took it is not known: gateway ghost2 offline."
+    )
 
 
 def ask(page: Page) -> Future[dict[str, Any]]:

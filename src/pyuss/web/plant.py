@@ -249,6 +249,17 @@ class PlantBackend:
                 out.append({"pnu": pnu, "name": info.name, "unit": info.unit})
         return out
 
+    def _why_not_live(self, drive: RemoteDrive) -> str | None:
+        """Why nothing of ``drive`` is live (None: it is)."""
+        if not self.plant.connected.is_set():
+            # nothing is known of the gateway and its drives now, "offline" least of all
+            return f"the MQTT broker {self.plant.broker} is not connected"
+        if not self.plant.buses[drive.bus].online:
+            return f"gateway {drive.bus} offline"
+        if not drive.available:
+            return "the drive does not answer its gateway"
+        return None
+
     def summary(self, key: object) -> dict[str, Any]:
         drive = self._drive(key)
         bus = self.plant.buses[drive.bus]
@@ -257,14 +268,7 @@ class PlantBackend:
         health = state.get("health") or {}
         counters = dict(health.get("counters") or {})
         word = state.get("status_word")
-        why = None
-        if not self.plant.connected.is_set():
-            # nothing is known of the gateway and its drives now, "offline" least of all
-            why = f"the MQTT broker {self.plant.broker} is not connected"
-        elif not bus.online:
-            why = f"gateway {drive.bus} offline"
-        elif not drive.available:
-            why = "the drive does not answer its gateway"
+        why = self._why_not_live(drive)
         return {
             "address": drive.key,
             "bus": drive.bus,
@@ -399,8 +403,24 @@ class PlantBackend:
         await self.plant.request(drive, name)
         goal = _GOALS[name]
         deadline = time.monotonic() + TAKE_TIME
-        while not goal(self._state(drive)) and time.monotonic() < deadline:
+        while (
+            self.plant.live(drive)
+            and not goal(self._state(drive))
+            and time.monotonic() < deadline
+        ):
             await asyncio.sleep(0.05)
+        if not self.plant.live(drive):
+            # the last state is no news of the drive: its gateway (or the broker, or the
+            # drive) went away meanwhile
+            why = self._why_not_live(drive)
+            return {
+                "command": name,
+                "taken": False,
+                "text": f"{name}: sent, but whether the drive took it is not known: {why}.",
+                "state": "not known",
+                "status": None,
+                "motion": self.motion(key),
+            }
         taken = goal(self._state(drive))
         word = self._state(drive).get("status_word")
         shown = "no answer" if not isinstance(word, int) else f"{state_name(word)} ({word:04X}h)"
