@@ -26,7 +26,9 @@ this module is the client around them:
   (`MqttBusFace._publish_now`): that wait cost more CPU than the rest of the face. Once paho
   has taken a topic, the face writes the next QoS 0 messages to it itself, the packet's head
   made once per topic (`MqttBusFace._write_now`), and each state message is built from the
-  parts of the state that changed (`pyuss.gateway.topics.StatePayloads`).
+  parts of the state that changed (`pyuss.gateway.topics.StatePayloads`). A state that
+  needs nothing else published is written from the drive model's callback itself, no task
+  woken (`_DriveWorker.on_state`).
 - Commands of one drive are carried out one after the other, in order, by a task of that
   drive, so the message loop never waits for a drive; a command with an id is carried out
   once (`pyuss.gateway.topics`), its reply kept for repeats (the last 1000 ids per bus).
