@@ -32,6 +32,7 @@ export class DriveView {
     this.info = null;
     this.series = [];     // [{name, unit, key}]
     this.data = [[]];     // uPlot data: x, then one array per series
+    this.breaks = [];     // the times at which the drive fell silent (`silentGaps`)
     this.window = 30;
     this.paused = false;
     this.following = true;
@@ -115,6 +116,7 @@ export class DriveView {
       return el("label", {}, box, ` ${s.name}${s.unit ? ` [${s.unit}]` : ""}`);
     }));
     this.data = [[], ...this.series.map(() => [])];
+    this.breaks = [];
     this.updates = 0;
     this.build();
     this.alarmBits = null;
@@ -209,6 +211,27 @@ export class DriveView {
     document.getElementById("fault-note").textContent = `Faults not read: ${why}`;
   }
 
+  // The trend's silent spells: from the last value before a drive fell silent to the first
+  // after it answered again, no line is drawn (a straight line there would be no value the
+  // drive said). Each spell is a row of no values just after the last sample (`breaks`).
+  silentGaps(u, i) {
+    const gaps = [];
+    const xs = u.data[0];
+    const ys = u.data[i];
+    for (const x of this.breaks) {
+      const at = xs.indexOf(x);
+      if (at < 0) continue;
+      let before = at - 1;
+      while (before >= 0 && ys[before] == null) before -= 1;
+      let after = at + 1;
+      while (after < xs.length && ys[after] == null) after += 1;
+      if (before < 0 || after >= xs.length) continue;  // no line there to cut
+      uPlot.addGap(gaps, Math.round(u.valToPos(xs[before], "x", true)),
+        Math.round(u.valToPos(xs[after], "x", true)));
+    }
+    return gaps;
+  }
+
   build() {
     const target = document.getElementById("trend");
     this.plot?.destroy();
@@ -224,7 +247,9 @@ export class DriveView {
           stroke: COLORS[i % COLORS.length],
           width: 2,
           show: s.on,
-          spanGaps: true, // a polled row holds no process data: draw across it
+          // a polled row holds no process data: drawn across; a silent spell is not (`gaps`)
+          spanGaps: false,
+          gaps: (u, i) => this.silentGaps(u, i),
           points: { show: false },
         })),
       ],
@@ -301,6 +326,12 @@ export class DriveView {
     if (silent !== this.silent && this.info) {
       if (silent) this.faultsNotKnown("the drive does not send");
       else if (this.silent !== undefined) this.readFaults();
+      const xs = this.data[0];
+      if (silent && xs.length) {  // the trend's line ends here (`silentGaps`)
+        const x = xs[xs.length - 1] + 0.001;
+        this.insert(x, this.series.map(() => null));
+        this.breaks.push(x);
+      }
     }
     this.silent = silent;
     // No drive answering: nothing to command (a command would only time out).
