@@ -404,9 +404,7 @@ class PlantBackend:
         goal = _GOALS[name]
         deadline = time.monotonic() + TAKE_TIME
         while (
-            self.plant.live(drive)
-            and not goal(self._state(drive))
-            and time.monotonic() < deadline
+            self.plant.live(drive) and not goal(self._state(drive)) and time.monotonic() < deadline
         ):
             await asyncio.sleep(0.05)
         if not self.plant.live(drive):
