@@ -48,6 +48,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -76,6 +77,8 @@ BAUD = 38400
 TELEGRAM = 16
 """Characters of a telegram with PKW 4 + PZD 2: STX, LGE, ADR, 12 bytes of net data, BCC."""
 DEPLOYED_COUNTS = (1, 31, 124)
+MONITORED_COUNT = 31
+"""The run as deployed that is made once more with an OPC UA client monitoring every value."""
 BUS_SIZE = 31
 WINDOW = 5.0
 GOAL_CPU_MS = 0.2
@@ -324,9 +327,66 @@ def _start(where: tuple[int, int]) -> None:
         client.close()
 
 
-def deployed(count: int, mqtt_port: int | None, uvloop: bool = True) -> dict[str, float]:
+@contextlib.contextmanager
+def _monitoring(config: Path) -> Iterator[int]:
+    """An OPC UA client (asyncua, on a thread of its own) that monitors every variable of
+    the gateway of ``config``, as a SCADA system does; yields the number of them."""
+    import logging
+    import threading
+    import tomllib
+
+    from asyncua import Client, ua
+
+    logging.getLogger("asyncua").setLevel(logging.ERROR)  # its notes on revised values
+
+    url = tomllib.loads(config.read_text(encoding="utf-8"))["opcua"]["listen"]
+    stop, ready, items = threading.Event(), threading.Event(), [0]
+
+    async def run() -> None:
+        async with Client(url, timeout=30) as client:
+            ns = await client.get_namespace_index("urn:pyuss:gateway")
+            found: list[Any] = []
+
+            async def walk(node: Any) -> None:
+                for child in await node.get_children():
+                    kind = await child.read_node_class()
+                    if kind == ua.NodeClass.Variable and child.nodeid.NamespaceIndex == ns:
+                        found.append(child)
+                    elif kind == ua.NodeClass.Object:
+                        await walk(child)
+
+            await walk(client.nodes.objects)
+
+            class Handler:
+                def datachange_notification(self, node: Any, value: Any, data: Any) -> None:
+                    pass
+
+            subscription = await client.create_subscription(50, Handler())
+            for start in range(0, len(found), 200):
+                await subscription.subscribe_data_change(found[start : start + 200])
+            items[0] = len(found)
+            ready.set()
+            while not stop.is_set():
+                await asyncio.sleep(0.1)
+            await subscription.delete()
+
+    thread = threading.Thread(target=lambda: asyncio.run(run()), daemon=True)
+    thread.start()
+    if not ready.wait(60):
+        raise RuntimeError("the OPC UA client did not subscribe within 60 s")
+    try:
+        yield items[0]
+    finally:
+        stop.set()
+        thread.join(10)
+
+
+def deployed(
+    count: int, mqtt_port: int | None, uvloop: bool = True, monitor: bool = False
+) -> dict[str, float]:
     """One run as deployed; ``mqtt_port`` None: the Modbus face alone; ``uvloop`` False: the
-    gateway as if uvloop were not installed."""
+    gateway as if uvloop were not installed; ``monitor``: an OPC UA client monitors every
+    value (`_monitoring`)."""
     from pymodbus.client import ModbusTcpClient
 
     sizes = _sizes(count)
@@ -343,6 +403,8 @@ def deployed(count: int, mqtt_port: int | None, uvloop: bool = True) -> dict[str
         deadline = time.monotonic() + 30
         while not all(_answers(clients, sizes)) and time.monotonic() < deadline:
             time.sleep(0.2)
+        if monitor:
+            stack.enter_context(_monitoring(config))
         with ThreadPoolExecutor(count) as pool:
             # all at once: one write after the other would take two bus cycles per drive,
             # and the first drives would be at full speed (nothing changing) in the window
@@ -412,6 +474,8 @@ def as_deployed() -> list[Figure]:
             runs = [("modbus only", alone), ("all three", full)]
             if compare:
                 runs.append(("all, no uv", deployed(count, broker.port, uvloop=False)))
+            if count == MONITORED_COUNT:
+                runs.append(("all, ua mon", deployed(count, broker.port, monitor=True)))
             for label, r in runs:
                 states = r["states_per_drive_s"] * count / (r["updates_per_s"] or 1)
                 print(
@@ -462,6 +526,19 @@ def as_deployed() -> list[Figure]:
                         3,
                     )
                 )
+            for label, r in runs:
+                if label == "all, ua mon":
+                    figures.append(
+                        Figure(
+                            f"{where}, all faces, an OPC UA client monitoring every value: "
+                            "CPU per drive update",
+                            r["cpu_ms"],
+                            None,
+                            False,
+                            "ms",
+                            3,
+                        )
+                    )
         # the floor: what a process that only exchanges telegrams over bus:// takes
         for count in DEPLOYED_COUNTS[:2]:
             floor = bare(count)
