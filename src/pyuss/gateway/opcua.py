@@ -89,7 +89,7 @@ import time
 from collections import deque
 from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from asyncua import Server, ua
 from asyncua.common.utils import ServiceError
@@ -120,6 +120,7 @@ from pyuss.points.state import DriveState
 __all__ = ["STATUS_CODES", "OpcuaFace", "engineering_units"]
 
 log = logging.getLogger("pyuss.gateway.opcua")
+T = TypeVar("T")
 
 STATUS_CODES: dict[Failure, int] = {
     Failure.NOT_FOUND: ua.StatusCodes.BadNotFound,
@@ -522,27 +523,24 @@ class _Attributes(AttributeService):  # type: ignore[misc]
         if wrong is not None:
             log.info("write to %s refused: %r is not a %s", where, value.Value, writable.vtype)
             return _status(wrong)
-        if self.face.stopping:
-            return _status(ua.StatusCodes.BadShutdown)
-        try:
-            async with self.face.acting():
-                status = await writable.handler(value.Value.Value)
-        except (UssError, ValueError, TypeError) as exc:
-            log.info("write to %s refused: %s", where, exc)
-            return status_of(exc)
+        status = await self.face.carry_out(
+            lambda: writable.handler(value.Value.Value), f"write to {where}"
+        )
         return ua.StatusCode() if status is None else status
 
 
 @dataclass(frozen=True, slots=True)
 class _Method:
     """A drive's method: the object it belongs to, the types of its input arguments, whether
-    it changes the drive (a write right needed) and what it does with checked values."""
+    it changes the drive (a write right needed), what it does with checked values, and its
+    name (for the log)."""
 
     face: OpcuaFace
     parent: ua.NodeId
     inputs: tuple[ua.VariantType, ...]
     changes: bool
     body: Callable[..., Awaitable[Any]]
+    name: str
 
     async def call(self, parent: ua.NodeId, *args: Any) -> Any:
         if parent != self.parent:
@@ -558,13 +556,10 @@ class _Method:
                 StatusCode=_status(ua.StatusCodes.BadInvalidArgument),
                 InputArgumentResults=[ua.StatusCode(code or 0) for code in checks],
             )
-        if self.face.stopping:
-            return _status(ua.StatusCodes.BadShutdown)
-        try:
-            async with self.face.acting():
-                return await self.body(*(a.Value for a in args))
-        except (UssError, ValueError) as exc:
-            return status_of(exc)
+        return await self.face.carry_out(
+            lambda: self.body(*(a.Value for a in args)),
+            f"{self.name} of {self.parent.to_string()}",
+        )
 
 
 class _DriveNodes:
@@ -781,7 +776,7 @@ class _DriveNodes:
     ) -> None:
         face = self.face
         types = tuple(ua.VariantType(a.DataType.Identifier) for a in inputs)
-        method = _Method(face, self.obj, types, changes, body)
+        method = _Method(face, self.obj, types, changes, body, name)
         node = await obj.add_method(
             self.nid(f".{name}"),
             ua.QualifiedName(name, face.ns),
@@ -1007,6 +1002,19 @@ class OpcuaFace:
 
     def _updater(self, nodes: _DriveNodes) -> Callable[[DriveState], object]:
         return _Updater(nodes).changed
+
+    async def carry_out(self, what: Callable[[], Awaitable[T]], where: str) -> T | ua.StatusCode:
+        """``what()`` - a checked write or method call - carried out, unless the face is
+        stopping (BadShutdown); a stop waits for it (`acting`). A refusal is its status code
+        (`status_of`) and one log line naming ``where``."""
+        if self.stopping:
+            return _status(ua.StatusCodes.BadShutdown)
+        try:
+            async with self.acting():
+                return await what()
+        except (UssError, ValueError, TypeError) as exc:
+            log.info("%s refused: %s", where, exc)
+            return status_of(exc)
 
     @contextlib.asynccontextmanager
     async def acting(self) -> AsyncIterator[None]:
