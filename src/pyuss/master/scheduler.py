@@ -1158,10 +1158,11 @@ class Master:
         pause = max(2.0, pause_chars) * self.timing.char_time
         # On a virtual bus the telegram is handed over a moment early with its start time
         # (`timed_writer`); elsewhere the last moments of the pause pass yielding to the loop.
+        early = early and self._write_at is not None
         ahead = 0.0
         if self._write_at is not None:
             ahead = max(self._margin, self.timing.char_time, pause if early else 0.0)
-        if not early or self._write_at is None:
+        if not early:
             await asyncio.sleep(0)  # let tasks woken by the last answer queue their jobs first
         clock = self.transport.clock
         receiver = self._receiver
