@@ -469,8 +469,20 @@ class RemotePlant:
 
     def live(self, drive: RemoteDrive) -> bool:
         """Its gateway and the drive are online: its values are live."""
+        return self.why_not_live(drive) is None
+
+    def why_not_live(self, drive: RemoteDrive) -> str | None:
+        """Why the values of ``drive`` are not live (None: they are): the broker not
+        connected (nothing is known of a gateway then, "offline" least of all), its gateway
+        offline, the drive not answering its gateway."""
+        if not self.connected.is_set():
+            return f"the MQTT broker {self.broker} is not connected"
         bus = self.buses.get(drive.bus)
-        return bool(bus and bus.online and drive.available and self.connected.is_set())
+        if bus is None or not bus.online:
+            return f"gateway {drive.bus} offline"
+        if not drive.available:
+            return "the drive does not answer its gateway"
+        return None
 
     def why_not(self, drive: RemoteDrive, *, change: bool) -> str | None:
         """Why a request to ``drive`` is not sent (None: it is): the broker, its gateway

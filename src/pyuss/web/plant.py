@@ -249,26 +249,15 @@ class PlantBackend:
                 out.append({"pnu": pnu, "name": info.name, "unit": info.unit})
         return out
 
-    def _why_not_live(self, drive: RemoteDrive) -> str | None:
-        """Why nothing of ``drive`` is live (None: it is)."""
-        if not self.plant.connected.is_set():
-            # nothing is known of the gateway and its drives now, "offline" least of all
-            return f"the MQTT broker {self.plant.broker} is not connected"
-        if not self.plant.buses[drive.bus].online:
-            return f"gateway {drive.bus} offline"
-        if not drive.available:
-            return "the drive does not answer its gateway"
-        return None
-
     def summary(self, key: object) -> dict[str, Any]:
         drive = self._drive(key)
         bus = self.plant.buses[drive.bus]
-        live = self.plant.live(drive)
+        why = self.plant.why_not_live(drive)
+        live = why is None
         state = self._state(drive) if live else {}
         health = state.get("health") or {}
         counters = dict(health.get("counters") or {})
         word = state.get("status_word")
-        why = self._why_not_live(drive)
         return {
             "address": drive.key,
             "bus": drive.bus,
@@ -407,10 +396,10 @@ class PlantBackend:
             self.plant.live(drive) and not goal(self._state(drive)) and time.monotonic() < deadline
         ):
             await asyncio.sleep(0.05)
-        if not self.plant.live(drive):
+        why = self.plant.why_not_live(drive)
+        if why is not None:
             # the last state is no news of the drive: its gateway (or the broker, or the
             # drive) went away meanwhile
-            why = self._why_not_live(drive)
             return {
                 "command": name,
                 "taken": False,
