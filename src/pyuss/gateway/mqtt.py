@@ -383,17 +383,25 @@ class MqttBusFace:
         self._early: list[aiomqtt.Message] = []
 
     # -- publishing ----------------------------------------------------------------------------
-    def publish_now(self, topic: str, payload: bytes | str) -> bool:
-        """A retained QoS 0 message written in this turn of the loop, if connected and
-        nothing else waits to be written; False: not sent (`publish` it)."""
+    def _paho_now(self) -> mqtt.Client | None:
+        """aiomqtt's paho client, if connected and nothing waits to be written: a QoS 0
+        message may then be written in this turn of the loop (`_write_now`,
+        `_publish_now`)."""
         client = self._client
         if client is None or not self.connected.is_set():
-            return False
-        paho = getattr(client, "_client", None)  # aiomqtt's paho client
+            return None
+        paho = getattr(client, "_client", None)
         if not isinstance(paho, mqtt.Client) or paho.want_write():
-            return False
-        return self._write_now(paho, topic, payload, True) or self._publish_now(
-            paho, topic, payload, True
+            return None
+        return paho
+
+    def publish_now(self, topic: str, payload: bytes | str) -> bool:
+        """A retained QoS 0 message written in this turn of the loop (`_paho_now`); False:
+        not sent (`publish` it)."""
+        paho = self._paho_now()
+        return paho is not None and (
+            self._write_now(paho, topic, payload, True)
+            or self._publish_now(paho, topic, payload, True)
         )
 
     async def publish(
@@ -403,11 +411,10 @@ class MqttBusFace:
         client = self._client
         if client is None or not self.connected.is_set():
             return False
-        paho = getattr(client, "_client", None)  # aiomqtt's paho client
-        if qos == 0 and isinstance(paho, mqtt.Client) and not paho.want_write():
-            if self._write_now(paho, topic, payload, retain):
-                return True
-            return self._publish_now(paho, topic, payload, retain)
+        if qos == 0 and (paho := self._paho_now()) is not None:
+            return self._write_now(paho, topic, payload, retain) or self._publish_now(
+                paho, topic, payload, retain
+            )
         try:
             await client.publish(topic, payload, qos=qos, retain=retain)
         except aiomqtt.MqttError as exc:
