@@ -888,16 +888,15 @@ class _DriveNodes:
                 nodeid, vtype = node
                 last[key] = value
                 statuses[key] = status
-                code = ua.StatusCode(0 if status is None else getattr(ua.StatusCodes, status))
-                stamp = state.time
+                code = _status(0 if status is None else getattr(ua.StatusCodes, status))
                 writes.append(
                     (
                         nodeid,
                         _Value(
                             ua.Variant(value, vtype),
                             StatusCode=code,
-                            SourceTimestamp=stamp,
-                            ServerTimestamp=stamp,
+                            SourceTimestamp=state.time,
+                            ServerTimestamp=state.time,
                         ),
                     )
                 )
@@ -1050,10 +1049,11 @@ class _Updater:
     While no client monitors any of them, a state is only noted: the values are made from
     it when a client reads one (a value callback on each node, which asyncua's
     ``read_attribute_value`` calls), so an answer nobody looks at costs nothing here; a
-    value read then carries the time of the newest answer. Else the values that changed
-    are written, at once where no client monitors them (`_write_at_once`), else through the
-    server in a task, which tells the subscriptions; a state that comes while the previous
-    one is being written waits, and a newer one replaces it."""
+    value that changed since it was last read then carries the time of the newest state.
+    Else the values that changed are written, at once where no client monitors them
+    (`_write_at_once`), else through the server in a task, which tells the subscriptions; a
+    state that comes while the previous one is being written waits, and a newer one
+    replaces it."""
 
     def __init__(self, nodes: _DriveNodes) -> None:
         self.nodes = nodes
