@@ -324,14 +324,15 @@ export class DriveView {
     // The fault panel read before is not what a silent drive shows now; read it anew once
     // the drive answers again.
     if (silent !== this.silent && this.info) {
-      if (silent) this.faultsNotKnown("the drive does not send");
-      else if (this.silent !== undefined) this.readFaults();
-      const xs = this.data[0];
-      if (silent && xs.length) {  // the trend's line ends here (`silentGaps`)
-        const x = xs[xs.length - 1] + 0.001;
-        this.insert(x, this.series.map(() => null));
-        this.breaks.push(x);
-      }
+      if (silent) {
+        this.faultsNotKnown("the drive does not send");
+        const xs = this.data[0];
+        if (xs.length) {  // the trend's line ends here (`silentGaps`)
+          const x = xs[xs.length - 1] + 0.001;
+          this.insert(x, this.series.map(() => null));
+          this.breaks.push(x);
+        }
+      } else if (this.silent !== undefined) this.readFaults();
     }
     this.silent = silent;
     // No drive answering: nothing to command (a command would only time out).
@@ -374,7 +375,10 @@ export class DriveView {
       }));
     }
     const extra = this.data[0].length - MAX_POINTS;
-    if (extra > 0) for (const column of this.data) column.splice(0, extra);
+    if (extra > 0) {
+      for (const column of this.data) column.splice(0, extra);
+      this.breaks = this.breaks.filter((x) => x >= this.data[0][0]);  // gone with its rows
+    }
     this.redraw();
   }
 
