@@ -110,6 +110,10 @@ __all__ = ["BusPoints", "DrivePoints", "Plant", "checked_setpoint"]
 
 log = logging.getLogger("pyuss.points")
 
+_FAULT = int(StatusWord.FAULT)
+"""The fault bit as a plain int: tested at every answer, where a flag's own `&` costs three
+Python calls."""
+
 HEALTH_PERIOD = 0.2
 """How often "does not send" is looked at (seconds)."""
 RETRY_PERIOD = 5.0
@@ -255,7 +259,7 @@ class DrivePoints:
             watch.put(state)
 
     def _on_update(self, status: DriveStatus) -> None:
-        if status.word & StatusWord.FAULT:
+        if status.word & _FAULT:
             self._end_jog("faulted")
         if self._samples is not None:
             self._samples.append(Sample(time.time(), status.word, self.actual_row(status.actual)))
@@ -264,11 +268,7 @@ class DrivePoints:
         if quick == self._quick and not self._state.health.not_sending:
             return
         self._quick = quick
-        if (
-            status.word & StatusWord.FAULT
-            and not (previous or 0) & StatusWord.FAULT
-            and self.model.fault is not None
-        ):
+        if status.word & _FAULT and not (previous or 0) & _FAULT and self.model.fault is not None:
             self._read_fault_soon()
         if not self._change_due:
             self._change_due = True
