@@ -93,7 +93,7 @@ from pyuss.gateway.topics import (
 )
 from pyuss.points.errors import ReadOnly, UnknownPoint, error_dict
 from pyuss.points.plant import BusPoints, DrivePoints, Plant
-from pyuss.points.state import DriveState
+from pyuss.points.state import DriveState, ParamValue
 
 __all__ = ["MqttBusFace", "MqttFace", "make_client"]
 
@@ -215,41 +215,46 @@ class _DriveWorker:
 
     def _state_alone(self, state: DriveState) -> bool:
         """Whether ``state`` needs nothing published but its state message."""
-        if self.published.get("availability") != ("online" if state.online else "offline"):
-            return False
-        for key, reading in state.parameters.items():
-            if reading.time is not None and self.published.get(key) != (
-                reading.value,
-                reading.time,
-            ):
-                return False
-        return not self.face.options.discovery or self.discovery_key == (
-            state.reference,
-            state.model.unit,
+        return (
+            self._availability_due(state) is None
+            and not self._parameters_due(state)
+            and self._discovery_due(state) is None
         )
+
+    def _availability_due(self, state: DriveState) -> str | None:
+        """The availability to publish with ``state``, where it is not the one published."""
+        online = "online" if state.online else "offline"
+        return None if self.published.get("availability") == online else online
+
+    def _parameters_due(self, state: DriveState) -> list[tuple[str, ParamValue]]:
+        """The parameter readings of ``state`` not yet published."""
+        return [
+            (key, reading)
+            for key, reading in state.parameters.items()
+            if reading.time is not None and self.published.get(key) != (reading.value, reading.time)
+        ]
+
+    def _discovery_due(self, state: DriveState) -> tuple[object, object] | None:
+        """The discovery signature to publish for ``state``, where discovery is on and it is
+        not the one published."""
+        signature = (state.reference, state.model.unit)
+        if not self.face.options.discovery or signature == self.discovery_key:
+            return None
+        return signature
 
     async def publish_state(self, state: DriveState) -> None:
         face = self.face
         await face.publish(self.topics.state, self.payloads.payload(state), qos=0, retain=True)
-        online = "online" if state.online else "offline"
-        if self.published.get("availability") != online and await face.publish(
+        online = self._availability_due(state)
+        if online is not None and await face.publish(
             self.topics.availability, online, qos=1, retain=True
         ):
             self.published["availability"] = online
-        for key, reading in state.parameters.items():
-            stamp = (reading.value, reading.time)
-            if (
-                reading.time is not None
-                and self.published.get(key) != stamp
-                and await face.publish(self.topics.param(key), param_payload(reading), retain=True)
-            ):
-                self.published[key] = stamp
-        signature = (state.reference, state.model.unit)
-        if (
-            face.options.discovery
-            and signature != self.discovery_key
-            and await self.publish_discovery(state)
-        ):
+        for key, reading in self._parameters_due(state):
+            if await face.publish(self.topics.param(key), param_payload(reading), retain=True):
+                self.published[key] = (reading.value, reading.time)
+        signature = self._discovery_due(state)
+        if signature is not None and await self.publish_discovery(state):
             self.discovery_key = signature
 
     async def publish_discovery(self, state: DriveState) -> bool:
