@@ -178,6 +178,10 @@ def send_at_once(client: aiomqtt.Client) -> None:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
 
 
+_Due = tuple[str | None, list[tuple[str, ParamValue]], tuple[object, object] | None]
+"""What a state needs published beside its state message (`_DriveWorker._due`)."""
+
+
 class _DriveWorker:
     """Publishes one drive's states and carries out its commands in order.
 
@@ -207,53 +211,44 @@ class _DriveWorker:
         if (
             self.publishing
             or self.wake.is_set()
-            or not self._state_alone(state)
+            or self._due(state) is not None
             or not self.face.publish_now(self.topics.state, self.payloads.payload(state))
         ):
             self.latest = state
             self.wake.set()
 
-    def _state_alone(self, state: DriveState) -> bool:
-        """Whether ``state`` needs nothing published but its state message."""
-        return (
-            self._availability_due(state) is None
-            and not self._parameters_due(state)
-            and self._discovery_due(state) is None
-        )
-
-    def _availability_due(self, state: DriveState) -> str | None:
-        """The availability to publish with ``state``, where it is not the one published."""
+    def _due(self, state: DriveState) -> _Due | None:
+        """What ``state`` needs published beside its state message, of what was not
+        published yet: its availability, parameter readings, discovery signature (where
+        discovery is on). None: nothing."""
+        published = self.published
         online = "online" if state.online else "offline"
-        return None if self.published.get("availability") == online else online
-
-    def _parameters_due(self, state: DriveState) -> list[tuple[str, ParamValue]]:
-        """The parameter readings of ``state`` not yet published."""
-        return [
-            (key, reading)
-            for key, reading in state.parameters.items()
-            if reading.time is not None and self.published.get(key) != (reading.value, reading.time)
-        ]
-
-    def _discovery_due(self, state: DriveState) -> tuple[object, object] | None:
-        """The discovery signature to publish for ``state``, where discovery is on and it is
-        not the one published."""
-        signature = (state.reference, state.model.unit)
+        availability = None if published.get("availability") == online else online
+        parameters = []
+        for key, reading in state.parameters.items():  # (a loop: no comprehension to call)
+            if reading.time is not None and published.get(key) != (reading.value, reading.time):
+                parameters.append((key, reading))
+        signature: tuple[object, object] | None = (state.reference, state.model.unit)
         if not self.face.options.discovery or signature == self.discovery_key:
+            signature = None
+        if availability is None and not parameters and signature is None:
             return None
-        return signature
+        return availability, parameters, signature
 
     async def publish_state(self, state: DriveState) -> None:
         face = self.face
         await face.publish(self.topics.state, self.payloads.payload(state), qos=0, retain=True)
-        online = self._availability_due(state)
+        due = self._due(state)
+        if due is None:
+            return
+        online, parameters, signature = due
         if online is not None and await face.publish(
             self.topics.availability, online, qos=1, retain=True
         ):
             self.published["availability"] = online
-        for key, reading in self._parameters_due(state):
+        for key, reading in parameters:
             if await face.publish(self.topics.param(key), param_payload(reading), retain=True):
                 self.published[key] = (reading.value, reading.time)
-        signature = self._discovery_due(state)
         if signature is not None and await self.publish_discovery(state):
             self.discovery_key = signature
 
