@@ -11,10 +11,12 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "pyuss"
 
 # What each package may import from pyuss (besides itself and the shared root modules
-# errors, log, atomicfile, userfile and _lazy, and loop for all but the protocol layer). Every
-# package of pyuss has its entry (`test_every_package_has_its_rule`).
+# errors, log, atomicfile, userfile and _lazy, and loop and system for all but the protocol
+# layer). Every package of pyuss has its entry (`test_every_package_has_its_rule`).
 ALLOWED: dict[str, set[str]] = {
     "protocol": set(),
+    # where Windows, macOS and Linux differ: below everything that does I/O
+    "system": set(),
     "transport": {"protocol", "bus"},  # bus:// URLs open the virtual bus client (lazily)
     "bus": {"protocol", "transport"},
     "drive": {"protocol"},
@@ -84,8 +86,8 @@ def test_no_layer_reaches_up(package: str) -> None:
         if name.startswith("pyuss.") and name.count(".") >= 1
     }
     used -= {package, "errors", "log", "atomicfile", "userfile", "_lazy"}
-    if package != "protocol":  # the event loop helpers are shared by every layer doing I/O
-        used -= {"loop"}
+    if package != "protocol":  # the event loop and platform helpers: every layer doing I/O
+        used -= {"loop", "system"}
     assert used <= ALLOWED[package], f"pyuss.{package} imports {sorted(used - ALLOWED[package])}"
 
 
@@ -132,3 +134,59 @@ def test_waits_with_a_time_limit_use_asyncio_timeout() -> None:
         if isinstance(node, ast.Attribute) and node.attr == "wait_for"
     ]
     assert not users, f"asyncio.wait_for in {sorted(set(users))}: use asyncio.timeout"
+
+
+# Where the platforms differ is decided in pyuss.system alone (docs/platforms.md): no other
+# module looks at the platform or calls what exists on some platforms only.
+PLATFORM_NAMES = {"fcntl", "termios", "msvcrt", "tty", "pty", "winreg", "_winapi", "resource"}
+PLATFORM_CALLS = {
+    ("sys", "platform"): "sys.platform",
+    ("os", "name"): "os.name",
+    ("os", "major"): "os.major",
+    ("os", "openpty"): "os.openpty",
+    ("os", "replace"): "os.replace (system.replace, atomicfile)",
+    ("os", "fchmod"): "os.fchmod",
+    ("os", "O_NOFOLLOW"): "os.O_NOFOLLOW",
+    ("os", "ttyname"): "os.ttyname",
+    ("selectors", "EpollSelector"): "selectors.EpollSelector",
+    ("selectors", "KqueueSelector"): "selectors.KqueueSelector",
+    ("signal", "SIGTERM"): "signal.SIGTERM",
+    ("signal", "SIGBREAK"): "signal.SIGBREAK",
+}
+PLATFORM_METHODS = {"add_signal_handler", "remove_signal_handler"}
+
+
+def _platform_uses(path: Path) -> list[str]:
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            found += [a.name for a in node.names if a.name.split(".")[0] in PLATFORM_NAMES]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            if node.module.split(".")[0] in PLATFORM_NAMES:
+                found.append(node.module)
+        elif isinstance(node, ast.Attribute):
+            if isinstance(node.value, ast.Name) and (node.value.id, node.attr) in PLATFORM_CALLS:
+                found.append(PLATFORM_CALLS[node.value.id, node.attr])
+            elif node.attr in PLATFORM_METHODS:
+                found.append(node.attr)
+    return found
+
+
+@pytest.mark.parametrize(
+    "module",
+    sorted(
+        str(p.relative_to(SRC))
+        for p in SRC.rglob("*.py")
+        if p.relative_to(SRC).parts[0] != "system"
+    ),
+)
+def test_platform_choices_live_in_pyuss_system(module: str) -> None:
+    found = _platform_uses(SRC / module)
+    assert not found, f"pyuss/{module} uses {sorted(set(found))}: ask pyuss.system instead"
+
+
+def test_the_platform_rule_sees_what_it_forbids() -> None:
+    found = _platform_uses(SRC / "system" / "_posix.py") + _platform_uses(
+        SRC / "system" / "_windows.py"
+    )
+    assert {"fcntl", "termios", "msvcrt", "sys.platform", "add_signal_handler"} <= set(found)

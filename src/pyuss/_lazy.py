@@ -12,7 +12,7 @@ import importlib
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
-__all__ = ["lazy_exports"]
+__all__ = ["lazy_exports", "not_installed"]
 
 
 def lazy_exports(
@@ -35,3 +35,12 @@ def lazy_exports(
         return sorted({*namespace, *where})
 
     return __getattr__, __dir__
+
+
+def not_installed(exc: ImportError, module: str) -> bool:
+    """Whether ``exc``, raised by importing ``module``, says that ``module`` (or a package it
+    belongs to) is not installed, rather than that it is installed and failed to import (a
+    library of its own missing, a DLL that does not load): the user is then told to install
+    it in the first case, and shown the error as it is in the second."""
+    name = exc.name if isinstance(exc, ModuleNotFoundError) else None
+    return name is not None and (module == name or module.startswith(name + "."))

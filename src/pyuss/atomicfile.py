@@ -17,11 +17,16 @@ data lost. `write_atomically`, whose caller still holds the data, removes it ins
 The file gets the permissions any newly created file gets (0666 less the umask), not the 0600
 of a bare temporary file, so a GSD file or a capture can be shared like any other file.
 
+On Windows, which renames no open file, the file is closed before the rename, and a rename
+that an antivirus or an indexer holds up for a moment is tried again for a second
+(`pyuss.system.replace_closing`).
+
 A writer killed outright (``kill -9``, a power cut) leaves its temporary file
 (``.NAME.XXXXXXXX.tmp`` beside NAME) behind. Every writer holds an exclusive lock
-(``flock``) on its temporary file while it lives; `remove_stale` removes the temporary files
-of a target whose lock nobody holds, i.e. whose writer is gone, and leaves those of a live
-writer alone. The EEPROM store calls it when a drive starts.
+(``flock``; a lock of its first byte on Windows) on its temporary file while it lives;
+`remove_stale` removes the temporary files of a target whose lock nobody holds, i.e. whose
+writer is gone, and leaves those of a live writer alone. The EEPROM store calls it when a
+drive starts.
 """
 
 from __future__ import annotations
@@ -32,12 +37,8 @@ import tempfile
 from pathlib import Path
 from typing import IO, Any
 
+from pyuss import system
 from pyuss.errors import ConfigError
-
-try:
-    import fcntl
-except ImportError:  # pragma: no cover - not a POSIX system: no locks, no stale-file sweep
-    fcntl = None  # type: ignore[assignment]
 
 _ATTEMPTS = 5
 """Temporary files tried when a sweep of another process removes one as it is created."""
@@ -107,7 +108,7 @@ class AtomicWriter:
         except OSError as exc:
             raise ConfigError(f"cannot write {what} to {self.path}: {exc.strerror}") from None
         with contextlib.suppress(OSError):
-            os.fchmod(fd, 0o666 & ~_umask())
+            system.set_mode(fd, 0o666 & ~_umask())
         self.file: IO[Any] | None = (
             os.fdopen(fd, "w", encoding="utf-8") if text else os.fdopen(fd, "wb")
         )
@@ -126,9 +127,10 @@ class AtomicWriter:
             try:
                 file.flush()
                 os.fsync(file.fileno())
-                os.replace(self.tmp, self.path)  # still locked: no sweep takes it meanwhile
-            finally:
+            except BaseException:
                 file.close()
+                raise
+            system.replace_closing(file, self.tmp, self.path)
         except OSError as exc:
             problem = f"cannot finish {self.what} {self.path}: {exc.strerror or exc}"
             if self.keep_on_failure:
@@ -170,10 +172,8 @@ def _locked_temporary(target: Path) -> tuple[int, str]:
         fd, tmp = tempfile.mkstemp(
             prefix=_temporary_prefix(target), suffix=".tmp", dir=target.parent
         )
-        if fcntl is None:
-            return fd, tmp
         try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            system.try_lock(fd)
             if os.path.samestat(os.fstat(fd), os.stat(tmp)):
                 return fd, tmp
         except OSError:
@@ -188,8 +188,6 @@ def remove_stale(path: str | os.PathLike[str]) -> list[Path]:
     be removed stays, as it did before."""
     target = Path(path)
     removed: list[Path] = []
-    if fcntl is None:
-        return removed
     prefix = _temporary_prefix(target)
     try:
         names = [
@@ -200,19 +198,22 @@ def remove_stale(path: str | os.PathLike[str]) -> list[Path]:
     for name in names:
         stale = target.parent / name
         try:
-            fd = os.open(stale, os.O_RDONLY | os.O_NOFOLLOW)
+            fd = os.open(stale, os.O_RDONLY | system.NOFOLLOW)
         except OSError:
             continue
         try:
             if not os.path.samestat(os.fstat(fd), os.lstat(stale)):
                 continue
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # held: a live writer's file
-            os.unlink(stale)
-            removed.append(stale)
+            system.try_lock(fd)  # refused: a live writer's file
         except OSError:
             continue
         finally:
-            os.close(fd)
+            os.close(fd)  # before the unlink: Windows removes no open file
+        try:
+            os.unlink(stale)
+        except OSError:
+            continue
+        removed.append(stale)
     return removed
 
 

@@ -11,7 +11,9 @@ Where the file is looked for, first found wins (`find`):
 1. ``--config FILE``;
 2. the file named by the environment variable ``USS_CONFIG``;
 3. ``uss.toml`` in the working directory;
-4. ``$XDG_CONFIG_HOME/pyuss/uss.toml`` (without the variable ``~/.config/pyuss/uss.toml``).
+4. ``uss.toml`` in the user's configuration folder (`pyuss.system.config_folder`):
+   ``%APPDATA%\\pyuss`` on Windows, ``~/Library/Application Support/pyuss`` on macOS,
+   ``$XDG_CONFIG_HOME/pyuss`` (without the variable ``~/.config/pyuss``) on Linux.
 
 No file found: the commands work as without one. The file is read through `pyuss.userfile`
 and checked whole before any port opens; a bad file, an unknown line or drive name (the
@@ -27,6 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from pyuss import system
 from pyuss.errors import ConfigError
 from pyuss.userfile import parse_toml, read_text
 
@@ -57,14 +60,8 @@ TOP_KEYS = ("bus", "modbus", "mqtt", "opcua", "web")
 
 def candidates() -> list[Path]:
     """Where the file is looked for without ``--config`` or ``USS_CONFIG``, in order."""
-    config_home = os.environ.get("XDG_CONFIG_HOME") or ""
-    if config_home.strip():
-        return [Path(FILE_NAME), Path(config_home) / "pyuss" / FILE_NAME]
-    try:
-        home = Path.home()
-    except RuntimeError:  # no HOME and no user entry: no configuration directory
-        return [Path(FILE_NAME)]
-    return [Path(FILE_NAME), home / ".config" / "pyuss" / FILE_NAME]
+    folder = system.config_folder()
+    return [Path(FILE_NAME)] if folder is None else [Path(FILE_NAME), folder / FILE_NAME]
 
 
 def find(explicit: str | None = None) -> Path | None:

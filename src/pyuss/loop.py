@@ -12,8 +12,9 @@ as soon as any of the loop's sockets, pipes or ptys is, then collects the events
 non-blocking ``epoll``; the loop still watches any number of descriptors. On Linux it also asks
 the kernel for the smallest timer slack of the loop's thread (``PR_SET_TIMERSLACK``), so a
 timer is not held back by the default 50 us either. Where the platform's selector is precise
-already (``kqueue`` on macOS and BSD) it is the default selector loop. `run` runs a coroutine
-on such a loop; the ``uss`` command uses one for every sub-command.
+already (``kqueue`` on macOS and BSD) it is the default selector loop; on Windows it is the
+proactor loop, with the system's timers set to 1 ms. The choice is made in `pyuss.system`.
+`run` runs a coroutine on such a loop; the ``uss`` command uses one for every sub-command.
 
 `sleep_until` and `fine_timers` let the code that keeps the line's timing (the master's start
 pause, the simulator's response delay) be precise on any loop: on a loop with coarse timers
@@ -28,13 +29,12 @@ import asyncio
 import contextlib
 import dataclasses
 import importlib
-import select
-import selectors
-import sys
 import weakref
 from collections.abc import Callable, Coroutine, Iterator
 from dataclasses import dataclass
 from typing import Any, TypeVar
+
+from pyuss import system
 
 __all__ = [
     "COARSE_MARGIN",
@@ -60,48 +60,25 @@ FINE_MARGIN = 0.0001
 of microseconds late."""
 
 _FINE: weakref.WeakSet[asyncio.AbstractEventLoop] = weakref.WeakSet()
-_FD_SETSIZE = 1024
 
 
-class _FineEpollSelector(selectors.EpollSelector):
-    """``epoll`` for the events, ``select()`` on the epoll descriptor for the timeout."""
-
-    def select(self, timeout: float | None = None) -> list[tuple[selectors.SelectorKey, int]]:
-        if timeout is not None and timeout > 0:
-            # Readable when any registered descriptor has an event (or after ``timeout``):
-            # select() keeps microseconds where epoll rounds up to the millisecond.
-            select.select([self.fileno()], [], [], timeout)
-            timeout = 0
-        return super().select(timeout)
-
-
-def _least_timer_slack() -> None:
-    """Ask Linux for a 1 ns timer slack on this thread (default 50 us); no error if refused."""
-    if not sys.platform.startswith("linux"):
-        return
-    with contextlib.suppress(Exception):
-        import ctypes
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(29, 1, 0, 0, 0)  # PR_SET_TIMERSLACK, 1 ns
+def _default_loop() -> asyncio.AbstractEventLoop:
+    """The platform's own loop (the proactor on Windows), made without the policy that
+    `install` sets, whose ``new_event_loop`` calls back here."""
+    return asyncio.DefaultEventLoopPolicy().new_event_loop()
 
 
 def new_event_loop(*, least_slack: bool = True) -> asyncio.AbstractEventLoop:
-    """A new event loop with microsecond timers (see the module docstring). ``least_slack``:
-    also ask Linux for the least timer slack (a program that keeps a line's timing for long;
-    a quick command spares itself loading ctypes)."""
-    if hasattr(selectors, "EpollSelector"):
-        selector = _FineEpollSelector()
-        if selector.fileno() >= _FD_SETSIZE:  # select() cannot wait on it: keep plain epoll
-            selector.close()
-            return asyncio.new_event_loop()
-        loop: asyncio.AbstractEventLoop = asyncio.SelectorEventLoop(selector)
-        if least_slack:
-            _least_timer_slack()
-    elif hasattr(selectors, "KqueueSelector"):
-        loop = asyncio.SelectorEventLoop(selectors.KqueueSelector())
-    else:
-        return asyncio.new_event_loop()
+    """A new event loop with microsecond timers where the platform has them (see the module
+    docstring), else the platform's default loop. ``least_slack``: also ask the system for
+    its finest timers (a program that keeps a line's timing for long; a quick command spares
+    itself loading ctypes)."""
+    selector = system.fine_selector()
+    if least_slack:
+        system.least_timer_slack()
+    if selector is None:
+        return _default_loop()
+    loop: asyncio.AbstractEventLoop = asyncio.SelectorEventLoop(selector)
     _FINE.add(loop)
     return loop
 

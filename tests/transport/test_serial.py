@@ -303,7 +303,7 @@ def _low_latency_flag(path: str) -> bool:
     import struct
     import termios
 
-    from pyuss.transport.serialport import ASYNC_LOW_LATENCY
+    from pyuss.system._posix import ASYNC_LOW_LATENCY
 
     fd = os.open(path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
     try:

@@ -3,7 +3,7 @@
 Unlike a raw TCP or pty station, it receives the bus's ideal character end times and its line
 error flags (see `pyuss.bus.wire`), so a receiver measures the same gaps and sees the same
 parity and framing errors as an in-process station. Timestamps are the bus's
-``time.monotonic()``, which is the clock of every process on the same machine.
+the line's clock (`pyuss.system.clock`), which is the clock of every process on the same machine.
 
 What the bus sends is decoded and queued as it arrives (an `asyncio.Protocol`, no reader task
 in between), and `BusClientTransport.write_at` hands a telegram to the bus ahead of time with
@@ -16,11 +16,11 @@ from __future__ import annotations
 
 import asyncio
 import json
-import time
 from typing import cast
 
 from pyuss.bus.wire import MAX_HELLO, FrameDecoder, check_name, encode_send
 from pyuss.errors import ConfigError, ProtocolError, TransportError
+from pyuss.system import clock
 from pyuss.transport.base import LineError
 from pyuss.transport.queued import QueuedTransport
 from pyuss.transport.tcp import check_endpoint
@@ -211,7 +211,7 @@ class BusClientTransport(QueuedTransport):
         if not self.timed:
             from pyuss.loop import sleep_until
 
-            await sleep_until(start, time.monotonic)
+            await sleep_until(start, clock)
             start = 0.0
         self._send(bytes(data), start, hold_until if self.hold_answer else None)
 

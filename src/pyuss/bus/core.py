@@ -27,8 +27,9 @@ hand-over that ends a run and yields until it is due: a process that slept wakes
 chunk timestamps are the *ideal* end times, not the moment of delivery: receivers measure exact
 gaps, start pauses (A 5.1.2) and residual times (A 6.3). Contiguous characters (no idle time
 between them) handed over together form one chunk; an idle gap, however short, starts a new
-chunk. The bus uses ``time.monotonic()``, the clock of every pyuss transport, so stations in
-other processes on the same machine (``bus://``) read the same time base.
+chunk. The bus uses the line's clock (`pyuss.system.clock`), the clock of every pyuss
+transport, so stations in other processes on the same machine (``bus://``) read the same time
+base.
 
 Stations: `VirtualBus.attach` gives an in-process station (a `Transport`). Listen-only
 stations (monitors) cannot send. With ``echo=True`` a station hears its own characters, as a
@@ -53,7 +54,6 @@ import asyncio
 import heapq
 import itertools
 import logging
-import time
 from collections import Counter
 from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
@@ -62,6 +62,7 @@ from pyuss.bus.faults import FaultEngine, FaultPlan, frame_bits
 from pyuss.bus.wire import check_name
 from pyuss.errors import ConfigError, TransportError
 from pyuss.loop import FINE_MARGIN, fine_timers
+from pyuss.system import clock
 from pyuss.transport.base import LineError
 from pyuss.transport.queued import QueuedTransport, char_time, check_baud, shift_errors
 
@@ -198,7 +199,7 @@ class Station(QueuedTransport):
         (less for a pty, whose program the bus cannot see leave: `pyuss.bus.serve`)."""
         self.overflow = 0
         """Characters this station sent beyond `MAX_QUEUE`: dropped."""
-        self.attached_at = time.monotonic()
+        self.attached_at = clock()
         """When it attached (monotonic): it hears no character that ended before."""
         self.last_active = self.attached_at
         """When it attached or last sent something (monotonic)."""
@@ -283,7 +284,7 @@ class Station(QueuedTransport):
                 self.release()
             return
         self.release()
-        if time.monotonic() < self.hold_until - _EPS and not run_ends:
+        if clock() < self.hold_until - _EPS and not run_ends:
             # the answer a master waits for: it would still take it at `hold_until`, so its
             # first piece waits for the rest (one wake-up of the master's process, not two),
             # or for that moment, whichever comes first
@@ -359,7 +360,7 @@ class VirtualBus:
         self.char_time = char_time(self.baud)
         self.bit_time = self.char_time / 11
         self.seed = seed
-        self.epoch = time.monotonic()
+        self.epoch = clock()
         self.stations: dict[str, Station] = {}
         self._engine = FaultEngine(faults, seed)
         self.stats = BusStats(faults=self._engine.applied)
@@ -418,7 +419,7 @@ class VirtualBus:
             return
         del self.stations[name]
         if current.queued:
-            now = time.monotonic()
+            now = clock()
             keep = [p for p in self._heap if p.owner is not current or p.start <= now]
             dropped = len(self._heap) - len(keep)
             if dropped:
@@ -438,7 +439,7 @@ class VirtualBus:
     def _make_room(self) -> bool:
         """Evict an evictable sending station: of those that never sent anything the first
         attached, else the one silent longest (at least `EVICT_IDLE`)."""
-        now = time.monotonic()
+        now = clock()
         idle = [
             s
             for s in self.stations.values()
@@ -474,7 +475,7 @@ class VirtualBus:
     def _add_window(self, kind: str, name: str, duration: float, start: float | None) -> None:
         if duration <= 0:
             raise ConfigError(f"{kind} duration must be > 0 seconds, not {duration!r}")
-        now = time.monotonic()
+        now = clock()
         begin = now if start is None else start
         self._windows = [w for w in self._windows if w[3] > now]  # the past ones are done
         self._windows.append((kind, name, begin, begin + duration))
@@ -498,7 +499,7 @@ class VirtualBus:
         station = self.stations.get(sender)
         if station is None:
             raise TransportError(f"no station {sender!r} on the bus")
-        now = time.monotonic()
+        now = clock()
         station.last_active = now
         if not data:  # nothing for the line, and nothing the station's next characters wait for
             return
@@ -603,7 +604,7 @@ class VirtualBus:
 
     # -- the line ---------------------------------------------------------------------------
     def _tick(self) -> None:
-        now = time.monotonic()
+        now = clock()
         if now < self._timer_at - _EPS:  # woke up early on purpose: yield until it is due
             self._timer = asyncio.get_running_loop().call_soon(self._tick)
             return
@@ -716,17 +717,17 @@ class VirtualBus:
     def busy_until(self) -> float:
         """Monotonic time at which everything queued so far has left the line."""
         ends = [p.start + self.char_time for p in self._heap]
-        return max(ends, default=time.monotonic())
+        return max(ends, default=clock())
 
     async def drain(self, timeout: float | None = None) -> None:
         """Wait until every queued character has been delivered."""
-        deadline = None if timeout is None else time.monotonic() + timeout
+        deadline = None if timeout is None else clock() + timeout
         while self._heap:
-            wait = max(0.001, self.busy_until - time.monotonic())
+            wait = max(0.001, self.busy_until - clock())
             if deadline is not None:
-                if time.monotonic() >= deadline:
+                if clock() >= deadline:
                     raise TimeoutError("the bus did not drain in time")
-                wait = min(wait, max(0.001, deadline - time.monotonic()))
+                wait = min(wait, max(0.001, deadline - clock()))
             await asyncio.sleep(wait)
 
     async def close(self) -> None:

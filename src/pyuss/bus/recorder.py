@@ -29,7 +29,6 @@ import itertools
 import json
 import math
 import os
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -37,6 +36,7 @@ from typing import Any
 from pyuss.atomicfile import AtomicWriter
 from pyuss.bus.core import VirtualBus, WireChar
 from pyuss.errors import ConfigError
+from pyuss.system import clock
 from pyuss.transport.base import Chunk, LineError
 from pyuss.transport.queued import check_baud
 
@@ -255,7 +255,7 @@ async def replay(recording: Recording, bus: VirtualBus, *, lead: float = 0.01) -
         raise ConfigError(f"recording is at {recording.baud} baud, the bus at {bus.baud}")
     if not recording.records:
         return
-    base = time.monotonic() + lead - recording.records[0].start
+    base = clock() + lead - recording.records[0].start
     for rec in recording.records:
         # A garbled character is replayed as the one character the receivers saw.
         bus.inject(rec.sender, base + rec.start, rec.byte, rec.flags)

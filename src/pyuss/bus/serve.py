@@ -29,7 +29,6 @@ import itertools
 import json
 import logging
 import socket
-import time
 from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from typing import Any
@@ -37,6 +36,7 @@ from typing import Any
 from pyuss.bus.core import Station, VirtualBus
 from pyuss.bus.wire import MAX_AHEAD, MAX_DATA, SendDecoder, encode_frame, read_hello
 from pyuss.errors import ConfigError, ProtocolError, TransportError
+from pyuss.system import clock
 from pyuss.transport.base import LineError
 from pyuss.transport.pty import PtyPort
 from pyuss.transport.tcp import check_endpoint, close_writer, end_handlers
@@ -271,7 +271,7 @@ async def _pump_in(
         if frames is None:
             bus.send(name, data)
             return
-        now = time.monotonic()
+        now = clock()
         try:
             for start, part in frames.feed(data):
                 if not part and hold_answer:

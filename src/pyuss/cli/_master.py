@@ -26,6 +26,7 @@ import sys
 from collections.abc import Awaitable, Callable, Coroutine
 from typing import Any, TypeVar
 
+from pyuss import system
 from pyuss.cli._help import plain
 from pyuss.cli._output import error_object, failure, print_json
 from pyuss.errors import ConfigError, UssError
@@ -323,6 +324,9 @@ def open_master(
     (`pyuss.master.identify.auto_master`); a drive that shows no family is then one of unknown
     kind, as without ``--profile``, and one line on stderr says so."""
     check_baud(args.baud)
+    coarse = system.clock_warning(args.baud)
+    if coarse is not None:
+        print(f"uss {args.command}: {coarse}", file=sys.stderr)
     options = master_options(args)
     options.update(extra)
     if options.get("profile") == "auto":

@@ -33,6 +33,7 @@ import time
 from typing import Any
 
 from pyuss.errors import DriveRefusal
+from pyuss.system import clock
 
 __all__ = [
     "error_object",
@@ -47,9 +48,9 @@ __all__ = [
 
 def wall_clock(monotonic: float | None = None) -> str:
     """The ISO 8601 wall-clock time (local, with UTC offset, microseconds) of the
-    ``time.monotonic()`` stamp ``monotonic`` (now when None)."""
+    line's clock stamp ``monotonic`` (`pyuss.system.clock`; now when None)."""
     now = time.time()
-    return iso_time(now if monotonic is None else now - (time.monotonic() - monotonic))
+    return iso_time(now if monotonic is None else now - (clock() - monotonic))
 
 
 def iso_time(unix: float) -> str:

@@ -22,7 +22,6 @@ import argparse
 import asyncio
 import contextlib
 import json
-import signal
 import sys
 from collections.abc import Callable
 from typing import Any
@@ -35,6 +34,7 @@ from pyuss.cli._help import plain
 from pyuss.cli._output import print_error
 from pyuss.errors import ConfigError, UssError
 from pyuss.protocol.timing import BAUD_RATES
+from pyuss.system import stop_on_signals
 from pyuss.transport import PtyPort, TcpServerTransport, Transport, open_transport
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
@@ -255,11 +255,7 @@ def _cmd_write(args: argparse.Namespace) -> int:
 
 
 async def _serve_ring(ring: BassRing, transport: Transport, duration: float | None) -> int:
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, stop.set)
-    try:
+    with stop_on_signals() as stop:
         async with ring.serving(transport):
             if isinstance(transport, PtyPort):
                 print(transport.device_path)
@@ -269,9 +265,6 @@ async def _serve_ring(ring: BassRing, transport: Transport, duration: float | No
             with contextlib.suppress(TimeoutError):
                 async with asyncio.timeout(duration):
                     await stop.wait()
-    finally:
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.remove_signal_handler(sig)
     answered = ", ".join(f"drive {s.address}: {s.answered}" for s in ring.stations)
     print(f"uss bass ring: requests answered: {answered}", file=sys.stderr)
     return EXIT_OK

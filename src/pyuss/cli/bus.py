@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
-import signal
 import sys
 from typing import Any
 
@@ -29,6 +28,7 @@ from pyuss.bus import FaultKind, FaultPlan, Recorder, VirtualBus
 from pyuss.bus.core import MAX_SENDERS
 from pyuss.cli._help import plain
 from pyuss.errors import ConfigError
+from pyuss.system import stop_on_signals
 from pyuss.transport.address import parse_host_port
 from pyuss.transport.queued import BAUD_RATES
 
@@ -174,29 +174,24 @@ async def _serve(
     echo: bool | frozenset[str],
     started: list[bool],
 ) -> int:
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, stop.set)
-    try:
-        lines = await bus.serve_pty(args.pty, echo=echo) if args.pty else []
-        if tcp is not None:
-            host, port = await bus.serve_tcp(*tcp, echo=echo)
-            lines.append(f"tcp://{host}:{port}")
-        if framed is not None:
-            host, port = await bus.serve_tcp(*framed, framed=True)
-            lines.append(f"bus://{host}:{port}")
-        started.append(True)
-        for line in lines:
-            print(line)
-        sys.stdout.flush()
-        with contextlib.suppress(TimeoutError):
-            async with asyncio.timeout(args.duration):
-                await stop.wait()
-    finally:
-        await bus.close()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.remove_signal_handler(sig)
+    with stop_on_signals() as stop:
+        try:
+            lines = await bus.serve_pty(args.pty, echo=echo) if args.pty else []
+            if tcp is not None:
+                host, port = await bus.serve_tcp(*tcp, echo=echo)
+                lines.append(f"tcp://{host}:{port}")
+            if framed is not None:
+                host, port = await bus.serve_tcp(*framed, framed=True)
+                lines.append(f"bus://{host}:{port}")
+            started.append(True)
+            for line in lines:
+                print(line)
+            sys.stdout.flush()
+            with contextlib.suppress(TimeoutError):
+                async with asyncio.timeout(args.duration):
+                    await stop.wait()
+        finally:
+            await bus.close()
     stats = bus.stats
     faults = ", ".join(f"{k} {v}" for k, v in sorted(stats.faults.items())) or "none"
     print(

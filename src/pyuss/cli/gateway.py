@@ -24,12 +24,12 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
-import signal
 import sys
 from typing import TYPE_CHECKING, Any
 
 from pyuss.cli._help import plain
 from pyuss.errors import ConfigError
+from pyuss.system import stop_on_signals
 
 if TYPE_CHECKING:
     from pyuss.loop import LoopChoice
@@ -204,11 +204,7 @@ def _loop(config: Any) -> LoopChoice:
 
 
 async def serve(gateway: Any, duration: float | None, loop_choice: LoopChoice | None = None) -> int:
-    loop = asyncio.get_running_loop()
-    stop = asyncio.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, stop.set)
-    try:
+    with stop_on_signals() as stop:
         await gateway.start()
         try:
             for bus in gateway.plant.buses.values():
@@ -228,7 +224,4 @@ async def serve(gateway: Any, duration: float | None, loop_choice: LoopChoice | 
                     await stop.wait()
         finally:
             await gateway.close()
-    finally:
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.remove_signal_handler(sig)
     return EXIT_OK

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import signal
 import sys
 
 from pyuss.atomicfile import write_atomically
@@ -32,6 +31,7 @@ from pyuss.ksvario.master import KsVarioMaster, LocalLink, default_format
 from pyuss.ksvario.modules import Configuration, parse_modules
 from pyuss.ksvario.simulate import dp_line, serve
 from pyuss.ksvario.userprm import UserParameters
+from pyuss.system import stop_on_signals
 
 _KINDS = {
     DataFormat.INTEGER: "an integer",
@@ -208,16 +208,12 @@ def _simulate(args: argparse.Namespace) -> int:
 async def _simulate_until_stopped(args: argparse.Namespace) -> int:
     """Serve until SIGINT or SIGTERM: exit code 0. The handlers are installed explicitly, as
     a shell script that starts the simulator in the background leaves SIGINT ignored."""
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, stop.set)
 
     def ready(device: str) -> None:
         print(device, flush=True)
         print(f"KS VARIO station {args.station}, ident 1030h; Ctrl-C stops", file=sys.stderr)
 
-    try:
+    with stop_on_signals() as stop:
         await serve(
             station=args.station,
             port=args.port,
@@ -226,9 +222,6 @@ async def _simulate_until_stopped(args: argparse.Namespace) -> int:
             on_ready=ready,
             stop=stop,
         )
-    finally:
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.remove_signal_handler(sig)
     print(f"uss ksvario: station {args.station} stopped", file=sys.stderr)
     return 0
 

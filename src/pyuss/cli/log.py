@@ -23,15 +23,13 @@ file. See docs/web.md.
 from __future__ import annotations
 
 import argparse
-import asyncio
-import contextlib
 import json
-import signal
 import sys
 from typing import Any
 
 from pyuss.cli import _master
 from pyuss.errors import ConfigError
+from pyuss.system import stop_on_signals
 
 __all__ = ["register", "run"]
 
@@ -95,31 +93,27 @@ async def _log(args: argparse.Namespace) -> int:
                 f"uss log: removed a last row cut short ({log.repaired} bytes) from {log.path}",
                 file=sys.stderr,
             )
-        stop = asyncio.Event()
-        loop = asyncio.get_running_loop()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            with contextlib.suppress(NotImplementedError, RuntimeError):
-                loop.add_signal_handler(sig, stop.set)
-        if not args.json:
-            print(
-                f"logging drive {args.address} to {log.path} at {args.rate:g} Hz: "
-                f"{', '.join(logger.header()[1:-1])}; Ctrl+C stops",
-                file=sys.stderr,
-                flush=True,
-            )
+        with stop_on_signals() as stop:
+            if not args.json:
+                print(
+                    f"logging drive {args.address} to {log.path} at {args.rate:g} Hz: "
+                    f"{', '.join(logger.header()[1:-1])}; Ctrl+C stops",
+                    file=sys.stderr,
+                    flush=True,
+                )
 
-        def short(so_far: LogResult) -> None:
-            print(f"uss log: {rate_text(so_far)}", file=sys.stderr, flush=True)
+            def short(so_far: LogResult) -> None:
+                print(f"uss log: {rate_text(so_far)}", file=sys.stderr, flush=True)
 
-        try:
-            result = await logger.run(
-                log, stop, count=args.count, duration=args.duration, on_short=short
-            )
-            if result.short:
-                write_comment(log, rate_text(result))
-                print(f"uss log: {rate_text(result)}", file=sys.stderr)
-        finally:
-            log.close()
+            try:
+                result = await logger.run(
+                    log, stop, count=args.count, duration=args.duration, on_short=short
+                )
+                if result.short:
+                    write_comment(log, rate_text(result))
+                    print(f"uss log: {rate_text(result)}", file=sys.stderr)
+            finally:
+                log.close()
     summary = {
         "file": str(log.path),
         "rows": result.rows,

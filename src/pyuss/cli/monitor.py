@@ -36,7 +36,6 @@ import asyncio
 import contextlib
 import json
 import os
-import signal
 import sys
 import time
 import urllib.parse
@@ -57,6 +56,7 @@ from pyuss.monitor.render import ValueText, exchange_line, summary_table
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import AddressMode
 from pyuss.protocol.timing import BAUD_RATES, check_baud
+from pyuss.system import clock, stop_on_signals
 from pyuss.transport.base import STAMP_TOLERANCE
 from pyuss.transport.url import open_transport
 
@@ -554,7 +554,7 @@ def run(args: argparse.Namespace) -> int:
             exact = all(t.exact_timestamps for t in transports)
             tolerance = _tolerance(args, 0.0 if exact else STAMP_TOLERANCE)
             monitor = _monitor(args, args.baud, len(urls) == 2, layouts, gap, tolerance)
-            epoch = time.time() - time.monotonic()
+            epoch = time.time() - clock()
             writers = _open_writers(args.write, args.baud, len(urls) == 2, epoch, args, monitor)
     except ConfigError as exc:
         return _fail(args, exc, EXIT_USAGE)
@@ -627,46 +627,42 @@ async def _live(
     urls: list[str],
     output: _Output,
 ) -> int:
-    stop = asyncio.Event()
-    output.done = stop.set
     loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, stop.set)
-    opened: list[Listener] = []
-    refresher = None
-    try:
+    with stop_on_signals() as stop:
+        output.done = stop.set
+        opened: list[Listener] = []
+        refresher = None
         try:
-            for transport in transports:
-                await transport.open()
-                opened.append(transport)
-        except TransportError as exc:
-            return _fail(args, exc, EXIT_FAILED)
-        wiring = "4-wire" if len(urls) == 2 else "2-wire"
-        print(
-            f"uss monitor: listening on {' and '.join(urls)} ({wiring}, {monitor.baud} baud, "
-            f"gap {monitor.gap * 1000:.3f} ms, tolerance {monitor.tolerance * 1000:g} ms)",
-            file=sys.stderr,
-            flush=True,
-        )
-        if args.duration is not None:
-            loop.call_later(args.duration, stop.set)
-        if args.summary:
-            refresher = asyncio.create_task(_refresh(output, args.interval, stop))
-        try:
-            await watch(monitor, opened, output, stop)
-        except TransportError as exc:
-            return _fail(args, exc, EXIT_FAILED)
-        return EXIT_OK
-    finally:
-        if refresher is not None:
-            refresher.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await refresher
-        for transport in opened:
-            with contextlib.suppress(TransportError):
-                await transport.close()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.remove_signal_handler(sig)
+            try:
+                for transport in transports:
+                    await transport.open()
+                    opened.append(transport)
+            except TransportError as exc:
+                return _fail(args, exc, EXIT_FAILED)
+            wiring = "4-wire" if len(urls) == 2 else "2-wire"
+            print(
+                f"uss monitor: listening on {' and '.join(urls)} ({wiring}, {monitor.baud} baud, "
+                f"gap {monitor.gap * 1000:.3f} ms, tolerance {monitor.tolerance * 1000:g} ms)",
+                file=sys.stderr,
+                flush=True,
+            )
+            if args.duration is not None:
+                loop.call_later(args.duration, stop.set)
+            if args.summary:
+                refresher = asyncio.create_task(_refresh(output, args.interval, stop))
+            try:
+                await watch(monitor, opened, output, stop)
+            except TransportError as exc:
+                return _fail(args, exc, EXIT_FAILED)
+            return EXIT_OK
+        finally:
+            if refresher is not None:
+                refresher.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await refresher
+            for transport in opened:
+                with contextlib.suppress(TransportError):
+                    await transport.close()
 
 
 async def _refresh(output: _Output, interval: float, stop: asyncio.Event) -> None:

@@ -34,7 +34,6 @@ import contextlib
 import json
 import os
 import re
-import signal
 import sys
 from typing import Any
 
@@ -56,6 +55,7 @@ from pyuss.master.process import DriveStatus
 from pyuss.master.scheduler import CYCLIC
 from pyuss.points import checked_setpoint
 from pyuss.points.plant import DECIMAL, NOT_FINITE
+from pyuss.system import stop_on_signals
 
 
 def register(subparsers: Any) -> None:
@@ -266,21 +266,9 @@ def main(args: argparse.Namespace) -> int:
             raise ConfigError(f"--interval {args.interval}: must be > 0 seconds")
         if args.setpoint is not None and split_setpoint(args.setpoint)[1] == "%":
             setpoint_percent(args.setpoint, None, args.profile)  # bad input before the port opens
-        loop = asyncio.get_running_loop()
-        stop = asyncio.Event()
         signals: list[int] = []
-
-        def on_signal(number: int) -> None:
-            signals.append(number)
-            stop.set()
-
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, on_signal, sig)
-        try:
+        with stop_on_signals(signals.append) as stop:
             return await drive_it(args, stop, signals)
-        finally:
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                loop.remove_signal_handler(sig)
 
     return run("run", args, body)
 

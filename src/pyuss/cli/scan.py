@@ -34,8 +34,6 @@ telegram rules; ``--profile NAME`` probes by that family's (its default layout f
 from __future__ import annotations
 
 import argparse
-import os
-import stat
 import sys
 from typing import Any
 
@@ -56,6 +54,7 @@ from pyuss.master.scan import Found, Progress, probe_layouts, scan
 from pyuss.master.scheduler import Master
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import MAX_ADDRESS
+from pyuss.system import is_pty_device
 from pyuss.transport.queued import BAUD_RATES, check_baud
 from pyuss.transport.url import open_transport
 
@@ -214,7 +213,7 @@ class Report:
 
 def pty_note(port: str, bauds: list[int]) -> str | None:
     """What to say when ``port`` is a pseudo-terminal: it has no baud rate of its own."""
-    if not _is_pty(port):
+    if not is_pty_device(port):
         return None
     return (
         f"uss scan: {port} is a pseudo-terminal: it carries no baud rate, so a drive behind it "
@@ -225,19 +224,6 @@ def pty_note(port: str, bauds: list[int]) -> str | None:
             else "any rate: the rate shown is the one probed, not the drive's"
         )
     )
-
-
-def _is_pty(port: str) -> bool:
-    """Whether ``port`` names a pseudo-terminal (Linux: the pty slaves' major numbers)."""
-    try:
-        st = os.stat(port)
-    except (OSError, ValueError):
-        return False
-    return stat.S_ISCHR(st.st_mode) and os.major(st.st_rdev) in _PTY_MAJORS
-
-
-_PTY_MAJORS = frozenset(range(136, 144)) | {3}
-"""Linux pty slaves: Unix98 ptys (136..143) and the old BSD ones (3)."""
 
 
 def main(args: argparse.Namespace) -> int:

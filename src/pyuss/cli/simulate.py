@@ -52,9 +52,7 @@ import contextlib
 import dataclasses
 import importlib
 import math
-import signal
 import sys
-import time
 import urllib.parse
 from collections.abc import AsyncIterator, Awaitable, Callable
 from pathlib import Path
@@ -72,6 +70,7 @@ from pyuss.protocol.layout import Layout
 from pyuss.slave.engine import JobLatency, SlaveEngine
 from pyuss.slave.interface import InterfaceParameters
 from pyuss.slave.server import SlaveServer
+from pyuss.system import clock, stop_on_signals
 from pyuss.transport.address import HostPort, parse_host_port
 from pyuss.transport.base import Transport
 from pyuss.transport.pty import PtyPort
@@ -408,26 +407,21 @@ def run(args: argparse.Namespace) -> int:
 
 
 async def _main(opts: Options, runner: Runner) -> int:
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, stop.set)
+    with stop_on_signals() as stop:
 
-    def announce(line: str) -> None:
-        print(line, flush=True)
+        def announce(line: str) -> None:
+            print(line, flush=True)
 
-    async def stop_later(seconds: float) -> None:
-        await asyncio.sleep(seconds)
-        stop.set()
+        async def stop_later(seconds: float) -> None:
+            await asyncio.sleep(seconds)
+            stop.set()
 
-    timer = None if opts.duration is None else asyncio.create_task(stop_later(opts.duration))
-    try:
-        await runner(opts, stop, announce)
-    finally:
-        if timer is not None:
-            timer.cancel()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.remove_signal_handler(sig)
+        timer = None if opts.duration is None else asyncio.create_task(stop_later(opts.duration))
+        try:
+            await runner(opts, stop, announce)
+        finally:
+            if timer is not None:
+                timer.cancel()
     return EXIT_OK
 
 
@@ -505,7 +499,7 @@ def _line_baud(opts: Options, drives: list[tuple[int, SimulatedDrive]]) -> int:
 async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> None:
     profile = get_profile(opts.profile)
     db = _database(opts)
-    now = time.monotonic()  # the clock of every transport
+    now = clock()  # the clock of every transport
     drives = [(a, SimulatedDrive(db, store=_store(opts, a), now=now)) for a in opts.addresses]
     baud = _line_baud(opts, drives)
     hosted: VirtualBus | None = None

@@ -30,9 +30,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import contextlib
 import secrets
-import signal
 import sys
 from typing import Any
 
@@ -41,6 +39,7 @@ from pyuss.cli._master import add_line_options, drive_address, integer, line_fil
 from pyuss.errors import ConfigError
 from pyuss.profiles import profile_names
 from pyuss.protocol.layout import Layout
+from pyuss.system import stop_on_signals
 from pyuss.transport.address import parse_host_port
 
 __all__ = ["parse_listen", "register", "run"]
@@ -325,9 +324,5 @@ async def _drives(args: argparse.Namespace) -> list[tuple[int, str | None, Layou
 
 
 async def _wait_for_stop() -> None:
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        with contextlib.suppress(NotImplementedError, RuntimeError):
-            loop.add_signal_handler(sig, stop.set)
-    await stop.wait()
+    with stop_on_signals() as stop:
+        await stop.wait()

@@ -44,6 +44,7 @@ from pyuss.params.names import param_name, parse_param_name
 from pyuss.params.values import format_value, json_value
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import ErrorNumber
+from pyuss.system import install_command
 from pyuss.userfile import parse_json, parse_toml, read_text
 
 __all__ = [
@@ -563,7 +564,7 @@ def dumps(backup: Backup, fmt: str) -> str:
         import tomli_w
     except ImportError:
         raise ConfigError(
-            "writing TOML needs tomli-w: pip install 'pyuss[toml]' (or write a .json file)"
+            f"writing TOML needs tomli-w: {install_command('pyuss[toml]')} (or write a .json file)"
         ) from None
     head = f"# pyuss parameter backup of drive {backup.address} ({backup.profile}), {backup.date}\n"
     return head + tomli_w.dumps(backup.to_dict())

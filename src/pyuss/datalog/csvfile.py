@@ -25,6 +25,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from pyuss import system
 from pyuss.atomicfile import check_target, write_atomically
 from pyuss.errors import ConfigError, UssError
 
@@ -175,7 +176,7 @@ class CsvLog:
             target = self.path.with_name(f"{self.path.stem}-{stamp}-{number}{self.path.suffix}")
             number += 1
         self._fd = -1
-        os.replace(self.path, target)
+        system.replace(self.path, target)
         self.rotated.append(target)
         try:
             write_atomically(self.path, self._header, "the log")

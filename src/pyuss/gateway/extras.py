@@ -13,6 +13,7 @@ import importlib
 import importlib.metadata
 from dataclasses import dataclass
 
+from pyuss._lazy import not_installed
 from pyuss.errors import ConfigError
 
 __all__ = ["Library", "MissingExtra", "require"]
@@ -57,7 +58,11 @@ def require(face: str) -> None:
     try:
         importlib.import_module(module)
     except ImportError as exc:
-        raise MissingExtra(f"the {face} face needs {dist} ({exc}): {install}") from None
+        if not_installed(exc, module):
+            raise MissingExtra(f"the {face} face needs {dist} ({exc}): {install}") from None
+        raise MissingExtra(
+            f"the {face} face needs {dist}, which is installed but fails to load: {exc}"
+        ) from None
     try:
         version = _version(importlib.metadata.version(dist))
     except importlib.metadata.PackageNotFoundError:

@@ -38,6 +38,7 @@ from pyuss.gateway.config import (
 from pyuss.gateway.extras import Library
 from pyuss.points.config import PlantConfig, Where
 from pyuss.points.endpoint import parse_endpoint
+from pyuss.system import install_command
 
 if TYPE_CHECKING:
     from pyuss.points.plant import Plant
@@ -157,8 +158,8 @@ class FaceSpec:
     @property
     def install(self) -> str:
         if self.extra is not None:
-            return f"pip install 'pyuss[{self.extra}]'"
-        return f"pip install '{self.library.distribution if self.library else self.name}'"
+            return install_command(f"pyuss[{self.extra}]")
+        return install_command(self.library.distribution if self.library else self.name)
 
 
 # -- the faces of pyuss -----------------------------------------------------------------------

@@ -11,11 +11,10 @@ unless told to (``force``).
 
 from __future__ import annotations
 
-import os
-import sys
 from importlib import resources
 from pathlib import Path
 
+from pyuss import system
 from pyuss.atomicfile import write_atomically
 from pyuss.errors import ConfigError
 
@@ -41,11 +40,7 @@ def dissector_source() -> Path:
 
 def plugin_dir(home: Path | None = None) -> Path:
     """Wireshark's personal Lua plugins folder for this user."""
-    if sys.platform == "win32" and home is None:
-        appdata = os.environ.get("APPDATA")
-        if appdata:
-            return Path(appdata) / "Wireshark" / "plugins"
-    return (home or Path.home()) / ".local" / "lib" / "wireshark" / "plugins"
+    return system.wireshark_plugin_folder(home)
 
 
 def install(directory: Path | None = None, *, force: bool = False) -> tuple[Path, str]:

@@ -9,8 +9,8 @@ The port keeps its own handle on the device side open, so that programs may open
 the device as often as they like without the master side seeing a hang-up. While nobody reads
 the device, what the owner writes waits in the kernel's buffer (pyserial empties it when it
 opens the port); once that buffer is full, `write` waits up to ``write_timeout`` seconds and
-then raises `TransportError`. Chunks are stamped with ``time.monotonic()`` when the event loop
-reads them. POSIX only.
+then raises `TransportError`. Chunks are stamped with the line's clock when the event loop
+reads them. Linux and macOS only: on Windows making a port says what to use instead.
 """
 
 from __future__ import annotations
@@ -18,9 +18,10 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import os
-import time
 
+from pyuss import system
 from pyuss.errors import ConfigError, TransportError
+from pyuss.system import clock
 from pyuss.transport.queued import QueuedTransport
 
 _READ_SIZE = 65536
@@ -31,6 +32,8 @@ class PtyPort(QueuedTransport):
 
     def __init__(self, *, baud: int = 9600, echo: bool = False, write_timeout: float = 1.0) -> None:
         super().__init__(baud=baud, echo=echo)
+        if not system.HAS_PTY:
+            raise system.NoPty(system.PTY_ADVICE)
         if write_timeout <= 0:
             raise ConfigError(f"write_timeout must be > 0 seconds, not {write_timeout!r}")
         self._write_timeout = write_timeout
@@ -54,19 +57,9 @@ class PtyPort(QueuedTransport):
         if self.is_open:
             return
         try:
-            import tty
-
-            master, slave = os.openpty()
-        except (OSError, ImportError) as exc:
-            raise TransportError(f"cannot open a pseudo-terminal: {exc}") from None
-        try:
-            tty.setraw(slave)
-            os.set_blocking(master, False)
-            self._path = os.ttyname(slave)
+            master, slave, self._path = system.open_pty()
         except OSError as exc:
-            os.close(master)
-            os.close(slave)
-            raise TransportError(f"cannot set up the pseudo-terminal: {exc}") from None
+            raise TransportError(f"cannot open a pseudo-terminal: {exc}") from None
         self._master, self._slave = master, slave
         self._loop = asyncio.get_running_loop()
         self._mark_open()
@@ -85,7 +78,7 @@ class PtyPort(QueuedTransport):
             self._stop_reading()
             self._lose(TransportError(f"{self.describe()} lost: end of file"))
             return
-        self._deliver(data, time.monotonic())
+        self._deliver(data, clock())
 
     def _stop_reading(self) -> None:
         if self._loop is not None and self._master >= 0:
@@ -95,7 +88,7 @@ class PtyPort(QueuedTransport):
         self._check_writable()
         view = memoryview(bytes(data))
         self._arm_echo(bytes(view))
-        deadline = time.monotonic() + self._write_timeout
+        deadline = clock() + self._write_timeout
         while view:
             try:
                 n = os.write(self._master, view)
@@ -108,7 +101,7 @@ class PtyPort(QueuedTransport):
             self.stats.bytes_out += n
             view = view[n:]
             if view:
-                if time.monotonic() >= deadline:
+                if clock() >= deadline:
                     self.stats.dropped_out += len(view)
                     raise TransportError(
                         f"{self.describe()}: nobody reads the device; "
@@ -150,7 +143,7 @@ class PtyPort(QueuedTransport):
         loop.add_writer(fd, wake)
         self._write_waiter = ready
         try:
-            async with asyncio.timeout(max(0.0, deadline - time.monotonic())):
+            async with asyncio.timeout(max(0.0, deadline - clock())):
                 await ready
         except TimeoutError:
             pass

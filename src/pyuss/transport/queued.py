@@ -16,10 +16,10 @@ and `stats.echo_errors` counts it.
 from __future__ import annotations
 
 import asyncio
-import time
 from collections import deque
 from dataclasses import dataclass
 
+from pyuss import system
 from pyuss.errors import ConfigError, TransportError
 from pyuss.protocol.frozen import builder
 from pyuss.protocol.timing import BAUD_RATES, BITS_PER_CHAR, char_time, check_baud
@@ -116,9 +116,9 @@ class QueuedTransport(Transport):
     def is_open(self) -> bool:
         return self._open
 
-    clock = staticmethod(time.monotonic)
-    """The time base of chunk timestamps: ``time.monotonic`` itself, called without a Python
-    frame of its own (the master reads it several times per exchange)."""
+    clock = staticmethod(system.clock)
+    """The time base of chunk timestamps: the line's clock (`pyuss.system.clock`) itself,
+    called without a Python frame of its own (the master reads it several times per exchange)."""
 
     def flush_input(self) -> None:
         self._chunks.clear()
@@ -131,13 +131,13 @@ class QueuedTransport(Transport):
         if chunk is not None or (timeout is not None and timeout <= 0):
             return chunk
         assert self._ready is not None
-        deadline = None if timeout is None else time.monotonic() + timeout
+        deadline = None if timeout is None else system.clock() + timeout
         while True:
             self._ready.clear()
             if deadline is None:
                 await self._ready.wait()
             else:
-                left = deadline - time.monotonic()
+                left = deadline - system.clock()
                 if left <= 0:
                     return None
                 await self._wait(left, 1)

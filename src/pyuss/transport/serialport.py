@@ -2,10 +2,10 @@
 ``COM3``, ``rfc2217://host:port``, ``socket://host:port``, ``loop://``).
 
 Character frame 8E1 by default (B 3.2: start bit, 8 data bits, even parity, stop bit). Reading
-happens in a worker thread that blocks in the port's read and stamps each burst with
-``time.monotonic()`` the moment it wakes up: the stamp does not depend on how busy the event
-loop is (a loop reader would stamp when the loop gets round to it), and the same code serves
-every pyserial backend, including those without a file descriptor (``loop://``, ``rfc2217://``).
+happens in a worker thread that blocks in the port's read and stamps each burst with the
+line's clock (`pyuss.system.clock`) the moment it wakes up: the stamp does not depend on how
+busy the event loop is (a loop reader would stamp when the loop gets round to it), and the
+same code serves every pyserial backend, including those without a file descriptor (``loop://``, ``rfc2217://``).
 Writes run in a second single worker thread, in order.
 
 Line errors: on a POSIX serial device the terminal is switched to mark bad characters
@@ -50,27 +50,18 @@ import contextlib
 import enum
 import errno
 import logging
-import os
-import stat
-import struct
-import sys
 import threading
 import time
 
 import serial
 import serial.rs485
 
+from pyuss import system
 from pyuss.errors import ConfigError, TransportError
+from pyuss.system import clock
 from pyuss.transport.address import split_url
 from pyuss.transport.base import LineError
 from pyuss.transport.queued import QueuedTransport, char_time
-
-try:  # POSIX only
-    import fcntl
-    import termios
-except ImportError:  # pragma: no cover - Windows
-    fcntl = None  # type: ignore[assignment]
-    termios = None  # type: ignore[assignment]
 
 log = logging.getLogger(__name__)
 
@@ -98,68 +89,56 @@ _OPEN_ERRORS: tuple[type[BaseException], ...] = (
     ValueError,
     NotImplementedError,
     serial.SerialException,
-    *((termios.error,) if termios is not None else ()),
+    *system.LINE_SETUP_ERRORS,
 )
-
-#: Major device numbers of Linux pty slaves when /proc/tty/drivers cannot be read: Unix98
-#: ptys (136..143) and the old BSD ones (3).
-_PTY_MAJORS = frozenset((3, *range(136, 144)))
-#: ``struct serial_struct`` (TIOCGSERIAL): ``flags`` is its fifth int; room for any layout.
-_SERIAL_FLAGS_AT = 16
-_SERIAL_STRUCT_ROOM = 1024
-#: ``ASYNC_LOW_LATENCY`` of ``flags`` (linux/tty_flags.h).
-ASYNC_LOW_LATENCY = 1 << 13
-
-
-def _pty_majors() -> frozenset[int]:
-    """The major numbers the kernel lists for pty slaves (``/proc/tty/drivers``)."""
-    try:
-        with open("/proc/tty/drivers", encoding="ascii", errors="replace") as f:
-            lines = f.read().splitlines()
-    except OSError:
-        return _PTY_MAJORS
-    majors = set()
-    for line in lines:
-        fields = line.split()
-        if len(fields) >= 5 and fields[-1] == "pty:slave" and fields[-3].isdigit():
-            majors.add(int(fields[-3]))
-    return frozenset(majors) or _PTY_MAJORS
 
 
 def is_pty(url: str) -> bool:
     """True when ``url`` is the device side of a Linux pseudo-terminal (``/dev/pts/N``, or a
     link to one such as socat makes): a port that keeps no parity (see the module docstring)."""
-    if not sys.platform.startswith("linux") or "://" in url:
-        return False
-    try:
-        st = os.stat(url)
-    except (OSError, ValueError):
-        return False
-    return stat.S_ISCHR(st.st_mode) and os.major(st.st_rdev) in _pty_majors()
+    return system.is_pty_device(url)
 
 
 def low_latency(fd: int, on: bool) -> bool | None:
     """Ask the driver of the open terminal ``fd`` for low-latency mode (``on``) or normal mode;
     returns whether it was in low-latency mode before, or None when the driver does not offer
-    it (a pty, a USB CDC adapter, a driver that refuses)."""
-    if fcntl is None or termios is None or not sys.platform.startswith("linux"):
-        return None
-    get = getattr(termios, "TIOCGSERIAL", 0x541E)
-    put = getattr(termios, "TIOCSSERIAL", 0x541F)
+    it (`pyuss.system.low_latency`)."""
+    return system.low_latency(fd, on)
+
+
+def _open_problem(exc: BaseException) -> str:
+    """What went wrong opening a port, in words, then pyserial's own text."""
+    text = str(exc)
+    number = getattr(exc, "errno", None)
+    if number == errno.ENOENT or "FileNotFoundError" in text:
+        return f"no such port ({text})"
+    if number in (errno.EBUSY, errno.EACCES) or "PermissionError" in text:
+        return f"the port is in use by another program, or not open to this user ({text})"
+    return text
+
+
+def port_list(url: str) -> str:
+    """For a port that cannot be opened: the serial ports the system has (pyserial's
+    ``list_ports``), as a sentence to add to the error; nothing for a URL."""
+    if "://" in url:
+        return ""
     try:
-        info = bytearray(fcntl.ioctl(fd, get, bytes(_SERIAL_STRUCT_ROOM)))
-        (flags,) = struct.unpack_from("i", info, _SERIAL_FLAGS_AT)
-        was = bool(flags & ASYNC_LOW_LATENCY)
-        if was != on:
-            flags = flags | ASYNC_LOW_LATENCY if on else flags & ~ASYNC_LOW_LATENCY
-            struct.pack_into("i", info, _SERIAL_FLAGS_AT, flags)
-            fcntl.ioctl(fd, put, bytes(info))
-    except OSError as exc:
-        known = (errno.ENOTTY, errno.EINVAL, errno.EPERM, errno.EACCES, errno.EIO)
-        if exc.errno not in (*known, errno.EOPNOTSUPP):
-            log.debug("fd %d: low-latency mode: %s", fd, exc)
-        return None
-    return was
+        from serial.tools import list_ports
+
+        ports = sorted(list_ports.comports(), key=lambda info: info.device)
+    except Exception:  # pragma: no cover - a system whose port listing fails
+        return ""
+    if not ports:
+        return (
+            "; this system lists no serial ports (is the adapter plugged in, its driver installed?)"
+        )
+    named = [
+        f"{info.device} ({info.description})"
+        if info.description and info.description not in ("n/a", info.device)
+        else info.device
+        for info in ports
+    ]
+    return "; serial ports here: " + ", ".join(named)
 
 
 def _check_network_url(url: str) -> None:
@@ -321,7 +300,9 @@ class SerialTransport(QueuedTransport):
                 RS485Mode.KERNEL: "kernel RS-485 mode: ",
                 RS485Mode.RTS: "RTS direction control: ",
             }.get(self.rs485, "")
-            raise TransportError(f"cannot open {self.describe()}: {what}{exc}") from None
+            raise TransportError(
+                f"cannot open {self.describe()}: {what}{_open_problem(exc)}{port_list(self.url)}"
+            ) from None
         self._loop = asyncio.get_running_loop()
         self._mark_open()
         self._stop.clear()
@@ -337,13 +318,9 @@ class SerialTransport(QueuedTransport):
     def _setup_marking(self) -> bool:
         """Switch a POSIX terminal to mark bad characters; False where that is not possible."""
         fd = getattr(self._port, "fd", None)
-        if not self._line_errors or termios is None or not isinstance(fd, int):
+        if not self._line_errors or not isinstance(fd, int):
             return False
-        attrs = termios.tcgetattr(fd)
-        attrs[0] |= termios.INPCK | termios.PARMRK
-        attrs[0] &= ~(termios.IGNPAR | termios.ISTRIP | termios.IGNBRK | termios.BRKINT)
-        termios.tcsetattr(fd, termios.TCSANOW, attrs)
-        return True
+        return system.mark_line_errors(fd)
 
     def _setup_latency(self) -> None:
         """Low-latency mode on a driver that offers it (see the module docstring)."""
@@ -375,7 +352,7 @@ class SerialTransport(QueuedTransport):
                     break
                 self._post(self._lose, TransportError(f"{self.describe()} lost: {exc}"))
                 break
-            stamp = time.monotonic()
+            stamp = clock()
             if decoder is None:
                 self._post(self._deliver, data, stamp, ())
             else:
@@ -413,10 +390,10 @@ class SerialTransport(QueuedTransport):
         try:
             if self._rts_before:
                 time.sleep(self._rts_before)
-            began = time.monotonic()
+            began = clock()
             port.write(data)
             port.flush()
-            left = began + len(data) * char_time(self.baud) - time.monotonic()
+            left = began + len(data) * char_time(self.baud) - clock()
             if left > 0:
                 time.sleep(left)
             if self._rts_after:

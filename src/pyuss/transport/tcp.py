@@ -14,8 +14,9 @@ more than `MAX_PEER_BACKLOG` bytes) is disconnected rather than allowed to hold 
 What the owner writes while no peer is connected has no listener: it is counted in
 ``stats.dropped_out`` and logged, like talking on an empty line.
 
-TCP knows no character timing and no line errors: chunks are stamped with ``time.monotonic()``
-when the event loop reads them, and the delivered grouping of bytes is the network's.
+TCP knows no character timing and no line errors: chunks are stamped with the line's clock
+(`pyuss.system.clock`) when the event loop reads them, and the delivered grouping of bytes is
+the network's.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from pyuss.errors import ConfigError, TransportError
+from pyuss.system import clock
 from pyuss.transport.queued import QueuedTransport
 
 log = logging.getLogger(__name__)
@@ -70,7 +72,7 @@ async def pump(
             data = await reader.read(_READ_SIZE)
             if not data:
                 return "connection closed by the peer"
-            deliver(data, time.monotonic())
+            deliver(data, clock())
     except OSError as exc:
         return f"connection lost: {exc}"
 

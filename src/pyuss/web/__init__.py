@@ -12,11 +12,13 @@ The server needs the ``web`` extra: ``pip install 'pyuss[web]'``.
 
 from __future__ import annotations
 
+from pyuss._lazy import not_installed
 from pyuss.errors import UssError
+from pyuss.system import install_command
 
 __all__ = ["EXTRA_HINT", "MissingExtra", "require"]
 
-EXTRA_HINT = "pip install 'pyuss[web]'"
+EXTRA_HINT = install_command("pyuss[web]")
 
 
 class MissingExtra(UssError, ImportError):
@@ -27,7 +29,13 @@ def require() -> None:
     """Raise `MissingExtra` naming the command to run when aiohttp is missing."""
     try:
         import aiohttp  # noqa: F401
-    except ImportError:
-        raise MissingExtra(
-            f"the web page needs aiohttp, which is not installed: {EXTRA_HINT}"
-        ) from None
+    except ImportError as exc:
+        raise missing_extra(exc) from None
+
+
+def missing_extra(exc: ImportError) -> MissingExtra:
+    """The error to raise for ``exc`` of importing aiohttp: the command to install it when it
+    is not installed, else what failed inside it."""
+    if not_installed(exc, "aiohttp"):
+        return MissingExtra(f"the web page needs aiohttp, which is not installed: {EXTRA_HINT}")
+    return MissingExtra(f"the web page needs aiohttp, which is installed but fails to load: {exc}")

@@ -54,15 +54,13 @@ from typing import TYPE_CHECKING, Any
 from urllib.parse import urlsplit
 
 from pyuss import __version__
-from pyuss.web import EXTRA_HINT, MissingExtra
+from pyuss.web import missing_extra
 
 try:
     from aiohttp import WSCloseCode, WSMsgType, web
     from aiohttp.http_exceptions import HttpProcessingError
-except ImportError:  # pragma: no cover - the extra is installed for the tests
-    raise MissingExtra(
-        f"the web page needs aiohttp, which is not installed: {EXTRA_HINT}"
-    ) from None
+except ImportError as exc:  # pragma: no cover - the extra is installed for the tests
+    raise missing_extra(exc) from None
 
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout, cut
 from pyuss.points import NoWriteAuthority, state_name
