@@ -291,14 +291,61 @@ async def test_pipelined_requests_are_all_answered_in_order() -> None:
         assert_unmoved(gateway, engines, taken)
 
 
-@pytest.mark.parametrize("function", [1, 2, 5, 7, 8, 11, 12, 15, 17, 20, 21, 22, 24, 43, 65, 100])
+# -- mask write (function 22): one control bit set by a PLC ----------------------------------
+
+
+async def test_a_mask_write_sets_one_control_bit_and_keeps_the_others() -> None:
+    # 047Eh with bit 0 set (AND FFFEh, OR 0001h): 047Fh, the drive switched on
+    async with simulated_gateway(modbus=True, addresses=(5,)) as (gateway, engines):
+        taken = await standing(gateway, engines)
+        async with ModbusClient(gateway) as client:
+            response = await client.client.mask_write_register(
+                address=0, and_mask=0xFFFE, or_mask=0x0001, device_id=UNIT
+            )
+            assert not response.isError()
+            await eventually(lambda: engines[UNIT].drive.machine.control == RUNNING)
+            holding = await client.client.read_holding_registers(0, count=1, device_id=UNIT)
+            assert holding.registers == [RUNNING]
+            # and clear it again (AND FFFEh, OR 0000h): OFF1
+            response = await client.client.mask_write_register(
+                address=0, and_mask=0xFFFE, or_mask=0x0000, device_id=UNIT
+            )
+            assert not response.isError()
+            await eventually(lambda: engines[UNIT].drive.machine.control == STANDSTILL)
+        assert taken.controls() == {STANDSTILL, RUNNING}
+
+
+@pytest.mark.parametrize(
+    ("pdu", "code"),
+    [
+        (struct.pack(">BHHH", 22, 190, 0xFFFE, 1), 0x02),  # no register to write there
+        (struct.pack(">BHHH", 22, 24, 0x0000, 0x4000), 0x03),  # half a float setpoint
+        (struct.pack(">BHH", 22, 0, 0xFFFE), 0x03),  # too short
+        (struct.pack(">BHHHB", 22, 0, 0xFFFE, 1, 0), 0x03),  # too long
+    ],
+    ids=["not-writable", "half-a-float", "short", "long"],
+)
+async def test_a_refused_mask_write_sends_nothing(pdu: bytes, code: int) -> None:
+    async with (
+        simulated_gateway(modbus=True, addresses=(5,)) as (gateway, engines),
+        raw(gateway) as peer,
+    ):
+        taken = await standing(gateway, engines)
+        await peer.send(mbap(3, UNIT, pdu))
+        assert await peer.answer() == (3, UNIT, bytes([22 | 0x80, code]))
+        await taken.next_telegrams()
+        assert_unmoved(gateway, engines, taken)
+        await served(gateway)
+
+
+@pytest.mark.parametrize("function", [1, 2, 5, 7, 8, 11, 12, 15, 17, 20, 21, 24, 43, 65, 100])
 async def test_function_codes_outside_the_map_are_illegal_functions(function: int) -> None:
     async with (
         simulated_gateway(modbus=True, addresses=(5,)) as (gateway, engines),
         raw(gateway) as peer,
     ):
         taken = await standing(gateway, engines)
-        body = {8: b"\x00\x00\x12\x34", 22: struct.pack(">HHH", 0, 0xFFFE, 1)}.get(function, b"")
+        body = {8: b"\x00\x00\x12\x34"}.get(function, b"")
         await peer.send(mbap(1, UNIT, bytes([function]) + body) + mbap(2, 9, bytes([function])))
         assert await peer.answer() == (1, UNIT, bytes([function | 0x80, 0x01]))
         assert await peer.answer() == (2, 9, bytes([function | 0x80, 0x01]))
@@ -428,8 +475,9 @@ async def test_limits_of_no_connection_or_no_time_are_refused() -> None:
         struct.pack(">BHHB2H", 16, 100, 2, 4, *ModbusClient.floats(60.0)),  # P107
         struct.pack(">BHHB6H", 16, 200, 6, 12, 107, 0xFFFF, 5, *ModbusClient.floats(60.0), 2),
         struct.pack(">BHHHHB2H", 23, 0, 1, 0, 2, 4, RUNNING, 1),
+        struct.pack(">BHHH", 22, 0, 0xFFFE, 1),  # mask write: ON
     ],
-    ids=["control", "command", "fc16-control", "setpoint", "parameter", "mailbox", "fc23"],
+    ids=["control", "command", "fc16-control", "setpoint", "parameter", "mailbox", "fc23", "fc22"],
 )
 async def test_a_read_only_face_refuses_every_write_and_sends_nothing(pdu: bytes) -> None:
     async with (

@@ -4,7 +4,8 @@ The register map is `pyuss.gateway.registers` (pure, tested without sockets); th
 frames the requests (Modbus TCP: the MBAP header with protocol id 0, at most 253 bytes of
 PDU) and answers them. It serves function codes 3
 (read holding registers), 4 (read input registers), 6 (write single register), 16 (write
-multiple registers) and 23 (read/write multiple registers); every other function code is
+multiple registers), 22 (mask write register: the register read, its bits masked, written
+back, as FC 6 would write it) and 23 (read/write multiple registers); every other function code is
 answered with exception 01 (illegal function), a request of a served function code that is
 malformed (wrong length, quantity beyond the protocol's limits, byte count not matching)
 with exception 03. A unit id without a drive is answered with exception 0Bh (gateway target
@@ -23,7 +24,7 @@ cannot lock others out. A stop lets the request being carried out finish and be 
 
 Why a server of its own and not pymodbus's: the gateway must answer every request of a
 connection in order, refuse unknown function codes instead of serving the library's own
-diagnostics, and bound what a peer can hold; the framing of the five function codes served
+diagnostics, and bound what a peer can hold; the framing of the six function codes served
 is a few lines of `struct`. Clients of other stacks (pymodbus, libmodbus's mbpoll) are what
 the tests talk to it with.
 """
@@ -47,7 +48,7 @@ __all__ = ["MAX_CONNECTIONS", "SERVED", "ModbusFace"]
 
 log = logging.getLogger("pyuss.gateway.modbus")
 
-SERVED = frozenset({3, 4, 6, 16, 23})
+SERVED = frozenset({3, 4, 6, 16, 22, 23})
 """The function codes the face serves; any other is answered with exception 01."""
 
 MAX_CONNECTIONS = 32
@@ -116,6 +117,16 @@ async def respond(registers: DriveRegisters, pdu: bytes) -> bytes:
                 raise _Malformed
             address, value = struct.unpack_from(">HH", pdu, 1)
             await registers.write_holding(address, [value])
+            return pdu
+        if function == 22:
+            # mask write: (value AND and_mask) OR (or_mask AND NOT and_mask), Modbus 6.16;
+            # a PLC sets or clears single control bits with it
+            if len(pdu) != 7:
+                raise _Malformed
+            address, and_mask, or_mask = struct.unpack_from(">HHH", pdu, 1)
+            (value,) = await registers.read_holding(address, 1)  # reads change nothing
+            new = (value & and_mask) | (or_mask & ~and_mask & 0xFFFF)
+            await registers.carry_out(registers.plan_write(address, [new]))
             return pdu
         if function == 16:
             if len(pdu) < 6:
