@@ -114,9 +114,22 @@ class AtomicWriter:
         )
 
     def write(self, data: Any) -> None:
+        """Write ``data``; a write the disk refuses (full, gone read-only, an I/O error) ends
+        the file as a failing `close` does: `ConfigError` naming the file and the reason, the
+        temporary file kept and named (``keep_on_failure``) or removed."""
         if self.file is None:
             raise ConfigError(f"{self.what} {self.path} is already closed")
-        self.file.write(data)
+        try:
+            self.file.write(data)
+        except OSError as exc:
+            problem = f"cannot write {self.what} {self.path}: {exc.strerror or exc}"
+            if self.keep_on_failure:
+                file, self.file = self.file, None
+                with contextlib.suppress(OSError):
+                    file.close()
+                raise ConfigError(f"{problem}; what was written is kept as {self.tmp}") from None
+            self.discard()
+            raise ConfigError(problem) from None
 
     def close(self) -> None:
         """Flush, fsync, rename into place, fsync the folder."""
@@ -144,7 +157,8 @@ class AtomicWriter:
         """Drop the temporary file without writing the target."""
         file, self.file = self.file, None
         if file is not None:
-            file.close()
+            with contextlib.suppress(OSError):  # a full disk refuses the buffer's flush too
+                file.close()
             with contextlib.suppress(OSError):
                 os.unlink(self.tmp)
 
