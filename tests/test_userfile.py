@@ -127,3 +127,58 @@ def test_bounded_text_that_is_no_json_is_told_apart() -> None:
             parse_message(raw, "the payload", max_depth=4)
     # a string holding brackets is no nesting
     assert parse_message(b'"[[[[[[[["', "the payload", max_depth=1) == "[[[[[[[["
+
+
+# -- where in the file a bad value is written ---------------------------------------------
+
+PLANT_TEXT = """\
+[[bus]]
+name = "l1"
+port = "tcp://127.0.0.1:1"
+
+[[bus.drive]]
+name = "a"
+address = 5
+
+[[bus]]
+name = "l2"
+"port" = "tcp://127.0.0.1:2"
+[[bus.drive]]
+name = "b"
+address = 5
+[[bus.drive]]
+name = "c"
+address = 300
+
+[mqtt]
+qos = 7
+"""
+
+
+@pytest.mark.parametrize(
+    ("key", "line"),
+    [
+        ("bus[0].port", 3),
+        ("bus[0].drive[0].address", 7),
+        ("bus[1].port", 11),  # a quoted key
+        ("bus[1].drive[1].address", 17),
+        ("bus[1].drive[1]", 15),  # a table: its header
+        ("bus[1].drive[1].speed", 15),  # a key not written: the table it belongs in
+        ("mqtt.qos", 20),
+        ("opcua.listen", None),  # nothing of it in the file
+    ],
+)
+def test_a_bad_value_is_found_on_its_line(key: str, line: int | None) -> None:
+    from pyuss.userfile import toml_line
+
+    assert toml_line(PLANT_TEXT, key) == line
+
+
+def test_a_configuration_error_names_the_file_the_line_and_the_key(tmp_path: Path) -> None:
+    from pyuss.gateway.config import load_config
+
+    path = tmp_path / "uss gateway.toml"
+    path.write_text(PLANT_TEXT.replace("[mqtt]\nqos = 7\n", ""), encoding="utf-8")
+    with pytest.raises(ConfigError) as error:
+        load_config(path)
+    assert str(error.value) == f"{path}, line 17: bus[1].drive[1].address: 300 is not 0..31"

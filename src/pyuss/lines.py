@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING
 
 from pyuss import system
 from pyuss.errors import ConfigError
-from pyuss.userfile import parse_toml, read_text
+from pyuss.userfile import in_file, parse_toml, read_text
 
 if TYPE_CHECKING:
     from pyuss.points.config import BusConfig, DriveConfig, PlantConfig
@@ -196,12 +196,13 @@ def load(path: str | os.PathLike[str]) -> LineFile:
     from pyuss.points.config import Where, parse_plant  # here: commands without a file start sooner
 
     where = Path(path)
-    data = parse_toml(read_text(where, "the configuration"), str(where))
+    text = read_text(where, "the configuration")
+    data = parse_toml(text, str(where))
     try:
         Where("").table(data, TOP_KEYS)
         plant = parse_plant(data.get("bus"), Where("bus"), face_keys=("modbus",))
     except ConfigError as exc:
-        raise ConfigError(f"{where}: {exc}") from None
+        raise in_file(where, text, exc) from None
     raw: Sequence[object] = data["bus"]
     profiles = frozenset(
         bus.name

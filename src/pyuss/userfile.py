@@ -33,6 +33,7 @@ __all__ = [
     "MAX_SIZE",
     "NotJson",
     "check_depth",
+    "in_file",
     "json_depth",
     "parse_json",
     "parse_message",
@@ -248,3 +249,62 @@ def parse_message(
 
 def _cut(text: str, width: int = 60) -> str:
     return text if len(text) <= width else text[: width - 3] + "..."
+
+
+_KEY_PATH = re.compile(r"^([A-Za-z0-9_-]+(?:\[\d+\])*(?:\.[A-Za-z0-9_-]+(?:\[\d+\])*)*): ")
+_SEGMENT = re.compile(r"([A-Za-z0-9_-]+)((?:\[\d+\])?)")
+_ARRAY_HEADER = re.compile(r"^\[\[\s*([^\]]+?)\s*\]\]")
+_TABLE_HEADER = re.compile(r"^\[\s*([^\]]+?)\s*\]")
+_KEY_LINE = re.compile(r"""^("[^"]*"|'[^']*'|[A-Za-z0-9_-]+)\s*=""")
+
+Segment = tuple[str, int | None]
+
+
+def _within(names: list[str], current: tuple[Segment, ...]) -> tuple[Segment, ...]:
+    """The table ``names`` (``[a.b]``) as segments, with the array indices of the table the
+    text is in where its names lead the way."""
+    out: list[Segment] = []
+    for i, name in enumerate(names):
+        same = i < len(current) and current[i][0] == name
+        out.append((name, current[i][1] if same else None))
+    return tuple(out)
+
+
+def toml_line(text: str, key: str) -> int | None:
+    """The line of ``text`` (TOML) where ``key`` (``bus[0].drive[1].address``, as the
+    configuration checks name a bad value) is written: its ``key =`` line, else the header of
+    the deepest table on its way; None where the text does not show it."""
+    want = tuple(
+        (name, int(index[1:-1]) if index else None) for name, index in _SEGMENT.findall(key)
+    )
+    table: tuple[Segment, ...] = ()
+    counts: dict[tuple[tuple[Segment, ...], str], int] = {}
+    best, depth = None, 0
+    for number, line in enumerate(text.splitlines(), 1):
+        stripped = line.strip()
+        array, plain = _ARRAY_HEADER.match(stripped), _TABLE_HEADER.match(stripped)
+        if array or plain:
+            header = array or plain
+            assert header is not None
+            names = [n.strip().strip("\"'") for n in header.group(1).split(".")]
+            if array:
+                parent = _within(names[:-1], table)
+                count = counts[parent, names[-1]] = counts.get((parent, names[-1]), -1) + 1
+                table = (*parent, (names[-1], count))
+            else:
+                table = _within(names, table)
+            if len(table) > depth and want[: len(table)] == table:
+                best, depth = number, len(table)
+            continue
+        found = _KEY_LINE.match(stripped)
+        if found and (*table, (found.group(1).strip("\"'"), None)) == want:
+            return number
+    return best
+
+
+def in_file(path: str | os.PathLike[str], text: str, exc: ConfigError) -> ConfigError:
+    """``exc`` of checking the TOML file ``path`` (its ``text``) as one line naming the file,
+    the line and the key: ``uss.toml, line 4: bus[0].baud: expected an integer``."""
+    key = _KEY_PATH.match(str(exc))
+    line = None if key is None else toml_line(text, key.group(1))
+    return ConfigError(f"{path}{'' if line is None else f', line {line}'}: {exc}")

@@ -192,11 +192,13 @@ def test_no_file_is_todays_behaviour_and_a_bad_file_one_line(
     Path("uss.toml").write_text('[[bus]]\nname = "line1"\nport = "/dev/x"\nbaud = 1234\n')
     code, _, err = uss(capsys, "read", "5", "52")
     assert (
-        code == 2 and err.startswith("uss read: uss.toml: bus[0].baud: ") and err.count("\n") == 1
+        code == 2
+        and err.startswith("uss read: uss.toml, line 4: bus[0].baud: ")
+        and err.count("\n") == 1
     )
     Path("uss.toml").write_text(line("line1", "/dev/x", (5, "a")) + "[nonsense]\n")
     code, _, err = uss(capsys, "read", "a", "52")
-    assert code == 2 and "uss.toml: nonsense: unknown key" in err
+    assert code == 2 and re.search(r"uss\.toml, line \d+: nonsense: unknown key", err)
     # with --port and an address the file is not read: a broken one is no hindrance
     code, _, err = uss(capsys, "read", "5", "52", "--port", "/dev/nonexistent-port")
     assert code == 1 and "nonexistent-port" in err

@@ -23,6 +23,7 @@ start = start_uss
 stop = stop_uss
 
 
+@pytest.mark.posix("stops uss gateway with SIGTERM and checks it ended cleanly")
 def test_bus_simulator_and_gateway_as_separate_processes(broker: Broker) -> None:
     import aiomqtt  # noqa: F401  (the mqtt extra is installed)
     from pymodbus.client import ModbusTcpClient
@@ -187,8 +188,8 @@ def refused_drive(tmp_path: Path, drive: str) -> tuple[Path, str]:
 def test_a_bad_key_in_the_file_is_named_before_any_port_opens(tmp_path: Path) -> None:
     config, line = refused_drive(tmp_path, "parameters = [90]\n")
     assert line == (
-        f"uss gateway: {config}: bus[0].drive[0].parameters[0]: P90 (Plant name) is a string "
-        "parameter: the gateway exposes numbers only"
+        f"uss gateway: {config}, line 4: bus[0].drive[0].parameters[0]: P90 (Plant name) is a "
+        "string parameter: the gateway exposes numbers only"
     )
 
 
@@ -209,8 +210,8 @@ def test_a_bad_parameter_of_a_siemens_drive_is_named_as_its_documents_write_it(
 ) -> None:
     config, line = refused_drive(tmp_path, 'profile = "sinamics-v20"\nparameters = ["r0947"]\n')
     assert line == (
-        f"uss gateway: {config}: bus[0].drive[0].parameters[0]: r0947 (Fault numbers) is an "
-        "array of 8: name an element (r0947.0)"
+        f"uss gateway: {config}, line 4: bus[0].drive[0].parameters[0]: r0947 (Fault numbers) is "
+        "an array of 8: name an element (r0947.0)"
     )
 
 

@@ -48,7 +48,7 @@ from pyuss.gateway.registers import WordOrder
 from pyuss.points.config import PlantConfig, Where, parse_plant
 from pyuss.points.endpoint import Endpoint, parse_endpoint
 from pyuss.points.model import resolve
-from pyuss.userfile import parse_toml, read_text
+from pyuss.userfile import in_file, parse_toml, read_text
 
 __all__ = [
     "GatewayConfig",
@@ -414,10 +414,11 @@ def check_listening(config: GatewayConfig) -> None:
 def load_config(path: str | Path) -> GatewayConfig:
     """Read and check a configuration file; `ConfigError` names the file and the key."""
     path = Path(path)
-    data = parse_toml(read_text(path, "the configuration"), str(path))
+    text = read_text(path, "the configuration")
+    data = parse_toml(text, str(path))
     try:
         config = parse_config(data, path.parent)
         resolve(config.plant)  # what the points cannot show is bad configuration too
         return config
     except ConfigError as exc:
-        raise ConfigError(f"{path}: {exc}") from None
+        raise in_file(path, text, exc) from None
