@@ -13,7 +13,7 @@ STAMP  := $(VENV)/.installed
 WORKERS ?= 4
 BROWSER_TESTS := tests/web/test_page.py tests/web/test_plant.py
 
-.PHONY: demo test lint typecheck pytest bench clean venv screenshots
+.PHONY: demo test lint typecheck pytest bench clean venv screenshots test-windows
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -59,6 +59,12 @@ screenshots: $(STAMP)
 	rm -rf build/screenshots
 	$(PY) -m pytest tests/web/test_page.py tests/web/test_plant.py -q -p no:cacheprovider
 	cp build/screenshots/*.png docs/images/
+
+# The Windows lane (docs/windows-lane.md): pyuss's wheel installed into Windows CPython 3.13
+# under Wine and run against pyuss on Linux. Its downloads are kept in build/wine.
+test-windows: $(STAMP)
+	bash .ci/system-deps wine wine64 gcc-mingw-w64-x86-64-win32
+	$(PY) .ci/windows/lane.py
 
 clean:
 	rm -rf $(VENV) build dist .mypy_cache .pytest_cache .ruff_cache src/*.egg-info

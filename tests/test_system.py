@@ -126,7 +126,7 @@ def test_a_pty_where_the_system_has_none_says_what_to_use(
     monkeypatch.setattr(system, "HAS_PTY", False)
     from pyuss.transport.pty import PtyPort
 
-    with pytest.raises(ConfigError, match=r"COM port .*tcp://.*bus://.*com0com"):
+    with pytest.raises(ConfigError, match=r"--tcp HOST:PORT.*tcp://.*bus://.*COM port.*com0com"):
         PtyPort()
     code = main(["simulate", "--pty", "--duration", "1"])
     err = capsys.readouterr().err
