@@ -5,6 +5,12 @@ each component, the device classes and the units each sensor device class accept
 entity id a discovery message may suggest (``default_entity_id``, ``DOMAIN.slug``; the
 deprecated ``object_id`` is ignored from Home Assistant Core 2026.4).
 
+Also: the device block's known keys (``manufacturer``, ``model``, ``model_id``...), the origin
+block (``name`` required), ``availability`` never beside ``availability_topic``, a
+``json_attributes_template`` only with its topic, the energy device class only with a
+``total`` or ``total_increasing`` state class, sensors never of entity category
+``config``, a number's step at least 0.001.
+
 `check(topic, config)` returns the list of what breaks the schema (empty: valid)."""
 
 from __future__ import annotations
@@ -106,6 +112,7 @@ COMPONENTS: dict[str, tuple[set[str], set[str]]] = {
 SENSOR_UNITS: dict[str, set[str | None]] = {
     "current": {"A", "mA"},
     "duration": {"d", "h", "min", "s", "ms"},
+    "energy": {"J", "kJ", "MJ", "GJ", "mWh", "Wh", "kWh", "MWh", "GWh", "TWh", "cal", "kcal"},
     "frequency": {"Hz", "kHz", "MHz", "GHz"},
     "power": {"mW", "W", "kW", "MW", "GW", "TW"},
     "power_factor": {"%", None},
@@ -115,6 +122,25 @@ SENSOR_UNITS: dict[str, set[str | None]] = {
 """Sensor device classes the gateway may use, with the units Home Assistant accepts."""
 
 NUMBER_UNITS = {k: v for k, v in SENSOR_UNITS.items() if k != "power_factor"}
+TOTALS = {"energy": {"total", "total_increasing"}}
+"""Sensor device classes that take only these state classes (not ``measurement``)."""
+DEVICE_KEYS = {
+    "configuration_url",
+    "connections",
+    "identifiers",
+    "name",
+    "manufacturer",
+    "model",
+    "model_id",
+    "hw_version",
+    "sw_version",
+    "suggested_area",
+    "serial_number",
+    "via_device",
+}
+ORIGIN_KEYS = {"name", "sw_version", "support_url"}
+NUMBER_STEP = 0.001
+"""The smallest step a number takes."""
 
 BINARY_SENSOR_CLASSES = {
     "battery",
@@ -166,6 +192,15 @@ def check(topic: str, config: dict[str, Any]) -> list[str]:
     device = config.get("device")
     if not isinstance(device, dict) or not (device.get("identifiers") or device.get("connections")):
         problems.append(f"{topic}: device needs identifiers or connections")
+    elif device.keys() - DEVICE_KEYS:
+        problems.append(f"{topic}: device keys {sorted(device.keys() - DEVICE_KEYS)} unknown")
+    origin = config.get("origin", {"name": "-"})
+    if not isinstance(origin, dict) or "name" not in origin or origin.keys() - ORIGIN_KEYS:
+        problems.append(f"{topic}: origin needs a name and knows {sorted(ORIGIN_KEYS)}")
+    if "json_attributes_template" in config and "json_attributes_topic" not in config:
+        problems.append(f"{topic}: json_attributes_template needs json_attributes_topic")
+    if "availability" in config and "availability_topic" in config:
+        problems.append(f"{topic}: availability and availability_topic exclude each other")
     for item in config.get("availability", []):
         if "topic" not in item:
             problems.append(f"{topic}: availability entries need a topic")
@@ -183,7 +218,13 @@ def check(topic: str, config: dict[str, Any]) -> list[str]:
                 problems.append(f"{topic}: unit {unit!r} is not one of {device_class}")
         if "state_class" in config and config["state_class"] not in STATE_CLASSES:
             problems.append(f"{topic}: state_class {config['state_class']!r}")
+        if device_class in TOTALS and config.get("state_class") not in TOTALS[device_class]:
+            problems.append(f"{topic}: {device_class} takes state_class {TOTALS[device_class]}")
+        if config.get("entity_category") == "config":
+            problems.append(f"{topic}: a sensor cannot be of entity_category config")
     elif component == "binary_sensor":
+        if config.get("entity_category") == "config":
+            problems.append(f"{topic}: a binary sensor cannot be of entity_category config")
         if device_class is not None and device_class not in BINARY_SENSOR_CLASSES:
             problems.append(f"{topic}: unknown binary sensor device class {device_class!r}")
     elif component == "number":
@@ -194,8 +235,8 @@ def check(topic: str, config: dict[str, Any]) -> list[str]:
         low, high = config.get("min", 1), config.get("max", 100)
         if not low < high:
             problems.append(f"{topic}: min must be below max")
-        if config.get("step", 1) <= 0:
-            problems.append(f"{topic}: step must be positive")
+        if config.get("step", 1) < NUMBER_STEP:
+            problems.append(f"{topic}: step must be {NUMBER_STEP} or more")
         if config.get("mode", "auto") not in ("auto", "box", "slider"):
             problems.append(f"{topic}: mode must be auto, box or slider")
     elif component == "button":

@@ -36,6 +36,11 @@ BAUD = 38400
 LAYOUT = "4,2"
 
 
+def _root() -> bool:
+    """Whether the tests run as root (a POSIX notion: never on Windows)."""
+    return hasattr(os, "geteuid") and os.geteuid() == 0
+
+
 class Broker:
     """A mosquitto broker on 127.0.0.1 that keeps its sessions over a restart."""
 
@@ -51,7 +56,7 @@ class Broker:
             "allow_anonymous true\n"
             "persistence true\n"
             f"persistence_location {directory}/\n"
-            "autosave_interval 1\n" + ("user root\n" if os.geteuid() == 0 else ""),
+            "autosave_interval 1\n" + ("user root\n" if _root() else ""),
             # as root, mosquitto would become user mosquitto, who cannot write the session file
             encoding="utf-8",
         )
@@ -93,13 +98,20 @@ async def simulated_gateway(
     users: dict[str, str] | None = None,
     parameters: Sequence[str] = ("107",),
     client_id: str = "pyuss-{bus}",
+    mqtt_options: dict[str, Any] | None = None,
+    connected: bool = True,
+    silent: Sequence[int] = (),
+    bus: VirtualBus | None = None,
 ) -> AsyncIterator[tuple[Gateway, dict[int, SlaveEngine]]]:
-    """Simulated drives (generic profile, layout 4,2) on a virtual bus and a gateway over them."""
-    bus = VirtualBus(BAUD)
+    """Simulated drives (generic profile, layout 4,2) on a virtual bus (``bus``, else a new
+    one) and a gateway over them and over the drives at the addresses ``silent``, which
+    none answers; with ``mqtt`` (``mqtt_options``: more `MqttOptions`), once its MQTT face
+    is connected (``connected`` False: at once, a broker that is not there or refuses)."""
+    bus = bus or VirtualBus(BAUD)
     drives = [(a, "generic", Layout.parse(LAYOUT)) for a in addresses]
     plant = plant_from_flags(
         port="bus://simulated:1",
-        addresses=list(addresses),
+        addresses=[*addresses, *silent],
         baud=BAUD,
         profile="generic",  # the simulated drives' family
         layout=LAYOUT,
@@ -119,6 +131,7 @@ async def simulated_gateway(
             reconnect=0.2,
             keepalive=5,
             client_id=client_id,
+            **(mqtt_options or {}),
         )
         if mqtt
         else None,
@@ -133,10 +146,14 @@ async def simulated_gateway(
     async with simulated_drives(bus, drives) as engines:
         gateway = Gateway(config, transports={bus_name: bus.attach("gateway")})
         async with gateway:
-            for drive in gateway.plant.drives:
+            answering = [d for d in gateway.plant.drives if d.address not in silent]
+            for drive in answering:
                 await drive.drive.next_update(timeout=5)
             # the reference (P352) is read in the background; setpoints in Hz need it
-            await eventually(lambda: all(d.reference is not None for d in gateway.plant.drives))
+            await eventually(lambda: all(d.reference is not None for d in answering))
+            if mqtt and connected:  # its states, availability and gateway message are out
+                buses = gateway.faces["mqtt"].buses.values()  # type: ignore[attr-defined]
+                await eventually(lambda: all(face.connected.is_set() for face in buses))
             yield gateway, engines
 
 

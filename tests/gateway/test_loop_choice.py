@@ -57,9 +57,9 @@ def test_the_gateway_says_which_loop_it_runs_on() -> None:
         assert over_bus.startswith("uvloop ") and "every bus is bus://" in over_bus
     else:
         assert over_bus.startswith("pyuss.loop") and "uvloop is not installed" in over_bus
-    pty = start("simulate", "--pty", "--address", "5")
+    raw = start("simulate", "--tcp", "127.0.0.1:0", "--address", "5")
     try:
-        device = first_line(pty, "/dev/")
-        assert _gateway_loop("--port", device).startswith("pyuss.loop (microsecond timers: ")
+        url = first_line(raw, "tcp://")
+        assert _gateway_loop("--port", url).startswith("pyuss.loop (microsecond timers: ")
     finally:
-        stop(pty)
+        stop(raw)

@@ -287,7 +287,7 @@ async def test_an_unreachable_broker_is_one_warning_and_the_face_connects_once_i
     caplog.set_level(logging.INFO, logger="pyuss.gateway.mqtt")
     broker = Broker(tmp_path)  # its port has no broker yet
     try:
-        async with simulated_gateway(mqtt=broker.url) as (gateway, _):
+        async with simulated_gateway(mqtt=broker.url, connected=False) as (gateway, _):
             face = face_of(gateway)
             await eventually(lambda: face.attempts >= 4)
             broker.start()
@@ -322,7 +322,7 @@ async def test_a_broker_refusing_the_login_is_one_warning_naming_its_reason(
     )
     broker.start()
     try:
-        async with simulated_gateway(mqtt=broker.url) as (gateway, engines):
+        async with simulated_gateway(mqtt=broker.url, connected=False) as (gateway, engines):
             face = face_of(gateway)
             await eventually(lambda: face.attempts >= 3)
             assert not face.connected.is_set()

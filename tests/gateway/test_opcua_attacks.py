@@ -9,7 +9,6 @@ is served afterwards."""
 from __future__ import annotations
 
 import asyncio
-import fcntl
 import json
 import math
 import shutil
@@ -440,6 +439,8 @@ def node_opcua(
         folder = tmp_path_factory.mktemp("node-opcua")
     # `make test` runs the tests in several processes: one installs, the others wait for it
     # (a folder that npm is still filling must not be taken for an installed client)
+    import fcntl
+
     with (folder / "install.lock").open("w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         installed = folder / "installed"
@@ -479,6 +480,7 @@ async def run_node(gateway: Gateway, folder: Path, name: str, script: str) -> di
     return result
 
 
+@pytest.mark.posix("the node-opcua install is shared through fcntl.flock")
 async def test_node_opcua_sessions_on_one_channel_keep_their_own_rights(
     node_opcua: Path,
 ) -> None:
@@ -498,6 +500,7 @@ async def test_node_opcua_sessions_on_one_channel_keep_their_own_rights(
         assert not engines[5].drive.status_word() & 4
 
 
+@pytest.mark.posix("the node-opcua install is shared through fcntl.flock")
 async def test_node_opcua_sessions_on_one_channel_get_their_own_subscriptions(
     node_opcua: Path,
 ) -> None:

@@ -273,6 +273,9 @@ async def test_process_data_a_request_did_not_get_through_with_do_not_act_later(
                 await eventually(lambda: drive.state.state == "ready to switch on")
                 handle = engine.handle
                 engine.handle = lambda telegram, now: None  # type: ignore[method-assign]
+                # offline, the drive is given back: 0000h, the words before each request below
+                await eventually(lambda: not drive.state.online)
+                assert sent(drive) == (0, (0,))
                 for request in (
                     drive.set_control_word(0x047F),
                     drive.set_setpoint(50, unit="%"),
@@ -281,12 +284,12 @@ async def test_process_data_a_request_did_not_get_through_with_do_not_act_later(
                 ):
                     with pytest.raises(UssError, match="no answer"):
                         await request
-                    assert sent(drive) == (0x047E, (0,))
+                    assert sent(drive) == (0, (0,))
                 engine.handle = handle  # type: ignore[method-assign]
                 record = LineRecord(engine)
                 await record.telegrams()
                 record.close()
-                assert set(record.pzd) == {(0x047E, 0)}
+                assert set(record.pzd) == {(0, 0)}
                 assert drive.state.state == "ready to switch on"
     finally:
         await bus.close()

@@ -1,4 +1,6 @@
-"""ReconnectingTransport over real TCP on 127.0.0.1."""
+"""ReconnectingTransport over real TCP on 127.0.0.1: a loss is noticed by the next read or
+write, the link reopened (the first try at once, then waits doubling up to a ceiling), and an
+outage logged once when it begins, once a minute while it lasts and once when it ends."""
 
 from __future__ import annotations
 
@@ -9,18 +11,34 @@ import logging
 import pytest
 
 from pyuss.errors import ConfigError, TransportError
-from pyuss.transport.reconnect import LinkDown, ReconnectingTransport, backoff
+from pyuss.transport.reconnect import (
+    BACKOFF_INITIAL,
+    BACKOFF_MAX,
+    LinkDown,
+    ReconnectingTransport,
+    backoff,
+    duration_text,
+)
 from pyuss.transport.tcp import TcpServerTransport, TcpTransport
 from pyuss.transport.url import open_transport
 from transport.helpers import WAIT, joined, read_bytes
 
+LOGGER = "pyuss.transport.reconnect"
 
-async def _wait_for(predicate: object, timeout: float = WAIT) -> bool:
+
+async def _wait_for(
+    predicate: object, timeout: float = WAIT, reader: ReconnectingTransport | None = None
+) -> bool:
+    """Whether ``predicate()`` holds within ``timeout``; with ``reader``, reading it meanwhile
+    (a loss is noticed by a read, as the master reads all the time)."""
     assert callable(predicate)
     for _ in range(int(timeout / 0.02)):
         if predicate():
             return True
-        await asyncio.sleep(0.02)
+        if reader is not None:
+            await reader.read(0.02)
+        else:
+            await asyncio.sleep(0.02)
     return bool(predicate())
 
 
@@ -40,7 +58,7 @@ async def test_link_loss_is_reported_and_the_link_comes_back() -> None:
         await server.write(b"before")
         assert joined(await read_bytes(link, 6)) == b"before"
         await server.close()
-        assert await _wait_for(lambda: losses)
+        assert await _wait_for(lambda: losses, reader=link)
         assert link.losses == 1
         assert not link.connected
         with pytest.raises(LinkDown, match="not sent"):
@@ -78,29 +96,87 @@ async def test_readers_get_the_error_when_reconnecting_is_given_up(
         with pytest.raises(TransportError, match="gave up after 5 tries"):
             await link.read(WAIT)
     messages = [r.getMessage() for r in caplog.records if r.name == "pyuss.transport.reconnect"]
-    assert "link lost" in messages[0]
-    tries = [m for m in messages if "reconnect try" in m]
-    assert [m.rsplit("next try in ", 1)[-1] for m in tries[:-1]] == [
-        "0.02 s",
-        "0.03 s",
-        "0.03 s",
-        "0.03 s",
-    ]
-    assert "reconnect try 5 failed" in tries[-1]
-    assert all(str(port) in m for m in tries)  # each says what failed
+    assert "link lost" in messages[0] and "at once, then after 0.01 s" in messages[0]
+    assert not [m for m in messages if "reconnect try" in m]  # each try at DEBUG only
+    assert "gave up after 5 tries" in messages[-1] and str(port) in messages[-1]
 
 
 def test_backoff_sequence() -> None:
-    assert list(itertools.islice(backoff(0.1, 5.0), 8)) == [
-        0.1,
-        0.2,
-        0.4,
-        0.8,
-        1.6,
-        3.2,
-        5.0,
-        5.0,
+    # the waits after the first try (made at once), as documented: 0.5 s doubling up to 10 s
+    assert list(itertools.islice(backoff(BACKOFF_INITIAL, BACKOFF_MAX), 8)) == [
+        0.5,
+        1.0,
+        2.0,
+        4.0,
+        8.0,
+        10.0,
+        10.0,
+        10.0,
     ]
+
+
+def test_an_outage_lasts_as_people_read_it() -> None:
+    assert duration_text(4.25) == "4.2 s"
+    assert duration_text(185) == "3 min 5 s"
+    assert duration_text(7620) == "2 h 7 min"
+
+
+async def test_an_outage_is_one_line_when_it_begins_and_one_when_it_ends(
+    caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # many failed tries, and a link that comes back and drops again at once (a converter
+    # that takes the connection and closes it): one outage, two lines
+    monkeypatch.setattr("pyuss.transport.reconnect.SETTLE", 3.0)  # what "at once" is here
+    caplog.set_level(logging.WARNING, logger=LOGGER)
+    server = TcpServerTransport()
+    await server.open()
+    port = server.port
+    link = ReconnectingTransport(
+        lambda: TcpTransport("127.0.0.1", port), backoff_initial=0.01, backoff_max=0.02
+    )
+
+    def messages() -> list[str]:
+        return [r.getMessage() for r in caplog.records if r.name == LOGGER]
+
+    async with link:
+        assert await server.wait_peer(WAIT)
+        await server.close()
+        assert await _wait_for(lambda: link.losses == 1, reader=link)
+        await asyncio.sleep(0.3)  # tries every 0.02 s: refused
+        server = TcpServerTransport("127.0.0.1", port)
+        await server.open()
+        assert await _wait_for(lambda: link.connected)
+        await server.close()  # lost again at once: the same outage
+        assert await _wait_for(lambda: link.losses == 2, reader=link)
+        server = TcpServerTransport("127.0.0.1", port)
+        await server.open()
+        assert await _wait_for(lambda: link.connected, reader=link)
+        assert await _wait_for(lambda: any("link back" in m for m in messages()), 15)
+    assert len(messages()) == 2, messages()
+    assert "link lost" in messages()[0]
+    assert "link back after" in messages()[1] and "tries)" in messages()[1]
+    await server.close()
+
+
+async def test_a_long_outage_is_told_of_once_a_minute(
+    caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr("pyuss.transport.reconnect.REPORT_EVERY", 0.2)
+    caplog.set_level(logging.WARNING, logger=LOGGER)
+    server = TcpServerTransport()
+    await server.open()
+    port = server.port
+    link = ReconnectingTransport(
+        lambda: TcpTransport("127.0.0.1", port), backoff_initial=0.05, backoff_max=0.05
+    )
+    async with link:
+        assert await server.wait_peer(WAIT)
+        await server.close()
+        assert await _wait_for(lambda: link.losses == 1, reader=link)
+        still = lambda: [r for r in caplog.records if "still lost" in r.getMessage()]  # noqa: E731
+        assert await _wait_for(lambda: len(still()) >= 2)
+    first = still()[0].getMessage()
+    assert "still lost after" in first and "tries so far" in first and str(port) in first
 
 
 async def test_serial_port_over_socket_url_comes_back_after_a_drop() -> None:
@@ -117,7 +193,7 @@ async def test_serial_port_over_socket_url_comes_back_after_a_drop() -> None:
         await server.write(b"one")
         assert joined(await read_bytes(link, 3)) == b"one"
         await server.close()  # as an unplugged adapter: pyserial reports the port gone
-        assert await _wait_for(lambda: link.losses == 1)
+        assert await _wait_for(lambda: link.losses == 1, reader=link)
         with pytest.raises(LinkDown):
             await link.write(b"lost")
         server = TcpServerTransport("127.0.0.1", port)
@@ -153,7 +229,7 @@ async def test_give_up_on_request() -> None:
     async with link:
         assert await server.wait_peer(WAIT)
         await server.close()
-        assert await _wait_for(lambda: link.losses == 1)
+        assert await _wait_for(lambda: link.losses == 1, reader=link)
         link.give_up()
         with pytest.raises(TransportError, match="gave up"):
             await link.read(WAIT)

@@ -317,12 +317,18 @@ def master_options(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def open_master(
-    args: argparse.Namespace, *, mode: Mode = Mode.ACYCLIC, **extra: Any
+    args: argparse.Namespace,
+    *,
+    mode: Mode = Mode.ACYCLIC,
+    reconnect: bool = False,
+    **extra: Any,
 ) -> contextlib.AbstractAsyncContextManager[Master]:
     """A master on ``--port`` at ``--baud``, to be entered with ``async with``; with
     ``--profile auto`` its profile is the family of the drive at ``ADDRESS``
     (`pyuss.master.identify.auto_master`); a drive that shows no family is then one of unknown
-    kind, as without ``--profile``, and one line on stderr says so."""
+    kind, as without ``--profile``, and one line on stderr says so. ``reconnect``: a lost
+    port is reopened (the long-running commands; the URL's ``reconnect=0|1`` overrides it),
+    else it fails the command (the one-shot commands fail fast)."""
     check_baud(args.baud)
     coarse = system.clock_warning(args.baud)
     if coarse is not None:
@@ -335,13 +341,13 @@ def open_master(
         del options["profile"]
         open_transport(args.port, baud=args.baud)  # a bad URL is bad input before probing
         return auto_master(
-            lambda: open_transport(args.port, baud=args.baud),
+            lambda: open_transport(args.port, baud=args.baud, reconnect=reconnect),
             args.address,
             mode=mode,
             unknown=lambda text: print(f"uss {args.command}: {text}", file=sys.stderr),
             **options,
         )
-    transport = open_transport(args.port, baud=args.baud)
+    transport = open_transport(args.port, baud=args.baud, reconnect=reconnect)
     return Master(transport, mode=mode, **options)
 
 

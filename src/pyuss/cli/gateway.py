@@ -14,16 +14,22 @@ every bus is ``bus://``, `pyuss.loop.uvloop_choice`), and then ``ready``; runs u
 SIGTERM (or ``--duration`` seconds), then says ``offline`` on MQTT, closes the servers and the
 ports.
 
-Exit codes: 0 stopped; 1 a port or broker failed beyond recovery; 2 bad configuration (one
-line naming the key, before any port opens), or a face whose library is missing (the line
-names the pip install to run).
+A lost port or connection is reopened (the first try at once, then after 0.5 s, the wait
+doubling up to 10 s), and the drives come back without a restart; meanwhile the faces show
+the bus and its drives offline. The log says once when the line is lost, once a minute while
+it stays lost and once when it is back. ``?reconnect=0`` in a bus's port URL turns that off:
+then a lost line stops the gateway, one log line saying why, with exit code 1, for a service
+manager to start it again (docs/gateway.md, "Availability").
+
+Exit codes: 0 stopped; 1 a port (with ``reconnect=0``) or broker failed beyond recovery; 2
+bad configuration (one line naming the key, before any port opens), or a face whose library
+is missing (the line names the pip install to run).
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
-import contextlib
 import sys
 from typing import TYPE_CHECKING, Any
 
@@ -35,6 +41,7 @@ if TYPE_CHECKING:
     from pyuss.loop import LoopChoice
 
 EXIT_OK = 0
+EXIT_FAILED = 1
 EXIT_USAGE = 2
 
 
@@ -204,6 +211,7 @@ def _loop(config: Any) -> LoopChoice:
 
 
 async def serve(gateway: Any, duration: float | None, loop_choice: LoopChoice | None = None) -> int:
+    code = EXIT_OK
     with stop_on_signals() as stop:
         await gateway.start()
         try:
@@ -219,9 +227,15 @@ async def serve(gateway: Any, duration: float | None, loop_choice: LoopChoice | 
             if loop_choice is not None:
                 print(f"event loop: {loop_choice}", flush=True)
             print("ready", flush=True)
-            with contextlib.suppress(TimeoutError):
-                async with asyncio.timeout(duration):
-                    await stop.wait()
+            stopped = asyncio.ensure_future(stop.wait())
+            lost = asyncio.ensure_future(gateway.plant.lost())  # the bus's log line says why
+            try:
+                await asyncio.wait({stopped, lost}, timeout=duration, return_when="FIRST_COMPLETED")
+                if lost.done():
+                    code = EXIT_FAILED
+            finally:
+                stopped.cancel()
+                lost.cancel()
         finally:
             await gateway.close()
-    return EXIT_OK
+    return code

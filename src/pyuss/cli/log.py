@@ -17,7 +17,9 @@ full one is renamed NAME-YYYYMMDD-HHMMSS.csv). Ctrl+C or SIGTERM ends the log cl
 (``cannot write FILE: no space left on device``, exit code 1), the rows before kept whole. A
 line too slow for ``--rate`` (9600 baud carries some 25 samples a second) is said on stderr,
 once early and at the end with the rate reached, and in a ``#`` comment row at the end of the
-file. See docs/web.md.
+file. A lost port or connection is reopened (the first try at once, then after 0.5 s, the wait
+doubling up to 10 s; the rows meanwhile say ``no answer``); ``?reconnect=0`` in the port's URL
+turns that off: then a lost port ends the log with exit code 1. See docs/web.md.
 """
 
 from __future__ import annotations
@@ -83,7 +85,7 @@ async def _log(args: argparse.Namespace) -> int:
         raise ConfigError(f"--duration {args.duration}: must be > 0 seconds")
     rotate = parse_size(args.rotate) if args.rotate else None
     quantities = parse_values(args.values)  # bad VALUES: bad input before the port is opened
-    async with _master.open_master(args, mode=CYCLIC) as master:
+    async with _master.open_master(args, mode=CYCLIC, reconnect=True) as master:
         drive = master.drive(args.address)
         logger = DataLogger(drive, quantities, rate=args.rate, job_timeout=args.timeout)
         await logger.prepare()
@@ -94,6 +96,8 @@ async def _log(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
         with stop_on_signals() as stop:
+            # a line lost for good (reconnect=0) ends the log: the master leaves it to us to say
+            master.on_line(lambda _: stop.set() if master.lost is not None else None)
             if not args.json:
                 print(
                     f"logging drive {args.address} to {log.path} at {args.rate:g} Hz: "
@@ -122,8 +126,10 @@ async def _log(args: argparse.Namespace) -> int:
         "rate": args.rate,
         "rate_reached": round(result.reached, 3),
     }
+    if master.lost is not None:
+        print(f"uss log: the line is lost: {master.lost}", file=sys.stderr)
     if args.json:
         print(json.dumps(summary))
     else:
         print(f"{result.rows} rows ({result.no_answer} without answer) in {log.path}")
-    return 0
+    return 0 if master.lost is None else 1

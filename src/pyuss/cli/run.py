@@ -15,6 +15,12 @@ enabled (at most ``--stop-timeout`` seconds); a second Ctrl+C stops it at once w
 reports a fault, gives no answer for ``--timeout`` seconds, does not stop within
 ``--stop-timeout``, or the port fails.
 
+A lost port or connection is reopened (the first try at once, then after 0.5 s, the wait
+doubling up to 10 s); nothing is sent meanwhile. The run goes on only if the line is back
+before ``--timeout`` passes without an answer - a gap in the run the person watches -, else it
+ends as for a drive that does not answer (exit code 1): the drive is not commanded again when
+the line returns. ``?reconnect=0`` in the port's URL makes a lost port end the run at once.
+
 The setpoint goes into PZD2 (4000h = 100 %); on is control word 047Eh, then 047Fh, OFF1 047Eh,
 OFF2 047Ch, jog control bit 8 or 9 while operation is enabled (USS specification C 5.2.1,
 C Tables 5.4 and 5.5), or with ON/OFF1 = 0 where the family's jog switches the drive on.
@@ -275,7 +281,7 @@ def main(args: argparse.Namespace) -> int:
 
 async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[int]) -> int:
     code = EXIT_OK
-    async with open_master(args, mode=CYCLIC) as bus:
+    async with open_master(args, mode=CYCLIC, reconnect=True) as bus:
         drive = bus.drive(args.address)
         if drive.layout.pzd < 2:
             raise ConfigError(

@@ -22,8 +22,12 @@ install 'pyuss[mqtt]'). User, password and TLS come in the URL (mqtts://user:pas
 page"); --mqtt alone takes the broker from the file's [web] mqtt. The scan and the telegram
 monitor need the line itself and are not offered over the broker.
 
-Exit codes: 0 stopped by Ctrl+C or SIGTERM; 1 the port could not be opened or failed;
-2 bad input (arguments, a listen address in use).
+A lost port or connection is reopened (the first try at once, then after 0.5 s, the wait
+doubling up to 10 s) and the page shows the drives offline meanwhile; ``?reconnect=0`` in the
+port's URL turns that off: then a lost port stops the page with exit code 1.
+
+Exit codes: 0 stopped by Ctrl+C or SIGTERM; 1 the port could not be opened or was lost with
+``reconnect=0``; 2 bad input (arguments, a listen address in use).
 """
 
 from __future__ import annotations
@@ -45,6 +49,7 @@ from pyuss.transport.address import parse_host_port
 __all__ = ["parse_listen", "register", "run"]
 
 EXIT_OK = 0
+EXIT_FAILED = 1
 EXIT_USAGE = 2
 
 
@@ -204,7 +209,9 @@ async def _run(backend: Any, server: Any, token: str | None, read_only: bool) ->
             print(f"token: {token} (needed for every request; part of the address above)")
         mode = "read-only, " if read_only else ""
         print(f"{mode}serving {backend.port}; Ctrl+C stops", flush=True)
-        await _wait_for_stop()
+        lost: asyncio.Event | None = getattr(backend, "lost", None)  # (a line's, not a plant's)
+        if await _wait_for_stop(lost):
+            return EXIT_FAILED  # the bus's log line says why
     finally:
         await server.close()
         await backend.close()
@@ -323,6 +330,15 @@ async def _drives(args: argparse.Namespace) -> list[tuple[int, str | None, Layou
     return list({a: (a, p, layout) for a, p, layout in found}.values())
 
 
-async def _wait_for_stop() -> None:
+async def _wait_for_stop(lost: asyncio.Event | None = None) -> bool:
+    """Wait for Ctrl+C or SIGTERM, or ``lost``; whether it was ``lost``."""
     with stop_on_signals() as stop:
-        await stop.wait()
+        waits = {asyncio.ensure_future(stop.wait())}
+        if lost is not None:
+            waits.add(asyncio.ensure_future(lost.wait()))
+        try:
+            await asyncio.wait(waits, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            for wait in waits:
+                wait.cancel()
+        return lost is not None and lost.is_set()

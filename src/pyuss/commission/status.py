@@ -40,13 +40,7 @@ UNKNOWN_KIND_NOTE = (
 def fault_texts(drive: Drive) -> dict[int, str]:
     """Fault numbers the profile knows, with their texts (the family's own list first); none
     for a drive of unknown kind."""
-    texts: dict[int, str] = {}
-    if not drive.profile_named:
-        return texts
-    for name, code in drive.profile.database().faults.items():
-        texts.setdefault(code, name.replace("_", " "))
-    texts.update(drive.profile.faults)
-    return texts
+    return dict(drive.profile.fault_names) if drive.profile_named else {}
 
 
 def warning_texts(drive: Drive) -> dict[int, str]:

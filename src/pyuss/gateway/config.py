@@ -20,6 +20,8 @@ tables, see `pyuss.points.config`) and one table per face::
     discovery = true                 # Home Assistant discovery
     discovery_prefix = "homeassistant"
     read_only = false
+    max_rate = 10                    # state messages per drive and second at most (0: no limit)
+    deadband = 0.0                   # % of the reference an actual value moves to be sent again
 
     [opcua]
     listen = "opc.tcp://127.0.0.1:4840"
@@ -38,6 +40,7 @@ are here).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
@@ -69,6 +72,11 @@ STOP_WAIT = 5.0
 (Modbus, MQTT, OPC UA alike): no write is cut between its parts, none is left unanswered."""
 RECONNECT_MAX = 60.0
 """The longest wait between two tries to reach the MQTT broker (seconds)."""
+MAX_RATE = 10.0
+"""The state messages a drive publishes per second at most, by default (``max_rate``): a
+drive alone on a bus answers some 80 times a second, each answer of a ramping drive a state."""
+MAX_RATE_LIMIT = 1000.0
+"""The greatest ``max_rate`` taken (more than any bus's answers a second)."""
 SECURITY_POLICIES = ("None", "Basic256Sha256_Sign", "Basic256Sha256_SignAndEncrypt")
 ANONYMOUS = ("read", "write", "none")
 
@@ -99,6 +107,13 @@ class MqttOptions:
     keepalive: int = 30
     reconnect: float = 1.0
     """Seconds between attempts to reach the broker again."""
+    max_rate: float = MAX_RATE
+    """State messages per second per drive at most (0: one per change); a change of anything
+    but the actual values (a status bit, a fault, a command's result) is published at once
+    (`pyuss.gateway.topics.StateThrottle`)."""
+    deadband: float = 0.0
+    """Percent of the reference an actual value must move from the value last published
+    before a state is published for it (0: every change)."""
 
     @property
     def tls(self) -> bool:
@@ -210,6 +225,8 @@ def mqtt_options(table: Mapping[str, Any], where: Where, base: Path | None = Non
         "read_only",
         "keepalive",
         "reconnect",
+        "max_rate",
+        "deadband",
     )
     table = where.table(table, known)
     endpoint = _endpoint(table.get("broker", DEFAULT_MQTT), "mqtt", where.key("broker"))
@@ -259,7 +276,18 @@ def mqtt_options(table: Mapping[str, Any], where: Where, base: Path | None = Non
         read_only=where.key("read_only").flag(table.get("read_only", False)),
         keepalive=keepalive,
         reconnect=reconnect,
+        max_rate=_number(table.get("max_rate", MAX_RATE), where.key("max_rate"), MAX_RATE_LIMIT),
+        deadband=_number(table.get("deadband", 0.0), where.key("deadband"), 100.0),
     )
+
+
+def _number(value: object, where: Where, most: float) -> float:
+    """A number from 0 to ``most``; else the error naming the key."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise where.error(f"expected a number, not {value!r}")
+    if not 0 <= value <= most:
+        raise where.error(f"{value!r} is not 0..{most:g}")
+    return float(value)
 
 
 def opcua_options(table: Mapping[str, Any], where: Where, base: Path | None = None) -> OpcuaOptions:

@@ -15,13 +15,19 @@ this module is the client around them:
   every message is parsed within bounds (`pyuss.gateway.topics.MAX_PAYLOAD` and the rest).
   Such a message gets an error reply and one log line; nothing a message holds ends the
   message loop or a drive's task.
-- After every (re)connection it subscribes again, publishes ``online``, the gateway message
-  (`pyuss.gateway.announce`: its version, read-only or not, keep-alive, drives), the discovery
-  messages, every drive's state and availability, and the replies it could not send. An
-  unreachable broker is tried again after 1 s, then twice as long each time up to
+- After every (re)connection it subscribes again, publishes the gateway message
+  (`pyuss.gateway.announce`: its version, read-only or not, keep-alive, drives), every
+  drive's state and availability of now, then ``online`` (so that no reader takes a state
+  retained from before for a current one once the bus is online); then each drive's task
+  publishes its parameters and discovery messages, and beside the message loop the face
+  clears (an empty retained message) each discovery topic of its drives it found retained and
+  no longer publishes (`MqttBusFace._clear_discovery`) and sends the replies it could not
+  send. An unreachable broker is tried again after 1 s, then twice as long each time up to
   `RECONNECT_MAX`; losing it and getting it back are one log line each.
-- States go out retained whenever a drive's state changes (at most once per bus cycle per
-  drive, the newest one), parameters when they were read. A state (QoS 0) is handed to the
+- States go out retained whenever a drive's state changes, through the drive's
+  `pyuss.gateway.topics.StateThrottle`: at once when anything but the actual values changed,
+  else at most ``max_rate`` a second (the newest one) and only for a move of ``deadband`` or
+  more; parameters when they were read. A state (QoS 0) is handed to the
   socket in the turn of the loop that made it, without aiomqtt's wait for it to be written
   (`MqttBusFace._publish_now`): that wait cost more CPU than the rest of the face. Once paho
   has taken a topic, the face writes the next QoS 0 messages to it itself, the packet's head
@@ -78,8 +84,10 @@ from pyuss.gateway.topics import (
     CommandError,
     DriveTopics,
     StatePayloads,
+    StateThrottle,
     check_reply_to,
     discovery,
+    discovery_node,
     number,
     param_payload,
     parse_command,
@@ -90,6 +98,7 @@ from pyuss.gateway.topics import (
     state_payload,
     subscriptions,
     switch_value,
+    under,
 )
 from pyuss.points.errors import ReadOnly, UnknownPoint, error_dict
 from pyuss.points.plant import BusPoints, DrivePoints, Plant
@@ -185,10 +194,14 @@ _Due = tuple[str | None, list[tuple[str, ParamValue]], tuple[object, object] | N
 class _DriveWorker:
     """Publishes one drive's states and carries out its commands in order.
 
-    A new state that changes nothing but the state message - most of them, while a drive
-    runs - is written at once from the drive model's callback (`on_state`), no task woken;
-    the rest (availability, a parameter, discovery; a state while not connected or while
-    the task publishes) is left to the task (`states`), which publishes the newest."""
+    Each new state goes through the drive's `StateThrottle` (``max_rate``, ``deadband`` of
+    `MqttOptions`): published at once when a status bit, a fault, what was sent, a parameter
+    or the availability changed; when only actual values changed, at most ``max_rate`` a
+    second, the newest one held until its time comes (`on_state`, `_release`). A state to
+    publish that changes nothing but the state message - most of them, while a drive runs -
+    is written at once from the drive model's callback (`send`), no task woken; the rest
+    (availability, a parameter, discovery; a state while not connected or while the task
+    publishes) is left to the task (`states`), which publishes the newest."""
 
     def __init__(self, face: MqttBusFace, drive: DrivePoints) -> None:
         self.face = face
@@ -205,9 +218,48 @@ class _DriveWorker:
         """The newest state the task is to publish (`on_state`)."""
         self.wake = asyncio.Event()
         self.publishing = False
+        options = face.options
+        self.throttle = StateThrottle(
+            1.0 / options.max_rate if options.max_rate else 0.0, options.deadband
+        )
+        self.held: DriveState | None = None
+        """The newest state the throttle holds back until `timer` publishes it."""
+        self.timer: asyncio.TimerHandle | None = None
+        self.connect_state: DriveState | None = None
+        """The state published at the connection (`MqttBusFace._connected`)."""
 
     def on_state(self, state: DriveState) -> None:
         """The drive model's subscriber (see the class docstring)."""
+        loop = asyncio.get_running_loop()
+        now = loop.time()
+        wait = self.throttle.offer(state, now)
+        if wait is None:  # no newer than what was published: nothing to publish
+            self.drop_held()
+        elif wait > 0:
+            self.held = state
+            if self.timer is None:
+                self.timer = loop.call_at(now + wait, self._release)
+        else:
+            self.drop_held()
+            self.send(state, now)
+
+    def drop_held(self) -> None:
+        """Forget the state held back, and its timer."""
+        self.held = None
+        if self.timer is not None:
+            self.timer.cancel()
+            self.timer = None
+
+    def _release(self) -> None:
+        """The held state's time has come."""
+        self.timer = None
+        state, self.held = self.held, None
+        if state is not None:
+            self.send(state, asyncio.get_running_loop().time())
+
+    def send(self, state: DriveState, now: float) -> None:
+        """Publish ``state`` now (see the class docstring)."""
+        self.throttle.sent(state, now)
         if (
             self.publishing
             or self.wake.is_set()
@@ -236,8 +288,11 @@ class _DriveWorker:
         return availability, parameters, signature
 
     async def publish_state(self, state: DriveState) -> None:
+        """``state`` and what it needs published beside (`_due`); its message only if it is
+        not the one published at the connection already (`MqttBusFace._connected`)."""
         face = self.face
-        await face.publish(self.topics.state, self.payloads.payload(state), qos=0, retain=True)
+        if state is not self.connect_state:
+            await face.publish(self.topics.state, self.payloads.payload(state), qos=0, retain=True)
         due = self._due(state)
         if due is None:
             return
@@ -252,17 +307,27 @@ class _DriveWorker:
         if signature is not None and await self.publish_discovery(state):
             self.discovery_key = signature
 
-    async def publish_discovery(self, state: DriveState) -> bool:
-        ok = True
-        for topic, config in discovery(
+    def discovery(self, state: DriveState) -> list[tuple[str, dict[str, Any]]]:
+        """The drive's discovery messages (`pyuss.gateway.topics.discovery`)."""
+        options = self.face.options
+        return discovery(
             self.drive.model,
             state,
-            prefix=self.face.options.prefix,
-            discovery_prefix=self.face.options.discovery_prefix,
-            read_only=self.face.options.read_only,
-        ):
-            ok = await self.face.publish(topic, json.dumps(config), qos=1, retain=True) and ok
-        return ok
+            prefix=options.prefix,
+            discovery_prefix=options.discovery_prefix,
+            read_only=options.read_only,
+        )
+
+    async def publish_discovery(self, state: DriveState) -> bool:
+        """Publish the drive's discovery messages, all at once (one round trip to the broker,
+        not one per entity)."""
+        sent = await asyncio.gather(
+            *(
+                self.face.publish(topic, json.dumps(config), qos=1, retain=True)
+                for topic, config in self.discovery(state)
+            )
+        )
+        return all(sent)
 
     async def states(self) -> None:
         while True:
@@ -345,6 +410,15 @@ class _DriveWorker:
             "control_word": state.control_word,
             "setpoint": state_dict(state)["setpoint"],
         }
+
+
+@dataclasses.dataclass(frozen=True, slots=True)
+class _Connected:
+    """What `MqttBusFace._connected` leaves to `MqttBusFace._publish_rest`: each drive's state
+    published at the connection, the retained discovery messages found of its drives."""
+
+    states: list[tuple[_DriveWorker, DriveState]]
+    discovery: list[aiomqtt.Message]
 
 
 class MqttBusFace:
@@ -571,19 +645,35 @@ class MqttBusFace:
             f"this broker under the prefix {self.options.prefix!r}"
         )
 
-    async def _connected(self, client: aiomqtt.Client) -> None:
+    async def _connected(self, client: aiomqtt.Client) -> _Connected:
         self._client = client
         send_at_once(client)
         # the gateway topic first: its retained message is in before the other subscriptions
         # are granted, so another gateway is found before this one publishes anything
         watch = SubscribeOptions(qos=1, noLocal=False, retainAsPublished=True)
-        for topic, options in (
-            (self.gateway_topic, watch),
-            *((t, SUBSCRIBE) for t in subscriptions(self.options.prefix, self.bus.name)),
-        ):
-            granted = await client.subscribe(topic, options=options)
-            if any(_failed(code) for code in granted):
+        granted = await client.subscribe(self.gateway_topic, options=watch)
+        if any(_failed(code) for code in granted):
+            raise aiomqtt.MqttError(f"the broker refused the subscription to {self.gateway_topic}")
+        # in one request: the commands, and the discovery topics of this gateway's drives
+        # (their retained messages, to clear those no longer published: `_clear_discovery`)
+        commands = subscriptions(self.options.prefix, self.bus.name)
+        nodes = self._discovery_filters()
+        codes: list[int | ReasonCode] = list(
+            await client.subscribe(
+                [(topic, SUBSCRIBE) for topic in commands] + [(topic, watch) for topic in nodes]
+            )
+        )
+        for topic, code in zip(commands, codes, strict=False):
+            if _failed(code):
                 raise aiomqtt.MqttError(f"the broker refused the subscription to {topic}")
+        if any(_failed(code) for code in codes[len(commands) :]):
+            log.warning(
+                "%s: the broker refused the subscription to the discovery topics: the "
+                "entities of parameters or commands no longer published are not removed",
+                self.bus.name,
+            )
+            nodes = []
+        # the gateway topic's retained message is in: granted after it
         early = _queued(client)
         gateways = [m for m in early if m.topic.value == self.gateway_topic]
         if not self.instance:  # the first connection: one generation after the newest found
@@ -592,9 +682,9 @@ class MqttBusFace:
             self.instance = f"{generation:020d}-{secrets.token_hex(4)}"
         for message in gateways:
             self._other_gateway(message)
-        # the rest for `_consume`, the gateway messages found here having been looked at
-        self._early = [m for m in early if m.topic.value != self.gateway_topic]
-        await client.publish(self.availability, "online", qos=1, retain=True)
+        # the gateway message (its drives: a reader knows them before their messages come),
+        # then each drive's state and availability of now, and only then the bus online: a
+        # state retained from an earlier run (a crash, a power cut) is never current
         properties = Properties(PacketTypes.PUBLISH)  # type: ignore[no-untyped-call]
         properties.UserProperty = [(INSTANCE, self.instance)]
         await client.publish(
@@ -609,16 +699,81 @@ class MqttBusFace:
             retain=True,
             properties=properties,
         )
-        self.connected.set()
-        self.connections += 1
+        if nodes:  # the retained discovery messages are in once this is granted
+            await client.unsubscribe(nodes)
+            early += _queued(client)
+        retained = [m for m in early if under(m.topic.value, self.options.discovery_prefix)]
+        # the rest for `_consume`, the gateway messages found here having been looked at
+        self._early = [
+            m for m in early if m.topic.value != self.gateway_topic and m not in retained
+        ]
+        now = asyncio.get_running_loop().time()
+        states: list[tuple[_DriveWorker, DriveState]] = []
+        sends = []
         for worker in self.workers.values():
+            state = worker.drive.snapshot()
+            worker.drop_held()
+            worker.connect_state = state
+            worker.throttle.sent(state, now)
             worker.published.clear()
             worker.discovery_key = None
-            await worker.publish_state(worker.drive.snapshot())
+            online = "online" if state.online else "offline"
+            payload = worker.payloads.payload(state)
+            sends.append(client.publish(worker.topics.state, payload, qos=1, retain=True))
+            sends.append(client.publish(worker.topics.availability, online, qos=1, retain=True))
+            worker.published["availability"] = online
+            states.append((worker, state))
+        await asyncio.gather(*sends)
+        await client.publish(self.availability, "online", qos=1, retain=True)
+        self.connected.set()
+        self.connections += 1
+        for worker, state in states:
+            # its parameters and discovery, by its task: the one that publishes what a state
+            # needs beside its message, in the order of the states (one that came while
+            # connecting and is newer keeps its place)
+            pending = worker.latest
+            if pending is None or pending.time < state.time:
+                worker.latest = state
+            worker.wake.set()
+        return _Connected(states, retained)
+
+    async def _publish_rest(self, client: aiomqtt.Client, connected: _Connected) -> None:
+        """What a connection publishes once the bus is online, beside the message loop (a
+        connection lost meanwhile is found by it at once): the discovery messages no longer
+        published cleared, the replies that could not be sent."""
+        await self._clear_discovery(connected)
         while self._outbox:
             topic, payload = self._outbox[0]
             await client.publish(topic, payload, qos=1)
             self._outbox.popleft()
+
+    def _discovery_filters(self) -> list[str]:
+        """The discovery topics of this gateway's drives' devices; none where discovery is off
+        (the broker may not let this gateway near Home Assistant's topics)."""
+        if not self.options.discovery:
+            return []
+        return [
+            f"{self.options.discovery_prefix}/+/{discovery_node(worker.drive.model)}/+/config"
+            for worker in self.workers.values()
+        ]
+
+    async def _clear_discovery(self, connected: _Connected) -> None:
+        """Clear (an empty retained message: Home Assistant removes the entity) the
+        discovery messages found of this gateway's drives that it no longer publishes: a
+        parameter taken out of the configuration, the commands of a face now read-only.
+        Only messages of this gateway: those whose entities are available through this
+        bus's availability topic."""
+        published = {
+            topic
+            for worker, state in connected.states
+            for topic, _config in worker.discovery(state)
+        }
+        for message in connected.discovery:
+            topic = message.topic.value
+            if topic in published or not _of_bus(message.payload, self.availability):
+                continue
+            if await self.publish(topic, b"", qos=1, retain=True):
+                log.info("%s: removed the discovery message %s", self.bus.name, topic)
 
     async def _consume(self, client: aiomqtt.Client) -> None:
         early, self._early = self._early, []
@@ -631,6 +786,8 @@ class MqttBusFace:
         if message.topic.value == self.gateway_topic:
             self._other_gateway(message)  # `TakenOver` ends the session
             return
+        if under(message.topic.value, self.options.discovery_prefix):
+            return  # a discovery message come after `_connected`: no command
         try:
             payload = message.payload
             data = payload if isinstance(payload, bytes) else str(payload).encode()
@@ -649,9 +806,12 @@ class MqttBusFace:
         """One connection, from connecting until it is lost (`aiomqtt.MqttError`) or `close`."""
         client = self._make_client()  # a fresh client per connection
         consume: asyncio.Task[None] | None = None
+        rest: asyncio.Task[None] | None = None
         try:
             async with client:
-                await self._connected(client)
+                connected = await self._connected(client)
+                rest = asyncio.create_task(self._publish_rest(client, connected))
+                rest.add_done_callback(_retrieve)
                 if self._lost:
                     log.warning(
                         "%s: MQTT broker %s is back (after %d tries)",
@@ -678,8 +838,9 @@ class MqttBusFace:
         finally:
             self.connected.clear()
             self._client = None
-            if consume is not None and not consume.done():
-                consume.cancel()
+            for task in (consume, rest):
+                if task is not None and not task.done():
+                    task.cancel()
             if not self._closing:
                 # its sender saw offline (the last will) and may have done otherwise since:
                 # a command that waited must not act while, or after, the gateway was away
@@ -765,6 +926,8 @@ class MqttBusFace:
         for remove in self._removers:
             remove()
         self._removers.clear()
+        for worker in self.workers.values():
+            worker.drop_held()
         for task in self._tasks:
             task.cancel()
         if self._tasks:
@@ -878,6 +1041,19 @@ def _retrieve(task: asyncio.Task[None]) -> None:
 def _failed(code: int | ReasonCode) -> bool:
     """A subscription the broker did not grant (MQTT 5 reason code 80h and above)."""
     return (code.value if isinstance(code, ReasonCode) else code) >= 0x80
+
+
+def _of_bus(payload: object, availability: str) -> bool:
+    """A discovery message of an entity available through the bus availability topic
+    ``availability``: one of that bus's gateway."""
+    if not isinstance(payload, bytes | str) or not payload:
+        return False
+    try:
+        config = json.loads(payload)
+    except ValueError:
+        return False
+    entries = config.get("availability") if isinstance(config, dict) else None
+    return isinstance(entries, list) and {"topic": availability} in entries
 
 
 def _drive_of(topic: str, prefix: str, bus: str) -> str | None:

@@ -18,6 +18,8 @@ configured names)::
           SetpointPercent/<key> Double, writable  ...DRIVE.SetpointPercent.main
           Parameters/<P107>  Double, unit         ...DRIVE.Parameters.P107 (writable if the
                                                   parameter is; a read value, NaN until read)
+          Health/Online      Boolean              ...DRIVE.Health.Online (the drive
+                                                  answers and its bus is online)
           Health/NotSending  Boolean              ...DRIVE.Health.NotSending
           Health/Counters    UInt16[16]           the diagnostic parameters of A 5.2.3
           Health/Answers, Timeouts  UInt32
@@ -39,8 +41,10 @@ a parameter's limits from the parameter file, else what its word(s) can carry.
 
 Variables change when the drive's state changes (`pyuss.points.plant`), so subscriptions get
 changes at the bus cycle. The values of the drive's answers carry BadWaitingForInitialData
-before its first answer and UncertainLastUsableValue while it does not send
-(`pyuss.gateway.uanodes.value_status`), with the time of the answer as SourceTimestamp.
+before its first answer, BadNoCommunication while it is offline (its bus's offline rule, or
+the bus offline) and UncertainLastUsableValue while it is online but its latest answer was
+missed (`pyuss.gateway.uanodes.value_status`), with the time of the answer as
+SourceTimestamp.
 Writes to ControlWord and Setpoint return once the telegram carrying them was answered;
 writes to parameters and WriteParameter once the job was answered; a refusal is the status
 code of `STATUS_CODES`, with the drive's number in Health/LastErrorNumber.
@@ -573,8 +577,8 @@ class _DriveNodes:
         self.statuses: dict[str, str | None] = {}
         """The StatusCode each variable was last written with (`value_status`; None: Good,
         as every variable starts)."""
-        self.quality: tuple[bool, bool] | None = None
-        """Whether the drive had answered and whether it did not send, at the last write."""
+        self.quality: tuple[bool, bool, bool] | None = None
+        """Whether the drive had answered, was online and stale, at the last write."""
         self.sources: list[object] = []
         """What each of `value_parts` was last made from."""
         self.reference: float | None = None
@@ -755,6 +759,7 @@ class _DriveNodes:
                 writer=param_writer(meta.pnu, meta.index) if meta.writable else None,
             )
         health = await folder("Health")
+        await var(health, "Online", ".Health.Online", False, ua.VariantType.Boolean)
         await var(health, "NotSending", ".Health.NotSending", False, ua.VariantType.Boolean)
         await var(health, "Counters", ".Health.Counters", [0] * 16, ua.VariantType.UInt16)
         await var(health, "Answers", ".Health.Answers", 0, ua.VariantType.UInt32)
@@ -862,7 +867,7 @@ class _DriveNodes:
         is returned counts as written."""
         writes = []
         nodes, last, sources, statuses = self.nodes, self.last, self.sources, self.statuses
-        quality = (state.answered, state.health.not_sending)
+        quality = (state.answered, state.online, state.stale)
         same_quality = quality == self.quality
         self.quality = quality
         parts = value_parts(state)

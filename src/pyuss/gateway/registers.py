@@ -12,8 +12,12 @@ Input registers (function 4), what the drive reports::
     0        status word (PZD1 of the latest answer)
     1        drive state: 0 no answer yet, 1 not ready to switch on, 2 switch-on inhibited,
              3 ready to switch on, 4 ready, 5 operation enabled, 6 fault, 7 OFF2, 8 OFF3
-    2        health bits: 0 does not send (A 5.2.1.1), 1 no answer yet, 2 fault (status bit
-             3), 3 warning (status bit 7), 4 the reference is known
+    2        health bits: 0 offline (no answer yet, as many answers missed in a row or as
+             long without one as the bus's offline_after_* say, or the bus offline: the
+             values are not live), 1 no answer yet, 2 fault (status bit 3), 3 warning
+             (status bit 7), 4 the reference is known, 5 stale (online, but the latest
+             answer missed: the values are the last answer's), 6 the bus is offline (no
+             master exchanges on its line: the port lost and being reopened)
     3        error status word of A 5.2.3
     4        last fault number (read from the profile's fault parameter when the fault bit
              rose; 0 none)
@@ -278,8 +282,9 @@ class _Mailbox:
 
 
 def _bits(state: DriveState) -> int:
+    """Input register 2 (see the module docstring)."""
     bits = 0
-    if state.health.not_sending:
+    if not state.online:
         bits |= 1
     if not state.answered:
         bits |= 2
@@ -289,6 +294,10 @@ def _bits(state: DriveState) -> int:
         bits |= 8
     if state.reference is not None or state.model.unit == "%":
         bits |= 16
+    if state.stale:
+        bits |= 32
+    if not state.bus_online:
+        bits |= 64
     return bits
 
 

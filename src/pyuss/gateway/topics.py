@@ -34,33 +34,46 @@ it (`VERSIONS`, `UnsupportedVersion`). A JSON command holds only the fields of i
 the command's id (`CommandError`).
 
 States, parameters and results carry values rounded to their resolution (`state_dict`,
-`reading_dict`).
+`reading_dict`); a state holds every configured process value, its numbers null until the
+drive answered. `StateThrottle` says when a state is due (``max_rate``, ``deadband``).
 
-Home Assistant discovery (`discovery`): per drive one device with sensors for the state text,
-the status word, every actual value and configured parameter (with unit and, where the unit
-has one, the device class), binary sensors for fault, warning and operation enabled, a number
-for the main setpoint, a switch for ON/OFF1 and buttons for acknowledge, OFF2 and OFF3; all
-available while the gateway and the drive are; each names its entity id as
-``default_entity_id`` (``sensor.pyuss_line1_conveyor_state``) and its display precision.
+Home Assistant discovery (`discovery`): per drive one device, its maker and model from the
+profile, with sensors for the state text, every actual value and configured parameter (named
+as the family's manual names it, with unit, display precision and, where the unit has one,
+the device class: an energy counter counts up), the last fault number with its text, binary
+sensors for fault, warning and operation enabled and one per other named bit of the family's
+status word, a number for the main setpoint (the range the gateway takes), a switch for
+ON/OFF1 and buttons for acknowledge, OFF2 and OFF3; all available while the gateway and the
+drive are; each names its entity id as ``default_entity_id``
+(``sensor.pyuss_line1_conveyor_state``). Every template renders with every state message:
+what is not known renders ``None``, Home Assistant's "unknown".
 """
 
 from __future__ import annotations
 
-import functools
 import json
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from pyuss import __version__
 from pyuss.errors import ConfigError
-from pyuss.points.config import ProcessConfig, parse_parameter_spec
+from pyuss.points.config import parse_parameter_spec
 from pyuss.points.model import DriveModel
 from pyuss.points.parameters import ParamMeta
-from pyuss.points.state import COUNTER_FIELDS, DriveState, Health, ParamValue, iso
-from pyuss.profiles import UNKNOWN_KIND
-from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32
+from pyuss.points.state import (
+    COUNTER_FIELDS,
+    DriveState,
+    Health,
+    ParamValue,
+    decimals,
+    iso,
+    process_decimals,
+    setpoint_span,
+)
+from pyuss.profiles import UNKNOWN_KIND, get_profile
+from pyuss.protocol.pzd import STATUS_BITS
 from pyuss.userfile import NotJson, parse_message
 
 __all__ = [
@@ -72,10 +85,13 @@ __all__ = [
     "CommandError",
     "DriveTopics",
     "StatePayloads",
+    "StateThrottle",
     "UnknownField",
     "UnsupportedVersion",
     "check_reply_to",
+    "decimals",
     "discovery",
+    "discovery_node",
     "parse_command",
     "reply_payload",
     "state_dict",
@@ -138,8 +154,16 @@ DEVICE_CLASSES: dict[str, str] = {
     "ms": "duration",
     "min": "duration",
     "h": "duration",
+    "Wh": "energy",
+    "kWh": "energy",
+    "MWh": "energy",
 }
 """Home Assistant sensor device class for a unit (units without one get none)."""
+
+STATE_CLASSES: dict[str, str] = {"energy": "total_increasing"}
+"""Home Assistant state class of a sensor by its device class, where it is not
+``measurement``: an energy counter (r0039 kWh) only grows, or starts again from 0 when reset
+(Home Assistant takes a fall for a new cycle)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -398,7 +422,8 @@ def switch_value(value: Any) -> bool:
     raise ConfigError(f"run: expected ON or OFF, not {show(value)}")
 
 
-def _under(topic: str, prefix: str) -> bool:
+def under(topic: str, prefix: str) -> bool:
+    """``topic`` is ``prefix`` or a topic below it."""
     return topic == prefix or topic.startswith(f"{prefix}/")
 
 
@@ -414,12 +439,12 @@ def check_reply_to(topic: str, topics: DriveTopics, discovery_prefix: str) -> No
     levels = topic.split("/")
     if topic.startswith("$"):
         raise ConfigError(f"reply_to {show(topic)}: $ topics belong to the broker")
-    if _under(topic, topics.prefix) and not _under(topic, topics.reply):
+    if under(topic, topics.prefix) and not under(topic, topics.reply):
         raise ConfigError(
             f"reply_to {show(topic)} is under the gateway's prefix {topics.prefix!r}: "
             f"replies go to {topics.reply} or a topic below it"
         )
-    if _under(topic, discovery_prefix):
+    if under(topic, discovery_prefix):
         raise ConfigError(f"reply_to {show(topic)} is under the discovery prefix")
     if (
         levels[-1] == "set"
@@ -429,31 +454,24 @@ def check_reply_to(topic: str, topics: DriveTopics, discovery_prefix: str) -> No
         raise ConfigError(f"reply_to {show(topic)} has the shape of a command topic")
 
 
-@functools.lru_cache(maxsize=256)
-def decimals(step: float) -> int:
-    """The decimals a value that moves in steps of ``step`` is shown with: the first decimal
-    place at or above the step (steps of 0.003 Hz: 2)."""
-    if not math.isfinite(step) or step <= 0:
-        return 6
-    return max(0, math.floor(-math.log10(step) + 1e-9))
-
-
-def process_decimals(item: ProcessConfig, unit: str, reference: float | None) -> tuple[int, int]:
-    """(decimals of the value in its unit, decimals of the percent) of a process value: one
-    raw step is 100 % / 4000h (16 bits) or / 4000 0000h (32 bits) of the reference."""
-    step = 100.0 / (FULL_SCALE_32 if item.dword else FULL_SCALE_16)
-    value_step = step if reference is None or unit == "%" else step * abs(reference) / 100.0
-    return decimals(value_step), decimals(step)
+def param_places(meta: ParamMeta) -> int | None:
+    """The decimals of a parameter's resolution: those of its scaling, those its parameter
+    file gives a float (`decimals`), 0 for an integer; None: a float whose file names none,
+    shown to the 7 significant digits of a 32-bit float."""
+    if meta.scaling is not None and not meta.is_float:
+        return decimals(abs(meta.scaling))
+    if meta.is_float:
+        return meta.decimals or None
+    return 0
 
 
 def param_value(meta: ParamMeta, value: int | float | None) -> int | float | None:
-    """A parameter's value rounded to its resolution: the decimals of its scaling, or the
-    7 significant digits of a 32-bit float; integers as they are."""
+    """A parameter's value rounded to its resolution (`param_places`); integers as they
+    are."""
     if not isinstance(value, float) or not math.isfinite(value):
         return value
-    if meta.scaling is not None and not meta.is_float:
-        return round(value, decimals(abs(meta.scaling)))
-    return float(f"{value:.7g}")
+    places = param_places(meta)
+    return float(f"{value:.7g}") if places is None else round(value, places)
 
 
 def reading_dict(reading: ParamValue) -> dict[str, Any]:
@@ -475,20 +493,30 @@ def state_dict(state: DriveState) -> dict[str, Any]:
 
 
 def _process_dict(state: DriveState, group: str) -> dict[str, Any]:
-    """The ``actual`` or ``setpoint`` part of `state_dict`."""
+    """The ``actual`` or ``setpoint`` part of `state_dict`: every configured process value,
+    with ``value``, ``percent`` and ``raw`` null while it is not known (no answer yet)."""
     model = state.model
     values, items = (
         (state.actual, model.actual) if group == "actual" else (state.setpoints, model.setpoints)
     )
-    data = {key: value.to_dict() for key, value in values.items()}
+    data: dict[str, Any] = {}
     for item in items:
-        entry = data.get(item.key)
-        if entry is None:
+        value = values.get(item.key)
+        if value is None:
+            data[item.key] = {
+                "value": None,
+                "unit": model.unit,
+                "percent": None,
+                "raw": None,
+                "pzd": item.pzd,
+            }
             continue
-        places, percent_places = process_decimals(item, model.unit, state.reference)
+        entry = value.to_dict()
+        places, percent_places = process_decimals(item.dword, model.unit, state.reference)
         if entry["value"] is not None:
             entry["value"] = round(entry["value"], places)
         entry["percent"] = round(entry["percent"], percent_places)
+        data[item.key] = entry
     return data
 
 
@@ -620,6 +648,51 @@ _STATUS_KEYS = (
 )
 
 
+class StateThrottle:
+    """When a drive's new state is to be published (`offer`): at once if anything but its
+    actual values changed since the last one published (a status bit, a fault, what was
+    sent, a parameter, its availability: `DriveState.events`); if only actual values
+    changed, once one of them moved ``deadband`` percent of the reference or more from the
+    value last published, and not sooner than ``interval`` seconds after the last state
+    published - the newest one then, so that the last state of a ramp is always published.
+    ``interval`` 0: no wait; ``deadband`` 0: every change counts."""
+
+    def __init__(self, interval: float = 0.0, deadband: float = 0.0) -> None:
+        self.interval = interval
+        self.deadband = deadband
+        self._last: DriveState | None = None
+        self._events: tuple[object, ...] = ()
+        self._time = 0.0
+
+    def offer(self, state: DriveState, now: float) -> float | None:
+        """Seconds to wait before ``state`` is published (0: now); None: not to be published
+        (its actual values are within the deadband of those published, nothing else
+        changed): a state held back earlier is dropped then too, being no newer than the
+        one published."""
+        last = self._last
+        if last is None or state.events() != self._events:
+            return 0.0
+        if not self._moved(state, last):
+            return None
+        return max(0.0, self._time + self.interval - now)
+
+    def sent(self, state: DriveState, now: float) -> None:
+        """``state`` was published at ``now``."""
+        self._last = state
+        self._events = state.events()
+        self._time = now
+
+    def _moved(self, state: DriveState, last: DriveState) -> bool:
+        if state.actual.keys() != last.actual.keys():
+            return True
+        band = self.deadband
+        for key, value in state.actual.items():
+            before = last.actual[key].percent
+            if value.percent != before and abs(value.percent - before) >= band:
+                return True
+        return False
+
+
 def param_payload(reading: ParamValue) -> bytes:
     """The message of a parameter as last read (schema ``param.json``)."""
     data = {"v": CONTRACT_VERSION, **reading_dict(reading)}
@@ -654,6 +727,76 @@ def _slug(text: str) -> str:
     return "".join(c if c.isalnum() or c in "_-" else "_" for c in text)
 
 
+def discovery_node(model: DriveModel) -> str:
+    """The node id of a drive in Home Assistant's discovery topics: ``pyuss_BUS_DRIVE``."""
+    return _slug(f"pyuss_{model.bus}_{model.name}")
+
+
+def _item(group: str, key: str, field: str) -> str:
+    """The Jinja expression of a field of a configured process value (``value_json.actual
+    ['main'].value``): the key in brackets, since a key may hold ``-`` or read like a
+    method of the object (``items``)."""
+    return f"value_json.{group}[{json.dumps(key)}].{field}"
+
+
+def _bit_template(bit: int, active_low: bool = False) -> str:
+    """``ON`` or ``OFF`` for status bit ``bit`` (``active_low``: ON while it is 0), ``None``
+    (Home Assistant: unknown) before the drive's first answer."""
+    on, off = ("'OFF'", "'ON'") if active_low else ("'ON'", "'OFF'")
+    return (
+        "{{ 'None' if value_json.status_word is none else "
+        f"({on} if value_json.status_word | bitwise_and({1 << bit}) else {off}) }}}}"
+    )
+
+
+_LOW_ACTIVE = " (0 = active)"
+"""How a family's status bit text marks a bit that is active while 0 (`Profile.status_bits`)."""
+
+OWN_BITS: dict[int, tuple[str, str, str]] = {
+    3: ("fault", "Fault", "problem"),
+    7: ("warning", "Warning", "problem"),
+    2: ("operation_enabled", "Running", "running"),
+}
+"""The status bits with binary sensors of their own: bit -> (object id, name, device class);
+the other named bits are diagnostic binary sensors ``bitN``."""
+
+
+def status_bit_names(profile: str | None) -> dict[int, tuple[str, bool]]:
+    """The named status bits of a drive's family: bit -> (what it shows when active, whether
+    it is active while 0): the family's texts (`Profile.status_bits`), else the USS
+    specification's meanings of bits 0..10 (C Tables 5.5, 5.6); device-specific bits without
+    a text have none."""
+    family = get_profile(profile).status_bits if profile is not None else {}
+    if not family:
+        return {bit: (texts[0], False) for bit, texts in STATUS_BITS.items()}
+    return {
+        bit: (text.removesuffix(_LOW_ACTIVE), text.endswith(_LOW_ACTIVE))
+        for bit, text in family.items()
+    }
+
+
+def _jinja_texts(texts: Mapping[int, str]) -> str:
+    """A Jinja dict literal of numbered texts (``{1: "overcurrent", ...}``)."""
+    return "{" + ", ".join(f"{number}: {json.dumps(text)}" for number, text in texts.items()) + "}"
+
+
+def _device(model: DriveModel) -> dict[str, Any]:
+    """The Home Assistant device of a drive: maker and model from its profile."""
+    device: dict[str, Any] = {
+        "identifiers": [discovery_node(model)],
+        "name": f"{model.name} ({model.bus})",
+    }
+    if model.profile is None:
+        device["model"] = "USS drive of unknown kind (no profile named)"
+        return device
+    profile = get_profile(model.profile)
+    if profile.manufacturer:
+        device["manufacturer"] = profile.manufacturer
+    device["model"] = profile.title
+    device["model_id"] = profile.name
+    return device
+
+
 def discovery(
     model: DriveModel,
     state: DriveState,
@@ -663,15 +806,11 @@ def discovery(
     read_only: bool = False,
 ) -> list[tuple[str, dict[str, Any]]]:
     """The Home Assistant discovery messages of one drive: ``(topic, config)`` pairs, to be
-    published retained."""
+    published retained. Every template renders with every state message: the keys it names
+    are always there, ``null`` (Home Assistant: unknown) where nothing is known yet."""
     topics = DriveTopics(prefix, model.bus, model.name)
-    node = _slug(f"pyuss_{model.bus}_{model.name}")
-    device = {
-        "identifiers": [node],
-        "name": f"{model.name} ({model.bus})",
-        "manufacturer": "USS drive",
-        "model": f"profile {model.profile or '(unknown kind)'}, address {model.address}",
-    }
+    node = discovery_node(model)
+    device = _device(model)
     origin = {"name": "pyuss", "sw_version": __version__}
     availability = [{"topic": topics.bus_availability}, {"topic": topics.availability}]
     messages: list[tuple[str, dict[str, Any]]] = []
@@ -694,25 +833,22 @@ def discovery(
         "sensor",
         "state",
         "State",
-        {"state_topic": topics.state, "value_template": "{{ value_json.state }}"},
-    )
-    add(
-        "sensor",
-        "status_word",
-        "Status word",
         {
             "state_topic": topics.state,
-            "value_template": "{{ value_json.status_word }}",
-            "entity_category": "diagnostic",
+            "value_template": "{{ value_json.state }}",
+            "json_attributes_topic": topics.state,
+            "json_attributes_template": (
+                '{{ {"status_word": value_json.status_hex, "time": value_json.time} | tojson }}'
+            ),
         },
     )
     for item in model.actual:
-        unit = state.model.unit
+        unit = model.unit
         config: dict[str, Any] = {
             "state_topic": topics.state,
-            "value_template": f"{{{{ value_json.actual.{item.key}.value }}}}",
+            "value_template": f"{{{{ {_item('actual', item.key, 'value')} }}}}",
             "state_class": "measurement",
-            "suggested_display_precision": process_decimals(item, unit, state.reference)[0],
+            "suggested_display_precision": process_decimals(item.dword, unit, state.reference)[0],
         }
         if unit:
             config["unit_of_measurement"] = unit
@@ -726,54 +862,84 @@ def discovery(
             "value_template": "{{ value_json.value }}",
             "entity_category": "diagnostic",
         }
-        if meta.is_integer:
-            config["suggested_display_precision"] = 0
-        elif meta.scaling is not None and not meta.is_float:
-            config["suggested_display_precision"] = decimals(abs(meta.scaling))
+        places = param_places(meta)
+        if places is not None:
+            config["suggested_display_precision"] = places
+        device_class = DEVICE_CLASSES.get(meta.unit)
         if meta.unit:
             config["unit_of_measurement"] = meta.unit
-            config["state_class"] = "measurement"
-        if meta.unit in DEVICE_CLASSES:
-            config["device_class"] = DEVICE_CLASSES[meta.unit]
-        add("sensor", f"param_{meta.key}", f"{meta.key} {meta.name}", config)
-    for bit, name, device_class in (
-        ("fault", "Fault", "problem"),
-        ("warning", "Warning", "problem"),
-        ("operation_enabled", "Running", "running"),
-    ):
+            config["state_class"] = STATE_CLASSES.get(device_class or "", "measurement")
+        if device_class is not None:
+            config["device_class"] = device_class
+        add("sensor", f"param_{meta.key}", f"{meta.shown} {meta.name}", config)
+    if model.fault is not None:
+        texts = get_profile(model.profile).fault_names if model.profile is not None else {}
+        add(
+            "sensor",
+            "last_fault",
+            "Last fault",
+            {
+                "state_topic": topics.state,
+                "value_template": "{{ value_json.health.last_fault }}",
+                "suggested_display_precision": 0,  # a number: None is unknown
+                "json_attributes_topic": topics.state,
+                "json_attributes_template": (
+                    f'{{{{ {{"text": {_jinja_texts(texts)}.get(value_json.health.last_fault), '
+                    '"time": value_json.health.last_fault_time} | tojson }}'
+                ),
+            },
+        )
+    for bit, (what, name, device_class) in OWN_BITS.items():
         add(
             "binary_sensor",
-            bit,
+            what,
             name,
             {
                 "state_topic": topics.state,
-                "value_template": f"{{{{ 'ON' if value_json.bits.{bit} else 'OFF' }}}}",
+                "value_template": _bit_template(bit),
                 "payload_on": "ON",
                 "payload_off": "OFF",
                 "device_class": device_class,
+            },
+        )
+    for bit, (text, active_low) in status_bit_names(model.profile).items():
+        if bit in OWN_BITS:
+            continue
+        add(
+            "binary_sensor",
+            f"bit{bit}",
+            f"Status bit {bit}: {text}",
+            {
+                "state_topic": topics.state,
+                "value_template": _bit_template(bit, active_low),
+                "payload_on": "ON",
+                "payload_off": "OFF",
+                "entity_category": "diagnostic",
             },
         )
     if read_only:
         return messages
     if model.setpoints:
         item = model.setpoints[0]
-        unit = model.unit
-        full = state.reference if state.reference is not None and unit != "%" else 100.0
-        low, high = -2 * full, round(2 * full * (0x7FFF / 0x8000), 2)
+        places = min(process_decimals(item.dword, model.unit, state.reference)[0], 3)
+        span = setpoint_span(state.reference, model.unit, dword=item.dword, places=places)
+        # until the reference is known the setpoint is taken in percent only
+        percent = span.unit == "%" and model.unit != "%"
         config = {
-            "command_topic": topics.command("setpoint"),
+            "command_topic": topics.command("setpoint_percent" if percent else "setpoint"),
             "retain": False,  # a retained command never acts
             "state_topic": topics.state,
-            "value_template": f"{{{{ value_json.setpoint.{item.key}.value }}}}",
-            "min": low,
-            "max": high,
-            "step": 10.0 ** -process_decimals(item, unit, state.reference)[0],
+            "value_template": (
+                f"{{{{ {_item('setpoint', item.key, 'percent' if percent else 'value')} }}}}"
+            ),
+            "min": span.low,
+            "max": span.high,
+            "step": 10.0**-span.places,
             "mode": "box",
+            "unit_of_measurement": span.unit,
         }
-        if unit:
-            config["unit_of_measurement"] = unit
-        if unit in DEVICE_CLASSES and DEVICE_CLASSES[unit] in ("frequency", "current", "voltage"):
-            config["device_class"] = DEVICE_CLASSES[unit]
+        if DEVICE_CLASSES.get(span.unit) in ("frequency", "current", "voltage"):
+            config["device_class"] = DEVICE_CLASSES[span.unit]
         add("number", "setpoint", "Setpoint", config)
         add(
             "switch",
@@ -783,7 +949,7 @@ def discovery(
                 "command_topic": topics.command("run"),
                 "retain": False,
                 "state_topic": topics.state,
-                "value_template": "{{ 'ON' if value_json.bits.operation_enabled else 'OFF' }}",
+                "value_template": _bit_template(2),
                 "payload_on": "ON",
                 "payload_off": "OFF",
                 "state_on": "ON",

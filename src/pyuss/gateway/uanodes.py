@@ -8,9 +8,11 @@ with asyncua).
 - `drive_values`: the value of each variable of a drive, by node name, from its state;
 - `value_status`: the StatusCode each of them carries (Part 4 7.39): a value of the drive's
   answers is ``BadWaitingForInitialData`` until the drive answered (a parameter: until it
-  was read) and ``UncertainLastUsableValue`` while the drive does not send (A 5.2.1.1): its
-  last answer is no measurement of now. What the gateway sends (control word, setpoints) and
-  its health are its own, and Good; a parameter whose last poll failed is
+  was read), ``BadNoCommunication`` while the drive is offline (by its bus's offline rule,
+  or its bus offline: docs/gateway.md "Availability"), ``UncertainLastUsableValue`` while it
+  is online but its latest answer was missed (stale): its last answer is no measurement of
+  now. What the gateway sends (control word, setpoints) and its health are its own, and
+  Good; a parameter whose last poll failed is
   ``UncertainLastUsableValue`` (the value read before); a process value in the drive's unit
   (``.Actual.main``, ``.Setpoint.main``) is ``BadWaitingForInitialData`` until its
   reference was read.
@@ -130,7 +132,7 @@ def value_parts(state: DriveState) -> list[tuple[object, Callable[[], dict[str, 
     same (``==``) as in an earlier state has the same values."""
     return [
         ((state.status_word, state.control_word), lambda: _status_values(state)),
-        (state.health, lambda: _health_values(state.health)),
+        ((state.health, state.online), lambda: _health_values(state.health, state.online)),
         (
             (state.actual_words, state.setpoint_words, state.reference, state.model),
             lambda: _process_values(state),
@@ -156,8 +158,9 @@ def _status_values(state: DriveState) -> dict[str, Any]:
     return found
 
 
-def _health_values(health: Health) -> dict[str, Any]:
+def _health_values(health: Health, online: bool) -> dict[str, Any]:
     found: dict[str, Any] = {
+        ".Health.Online": online,
         ".Health.NotSending": health.not_sending,
         ".Health.Counters": list(health.counters.words()),
         ".Health.Answers": health.answers & 0xFFFF_FFFF,
@@ -183,6 +186,7 @@ def _process_values(state: DriveState) -> dict[str, Any]:
 
 WAITING = "BadWaitingForInitialData"
 LAST_USABLE = "UncertainLastUsableValue"
+OFFLINE = "BadNoCommunication"
 
 _ANSWERED = (".StatusWord", ".State", ".Status.", ".Actual.", ".ActualPercent.")
 """The variables made of the drive's answers (with ``.Parameters.``: of its parameter jobs)."""
@@ -204,4 +208,6 @@ def value_status(state: DriveState, key: str) -> str | None:
         return None
     elif not state.answered:
         return WAITING
-    return LAST_USABLE if state.health.not_sending else None
+    if not state.online:
+        return OFFLINE
+    return LAST_USABLE if state.stale else None

@@ -202,6 +202,24 @@ class Drive:
         its next good telegram."""
         return self._link.not_sending
 
+    @property
+    def missed(self) -> int:
+        """Telegrams in a row it gave no usable answer to (silent, late, garbled); 0 after
+        an answer."""
+        return self._link.missed
+
+    def on_missed(self, callback: Callable[[int], object]) -> Callable[[], None]:
+        """Call ``callback`` with `missed` after each telegram it gave no usable answer to
+        (in the master's task: it must not block); returns a function that removes it."""
+        callbacks = self._link.miss_callbacks
+        callbacks.append(callback)
+
+        def remove() -> None:
+            if callback in callbacks:
+                callbacks.remove(callback)
+
+        return remove
+
     def diagnostics(self) -> SlaveDiagnostics:
         """A 5.2.3 counters of its answers, response times, jobs."""
         return self._master._slave_diagnostics(self._link)
@@ -728,11 +746,13 @@ class Drive:
         setpoints: dict[int, int] | None = None,
         timeout: float | None = None,
     ) -> DriveStatus:
+        self._master._check_usable()  # refused at once (the line down): nothing is changed
         version = self._master._set_pzd(self._link, control=control, setpoints=setpoints)
         return await self._master._delivered(self._link, version, timeout)
 
     async def control_word(self, word: int, *, timeout: float | None = None) -> DriveStatus:
         """Send ``word`` as control word; returns the status of the answer to it."""
+        self._master._check_usable()  # refused at once (the line down): nothing is changed
         self.set_control(word)
         return await self._master._delivered(self._link, self._link.version, timeout)
 

@@ -25,7 +25,9 @@ Timing (A 5.1.2, A 5.2.1)
       marks "slave x does not send" (`Drive.not_sending`), counts the timeout (A 5.2.3 bit 7
       and counter 16) and goes on with the next entry; the mark is cleared only by the next
       good telegram from that slave, which stays in the poll list. A slave that answers late
-      is treated the same and its answer is not used.
+      is treated the same and its answer is not used. `Drive.missed` counts the telegrams
+      in a row without a usable answer (silent, late or garbled), `Drive.on_missed` is told
+      of each.
     - Answers from another address or of another type, and answers that do not fit the
       slave's layout, are discarded and counted (A 5.2, A 5.2.2). Telegrams that arrive when no
       answer is awaited are counted as stray; after a broadcast the master listens for one
@@ -73,6 +75,17 @@ Process data (C 5.1)
     `Drive.on_update` callbacks.
 
 Parameter jobs (C 4.2.1.1, C 4.2.1.2): see `pyuss.master.jobs`.
+
+A lost line
+    On a transport that reopens a lost link (`pyuss.transport.reconnect`) a write while it
+    is down raises `LinkDown`: the master then sends nothing until the link is back
+    (`LINK_POLL`), takes every slave for not sending (nothing is heard of any), fails the
+    parameter jobs, process data and special telegrams waiting for the line with `LinkDown`
+    and refuses new ones at once (a wait for a slave's next answer waits on, within its
+    time). `Master.online` says whether it exchanges on the line, `Master.on_line` tells
+    of each change. After the link is back it sends what it sent before - the process data
+    in force, the poll list -, nothing it was asked for while the link was down. A transport
+    that fails for good stops the master (`Master.lost`).
 """
 
 from __future__ import annotations
@@ -113,7 +126,7 @@ from pyuss.protocol.telegram import MAX_ADDRESS, AddressMode, Telegram
 from pyuss.protocol.timing import LineTiming
 from pyuss.transport.base import STAMP_TOLERANCE, Chunk, Transport, stamp_tolerance
 from pyuss.transport.queued import check_baud
-from pyuss.transport.reconnect import LinkDown
+from pyuss.transport.reconnect import LinkDown, ReconnectingTransport
 
 if TYPE_CHECKING:
     from pyuss.bus.timed import TimedWrite
@@ -138,6 +151,9 @@ _JOB_CHECK = 0.05
 STRAY_ALARM = 10
 """Telegrams nobody asked for that, within `STRAY_WINDOW` seconds, are told of (once)."""
 STRAY_WINDOW = 10.0
+LINK_POLL = 0.05
+"""How often the master looks whether a lost link is back (seconds); it sends nothing
+meanwhile."""
 _MIRROR_BIT = int(AddressMode.MIRROR)
 """ADR bit 6: a mirror telegram (A 5.3), byte 2 of a telegram."""
 
@@ -156,10 +172,17 @@ ACYCLIC = Mode.ACYCLIC
 
 
 def _timed_writer(transport: Transport) -> TimedWrite | None:
-    """`pyuss.bus.timed.timed_writer` (imported only here: the bus is loaded for its stations)."""
+    """`pyuss.bus.timed.timed_writer` (imported only here: the bus is loaded for its stations),
+    also through a reconnecting ``bus://`` station."""
     from pyuss.bus.timed import timed_writer
 
+    if isinstance(transport, ReconnectingTransport):
+        return transport.timed_writer()
     return timed_writer(transport)
+
+
+class _LineDown(Exception):
+    """A telegram could not be sent: the link is down (`Master._line_down`)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -242,6 +265,9 @@ class _Link:
         self.wrong_address = 0
         self.unusable = 0
         self.response_times = Samples()
+        self.missed = 0
+        """Telegrams in a row without a usable answer (0 after an answer)."""
+        self.miss_callbacks: list[Callable[[int], object]] = []
         self.polls_wanted = 0
         self.update_waiters: list[asyncio.Future[DriveStatus]] = []
         self.version_waiters: list[tuple[int, asyncio.Future[DriveStatus]]] = []
@@ -434,6 +460,11 @@ class Master:
         self._wake: asyncio.Event | None = None
         self._task: asyncio.Task[None] | None = None
         self._failure: TransportError | None = None
+        self._lost: TransportError | None = None
+        """What stopped the master on its own (the port failed for good)."""
+        self._down: LinkDown | None = None
+        """While the link is down (being reopened): what requests are refused with."""
+        self._line_callbacks: list[Callable[[TransportError | None], object]] = []
         self._closing = False
         self._rotation = 0
         self._submitted = 0
@@ -470,6 +501,43 @@ class Master:
     def running(self) -> bool:
         return self._task is not None and not self._task.done()
 
+    @property
+    def online(self) -> bool:
+        """Whether the master exchanges telegrams on the line: started, not stopped or
+        closing, and the link up (see "A lost line" in the module docstring)."""
+        return (
+            self.running
+            and self._down is None
+            and not self._closing
+            and getattr(self.transport, "connected", True)
+        )
+
+    @property
+    def lost(self) -> TransportError | None:
+        """What stopped the master on its own - its port failed and was not reopened -; None
+        while it runs, and for a master that only was closed."""
+        return self._lost
+
+    def on_line(self, callback: Callable[[TransportError | None], object]) -> Callable[[], None]:
+        """Call ``callback`` when the line is lost (with the error: the link is down and
+        being reopened, or the master stopped - then `lost` is set) and when it is back
+        (None). Returns a function that removes it. Whoever follows the line reports its
+        loss for good; while nobody does, the master logs it itself (ERROR)."""
+        self._line_callbacks.append(callback)
+
+        def remove() -> None:
+            if callback in self._line_callbacks:
+                self._line_callbacks.remove(callback)
+
+        return remove
+
+    def _tell_line(self, error: TransportError | None) -> None:
+        for callback in list(self._line_callbacks):
+            try:
+                callback(error)
+            except Exception:
+                log.exception("line callback failed")
+
     async def start(self) -> None:
         """Open the transport and start the scheduler."""
         if self._task is not None:
@@ -504,12 +572,18 @@ class Master:
     def _fail(self, error: TransportError) -> None:
         if self._failure is None:
             self._failure = error
+        self._fail_waiting(error, updates=True)
+
+    def _fail_waiting(self, error: TransportError, *, updates: bool) -> None:
+        """Fail the jobs, process data and special telegrams waiting for the line (and, with
+        ``updates``, the waits for a slave's next answer) with ``error``."""
         for link in self._links.values():
             link.channel.fail_all(error)
-            for future in link.update_waiters:
-                if not future.done():
-                    future.set_exception(error)
-            link.update_waiters.clear()
+            if updates:
+                for future in link.update_waiters:
+                    if not future.done():
+                        future.set_exception(error)
+                link.update_waiters.clear()
             for _, future in link.version_waiters:
                 if not future.done():
                     future.set_exception(error)
@@ -519,13 +593,19 @@ class Master:
                 special.future.set_exception(error)
         self._specials.clear()
 
-    def _check_usable(self) -> None:
+    def _check_usable(self, *, line: bool = True) -> None:
+        """Refuse a request the master cannot carry out: stopped, closing, not started, or
+        (``line``: one that needs the line now) the link down."""
         if self._failure is not None:
             raise self._failure
         if self._closing:
             raise MasterClosed("the master is closing")
         if self._task is None:
             raise MasterClosed("the master is not started: use 'async with Master(...)'")
+        if line and self._down is None and not getattr(self.transport, "connected", True):
+            self._line_down(LinkDown("the link is down"))  # (a loss no read noticed yet)
+        if line and self._down is not None:
+            raise LinkDown(str(self._down))
 
     def _poke(self) -> None:
         if self._wake is not None:
@@ -677,7 +757,7 @@ class Master:
         return await self._await_status(link, future, timeout)
 
     async def _next_update(self, link: _Link, timeout: float | None) -> DriveStatus:
-        self._check_usable()
+        self._check_usable(line=False)  # the answer may come once the link is back
         future: asyncio.Future[DriveStatus] = asyncio.get_running_loop().create_future()
         link.update_waiters.append(future)
         if self.mode is Mode.ACYCLIC:
@@ -798,6 +878,7 @@ class Master:
         return answered
 
     async def _special(self, kind: str, frame: bytes, address: int) -> object:
+        self._check_usable()
         future: asyncio.Future[object] = asyncio.get_running_loop().create_future()
         self._specials.append(_Special(kind, frame, address, future))
         self._poke()
@@ -837,26 +918,70 @@ class Master:
     async def _run(self) -> None:
         try:
             while not self._closing:
-                if self._specials and await self._do_specials():
-                    continue
-                if self.mode is Mode.CYCLIC:
-                    await self._cycle()
-                else:
-                    link = self._next_demand()
-                    if link is None:
-                        await self._sleep(None)
+                if self._down is not None:
+                    await self._ride_out()  # then the next telegram tries the line
+                    if self._closing:
+                        break
+                try:
+                    if self._specials and await self._do_specials():
+                        continue
+                    if self.mode is Mode.CYCLIC:
+                        await self._cycle()
                     else:
-                        await self._turn(link)
+                        link = self._next_demand()
+                        if link is None:
+                            await self._sleep(None)
+                        else:
+                            await self._turn(link)
+                except _LineDown:
+                    continue
         except TransportError as exc:
-            log.error("master stopped: %s", exc)
-            self._stopped_hearing()
-            self._fail(exc)
+            if not self._line_callbacks:
+                log.error("master stopped: %s", exc)
+            self._stopped(exc)
         except asyncio.CancelledError:
             raise
         except Exception as exc:  # a bug must not leave waiters hanging
             log.exception("master stopped by an internal error")
-            self._stopped_hearing()
-            self._fail(MasterClosed(f"the master stopped: {exc!r}"))
+            self._stopped(MasterClosed(f"the master stopped: {exc!r}"))
+
+    def _stopped(self, error: TransportError) -> None:
+        """The master stopped on its own: nothing is heard any more, nothing waits on."""
+        self._stopped_hearing()
+        self._fail(error)
+        self._lost = error
+        self._tell_line(error)
+
+    def _line_down(self, error: LinkDown) -> None:
+        """A telegram could not be sent, the link is down (and being reopened): nothing is
+        heard of any slave, what waits for the line fails, and nothing is sent until the
+        link is back (`_ride_out`)."""
+        if self._down is not None:
+            return
+        self._down = LinkDown(f"the line is down, being reopened ({error}): not sent")
+        self._stopped_hearing()
+        for link in self._links.values():
+            link.missed = 0  # nothing was missed by the slaves: nothing was sent to them
+        self._fail_waiting(self._down, updates=False)
+        self._tell_line(self._down)
+        self._poke()  # an idle scheduler waits for the link instead (`_ride_out`)
+
+    async def _ride_out(self) -> None:
+        """Wait, sending nothing, until the link is back (the transport's ``connected``) or
+        the master closes. A transport that does not say is tried by the next telegram: the
+        first that goes out ends the outage (`_send`)."""
+        while not self._closing:
+            await self._sleep(LINK_POLL)
+            connected = getattr(self.transport, "connected", None)
+            if connected is None:
+                return
+            if connected:
+                self._line_back()
+                return
+
+    def _line_back(self) -> None:
+        self._down = None
+        self._tell_line(None)
 
     def _stopped_hearing(self) -> None:
         """The master stopped on its own (the port failed): nothing is heard of any slave any
@@ -934,6 +1059,10 @@ class Master:
             special = self._specials.pop(0)
             try:
                 result = await self._run_special(special)
+            except _LineDown:
+                if not special.future.done() and self._down is not None:
+                    special.future.set_exception(self._down)
+                raise
             except TransportError:
                 raise
             except UssError as exc:
@@ -1010,6 +1139,13 @@ class Master:
         link.exchanges += 1
         if result.outcome is _Outcome.ANSWER and result.received is not None:
             self._answer(link, result, sent[0], sent[1])
+        elif not self._closing:
+            link.missed += 1
+            for callback in list(link.miss_callbacks):
+                try:
+                    callback(link.missed)
+                except Exception:
+                    log.exception("slave %d: missed answer callback failed", link.address)
         self._expire_jobs()
 
     def _expire_jobs(self, exclude: _Link | None = None) -> None:
@@ -1070,6 +1206,7 @@ class Master:
 
     def _good_answer(self, link: _Link, received: Received, result: _Result) -> None:
         link.answers += 1
+        link.missed = 0
         link.diagnostics.record_received(received.end)
         link.response_times.add(max(0.0, received.start - result.request_end))
         if link.not_sending:
@@ -1130,7 +1267,9 @@ class Master:
         if not link.not_sending:
             link.not_sending = True
             link.channel.not_sending = True
-            log.warning(
+            # INFO: one lost answer on a noisy line is no news; who shows the drive decides
+            # when it is gone (`pyuss.points`: after several, "offline")
+            log.info(
                 "slave %d does not send (no answer within %.1f ms)",
                 link.address,
                 link.response_delay * 1000,
@@ -1201,8 +1340,10 @@ class Master:
             else:
                 await self.transport.write(frame)
         except LinkDown as exc:
-            log.warning("master: telegram not sent: %s", exc)
-            await asyncio.sleep(min(0.1, self.latency + 0.01))
+            self._line_down(exc)
+            raise _LineDown from exc
+        if self._down is not None:  # the first telegram after an outage went out
+            self._line_back()
         end = max(start + on_line, clock())
         self._line_free = end
         # the model's end, not the clock's: a master woken late must not take an answer

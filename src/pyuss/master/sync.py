@@ -14,9 +14,10 @@
 asyncio `pyuss.master.Master` there; every method hands its call to that loop and waits for
 the result, so the logic exists once. Calls from several threads at once are safe: they queue
 in the scheduler like the jobs of several tasks. Callbacks (`Drive.on_update`,
-`Drive.on_spontaneous`, `Master.on_spontaneous`) run in the background thread and must not
-block it. Errors are the same exceptions as in the asyncio API. ``call_timeout`` bounds how
-long a call may wait for the loop (default: no bound beyond the operation's own timeouts).
+`Drive.on_missed`, `Drive.on_spontaneous`, `Master.on_spontaneous`, `Master.on_line`) run in
+the background thread and must not block it. Errors are the same exceptions as in the
+asyncio API. ``call_timeout`` bounds how long a call may wait for the loop (default: no bound
+beyond the operation's own timeouts).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from typing import Any, TypeVar
 
 from pyuss.drive.database import ParameterDatabase
 from pyuss.drive.datatypes import Value
+from pyuss.errors import TransportError
 from pyuss.loop import new_event_loop
 from pyuss.master import scheduler
 from pyuss.master.description import Description
@@ -191,6 +193,19 @@ class Master:
     def running(self) -> bool:
         """True while the scheduler runs (between `open` and `close`)."""
         return self._master is not None and self._master.running
+
+    @property
+    def online(self) -> bool:
+        """Whether the master exchanges on the line (`pyuss.master.Master.online`)."""
+        return self._master is not None and self._master.online
+
+    @property
+    def lost(self) -> TransportError | None:
+        return None if self._master is None else self._master.lost
+
+    def on_line(self, callback: Callable[[TransportError | None], object]) -> Callable[[], None]:
+        core = self.core
+        return self._run(lambda: core.on_line(callback))
 
     @property
     def poll_list(self) -> tuple[int, ...]:
@@ -494,6 +509,13 @@ class Drive:
 
     def on_update(self, callback: Callable[[DriveStatus], object]) -> Callable[[], None]:
         return self._bus._run(lambda: self._drive.on_update(callback))
+
+    @property
+    def missed(self) -> int:
+        return self._drive.missed
+
+    def on_missed(self, callback: Callable[[int], object]) -> Callable[[], None]:
+        return self._bus._run(lambda: self._drive.on_missed(callback))
 
     def on_spontaneous(
         self, callback: Callable[[SpontaneousMessage], object]

@@ -17,6 +17,8 @@ is opened. The file's format is in docs/gateway.md; in short::
     profile = "generic"              # the drives' family; without it: of unknown kind
     layout = "4,2"                   # default layout of its drives
     cycle_time = 0.1                 # seconds; default: as fast as the line allows
+    offline_after_missed = 3         # a drive is offline after 3 answers missed in a row
+    offline_after_silence = 2.0      # ... or 2 s without an answer (default: from the cycle)
 
     [[bus.drive]]
     address = 5
@@ -120,6 +122,11 @@ class BusConfig:
     cycle_time: float | None = None
     job_timeout: float = 2.0
     drives: tuple[DriveConfig, ...] = ()
+    offline_after_missed: int = 3
+    """A drive that answered is offline after this many answers missed in a row."""
+    offline_after_silence: float | None = None
+    """... or after this many seconds without an answer; None: from the line's cycle
+    (`pyuss.points.model.offline_rule`)."""
     extra: Mapping[str, Any] = field(default_factory=dict)
     """Keys of the bus table that belong to a face (``modbus = "HOST:PORT"``)."""
 
@@ -354,7 +361,22 @@ def _drive(value: object, where: Where, bus_layout: Layout | None) -> DriveConfi
     )
 
 
-_BUS_KEYS = ("name", "port", "baud", "profile", "layout", "cycle_time", "job_timeout", "drive")
+_BUS_KEYS = (
+    "name",
+    "port",
+    "baud",
+    "profile",
+    "layout",
+    "cycle_time",
+    "job_timeout",
+    "offline_after_missed",
+    "offline_after_silence",
+    "drive",
+)
+MAX_MISSED = 1000
+"""The most answers in a row a drive may miss before it is offline."""
+MAX_SILENCE = 3600.0
+"""The longest a drive may go without an answer before it is offline (seconds)."""
 
 
 def _bus(value: object, where: Where, number: int, face_keys: Sequence[str]) -> BusConfig:
@@ -378,6 +400,14 @@ def _bus(value: object, where: Where, number: int, face_keys: Sequence[str]) -> 
         else None
     )
     timeout = where.key("job_timeout").seconds(table.get("job_timeout", 2.0))
+    missed = where.key("offline_after_missed").integer(
+        table.get("offline_after_missed", 3), 1, MAX_MISSED
+    )
+    silence = (
+        where.key("offline_after_silence").seconds(table["offline_after_silence"], most=MAX_SILENCE)
+        if "offline_after_silence" in table
+        else None
+    )
     drives_value = table.get("drive", [])
     if not isinstance(drives_value, list) or not drives_value:
         raise where.key("drive").error("at least one [[bus.drive]] table is needed")
@@ -410,6 +440,8 @@ def _bus(value: object, where: Where, number: int, face_keys: Sequence[str]) -> 
         cycle_time=cycle,
         job_timeout=timeout,
         drives=tuple(drives),
+        offline_after_missed=missed,
+        offline_after_silence=silence,
         extra=extra,
     )
 

@@ -13,7 +13,10 @@ Per drive the points are the same for every face:
 - the control word and setpoints: PZD words of the request, the same way;
 - chosen parameters (`ParamMeta`), read when asked or polled;
 - health: "does not send" (A 5.2.1.1), the counters of A 5.2.3, the last fault, the last
-  refused job.
+  refused job;
+- availability: whether the drive is online - it answers, and its bus's master exchanges on
+  the line - by the bus's `OfflineRule` (`offline_rule`): not after one missed answer, after
+  several in a row or a time without any.
 """
 
 from __future__ import annotations
@@ -23,11 +26,12 @@ from dataclasses import dataclass, replace
 
 from pyuss.drive.database import ParamRef
 from pyuss.errors import ConfigError
-from pyuss.master.profile import resolve_profile
+from pyuss.master.profile import resolve_profile, response_limit
 from pyuss.points.config import BusConfig, DriveConfig, PlantConfig, ProcessConfig, Where
 from pyuss.points.parameters import ParameterModel, ParamMeta
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pzd import StatusWord
+from pyuss.protocol.timing import start_pause, transmit_time
 
 __all__ = [
     "COMMANDS",
@@ -37,9 +41,11 @@ __all__ = [
     "BusModel",
     "Command",
     "DriveModel",
+    "OfflineRule",
     "ParameterPoint",
     "PlantModel",
     "line_model",
+    "offline_rule",
     "resolve",
 ]
 
@@ -135,9 +141,48 @@ class DriveModel:
 
 
 @dataclass(frozen=True, slots=True)
+class OfflineRule:
+    """When a drive that answered is offline: after ``missed`` answers missed in a row, or
+    ``silence`` seconds without an answer, whichever comes first (docs/gateway.md,
+    "Availability"). One lost answer on a noisy line is none: its values are stale."""
+
+    missed: int = 3
+    silence: float = 1.0
+
+
+MIN_SILENCE = 1.0
+"""The shortest default time without an answer after which a drive is offline (seconds)."""
+SILENT_SLACK = 0.04
+"""What a master waits beyond a silent drive's response window (receive tolerance and
+latency, `pyuss.master.scheduler`), in seconds."""
+
+
+def offline_rule(bus: BusConfig, drives: Sequence[DriveModel]) -> OfflineRule:
+    """The bus's `OfflineRule`: its ``offline_after_missed`` and ``offline_after_silence``;
+    the time by default ``missed + 1`` of the line's longest cycles, at least `MIN_SILENCE`:
+    the bus's ``cycle_time``, or, if longer, a round of the poll list with every drive silent
+    (each its request and answer on the line, two start pauses, its response window and the
+    master's wait beyond), so that a drive polled in turn is never offline by the time alone
+    before it missed as many answers."""
+    if bus.offline_after_silence is not None:
+        return OfflineRule(bus.offline_after_missed, bus.offline_after_silence)
+    round_time = 0.0
+    for drive in drives:
+        words = drive.layout.words or (4 + drive.layout.pzd)  # variable: PKW 4 as a guess
+        telegram = transmit_time(bus.baud, 4 + 2 * words)
+        limit = response_limit(resolve_profile(drive.profile), bus.baud)
+        round_time += 2 * telegram + 2 * start_pause(bus.baud) + limit + SILENT_SLACK
+    cycle = max(bus.cycle_time or 0.0, round_time)
+    silence = max(MIN_SILENCE, (bus.offline_after_missed + 1) * cycle)
+    return OfflineRule(bus.offline_after_missed, round(silence, 3))
+
+
+@dataclass(frozen=True, slots=True)
 class BusModel:
     config: BusConfig
     drives: tuple[DriveModel, ...]
+    offline: OfflineRule = OfflineRule()
+    """When its drives are offline (`offline_rule`)."""
 
     @property
     def name(self) -> str:
@@ -248,8 +293,7 @@ def line_model(
     bus = BusConfig(name, name, baud, job_timeout=job_timeout, drives=tuple(configs))
     model = resolve(PlantConfig((bus,)))
     buses = tuple(
-        BusModel(b.config, tuple(replace(d, every_word=True) for d in b.drives))
-        for b in model.buses
+        replace(b, drives=tuple(replace(d, every_word=True) for d in b.drives)) for b in model.buses
     )
     return PlantModel(buses, model.config)
 
@@ -263,5 +307,5 @@ def resolve(plant: PlantConfig, where: Where | None = None) -> PlantModel:
         drives = tuple(
             _drive(bus, drive, at.key("drive").key(n)) for n, drive in enumerate(bus.drives)
         )
-        buses.append(BusModel(bus, drives))
+        buses.append(BusModel(bus, drives, offline_rule(bus, drives)))
     return PlantModel(tuple(buses), plant)

@@ -17,6 +17,12 @@ reaches the line that was not checked here first. The rules every face relies on
   are sent again, so a request its client was told failed does not act later.
 - A fault or the drive lost ends a jog: the jog bits are dropped (`_end_jog`), so an
   acknowledge or the drive's return does not set the motor turning again.
+- A drive gone offline (by its bus's `OfflineRule`, or its line down) is given back
+  (`_release`): the control word goes back to 0000h, no control by the interface, as from a
+  gateway started again, so the line or the drive coming back resends no command nobody
+  gave again (a drive that stopped meanwhile - a power cut, its own telegram monitoring -
+  stays stopped; one that ran on runs on as it was). The setpoints stay as set; a command
+  takes control again by the takeover rules above.
 - Process data become values in one place: `pyuss.points.state.process_value` on the
   `pyuss.protocol.pzd` helpers (a double word joined and split once), the other words of an
   answer through the parameters the profile maps them to (`actual_row`); the status bits and
@@ -35,7 +41,12 @@ keeps a `DrivePoints` per drive, which
   it does so before yielding): the faces' work is done while that telegram is on the line,
   and does not keep it off (what must not wait - the end of a jog on a fault - is done at
   once);
-- watches "does not send" (A 5.2.1.1), which no answer reports, on a short timer;
+- watches "does not send" (A 5.2.1.1), which no answer reports, on a short timer, and tells
+  when the drive is offline: after its bus's `OfflineRule` (so many answers missed in a row,
+  or so long without one; an answer missed short of that makes its values stale), or at
+  once when its bus is (`BusPoints`: the master does not exchange, its port lost and being
+  reopened, or stopped); the drive is online again with its next answer. Each change of
+  availability is one log line (WARNING) naming the drive, one per bus for the bus's;
 - reads the reference (the physical value of 100 %) once it can, the fault number when the
   fault bit rises, and the polled parameters when due;
 - carries out what the faces ask - commands, control word, setpoints, parameter reads and
@@ -64,6 +75,7 @@ from collections.abc import AsyncIterator, Callable, Mapping, Sequence
 from types import TracebackType
 from typing import Any
 
+from pyuss import system
 from pyuss.drive.datatypes import Value
 from pyuss.errors import ConfigError, DriveRefusal, UssError
 from pyuss.master.drive import Drive
@@ -80,11 +92,13 @@ from pyuss.points.model import (
     BusModel,
     Command,
     DriveModel,
+    OfflineRule,
     PlantModel,
     line_model,
 )
 from pyuss.points.parameters import ParameterModel, ParamMeta
 from pyuss.points.state import (
+    BusState,
     DriveState,
     Health,
     ParamValue,
@@ -92,6 +106,7 @@ from pyuss.points.state import (
     Sample,
     now,
     process_value,
+    setpoint_span,
     signed,
 )
 from pyuss.protocol.pzd import (
@@ -105,6 +120,8 @@ from pyuss.protocol.pzd import (
     split_dword,
 )
 from pyuss.transport.base import Transport
+from pyuss.transport.reconnect import duration_text
+from pyuss.transport.url import open_transport
 
 __all__ = ["BusPoints", "DrivePoints", "Plant", "checked_setpoint"]
 
@@ -114,6 +131,10 @@ _FAULT = int(StatusWord.FAULT)
 """The fault bit as a plain int: tested at every answer, where a flag's own `&` costs three
 Python calls."""
 
+GIVEN_BACK = "control given back (0000h: it keeps what it had; a command takes control again)"
+"""What a log line says of a drive given back (`DrivePoints._release`)."""
+DEFAULT_OFFLINE = OfflineRule()
+"""The rule of a drive's points made without a bus (`DrivePoints.around`)."""
 HEALTH_PERIOD = 0.2
 """How often "does not send" is looked at (seconds)."""
 RETRY_PERIOD = 5.0
@@ -137,9 +158,26 @@ class _Watch:
 class DrivePoints:
     """The live points of one drive (see the module docstring)."""
 
-    def __init__(self, model: DriveModel, drive: Drive) -> None:
+    def __init__(
+        self,
+        model: DriveModel,
+        drive: Drive,
+        *,
+        offline: OfflineRule = DEFAULT_OFFLINE,
+        bus_online: bool = True,
+    ) -> None:
         self.model = model
         self.drive = drive
+        self.offline = offline
+        """When the drive is offline (its bus's)."""
+        self._bus_online = bus_online
+        self._answering = False
+        """Whether it answers by `offline` (after its first answer)."""
+        self._missed = 0
+        self._heard = system.clock()
+        """When it last answered, or its bus came online (the line's clock)."""
+        self._told = False
+        """Its going offline was logged (its return will be)."""
         self.parameter_model = ParameterModel(model.profile)
         self._reference: float | None = (
             model.reference if isinstance(model.reference, float) else None
@@ -161,7 +199,7 @@ class DrivePoints:
         self._samples: deque[Sample] | None = None
         self._state = self._build()
         self._signature = self._state.signature()
-        self._remove = drive.on_update(self._on_update)
+        self._removers = (drive.on_update(self._on_update), drive.on_missed(self._on_missed))
 
     def __repr__(self) -> str:
         return f"<DrivePoints {self.model.key} address {self.model.address}>"
@@ -241,6 +279,9 @@ class DrivePoints:
             reference=self._reference,
             actual_words=actual_words,
             setpoint_words=setpoint_words,
+            bus_online=self._bus_online,
+            answering=self._answering,
+            missed=self._missed,
         )
 
     def _changed(self) -> None:
@@ -263,9 +304,13 @@ class DrivePoints:
             self._end_jog("faulted")
         if self._samples is not None:
             self._samples.append(Sample(time.time(), status.word, self.actual_row(status.actual)))
+        back = self._missed or not self._answering
+        if back:
+            self._answered_again(status.time)
+        self._heard = status.time
         quick = (status.word, status.actual, self.drive.control, self.drive.setpoints)
         previous = self._state.status_word
-        if quick == self._quick and not self._state.health.not_sending:
+        if quick == self._quick and not back and not self._state.health.not_sending:
             return
         self._quick = quick
         if status.word & _FAULT and not (previous or 0) & _FAULT and self.model.fault is not None:
@@ -297,11 +342,85 @@ class DrivePoints:
         self._fault_task = asyncio.create_task(read(), name=f"{self.key} fault number")
 
     def check_health(self) -> None:
-        """Tell subscribers if "does not send" changed (no answer reports that)."""
+        """Tell subscribers if "does not send" changed (no answer reports that), and whether
+        the drive went so long without an answer that it is offline."""
         if self.drive.not_sending:
             self._end_jog("does not send")
+        self._judge()
         if self.drive.not_sending != self._state.health.not_sending:
             self._changed()
+
+    # -- availability ------------------------------------------------------------------------
+    def _on_missed(self, missed: int) -> None:
+        """The master's telegram got no usable answer (the ``missed``-th in a row)."""
+        self._missed = missed
+        self._end_jog("does not send")
+        if not self._judge() and missed == 1 and self._answering:
+            self._changed()  # its values are stale now
+
+    def _judge(self) -> bool:
+        """Whether the drive is offline now by `offline` (while its bus is online); True if it
+        went offline with this look (subscribers told, the drive given back, one log line)."""
+        if not self._bus_online:
+            return False
+        rule = self.offline
+        if self._missed >= rule.missed:
+            why = f"{self._missed} answers missed in a row"
+        else:
+            silent = system.clock() - self._heard
+            if silent < rule.silence:
+                return False
+            why = f"no answer for {duration_text(silent)}"
+        went = self._answering
+        self._answering = False
+        released = went and self._release()
+        if not self._told:
+            self._told = True
+            given = "; " + GIVEN_BACK if released else ""
+            log.warning("%s offline: %s%s", self.key, why, given)
+        if went:
+            self._changed()
+        return went
+
+    def _answered_again(self, when: float) -> None:
+        """An answer: the drive is online (again), its values live."""
+        self._missed = 0
+        if not self._answering:
+            self._answering = True
+            if self._told:
+                log.warning(
+                    "%s online again after %s without an answer",
+                    self.key,
+                    duration_text(max(0.0, when - self._heard)),
+                )
+        self._told = False
+
+    def _bus_changed(self, online: bool) -> bool:
+        """Its bus went online or offline (`BusPoints`); True when the drive was given back
+        (`_release`)."""
+        self._bus_online = online
+        self._missed = 0
+        released = False
+        if online:
+            self._heard = system.clock()  # the time without an answer counts from now
+        else:
+            self._answering = False  # online again with its next answer
+            released = self._release()
+        self._changed()
+        return released
+
+    def _release(self) -> bool:
+        """The drive is lost (offline, or its line down): give it back - the control word
+        0000h, no control by the interface, as from a gateway started again - so that
+        neither the line nor the drive coming back resends a command nobody gave again. A
+        drive that stopped meanwhile stays stopped, one that ran on runs on as it was; the
+        setpoints stay; a command takes control again by the takeover rules
+        (`_check_takeover`). True if it was controlled here."""
+        if not self.drive.control:
+            return False
+        self._serial += 1  # a request under way is not to take it back
+        self.drive.set_control(0)
+        return True
 
     def _end_jog(self, why: str) -> None:
         """A jog runs while its bit is held; a fault or a drive lost (a power cut) ends it:
@@ -790,13 +909,16 @@ class DrivePoints:
                 self._changed()
 
     def close(self) -> None:
-        self._remove()
+        for remove in self._removers:
+            remove()
         if self._fault_task is not None:
             self._fault_task.cancel()
 
 
 class BusPoints:
-    """One bus: its `Master` and the `DrivePoints` of its drives."""
+    """One bus: its `Master` and the `DrivePoints` of its drives, and whether a master
+    exchanges on its line (`state`, `subscribe`). Without a ``transport`` the bus's port URL is
+    opened reconnecting (`pyuss.transport.reconnect`) unless the URL says ``reconnect=0``."""
 
     def __init__(
         self,
@@ -808,8 +930,10 @@ class BusPoints:
     ) -> None:
         config = model.config
         self.model = model
+        if transport is None:
+            transport = open_transport(config.port, baud=config.baud, reconnect=True)
         self.master = Master(
-            transport if transport is not None else config.port,
+            transport,
             baud=config.baud,
             profile=config.profile,
             layout=config.layout,
@@ -821,8 +945,63 @@ class BusPoints:
         self.drives: dict[int, DrivePoints] = {}
         for drive in model.drives:
             handle = self.master.drive(drive.address, layout=drive.layout, profile=drive.profile)
-            self.drives[drive.address] = DrivePoints(drive, handle)
+            self.drives[drive.address] = DrivePoints(
+                drive, handle, offline=model.offline, bus_online=False
+            )
         self._tasks: list[asyncio.Task[None]] = []
+        self._state = BusState(model.name, False, now())
+        self._callbacks: list[Callable[[BusState], object]] = []
+        self._remove_line = self.master.on_line(self._on_line)
+
+    @property
+    def state(self) -> BusState:
+        """Whether a master exchanges on the line now (offline until `start`)."""
+        return self._state
+
+    @property
+    def online(self) -> bool:
+        return self._state.online
+
+    def subscribe(self, callback: Callable[[BusState], object]) -> Callable[[], None]:
+        """Call ``callback`` with every changed `BusState` (it must not block); returns a
+        function that removes it."""
+        self._callbacks.append(callback)
+
+        def remove() -> None:
+            if callback in self._callbacks:
+                self._callbacks.remove(callback)
+
+        return remove
+
+    def _on_line(self, error: UssError | None) -> None:
+        """The master's line is lost (``error``) or back (None)."""
+        lost = self.master.lost
+        if lost is not None:
+            log.error(
+                "bus %s: the line is lost and not reopened (reconnect=0 in its port URL, or "
+                "reconnecting gave up): %s",
+                self.name,
+                lost,
+            )
+        self._set_online(error is None, None if lost is None else str(lost))
+
+    def _set_online(self, online: bool, lost: str | None = None) -> None:
+        if online == self._state.online and lost is None:
+            return
+        released = [d.name for d in self.drives.values() if d._bus_changed(online)]
+        if released:
+            log.warning(
+                "bus %s: the line is down: %s %s",
+                self.name,
+                ", ".join(released),
+                GIVEN_BACK.replace("it keeps", "each keeps"),
+            )
+        self._state = BusState(self.name, online, now(), lost)
+        for callback in list(self._callbacks):
+            try:
+                callback(self._state)
+            except Exception:
+                log.exception("bus %s: subscriber failed", self.name)
 
     @property
     def name(self) -> str:
@@ -839,6 +1018,7 @@ class BusPoints:
 
     async def start(self) -> None:
         await self.master.start()
+        self._set_online(self.master.online)
         for drive in self.drives.values():
             self._tasks.append(asyncio.create_task(drive.run(), name=f"{drive.key} reads"))
         self._tasks.append(asyncio.create_task(self._watch(), name=f"{self.name} health"))
@@ -856,9 +1036,15 @@ class BusPoints:
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await task
         self._tasks.clear()
+        self._remove_line()
         for drive in self.drives.values():
             drive.close()
         await self.master.close()
+        if self._state.online:
+            self._state = BusState(self.name, False, now())
+            for callback in list(self._callbacks):
+                with contextlib.suppress(Exception):
+                    callback(self._state)
 
 
 class Plant:
@@ -900,6 +1086,24 @@ class Plant:
 
     def drive(self, bus: str, which: str | int) -> DrivePoints:
         return self.bus(bus).drive(which)
+
+    async def lost(self) -> BusState:
+        """Wait until a bus's line is lost for good (its master stopped: the port failed and
+        is not reopened, `BusState.lost`); that bus's state."""
+        found: asyncio.Future[BusState] = asyncio.get_running_loop().create_future()
+
+        def seen(state: BusState) -> None:
+            if state.lost is not None and not found.done():
+                found.set_result(state)
+
+        removers = [bus.subscribe(seen) for bus in self.buses.values()]
+        try:
+            for bus in self.buses.values():
+                seen(bus.state)
+            return await found
+        finally:
+            for remove in removers:
+                remove()
 
     def subscribe(
         self, callback: Callable[[DrivePoints, DriveState], object]
@@ -967,7 +1171,8 @@ def checked_setpoint(
     ``reference``, the physical value of 100 %; percent where ``unit`` is ``%``),
     ``percent`` or ``raw``; the word's range bounds it (16 bits: -200 % .. +199.99 %, 32
     bits with ``dword``; C 5.2.2). Returns the setpoint as it would be sent; `ConfigError`
-    names what is wrong."""
+    names what is wrong, a value beyond the word by the span of `setpoint_span` in the unit
+    it was given in."""
     bits = 32 if dword else 16
     number = _number(value, "setpoint", raw=kind == "raw")
     if kind == "raw":
@@ -990,10 +1195,15 @@ def checked_setpoint(
             percent = number * 100.0 / reference if in_unit and reference else float(number)
             word = percent_to_raw32(percent) if dword else percent_to_raw16(percent)
         except (ConfigError, OverflowError):
-            span = (-200.0, 100.0 * ((1 << (bits - 1)) - 1) / (1 << (bits - 2)))
+            percents = setpoint_span(None, "%", dword=dword)
+            if in_unit:
+                span = setpoint_span(reference, unit, dword=dword)
+                raise ConfigError(
+                    f"setpoint {_shown(number)} {unit} is outside {span} ({percents} of the "
+                    f"reference, {bits} bits, C 5.2.2)"
+                ) from None
             raise ConfigError(
-                f"setpoint {_shown(number)} {unit if in_unit else '%'} is outside "
-                f"{span[0]:g} % .. {span[1]:.{2 if bits == 16 else 7}f} % of the reference "
+                f"setpoint {_shown(number)} % is outside {percents} of the reference "
                 f"({bits} bits, C 5.2.2)"
             ) from None
     percent = raw32_to_percent(word) if dword else raw16_to_percent(word)

@@ -1,14 +1,23 @@
-"""A drive's points at one moment: `DriveState`, the snapshot every face shows.
+"""A drive's points at one moment: `DriveState`, the snapshot every face shows; a bus's:
+`BusState`.
 
 A state is immutable; the runtime (`pyuss.points.plant`) makes a new one whenever something
 changes: an answer with other process data, a parameter read, "does not send" set or
-cleared, a fault number read, a job refused. ``to_dict()`` is the JSON form (the MQTT state
-topic, the web page), values with their units and times in ISO 8601 (UTC).
+cleared, an answer missed, the drive or its bus offline or back, a fault number read, a job
+refused. ``to_dict()`` is the JSON form (the MQTT state topic, the web page), values with
+their units and times in ISO 8601 (UTC).
+
+Availability (docs/gateway.md, "Availability"): a drive is `DriveState.online` while its
+bus is online (a master exchanges on the line) and it answers by its bus's
+`pyuss.points.model.OfflineRule`; while it is online but its latest answers were missed its
+values are `DriveState.stale`: the last answer's, kept through a short gap.
 """
 
 from __future__ import annotations
 
 import datetime
+import functools
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -18,6 +27,8 @@ from pyuss.points.parameters import ParamMeta
 from pyuss.profiles import UNKNOWN_KIND
 from pyuss.protocol.diagnostics import Counters
 from pyuss.protocol.pzd import (
+    FULL_SCALE_16,
+    FULL_SCALE_32,
     SWITCHES_ON,
     StatusWord,
     join_dword,
@@ -28,13 +39,18 @@ from pyuss.protocol.pzd import (
 __all__ = [
     "COUNTER_FIELDS",
     "STATE_CODES",
+    "BusState",
     "DriveState",
     "Health",
     "ParamValue",
     "ProcessValue",
     "Sample",
+    "SetpointSpan",
+    "decimals",
     "iso",
+    "process_decimals",
     "process_value",
+    "setpoint_span",
     "signed",
     "state_name",
 ]
@@ -137,6 +153,74 @@ def _round(value: float | None) -> float | None:
     return None if value is None else round(value, 6)
 
 
+@functools.lru_cache(maxsize=256)
+def decimals(step: float) -> int:
+    """The decimals a value that moves in steps of ``step`` is shown with: the first decimal
+    place at or above the step (steps of 0.003 Hz: 2)."""
+    if not math.isfinite(step) or step <= 0:
+        return 6
+    return max(0, math.floor(-math.log10(step) + 1e-9))
+
+
+def process_decimals(dword: bool, unit: str, reference: float | None) -> tuple[int, int]:
+    """(decimals of the value in its unit, decimals of the percent) of a process value: one
+    raw step is 100 % / 4000h (16 bits) or / 4000 0000h (32 bits) of the reference."""
+    step = 100.0 / (FULL_SCALE_32 if dword else FULL_SCALE_16)
+    value_step = step if reference is None or unit == "%" else step * abs(reference) / 100.0
+    return decimals(value_step), decimals(step)
+
+
+@dataclass(frozen=True, slots=True)
+class SetpointSpan:
+    """The setpoints a process word takes, as a person enters them: from ``low`` to ``high``
+    in ``unit`` (``%``: percent of the reference), each taken as it is, with ``places``
+    decimals (`setpoint_span`)."""
+
+    low: float
+    high: float
+    unit: str
+    places: int
+    bits: int
+
+    def __str__(self) -> str:
+        low, high = _places(self.low, self.places), _places(self.high, self.places)
+        return f"{low} {self.unit} .. {high} {self.unit}"
+
+
+def _places(value: float, places: int) -> str:
+    """``value`` with at most ``places`` decimals, no trailing zeros (``-200``, ``199.99``)."""
+    text = f"{value:.{places}f}"
+    return text.rstrip("0").rstrip(".") if "." in text else text
+
+
+def setpoint_span(
+    reference: float | None, unit: str, *, dword: bool = False, places: int | None = None
+) -> SetpointSpan:
+    """The one range of a setpoint as a face offers it: in ``unit`` through ``reference``
+    (the physical value of 100 %) where it is known and ``unit`` is not ``%``, else in
+    percent; from -200 % (8000h, 8000 0000h for a double word: C 5.2.2) to the highest value
+    with ``places`` decimals (default: those of one raw step, `process_decimals`) that the
+    word still carries. Every value of the span passes `checked_setpoint`, and a refusal
+    names this span."""
+    bits = 32 if dword else 16
+    full = FULL_SCALE_32 if dword else FULL_SCALE_16
+    in_unit = reference is not None and reference > 0 and unit != "%"
+    scale = reference / 100.0 if in_unit and reference is not None else 1.0
+    value_places, percent_places = process_decimals(dword, unit, reference)
+    shown = (value_places if in_unit else percent_places) if places is None else places
+    factor = 10.0**shown
+    low = -(1 << (bits - 1)) * 100.0 / full * scale
+    high = ((1 << (bits - 1)) - 1) * 100.0 / full * scale
+    # (rounded to 1e-6 of a decimal first: a float's last bit never moves a bound a step)
+    return SetpointSpan(
+        math.ceil(round(low * factor, 6)) / factor,
+        math.floor(round(high * factor, 6)) / factor,
+        unit if in_unit else "%",
+        shown,
+        bits,
+    )
+
+
 @dataclass(frozen=True, slots=True)
 class ParamValue:
     """A parameter as last read (or written): the value in its unit, when, or the error."""
@@ -224,6 +308,13 @@ class DriveState:
     """The physical value of 100 % in ``model.unit`` (None: not known yet, or percent)."""
     actual_words: tuple[int, ...] = ()
     setpoint_words: tuple[int, ...] = ()
+    bus_online: bool = True
+    """A master exchanges on the drive's line (`BusState.online`)."""
+    answering: bool = True
+    """The drive answers by its bus's `OfflineRule`: it did not miss as many answers in a
+    row, nor go as long without one, as makes it offline."""
+    missed: int = 0
+    """Answers missed in a row since its last one."""
 
     @property
     def answered(self) -> bool:
@@ -231,8 +322,14 @@ class DriveState:
 
     @property
     def online(self) -> bool:
-        """The drive answers: it answered once and is not marked "does not send"."""
-        return self.answered and not self.health.not_sending
+        """The drive is available: it answered, it answers (`answering`: one missed answer is
+        no outage), and its bus is online."""
+        return self.answered and self.answering and self.bus_online
+
+    @property
+    def stale(self) -> bool:
+        """Online, but its latest answers were missed: the values are the last answer's."""
+        return self.missed > 0 and self.online
 
     @property
     def state(self) -> str:
@@ -266,14 +363,23 @@ class DriveState:
         return bool(self.control_word & SWITCHES_ON) or (self.online and self.running)
 
     def signature(self) -> tuple[object, ...]:
-        """What a subscriber is told about when it changes (not the running counters)."""
+        """What a subscriber is told about when it changes (not the running counters): the
+        actual values and `events`."""
+        return (self.actual_words, *self.events())
+
+    def events(self) -> tuple[object, ...]:
+        """What a subscriber is told about when it changes, but the actual values: the
+        status word, what was sent, parameters, "does not send", faults and refusals - what
+        a face that thins out the actual values still tells at once (`signature`)."""
         return (
             self.status_word,
             self.control_word,
-            self.actual_words,
             self.setpoint_words,
             tuple((k, v.value, v.error is None) for k, v in self.parameters.items()),
             self.health.not_sending,
+            self.bus_online,
+            self.answering,
+            self.missed > 0,
             self.health.last_fault,
             self.health.last_fault_time,
             None if self.health.last_refusal is None else id(self.health.last_refusal),
@@ -301,3 +407,18 @@ class DriveState:
             "parameters": {k: v.to_dict() for k, v in self.parameters.items()},
             "health": self.health.to_dict(),
         }
+
+
+@dataclass(frozen=True, slots=True)
+class BusState:
+    """A bus at one moment: whether a master exchanges telegrams on its line."""
+
+    name: str
+    online: bool
+    """The bus's master runs and its link is up (offline before the start, while the port
+    is lost and being reopened, and once the master stopped)."""
+    since: datetime.datetime
+    """When ``online`` last changed (wall clock, UTC)."""
+    lost: str | None = None
+    """Why the line is lost for good: the master stopped, its port failed and is not
+    reopened (``reconnect=0`` in the port's URL, or reconnecting gave up)."""

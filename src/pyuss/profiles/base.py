@@ -119,6 +119,9 @@ class Profile:
     """The document sections the profile follows (docs/references.md)."""
     default_layout: Layout
     """The layout used when neither the user nor the parameter file sets one."""
+    manufacturer: str = ""
+    """The maker of the family's drives ("": a profile of the USS specification, of no one
+    maker)."""
     fixed_layout: Layout | None = None
     """The only layout the device knows (for example 6SE21: PKW 3, PZD 2), or None."""
     pkw_choices: tuple[int, ...] = (0, 3, 4, PKW_VARIABLE)
@@ -199,6 +202,17 @@ class Profile:
         """The family's fault numbers (as its fault display shows them) and short texts: the
         file's ``[fault_texts]``."""
         return self.database().fault_texts
+
+    @property
+    def fault_names(self) -> Mapping[int, str]:
+        """Every fault number the family's file knows, with its text: the ``[fault_texts]``,
+        and for a number that only a ``[faults]`` role names (``telegram_failure = 65``) the
+        role's words ("telegram failure")."""
+        texts: dict[int, str] = {}
+        for name, code in self.database().faults.items():
+            texts.setdefault(code, name.replace("_", " "))
+        texts.update(self.faults)
+        return texts
 
     @property
     def warnings(self) -> Mapping[int, str]:

@@ -77,6 +77,7 @@ PROFILE = Profile(
     name="baumueller",
     title="Baumueller drive (USS with fixed telegram length)",
     follows="Baumueller manual part 2",
+    manufacturer="Baumueller",
     default_layout=Layout(3, 2),
     pkw_choices=(0, 3, 4),
     max_pzd=3,

@@ -33,6 +33,7 @@ PROFILE = Profile(
     name="micromaster4",
     title="MICROMASTER 4 / SINAMICS (parameters >= 2000 through IND page bits)",
     follows="none; MICROMASTER 420 operating instructions, USS parameter number",
+    manufacturer="Siemens",
     default_layout=Layout(PKW_VARIABLE, 2),
     max_pzd=8,
     pnu_page_size=PAGE_SIZE,

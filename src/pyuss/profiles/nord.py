@@ -26,6 +26,7 @@ PROFILE = Profile(
     name="nord",
     title="NORD frequency inverter",
     follows="NORD BU 0050 1.3.5, 1.3.6",
+    manufacturer="NORD",
     default_layout=Layout(4, 2),
     broadcast=BroadcastForm.ENABLE_ARRAY,
     residual_extra_chars=0.5,

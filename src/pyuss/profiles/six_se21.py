@@ -27,6 +27,7 @@ PROFILE = Profile(
     name="6se21",
     title="SIMOVERT P 6SE21 / early MICROMASTER",
     follows="SIMOVERT P 6SE21 manual 7.5",
+    manufacturer="Siemens",
     default_layout=Layout(3, 2),
     fixed_layout=Layout(3, 2),
     pkw_choices=(3,),

@@ -18,14 +18,17 @@ Line options in the query, so that every command taking a port URL can use them:
 
 - serial ports: ``rs485=auto|kernel|rts`` (direction control), ``echo=1`` (the adapter returns
   what it sends: checked and removed), ``low_latency=0`` (leave the driver's low-latency mode
-  off, see `pyuss.transport.serialport`), ``reconnect=1``; e.g.
+  off, see `pyuss.transport.serialport`), ``reconnect=0|1``; e.g.
   ``/dev/ttyUSB0?rs485=rts&echo=1``.
   Other query options (``socket://h:p?logging=debug``) go to pyserial.
-- ``tcp://``: ``echo=1`` (the converter echoes), ``reconnect=1``.
+- ``tcp://``: ``echo=1`` (the converter echoes), ``reconnect=0|1``.
 - ``bus://``: ``name=``, ``echo=1`` (the bus returns the station's own characters, raw),
-  ``listen_only=1``, ``reconnect=1``.
+  ``listen_only=1``, ``reconnect=0|1``.
 
-A query option overrides the keyword argument of the same name.
+A query option overrides the keyword argument of the same name: ``reconnect`` is off for a
+caller that says nothing (the one-shot commands fail fast), on for the long-running commands
+(``uss gateway``, ``uss web``, ``uss log``, ``uss run``), and ``?reconnect=0`` turns it off
+for them, ``?reconnect=1`` on for any.
 """
 
 from __future__ import annotations
@@ -35,7 +38,8 @@ import urllib.parse
 from pyuss.errors import ConfigError
 from pyuss.transport.address import parse_host_port, split_url
 from pyuss.transport.base import Transport
-from pyuss.transport.reconnect import ReconnectingTransport
+from pyuss.transport.queued import QueuedTransport
+from pyuss.transport.reconnect import BACKOFF_INITIAL, BACKOFF_MAX, ReconnectingTransport
 from pyuss.transport.serialport import RS485Mode, SerialTransport
 from pyuss.transport.tcp import TcpServerTransport, TcpTransport, check_endpoint
 
@@ -109,14 +113,16 @@ def open_transport(
     stopbits: float = 1,
     reconnect: bool = False,
     low_latency: bool = True,
-    backoff_initial: float = 0.1,
-    backoff_max: float = 5.0,
+    backoff_initial: float = BACKOFF_INITIAL,
+    backoff_max: float = BACKOFF_MAX,
 ) -> Transport:
     """Build the transport ``url`` names (see the module docstring); nothing is opened yet:
     use ``async with open_transport(...) as t:`` or ``await t.open()``.
 
-    ``reconnect=True`` wraps it in a `ReconnectingTransport`. ``low_latency=False`` leaves a
-    serial driver's low-latency mode off. Bad URLs and settings raise
+    ``reconnect=True`` (overridden by the URL's ``reconnect=0|1``) wraps it in a
+    `ReconnectingTransport` that reopens a lost link: the first try at once, then after
+    ``backoff_initial`` seconds, the wait doubling up to ``backoff_max``.
+    ``low_latency=False`` leaves a serial driver's low-latency mode off. Bad URLs and settings raise
     `ConfigError` naming what was wrong.
     """
     if not isinstance(url, str) or not url.strip():
@@ -130,6 +136,7 @@ def open_transport(
         options = query_flags(url, ("name", "echo", "listen_only", "reconnect"))
     elif scheme == "tcp-listen":
         options = query_flags(url, ())
+        reconnect = False  # a server is not lost with a peer: it waits for the next one
     else:
         port_url, options = serial_options(url)
         rs485 = RS485Mode.parse(options.get("rs485", rs485))
@@ -140,7 +147,7 @@ def open_transport(
     if "reconnect" in options:
         reconnect = flag(url, "reconnect", options["reconnect"])
 
-    def build() -> Transport:
+    def build() -> QueuedTransport:
         if scheme == "tcp":
             host, port = check_endpoint(*split_endpoint(url))
             return TcpTransport(host, port, baud=baud, echo=echo)

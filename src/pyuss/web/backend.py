@@ -173,6 +173,9 @@ class Backend:
         self.scan_progress: tuple[int, int] | None = None
         self._lock = asyncio.Lock()
         self._sent: dict[int, dict[str, Any]] = {}
+        self.lost = asyncio.Event()
+        """Set when the line is lost for good: its port failed and is not reopened
+        (``reconnect=0`` in its URL); `uss web` then stops."""
 
     # -- life cycle ---------------------------------------------------------------------------
     async def start(self) -> None:
@@ -207,7 +210,7 @@ class Backend:
         from pyuss.transport.url import open_transport
 
         assert self._url is not None
-        return open_transport(self._url, baud=self.baud)
+        return open_transport(self._url, baud=self.baud, reconnect=True)
 
     async def _start_master(self) -> None:
         self._stop = asyncio.Event()
@@ -250,6 +253,7 @@ class Backend:
         )
         for points in plant.drives:
             points.keep_samples(SAMPLE_BUFFER)
+        plant.bus(LINE).subscribe(lambda state: self.lost.set() if state.lost else None)
         await plant.start()
         self._plant = plant
         self._drives = {points.address: points for points in plant.drives}
@@ -371,12 +375,18 @@ class Backend:
         }
 
     def _line_failed(self) -> str | None:
-        """Why no drive of the line answers any more: its master stopped (the port failed, a
-        TCP adapter went away without ``reconnect=1``); None while it runs."""
+        """Why no drive of the line answers: its master stopped (the port failed, a TCP
+        adapter went away with ``reconnect=0``) or its port is lost and being reopened; None
+        while the master exchanges on the line."""
         plant = self._plant
-        if plant is None or plant.bus(LINE).master.running:
+        if plant is None:
             return None
-        return f"the line failed: {self.port} is closed or gone (the log says why)"
+        bus = plant.bus(LINE)
+        if not bus.master.running:
+            return f"the line failed: {self.port} is closed or gone (the log says why)"
+        if not bus.online:
+            return f"the line is down: {self.port} is being reopened"
+        return None
 
     def setpoint_value(self, address: int) -> float | None:
         """The main setpoint sent to drive ``address`` now, in the unit of its main actual

@@ -62,3 +62,9 @@ class TapTransport(Transport):
     @property
     def exact_timestamps(self) -> bool:
         return self.inner.exact_timestamps
+
+    @property
+    def connected(self) -> bool:
+        """Whether the link is up: a reconnecting line's own (`pyuss.transport.reconnect`),
+        else always."""
+        return bool(getattr(self.inner, "connected", True))
