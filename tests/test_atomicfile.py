@@ -38,6 +38,7 @@ def test_a_target_that_cannot_be_written_is_refused_before_any_work(
     assert os.listdir(tmp_path) == []
 
 
+@pytest.mark.posix("os.mkfifo")
 @pytest.mark.parametrize("link", [False, True])
 def test_a_pipe_or_device_is_never_replaced_by_a_file(tmp_path: Path, link: bool) -> None:
     # the rename would put a file where the pipe (or, for root, /dev/null) was
@@ -55,6 +56,7 @@ def test_a_pipe_or_device_is_never_replaced_by_a_file(tmp_path: Path, link: bool
     assert sorted(os.listdir(tmp_path)) == sorted({"pipe", target.name})
 
 
+@pytest.mark.posix("os.mkfifo")
 def test_gsd_onto_a_pipe_is_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     os.mkfifo(tmp_path / "pipe")
     code = main(["ksvario", "gsd", "--output", str(tmp_path / "pipe")])
@@ -89,7 +91,7 @@ def test_an_error_inside_the_block_leaves_the_old_file(tmp_path: Path) -> None:
 def test_bus_record_into_a_folder_is_bad_input(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code = main(["bus", "--pty", "1", "--duration", "1", "--record", str(tmp_path)])
+    code = main(["bus", "--tcp", "127.0.0.1:0", "--duration", "1", "--record", str(tmp_path)])
     err = capsys.readouterr().err
     assert code == 2
     assert err.count("\n") == 1 and "it is a folder" in err, err

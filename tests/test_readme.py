@@ -107,6 +107,18 @@ ALL = [example for page in pages() for example in examples(page)]
 RUN = [example for example in ALL if example.kind != "text"]
 
 
+def needs(example: Example) -> list[pytest.MarkDecorator]:
+    """What the system must have to run ``example``: a session, or a command started before
+    the block, runs as from a terminal (`_as_from_a_terminal`, SIGINT: POSIX); a ``--pty``
+    needs a pty."""
+    marks = []
+    if example.kind in ("console", "sh") or any(_RUN_WITH.fullmatch(d) for d in example.directives):
+        marks.append(pytest.mark.posix("runs the commands as a terminal does (preexec_fn, SIGINT)"))
+    if "--pty" in example.code or any("--pty" in d for d in example.directives):
+        marks.append(pytest.mark.pty)
+    return marks
+
+
 def test_readme_lists_every_docs_page_once_under_one_heading() -> None:
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     assert text.count("\n## Documentation\n") == 1
@@ -383,7 +395,7 @@ CHECKS = {"README.md": {"import asyncio": _after_ramping_up}}
 """Further checks of a script's output: page, first line of the script -> check."""
 
 
-@pytest.mark.parametrize("example", RUN, ids=[e.name for e in RUN])
+@pytest.mark.parametrize("example", [pytest.param(e, marks=needs(e), id=e.name) for e in RUN])
 def test_the_example_runs_as_written(example: Example, tmp_path: Path) -> None:
     for directive in example.directives:
         if directive.startswith("not run: "):

@@ -10,7 +10,6 @@ import signal
 import subprocess
 import sys
 import threading
-import tty
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -125,6 +124,7 @@ def test_no_answer_exits_1(tcp_ring: Ring, capsys: pytest.CaptureFixture[str]) -
     }
 
 
+@pytest.mark.pty
 def test_ring_on_a_pty_read_with_a_serial_port(capsys: pytest.CaptureFixture[str]) -> None:
     ring = Ring("--pty", "--drives", "7")
     try:
@@ -140,6 +140,7 @@ def test_ring_on_a_pty_read_with_a_serial_port(capsys: pytest.CaptureFixture[str
     assert "drive 7: 2" in err
 
 
+@pytest.mark.pty
 @pytest.mark.parametrize("action", [["read", "1", "170"], ["write", "1", "170", "0"]])
 def test_the_line_is_opened_8n1_at_9600(
     action: list[str],
@@ -151,6 +152,8 @@ def test_the_line_is_opened_8n1_at_9600(
     drive is
     the far end of a pty; the line is opened through ``recording://``, which notes the frame
     (`bass.protocol_recording`: a pty cannot show it)."""
+    import tty
+
     monkeypatch.setattr(serial, "protocol_handler_packages", ["bass"])
     record = tmp_path / "settings"
     pc_end, device = os.openpty()
@@ -175,9 +178,12 @@ def test_the_line_is_opened_8n1_at_9600(
     assert recorded(str(record))[-1] == [9600, 8, "N", 1]
 
 
+@pytest.mark.pty
 def test_ring_keeps_serving_and_stops_cleanly_while_nobody_reads_its_pty() -> None:
     """A PC that sends and never reads fills the pty: the ring's output is lost with a warning,
     it keeps serving, and SIGTERM in the middle of a stuck write is still a clean end."""
+    import tty
+
     ring = Ring("--pty", "--drives", "1")
     fd = os.open(ring.where, os.O_RDWR | os.O_NOCTTY)
     sending = threading.Event()

@@ -5,9 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import os
-import termios
 import time
-import tty
 
 import pytest
 import serial
@@ -267,6 +265,7 @@ async def test_master_over_tcp_to_a_ring_served_on_localhost() -> None:
     await asyncio.wait_for(serving, WAIT)  # closing the transport ends the service
 
 
+@pytest.mark.pty
 async def test_ring_behind_a_pty_with_pyserial() -> None:
     ring = ring_of_three()
     async with PtyPort() as pty:
@@ -310,9 +309,13 @@ def test_signed_element_round_trip_and_limits(value: int) -> None:
         assert drive.value(2) == value
 
 
+@pytest.mark.pty
 async def test_a_pc_that_stops_reading_does_not_stop_the_ring() -> None:
     """The PC sends without reading until the pty's buffer is full and the ring's output is
     lost; then it empties its input and asks something else: the ring is still serving."""
+    import termios
+    import tty
+
     ring = ring_of_three()
     async with PtyPort(write_timeout=0.1) as pty:
         assert isinstance(pty, PtyPort)

@@ -1,6 +1,7 @@
 """``uss simulate --profile baumueller`` with its BASS side, as a user runs it: one process, the
-USS line on one pty and the BASS ring on another (or TCP), reached with pyserial, ``uss bass``,
-``uss read``/``uss write`` and the USS master - one drive behind two interfaces."""
+USS line on one TCP port and the BASS ring on another (or a serial device), reached with
+pyserial, ``uss bass``, ``uss read``/``uss write`` and the USS master - one drive behind two
+interfaces. The simulator is stopped with SIGTERM and must end cleanly: POSIX systems only."""
 
 from __future__ import annotations
 
@@ -11,7 +12,6 @@ import select
 import signal
 import subprocess
 import sys
-import tty
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -26,9 +26,12 @@ from pyuss.cli.main import main
 from pyuss.master import Master, SpontaneousMessage
 from pyuss.transport import PtyPort, open_transport
 from support.paths import load_vectors
+from support.processes import TCP, line_within
 
 TIMEOUT = 20  # generous: real ptys and a second process on a loaded machine
 PORT_OPTIONS = ("--timeout", "5")
+BASS_TCP = ("--bass-tcp", "127.0.0.1:0")
+STOPPED = pytest.mark.posix("stops uss simulate with SIGTERM and checks it ended cleanly")
 
 
 class Simulator:
@@ -50,9 +53,8 @@ def simulate(*args: str) -> Iterator[Simulator]:
     )
     assert proc.stdout is not None
     try:
-        ready, _, _ = select.select([proc.stdout], [], [], TIMEOUT)
-        assert ready, "uss simulate printed no device"
-        lines = [proc.stdout.readline().strip() for _ in range(2)]  # "" if it ended
+        lines = [line_within(proc.stdout, TIMEOUT, "uss simulate printed no device")]
+        lines.append(proc.stdout.readline().strip())  # "" if it ended
         assert all(lines), proc.communicate(timeout=TIMEOUT)[1]
         sim = Simulator(proc, *lines)
         yield sim
@@ -74,14 +76,21 @@ def bass_json(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, dict
     return code, json.loads(out)
 
 
+def _line(url: str) -> serial.SerialBase:
+    """The line ``tcp://HOST:PORT`` of the simulator, as pyserial opens it."""
+    assert url.startswith("tcp://"), url
+    return serial.serial_for_url(f"socket://{url.removeprefix('tcp://')}", timeout=TIMEOUT)
+
+
+@STOPPED
 def test_both_document_vectors_byte_for_byte_and_the_uss_side_sees_them(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     vectors = [v["line"].replace("\\r\\n", "\r\n").encode() for v in load_vectors("bass")["lines"]]
-    with simulate("--pty", "--bass-pty", "--address", "0") as sim:
-        assert sim.uss.startswith("/dev/") and sim.bass.startswith("/dev/")
+    with simulate(*TCP, *BASS_TCP, "--address", "0") as sim:
+        assert sim.uss.startswith("tcp://") and sim.bass.startswith("tcp://")
         assert sim.uss != sim.bass
-        with serial.Serial(sim.bass, 9600, timeout=TIMEOUT) as port:
+        with _line(sim.bass) as port:
             port.write(vectors[0])  # ID 2 = 1D4Ch = 75.00 %
             assert port.read_until(b"\n") == vectors[0]  # the echo, byte for byte
             assert port.read_until(b"\n") == BassAnswer.value(0, 2, 0x1D4C).encode()
@@ -98,10 +107,9 @@ def test_both_document_vectors_byte_for_byte_and_the_uss_side_sees_them(
     assert "BASS requests answered: drive 0: 2" in sim.stderr
 
 
+@STOPPED
 def test_a_ring_of_three_drives_in_address_order(capsys: pytest.CaptureFixture[str]) -> None:
-    with simulate(
-        "--pty", "--bass-pty", "--address", "3", "--address", "1", "--address", "2"
-    ) as sim:
+    with simulate(*TCP, *BASS_TCP, "--address", "3", "--address", "1", "--address", "2") as sim:
         port = ("--port", sim.bass)
         for address in (1, 2, 3):
             code, result = bass_json(capsys, "read", str(address), "170", *port)
@@ -124,8 +132,9 @@ def test_a_ring_of_three_drives_in_address_order(capsys: pytest.CaptureFixture[s
     assert "BASS requests answered: drive 1: 3, drive 2: 4, drive 3: 2" in sim.stderr
 
 
+@STOPPED
 def test_write_authority_set_over_uss_holds_for_bass(capsys: pytest.CaptureFixture[str]) -> None:
-    with simulate("--pty", "--bass-pty", "--address", "1") as sim:
+    with simulate(*TCP, *BASS_TCP, "--address", "1") as sim:
         on_uss = ("--port", sim.uss, "--profile", "baumueller", *PORT_OPTIONS)
         on_bass = ("--port", sim.bass)
         assert uss(capsys, "write", "1", "126", "0", "--raw", *on_uss)[0] == 0  # 126 bit 0 = 0
@@ -161,11 +170,12 @@ def test_write_authority_set_over_uss_holds_for_bass(capsys: pytest.CaptureFixtu
         assert result["value"] == 0x0011  # RUN
 
 
+@STOPPED
 async def test_uss_master_sees_a_bass_write_as_a_spontaneous_message() -> None:
-    """C 4.2.1.2 through both ptys of one ``uss simulate``: the drive answers USS jobs 40
+    """C 4.2.1.2 through both lines of one ``uss simulate``: the drive answers USS jobs 40
     telegrams late, so the master's job is open when a BASS write of the active parameter 2
     comes; the master gets it through its callback, acknowledges it, and the job goes on."""
-    with simulate("--pty", "--bass-pty", "--address", "4", "--latency", "40") as sim:
+    with simulate(*TCP, *BASS_TCP, "--address", "4", "--latency", "40") as sim:
         events: list[object] = []
         async with Master(sim.uss, baud=9600, profile="baumueller", layout="3,2") as bus:
             drive = bus.drive(4)
@@ -185,6 +195,7 @@ async def test_uss_master_sees_a_bass_write_as_a_spontaneous_message() -> None:
     assert spontaneous == 1
 
 
+@STOPPED
 def test_both_interfaces_over_tcp(capsys: pytest.CaptureFixture[str]) -> None:
     with simulate("--tcp", "127.0.0.1:0", "--bass-tcp", "127.0.0.1:0", "--address", "6") as sim:
         assert sim.uss.startswith("tcp://127.0.0.1:") and sim.bass.startswith("tcp://127.0.0.1:")
@@ -194,12 +205,13 @@ def test_both_interfaces_over_tcp(capsys: pytest.CaptureFixture[str]) -> None:
     assert "BASS (RS-232, 9600 baud 8N1) on tcp://127.0.0.1:" in sim.stderr
 
 
+@pytest.mark.pty
 async def test_bass_side_on_a_serial_device() -> None:
     """``--bass-serial DEVICE``: the simulator opens a serial device (here the far end of a pty
     this test holds, as a PC's null-modem cable would be) at 9600 8N1."""
     async with PtyPort(baud=9600) as pc:
         assert isinstance(pc, PtyPort)
-        with simulate("--pty", "--bass-serial", pc.device_path, "--address", "2") as sim:
+        with simulate(*TCP, "--bass-serial", pc.device_path, "--address", "2") as sim:
             assert sim.bass == pc.device_path
             assert await BassMaster(pc, timeout=5).read(2, 170) == 0x0021
     assert f"BASS (RS-232, 9600 baud 8N1) on {pc.device_path}" in sim.stderr
@@ -233,10 +245,11 @@ RECORDING_MAIN = (
 @pytest.mark.parametrize(
     ("args", "lines"),
     [
-        (["--profile", "baumueller", "--pty", "--bass-serial"], 2),
+        (["--profile", "baumueller", *TCP, "--bass-serial"], 2),
         (["--profile", "bass", "--serial"], 1),
     ],
 )
+@pytest.mark.pty
 def test_the_simulators_bass_serial_line_is_8n1_at_9600(
     args: list[str], lines: int, tmp_path: Path
 ) -> None:
@@ -244,6 +257,8 @@ def test_the_simulators_bass_serial_line_is_8n1_at_9600(
     the
     USS side uses. The PC is the far end of a pty; the simulator opens the device through
     ``recording://`` (`bass.protocol_recording`), which notes the frame a pty cannot show."""
+    import tty
+
     record = tmp_path / "settings"
     pc_end, device = os.openpty()
     try:

@@ -20,7 +20,7 @@ from support.paths import load_vectors
 from transport.helpers import WAIT, byte_ends, flat_errors, joined, read_bytes
 
 BAUD = 19200
-MEDIA = ["inproc", "pty", "tcp", "socket", "bus"]
+MEDIA = ["inproc", pytest.param("pty", marks=pytest.mark.pty), "tcp", "socket", "bus"]
 
 
 @dataclass
@@ -137,7 +137,7 @@ async def test_simultaneous_senders_collide(line: Line) -> None:
     assert joined(seen) not in (ones + twos, twos + ones)
 
 
-@pytest.mark.parametrize("medium", ["pty", "bus"])
+@pytest.mark.parametrize("medium", [pytest.param("pty", marks=pytest.mark.pty), "bus"])
 async def test_two_wire_echo_is_checked_and_removed_by_the_station(medium: str) -> None:
     bus = VirtualBus(BAUD)
     if medium == "pty":

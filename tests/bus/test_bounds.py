@@ -10,7 +10,6 @@ import logging
 import os
 import socket
 import time
-import tty
 from collections.abc import Callable
 
 import pytest
@@ -342,10 +341,13 @@ async def test_connections_turned_away_one_after_another_are_logged_once(
         await bus.close()
 
 
+@pytest.mark.pty
 async def test_a_program_that_floods_a_pty_and_leaves_costs_the_line_one_telegram_at_most() -> None:
     # The bus holds each pty open itself, so it cannot see a program that wrote 12 kB into
     # one and left: what waits of it is bounded by one telegram of the longest, 256
     # characters (0.3 s at 9600 baud), not 4096 (4.7 s)
+    import tty
+
     bus = VirtualBus(BAUD)
     try:
         flooded, _other = await bus.serve_pty(2)

@@ -1,4 +1,5 @@
-"""``uss bus`` as a user runs it: a separate process, ptys and sockets, stopped by a signal."""
+"""``uss bus`` as a user runs it: a separate process, ptys and sockets, stopped by a signal
+(POSIX systems)."""
 
 from __future__ import annotations
 
@@ -32,6 +33,7 @@ def _lines(proc: subprocess.Popen[str], n: int) -> list[str]:
     return [proc.stdout.readline().strip() for _ in range(n)]
 
 
+@pytest.mark.pty
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_ptys_carry_bytes_until_stopped(tmp_path: Path, sig: signal.Signals) -> None:
     record = tmp_path / "wire.jsonl"
@@ -57,6 +59,7 @@ def test_ptys_carry_bytes_until_stopped(tmp_path: Path, sig: signal.Signals) -> 
     assert [json.loads(line)["from"] for line in lines[1:]] == ["pty1"] * 14 + ["pty2"] * 4
 
 
+@pytest.mark.posix("stops uss bus with SIGINT and checks it ended cleanly")
 def test_tcp_and_bus_endpoints_are_printed_and_a_stop_with_stations_on_is_quiet() -> None:
     proc = _start("--tcp", "127.0.0.1:0", "--bus-tcp", "127.0.0.1:0", "--duration", "30")
     err = ""
@@ -103,6 +106,7 @@ def _connected(sock: socket.socket) -> bool:
         return False
 
 
+@pytest.mark.posix("stops uss bus and uss simulate with SIGTERM and checks they ended cleanly")
 def test_silent_raw_connections_never_lock_out_a_simulator_or_a_bus_master() -> None:
     """40 raw TCP connections that connect and stay silent: 32 hold every sending place (B 1),
     the last 8 in the places of the first 8. Then a ``uss simulate --bus`` joins and a
@@ -140,6 +144,7 @@ def test_silent_raw_connections_never_lock_out_a_simulator_or_a_bus_master() -> 
     assert sim.returncode == 0
 
 
+@pytest.mark.pty
 def test_echo_for_the_named_station_only() -> None:
     proc = _start("--baud", "38400", "--pty", "2", "--echo", "pty1", "--duration", "60")
     try:

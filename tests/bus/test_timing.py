@@ -53,6 +53,7 @@ async def test_telegram_of_n_bytes_takes_n_times_11_over_baud(baud: int) -> None
         assert ends[i] - ends[i - 1] == pytest.approx(sizes[i] * 11 / baud, abs=EXACT)
 
 
+@pytest.mark.pty
 @pytest.mark.parametrize("baud", [1200, 9600])
 async def test_a_program_on_a_pty_gets_a_telegram_no_sooner_than_the_wire_would(
     baud: int,

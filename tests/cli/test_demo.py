@@ -25,6 +25,7 @@ def test_demo_runs_and_shows_each_step(capsys: pytest.CaptureFixture[str]) -> No
     assert "Diagnostics:" in out
 
 
+@pytest.mark.posix("pipes the output into head through the shell")
 def test_a_reader_that_goes_away_ends_the_command_quietly() -> None:
     """`uss ... | head` must not end in a traceback when head stops reading."""
     import subprocess

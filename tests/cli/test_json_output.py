@@ -196,6 +196,7 @@ def test_monitor_errors_are_lines_of_its_stream(
     datetime.datetime.fromisoformat(line["time"])
 
 
+@pytest.mark.posix("time.tzset")
 def test_monitor_times_are_wall_clock(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:

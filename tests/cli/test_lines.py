@@ -1,5 +1,5 @@
 """The configuration file of lines and drives (``uss.toml``, docs/lines.md) for real: drives
-of ``uss simulate --pty`` processes named in the file, the commands through their entry point
+of ``uss simulate --tcp`` processes named in the file, the commands through their entry point
 (``main`` in this process, or ``uss`` in a process of its own for web, gateway and log)."""
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import pytest
 from gateway.harness import free_port
 from pyuss.cli.main import main
 from support.paths import ROOT
-from support.processes import simulator_pty
+from support.processes import simulator
 from test_userfile import bad_files, refuses
 
 USS = [sys.executable, "-m", "pyuss.cli.main"]
@@ -29,13 +29,14 @@ BAUD = 38400
 
 DRIVES = ("--profile", "generic", "--address", "5", "--address", "6", "--layout", "3,2")
 """Generic drives at addresses 5 and 6 (PKW 3, PZD 2), at `BAUD`."""
+STOPPED = pytest.mark.posix("stops uss with SIGINT and checks it ended cleanly")
 
 
 @pytest.fixture(scope="module")
 def sim() -> Iterator[str]:
-    """`DRIVES` behind a pty: its path."""
-    with simulator_pty(*DRIVES, "--baud", str(BAUD)) as path:
-        yield path
+    """`DRIVES` on TCP: its ``tcp://`` URL."""
+    with simulator(*DRIVES, "--baud", str(BAUD)) as url:
+        yield url
 
 
 @pytest.fixture(autouse=True)
@@ -273,6 +274,7 @@ def stop(process: subprocess.Popen[str]) -> int:
             process.kill()
 
 
+@STOPPED
 def test_uss_gateway_serves_the_file_found(sim: str) -> None:
     port = free_port()
     Path("uss.toml").write_text(
@@ -290,6 +292,7 @@ def page_bus(url: str) -> dict[str, object]:
     return data
 
 
+@STOPPED
 def test_uss_web_shows_the_drives_of_the_files_line(sim: str) -> None:
     pytest.importorskip("aiohttp")
     Path("uss.toml").write_text(line("line1", sim, (5, "conveyor"), (6, "pump")))
@@ -318,8 +321,8 @@ def test_uss_web_shows_the_drives_of_the_files_line(sim: str) -> None:
 def auto_page(profile: str, address: str) -> tuple[list[dict[str, object]], str]:
     """The drives `uss web --profile auto` shows of a simulated ``profile`` drive, and its
     stderr."""
-    with simulator_pty("--profile", profile, "--address", address, "--baud", "9600") as pty:
-        argv = ["web", "--port", pty, "--address", address, "--profile", "auto"]
+    with simulator("--profile", profile, "--address", address, "--baud", "9600") as url:
+        argv = ["web", "--port", url, "--address", address, "--profile", "auto"]
         process, lines = serve([*argv, "--timeout", "0.5", "--listen", "127.0.0.1:0"], "http://")
         try:
             bus = page_bus(lines[-1])
@@ -330,6 +333,7 @@ def auto_page(profile: str, address: str) -> tuple[list[dict[str, object]], str]
     return drives, process.stderr.read()
 
 
+@STOPPED
 def test_uss_web_profile_auto_asks_each_drive_its_family() -> None:
     pytest.importorskip("aiohttp")
     drives, _ = auto_page("sinamics-v20", "2")

@@ -1,11 +1,10 @@
-"""The master commands for real: ``uss simulate --pty`` in another process, the commands in this
-one (or in a process of their own for signals), exit codes and JSON."""
+"""The master commands for real: ``uss simulate --tcp`` in another process, the commands in this
+one (or in a process of their own for signals and terminals), exit codes and JSON."""
 
 from __future__ import annotations
 
 import json
 import os
-import pty
 import select
 import signal
 import subprocess
@@ -18,18 +17,18 @@ import pytest
 from pyuss.cli.main import main
 from pyuss.protocol.layout import Layout
 from support.buses import SimulatorThread
-from support.processes import simulator_pty
+from support.processes import simulator
 
 BAUD = "38400"
 
 
 @pytest.fixture(scope="module")
 def sim() -> Iterator[str]:
-    """A generic drive at address 5 (PKW 3, PZD 2) behind a pty; yields the device path."""
-    with simulator_pty(
+    """A generic drive at address 5 (PKW 3, PZD 2) on TCP; yields its ``tcp://`` URL."""
+    with simulator(
         *("--profile", "generic", "--address", "5", "--layout", "3,2", "--baud", BAUD)
-    ) as path:
-        yield path
+    ) as url:
+        yield url
 
 
 def uss(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
@@ -182,6 +181,7 @@ def test_run_for_a_while_then_off(sim: str, capsys: pytest.CaptureFixture[str]) 
     assert samples[-1]["state"] != "operation enabled"  # switched off at the end
 
 
+@pytest.mark.posix("stops uss run with SIGTERM")
 def test_run_stops_cleanly_on_sigterm(sim: str) -> None:
     process = subprocess.Popen(
         [sys.executable, "-m", "pyuss.cli.main", "run", "5", "--setpoint", "10", *common(sim)],
@@ -204,6 +204,8 @@ def test_run_stops_cleanly_on_sigterm(sim: str) -> None:
 def _in_a_terminal(argv: list[str]) -> tuple[int, int]:
     """Start ``uss ARGV`` with a pty as its controlling terminal, as a shell would; returns
     the child's pid and the terminal's master side (``\\x03`` written to it is Ctrl+C)."""
+    import pty
+
     pid, fd = pty.fork()
     if pid == 0:  # pragma: no cover - the child
         os.execv(sys.executable, [sys.executable, "-m", "pyuss.cli.main", *argv])
@@ -242,6 +244,7 @@ def _screen(seen: bytearray) -> list[str]:
     return [line.split("\r")[-1] for line in text.split("\n") if line.split("\r")[-1].strip()]
 
 
+@pytest.mark.pty
 def test_run_in_a_terminal_switches_off_on_ctrl_c(
     sim: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -261,6 +264,7 @@ def test_run_in_a_terminal_switches_off_on_ctrl_c(
     assert code == 0 and not word & 0x0004  # the drive itself: operation no longer enabled
 
 
+@pytest.mark.pty
 def test_run_a_second_ctrl_c_coasts_the_drive_down(
     sim: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -280,6 +284,7 @@ def test_run_a_second_ctrl_c_coasts_the_drive_down(
     assert _screen(seen)[-1].startswith("switch-on inhibited")  # after OFF2 (C Table 5.5)
 
 
+@pytest.mark.pty
 def test_scan_in_a_terminal_shows_a_progress_bar(sim: str) -> None:
     pid, fd = _in_a_terminal(["scan", "--port", sim, "--baud", BAUD, "--address", "4-6"])
     seen = bytearray()

@@ -16,7 +16,10 @@ from pyuss.master.sync import Master
 from support.processes import simulator_pty
 from transport.helpers import even_8e1, killed_holder, plain_8n1
 
-pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux ptys")
+pytestmark = [
+    pytest.mark.pty,
+    pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux ptys"),
+]
 
 BAUD = "9600"
 WAIT = 60.0

@@ -1,11 +1,11 @@
 """``uss scan`` as a user runs it: drives printed as they are found, ``--first``, the time
-left, Ctrl+C keeping what was found, and the note that a pty has no baud rate."""
+left, Ctrl+C keeping what was found (typed on the terminal of a pty), and the note that a pty
+has no baud rate."""
 
 from __future__ import annotations
 
 import json
 import os
-import pty
 import re
 import select
 import subprocess
@@ -15,22 +15,31 @@ from collections.abc import Iterator
 
 import pytest
 
-from support.processes import simulator_pty
+from support.processes import simulator, simulator_pty
 
 BAUD = "38400"
-"""The rate scanned; a pty has none, so the simulator's own does not matter."""
+"""The rate scanned; TCP and a pty have none, so the simulator's own does not matter."""
 USS = [sys.executable, "-m", "pyuss.cli.main"]
 
 
 @pytest.fixture(scope="module")
 def sim() -> Iterator[str]:
-    """Generic drives at addresses 2 and 9 (PKW 3, PZD 2) behind a pty; its device path."""
+    """Generic drives at addresses 2 and 9 (PKW 3, PZD 2) on TCP; its ``tcp://`` URL."""
+    with simulator("--address", "2", "--address", "9", "--layout", "3,2") as url:
+        yield url
+
+
+@pytest.fixture(scope="module")
+def pty_sim() -> Iterator[str]:
+    """The drives of `sim` behind a pty; its device path."""
     with simulator_pty("--address", "2", "--address", "9", "--layout", "3,2") as path:
         yield path
 
 
 def _in_a_terminal(argv: list[str]) -> tuple[int, int]:
     """``uss ARGV`` with a pty as its terminal; the pid and the terminal's master side."""
+    import pty
+
     pid, fd = pty.fork()
     if pid == 0:  # pragma: no cover - the child
         os.execv(sys.executable, [*USS, *argv])
@@ -65,6 +74,7 @@ def _finish(pid: int, fd: int, seen: bytearray) -> int:
 ROW_2 = r"\n\s+2\s+38400\s+3,2\s"
 
 
+@pytest.mark.pty
 def test_a_drive_is_printed_when_found_and_ctrl_c_keeps_it(sim: str) -> None:
     pid, fd = _in_a_terminal(["scan", "--port", sim, "--baud", BAUD])
     seen = bytearray()
@@ -83,6 +93,7 @@ def test_a_drive_is_printed_when_found_and_ctrl_c_keeps_it(sim: str) -> None:
     assert "Traceback" not in text
 
 
+@pytest.mark.pty
 def test_ctrl_c_with_json_prints_the_drives_found_so_far(sim: str) -> None:
     pid, fd = _in_a_terminal(["scan", "--port", sim, "--baud", BAUD, "--json"])
     seen = bytearray()
@@ -110,9 +121,13 @@ def test_first_stops_at_the_first_drive(sim: str) -> None:
     assert [f["address"] for f in json.loads(done.stdout)] == [2]  # 9 answers too
 
 
-def test_on_a_pty_the_note_says_rates_cannot_be_told_apart(sim: str) -> None:
+@pytest.mark.pty
+@pytest.mark.skipif(
+    not sys.platform.startswith("linux"), reason="uss scan tells a pty by Linux's device numbers"
+)
+def test_on_a_pty_the_note_says_rates_cannot_be_told_apart(pty_sim: str) -> None:
     done = subprocess.run(
-        [*USS, "scan", "--port", sim, "--baud", "9600,19200", "--address", "2", "--json"],
+        [*USS, "scan", "--port", pty_sim, "--baud", "9600,19200", "--address", "2", "--json"],
         capture_output=True,
         text=True,
         timeout=120,
@@ -140,7 +155,7 @@ def test_a_bad_address_range_is_answered_with_an_example_that_is_right(text: str
 def test_a_response_time_no_line_could_give_is_not_printed(
     sim: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    # behind a pty the answer is read long before a line at 300 baud could have brought it
+    # over TCP the answer is read long before a line at 300 baud could have brought it
     # (the simulator answers at its own rate): no response time was measured, none is shown
     from pyuss.cli.main import main
 

@@ -1,10 +1,12 @@
-"""``uss simulate`` as a user runs it: a separate process on a pty, TCP or a virtual bus."""
+"""``uss simulate`` as a user runs it: a separate process on TCP, a virtual bus or a pty.
+
+Most tests stop it as a user does, by a signal (SIGTERM, SIGINT), and check that it ended
+cleanly: POSIX systems only."""
 
 from __future__ import annotations
 
 import importlib.util
 import json
-import select
 import signal
 import socket
 import subprocess
@@ -20,11 +22,13 @@ import serial
 
 from pyuss.cli.main import main
 from slave.harness import frame
+from support.processes import TCP, line_within
 from test_userfile import bad_files, refuses
 
 TIMEOUT = 20
 READ_P52 = frame(5, "1034 0000 0000 047E 0000")  # C 8.1 example 2
 ANSWER_P52 = "02 0C 05 10 34 00 00 40 00 02 31 00 00 5C"
+STOPPED = pytest.mark.posix("stops uss simulate with a signal and checks it ended cleanly")
 
 
 def _start(*args: str) -> subprocess.Popen[str]:
@@ -37,10 +41,13 @@ def _start(*args: str) -> subprocess.Popen[str]:
 
 
 def _first_line(proc: subprocess.Popen[str]) -> str:
-    assert proc.stdout is not None
-    ready, _, _ = select.select([proc.stdout], [], [], TIMEOUT)
-    assert ready, "uss simulate printed nothing"
-    return proc.stdout.readline().strip()
+    return line_within(proc.stdout, TIMEOUT, "uss simulate printed nothing")
+
+
+def _line(url: str) -> serial.SerialBase:
+    """The line ``tcp://HOST:PORT`` of a simulator or a bus, as pyserial opens it."""
+    assert url.startswith("tcp://"), url
+    return serial.serial_for_url(f"socket://{url.removeprefix('tcp://')}", timeout=TIMEOUT)
 
 
 @contextmanager
@@ -59,12 +66,13 @@ def simulate(*args: str, stop: signal.Signals = signal.SIGTERM) -> Iterator[tupl
     assert proc.returncode == 0, stderr
 
 
-def _read_telegram(port: serial.Serial) -> bytes:
+def _read_telegram(port: serial.SerialBase) -> bytes:
     head = port.read(2)
     assert len(head) == 2, "no answer"
     return head + port.read(head[1])
 
 
+@pytest.mark.pty
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_pty_first_line_is_the_device_and_it_stops_cleanly(sig: signal.Signals) -> None:
     with (
@@ -77,10 +85,11 @@ def test_pty_first_line_is_the_device_and_it_stops_cleanly(sig: signal.Signals) 
     assert "1 telegrams received, 1 answered" in err[0]
 
 
+@STOPPED
 def test_each_exchange_is_logged_at_debug_level() -> None:
-    proc = _start("-vv", "simulate", "--pty", "--address", "5", "--layout", "3,2")
+    proc = _start("-vv", "simulate", *TCP, "--address", "5", "--layout", "3,2")
     try:
-        with serial.Serial(_first_line(proc), 9600, parity="E", timeout=TIMEOUT) as port:
+        with _line(_first_line(proc)) as port:
             port.write(READ_P52)
             assert _read_telegram(port).hex(" ").upper() == ANSWER_P52
     finally:
@@ -95,11 +104,12 @@ def test_each_exchange_is_logged_at_debug_level() -> None:
     assert ANSWER_P52 in err
 
 
-def test_several_addresses_on_one_pty(tmp_path: Path) -> None:
+@STOPPED
+def test_several_addresses_on_one_line(tmp_path: Path) -> None:
     store = tmp_path / "drive{address}.store"
     with (
-        simulate("--pty", "--address", "1", "--address", "2", "--store", str(store)) as (path, _),
-        serial.Serial(path, 9600, parity="E", timeout=TIMEOUT) as port,
+        simulate(*TCP, "--address", "1", "--address", "2", "--store", str(store)) as (url, _),
+        _line(url) as port,
     ):
         for address in (1, 2):
             port.write(frame(address, "E012 0000 0007 047E 0000"))  # ID 14: P18 = 7, EEPROM
@@ -110,6 +120,7 @@ def test_several_addresses_on_one_pty(tmp_path: Path) -> None:
     assert (tmp_path / "drive2.store").exists()
 
 
+@STOPPED
 def test_tcp_server_and_a_stop_with_a_peer_connected_is_quiet() -> None:
     args = ("--tcp", "127.0.0.1:0", "--address", "5", "--layout", "3,2")
     sock = None
@@ -133,6 +144,7 @@ def test_tcp_server_and_a_stop_with_a_peer_connected_is_quiet() -> None:
     assert [line.split(":")[0] for line in lines] == ["uss simulate"] * 2, err[0]
 
 
+@STOPPED
 def test_a_peer_that_floods_the_line_and_leaves_costs_later_masters_at_most_a_telegram() -> None:
     """100 KiB take 117 s on a 9600-baud wire. A peer that writes them and leaves: one
     telegram's worth waits on the simulated line, the rest is dropped (and said so), and the
@@ -154,18 +166,19 @@ def test_a_peer_that_floods_the_line_and_leaves_costs_later_masters_at_most_a_te
     assert "bytes dropped" in err[0]
 
 
+@STOPPED
 def test_station_of_a_virtual_bus() -> None:
-    bus = _start("bus", "--baud", "19200", "--pty", "1", "--bus-tcp", "127.0.0.1:0")
+    bus = _start("bus", "--baud", "19200", "--tcp", "127.0.0.1:0", "--bus-tcp", "127.0.0.1:0")
     try:
         assert bus.stdout is not None
-        pty_path = bus.stdout.readline().strip()
+        raw = bus.stdout.readline().strip()
         endpoint = bus.stdout.readline().strip().removeprefix("bus://")
         with (
             simulate("--bus", endpoint, "--baud", "19200", "--address", "5", "--layout", "3,2") as (
                 first,
                 _,
             ),
-            serial.Serial(pty_path, 19200, parity="E", timeout=TIMEOUT) as port,
+            _line(raw) as port,
         ):
             assert first == f"bus://{endpoint}"
             port.write(READ_P52)
@@ -175,6 +188,7 @@ def test_station_of_a_virtual_bus() -> None:
         bus.communicate(timeout=TIMEOUT)
 
 
+@STOPPED
 def test_a_simulator_that_runs_the_bus_itself_serves_masters_and_monitors() -> None:
     """--bus-tcp: the drives sit on a bus of the simulator's own; a master and a monitor in
     other processes join it over bus:// and see the same exchange."""
@@ -216,22 +230,24 @@ def test_a_simulator_that_runs_the_bus_itself_serves_masters_and_monitors() -> N
         assert {e.get("address") for e in seen} >= {3, 17}
 
 
+@STOPPED
 def test_several_simulators_join_one_bus_each_under_its_own_name(tmp_path: Path) -> None:
     """Station names default to simulate-ADDRESSES, so a second simulator process is not
     refused; --name chooses one. The recording shows who answered."""
     record = tmp_path / "wire.jsonl"
     bus = _start(
-        "bus", "--baud", "19200", "--pty", "1", "--bus-tcp", "127.0.0.1:0", "--record", str(record)
+        *("bus", "--baud", "19200", "--tcp", "127.0.0.1:0", "--bus-tcp", "127.0.0.1:0"),
+        *("--record", str(record)),
     )
     try:
         assert bus.stdout is not None
-        pty_path = bus.stdout.readline().strip()
+        raw = bus.stdout.readline().strip()
         endpoint = bus.stdout.readline().strip().removeprefix("bus://")
         common = ("--bus", endpoint, "--baud", "19200", "--layout", "3,2")
         with (
             simulate(*common, "--address", "5"),
             simulate(*common, "--address", "6", "--name", "conveyor"),
-            serial.Serial(pty_path, 19200, parity="E", timeout=TIMEOUT) as port,
+            _line(raw) as port,
         ):
             for address in (5, 6):
                 time.sleep(0.01)  # a master keeps the start pause after the last answer (A 5.1.2)
@@ -244,6 +260,7 @@ def test_several_simulators_join_one_bus_each_under_its_own_name(tmp_path: Path)
     assert {"simulate-5", "conveyor"} <= senders
 
 
+@STOPPED
 def test_parameter_file_and_read_only(tmp_path: Path) -> None:
     params = tmp_path / "conveyor.toml"
     params.write_text(
@@ -251,8 +268,8 @@ def test_parameter_file_and_read_only(tmp_path: Path) -> None:
         '[[parameter]]\npnu = 60\nname = "Belt length"\ntype = "uint16"\ndefault = 1234\n'
     )
     with (
-        simulate("--pty", "--address", "5", "--params", str(params), "--read-only") as (path, _),
-        serial.Serial(path, 9600, parity="E", timeout=TIMEOUT) as port,
+        simulate(*TCP, "--address", "5", "--params", str(params), "--read-only") as (url, _),
+        _line(url) as port,
     ):
         port.write(frame(5, "103C 0000 0000 0000 0000"))  # read P60 (variable layout)
         assert _read_telegram(port)[3:9] == bytes.fromhex("103C 0000 04D2")
@@ -260,14 +277,15 @@ def test_parameter_file_and_read_only(tmp_path: Path) -> None:
         assert _read_telegram(port)[3] >> 4 == 8
 
 
+@STOPPED
 def test_power_cycle_eeprom_writes_survive_a_kill(tmp_path: Path) -> None:
     """The simulator is killed (no clean stop) right after answering an EEPROM write: the value
     was on disk before the answer, so it is there after a restart; a RAM write is not."""
     store = tmp_path / "drive5.store"
-    args = ("simulate", "--pty", "--address", "5", "--layout", "3,2", "--store", str(store))
+    args = ("simulate", *TCP, "--address", "5", "--layout", "3,2", "--store", str(store))
     first = _start(*args)
     try:
-        with serial.Serial(_first_line(first), 9600, parity="E", timeout=TIMEOUT) as port:
+        with _line(_first_line(first)) as port:
             port.write(frame(5, "E012 0000 1234 047E 0000"))  # ID 14: P18 = 1234h, EEPROM
             assert _read_telegram(port)[3:9] == bytes.fromhex("1012 0000 1234")
             port.write(frame(5, "21C1 0000 0007 047E 0000"))  # ID 2: P449 = 7, RAM only
@@ -275,10 +293,7 @@ def test_power_cycle_eeprom_writes_survive_a_kill(tmp_path: Path) -> None:
     finally:
         first.kill()
         first.communicate(timeout=TIMEOUT)
-    with (
-        simulate(*args[1:]) as (path, _),
-        serial.Serial(path, 9600, parity="E", timeout=TIMEOUT) as port,
-    ):
+    with simulate(*args[1:]) as (url, _), _line(url) as port:
         port.write(frame(5, "1012 0000 0000 047E 0000"))
         assert _read_telegram(port)[3:9] == bytes.fromhex("1012 0000 1234")
         port.write(frame(5, "11C1 0000 0000 047E 0000"))
@@ -289,7 +304,7 @@ def test_power_cycle_eeprom_writes_survive_a_kill(tmp_path: Path) -> None:
 def test_a_damaged_store_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     store = tmp_path / "drive.store"
     store.write_bytes(b"pyuss-drive-store 1 sha256=" + b"0" * 64 + b" bytes=2\n{}")
-    code = main(["simulate", "--pty", "--store", str(store), "--duration", "5"])
+    code = main(["simulate", *TCP, "--store", str(store), "--duration", "5"])
     err = capsys.readouterr().err
     assert code == 2
     assert err.count("\n") == 1
@@ -299,35 +314,35 @@ def test_a_damaged_store_is_refused(tmp_path: Path, capsys: pytest.CaptureFixtur
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--pty", "--address", "40"], "addresses are 0..31"),
-        (["--pty", "--address", "3", "--address", "3"], "each address may be given once"),
-        (["--pty", "--layout", "5,2"], "PKW count must be 0, 3, 4 or 127"),
-        (["--pty", "--profile", "nope"], "unknown profile 'nope'"),
-        (["--pty", "--baud", "1234"], "not a USS baud rate"),
-        (["--pty", "--profile", "6se21", "--layout", "4,2"], "fixed layout 3,2 only"),
-        (["--pty", "--address", "1", "--address", "2", "--store", "x"], "{address}"),
+        ([*TCP, "--address", "40"], "addresses are 0..31"),
+        ([*TCP, "--address", "3", "--address", "3"], "each address may be given once"),
+        ([*TCP, "--layout", "5,2"], "PKW count must be 0, 3, 4 or 127"),
+        ([*TCP, "--profile", "nope"], "unknown profile 'nope'"),
+        ([*TCP, "--baud", "1234"], "not a USS baud rate"),
+        ([*TCP, "--profile", "6se21", "--layout", "4,2"], "fixed layout 3,2 only"),
+        ([*TCP, "--address", "1", "--address", "2", "--store", "x"], "{address}"),
         (["--tcp", "localhost"], "HOST:PORT"),
-        (["--pty", "--response-delay", "50"], "outside the window"),
-        (["--pty", "--params", "/nonexistent.toml"], "cannot read parameter file"),
-        (["--pty", "--failure-time", "inf"], "--failure-time inf: must be a number of seconds"),
-        (["--pty", "--failure-time", "-1"], "--failure-time -1.0: must be a number of seconds"),
-        (["--pty", "--latency-time", "nan"], "--latency-time must be numbers >= 0"),
-        (["--pty", "--latency", "-2"], "--latency-time must be numbers >= 0"),
+        ([*TCP, "--response-delay", "50"], "outside the window"),
+        ([*TCP, "--params", "/nonexistent.toml"], "cannot read parameter file"),
+        ([*TCP, "--failure-time", "inf"], "--failure-time inf: must be a number of seconds"),
+        ([*TCP, "--failure-time", "-1"], "--failure-time -1.0: must be a number of seconds"),
+        ([*TCP, "--latency-time", "nan"], "--latency-time must be numbers >= 0"),
+        ([*TCP, "--latency", "-2"], "--latency-time must be numbers >= 0"),
         (
-            ["--pty", "--profile", "micromaster420", "--baud", "115200"],
+            [*TCP, "--profile", "micromaster420", "--baud", "115200"],
             "a micromaster420 drive does not run at 115200 baud (P2010.",
         ),
-        (["--pty", "--baud", "115200"], "a generic drive does not run at 115200 baud (P684.1:"),
-        (["--pty", "--failure-time", "7"], "takes 0..6.5 s (P687.1)"),
-        (["--pty", "--profile", "nord", "--failure-time", "0.25"], "steps of 0.1 s (P513)"),
-        (["--pty", "--name", "x"], "--name: a station name is for --bus and --bus-tcp only"),
+        ([*TCP, "--baud", "115200"], "a generic drive does not run at 115200 baud (P684.1:"),
+        ([*TCP, "--failure-time", "7"], "takes 0..6.5 s (P687.1)"),
+        ([*TCP, "--profile", "nord", "--failure-time", "0.25"], "steps of 0.1 s (P513)"),
+        ([*TCP, "--name", "x"], "--name: a station name is for --bus and --bus-tcp only"),
         (["--bus-tcp", "localhost"], "--bus-tcp 'localhost': expected HOST:PORT"),
         (["--bus-tcp", "192.0.2.1:0"], "--bus-tcp: cannot listen on 192.0.2.1:0"),
         (["--bus-tcp", ":0", "--profile", "bass"], "a BASS ring is RS-232"),
         (["--bus-tcp", ":0", "--profile", "ksvario"], "start uss bus --bus-tcp and use --bus"),
         (["--bus", "127.0.0.1:1", "--name", "a+b"], "--name 'a+b': give a non-empty name"),
         (
-            ["--pty", "--profile", "bass", "--params", "x.toml", "--read-only"],
+            [*TCP, "--profile", "bass", "--params", "x.toml", "--read-only"],
             "profile bass does not take --params, --read-only (USS drive options)",
         ),
     ],
@@ -345,7 +360,7 @@ def test_a_parameter_file_that_is_none_is_one_line_naming_it(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     for params, message in bad_files(tmp_path, "parameter file"):
-        for command in (["simulate", "--pty", "--duration", "5"], ["params"]):
+        for command in (["simulate", *TCP, "--duration", "5"], ["params"]):
             assert main([*command, "--params", str(params)]) == 2
             line, *more = capsys.readouterr().err.splitlines()
             assert not more and refuses(line.removeprefix(f"uss {command[0]}: "), params, message)
@@ -356,29 +371,30 @@ def test_a_layout_from_the_parameter_file_the_profile_refuses_is_named(
 ) -> None:
     params = tmp_path / "mine.toml"
     params.write_text('[profile]\nname = "mine"\nextends = "generic"\n')  # P685.1 = 127
-    assert main(["simulate", "--pty", "--profile", "baumueller", "--params", str(params)]) == 2
+    assert main(["simulate", *TCP, "--profile", "baumueller", "--params", str(params)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1, err
     assert "not v,2 (the layout of the parameter file's interface parameters P685.1" in err
 
 
 def test_stops_by_itself_after_duration() -> None:
-    proc = _start("simulate", "--pty", "--duration", "0.3")
+    proc = _start("simulate", *TCP, "--duration", "0.3")
     out, err = proc.communicate(timeout=TIMEOUT)
     assert proc.returncode == 0, err
-    assert out.splitlines()[0].startswith("/dev/")
+    assert out.splitlines()[0].startswith("tcp://127.0.0.1:")
 
 
+@STOPPED
 def test_other_protocols_plug_in_by_profile() -> None:
     """``--profile ksvario`` runs the KS VARIO simulator where it is installed."""
     if importlib.util.find_spec("pyuss.ksvario.simulate") is None:
-        proc = _start("simulate", "--profile", "ksvario", "--pty", "--duration", "5")
+        proc = _start("simulate", "--profile", "ksvario", *TCP, "--duration", "5")
         _, err = proc.communicate(timeout=TIMEOUT)
         assert proc.returncode == 2
         assert "KS VARIO simulator is not installed" in err
         return
-    with simulate("--profile", "ksvario", "--pty", "--address", "5") as (path, _):
-        assert path.startswith("/dev/")
+    with simulate("--profile", "ksvario", *TCP, "--address", "5") as (url, _):
+        assert url.startswith("tcp://127.0.0.1:")
 
 
 def test_serial_port_by_pyserial_url() -> None:
@@ -388,12 +404,13 @@ def test_serial_port_by_pyserial_url() -> None:
     assert out.splitlines()[0] == "loop://"
 
 
+@STOPPED
 def test_bass_ring_plugs_in_by_profile() -> None:
     """``--profile bass``: a BASS ring; Baumueller manual 1.1 example 2 reads ID 51 of drive 0."""
     request = b"#00003C0033FD\r\n"
     with (
-        simulate("--profile", "bass", "--pty", "--address", "0") as (path, _),
-        serial.Serial(path, 9600, timeout=TIMEOUT) as port,
+        simulate("--profile", "bass", *TCP, "--address", "0") as (url, _),
+        _line(url) as port,
     ):
         port.write(request)
         assert port.read_until(b"\n") == request  # the drive echoes the request first
@@ -401,20 +418,18 @@ def test_bass_ring_plugs_in_by_profile() -> None:
     assert answer.startswith(b"#00") and answer.endswith(b"\r\n")
 
 
-def _ask(port: serial.Serial, net: str) -> bytes:
+def _ask(port: serial.SerialBase, net: str) -> bytes:
     """Send a PKW 3, PZD 2 request to drive 5 and return the answer's PWE word."""
     port.write(frame(5, net))
     return _read_telegram(port)[7:9]
 
 
+@STOPPED
 def test_interface_parameters_show_what_is_in_force() -> None:
     """C 3.1, C 3.2: P684.1 shows the rate the line runs at (7 = 19200 baud), P687.1 the
     telegram failure time in force (300 ms)."""
-    args = ("--pty", "--address", "5", "--layout", "3,2", "--baud", "19200")
-    with (
-        simulate(*args, "--failure-time", "0.3") as (path, err),
-        serial.Serial(path, 19200, parity="E", timeout=TIMEOUT) as port,
-    ):
+    args = (*TCP, "--address", "5", "--layout", "3,2", "--baud", "19200")
+    with simulate(*args, "--failure-time", "0.3") as (url, err), _line(url) as port:
         baud = _ask(port, "62AC 0001 0000 047E 0000")  # ID 6: P684 index 1
         failure = _ask(port, "62AF 0001 0000 047E 0000")  # ID 6: P687 index 1
     assert baud == bytes.fromhex("0007")
@@ -422,25 +437,20 @@ def test_interface_parameters_show_what_is_in_force() -> None:
     assert "19200 baud" in err[0]
 
 
+@STOPPED
 def test_a_stored_baud_rate_is_the_rate_of_the_next_start(tmp_path: Path) -> None:
-    """Two drives share the pty, so its rate stays while it runs: a RAM write is refused
+    """Two drives share the line, so its rate stays while it runs: a RAM write is refused
     (error 1), an EEPROM write is stored, and the next start without --baud runs at it and
     shows it."""
     store = str(tmp_path / "drive{address}.store")
-    args = ("--pty", "--address", "5", "--layout", "3,2", "--store", store)
-    with (
-        simulate(*args, "--address", "6") as (path, err),
-        serial.Serial(path, 9600, parity="E", timeout=TIMEOUT) as port,
-    ):
+    args = (*TCP, "--address", "5", "--layout", "3,2", "--store", store)
+    with simulate(*args, "--address", "6") as (url, err), _line(url) as port:
         port.write(frame(5, "72AC 0001 0007 047E 0000"))  # ID 7: P684.1 = 7, RAM
         assert _read_telegram(port)[3:9] == bytes.fromhex("72AC 0001 0001")  # refused, error 1
         port.write(frame(5, "C2AC 0001 0007 047E 0000"))  # ID 12: P684.1 = 7, EEPROM
         assert _read_telegram(port)[3:9] == bytes.fromhex("42AC 0001 0007")
     assert "9600 baud" in err[0]
-    with (
-        simulate(*args) as (path, err),
-        serial.Serial(path, 19200, parity="E", timeout=TIMEOUT) as port,
-    ):
+    with simulate(*args) as (url, err), _line(url) as port:
         baud = _ask(port, "62AC 0001 0000 047E 0000")
     assert baud == bytes.fromhex("0007")
     assert "19200 baud" in err[0]
@@ -452,13 +462,14 @@ def test_a_stored_baud_rate_is_the_rate_of_the_next_start(tmp_path: Path) -> Non
         (["simulate", "--tcp", ":0"], 1),
         (["simulate", "--profile", "ksvario", "--tcp", "127.0.0.1:0"], 1),
         (["simulate", "--profile", "bass", "--tcp", ":0"], 1),
-        (["simulate", "--profile", "baumueller", "--pty", "--bass-tcp", ":0"], 2),
+        (["simulate", "--profile", "baumueller", "--tcp", ":0", "--bass-tcp", ":0"], 2),
         (["ksvario", "simulate", "--port", "tcp-listen://127.0.0.1:0"], 1),
         (["bass", "ring", "--listen", "tcp-listen://127.0.0.1:0"], 1),
         (["bus", "--tcp", "127.0.0.1:0", "--bus-tcp", "127.0.0.1:0"], 2),
     ],
     ids=lambda v: " ".join(v) if isinstance(v, list) else str(v),
 )
+@STOPPED
 def test_a_server_on_port_0_prints_the_port_it_listens_on(argv: list[str], lines: int) -> None:
     proc = _start(*argv)
     try:
@@ -515,6 +526,7 @@ def _ksvario_master(host: str, port: int) -> None:
     ],
     ids=["uss simulate --tcp", "uss bass ring", "uss ksvario simulate"],
 )
+@STOPPED
 def test_idle_tcp_clients_never_lock_a_master_out(argv: list[str], master: Any) -> None:
     """One idle client, and then as many as the server has places (8): a master that
     connects after them is still served (several peers; the one silent longest gives way)."""

@@ -1,7 +1,7 @@
 """A drive of unknown kind that knows no parameter descriptions (most USS slaves in the field):
 a vacuum-pump controller at address 0 with PKW 4, PZD 6, whose slave ignores request 4 (no
 answer at all) or, as a variant, refuses it (error 102). It is served on a virtual bus in a
-thread of its own and reached over a pty and over ``bus://``; the commands run without
+thread of its own and reached over raw TCP and over ``bus://``; the commands run without
 ``--profile``. Every command works with it, no description is asked where none was wanted, at
 most one per drive where one was (a description job, repeated in every telegram until its
 time is up, C 4.2.1.1, counts once), and the device itself refuses what it does not take."""
@@ -106,8 +106,8 @@ class PumpEngine(SlaveEngine):
 
 
 class PumpBus(SimulatorThread):
-    """The pump on a virtual bus in a thread of its own, with a pty station (``paths[0]``)
-    and ``bus://`` (``url``) for the commands."""
+    """The pump on a virtual bus in a thread of its own, with raw TCP stations (``paths[0]``,
+    ``tcp://``) and ``bus://`` (``url``) for the commands."""
 
     def __init__(self, *, silent: bool) -> None:
         super().__init__([], baud=BAUD)
@@ -120,7 +120,8 @@ class PumpBus(SimulatorThread):
         bus = self.bus = VirtualBus(self.baud)
         try:
             task = asyncio.create_task(SlaveServer(bus.attach("pump"), self.engine).run(self._stop))
-            self.paths = await bus.serve_pty(1)
+            raw_host, raw_port = await bus.serve_tcp()
+            self.paths = [f"tcp://{raw_host}:{raw_port}"]
             host, port = await bus.serve_tcp(framed=True)
             self.url = f"bus://{host}:{port}"
             self._ready.set()
@@ -133,7 +134,7 @@ class PumpBus(SimulatorThread):
             await bus.close()
 
     def port(self, kind: str) -> list[str]:
-        return ["--port", self.paths[0] if kind == "pty" else self.url, "--baud", str(BAUD)]
+        return ["--port", self.paths[0] if kind == "tcp" else self.url, "--baud", str(BAUD)]
 
     @property
     def described(self) -> int:
@@ -151,7 +152,7 @@ def pump(request: pytest.FixtureRequest) -> Iterator[PumpBus]:
         yield running
 
 
-@pytest.fixture(params=["pty", "bus"])
+@pytest.fixture(params=["tcp", "bus"])
 def line(request: pytest.FixtureRequest) -> str:
     return str(request.param)
 
@@ -201,7 +202,7 @@ def test_asked_for_descriptions_it_is_asked_once_then_read_as_words(
     pump: PumpBus, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     cache = str(tmp_path / "descriptions.json")
-    at = [*pump.port("pty"), "--layout", "4,6", "--timeout", "0.5", "--params-cache", cache]
+    at = [*pump.port("tcp"), "--layout", "4,6", "--timeout", "0.5", "--params-cache", cache]
     before = pump.described
     code, out, err = uss(capsys, "read", "0", "150", "151", "160.1", *at, "--describe", "always")
     assert (code, err) == (0, "")
@@ -245,7 +246,7 @@ def test_backup_scan_finds_the_parameters_by_their_values(
 def test_a_drive_that_does_not_answer_is_named_as_such(
     pump: PumpBus, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code, out, err = uss(capsys, "read", "7", "1120", *pump.port("pty"), "--timeout", "0.3")
+    code, out, err = uss(capsys, "read", "7", "1120", *pump.port("tcp"), "--timeout", "0.3")
     assert (code, out) == (1, "")
     assert err.startswith(
         "P1120: slave 7 does not answer (no reply within 0.3 s): check address, baud rate and "
@@ -326,7 +327,7 @@ def test_params_scan_lists_what_it_finds_as_words(
     pump: PumpBus, capsys: pytest.CaptureFixture[str]
 ) -> None:
     before = pump.described
-    at = [*pump.port("pty"), "--layout", "4,6"]
+    at = [*pump.port("tcp"), "--layout", "4,6"]
     code, out, err = uss(capsys, "params", "0", "--scan", "148-161", "--values", *at)
     assert (code, err) == (0, "")
     assert [" ".join(row.split()) for row in out.splitlines()] == [
@@ -366,6 +367,7 @@ def _api(base: str, path: str, body: object | None = None) -> object:
         return json.load(reply)
 
 
+@pytest.mark.posix("stops uss web with SIGINT and checks it ended cleanly")
 def test_the_page_reads_and_writes_the_drive_s_parameters_as_words(pump: PumpBus) -> None:
     pytest.importorskip("aiohttp")
     if not pump.engine.silent:
@@ -420,6 +422,7 @@ def _reply(server: Broker, command: str, body: dict[str, object]) -> dict[str, o
     return reply
 
 
+@pytest.mark.posix("stops uss gateway with SIGINT and checks it ended cleanly")
 def test_the_gateway_s_mailbox_reads_and_writes_words(
     pump: PumpBus,
     broker: Broker,  # noqa: F811
@@ -505,7 +508,7 @@ def test_a_backup_that_would_hold_nothing_is_refused(
     # of a drive of unknown kind nothing is known: a backup of it would be an empty file
     # reported as taken; it is refused before anything is sent, saying what gives parameters
     file = tmp_path / "pump.json"
-    at = [*pump.port("pty"), "--layout", "4,6"]
+    at = [*pump.port("tcp"), "--layout", "4,6"]
     code, out, err = uss(capsys, "backup", "0", "-o", str(file), *at)
     assert (code, out) == (2, "")
     assert err.startswith("uss backup: no parameter of drive 0 is known (a drive of unknown kind")

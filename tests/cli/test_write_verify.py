@@ -1,7 +1,7 @@
 """``uss write`` when the answer to the write never comes: it says the outcome is unknown, and
 ``--verify`` reads the value back to tell whether the drive took it.
 
-The simulated drive sits on a virtual bus served on a pty (another thread); the line goes bad
+The simulated drive sits on a virtual bus served on raw TCP (another thread); the line goes bad
 the moment the master's write telegram is on it: either the master hears nothing for a while
 (the drive takes the write, its answers are lost) or the drive does (it never gets it)."""
 
@@ -60,7 +60,7 @@ def test_a_lost_answer_is_an_unknown_outcome_and_verify_finds_it_applied(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
-        _on_write_telegram(sim, lambda at: sim.bus.make_deaf("pty1", 0.5, start=at))  # type: ignore[union-attr]
+        _on_write_telegram(sim, lambda at: sim.bus.make_deaf(sim.station(), 0.5, start=at))  # type: ignore[union-attr]
         code, out, err = _uss(capsys, "write", "5", "18", "0x7000", "--timeout", "0.3", *_port(sim))
         assert code == 1 and not out
         assert "may have carried it out" in err and "--verify" in err
@@ -68,7 +68,7 @@ def test_a_lost_answer_is_an_unknown_outcome_and_verify_finds_it_applied(
         assert sim.call(lambda s: s.engines[5].drive.value(18)) == 0x7000  # it did
 
     with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
-        _on_write_telegram(sim, lambda at: sim.bus.make_deaf("pty1", 0.5, start=at))  # type: ignore[union-attr]
+        _on_write_telegram(sim, lambda at: sim.bus.make_deaf(sim.station(), 0.5, start=at))  # type: ignore[union-attr]
         argv = ["write", "5", "18", "0x7000", "--verify", "--timeout", "0.4", *_port(sim)]
         code, out, err = _uss(capsys, *argv)
         assert code == 0, err
@@ -98,7 +98,7 @@ def test_json_says_how_the_value_is_known(capsys: pytest.CaptureFixture[str]) ->
         data = json.loads(out)
         assert (data["address"], data["pnu"], data["value"]) == (5, 18, 5)
         assert data["outcome"] == "answered"
-        _on_write_telegram(sim, lambda at: sim.bus.make_deaf("pty1", 0.5, start=at))  # type: ignore[union-attr]
+        _on_write_telegram(sim, lambda at: sim.bus.make_deaf(sim.station(), 0.5, start=at))  # type: ignore[union-attr]
         argv = ["write", "5", "18", "7", "--timeout", "0.3", *_port(sim), "--json"]
         code, out, _ = _uss(capsys, *argv)
         error = json.loads(out)["error"]
@@ -163,7 +163,7 @@ def test_verify_of_a_drive_that_limits_the_value_does_not_say_it_did_nothing(
     # back shows another value, which is no proof that the write was not carried out
     with SimulatorThread([(5, "generic", Layout(3, 2))]) as sim:
         _limits_p18(sim, 1000)
-        _on_write_telegram(sim, lambda at: sim.bus.make_deaf("pty1", 0.5, start=at))  # type: ignore[union-attr]
+        _on_write_telegram(sim, lambda at: sim.bus.make_deaf(sim.station(), 0.5, start=at))  # type: ignore[union-attr]
         argv = ["write", "5", "18", "5000", "--verify", "--timeout", "0.4", *_port(sim)]
         code, out, err = _uss(capsys, *argv)
         assert code == 1 and not out

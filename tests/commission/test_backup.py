@@ -1,4 +1,4 @@
-"""Backups for real, against simulated drives behind ptys: files that keep their word (atomic,
+"""Backups for real, against simulated drives on TCP: files that keep their word (atomic,
 refused when cut short or broken), failures recorded, restores that go on past a refusal, the
 profile and identity checks, and the file codec's round trip (hypothesis)."""
 
@@ -26,7 +26,7 @@ from pyuss.commission.compare import plan
 from pyuss.errors import ConfigError
 from pyuss.params.book import ParamBook
 from pyuss.profiles import get_profile
-from support.processes import simulator_pty
+from support.processes import simulator
 from support.typed import Simulator, start, stop
 from test_userfile import bad_files, refuses
 
@@ -72,6 +72,7 @@ def test_a_backup_replaces_a_file_only_with_force(mm4: Simulator, tmp_path: Path
     assert load(file).find(1120) is not None
 
 
+@pytest.mark.posix("os.mkfifo")
 def test_a_backup_never_replaces_a_device_or_a_pipe(mm4: Simulator, tmp_path: Path) -> None:
     pipe = tmp_path / "to-the-logger"
     os.mkfifo(pipe)
@@ -172,7 +173,7 @@ def test_a_backup_killed_half_way_leaves_the_old_file(tmp_path: Path) -> None:
         )
         time.sleep(1.0)  # a few parameters read, not all 19 at 100 ms or more each
         assert process.poll() is None
-        process.send_signal(signal.SIGKILL)
+        process.kill()  # SIGKILL on POSIX systems: no clean end
         process.wait(10)
     finally:
         stop(slow)
@@ -493,6 +494,7 @@ def says_what_was_written(lines: list[str]) -> None:
     assert any(line.endswith("under way, the drive may or may not have taken it") for line in lines)
 
 
+@pytest.mark.posix("interrupts uss restore with SIGINT")
 def test_a_restore_interrupted_says_what_it_wrote_and_goes_on_when_run_again(
     tmp_path: Path,
 ) -> None:
@@ -515,6 +517,7 @@ def test_a_restore_interrupted_says_what_it_wrote_and_goes_on_when_run_again(
         stop(sim)
 
 
+@pytest.mark.posix("silences the simulator with SIGSTOP and SIGCONT")
 def test_a_drive_gone_mid_restore_is_told_with_what_was_written(tmp_path: Path) -> None:
     def silence(sim: Simulator, process: subprocess.Popen[str]) -> None:
         sim.process.send_signal(signal.SIGSTOP)
@@ -548,6 +551,7 @@ def test_a_parameter_the_drive_cannot_have_is_refused_naming_the_file(
     assert uss(["diff", "3", str(file), *opts(mm4)]) == (2, f"uss diff: {said}")
 
 
+@pytest.mark.posix("os.mkfifo")
 def test_a_cache_file_that_cannot_be_kept_is_refused_before_the_write(
     mm4: Simulator, tmp_path: Path
 ) -> None:
@@ -583,8 +587,8 @@ def test_a_parameter_read_on_neither_side_is_not_compared(tmp_path: Path) -> Non
     # P4 and the other 32-bit and text parameters do not fit PKW 3: neither the backup nor
     # the drive now gives their values, so nothing says they agree
     options = ("--profile", "generic", "--address", "5", "--layout", "3,2", "--baud", "38400")
-    with simulator_pty(*options) as path:
-        port = ["--port", path, "--baud", "38400", "--layout", "3,2", "--profile", "generic"]
+    with simulator(*options) as url:
+        port = ["--port", url, "--baud", "38400", "--layout", "3,2", "--profile", "generic"]
         backup = str(tmp_path / "b.json")
         assert uss(["backup", "5", "-o", backup, *port])[0] == 1  # 5 not read
         code, out = uss(["diff", "5", backup, *port])

@@ -1,6 +1,7 @@
 """docs/commissioning.md runs as written: every command of its session against a fresh
 simulated MICROMASTER 4 behind a pty, and the SINAMICS V20 walkthrough against a fresh
-simulated V20, printing what the page shows."""
+simulated V20, printing what the page shows. The page's simulators run with ``--pty`` and its
+session uses head, grep and sed: POSIX systems."""
 
 from __future__ import annotations
 
@@ -42,6 +43,7 @@ def uss(argv: list[str]) -> tuple[int, str]:
     return code, out.getvalue() + err.getvalue()
 
 
+@pytest.mark.pty
 def test_the_commissioning_session_runs_as_written(
     micromaster: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -60,6 +62,7 @@ def test_the_commissioning_session_runs_as_written(
     run_session(session, tmp_path, micromaster)
 
 
+@pytest.mark.pty
 def test_a_v20_goes_from_factory_settings_to_a_running_motor_as_written(
     v20: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -1,5 +1,5 @@
 """``uss run`` with setpoints in the reference's unit and with jog, against a simulated
-MICROMASTER 4 (reference P2000 = 50 Hz) behind a pty."""
+MICROMASTER 4 (reference P2000 = 50 Hz) on TCP."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""A simulated KS VARIO served on a real pty from its own thread and event loop (tests)."""
+"""A simulated KS VARIO served from its own thread and event loop (tests): on a real pty, or on
+any line `pyuss.ksvario.simulate.serve` takes (``tcp-listen://127.0.0.1:0``)."""
 
 from __future__ import annotations
 
@@ -10,11 +11,13 @@ from pyuss.ksvario.simulate import serve
 
 
 class SlaveThread:
-    """The simulated KS VARIO served on a pty from its own event loop."""
+    """The simulated KS VARIO served from its own event loop on ``port`` (None: a pty);
+    ``device`` is what a DP master opens."""
 
-    def __init__(self, coupler: Coupler, station: int) -> None:
+    def __init__(self, coupler: Coupler, station: int, port: str | None = None) -> None:
         self.coupler = coupler
         self.station = station
+        self.port = port
         self.device = ""
         self.ready = threading.Event()
         self.loop = asyncio.new_event_loop()
@@ -31,7 +34,13 @@ class SlaveThread:
 
         try:
             self.loop.run_until_complete(
-                serve(station=self.station, coupler=self.coupler, on_ready=ready, stop=self.stop)
+                serve(
+                    station=self.station,
+                    port=self.port,
+                    coupler=self.coupler,
+                    on_ready=ready,
+                    stop=self.stop,
+                )
             )
         except BaseException as exc:  # reported by the test
             self.error = exc

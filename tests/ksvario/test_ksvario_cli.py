@@ -1,4 +1,5 @@
-"""`uss ksvario`: gsd, address, read/write in-process and over a pty with the built-in DP master."""
+"""`uss ksvario`: gsd, address, read/write in-process and over TCP with the built-in DP master;
+its simulator on a pty and stopped by signals."""
 
 from __future__ import annotations
 
@@ -17,6 +18,9 @@ from pyuss.cli.main import main
 from pyuss.ksvario.address import Address
 from pyuss.ksvario.coupler import Coupler
 from pyuss.ksvario.gsd import parse_gsd
+
+LISTEN = "tcp-listen://127.0.0.1:0"
+"""Where the simulated coupler is served: a free loopback port, reached as ``tcp://``."""
 
 
 def test_gsd_to_stdout_and_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -105,10 +109,10 @@ def test_result_error_exits_1(capsys: pytest.CaptureFixture[str]) -> None:
     assert "bad address" in capsys.readouterr().err
 
 
-def test_read_write_over_a_pty_with_the_dp_master(capsys: pytest.CaptureFixture[str]) -> None:
+def test_read_write_over_tcp_with_the_dp_master(capsys: pytest.CaptureFixture[str]) -> None:
     coupler = Coupler()
     coupler.set(Address.channel(2, 0x69), 42.5)
-    with SlaveThread(coupler, 7) as sim:
+    with SlaveThread(coupler, 7, LISTEN) as sim:
         assert main(["ksvario", "read", "0x8CD2", "2", "--port", sim.device, "--station", "7"]) == 0
         assert capsys.readouterr().out.splitlines() == ["8CD2h  42.5", "8CD4h  900"]
         argv = ["ksvario", "write", "0x3E9A", "45", "--port", sim.device, "--station", "7"]
@@ -117,7 +121,7 @@ def test_read_write_over_a_pty_with_the_dp_master(capsys: pytest.CaptureFixture[
 
 
 def test_absent_station_fails_with_one_line(capsys: pytest.CaptureFixture[str]) -> None:
-    with SlaveThread(Coupler(), 7) as sim:
+    with SlaveThread(Coupler(), 7, LISTEN) as sim:
         argv = ["ksvario", "read", "0x4496", "--port", sim.device, "--station", "9"]
         assert main(argv) == 1
     assert "did not answer" in capsys.readouterr().err
@@ -135,6 +139,7 @@ def test_absent_station_fails_with_one_line(capsys: pytest.CaptureFixture[str]) 
     ],
     ids=["uss ksvario simulate", "uss simulate --profile ksvario"],
 )
+@pytest.mark.pty
 def test_simulator_prints_the_device_first_and_answers(serve: list[str], read: list[str]) -> None:
     proc = subprocess.Popen(
         [sys.executable, "-m", "pyuss.cli.main", *serve],
@@ -176,13 +181,14 @@ _BACKGROUND = (
 shell leaves SIGINT (and SIGQUIT) ignored in it; stdin from /dev/null."""
 
 
+@pytest.mark.posix("a shell script (sh) starts the simulator and kill sends it the signal")
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 @pytest.mark.parametrize(
     "argv",
     [
-        ["ksvario", "simulate", "--pty"],
-        ["simulate", "--profile", "ksvario", "--pty", "--address", "5"],
-        ["simulate", "--pty", "--address", "5"],
+        ["ksvario", "simulate", "--port", LISTEN],
+        ["simulate", "--profile", "ksvario", "--tcp", "127.0.0.1:0", "--address", "5"],
+        ["simulate", "--tcp", "127.0.0.1:0", "--address", "5"],
     ],
     ids=["uss ksvario simulate", "uss simulate --profile ksvario", "uss simulate"],
 )
@@ -205,7 +211,7 @@ def test_a_simulator_started_in_the_background_stops_cleanly(
         deadline = time.monotonic() + 20
         while not out.read_text().strip() and time.monotonic() < deadline:
             time.sleep(0.05)
-        assert out.read_text().startswith("/dev/"), err.read_text()
+        assert out.read_text().startswith("tcp://127.0.0.1:"), err.read_text()
         os.kill(pid, sig)
         rest, _ = shell.communicate(timeout=20)
     finally:

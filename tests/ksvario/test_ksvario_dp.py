@@ -1,4 +1,5 @@
-"""PROFIBUS FDL codec and the DP slave state machine (pure), plus the slave on a real pty."""
+"""PROFIBUS FDL codec and the DP slave state machine (pure), plus the slave on a real pty and on
+a serial port (the far end of a pty pair)."""
 
 from __future__ import annotations
 
@@ -193,6 +194,7 @@ def test_global_control_freeze_and_other_stations() -> None:
     assert slave.handle(other, 0.0) is None
 
 
+@pytest.mark.pty
 async def test_slave_answers_on_a_real_pty() -> None:
     ready = asyncio.Event()
     devices: list[str] = []
@@ -308,6 +310,7 @@ def test_dp_lines_are_8e1() -> None:
         dp_line(None, baud=38400)
 
 
+@pytest.mark.pty
 async def test_simulator_on_a_serial_port() -> None:
     """``serve(port=DEVICE)`` opens DEVICE as a serial port (here the far end of a pty pair)
     and answers on it."""

@@ -1,8 +1,9 @@
 """Interop with the PROFIBUS-DP master of the pyprofibus package (a test-only dependency).
 
-pyprofibus's DP master, on its own serial PHY, opens the pty of the simulated KS VARIO, brings
-it through FDL status, Slave_Diag, Set_Prm, Chk_Cfg into Data_Exchange, and the parameter
-channel of module A.1 moves data through it; pyprofibus's GSD parser reads the emitted GSD.
+pyprofibus's DP master, on its own serial PHY (which opens a serial device), opens the pty of
+the simulated KS VARIO, brings it through FDL status, Slave_Diag, Set_Prm, Chk_Cfg into
+Data_Exchange, and the parameter channel of module A.1 moves data through it; pyprofibus's GSD
+parser reads the emitted GSD.
 """
 
 from __future__ import annotations
@@ -83,6 +84,7 @@ def test_pyprofibus_gsd_parser_reads_the_emitted_gsd(tmp_path: Path) -> None:
     assert gsd.getUserPrmData() == bytes(4)
 
 
+@pytest.mark.pty
 def test_pyprofibus_master_reaches_data_exchange_and_moves_channel_data(tmp_path: Path) -> None:
     gsd_path = tmp_path / "PMA_1030.gsd"
     gsd_path.write_text(emit_gsd(), encoding="ascii", newline="")
@@ -150,6 +152,7 @@ class CountingCoupler(Coupler):
         super().configure(configuration)
 
 
+@pytest.mark.pty
 def test_pyprofibus_master_drives_an_output_only_configuration(tmp_path: Path) -> None:
     """With output modules only the coupler has no input bytes: it acknowledges Data_Exchange
     with the short acknowledgement E5, which is what pyprofibus's master waits for. Twenty

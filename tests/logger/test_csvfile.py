@@ -63,6 +63,7 @@ def test_append_to_a_file_that_is_no_log_is_refused(tmp_path: Path, content: byt
     assert path.read_bytes() == content
 
 
+@pytest.mark.posix("/dev/zero")
 def test_append_to_an_endless_device_is_refused_at_once() -> None:
     with pytest.raises(ConfigError, match=r"^/dev/zero is not a CSV log of uss log$"):
         CsvLog("/dev/zero", HEADER, append=True)

@@ -10,7 +10,6 @@ import datetime as dt
 import json
 import os
 import re
-import resource
 import signal
 import subprocess
 import sys
@@ -118,6 +117,7 @@ def tcp_simulator() -> Iterator[tuple[subprocess.Popen[str], str]]:
         sim.wait()
 
 
+@pytest.mark.posix("stops uss log with SIGINT and checks it ended cleanly; waits with sleep")
 def test_uss_log_writes_no_answer_once_the_simulator_is_gone(tmp_path: Path) -> None:
     with tcp_simulator() as (sim, url):
         log = None
@@ -177,6 +177,8 @@ def _small_files(limit: int) -> Callable[[], None]:
     EFBIG (the signal that would kill the process for it is ignored), as on a full disk."""
 
     def setup() -> None:
+        import resource
+
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
 
@@ -207,6 +209,7 @@ def _one_line_and_whole_rows(done: subprocess.CompletedProcess[str], path: Path,
     assert len(table) > 5 and all(r["comm"] == "ok" and r["P52"] for r in table)
 
 
+@pytest.mark.posix("RLIMIT_FSIZE and SIGXFSZ, set in the child by preexec_fn")
 def test_a_log_the_system_refuses_to_grow_ends_in_one_line_with_whole_rows(
     tmp_path: Path,
 ) -> None:
@@ -232,6 +235,7 @@ def full_disk(tmp_path: Path) -> Iterator[Path]:
         subprocess.run(["umount", str(folder)], check=True)
 
 
+@pytest.mark.posix("a small tmpfs mounted by root")
 def test_a_log_on_a_full_disk_ends_in_one_line_with_whole_rows(full_disk: Path) -> None:
     path = full_disk / "run.csv"
     done = _log_until_the_file_fails(path)

@@ -96,7 +96,7 @@ async def test_a_line_that_does_not_echo_is_never_said_to(caplog: pytest.LogCapt
         assert not [r for r in caplog.records if "another master" in r.message]
 
 
-async def test_a_pkw_only_answer_with_the_requests_bytes_is_the_drives_over_a_pty() -> None:
+async def test_a_pkw_only_answer_with_the_requests_bytes_is_the_drives_over_tcp() -> None:
     # PKW only, the read of a zero value: the drive answers with the request's very bytes;
     # without exact timestamps nothing tells it from an echo, and it is taken as the answer
     with SimulatorThread([(3, "generic", Layout(3, 0))]) as sim:

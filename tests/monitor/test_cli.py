@@ -110,6 +110,7 @@ def test_read_prints_one_line_per_exchange(
     assert err.splitlines()[1].startswith("5     3,2 given")
 
 
+@pytest.mark.posix("time.tzset")
 def test_wall_clock_times_and_colours(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -313,6 +314,7 @@ async def test_live_on_a_bus_station_writes_a_capture(tmp_path: Path) -> None:
     assert len(records) == 5
 
 
+@pytest.mark.pty
 async def test_live_on_a_pty_with_real_port_timing(tmp_path: Path) -> None:
     bus = VirtualBus(BAUD)
     (path,) = await bus.serve_pty(1)
@@ -333,6 +335,7 @@ async def test_live_on_a_pty_with_real_port_timing(tmp_path: Path) -> None:
     assert items[0]["layout"] == "3,2"
 
 
+@pytest.mark.pty
 async def test_the_monitor_never_writes_to_its_port() -> None:
     # A pty pair of our own: whatever the monitor wrote to its end would come out of ours.
     ours, theirs = os.openpty()
@@ -435,6 +438,7 @@ async def test_live_summary_view_refreshes(tmp_path: Path) -> None:
     assert not any(line.lstrip().startswith("0.0") for line in out.decode().splitlines())
 
 
+@pytest.mark.posix("stops uss monitor with SIGINT")
 async def test_sigint_is_a_normal_stop(tmp_path: Path) -> None:
     bus = VirtualBus(BAUD)
     host, port = await bus.serve_tcp(framed=True)

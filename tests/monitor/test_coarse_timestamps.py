@@ -16,6 +16,8 @@ import asyncio
 import difflib
 from dataclasses import dataclass, field
 
+import pytest
+
 from pyuss.bus import VirtualBus
 from pyuss.master import Master
 from pyuss.master.testing import simulated_drives
@@ -73,6 +75,7 @@ def span(exchange: Exchange) -> tuple[float, float]:
     return frames[0].start, frames[-1].end
 
 
+@pytest.mark.pty
 async def test_a_pty_station_decodes_the_bus_traffic_as_the_bus_station_does() -> None:
     bus = VirtualBus(BAUD)
     (pty_path,) = await bus.serve_pty(1)

@@ -1,4 +1,4 @@
-"""Typed values through `Drive.read` / `Drive.write` against the simulator over a pty: every
+"""Typed values through `Drive.read` / `Drive.write` against the simulator over TCP: every
 data type, scaled values, arrays whole and by element, refusals before anything is sent, the
 raw words, and what the master learns from the drive's own descriptions (C 6)."""
 

@@ -5,12 +5,13 @@ from __future__ import annotations
 import contextlib
 import io
 import re
-import select
 import shlex
 import signal
 import subprocess
 import sys
 from pathlib import Path
+
+from support.processes import line_within
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "drives.md"
 TIMEOUT = 30
@@ -44,9 +45,7 @@ def test_the_console_example_runs_as_written() -> None:
                     _argv(command[:-2]), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
                 )
                 background.append(proc)
-                assert proc.stdout is not None
-                ready, _, _ = select.select([proc.stdout], [], [], TIMEOUT)
-                assert ready and proc.stdout.readline().strip(), command
+                assert line_within(proc.stdout, TIMEOUT, command), command
                 continue
             done = subprocess.run(
                 _argv(command), capture_output=True, text=True, timeout=TIMEOUT, check=False

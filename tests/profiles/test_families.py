@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import select
 import signal
 import subprocess
 import sys
@@ -32,6 +31,7 @@ from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw, RequestId
 from pyuss.protocol.telegram import AddressMode, Telegram
 from pyuss.slave import SlaveEngine
+from support.processes import line_within
 
 FAMILIES = [
     "micromaster420",
@@ -363,17 +363,16 @@ def _simulate(*args: str) -> tuple[subprocess.Popen[str], str]:
         stderr=subprocess.PIPE,
         text=True,
     )
-    assert proc.stdout is not None
-    ready, _, _ = select.select([proc.stdout], [], [], 20)
-    assert ready, "uss simulate printed nothing"
-    return proc, proc.stdout.readline().strip()
+    return proc, line_within(proc.stdout, 20, "uss simulate printed nothing")
 
 
+@pytest.mark.posix("stops uss simulate with SIGTERM and checks it ended cleanly")
 @pytest.mark.parametrize("name", FAMILIES)
-async def test_uss_simulate_serves_the_family_on_a_pty(name: str) -> None:
+async def test_uss_simulate_serves_the_family_on_tcp(name: str) -> None:
     profile = get_profile(name)
     db = profile.database()
-    proc, device = _simulate("--profile", name, "--address", "4", "--baud", "19200", "--pty")
+    line = ("--tcp", "127.0.0.1:0")
+    proc, device = _simulate("--profile", name, "--address", "4", "--baud", "19200", *line)
     try:
         async with Master(device, baud=19200, profile=name, mode=ACYCLIC) as master:
             drive = master.drive(4)

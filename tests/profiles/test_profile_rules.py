@@ -1,4 +1,4 @@
-"""Each profile's special rules, through a real pty with raw bytes."""
+"""Each profile's special rules, over TCP with raw bytes."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pyuss.profiles import baumueller, get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw, pwe_float
 from pyuss.slave import SlaveEngine
-from slave.harness import PtySim, engine, frame
+from slave.harness import LineSim, engine, frame
 
 OFF1 = 0x047E
 L32 = Layout(3, 2)
@@ -27,7 +27,7 @@ def refused(pkw: Pkw) -> int | None:
 
 
 def test_6se21_uses_14_byte_telegrams_and_answers_ind_0() -> None:
-    with PtySim(engine(1, "6se21"), baud=9600) as sim, sim.master() as master:
+    with LineSim(engine(1, "6se21"), baud=9600) as sim, sim.master() as master:
         assert master.silent(frame(1, "1014 0000 0000 0000 047E 0000"))  # 16 bytes: ignored
         element = master.ask(1, L32, Pkw(4, 20, 7), (OFF1, 0)).pkw
         missing = master.ask(1, L32, Pkw(4, 20, 99), (OFF1, 0)).pkw
@@ -57,7 +57,7 @@ def _baumueller(addresses: Sequence[int], layout: Layout, *, setpoint_id: int | 
 
 
 def test_baumueller_description_elements_and_error_numbers() -> None:
-    with PtySim(_baumueller([2], L42)) as sim, sim.master() as master:
+    with LineSim(_baumueller([2], L42)) as sim, sim.master() as master:
         ask = lambda job: master.ask(2, L42, job, (OFF1, 0)).pkw  # noqa: E731
         attribute = ask(Pkw(4, 50, 1))
         info = ask(Pkw(4, 50, 2))
@@ -80,7 +80,7 @@ def test_baumueller_description_elements_and_error_numbers() -> None:
 
 def test_baumueller_prepared_answers_without_response_delay_mode() -> None:
     """181 bit 2 = 0: each answer is the one prepared after the previous request (2.5)."""
-    with PtySim(engine(2, "baumueller", "3,2")) as sim, sim.master() as master:
+    with LineSim(engine(2, "baumueller", "3,2")) as sim, sim.master() as master:
         ask = lambda job: master.ask(2, L32, job, (OFF1, 0)).pkw  # noqa: E731
         first = ask(Pkw(1, 183))
         second = ask(Pkw(1, 184))
@@ -99,14 +99,14 @@ def test_baumueller_prepared_answers_without_response_delay_mode() -> None:
 
 
 def test_baumueller_too_large_is_103() -> None:
-    with PtySim(engine(2, "baumueller", "3,2")) as sim, sim.master() as master:
+    with LineSim(engine(2, "baumueller", "3,2")) as sim, sim.master() as master:
         master.ask(2, L32, Pkw(2, 181, values=(4,)), (OFF1, 0))  # delay mode: direct answers
         answer = master.ask(2, L32, Pkw(1, 70), (OFF1, 0)).pkw  # int32 in PKW 3
     assert refused(answer) == 103
 
 
 def test_baumueller_masked_control_word_broadcast() -> None:
-    with PtySim(_baumueller([2], L32)) as sim, sim.master() as master:
+    with LineSim(_baumueller([2], L32)) as sim, sim.master() as master:
         master.ask(2, L32, Pkw(0), (OFF1, 0x1000))
         assert master.silent(frame(0x20, "0000 0000 0001 047F 2000"))  # mask: bit 0 only
         control, setpoint = sim.call(
@@ -120,7 +120,7 @@ def test_baumueller_masked_control_word_broadcast() -> None:
 
 
 def test_baumueller_broadcast_without_pkw_takes_the_whole_control_word() -> None:
-    with PtySim(_baumueller([2], Layout(0, 2))) as sim, sim.master() as master:
+    with LineSim(_baumueller([2], Layout(0, 2))) as sim, sim.master() as master:
         assert master.silent(frame(0x20, "047F 2000"))
         control = sim.call(lambda: sim.drive.machine.control)
     assert control == 0x047F
@@ -129,14 +129,14 @@ def test_baumueller_broadcast_without_pkw_takes_the_whole_control_word() -> None
 def test_baumueller_broadcast_address_coding() -> None:
     """181 bit 1: PZD2/PZD3 name the addresses that react (here 0, 9 and 23)."""
     high, low = baumueller.address_mask([0, 9, 23])
-    with PtySim(_baumueller([9, 5], L33)) as sim, sim.master() as master:
+    with LineSim(_baumueller([9, 5], L33)) as sim, sim.master() as master:
         assert master.silent(frame(0x20, f"0000 0000 FFFF 047E {high:04X} {low:04X}"))
         controls = sim.call(lambda: [e.drive.machine.control for e in sim.engines])
     assert controls == [0x047E, 0]
 
 
 def test_baumueller_32_bit_setpoint_over_pzd2_and_pzd3() -> None:
-    with PtySim(_baumueller([2], L33, setpoint_id=70)) as sim, sim.master() as master:
+    with LineSim(_baumueller([2], L33, setpoint_id=70)) as sim, sim.master() as master:
         answer = master.ask(2, L33, Pkw(0), (OFF1, 0x0001, 0x0002))
         p70 = sim.call(lambda: sim.drive.value(70))
     assert p70 == 0x0001_0002
@@ -144,11 +144,11 @@ def test_baumueller_32_bit_setpoint_over_pzd2_and_pzd3() -> None:
 
 
 def test_baumueller_16_bit_setpoint_in_pzd3_and_format_fault() -> None:
-    with PtySim(_baumueller([2], L33)) as sim, sim.master() as master:
+    with LineSim(_baumueller([2], L33)) as sim, sim.master() as master:
         master.ask(2, L33, Pkw(0), (OFF1, 0x7777, 0x1234))
         p50 = sim.call(lambda: sim.drive.value(50))
     assert p50 == 0x1234
-    with PtySim(_baumueller([2], L32, setpoint_id=70)) as sim, sim.master() as master:
+    with LineSim(_baumueller([2], L32, setpoint_id=70)) as sim, sim.master() as master:
         master.ask(2, L32, Pkw(0), (OFF1, 0x0001))
         state = master.ask(2, L32, Pkw(1, 180), (OFF1, 0x0001)).pkw
     assert state.values[0] & baumueller.SETPOINT_FORMAT_FAULT  # 32 bits do not fit PZD 2
@@ -158,7 +158,7 @@ def test_baumueller_16_bit_setpoint_in_pzd3_and_format_fault() -> None:
 
 
 def test_nord_defaults_and_error_numbers() -> None:
-    with PtySim(engine(3, "nord")) as sim, sim.master() as master:
+    with LineSim(engine(3, "nord")) as sim, sim.master() as master:
         layout = sim.engines[0].layout
         text = master.ask(3, L42, Pkw(15, 511, 1), (OFF1, 0)).pkw
         reserved = master.ask(3, L42, Pkw(10, 511), (OFF1, 0)).pkw
@@ -171,7 +171,7 @@ def test_nord_defaults_and_error_numbers() -> None:
 
 
 def test_micromaster4_reaches_parameters_above_1999_through_the_page_bits() -> None:
-    with PtySim(engine(4, "micromaster4"), baud=9600) as sim, sim.master() as master:
+    with LineSim(engine(4, "micromaster4"), baud=9600) as sim, sim.master() as master:
         ask = lambda job: master.ask(4, LV, job, (OFF1, 0)).pkw  # noqa: E731
         baud = ask(Pkw(6, 10, 0x8001))  # P2010[1]: the line runs at 9600 baud, code 6
         write = ask(Pkw(7, 11, 0x8001, values=(7,)))  # P2011[1] = 7
@@ -188,7 +188,7 @@ def test_micromaster4_reaches_parameters_above_1999_through_the_page_bits() -> N
 
 
 def test_micromaster4_too_large_and_no_broadcasts() -> None:
-    with PtySim(engine(4, "micromaster4", "4,2")) as sim, sim.master() as master:
+    with LineSim(engine(4, "micromaster4", "4,2")) as sim, sim.master() as master:
         whole = master.ask(4, L42, Pkw(6, 10, 0x80FF), (OFF1, 0)).pkw
         assert master.silent(frame(0x20, "0003 FFFF 0000 0000 047F 2000"))
         control = sim.call(lambda: sim.drive.machine.control)
@@ -201,7 +201,7 @@ def test_micromaster4_too_large_and_no_broadcasts() -> None:
 def test_baumueller_write_authority_follows_parameter_126() -> None:
     """Baumueller manual 1.5: only with bit 0 of 126 set may the interfaces change drive
     parameters."""
-    with PtySim(_baumueller([2], L32)) as sim, sim.master() as master:
+    with LineSim(_baumueller([2], L32)) as sim, sim.master() as master:
         ask = lambda job: master.ask(2, L32, job, (OFF1, 0)).pkw  # noqa: E731
         off = ask(Pkw(2, 126, values=(0,)))
         denied = ask(Pkw(2, 60, values=(1000,)))

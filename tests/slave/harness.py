@@ -1,14 +1,17 @@
-"""Simulated drives on a real pty, and a master that speaks raw bytes with pyserial.
+"""Simulated drives on a line without timing, and a master that speaks raw bytes.
 
-`PtySim` runs a `SlaveServer` with engines on a `PtyPort` in an event loop of its own thread,
-so a test talks to it with plain blocking pyserial, exactly as an outside program would. Code
-that touches the drives runs in that thread (`PtySim.call`).
+`LineSim` runs a `SlaveServer` with engines in an event loop of its own thread, on a TCP server
+of a free loopback port (`TcpServerTransport`, ``line="tcp"``, the default) or on a real pty
+(`PtyPort`, ``line="pty"``): both carry no timing, and the server keeps the same line of its
+own on them. A test talks to it with a plain blocking socket or pyserial, exactly as an outside
+program would. Code that touches the drives runs in that thread (`LineSim.call`).
 """
 
 from __future__ import annotations
 
 import asyncio
 import select
+import socket
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -23,7 +26,9 @@ from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import AddressMode, Telegram, bcc
 from pyuss.protocol.timing import BAUD_RATES
 from pyuss.slave import SlaveEngine, SlaveServer
+from pyuss.transport.base import Transport
 from pyuss.transport.pty import PtyPort
+from pyuss.transport.tcp import TcpServerTransport
 
 T = TypeVar("T")
 
@@ -54,11 +59,17 @@ def engine(
     return make
 
 
-class PtySim:
-    """Engines served on a pty until `close`; ``path`` is the device to open. ``baud``: the
+class LineSim:
+    """Engines served until `close` on ``line``: ``"tcp"`` (``path`` is
+    ``tcp://127.0.0.1:PORT``) or ``"pty"`` (``path`` is the device to open). ``baud``: the
     rate of the line (default: the fastest rate every drive runs at)."""
 
-    def __init__(self, setup: Setup, *, baud: int | None = None, **server: Any) -> None:
+    def __init__(
+        self, setup: Setup, *, baud: int | None = None, line: str = "tcp", **server: Any
+    ) -> None:
+        if line not in ("tcp", "pty"):
+            raise ValueError(f"line is 'tcp' or 'pty', not {line!r}")
+        self.line = line
         self.baud = baud or 0
         self.loop = asyncio.new_event_loop()
         self._ready: Future[None] = Future()
@@ -67,7 +78,7 @@ class PtySim:
         self.server: SlaveServer | None = None
         self.path = ""
         self._thread = threading.Thread(
-            target=self._main, args=(setup, server), name="pty-sim", daemon=True
+            target=self._main, args=(setup, server), name=f"{line}-sim", daemon=True
         )
         self._thread.start()
         self._ready.result(WAIT)
@@ -86,10 +97,16 @@ class PtySim:
                 for one in self.engines:
                     rates &= set(one.interface_parameters.rates())
                 self.baud = max(rates)
-            pty = PtyPort(baud=self.baud)
-            await pty.open()
-            self.server = SlaveServer(pty, *self.engines, **options)
-            self.path = pty.device_path
+            port: Transport
+            if self.line == "pty":
+                port = pty = PtyPort(baud=self.baud)
+                await port.open()
+                self.path = pty.device_path
+            else:
+                port = tcp = TcpServerTransport("127.0.0.1", 0, baud=self.baud)
+                await port.open()
+                self.path = f"tcp://127.0.0.1:{tcp.port}"
+            self.server = SlaveServer(port, *self.engines, **options)
         except BaseException as exc:
             self._ready.set_exception(exc)
             raise
@@ -98,7 +115,7 @@ class PtySim:
             await self.server.run(self._stop)
         finally:
             self.server.close()
-            await pty.close()
+            await port.close()
 
     @property
     def drive(self) -> SimulatedDrive:
@@ -117,7 +134,7 @@ class PtySim:
             self.loop.call_soon_threadsafe(self._stop.set)
         self._thread.join(WAIT)
 
-    def __enter__(self) -> PtySim:
+    def __enter__(self) -> LineSim:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -128,14 +145,25 @@ class PtySim:
 
 
 class Master:
-    """The far end of the pty: raw bytes through pyserial. A pty has no baud rate (the
-    simulator times the line itself); the port is opened at 9600 baud, 8E1."""
+    """The far end of the line: raw bytes through a socket (``tcp://HOST:PORT``) or pyserial
+    (a pty's path). Neither has a baud rate (the simulator times the line itself); a pty is
+    opened at 9600 baud, 8E1."""
 
     def __init__(self, path: str) -> None:
-        self.port = serial.Serial(path, 9600, parity=serial.PARITY_EVEN, timeout=WAIT)
+        self.sock: socket.socket | None = None
+        self.port: serial.Serial | None = None
+        if path.startswith("tcp://"):
+            host, port = path.removeprefix("tcp://").rsplit(":", 1)
+            self.sock = socket.create_connection((host, int(port)), timeout=WAIT)
+            self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        else:
+            self.port = serial.Serial(path, 9600, parity=serial.PARITY_EVEN, timeout=WAIT)
 
     def close(self) -> None:
-        self.port.close()
+        if self.sock is not None:
+            self.sock.close()
+        if self.port is not None:
+            self.port.close()
 
     def __enter__(self) -> Master:
         return self
@@ -145,22 +173,39 @@ class Master:
 
     def send(self, data: bytes | str) -> None:
         raw = bytes.fromhex(data) if isinstance(data, str) else data
+        if self.sock is not None:
+            self.sock.sendall(raw)
+            return
+        assert self.port is not None
         self.port.write(raw)
         self.port.flush()
 
     def _readable(self, timeout: float) -> bool:
         # select() instead of changing the port's timeout: that re-applies the termios
         # settings, which a pty may refuse once the other side has written
-        ready, _, _ = select.select([self.port.fileno()], [], [], timeout)
+        ready, _, _ = select.select([self.sock or self.port], [], [], timeout)
         return bool(ready)
+
+    def _read(self, n: int) -> bytes:
+        """``n`` bytes, or fewer when no more come within `WAIT` seconds."""
+        if self.sock is None:
+            assert self.port is not None
+            return bytes(self.port.read(n))
+        got = b""
+        while len(got) < n and self._readable(WAIT):
+            chunk = self.sock.recv(n - len(got))
+            if not chunk:
+                break
+            got += chunk
+        return got
 
     def read_telegram(self, timeout: float = WAIT) -> bytes | None:
         """One telegram (STX, LGE and LGE more bytes), or None when nothing comes in time."""
         if not self._readable(timeout):
             return None
-        head = self.port.read(2)
+        head = self._read(2)
         assert len(head) == 2 and head[0] == 0x02, f"not a telegram start: {head.hex(' ')}"
-        rest = self.port.read(head[1])
+        rest = self._read(head[1])
         assert len(rest) == head[1], f"telegram cut short: {(head + rest).hex(' ')}"
         return head + rest
 

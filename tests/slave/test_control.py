@@ -1,4 +1,4 @@
-"""The drive profile's state machine (C 5.2.1) driven by control words through a pty, raw bytes.
+"""The drive profile's state machine (C 5.2.1) driven by control words over TCP, raw bytes.
 
 Ramp times are set through the parameter channel first: 0 s makes a ramp end within the
 telegram that starts it, 999.9 s keeps it under way for the whole test, so no assertion
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
-from slave.harness import Master, PtySim, engine
+from slave.harness import LineSim, Master, engine
 
 LV = Layout(127, 2)
 
@@ -36,7 +36,7 @@ STATE, ACTUAL_HZ, CONTROL_DISPLAY, FAULT_NUMBER = 1, 2, 550, 947
 
 
 class Drive:
-    """Slave 5 over the pty: control word and setpoint in, status word and actual value out."""
+    """Slave 5 over the line: control word and setpoint in, status word and actual value out."""
 
     def __init__(self, master: Master) -> None:
         self.master = master
@@ -56,8 +56,8 @@ class Drive:
         assert (net.pkw.id, net.pkw.values) == (1, (value,)), net.pkw
 
 
-def _serve() -> PtySim:
-    return PtySim(engine(5, "generic", "v,2", spontaneous=False))
+def _serve() -> LineSim:
+    return LineSim(engine(5, "generic", "v,2", spontaneous=False))
 
 
 def test_switching_on_and_the_status_bits() -> None:
@@ -159,7 +159,7 @@ def test_a_micromaster_jogs_from_standstill_with_on_off1_zero() -> None:
     switches on and runs at the jog frequency while the bit is set, and is back in "ready to
     switch on" when it drops; while switched on the bits do nothing."""
     with (
-        PtySim(engine(5, "micromaster440", "v,2", spontaneous=False)) as sim,
+        LineSim(engine(5, "micromaster440", "v,2", spontaneous=False)) as sim,
         sim.master() as master,
     ):
         drive = Drive(master)

@@ -1,6 +1,6 @@
 """The interface parameters show and set what is in force (C 3.1, C 3.2; Baumueller
-communication software manual 2.5), through a pty, for every profile through its
-``[interface]`` table."""
+communication software manual 2.5), over a line without timing (TCP, and a pty where what
+such a line does is meant), for every profile through its ``[interface]`` table."""
 
 from __future__ import annotations
 
@@ -16,8 +16,8 @@ from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
 from pyuss.slave import SlaveEngine, SlaveServer
-from pyuss.transport.pty import PtyPort
-from slave.harness import PtySim, engine
+from pyuss.transport.tcp import TcpServerTransport
+from slave.harness import LineSim, engine
 
 LV = Layout(127, 2)
 L32 = Layout(3, 2)
@@ -31,7 +31,7 @@ def _refused(pkw: Pkw) -> int | None:
 @pytest.mark.parametrize(("baud", "code"), [(9600, 6), (19200, 7), (187500, 10)])
 def test_p684_shows_the_baud_rate_the_line_runs_at(baud: int, code: int) -> None:
     """C 3.1 codes: 6 = 9600, 7 = 19200, 10 = 187500 baud."""
-    with PtySim(engine(5, "generic", "v,2"), baud=baud) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2"), baud=baud) as sim, sim.master() as master:
         shown = master.ask(5, LV, Pkw(6, 684, 1), OFF1).pkw
     assert (shown.id, shown.values) == (4, (code,))
 
@@ -39,7 +39,7 @@ def test_p684_shows_the_baud_rate_the_line_runs_at(baud: int, code: int) -> None
 @pytest.mark.parametrize("baud", [19200, 38400])
 def test_baumueller_182_shows_the_rate_itself(baud: int) -> None:
     """Also a rate beyond what a master may write (150..19200): the drive's own display."""
-    with PtySim(engine(5, "baumueller", "3,2"), baud=baud) as sim, sim.master() as master:
+    with LineSim(engine(5, "baumueller", "3,2"), baud=baud) as sim, sim.master() as master:
         master.ask(5, L32, Pkw(2, 181, values=(4,)), OFF1)  # response-delay mode: direct answers
         shown = master.ask(5, L32, Pkw(1, 182), OFF1).pkw
     assert shown.values == (baud,)
@@ -47,7 +47,7 @@ def test_baumueller_182_shows_the_rate_itself(baud: int) -> None:
 
 def test_p687_shows_the_failure_time_in_force() -> None:
     with (
-        PtySim(engine(5, "generic", "v,2", failure_time=0.3)) as sim,
+        LineSim(engine(5, "generic", "v,2", failure_time=0.3)) as sim,
         sim.master() as master,
     ):
         shown = master.ask(5, LV, Pkw(6, 687, 1), OFF1).pkw
@@ -66,7 +66,7 @@ def test_nord_p513_shows_the_failure_time_in_its_tenths_of_a_second() -> None:
 def test_writing_p687_changes_the_time_the_drive_watches() -> None:
     """Not watched at first; P687.1 = 200 ms written over USS trips the fault once no
     telegram came for that long; 0 written switches the watch off again."""
-    with PtySim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
         written = master.ask(5, LV, Pkw(7, 687, 1, values=(200,)), OFF1).pkw
         watched = sim.call(lambda: sim.engines[0].failure_time)
         time.sleep(0.5)
@@ -94,10 +94,13 @@ def test_a_failure_time_written_through_any_interface_is_in_force() -> None:
     assert engine_.failure_time == 1.5  # closed: no longer followed
 
 
-def test_a_pty_line_with_one_drive_follows_its_baud_rate_parameter() -> None:
-    """A pty has no rate of its own: P684.1 = 7 written (RAM) is answered at 9600 baud, then
-    the simulated line runs at 19200 baud (pacing, start pause, response window)."""
-    with PtySim(engine(5, "generic", "v,2"), baud=9600) as sim, sim.master() as master:
+@pytest.mark.parametrize("line", ["tcp", pytest.param("pty", marks=pytest.mark.pty)])
+def test_a_pty_or_tcp_line_with_one_drive_follows_its_baud_rate_parameter(line: str) -> None:
+    """A pty or a TCP line has no rate of its own: P684.1 = 7 written (RAM) is answered at
+    9600 baud, then the simulated line runs at 19200 baud (pacing, start pause, response
+    window)."""
+    setup = engine(5, "generic", "v,2")
+    with LineSim(setup, baud=9600, line=line) as sim, sim.master() as master:
         written = master.ask(5, LV, Pkw(7, 684, 1, values=(7,)), OFF1).pkw
         shown = master.ask(5, LV, Pkw(6, 684, 1), OFF1).pkw
         line = sim.call(lambda: (sim.server.baud, sim.engines[0].baud))
@@ -109,7 +112,7 @@ def test_a_pty_line_with_one_drive_follows_its_baud_rate_parameter() -> None:
 
 
 def _two_drives(store: str | None = None) -> Callable[[float], list[SlaveEngine]]:
-    """Drives 5 and 6 on one pty: they share its rate, which therefore stays."""
+    """Drives 5 and 6 on one line: they share its rate, which therefore stays."""
 
     def make(now: float) -> list[SlaveEngine]:
         profile = get_profile("generic")
@@ -133,7 +136,7 @@ def test_where_the_line_keeps_its_rate_a_change_is_stored_for_the_next_start(
     """Two drives on one line: a RAM write (request 7) and an EEPROM write into a drive
     without a store would change nothing and are refused (error 1); an EEPROM write into a
     drive with a store is stored and is the rate of the next start."""
-    with PtySim(_two_drives(), baud=9600) as sim, sim.master() as master:
+    with LineSim(_two_drives(), baud=9600) as sim, sim.master() as master:
         ram = master.ask(5, LV, Pkw(7, 684, 1, values=(7,)), OFF1).pkw
         eeprom = master.ask(5, LV, Pkw(12, 684, 1, values=(7,)), OFF1).pkw
         same = master.ask(5, LV, Pkw(7, 684, 1, values=(6,)), OFF1).pkw  # the rate in force
@@ -145,7 +148,7 @@ def test_where_the_line_keeps_its_rate_a_change_is_stored_for_the_next_start(
     assert shown.values == (6,)
 
     store = str(tmp_path / "drive{address}.store")
-    with PtySim(_two_drives(store), baud=9600) as sim, sim.master() as master:
+    with LineSim(_two_drives(store), baud=9600) as sim, sim.master() as master:
         stored = master.ask(5, LV, Pkw(12, 684, 1, values=(7,)), OFF1).pkw
         running = sim.call(lambda: sim.server.baud)
     assert (stored.id, stored.values) == (4, (7,))
@@ -158,9 +161,9 @@ async def test_a_drive_refuses_a_line_it_has_no_code_for() -> None:
     """C 3.1 has no code for 115200 baud: a generic drive does not run at it."""
     profile = get_profile("generic")
     drive = SimulatedDrive(profile.database())
-    pty = PtyPort(baud=115200)
+    line = TcpServerTransport("127.0.0.1", 0, baud=115200)
     with pytest.raises(ConfigError, match=r"does not run at 115200 baud \(P684\.1: 300, 600"):
-        SlaveServer(pty, SlaveEngine(5, drive, profile, layout=L32))
+        SlaveServer(line, SlaveEngine(5, drive, profile, layout=L32))
 
 
 @pytest.mark.parametrize(

@@ -1,4 +1,4 @@
-"""The job/answer processing of the parameter channel (C 4.2.1.1), through a pty."""
+"""The job/answer processing of the parameter channel (C 4.2.1.1), over TCP."""
 
 from __future__ import annotations
 
@@ -7,21 +7,21 @@ import time
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
 from pyuss.slave import JobLatency
-from slave.harness import PtySim, engine
+from slave.harness import LineSim, engine
 
 LV = Layout(127, 2)
 OFF1 = (0x047E, 0)
 
 
 def test_no_job_is_answered_with_no_response() -> None:
-    with PtySim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
         net = master.ask(5, LV, Pkw(0), OFF1)
     assert net.pkw == Pkw(0, values=(0,))
 
 
 def test_first_contact_answers_no_response_until_the_answer_is_ready() -> None:
     with (
-        PtySim(engine(5, "generic", "v,2", latency=JobLatency(cycles=2))) as sim,
+        LineSim(engine(5, "generic", "v,2", latency=JobLatency(cycles=2))) as sim,
         sim.master() as master,
     ):
         answers = [master.ask(5, LV, Pkw(1, 52), OFF1).pkw for _ in range(4)]
@@ -32,7 +32,7 @@ def test_first_contact_answers_no_response_until_the_answer_is_ready() -> None:
 def test_old_answer_repeats_with_the_current_value_until_the_new_one_is_ready() -> None:
     setup = engine(5, "generic", "v,2", latency=JobLatency(cycles=2), spontaneous=False)
     with (
-        PtySim(setup) as sim,
+        LineSim(setup) as sim,
         sim.master() as master,
     ):
         for _ in range(3):
@@ -54,7 +54,7 @@ def test_old_answer_repeats_with_the_current_value_until_the_new_one_is_ready() 
 
 def test_a_repeated_job_is_not_carried_out_again() -> None:
     write = Pkw(2, 18, values=(0x1234,))
-    with PtySim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
         assert master.ask(5, LV, write, OFF1).pkw.values == (0x1234,)
         sim.call(lambda: sim.drive.write(18, 0x0100, interface="panel"))
         again = master.ask(5, LV, write, OFF1).pkw
@@ -70,7 +70,7 @@ def test_a_repeated_job_is_not_carried_out_again() -> None:
 
 def test_any_change_of_the_job_is_a_new_job() -> None:
     """Same ID and PNU, other PWE: a new job (C 4.2.1.1), carried out at once."""
-    with PtySim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
         master.ask(5, LV, Pkw(2, 18, values=(1,)), OFF1)
         master.ask(5, LV, Pkw(2, 18, values=(2,)), OFF1)
         value = sim.call(lambda: sim.drive.value(18))
@@ -79,7 +79,7 @@ def test_any_change_of_the_job_is_a_new_job() -> None:
 
 def test_latency_in_seconds() -> None:
     setup = engine(5, "generic", "v,2", latency=JobLatency(seconds=1.0))
-    with PtySim(setup) as sim, sim.master() as master:
+    with LineSim(setup) as sim, sim.master() as master:
         early = master.ask(5, LV, Pkw(1, 52), OFF1).pkw
         time.sleep(1.1)
         late = master.ask(5, LV, Pkw(1, 52), OFF1).pkw

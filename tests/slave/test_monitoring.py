@@ -1,4 +1,4 @@
-"""Diagnostic parameters (A 5.2.3) and the telegram failure time (C 3.1), through a pty."""
+"""Diagnostic parameters (A 5.2.3) and the telegram failure time (C 3.1), over TCP."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
 from pyuss.slave import SlaveEngine
 from pyuss.slave.engine import TELEGRAM_FAILURE_FAULT
-from slave.harness import PtySim, engine, frame
+from slave.harness import LineSim, engine, frame
 
 LV = Layout(127, 2)
 OFF1 = (0x047E, 0)
@@ -19,7 +19,7 @@ BASE = 2030  # the generic profile's diagnostic parameters
 
 def test_diagnostic_parameters_show_the_receive_diagnostics() -> None:
     good = frame(5, "1012 0000 0000 047E 0000")
-    with PtySim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
         master.exchange(good)
         assert master.silent(good[:-1] + b"\x00")  # wrong BCC
         status = master.ask(5, LV, Pkw(1, BASE + 3), OFF1).pkw
@@ -45,7 +45,7 @@ def test_diagnostic_parameters_show_the_receive_diagnostics() -> None:
 
 def test_telegram_failure_time_trips_a_fault_shown_in_the_status_word() -> None:
     setup = engine(5, "generic", "v,2", failure_time=0.3)
-    with PtySim(setup) as sim, sim.master() as master:
+    with LineSim(setup) as sim, sim.master() as master:
         time.sleep(0.5)  # no monitoring before the first good telegram
         first = master.ask(5, LV, Pkw(0), OFF1)
         time.sleep(0.6)
@@ -78,7 +78,7 @@ def test_failure_time_trips_a_fault_even_when_the_file_names_no_fault_code() -> 
         profile = get_profile("generic")
         return [SlaveEngine(5, drive, profile, layout=LV, failure_time=0.2, now=now)]
 
-    with PtySim(make) as sim, sim.master() as master:
+    with LineSim(make) as sim, sim.master() as master:
         first = master.ask(5, LV, Pkw(0), OFF1)
         time.sleep(0.4)
         tripped = master.ask(5, LV, Pkw(1, 1), OFF1)
@@ -104,12 +104,12 @@ def test_changing_a_diagnostic_parameter_is_refused_and_serving_goes_on() -> Non
     Baumueller drive, whose write authority is parameter 126), and without write authority
     response ID 8, as every change job (C 4.2.1.1)."""
     l32 = Layout(3, 2)
-    with PtySim(engine(5, "baumueller", "3,2")) as sim, sim.master() as master:
+    with LineSim(engine(5, "baumueller", "3,2")) as sim, sim.master() as master:
         master.ask(5, l32, Pkw(2, 181, values=(4,)), OFF1)  # response-delay mode: direct answers
         written = master.ask(5, l32, Pkw(2, 190, values=(1,)), OFF1).pkw  # P190: hardware
         read = master.ask(5, l32, Pkw(1, 190 + 6), OFF1).pkw  # good telegrams so far
     assert (written.id, written.values) == (7, (1,))
     assert (read.id, read.values) == (1, (3,))
-    with PtySim(engine(5, "generic", "v,2", write_authority=False)) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2", write_authority=False)) as sim, sim.master() as master:
         denied = master.ask(5, LV, Pkw(2, BASE + 6, values=(0,)), OFF1).pkw
     assert denied.id == 8

@@ -9,7 +9,7 @@ import pytest
 from pyuss.drive import SimulatedDrive, StoreError
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw, pwe_float
-from slave.harness import PtySim, engine
+from slave.harness import LineSim, engine
 
 LV = Layout(127, 2)
 OFF1 = (0x047E, 0)
@@ -25,7 +25,7 @@ def _reads(store: Path) -> list[Pkw]:
         Pkw(1, 448),
         Pkw(6, 684, 255),
     ]
-    with PtySim(engine(5, "generic", "v,2", store=str(store))) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2", store=str(store))) as sim, sim.master() as master:
         return [master.ask(5, LV, job, OFF1).pkw for job in jobs]
 
 
@@ -39,7 +39,7 @@ def test_eeprom_writes_survive_a_power_cycle(tmp_path: Path) -> None:
         Pkw(13, 107, values=pwe_float(60.0)),  # double word, EEPROM
         Pkw(12, 684, 255, values=(8, 9, 10)),  # whole array, EEPROM (variable length)
     ]
-    with PtySim(engine(5, "generic", "v,2", store=str(store))) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2", store=str(store))) as sim, sim.master() as master:
         answers = [master.ask(5, LV, job, OFF1).pkw for job in writes]
     assert [a.id for a in answers] == [1, 1, 5, 4, 2, 4]
     assert store.exists()
@@ -56,7 +56,7 @@ def test_eeprom_writes_survive_a_power_cycle(tmp_path: Path) -> None:
 
 def test_a_damaged_store_is_refused_with_a_clear_message(tmp_path: Path) -> None:
     store = tmp_path / "drive5.store"
-    with PtySim(engine(5, "generic", "v,2", store=str(store))) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2", store=str(store))) as sim, sim.master() as master:
         master.ask(5, LV, Pkw(14, 18, values=(0x1234,)), OFF1)
     data = bytearray(store.read_bytes())
     data[-3] ^= 0x01
@@ -76,7 +76,7 @@ def test_an_eeprom_write_that_cannot_be_stored_is_refused_and_serving_goes_on(
     folder = tmp_path / "eeprom"
     folder.mkdir()
     store = folder / "drive5.store"
-    with PtySim(engine(5, "generic", "v,2", store=str(store))) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2", store=str(store))) as sim, sim.master() as master:
         folder.rmdir()
         refused = master.ask(5, LV, Pkw(14, 18, values=(0x1234,)), OFF1).pkw
         in_ram = master.ask(5, LV, Pkw(1, 18), OFF1).pkw

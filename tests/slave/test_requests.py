@@ -1,5 +1,5 @@
 """Every request ID of C Table 4.1 with its answers (C Tables 4.2, 4.3, 4.8..4.11; C 7),
-through a pty against the generic profile's drive."""
+over TCP against the generic profile's drive."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw, make_index, pwe_float, pwe_text
 from pyuss.slave import SlaveEngine
-from slave.harness import PtySim, engine
+from slave.harness import LineSim, engine
 
 OFF1 = (0x047E, 0)
 LV = Layout(127, 2)
@@ -24,7 +24,7 @@ def answers(layout: str, *jobs: Pkw, **options: Any) -> list[Pkw]:
     """The PKW answers to ``jobs`` sent one after the other to slave 5."""
     shape = Layout.parse(layout)
     out = []
-    with PtySim(engine(5, "generic", layout, **options)) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", layout, **options)) as sim, sim.master() as master:
         for job in jobs:
             out.append(master.ask(5, shape, job, OFF1).pkw)
     return out
@@ -295,7 +295,7 @@ def test_every_data_type_and_attribute_of_a_parameter_file() -> None:
         drive = SimulatedDrive(parse_database(TYPES_FILE), now=now)
         return [SlaveEngine(5, drive, get_profile("generic"), layout=LV, now=now)]
 
-    with PtySim(make) as sim, sim.master() as master:
+    with LineSim(make) as sim, sim.master() as master:
         ask = lambda job: master.ask(5, LV, job, OFF1).pkw  # noqa: E731
         values = [ask(Pkw(1, pnu)) for pnu in range(60, 68)]
         codes = [ask(Pkw(4, pnu, 1)).values[0] & 0xFF for pnu in range(60, 68)]

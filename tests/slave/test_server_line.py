@@ -1,11 +1,14 @@
-"""SlaveServer on a line that stops taking its answers: the drive goes on serving."""
+"""SlaveServer on a line that stops taking its answers: the drive goes on serving. The line is a
+pty whose kernel buffer the client stops emptying (a socket's peer that stops reading is
+disconnected by the TCP server instead: tests/transport)."""
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
 import os
-import tty
+
+import pytest
 
 from pyuss.drive import SimulatedDrive
 from pyuss.profiles import get_profile
@@ -44,7 +47,10 @@ async def _read(fd: int, size: int) -> bytes:
     return got
 
 
+@pytest.mark.pty
 async def test_an_answer_the_line_does_not_take_is_dropped_and_the_drive_keeps_serving() -> None:
+    import tty
+
     pty = PtyPort(baud=187500, write_timeout=0.05)
     await pty.open()
     profile = get_profile("generic")

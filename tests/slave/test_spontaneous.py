@@ -1,4 +1,4 @@
-"""Spontaneous messages with the toggle bit until acknowledged (C 4.2.1.2), through a pty."""
+"""Spontaneous messages with the toggle bit until acknowledged (C 4.2.1.2), over TCP."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
 from pyuss.slave import SlaveEngine
-from slave.harness import PtySim, engine
+from slave.harness import LineSim, engine
 
 LV = Layout(127, 2)
 L42 = Layout(4, 2)
@@ -39,7 +39,7 @@ def _with_active_array(layout: Layout):  # type: ignore[no-untyped-def]
 
 def test_changes_are_reported_until_acknowledged_one_after_the_other() -> None:
     job = Pkw(1, 18)
-    with PtySim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
         normal = master.ask(5, LV, job, OFF1).pkw
         sim.call(lambda: sim.drive.update(52, 0x0111))
         sim.call(lambda: sim.drive.update(52, 0x0222))  # the same element: the newest counts
@@ -58,7 +58,7 @@ def test_changes_are_reported_until_acknowledged_one_after_the_other() -> None:
 
 
 def test_answers_keep_the_toggle_of_the_last_message() -> None:
-    with PtySim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
         sim.call(lambda: sim.drive.update(52, 1))
         message = master.ask(5, LV, Pkw(1, 18), OFF1).pkw
         after = master.ask(5, LV, Pkw(1, 18, spm_toggle=True), OFF1).pkw
@@ -67,7 +67,7 @@ def test_answers_keep_the_toggle_of_the_last_message() -> None:
 
 
 def test_jobs_go_on_while_a_message_is_shown() -> None:
-    with PtySim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2")) as sim, sim.master() as master:
         sim.call(lambda: sim.drive.update(52, 1))
         shown = master.ask(5, LV, Pkw(2, 18, values=(0x1234,)), OFF1).pkw
         written = sim.call(lambda: sim.drive.value(18))
@@ -81,7 +81,7 @@ def test_array_changes() -> None:
     """Table 4.8: IDs 11/12 with the index; a whole array (IND 255) with its values only on a
     variable-length interface, else PNU and IND alone (C 4.2.1.2)."""
     for layout, values in ((LV, (1, 2, 3)), (L42, (0, 0))):
-        with PtySim(_with_active_array(layout)) as sim, sim.master() as master:
+        with LineSim(_with_active_array(layout)) as sim, sim.master() as master:
             sim.call(lambda: sim.drive.write(60, 9, 2, interface="panel"))
             single = master.ask(5, layout, Pkw(0), OFF1).pkw
             master.ask(5, layout, Pkw(0, spm_toggle=True), OFF1)
@@ -93,14 +93,14 @@ def test_array_changes() -> None:
 
 
 def test_own_changes_are_not_reported() -> None:
-    with PtySim(_with_active_array(LV)) as sim, sim.master() as master:
+    with LineSim(_with_active_array(LV)) as sim, sim.master() as master:
         master.ask(5, LV, Pkw(7, 60, 1, values=(5,)), OFF1)
         answer = master.ask(5, LV, Pkw(0), OFF1).pkw
     assert answer.id == 0
 
 
 def test_messages_can_be_switched_off() -> None:
-    with PtySim(engine(5, "generic", "v,2", spontaneous=False)) as sim, sim.master() as master:
+    with LineSim(engine(5, "generic", "v,2", spontaneous=False)) as sim, sim.master() as master:
         sim.call(lambda: sim.drive.update(52, 1))
         answer = master.ask(5, LV, Pkw(1, 18), OFF1).pkw
     assert (answer.id, answer.spm_toggle) == (1, False)

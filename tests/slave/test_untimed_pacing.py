@@ -5,7 +5,8 @@ its last character ended (A 5.2.1.1), the whole answer written then; what a peer
 with costs the peers after it at most one telegram time.
 
 The model's answer times are asserted exactly (sans-io); over a real pty, with a master in a
-process of its own, that an answer comes and not a telegram time late."""
+process of its own that writes to it as a UART would (termios), that an answer comes and not a
+telegram time late."""
 
 from __future__ import annotations
 
@@ -26,7 +27,7 @@ from pyuss.protocol.telegram import MAX_TELEGRAM_BYTES
 from pyuss.protocol.timing import residual_time_max
 from pyuss.slave import SlaveEngine
 from pyuss.slave.server import PacedLine
-from slave.harness import PtySim, engine, frame
+from slave.harness import LineSim, engine, frame
 
 BAUDS = [300, 1200, 9600, 187500]
 READ_P52 = frame(5, "1034 0000 0000 047E 0000")  # C 8.1 example 2: 14 characters
@@ -163,6 +164,7 @@ def _exchange(path: str, baud: int, low: float, high: float, seed: int) -> dict[
     return result
 
 
+@pytest.mark.pty
 @pytest.mark.parametrize(("low", "high"), [(0, 0), (1.0, 1.45)], ids=["at once", "paced"])
 @pytest.mark.parametrize("baud", BAUDS)
 def test_over_a_pty_the_answer_comes_within_the_response_delay(
@@ -177,7 +179,7 @@ def test_over_a_pty_the_answer_comes_within_the_response_delay(
     try three times."""
     tc = 11 / baud
     latest = _window(baud)[1] + max(7 * tc, 0.050)
-    with PtySim(engine(5, "generic", "3,2"), baud=baud) as sim:
+    with LineSim(engine(5, "generic", "3,2"), baud=baud, line="pty") as sim:
         for seed in range(3):
             got = _exchange(sim.path, baud, low, high, seed)
             if got["answer"] or not high:

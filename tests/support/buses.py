@@ -1,5 +1,5 @@
 """Buses for master tests: scripted slaves or simulated drives on a virtual bus behind a
-started master, and simulated drives in a thread of their own reached through ptys."""
+started master, and simulated drives in a thread of their own reached over raw TCP (or ptys)."""
 
 from __future__ import annotations
 
@@ -118,8 +118,11 @@ async def simulated_bus(
 
 
 class SimulatorThread:
-    """Simulated drives on a virtual bus in a thread of their own, reached through ptys the
-    bus serves: what a master sees of drives in another program (no timing on the pty).
+    """Simulated drives on a virtual bus in a thread of their own, reached as raw TCP stations
+    of the bus (``line="tcp"``: ``paths[0]`` is ``tcp://127.0.0.1:PORT``, every connection a
+    station ``tcp1``, ``tcp2``, ... in the order they come) or through ``ptys`` ptys the bus
+    serves (``line="pty"``: their device paths, stations ``pty1``, ...): what a master sees of
+    drives in another program (no timing on the line, bytes stamped when read).
 
     ``drives``: ``(address, profile, layout)``; ``call(fn)`` runs ``fn(setup)`` on the bus's
     loop (to inject faults or look at the simulator).
@@ -130,13 +133,17 @@ class SimulatorThread:
         drives: Sequence[tuple[int, str, Layout | None]],
         *,
         baud: int = 38400,
+        line: str = "tcp",
         ptys: int = 1,
         faults: FaultPlan | None = None,
         latency: JobLatency | None = None,
         record: bool = False,
     ) -> None:
+        if line not in ("tcp", "pty"):
+            raise ValueError(f"line is 'tcp' or 'pty', not {line!r}")
         self.drives = drives
         self.baud = baud
+        self.line = line
         self.ptys = ptys
         self.faults = faults
         self.latency = latency
@@ -166,6 +173,11 @@ class SimulatorThread:
         if self._thread is not None:
             self._thread.join(10)
 
+    def station(self, n: int = 1) -> str:
+        """The bus's name of the ``n``-th station on the line (of the ``n``-th connection that
+        is on it now, over TCP)."""
+        return f"{self.line}{n}"
+
     def call(self, func: Any) -> Any:
         assert self._loop is not None
 
@@ -186,7 +198,11 @@ class SimulatorThread:
         try:
             async with simulated_drives(bus, self.drives, latency=self.latency) as engines:
                 self.engines = engines
-                self.paths = await bus.serve_pty(self.ptys)
+                if self.line == "pty":
+                    self.paths = await bus.serve_pty(self.ptys)
+                else:
+                    host, port = await bus.serve_tcp()
+                    self.paths = [f"tcp://{host}:{port}"]
                 self._ready.set()
                 await self._stop.wait()
         except BaseException as exc:

@@ -1,6 +1,6 @@
-"""`uss` commands in processes of their own: `uss simulate` serving a pty, and any command
-started as a user runs it (`start_uss`), read line by line (`first_line`), stopped as by
-SIGTERM (`stop_uss`)."""
+"""`uss` commands in processes of their own: `uss simulate` serving TCP (`simulator`) or a pty
+(`simulator_pty`), and any command started as a user runs it (`start_uss`), read line by line
+(`first_line`, `line_within`), stopped as by SIGTERM (`stop_uss`)."""
 
 from __future__ import annotations
 
@@ -10,10 +10,17 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Iterator
+from typing import IO
+
+from support.posix import POSIX
 
 USS = [sys.executable, "-m", "pyuss.cli.main"]
+
+TCP = ("--tcp", "127.0.0.1:0")
+"""The line of `uss simulate` that every system has: a TCP server on a free loopback port."""
 
 
 def start_uss(*args: str) -> subprocess.Popen[str]:
@@ -44,6 +51,19 @@ def first_line(process: subprocess.Popen[str], want: str, timeout: float = 30) -
     )
 
 
+def line_within(stream: IO[str] | None, timeout: float, silent: str = "nothing printed") -> str:
+    """The next line of ``stream`` (a process's output), stripped ("" at the end of the
+    output); fails with the message ``silent`` when none comes within ``timeout`` seconds.
+    Read in a thread: ``select`` waits for pipes on POSIX systems only."""
+    assert stream is not None
+    got: list[str] = []
+    reader = threading.Thread(target=lambda: got.append(stream.readline()), daemon=True)
+    reader.start()
+    reader.join(timeout)
+    assert got, silent
+    return got[0].strip()
+
+
 def stop_uss(process: subprocess.Popen[str], sig: int = signal.SIGTERM) -> int:
     """Stop ``process`` with ``sig`` (SIGTERM: as a service manager does); its exit code."""
     if process.poll() is None:
@@ -51,33 +71,59 @@ def stop_uss(process: subprocess.Popen[str], sig: int = signal.SIGTERM) -> int:
     return process.wait(30)
 
 
-def start_simulator(*options: str) -> tuple[subprocess.Popen[str], str]:
-    """``uss simulate OPTIONS --pty`` in a process of its own: the process and its pty's path."""
+def end_process(process: subprocess.Popen[str]) -> None:
+    """End a process whose way of ending the test does not look at: as Ctrl+C does on POSIX
+    systems, killed elsewhere (Windows sends no signal to another process) or when it does not
+    end within 10 s."""
+    if process.poll() is None:
+        if POSIX:
+            process.send_signal(signal.SIGINT)
+        else:  # pragma: no cover - Windows
+            process.kill()
+    try:
+        process.wait(10)
+    except subprocess.TimeoutExpired:  # pragma: no cover
+        process.kill()
+        process.wait(10)
+
+
+def start_simulator(*options: str, pty: bool = False) -> tuple[subprocess.Popen[str], str]:
+    """``uss simulate OPTIONS`` on a TCP server of a free loopback port (``pty``: on a pty) in
+    a process of its own: the process and the first line it prints (``tcp://127.0.0.1:PORT``,
+    or the pty's path), the port to open."""
+    line = ("--pty",) if pty else TCP
     process = subprocess.Popen(
-        [sys.executable, "-m", "pyuss.cli.main", "simulate", *options, "--pty"],
+        [*USS, "simulate", *options, *line],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
     assert process.stdout is not None
-    path = process.stdout.readline().strip()
-    assert path.startswith("/dev/"), process.stderr.read() if process.stderr else path
-    return process, path
+    port = process.stdout.readline().strip()
+    start = "/dev/" if pty else "tcp://127.0.0.1:"
+    assert port.startswith(start), process.stderr.read() if process.stderr else port
+    return process, port
 
 
 def stop_simulator(process: subprocess.Popen[str]) -> None:
-    """Stop a simulator as Ctrl+C does; kill it if it does not end within 10 s."""
-    process.send_signal(signal.SIGINT)
+    """Stop a simulator (`end_process`)."""
+    end_process(process)
+
+
+@contextlib.contextmanager
+def simulator(*options: str) -> Iterator[str]:
+    """A `uss simulate` process serving TCP for the block: yields its ``tcp://`` URL."""
+    process, port = start_simulator(*options)
     try:
-        process.wait(10)
-    except subprocess.TimeoutExpired:  # pragma: no cover
-        process.kill()
+        yield port
+    finally:
+        stop_simulator(process)
 
 
 @contextlib.contextmanager
 def simulator_pty(*options: str) -> Iterator[str]:
     """A `uss simulate` process serving a pty for the block: yields the pty's path."""
-    process, path = start_simulator(*options)
+    process, path = start_simulator(*options, pty=True)
     try:
         yield path
     finally:

@@ -1,4 +1,4 @@
-"""A simulated drive with a parameter of every data type, behind a pty in its own process."""
+"""A simulated drive with a parameter of every data type, served on TCP in its own process."""
 
 from __future__ import annotations
 
@@ -110,6 +110,7 @@ access = "ro"
 @dataclass
 class Simulator:
     path: str
+    """The port to open: ``tcp://127.0.0.1:PORT``."""
     params: Path
     process: subprocess.Popen[str]
 

@@ -9,7 +9,6 @@ import signal
 import socket
 import subprocess
 import sys
-import termios
 import threading
 from typing import Any, cast
 
@@ -75,6 +74,8 @@ def plain_8n1(path: str) -> None:
 def even_8e1(path: str) -> None:
     """Another program opens the device at 9600 8E1 and closes it. Its C library may refuse
     that open (that is its business); what it leaves on the device must not keep pyuss out."""
+    import termios  # a pty's settings: POSIX only
+
     with contextlib.suppress(serial.SerialException, termios.error):
         serial.Serial(path, 9600, parity="E").close()
 
@@ -88,7 +89,7 @@ def killed_holder(path: str) -> None:
         assert holder.stdout is not None
         assert holder.stdout.readline() == "holding\n"
     finally:
-        os.kill(holder.pid, signal.SIGKILL)
+        os.kill(holder.pid, signal.SIGKILL)  # POSIX only, as a pty is
         holder.wait(WAIT)
         if holder.stdout is not None:
             holder.stdout.close()

@@ -1,4 +1,4 @@
-"""PtyPort: a pseudo-terminal another program opens as a serial port."""
+"""PtyPort: a pseudo-terminal another program opens as a serial port (POSIX systems)."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ from pyuss.transport.pty import PtyPort
 from transport.helpers import joined, read_bytes
 
 
+@pytest.mark.pty
 async def test_device_path_is_a_terminal_other_programs_open() -> None:
     async with PtyPort() as pty:
         assert os.path.exists(pty.device_path)
@@ -33,6 +34,7 @@ async def test_device_path_needs_an_open_port() -> None:
         _ = pty.device_path
 
 
+@pytest.mark.pty
 async def test_writing_while_nobody_reads_fails_after_the_timeout() -> None:
     async with PtyPort(write_timeout=0.2) as pty:
         with pytest.raises(TransportError, match="nobody reads"):
@@ -41,6 +43,7 @@ async def test_writing_while_nobody_reads_fails_after_the_timeout() -> None:
         assert pty.stats.dropped_out > 0
 
 
+@pytest.mark.pty
 async def test_closing_while_a_write_waits_for_room_ends_the_write_with_a_transport_error() -> None:
     pty = PtyPort(write_timeout=30.0)
     await pty.open()
@@ -51,17 +54,3 @@ async def test_closing_while_a_write_waits_for_room_ends_the_write_with_a_transp
     with pytest.raises(TransportError, match="closed while writing"):
         await writing
     assert pty.stats.dropped_out > 0
-
-
-async def test_a_reader_cancelled_as_its_data_arrive_is_cancelled() -> None:
-    # The data and the cancellation of the task reading them come in the same step: the
-    # cancellation must win (the chunk stays for the next reader), or the task reads on.
-    async with PtyPort() as pty:
-        reader = asyncio.create_task(pty.read(timeout=5))
-        await asyncio.sleep(0)  # the reader waits
-        pty._deliver(b"\x02", 1.0)  # as the event loop hands the port its bytes
-        reader.cancel()
-        with pytest.raises(asyncio.CancelledError):
-            await reader
-        chunk = await pty.read(timeout=1)
-        assert chunk is not None and chunk.data == b"\x02"

@@ -23,7 +23,10 @@ from pyuss.transport.serialport import SerialTransport, is_pty
 from pyuss.transport.url import open_transport
 from transport.helpers import even_8e1, joined, killed_holder, plain_8n1, read_bytes
 
-pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux ptys")
+pytestmark = [
+    pytest.mark.pty,
+    pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux ptys"),
+]
 
 
 def kernel_rs485(path: str) -> None:

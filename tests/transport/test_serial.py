@@ -73,6 +73,7 @@ async def test_default_frame_is_8e1() -> None:
     assert transport.baud == 9600
 
 
+@pytest.mark.pty
 async def test_every_baud_rate_of_b_2_4_sets_up_a_terminal() -> None:
     # 76800, 93750 and 187500 are no standard termios rates: pyserial sets them as custom ones.
     async with PtyPort() as pty:
@@ -153,6 +154,7 @@ async def test_echo_is_verified_and_removed() -> None:
         assert port.stats.echo_errors == 0
 
 
+@pytest.mark.pty
 async def test_pty_serial_both_ways() -> None:
     async with PtyPort(baud=19200) as pty, SerialTransport(pty.device_path, baud=19200) as port:
         await port.write(b"\x02\x04\x00\x11\x22\x35")
@@ -161,6 +163,7 @@ async def test_pty_serial_both_ways() -> None:
         assert joined(await read_bytes(port, 256)) == bytes(range(256))
 
 
+@pytest.mark.pty
 async def test_pty_byte_ff_survives_error_marking() -> None:
     # The port marks line errors (PARMRK), so the kernel doubles every FF: it must read as one.
     async with PtyPort() as pty, SerialTransport(pty.device_path) as port:
@@ -170,6 +173,7 @@ async def test_pty_byte_ff_survives_error_marking() -> None:
         assert all(c.errors == () for c in chunks)
 
 
+@pytest.mark.pty
 async def test_echo_that_differs_is_reported() -> None:
     async with PtyPort() as pty, SerialTransport(pty.device_path, echo=True) as port:
         await port.write(b"\x02\x03\x05")
@@ -185,6 +189,7 @@ async def test_echo_that_differs_is_reported() -> None:
         assert joined(await read_bytes(port, 1)) == b"\x02"
 
 
+@pytest.mark.pty
 async def test_missing_echo_is_reported() -> None:
     async with (
         PtyPort() as pty,
@@ -195,6 +200,7 @@ async def test_missing_echo_is_reported() -> None:
             await port.read(WAIT)
 
 
+@pytest.mark.pty
 async def test_lost_port_is_reported_to_the_reader() -> None:
     pty = PtyPort()
     await pty.open()
@@ -206,6 +212,7 @@ async def test_lost_port_is_reported_to_the_reader() -> None:
             await port.read(WAIT)
 
 
+@pytest.mark.pty
 @pytest.mark.parametrize(
     ("mode", "words"), [("kernel", "kernel RS-485 mode"), ("rts", "RTS direction control")]
 )
@@ -277,10 +284,15 @@ def test_mark_decoder_undoes_kernel_marking_across_any_split(data: st.DataObject
 
 
 def _uart_with_serial_info() -> str | None:
-    """A real serial port here whose driver offers TIOCGSERIAL (an 8250 UART), or None."""
-    import fcntl
+    """A real serial port here whose driver offers TIOCGSERIAL (an 8250 UART), or None (also
+    where there are no terminal settings: not a POSIX system)."""
     import os
-    import termios
+
+    try:
+        import fcntl
+        import termios
+    except ImportError:
+        return None
 
     for path in ("/dev/ttyS0", "/dev/ttyS1"):
         try:
@@ -334,6 +346,7 @@ async def test_a_driver_that_offers_low_latency_mode_gets_asked_for_it() -> None
     assert _low_latency_flag(UART) == before
 
 
+@pytest.mark.pty
 async def test_a_pty_offers_no_low_latency_mode_and_opens_all_the_same() -> None:
     async with PtyPort() as pty, SerialTransport(pty.device_path) as port:
         assert port.low_latency_mode is None

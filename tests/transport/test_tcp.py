@@ -206,3 +206,17 @@ async def test_new_connections_do_not_push_out_a_peer_that_talks(
         finally:
             for sock in crowd:
                 sock.close()
+
+
+async def test_a_reader_cancelled_as_its_data_arrive_is_cancelled() -> None:
+    # The data and the cancellation of the task reading them come in the same step: the
+    # cancellation must win (the chunk stays for the next reader), or the task reads on.
+    async with TcpServerTransport("127.0.0.1", 0) as line:
+        reader = asyncio.create_task(line.read(timeout=5))
+        await asyncio.sleep(0)  # the reader waits
+        line._deliver(b"\x02", 1.0)  # as the event loop hands the line its bytes
+        reader.cancel()
+        with pytest.raises(asyncio.CancelledError):
+            await reader
+        chunk = await line.read(timeout=1)
+        assert chunk is not None and chunk.data == b"\x02"

@@ -15,6 +15,7 @@ import pytest
 USS = [sys.executable, "-m", "pyuss.cli.main"]
 
 
+@pytest.mark.posix("stops uss web with SIGINT and checks it ended cleanly")
 def test_off_loopback_a_token_is_printed_and_needed() -> None:
     web = subprocess.Popen(
         [*USS, "web", "--demo", "--listen", "0.0.0.0:0"],

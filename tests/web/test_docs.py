@@ -1,6 +1,7 @@
-"""Every shell example of docs/web.md runs as written. `uss web` examples run until their
-first line (the page's address) answers, then get Ctrl+C; /dev/ttyUSB0 is a simulator's pty
-serving drives 5 and 7 at 19200 baud."""
+"""Every shell example of docs/web.md runs as written (with bash: POSIX systems). `uss web`
+examples run until their first line (the page's address) answers, then get Ctrl+C (SIGINT);
+/dev/ttyUSB0 is a simulator's TCP port (``tcp://127.0.0.1:PORT``) serving drives 5 and 7 at
+19200 baud."""
 
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[2]
 DOC = ROOT / "docs" / "web.md"
 BIN = Path(sys.executable).parent
 SIMULATOR = [
-    *("uss", "simulate", "--pty", "--address", "5", "--address", "7"),
+    *("uss", "simulate", "--tcp", "127.0.0.1:0", "--address", "5", "--address", "7"),
     *("--layout", "3,2", "--baud", "19200"),
 ]
 
@@ -39,6 +40,7 @@ def test_the_doc_has_its_examples() -> None:
     assert any("uss log" in b for b in found)
 
 
+@pytest.mark.posix("runs the example with bash and stops it with SIGINT")
 @pytest.mark.parametrize("block", [b for b in blocks() if b.startswith("uss web")])
 def test_uss_web_examples(block: str, tmp_path: Path) -> None:
     assert block.count("\n") == 1
@@ -86,6 +88,7 @@ def test_uss_web_examples(block: str, tmp_path: Path) -> None:
             sim.wait(30)
 
 
+@pytest.mark.posix("runs the example with bash")
 def test_uss_log_example(tmp_path: Path) -> None:
     (block,) = [b for b in blocks() if "uss log" in b]
     done = subprocess.run(

@@ -1,6 +1,7 @@
-"""The master over a real pty (pyserial on the master's side), with simulated drives on a
-virtual bus in another thread: the rules of the virtual-bus tests again, with a transport that
-stamps bytes when it reads them (receive tolerance) - and the sync facade used from threads."""
+"""The master over raw TCP (``tcp://``, as to an RS-485/Ethernet converter), with simulated
+drives on a virtual bus in another thread: the rules of the virtual-bus tests again, with a
+transport that stamps bytes when it reads them (receive tolerance) - and the sync facade used
+from threads."""
 
 from __future__ import annotations
 
@@ -24,11 +25,11 @@ L32 = Layout(3, 2)
 L42 = Layout(4, 2)
 
 
-async def test_jobs_poll_list_spontaneous_mirror_and_broadcast_over_a_pty() -> None:
+async def test_jobs_poll_list_spontaneous_mirror_and_broadcast_over_tcp() -> None:
     drives = [(1, "generic", L42), (2, "generic", L42)]
     with SimulatorThread(drives, record=True) as sim:
         async with Master(sim.paths[0], baud=sim.baud, layout=L42) as bus:
-            assert bus.rx_tolerance > 0  # a pty stamps bytes when they are read
+            assert bus.rx_tolerance > 0  # TCP stamps bytes when they are read
             one, two = bus.drive(1), bus.drive(2)
             bus.set_poll_list([1, 2, 1])
             messages: list[SpontaneousMessage] = []
@@ -46,13 +47,13 @@ async def test_jobs_poll_list_spontaneous_mirror_and_broadcast_over_a_pty() -> N
             await eventually(lambda: bus.cycle_stats().cycles >= 10)
         recorder = sim.recorder
         assert recorder is not None
-        addresses = [r.telegram.address for r in line_telegrams(recorder, sim.baud, "pty1")]
+        addresses = [r.telegram.address for r in line_telegrams(recorder, sim.baud, sim.station())]
     start = max(i for i in range(len(addresses) - 2) if addresses[i : i + 3] == [1, 2, 1]) - 30
     tail = addresses[max(start, 0) :]
     assert tail.count(1) >= 2 * tail.count(2) - 3
 
 
-async def test_a_slave_that_stops_answering_comes_back_over_a_pty() -> None:
+async def test_a_slave_that_stops_answering_comes_back_over_tcp() -> None:
     with SimulatorThread([(1, "generic", L32), (2, "generic", L32)]) as sim:
         async with Master(sim.paths[0], baud=sim.baud, layout=L32) as bus:
             one, two = bus.drive(1), bus.drive(2)
@@ -65,8 +66,8 @@ async def test_a_slave_that_stops_answering_comes_back_over_a_pty() -> None:
             assert await two.read(52) == 0x4000
 
 
-async def test_a_slow_slave_beyond_20_ms_over_a_pty() -> None:
-    # 45 ms: later than 20 ms plus the 20 ms receive tolerance of a pty, but inside the time
+async def test_a_slow_slave_beyond_20_ms_over_tcp() -> None:
+    # 45 ms: later than 20 ms plus the 20 ms receive tolerance of TCP, but inside the time
     # the master still listens (latency), so the late answer is taken off the line.
     plan = FaultPlan([Fault("delay", station="drive2", seconds=0.045)])
     with SimulatorThread([(1, "generic", L32), (2, "generic", L32)], faults=plan) as sim:
@@ -81,7 +82,7 @@ async def test_a_slow_slave_beyond_20_ms_over_a_pty() -> None:
             assert await slow.read(52) == 0x4000
 
 
-async def test_lost_answers_are_repeated_and_old_answers_not_taken_over_a_pty() -> None:
+async def test_lost_answers_are_repeated_and_old_answers_not_taken_over_tcp() -> None:
     # The drive needs 3 more telegrams for a new job and drops characters now and then.
     plan = FaultPlan([Fault("flip", station="drive5", probability=0.02)])
     with SimulatorThread([(5, "generic", L32)], faults=plan, latency=JobLatency(cycles=3)) as sim:
@@ -94,7 +95,7 @@ async def test_lost_answers_are_repeated_and_old_answers_not_taken_over_a_pty() 
             assert diag.jobs.telegrams.maximum >= 4  # every job waited for its own answer
 
 
-def test_sync_facade_from_several_threads_over_a_pty() -> None:
+def test_sync_facade_from_several_threads_over_tcp() -> None:
     with (
         SimulatorThread([(1, "generic", L42), (2, "generic", L42)]) as sim,
         sync_master.Master(sim.paths[0], baud=sim.baud, layout=L42) as bus,
@@ -128,7 +129,7 @@ def test_sync_facade_from_several_threads_over_a_pty() -> None:
         assert bus.diagnostics().slaves[0].address == 1
 
 
-async def test_fixed_cycle_time_over_a_pty() -> None:
+async def test_fixed_cycle_time_over_tcp() -> None:
     with SimulatorThread([(1, "generic", L32), (2, "generic", L32)]) as sim:
         async with Master(sim.paths[0], baud=sim.baud, layout=L32, cycle_time=0.05) as bus:
             bus.set_poll_list([1, 2, 1])
@@ -147,7 +148,7 @@ async def test_a_lost_port_fails_every_waiter_and_later_calls() -> None:
         drive = bus.drive(5)
         assert await drive.read(52) == 0x4000
         sim.call(lambda s: s.engines[5].drive.update(52, 1))
-    # The simulator's thread ended and closed the pty: the port is gone.
+    # The simulator's thread ended and closed the connection: the port is gone.
     with pytest.raises(TransportError):
         for _ in range(100):
             await drive.read((52, 18)[_ % 2])
