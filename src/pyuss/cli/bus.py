@@ -135,6 +135,9 @@ def run(args: argparse.Namespace) -> int:
     started: list[bool] = []
     try:
         return asyncio.run(_serve(bus, args, tcp, framed, echo, started))
+    except ConfigError as exc:  # found once serving begins: --pty where there are none
+        print(f"uss bus: {exc}", file=sys.stderr)
+        return EXIT_USAGE
     finally:
         if recorder is not None:
             if started:
