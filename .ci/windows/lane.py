@@ -372,11 +372,12 @@ CHECKS: list[tuple[str, Callable[[], None]]] = []
 KNOWN = {
     "Windows uss bus, Linux simulator and master on it; Ctrl+C stops it (exit 0)": (
         "under Wine the characters a Windows uss bus hands on reach a raw TCP station 14 ms "
-        "apart, so the simulator takes no telegram whole (open: docs/windows-lane.md)"
+        "apart (Wine completes a proactor send late), so the simulator takes no telegram "
+        "whole (docs/windows-lane.md)"
     ),
     "Windows uss simulate --bus-tcp, Linux uss read over bus://; Ctrl+C stops it (exit 0)": (
         "under Wine the answers of a Windows bus reach a bus:// station 150-200 ms late "
-        "(open: docs/windows-lane.md)"
+        "(Wine completes a proactor send late: docs/windows-lane.md)"
     ),
 }
 """Checks that fail for a reason written down and not yet mended: reported as KNOWN with it,
