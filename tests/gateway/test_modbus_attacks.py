@@ -519,3 +519,23 @@ async def test_the_mbpoll_line_of_the_docs_reads_status_and_state() -> None:
         code, out = await run_mbpoll(*shlex.split(line.replace("5020", port))[1:])
     assert code == 0, out
     assert "[1]: \t2" in out  # switch-on inhibited
+
+
+async def test_the_float_lines_of_the_docs_write_and_read_a_setpoint_high_word_first() -> None:
+    text = (ROOT / "docs" / "gateway.md").read_text(encoding="utf-8")
+    block = text.split("<!-- run by tests/gateway/test_modbus_attacks.py -->\n```sh\n")[1]
+    write, read = block.split("```")[0].strip().splitlines()
+    async with simulated_gateway(modbus=True) as (gateway, engines):
+        port = str(gateway.modbus[0].endpoint.port)
+        taken = Taken(engines[UNIT])
+        code, out = await run_mbpoll(*shlex.split(write.replace("5020", port))[1:])
+        assert code == 0, out
+        # 25 Hz of the simulated drive's 50 Hz reference: 2000h sent
+        await eventually(lambda: 0x2000 in taken.setpoints())
+        code, out = await run_mbpoll(*shlex.split(read.replace("5020", port))[1:])
+        assert code == 0 and "[24]: \t25" in out, out
+        # low word first, as mbpoll reads without -B: not the setpoint
+        code, out = await run_mbpoll(
+            *shlex.split(read.replace("5020", port).replace(" -B", ""))[1:]
+        )
+        assert code == 0 and "[24]: \t25" not in out, out
