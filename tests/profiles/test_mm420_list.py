@@ -9,7 +9,7 @@ import pytest
 
 from pyuss.drive.database import load_profile
 from pyuss.drive.datatypes import DataType
-from support.listfiles import Entry, check_coverage, check_entry, manual_list
+from support.listfiles import Entry, check_coverage, check_docs, check_entry, manual_list
 
 FLOAT, U16 = DataType.FLOAT, DataType.UINT16
 
@@ -37,3 +37,7 @@ def test_every_listed_parameter_is_in_the_file_or_left_out_with_a_reason() -> No
     check_coverage(
         load_profile("micromaster420"), manual_list("micromaster420"), "micromaster420", REACHED
     )
+
+
+def test_docs_give_the_lists_figures_and_what_is_left_out() -> None:
+    check_docs(load_profile("micromaster420"), manual_list("micromaster420"))

@@ -9,7 +9,7 @@ import pytest
 
 from pyuss.drive.database import load_profile
 from pyuss.drive.datatypes import DataType
-from support.listfiles import Entry, check_coverage, check_entry, manual_list
+from support.listfiles import Entry, check_coverage, check_docs, check_entry, manual_list
 
 FLOAT, U16 = DataType.FLOAT, DataType.UINT16
 BIG = 99999.0
@@ -52,3 +52,7 @@ def test_every_listed_parameter_is_in_the_file_or_left_out_with_a_reason() -> No
 def test_the_list_is_of_firmware_2_1() -> None:
     assert "issue 01/06" in manual_list("micromaster440").manual
     assert "V2.1" in manual_list("micromaster440").manual
+
+
+def test_docs_give_the_lists_figures_and_what_is_left_out() -> None:
+    check_docs(load_profile("micromaster440"), manual_list("micromaster440"))

@@ -1,13 +1,16 @@
 """The lists of a family's manual parameters (`pyuss/profiles/lists/FAMILY.toml`: the
 parameters of access levels 1 and 2 of its parameter list, and why its file leaves some out),
 read as they are shipped, and the checks the list tests share: a table of entries read from
-the manual's pages against the family's parameter file, and the list's coverage by the file."""
+the manual's pages against the family's parameter file, the list's coverage by the file, and
+the figures docs/drives.md gives of it."""
 
 from __future__ import annotations
 
+import re
 import tomllib
 from dataclasses import dataclass
 from importlib import resources
+from pathlib import Path
 
 from pyuss.drive.database import ParameterDatabase
 from pyuss.drive.datatypes import DataType
@@ -88,3 +91,28 @@ def check_coverage(db: ParameterDatabase, listed: ManualList, family: str, floor
     )
     wrong = [n for n in present if db.parameter(n).level not in (1, 2)]
     assert not wrong, f"listed at level 1 or 2, the file says otherwise: {wrong}"
+
+
+DOC = Path(__file__).resolve().parents[2] / "docs" / "drives.md"
+
+
+def _numbers(text: str) -> set[int]:
+    found: set[int] = set()
+    for first, last in re.findall(r"(\d+)(?:\.\.[rP]?(\d+))?", text):
+        found.update(range(int(first), int(last or first) + 1))
+    return found
+
+
+def check_docs(db: ParameterDatabase, listed: ManualList) -> None:
+    """docs/drives.md's row of the list gives its figures and names every number left out."""
+    rows = re.findall(
+        rf"^\| `{listed.family}` \| .* \| (\d+) of (\d+) \(\d+ %\) \| (\d+): (.*) \|$",
+        DOC.read_text(encoding="utf-8"),
+        re.M,
+    )
+    assert len(rows) == 1, f"docs/drives.md: one row for {listed.family}"
+    present, total, out, named = rows[0]
+    assert int(total) == len(listed.numbers)
+    assert int(present) == len([n for n in listed.numbers if n in db])
+    assert int(out) == len(listed.left_out)
+    assert set(listed.left_out) <= _numbers(named), sorted(set(listed.left_out) - _numbers(named))
