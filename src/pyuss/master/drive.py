@@ -51,6 +51,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from pyuss import _callbacks
 from pyuss.drive.database import TEXT_LENGTH, DescriptionStyle, ParameterDatabase
 from pyuss.drive.datatypes import Value
 from pyuss.errors import ConfigError, DriveRefusal, TelegramError, UssTimeout
@@ -211,14 +212,7 @@ class Drive:
     def on_missed(self, callback: Callable[[int], object]) -> Callable[[], None]:
         """Call ``callback`` with `missed` after each telegram it gave no usable answer to
         (in the master's task: it must not block); returns a function that removes it."""
-        callbacks = self._link.miss_callbacks
-        callbacks.append(callback)
-
-        def remove() -> None:
-            if callback in callbacks:
-                callbacks.remove(callback)
-
-        return remove
+        return _callbacks.add(self._link.miss_callbacks, callback)
 
     def diagnostics(self) -> SlaveDiagnostics:
         """A 5.2.3 counters of its answers, response times, jobs."""
@@ -917,25 +911,11 @@ class Drive:
         update and before the next telegram: they must not block, and what takes time is
         better left to the loop's next turn (``loop.call_soon``), when the next telegram is
         on its way (`pyuss.points` does so)."""
-        callbacks = self._link.update_callbacks
-        callbacks.append(callback)
-
-        def remove() -> None:
-            if callback in callbacks:
-                callbacks.remove(callback)
-
-        return remove
+        return _callbacks.add(self._link.update_callbacks, callback)
 
     def on_spontaneous(
         self, callback: Callable[[SpontaneousMessage], object]
     ) -> Callable[[], None]:
         """Call ``callback`` for every new spontaneous message of this slave (C 4.2.1.2);
         the master acknowledges it by itself. Returns a function that removes it."""
-        callbacks = self._link.spontaneous_callbacks
-        callbacks.append(callback)
-
-        def remove() -> None:
-            if callback in callbacks:
-                callbacks.remove(callback)
-
-        return remove
+        return _callbacks.add(self._link.spontaneous_callbacks, callback)

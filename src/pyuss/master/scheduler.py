@@ -101,6 +101,7 @@ from dataclasses import dataclass
 from types import TracebackType
 from typing import TYPE_CHECKING
 
+from pyuss import _callbacks
 from pyuss.errors import ConfigError, TelegramError, TransportError, UssError, UssTimeout
 from pyuss.log import log_frame
 from pyuss.loop import COARSE_MARGIN
@@ -523,20 +524,10 @@ class Master:
         being reopened, or the master stopped - then `lost` is set) and when it is back
         (None). Returns a function that removes it. Whoever follows the line reports its
         loss for good; while nobody does, the master logs it itself (ERROR)."""
-        self._line_callbacks.append(callback)
-
-        def remove() -> None:
-            if callback in self._line_callbacks:
-                self._line_callbacks.remove(callback)
-
-        return remove
+        return _callbacks.add(self._line_callbacks, callback)
 
     def _tell_line(self, error: TransportError | None) -> None:
-        for callback in list(self._line_callbacks):
-            try:
-                callback(error)
-            except Exception:
-                log.exception("line callback failed")
+        _callbacks.call_each(self._line_callbacks, error, log, "line callback failed")
 
     async def start(self) -> None:
         """Open the transport and start the scheduler."""
@@ -1141,11 +1132,13 @@ class Master:
             self._answer(link, result, sent[0], sent[1])
         elif not self._closing:
             link.missed += 1
-            for callback in list(link.miss_callbacks):
-                try:
-                    callback(link.missed)
-                except Exception:
-                    log.exception("slave %d: missed answer callback failed", link.address)
+            _callbacks.call_each(
+                link.miss_callbacks,
+                link.missed,
+                log,
+                "slave %d: missed answer callback failed",
+                link.address,
+            )
         self._expire_jobs()
 
     def _expire_jobs(self, exclude: _Link | None = None) -> None:

@@ -75,7 +75,7 @@ from collections.abc import AsyncIterator, Callable, Mapping, Sequence
 from types import TracebackType
 from typing import Any
 
-from pyuss import system
+from pyuss import _callbacks, system
 from pyuss.drive.datatypes import Value
 from pyuss.errors import ConfigError, DriveRefusal, UssError
 from pyuss.master.drive import Drive
@@ -439,13 +439,7 @@ class DrivePoints:
     def subscribe(self, callback: Callable[[DriveState], object]) -> Callable[[], None]:
         """Call ``callback`` with every changed state (it must not block: see the module
         docstring); returns a function that removes it."""
-        self._callbacks.append(callback)
-
-        def remove() -> None:
-            if callback in self._callbacks:
-                self._callbacks.remove(callback)
-
-        return remove
+        return _callbacks.add(self._callbacks, callback)
 
     async def updates(self, *, initial: bool = True) -> AsyncIterator[DriveState]:
         """The changed states as they come (the current one first with ``initial``); a slow
@@ -965,13 +959,7 @@ class BusPoints:
     def subscribe(self, callback: Callable[[BusState], object]) -> Callable[[], None]:
         """Call ``callback`` with every changed `BusState` (it must not block); returns a
         function that removes it."""
-        self._callbacks.append(callback)
-
-        def remove() -> None:
-            if callback in self._callbacks:
-                self._callbacks.remove(callback)
-
-        return remove
+        return _callbacks.add(self._callbacks, callback)
 
     def _on_line(self, error: UssError | None) -> None:
         """The master's line is lost (``error``) or back (None)."""
@@ -996,12 +984,12 @@ class BusPoints:
                 ", ".join(released),
                 GIVEN_BACK.replace("it keeps", "each keeps"),
             )
-        self._state = BusState(self.name, online, now(), lost)
-        for callback in list(self._callbacks):
-            try:
-                callback(self._state)
-            except Exception:
-                log.exception("bus %s: subscriber failed", self.name)
+        self._tell(BusState(self.name, online, now(), lost))
+
+    def _tell(self, state: BusState) -> None:
+        """``state`` is the bus's now: each subscriber is told."""
+        self._state = state
+        _callbacks.call_each(self._callbacks, state, log, "bus %s: subscriber failed", self.name)
 
     @property
     def name(self) -> str:
@@ -1041,10 +1029,7 @@ class BusPoints:
             drive.close()
         await self.master.close()
         if self._state.online:
-            self._state = BusState(self.name, False, now())
-            for callback in list(self._callbacks):
-                with contextlib.suppress(Exception):
-                    callback(self._state)
+            self._tell(BusState(self.name, False, now()))
 
 
 class Plant:
