@@ -359,6 +359,7 @@ def test_uss_web_profile_auto_asks_each_drive_its_family() -> None:
 
 def test_the_example_of_the_docs_runs_as_written(sim: str) -> None:
     text = (ROOT / "docs" / "lines.md").read_text(encoding="utf-8")
+    text = text.split("\n## Written by `uss scan --save`")[0]  # tests/cli/test_scan_save.py
     (toml,) = re.findall(r"```toml\n(.*?)```", text, re.S)
     (session,) = re.findall(r"```console\n(.*?)```", text, re.S)
     Path("uss.toml").write_text(toml.replace("/dev/ttyUSB0", sim))

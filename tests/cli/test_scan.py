@@ -163,7 +163,7 @@ def test_a_response_time_no_line_could_give_is_not_printed(
     assert main(argv) == 0
     out = capsys.readouterr().out
     (row,) = [line for line in out.splitlines() if line.split()[:1] == ["2"]]
-    assert row.split()[4:] == ["-", "-"], row  # response, family
+    assert row.split()[4:] == ["-", "-", "-", "-"], row  # response, profile, firmware, family
     assert main([*argv, "--json"]) == 0
     (found,) = json.loads(capsys.readouterr().out)
     assert found["response_time"] is None

@@ -1,6 +1,6 @@
-"""`uss` commands in processes of their own: `uss simulate` serving TCP (`simulator`) or a pty
-(`simulator_pty`), and any command started as a user runs it (`start_uss`), read line by line
-(`first_line`, `line_within`), stopped as by SIGTERM (`stop_uss`)."""
+"""`uss` commands in processes of their own: `uss simulate` serving TCP (`simulator`), a
+virtual bus of its own (`simulator_bus`) or a pty (`simulator_pty`), and any command started
+as a user runs it (`first_line`, `line_within`), stopped as by SIGTERM (`stop_uss`)."""
 
 from __future__ import annotations
 
@@ -87,11 +87,18 @@ def end_process(process: subprocess.Popen[str]) -> None:
         process.wait(10)
 
 
-def start_simulator(*options: str, pty: bool = False) -> tuple[subprocess.Popen[str], str]:
-    """``uss simulate OPTIONS`` on a TCP server of a free loopback port (``pty``: on a pty) in
-    a process of its own: the process and the first line it prints (``tcp://127.0.0.1:PORT``,
-    or the pty's path), the port to open."""
-    line = ("--pty",) if pty else TCP
+BUS = ("--bus-tcp", "127.0.0.1:0")
+"""A virtual bus of the simulator's own on a free loopback port: one rate, its own timeline."""
+
+
+def start_simulator(
+    *options: str, pty: bool = False, bus: bool = False
+) -> tuple[subprocess.Popen[str], str]:
+    """``uss simulate OPTIONS`` on a TCP server of a free loopback port (``pty``: on a pty;
+    ``bus``: a virtual bus of its own, `BUS`) in a process of its own: the process and the
+    first line it prints (``tcp://127.0.0.1:PORT``, ``bus://127.0.0.1:PORT`` or the pty's
+    path), the port to open."""
+    line = ("--pty",) if pty else BUS if bus else TCP
     process = subprocess.Popen(
         [*USS, "simulate", *options, *line],
         stdout=subprocess.PIPE,
@@ -100,7 +107,7 @@ def start_simulator(*options: str, pty: bool = False) -> tuple[subprocess.Popen[
     )
     assert process.stdout is not None
     port = process.stdout.readline().strip()
-    start = "/dev/" if pty else "tcp://127.0.0.1:"
+    start = "/dev/" if pty else "bus://127.0.0.1:" if bus else "tcp://127.0.0.1:"
     assert port.startswith(start), process.stderr.read() if process.stderr else port
     return process, port
 
@@ -114,6 +121,17 @@ def stop_simulator(process: subprocess.Popen[str]) -> None:
 def simulator(*options: str) -> Iterator[str]:
     """A `uss simulate` process serving TCP for the block: yields its ``tcp://`` URL."""
     process, port = start_simulator(*options)
+    try:
+        yield port
+    finally:
+        stop_simulator(process)
+
+
+@contextlib.contextmanager
+def simulator_bus(*options: str) -> Iterator[str]:
+    """A `uss simulate` process with its drives on a virtual bus of its own for the block
+    (one rate: a station at another is refused): yields its ``bus://`` URL."""
+    process, port = start_simulator(*options, bus=True)
     try:
         yield port
     finally:

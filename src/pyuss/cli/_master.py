@@ -74,8 +74,8 @@ def add_options(parser: argparse.ArgumentParser, *, lists: bool = False) -> None
         parser.add_argument(
             "--baud",
             metavar="LIST",
-            help=f"baud rates to try, e.g. 9600,19200, or all: {rates} (USS specification "
-            "B 2.4; default 9600)",
+            help="baud rates to try, e.g. 9600,19200; auto: the usual 9600, 19200, 38400, "
+            f"57600, 115200, 187500; all: {rates} (USS specification B 2.4; default 9600)",
         )
     else:
         parser.add_argument(

@@ -52,8 +52,6 @@ def register(subparsers: Any) -> None:
 def main(args: argparse.Namespace) -> int:
     async def body() -> int:
         fmt = backups.file_format(args.output, args.format)
-        if fmt == "toml":
-            backups.dumps(backups.Backup(0, "check"), "toml")  # tomli-w there? say so now
         backups.check_new(args.output, overwrite=args.force)  # before the drive is read
         span = pnu_range(args.scan) if args.scan else None
         async with open_master(args) as bus:

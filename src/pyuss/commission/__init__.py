@@ -9,9 +9,12 @@ one look at a drive's state.
   another drive's; `plan` and `restore` write a set back.
 - `pyuss.commission.status`: `look` at a drive: state, status word, actual values with
   units, fault and warning numbers with texts.
+- `pyuss.commission.survey`: a line surveyed: who each drive a scan found is (family,
+  profile, firmware), the line description ``uss.toml`` of what was found, and what to check
+  when nothing answered (``uss scan``).
 
-The commands ``uss backup``, ``uss diff``, ``uss restore``, ``uss status`` are thin layers over
-these. See docs/commissioning.md.
+The commands ``uss backup``, ``uss diff``, ``uss restore``, ``uss status`` and ``uss scan``
+are thin layers over these. See docs/commissioning.md and docs/lines.md.
 """
 
 from pyuss.commission.backup import Backup, Entry, load, save, take

@@ -9,7 +9,7 @@ number, name, unit, type, the value as the drive engineer reads it (typed and sc
 for an array), the raw words as they travelled, and, for a parameter that could not be read,
 the error instead of a value.
 
-Files (`save`, `load`): TOML (``.toml``, written with tomli-w, extra ``pyuss[toml]``), JSON
+Files (`save`, `load`): TOML (``.toml``, written with `pyuss.tomlwrite`), JSON
 (``.json``), and a CSV export (``.csv``, for a spreadsheet; not read back). They are written
 atomically (`pyuss.atomicfile`): a backup that is killed leaves the old file or none, never
 half of one; an existing file is replaced only when asked (``overwrite``). `load` refuses -
@@ -33,7 +33,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from pyuss import profiles
+from pyuss import profiles, tomlwrite
 from pyuss.atomicfile import check_regular, check_target, write_atomically
 from pyuss.drive.database import NameStyle
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
@@ -44,7 +44,6 @@ from pyuss.params.names import param_name, parse_param_name
 from pyuss.params.values import format_value, json_value
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import ErrorNumber
-from pyuss.system import install_command
 from pyuss.userfile import parse_json, parse_toml, read_text
 
 __all__ = [
@@ -560,14 +559,8 @@ def dumps(backup: Backup, fmt: str) -> str:
                 ]
             )
         return out.getvalue()
-    try:
-        import tomli_w
-    except ImportError:
-        raise ConfigError(
-            f"writing TOML needs tomli-w: {install_command('pyuss[toml]')} (or write a .json file)"
-        ) from None
     head = f"# pyuss parameter backup of drive {backup.address} ({backup.profile}), {backup.date}\n"
-    return head + tomli_w.dumps(backup.to_dict())
+    return head + tomlwrite.dumps(backup.to_dict())
 
 
 def check_new(path: str | Path, *, overwrite: bool = False) -> None:

@@ -159,7 +159,18 @@ MOTOR_UNITS = {
 }
 """The unit each motor role's parameter must have."""
 
-ROLES = (*TIME_ROLES, *LEVEL_ROLES, "reference", *DISPLAY_ROLES, *MOTOR_ROLES, *OUTPUT_ROLES)
+IDENTITY_ROLES = ("firmware",)
+"""What a drive tells of itself: its firmware version (shown by ``uss scan``)."""
+
+ROLES = (
+    *TIME_ROLES,
+    *LEVEL_ROLES,
+    "reference",
+    *DISPLAY_ROLES,
+    *MOTOR_ROLES,
+    *OUTPUT_ROLES,
+    *IDENTITY_ROLES,
+)
 
 INTERFACE_ROLES = ("address", "baud", "pkw", "pzd", "failure_time")
 """Interface parameters of C 3 the slave engine reads its settings from."""

@@ -40,7 +40,15 @@ from pyuss.protocol.telegram import AddressMode, Telegram
 from pyuss.protocol.timing import char_time
 from pyuss.transport.base import Transport
 
-__all__ = ["COMMON_LAYOUTS", "Found", "Identify", "Progress", "probe_layouts", "scan"]
+__all__ = [
+    "COMMON_LAYOUTS",
+    "USUAL_BAUDS",
+    "Found",
+    "Identify",
+    "Progress",
+    "probe_layouts",
+    "scan",
+]
 
 COMMON_LAYOUTS: tuple[Layout, ...] = (
     Layout(3, 2),
@@ -51,6 +59,10 @@ COMMON_LAYOUTS: tuple[Layout, ...] = (
     Layout(4, 6),
 )
 """Fixed layouts tried by default (C 8 uses 3/2, 4/0 and 0/2)."""
+
+USUAL_BAUDS = (9600, 19200, 38400, 57600, 115200, 187500)
+"""The rates drives are set to in practice, tried by ``uss scan --baud auto`` (the 13 of B 2.4
+take some 6 to 7 minutes, most of it at the slow rates no drive of today is set to)."""
 
 
 @dataclass(frozen=True, slots=True)
