@@ -30,14 +30,34 @@ def test_the_parameter_file_example_is_valid() -> None:
     assert drive.actual_value() == round(0.075 * 0x4000)
 
 
-def test_the_python_example_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    (example,) = _blocks("python")
-    monkeypatch.chdir(tmp_path)
+def _run(example: str) -> dict[str, object]:
     lines = [line.split("#")[0].rstrip() for line in example.splitlines()]
     namespace: dict[str, object] = {}
     exec("\n".join(lines), namespace)
+    return namespace
+
+
+def test_the_python_example_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    example, _ = _blocks("python")
+    monkeypatch.chdir(tmp_path)
+    namespace = _run(example)
     drive = namespace["drive"]
     assert isinstance(drive, SimulatedDrive)
     assert drive.exchange([0x047F, 0x2000], now=10.0) == (0x0337, 0x2000)
     assert drive.value(4, 2) == 0x4000_0000
     assert (tmp_path / "drive5.store").exists()
+
+
+def test_the_sources_example_runs_as_its_comments_say() -> None:
+    _, example = _blocks("python")
+    v20 = _run(example)["v20"]
+    assert isinstance(v20, SimulatedDrive)
+    assert v20.running  # after P0700 = 5 and P1000 = 5: ON and 50 % taken
+    v20.step(100.0)
+    assert v20.actual_value() == 0x2000
+    # the same telegrams before the writes did nothing (the example's first lines)
+    fresh = SimulatedDrive.from_profile("sinamics-v20", factory=True)
+    assert (fresh.value(700, 0), fresh.value(1000, 0)) == (1, 1)
+    fresh.exchange([0x047E, 0x2000], now=0.0)
+    fresh.exchange([0x047F, 0x2000], now=0.0)
+    assert fresh.state.name == "SWITCH_ON_INHIBIT" and fresh.machine.control == 0

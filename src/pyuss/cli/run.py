@@ -15,6 +15,13 @@ enabled (at most ``--stop-timeout`` seconds); a second Ctrl+C stops it at once w
 reports a fault, gives no answer for ``--timeout`` seconds, does not stop within
 ``--stop-timeout``, or the port fails.
 
+First the drive's command and setpoint sources are read where its family's file names them
+(SINAMICS, MICROMASTER 420/440: P0700 and P1000): a drive that takes its control word or its
+setpoint from elsewhere than USS would ignore the run, so it is refused with exit code 1, the
+message naming the parameter, its value and the value to set ("the drive ignores the control
+word: P0700.0 = 1 (operator panel), set P0700.0 = 5 for USS"), and nothing is sent to the
+control word or the setpoint.
+
 A lost port or connection is reopened (the first try at once, then after 0.5 s, the wait
 doubling up to 10 s); nothing is sent meanwhile. The run goes on only if the line is back
 before ``--timeout`` passes without an answer - a gap in the run the person watches -, else it
@@ -53,6 +60,7 @@ from pyuss.cli._master import (
     run,
 )
 from pyuss.cli._output import error_object, wall_clock
+from pyuss.commission.sources import refuse_unless_uss
 from pyuss.commission.status import reference_value
 from pyuss.errors import ConfigError, UssError
 from pyuss.master.drive import Drive
@@ -288,6 +296,7 @@ async def drive_it(args: argparse.Namespace, stop: asyncio.Event, signals: list[
                 f"layout {drive.layout}: running a drive needs PZD1 (control word) and PZD2 "
                 "(main setpoint), give --layout with 2 or more PZD words (C 5)"
             )
+        await refuse_unless_uss(drive, timeout=args.timeout)  # a refusal sends nothing
         live = Live(args, drive)
         live.reference = await reference_value(drive)
         if args.setpoint is not None:

@@ -38,6 +38,14 @@ It stops cleanly on SIGINT or SIGTERM (or after ``--duration`` seconds): exit co
 summary on stderr. Values written with the EEPROM request IDs go to ``--store FILE`` (with
 several addresses FILE must contain ``{address}``); a damaged store file is refused (exit 2).
 
+A drive starts "ready for USS": where its family's file has a ``[sources]`` table (SINAMICS
+V20, G110, G120, MICROMASTER 420/440: P0700 command source, P1000 setpoint source) both are at
+their USS value 5, so a master can switch it on at once. ``--factory`` starts it with the
+factory values instead, as out of the box (V20: P0700 = 1 operator panel, P1000 = 1 MOP; the
+others 2, terminals and analog input): the drive then ignores the control word and the setpoint
+of USS until P0700 and P1000 are set to 5 (docs/drive.md). A value in ``--store`` wins either
+way.
+
 Other protocols: ``--profile ksvario`` runs the KS VARIO PROFIBUS-DP simulator as the one DP station
 ``--address`` (0..125) at a PROFIBUS-DP ``--baud``; ``--profile bass`` a closed RS-232 ring of
 Baumueller drives speaking BASS (9600 baud 8N1, one drive per
@@ -117,6 +125,9 @@ class Options:
     """The serial device, or HOST:PORT of ``tcp``, of the BASS side."""
     name: str | None = None
     """The station name on the bus (``--name``); None: ``simulate-`` and the addresses."""
+    factory: bool = False
+    """``--factory``: the drives start with the factory values of their command and setpoint
+    sources (``[sources]``), not ready for USS."""
 
 
 Announce = Callable[[str], None]
@@ -219,6 +230,12 @@ def register(subparsers: Any) -> None:
         metavar="FILE",
         help="keep values written to EEPROM in FILE across restarts ({address} in the name "
         "for several drives)",
+    )
+    parser.add_argument(
+        "--factory",
+        action="store_true",
+        help="start the drives with their family's factory values of the command and setpoint "
+        "sources (P0700, P1000: not USS), as out of the box; default: ready for USS (5)",
     )
     parser.add_argument(
         "--failure-time",
@@ -362,6 +379,7 @@ def options(args: argparse.Namespace) -> Options:
         bass_line=bass_line,
         bass_where=bass_where,
         name=args.name,
+        factory=args.factory,
     )
 
 
@@ -500,7 +518,10 @@ async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> 
     profile = get_profile(opts.profile)
     db = _database(opts)
     now = clock()  # the clock of every transport
-    drives = [(a, SimulatedDrive(db, store=_store(opts, a), now=now)) for a in opts.addresses]
+    drives = [
+        (a, SimulatedDrive(db, store=_store(opts, a), now=now, factory=opts.factory))
+        for a in opts.addresses
+    ]
     baud = _line_baud(opts, drives)
     hosted: VirtualBus | None = None
     if opts.line == "bus-tcp":  # a bus of its own: the drives are an in-process station
@@ -619,6 +640,7 @@ def _refuse_drive_options(opts: Options) -> None:
         "--response-delay": opts.response_delay is not None,
         "--read-only": opts.read_only,
         "--spontaneous": opts.spontaneous is not None,
+        "--factory": opts.factory,
     }
     given = [name for name, on in drive_only.items() if on]
     if given:

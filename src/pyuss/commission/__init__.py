@@ -8,7 +8,10 @@ one look at a drive's state.
   `changed_values`: the read-only values apart); `another_drive` says whether a file is
   another drive's; `plan` and `restore` write a set back.
 - `pyuss.commission.status`: `look` at a drive: state, status word, actual values with
-  units, fault and warning numbers with texts.
+  units, fault and warning numbers with texts, and whether it follows USS.
+- `pyuss.commission.sources`: `check` whether a drive takes its control word and setpoint
+  from USS (Siemens P0700, P1000 = 5) and what to set where not; `uss run` refuses before it
+  sends anything when it does not.
 - `pyuss.commission.survey`: a line surveyed: who each drive a scan found is (family,
   profile, firmware), the line description ``uss.toml`` of what was found, and what to check
   when nothing answered (``uss scan``).

@@ -6,10 +6,12 @@ instead) and reads the parameters the profile's file names for the purpose (``[d
 state, actual, setpoint, fault, warning, and the reference that is 100 % of setpoints and
 actual values, 4000h). The main actual value is shown in percent and, where the profile names
 the reference parameter, in its unit (Hz, rpm). Fault and warning numbers come with the text
-the profile gives them where it has one. A reference parameter the drive refuses (a drive
-looked at with another family's profile) leaves the actual value in percent, and a note says
-why (`Look.notes`). A drive of unknown kind (no profile named) shows what
-its telegram says - state, status word, the bits' meanings by the USS specification (C Table
+the profile gives them where it has one. Where the family's file names the command and setpoint
+sources (``[sources]``: P0700, P1000) one line says whether the drive follows USS or what it
+ignores and what to set (`pyuss.commission.sources`). A reference parameter the drive
+refuses (a drive looked at with another family's profile) leaves the actual value in
+percent, and a note says why (`Look.notes`). A drive of unknown kind (no profile named) shows
+what its telegram says - state, status word, the bits' meanings by the USS specification (C Table
 5.5; bits 11..15 are the device's own), the actual value in percent - and `Look.unknown_kind`
 says that its parameters, texts and reference are not known: no family's are put in their
 place.
@@ -21,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from pyuss.commission.backup import Entry, read_parameters
+from pyuss.commission.sources import Sources, check
 from pyuss.errors import DriveRefusal
 from pyuss.master.drive import Drive
 from pyuss.master.process import DriveStatus, state_of
@@ -91,6 +94,8 @@ class Look:
     """No profile was named: the drive's parameters, fault texts and reference are unknown."""
     notes: list[str] = field(default_factory=list)
     """What could not be seen, and why (a reference parameter the drive refused)."""
+    sources: Sources | None = None
+    """Whether the drive follows the control word and setpoint of USS (None: not looked)."""
 
     def _text_of(self, entry: Entry) -> str | None:
         if not entry.ok or not isinstance(entry.value, int) or entry.value == 0:
@@ -124,6 +129,8 @@ class Look:
                 text += f" ({meaning})"
             name = f" ({entry.name})" if entry.name else ""
             out.append(f"{entry.label}{name} = {text}")
+        if self.sources is not None and self.sources.known:
+            out.append(f"sources: {self.sources.line()}")
         out += self.notes
         if self.unknown_kind:
             out.append(UNKNOWN_KIND_NOTE)
@@ -141,6 +148,7 @@ class Look:
             "unit": self.unit,
             "unknown_kind": self.unknown_kind,
             "notes": self.notes,
+            "sources": None if self.sources is None else self.sources.to_dict(),
             "parameters": [
                 {
                     **e.to_dict(),
@@ -214,4 +222,5 @@ async def look(drive: Drive, *, timeout: float | None = None) -> Look:
             wanted.append((ref.pnu, ref.index))
     result.parameters = await read_parameters(drive, wanted)
     result.shown = {e.label: e.text(drive.params.get(e.pnu)) for e in result.parameters}
+    result.sources = await check(drive, timeout=timeout)
     return result

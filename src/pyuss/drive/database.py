@@ -213,6 +213,12 @@ COMMISSIONING_KEYS = (
 WORD_KEYS = ("reverse", "status_ones", "direction", "jog_switches_on")
 """Keys of ``[words]`` (see `WordBits`)."""
 
+SOURCE_KINDS = ("command", "setpoint")
+"""What a ``[sources]`` table may gate: the control word and the main setpoint."""
+
+SOURCE_KEYS = ("command", "command_uss", "setpoint", "setpoint_uss")
+"""Keys of ``[sources]`` (see `Sources`)."""
+
 
 @dataclass(frozen=True, slots=True)
 class ParamRef:
@@ -445,6 +451,39 @@ class WordBits:
     jog_switches_on: bool = False
 
 
+@dataclass(frozen=True, slots=True)
+class Source:
+    """One source parameter of ``[sources]``: the parameter (element) that selects where the
+    drive takes its commands or setpoint from, and the value that means USS."""
+
+    ref: ParamRef
+    uss: int
+
+
+@dataclass(frozen=True, slots=True)
+class Sources:
+    """The ``[sources]`` table: the parameters that decide whether the drive follows the
+    control word (``command``, Siemens P0700) and the main setpoint (``setpoint``, P1000) of
+    USS, each with the value that means USS (``command_uss``, ``setpoint_uss``). While a
+    source parameter holds another value `SimulatedDrive` ignores that part of the process
+    data; the names of the other values are the parameter's value texts. None: the family
+    has no such parameter, USS always counts."""
+
+    command: Source | None = None
+    setpoint: Source | None = None
+
+    def get(self, kind: str) -> Source | None:
+        """The source of ``kind`` (one of `SOURCE_KINDS`)."""
+        found: Source | None = getattr(self, kind)
+        return found
+
+    def __iter__(self) -> Iterator[tuple[str, Source]]:
+        for kind in SOURCE_KINDS:
+            source = self.get(kind)
+            if source is not None:
+                yield kind, source
+
+
 class ParameterDatabase:
     """The validated parameters of one profile, with the roles the simulation reads."""
 
@@ -464,10 +503,13 @@ class ParameterDatabase:
         commissioning: Commissioning | None = None,
         words: WordBits | None = None,
         hints: Mapping[int | str, str] | None = None,
+        sources: Sources | None = None,
     ) -> None:
         self.profile = profile
         self.commissioning = commissioning
         self.words = words or WordBits()
+        self.sources = sources or Sources()
+        """Where the drive takes commands and setpoint from (``[sources]``)."""
         self._parameters = dict(sorted(parameters.items()))
         self.roles: Mapping[str, ParamRef] = dict(roles or {})
         self.interface: Mapping[str, ParamRef] = dict(interface or {})
@@ -662,6 +704,7 @@ _TOP_KEYS = {
     "commissioning",
     "words",
     "hints",
+    "sources",
 }
 _PROFILE_KEYS = {
     "name",
@@ -738,6 +781,7 @@ def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
         "commissioning": {},
         "words": {},
         "hints": {},
+        "sources": {},
     }
     for source, data in layers:
         unknown = set(data) - _TOP_KEYS
@@ -791,6 +835,7 @@ def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
         commissioning=_commissioning(tables["commissioning"], sources, parameters),
         words=_words(tables["words"], sources),
         hints=_hints(tables["hints"], sources),
+        sources=_sources(tables["sources"], sources, parameters, profile),
     )
     for name in ("access_level", "write_enable"):
         ref = getattr(profile, name)
@@ -1246,6 +1291,40 @@ def _words(table: dict[str, Any], source: str) -> WordBits:
         direction=bit("direction"),
         jog_switches_on=jog,
     )
+
+
+def _sources(
+    table: dict[str, Any],
+    source: str,
+    parameters: Mapping[int, Parameter],
+    profile: ProfileInfo,
+) -> Sources:
+    where = _Where(source, "[sources]")
+    for key in table:
+        if key not in SOURCE_KEYS:
+            raise where.error(key, f"unknown; known are {', '.join(SOURCE_KEYS)}")
+    found: dict[str, Source | None] = {}
+    for kind in SOURCE_KINDS:
+        value, uss = table.get(kind), table.get(f"{kind}_uss")
+        if value is None:
+            if uss is not None:
+                raise where.error(f"{kind}_uss", f"needs {kind!r}, the parameter it is a value of")
+            found[kind] = None
+            continue
+        ref = _ref(value, where, kind)
+        param = _check_ref(ref, parameters, profile, where, kind)
+        if uss is None:
+            raise where.error(f"{kind}_uss", f"required with {kind!r}: the value meaning USS")
+        if isinstance(uss, bool) or not isinstance(uss, int):
+            raise where.error(f"{kind}_uss", f"must be an integer value of P{ref.pnu}")
+        try:
+            param.check_write(uss)
+        except ParameterFault as exc:
+            raise where.error(
+                f"{kind}_uss", f"P{ref.pnu} does not take {uss}: {exc.detail}"
+            ) from None
+        found[kind] = Source(ref, uss)
+    return Sources(command=found["command"], setpoint=found["setpoint"])
 
 
 def _limit(entry: dict[str, Any], key: str, dtype: DataType, where: _Where) -> int | float | None:

@@ -26,6 +26,12 @@ Family rules read from the parameter file (docs/drive.md):
 - ``[words]`` (`pyuss.drive.database.WordBits`): the control bit that inverts the setpoint,
   the status bits shown as 1 while their low-active warning is absent, the direction bit, and
   whether the jog bits switch the drive on (`pyuss.drive.states`).
+- ``[sources]`` (`pyuss.drive.database.Sources`): while the command source parameter (Siemens
+  P0700) does not hold its USS value, the control word of USS is ignored - the drive keeps the
+  word in force and answers as before, and the further PZD setpoints are not taken; while the
+  setpoint source (P1000) does not, the main setpoint of USS is ignored. A drive starts "ready
+  for USS" (each source parameter at its USS value, unless the EEPROM store holds one) or,
+  with ``factory=True``, with the file's factory values, as out of the box.
 - ``[drive]`` motor roles: from the rated motor data (``motor_voltage``, ``motor_current``,
   ``motor_power``) a simple motor model (`motor_outputs`) shows output voltage, current and
   power (``output_voltage``, ``output_current``, ``output_power``) while the pulses are on.
@@ -148,6 +154,7 @@ class SimulatedDrive(ParameterMemory):
         *,
         store: str | Path | None = None,
         now: float = 0.0,
+        factory: bool = False,
     ) -> None:
         self._motion_pnus = {
             ref.pnu
@@ -167,15 +174,38 @@ class SimulatedDrive(ParameterMemory):
         self._published: tuple[object, ...] | None = None
         self._setpoint: float | None = None
         super().__init__(db, store=store, running=lambda: self.machine.running)
+        if not factory:
+            self._ready_for_uss()
         self.machine = DriveStateMachine(now, self._motion())
         self._publish()
 
+    def _ready_for_uss(self) -> None:
+        """Each source parameter of ``[sources]`` at its USS value, where the EEPROM store
+        holds none (what is stored is what the drive powers up with)."""
+        stored = self.stored()
+        for _, source in self.db.sources:
+            ref = source.ref
+            if (ref.pnu, ref.index) not in stored:
+                self.update(ref.pnu, source.uss, ref.index)
+
+    def follows_uss(self, kind: str) -> bool:
+        """Whether the drive takes ``kind`` (``command``: the control word, ``setpoint``: the
+        main setpoint) from USS: its ``[sources]`` parameter holds the USS value, or the family
+        has none."""
+        source = self.db.sources.get(kind)
+        return source is None or self.ref_value(source.ref) == source.uss
+
     @classmethod
     def from_profile(
-        cls, name: str, *, store: str | Path | None = None, now: float = 0.0
+        cls,
+        name: str,
+        *,
+        store: str | Path | None = None,
+        now: float = 0.0,
+        factory: bool = False,
     ) -> SimulatedDrive:
         """A drive of a built-in profile (``generic``, ``6se21``, ``baumueller`` ...)."""
-        return cls(load_profile(name), store=store, now=now)
+        return cls(load_profile(name), store=store, now=now, factory=factory)
 
     # ---------------------------------------------------------------- process data
 
@@ -198,9 +228,16 @@ class SimulatedDrive(ParameterMemory):
     ) -> bool:
         """Take PZD1 and the main setpoint (raw, two's complement; None keeps the old one).
 
-        Returns False when control bit 10 is 0: the process data are ignored (C Table 5.4).
+        Returns False when control bit 10 is 0: the process data are ignored (C Table 5.4);
+        also when the command source (``[sources]``) is not USS: the control word in force
+        stays, and the setpoint is taken alone if the setpoint source is USS.
         """
         self.machine.motion = self._motion()
+        if not self.follows_uss("setpoint"):
+            setpoint = None  # the setpoint comes from elsewhere: the one in force stays
+        if not self.follows_uss("command"):
+            self._setpoint_alone(setpoint, now, bits)
+            return False
         if self.commissioning_active():
             control_word &= ~SWITCHES_ON  # in commissioning the drive does not switch on
         fraction = None if setpoint is None else _fraction_of_raw(setpoint, bits)
@@ -214,6 +251,20 @@ class SimulatedDrive(ParameterMemory):
         accepted = self.machine.apply(control_word, fraction, now)
         self._publish()
         return accepted
+
+    def _setpoint_alone(self, setpoint: int | None, now: float, bits: int) -> None:
+        """A main setpoint without the control word (the command source is not USS): taken
+        as the word in force says (bit 11 inverts it where the family has that bit)."""
+        if setpoint is None:
+            self.machine.step(now)
+        else:
+            fraction = _fraction_of_raw(setpoint, bits)
+            self._setpoint = fraction
+            reverse = self.db.words.reverse
+            if reverse is not None and self.machine.control >> reverse & 1:
+                fraction = -fraction
+            self.machine.take_setpoint(fraction, now)
+        self._publish()
 
     def status_word(self) -> int:
         """PZD1 of the answer (C Tables 5.5, 5.6, and the family's bits of ``[words]``)."""

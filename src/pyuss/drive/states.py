@@ -231,6 +231,14 @@ class DriveStateMachine:
         self._run(now, 0.0)
         return True
 
+    def take_setpoint(self, setpoint: float, now: float) -> None:
+        """Take a main setpoint alone at time ``now``, the control word in force staying as it
+        is (a drive that takes its setpoint from USS and its commands from elsewhere)."""
+        self.step(now)
+        self.setpoint = setpoint
+        self._note_target(now)
+        self._run(now, 0.0)
+
     def raise_fault(self, code: int, now: float, *, cause_present: bool = False) -> None:
         """Trip a fault: pulses off, status bit 3. With ``cause_present`` the fault cannot be
         acknowledged before `clear_fault_cause`."""

@@ -30,11 +30,15 @@ import json
 from collections.abc import Iterable, Iterator
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from pyuss.atomicfile import check_regular, check_target, write_atomically
 from pyuss.drive.database import NameStyle, ParameterDatabase, load_database
 from pyuss.errors import ConfigError
+
+if TYPE_CHECKING:
+    from pyuss.params.model import Reading
+    from pyuss.profiles.base import Profile
 from pyuss.params.model import (
     DescriptionLike,
     ParamInfo,
@@ -313,3 +317,23 @@ def _matches(info: ParamInfo, term: str) -> bool:
         return str(info.pnu).startswith(digits) or f"{info.pnu:04d}".startswith(digits)
     haystack = f"{info.name} {info.unit} {info.doc}".casefold()
     return low in haystack
+
+
+class ParamReader(Protocol):
+    """What reads a drive's parameters: its parameter book, profile, whether that profile is
+    named (a drive of unknown kind: numbers without texts) and ``read_param`` - a local drive
+    (`pyuss.master.Drive`) or one behind a gateway (`pyuss.plant.RemoteParams`). The panels of
+    `pyuss.points.view` and the source check of `pyuss.commission.sources` read through it."""
+
+    @property
+    def params(self) -> ParamBook: ...
+
+    @property
+    def profile(self) -> Profile: ...
+
+    @property
+    def profile_named(self) -> bool: ...
+
+    async def read_param(
+        self, pnu: int, index: int | None = None, *, timeout: float | None = None
+    ) -> Reading: ...

@@ -23,16 +23,15 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 from pyuss.errors import ConfigError, UssError, UssTimeout
-from pyuss.params import ParamBook
+from pyuss.params.book import ParamReader
 from pyuss.params.model import Reading
 from pyuss.params.values import format_value
 from pyuss.points.errors import Failure, classify
 from pyuss.points.plant import DrivePoints
 from pyuss.points.state import DriveState, ProcessValue
-from pyuss.profiles.base import Profile
 from pyuss.protocol.pzd import ControlWord, StatusWord
 
 __all__ = [
@@ -284,25 +283,6 @@ FAULT_PARAMETERS: dict[str, int] = {
 """The fault history and warning parameters of the Siemens families (r0947 fault numbers,
 r0948 fault times, r0949 fault values, r2110 warning numbers); read where the family's
 parameter file has them."""
-
-
-class ParamReader(Protocol):
-    """What reads a drive's parameters for a panel: its parameter book, profile, whether that
-    profile is named (a drive of unknown kind: numbers without texts) and ``read_param`` - a
-    local drive (`pyuss.master.Drive`) or one behind a gateway (`pyuss.plant.RemoteParams`)."""
-
-    @property
-    def params(self) -> ParamBook: ...
-
-    @property
-    def profile(self) -> Profile: ...
-
-    @property
-    def profile_named(self) -> bool: ...
-
-    async def read_param(
-        self, pnu: int, index: int | None = None, *, timeout: float | None = None
-    ) -> Reading: ...
 
 
 async def _elements(

@@ -39,6 +39,7 @@ from pyuss.commission.compare import (
     plan,
     restore,
 )
+from pyuss.commission.sources import check as check_sources
 from pyuss.errors import ConfigError, UssError, cut
 from pyuss.monitor.core import Monitor, default_gap
 from pyuss.monitor.infer import LayoutBook
@@ -496,6 +497,12 @@ class Backend:
         the active fault and warning, the fault history and the warning numbers with the
         family's texts, where its parameter file has them."""
         return await fault_panel(self.points(address), timeout=self.job_timeout)
+
+    async def sources(self, address: int) -> dict[str, Any]:
+        """Whether drive ``address`` follows the control word and setpoint of USS (its command
+        and setpoint sources, P0700/P1000, read now; `pyuss.commission.sources`)."""
+        drive = self.points(address).drive
+        return (await check_sources(drive, timeout=self.job_timeout)).to_dict()
 
     # -- parameters ---------------------------------------------------------------------------
     def parameters(self, address: int) -> list[dict[str, Any]]:

@@ -25,6 +25,7 @@ from typing import Any, cast
 
 from pyuss.commission import backup as backups
 from pyuss.commission.compare import another_drive, plan, restore
+from pyuss.commission.sources import check as check_sources
 from pyuss.errors import ConfigError, UssError
 from pyuss.params import parse
 from pyuss.plant.remote import GatewayRefusal, RemoteDrive, RemoteParams, RemotePlant
@@ -453,6 +454,13 @@ class PlantBackend:
             fault=bool(bits.get("fault")),
             warning=bool(bits.get("warning")),
         )
+
+    async def sources(self, key: object) -> dict[str, Any]:
+        """Whether the drive follows the control word and setpoint of USS, its source
+        parameters read through the gateway (``cmd/read``), as the local page reads them."""
+        drive = self._drive(key)
+        self._may(drive, change=False)
+        return (await check_sources(self._params_of(drive))).to_dict()
 
     # -- parameters ---------------------------------------------------------------------------
     def parameters(self, key: object) -> list[dict[str, Any]]:

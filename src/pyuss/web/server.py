@@ -6,7 +6,9 @@ Routes (all under the token when there is one):
 - ``GET /api/config``, ``/api/bus``, ``/api/drive/N``, ``/api/drive/N/params``: what the page
   shows; ``POST /api/drive/N/params/read``: parameter values; ``GET /api/drive/N/faults``:
   the active fault and warning, the fault history and warning numbers with their texts;
-  ``GET /api/drive/N/actuals``: the family's key actual values, read now.
+  ``GET /api/drive/N/actuals``: the family's key actual values, read now;
+  ``GET /api/drive/N/sources``: whether the drive follows the control word and setpoint of
+  USS (P0700, P1000; `pyuss.commission.sources`).
 - ``GET /api/drive/N/backup?format=toml|json|csv``: a backup file of the drive's parameters
   (`pyuss.commission`, the files of ``uss backup``); ``POST /api/drive/N/compare?name=FILE``
   with a backup file as the body: the differences, what a restore would write.
@@ -301,6 +303,7 @@ class WebServer:
         app.router.add_get(DRIVE + r"/params", self._params)
         app.router.add_get(DRIVE + r"/faults", self._faults)
         app.router.add_get(DRIVE + r"/actuals", self._actuals)
+        app.router.add_get(DRIVE + r"/sources", self._sources)
         app.router.add_post(DRIVE + r"/params/read", self._params_read)
         app.router.add_post(DRIVE + r"/params/write", self._params_write)
         app.router.add_get(DRIVE + r"/backup", self._backup)
@@ -536,6 +539,9 @@ class WebServer:
 
     async def _actuals(self, request: web.Request) -> web.Response:
         return web.json_response(await self.backend.key_actuals(self._address(request)))
+
+    async def _sources(self, request: web.Request) -> web.Response:
+        return web.json_response(await self.backend.sources(self._address(request)))
 
     async def _faults(self, request: web.Request) -> web.Response:
         return web.json_response(await self.backend.faults(self._address(request)))
