@@ -44,13 +44,15 @@ class Link:
         self.server = await asyncio.start_server(self._relay, "127.0.0.1", self.port)
 
     async def cut(self) -> None:
-        if self.server is not None:
-            self.server.close()
-            await self.server.wait_closed()
-            self.server = None
+        server, self.server = self.server, None
+        if server is not None:
+            server.close()  # no new connections
         for writer in self.writers:
             writer.transport.abort()  # no goodbye: a link that breaks
         self.writers.clear()
+        if server is not None:
+            # after the aborts: from Python 3.12.1 on, wait_closed waits for every connection
+            await server.wait_closed()
 
     async def _relay(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         up_reader, up_writer = await asyncio.open_connection("127.0.0.1", self.target)
