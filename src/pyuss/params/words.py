@@ -29,12 +29,14 @@ import enum
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pyuss.errors import ConfigError
-from pyuss.params.model import Reading
-from pyuss.profiles.base import Profile
 from pyuss.protocol.pzd import CONTROL_BITS, STATUS_BITS
+
+if TYPE_CHECKING:  # the module loads neither: `uss decode` starts without the drive model
+    from pyuss.params.model import Reading
+    from pyuss.profiles.base import Profile
 
 __all__ = [
     "NO_BIT_SET",
