@@ -54,10 +54,24 @@ def test_a_backup_restored_diffs_back_to_empty(mm4: Simulator, tmp_path: Path) -
     assert uss(["write", "3", "947.0", "1", *opts(mm4)])[0] == 2  # read-only: refused first
     code, out = uss(["diff", "3", file, *opts(mm4), "--json"])
     assert code == 1 and [d["label"] for d in json.loads(out)["differences"]] == ["P1120"]
+    assert json.loads(out)["sides"] == {"left": "drive 3 (live)", "right": f"file ({file})"}
+    # which side is which, and what a restore would do: the file's value to the drive
+    code, out = uss(["diff", "3", file, *opts(mm4)])
+    assert code == 1 and out.splitlines() == [
+        f"left: drive 3 (live) -> right: file ({file})",
+        "P1120 (Ramp-up time): 3.00 s -> 10.00 s",
+        f"1 parameter differs between drive 3 and {file}",
+        f"uss restore 3 {file} (file -> drive 3) would make 1 write: P1120",
+    ]
     code, out = uss(["restore", "3", file, "--yes", "--json", *opts(mm4)])
     result = json.loads(out)
     assert code == 0 and [r["label"] for r in result["results"]] == ["P1120"]
-    assert uss(["diff", "3", file, *opts(mm4)]) == (0, f"drive 3 and {file} agree\n")
+    assert uss(["diff", "3", file, *opts(mm4)]) == (
+        0,
+        f"left: drive 3 (live) -> right: file ({file})\n"
+        f"drive 3 and {file} agree\n"
+        f"uss restore 3 {file} (file -> drive 3) would write nothing\n",
+    )
     assert uss(["diff", file, file])[0] == 0
 
 
@@ -254,7 +268,9 @@ def test_two_files_compare_without_a_drive(mm4: Simulator, tmp_path: Path) -> No
     assert uss(["backup", "3", "-o", after, *opts(mm4)])[0] == 0
     code, out = uss(["diff", before, after])
     assert code == 1
+    # two files: the sides named, no drive to restore to
     assert out.splitlines() == [
+        f"left: file ({before}) -> right: file ({after})",
         "P1120 (Ramp-up time): 10.00 s -> 0.50 s",
         f"1 parameter differs between {before} and {after}",
     ]
@@ -280,12 +296,16 @@ def test_status_words_and_actual_values_are_no_differences_to_restore(tmp_path: 
     after.write_text(dumps(taken(59953, 1150, 3.5), "toml"), "utf-8")
     code, out = uss(["diff", str(after), str(before)])
     assert code == 1
+    # the status and control words in hex, with the bits that changed
     assert out.splitlines() == [
+        f"left: file ({after}) -> right: file ({before})",
         "P1120.0 (Ramp-up time): 3.50 s -> 2.00 s",
         f"1 parameter differs between {after} and {before}",
         "read-only values, measured or shown by the drive (no settings, not restored):",
-        "  r0052 (Status word 1): 59953 -> 59968",
-        "  r0054 (Control word 1): 1150 -> 0",
+        "  r0052 (Status word 1): EA31h -> EA40h  -ready to switch on, -no OFF2, -no OFF3, "
+        "+switch-on inhibited",
+        "  r0054 (Control word 1): 047Eh -> 0000h  -no OFF2, -no OFF3, -enable operation, "
+        "-ramp generator enabled, -ramp generator running, -setpoint enabled, -control by PLC",
     ]
     code, out = uss(["diff", str(after), str(before), "--json"])
     found = json.loads(out)
@@ -295,7 +315,7 @@ def test_status_words_and_actual_values_are_no_differences_to_restore(tmp_path: 
     same = tmp_path / "same.toml"
     same.write_text(dumps(taken(59953, 1150, 2.0), "toml"), "utf-8")
     code, out = uss(["diff", str(before), str(same)])
-    assert code == 0 and out.splitlines()[0] == f"{before} and {same} agree"
+    assert code == 0 and out.splitlines()[1] == f"{before} and {same} agree"
     # a restore plans no write for them, and does not list them as left out either
     book = ParamBook.for_profile(get_profile("sinamics-v20"))
     writes, skips = plan(
@@ -594,11 +614,13 @@ def test_a_parameter_read_on_neither_side_is_not_compared(tmp_path: Path) -> Non
         code, out = uss(["diff", "5", backup, *port])
         assert code == 1, out
         lines = out.splitlines()
-        assert lines[0].startswith("not compared, read on neither side: P4 (")
-        assert "P90 (" in lines[0] and "P107 (" in lines[0]
-        assert lines[-1] == f"drive 5 and {backup} agree in the parameters both hold"
+        assert lines[0] == f"left: drive 5 (live) -> right: file ({backup})"
+        assert lines[1].startswith("not compared, read on neither side: P4 (")
+        assert "P90 (" in lines[1] and "P107 (" in lines[1]
+        assert lines[-2] == f"drive 5 and {backup} agree in the parameters both hold"
+        assert lines[-1] == f"uss restore 5 {backup} (file -> drive 5) would write nothing"
         code, out = uss(["diff", backup, backup])
-        assert code == 0 and out.startswith("not compared, read on neither side: P4 (")
+        assert code == 0 and out.splitlines()[1].startswith("not compared, read on neither side")
         code, out = uss(["diff", "5", backup, *port, "--json"])
         data = json.loads(out)
         assert data["differences"] == []

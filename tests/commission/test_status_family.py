@@ -63,7 +63,10 @@ def test_a_reference_the_drive_refuses_leaves_the_rest_of_the_look(
         argv = ["status", "3", "--port", sim.paths[0], "--baud", str(sim.baud)]
         assert main([*argv, "--profile", "sinamics-v20"]) == 0
         text = capsys.readouterr().out.splitlines()
-    assert text[:2] == ["drive 3: switch-on inhibited", "status word 0240h"], text
+    assert text[:2] == [
+        "drive 3: switch-on inhibited",
+        "status word 0240h  switch-on inhibited, control requested",
+    ], text
     assert "actual value (PZD2) 0.00 %" in text
     assert (
         "the reference parameter P2000.0 (100 % of the actual value) could not be read: error "

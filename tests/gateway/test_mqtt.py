@@ -127,6 +127,11 @@ async def test_state_is_retained_json_with_units(broker: Broker) -> None:
     assert state["actual"]["main"]["unit"] == "Hz"
     assert state["reference"] == {"value": 50.0, "unit": "Hz"}
     assert state["bits"]["switch_on_inhibited"] is True
+    # the words as a person reads them (pyuss.params.words), as uss status shows them
+    assert state["status_text"].startswith(f"{state['status_hex']}h  switch-on inhibited")
+    assert state["control_text"] == f"{state['control_word']:04X}h  " + (
+        "no bit set" if state["control_word"] == 0 else state["control_text"][7:]
+    )
 
 
 async def test_values_are_published_to_their_resolution(broker: Broker) -> None:

@@ -46,6 +46,17 @@ async def test_a_client_browses_the_drives_and_reads_units() -> None:
         assert eu.DisplayName.Text == "Hz"
         assert eu.UnitId == (ord("H") << 16 | ord("T") << 8 | ord("Z"))  # UNECE HTZ
         assert await client.node(5, ".Address").read_value() == 5
+        # the words as a person reads them (pyuss.params.words), beside the numbers
+        assert {"StatusText", "ControlText"} <= children
+        text = client.node(5, ".StatusText")
+        shown = ""
+        async with asyncio.timeout(15):  # the drive's first answer (a bound, not a timing)
+            while not (shown := await text.read_value()):
+                await asyncio.sleep(0.01)
+        word = await client.node(5, ".StatusWord").read_value()  # a drive at rest
+        assert shown.startswith(f"{word:04X}h  switch-on inhibited"), shown
+        control = await client.node(5, ".ControlText").read_value()
+        assert control.startswith(f"{await client.node(5, '.ControlWord').read_value():04X}h  ")
 
 
 async def test_a_subscription_delivers_the_actual_value_as_the_drive_ramps() -> None:

@@ -546,11 +546,25 @@ def test_a_known_profile_shows_values_typed_and_scaled(
     lines = capsys.readouterr().out.splitlines()
     assert "read P1120 -> P1120 = 10.00 s (41200000h)" in lines[0]
     assert "read r0002 -> r0002 = 1 [READY] (0001h)" in lines[1]
+    # the control and status words' bits as a person reads them (pyuss.params.words)
+    assert (
+        "CW 047Eh(no OFF2, no OFF3, enable operation, ramp generator enabled, ramp generator "
+        "running, setpoint enabled, control by PLC)" in lines[0]
+    )
+    assert "SW 0231h(ready to switch on, no OFF2, no OFF3, control requested)" in lines[0]
+    assert "CW 047Eh SP" in lines[1] and "SW 0231h AV" in lines[1]  # nothing changed
     assert main(["monitor", "--read", str(path)]) == 0  # no profile: the words as numbers
-    assert "P1120 = 1092616192 (41200000h)" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "P1120 = 1092616192 (41200000h)" in out
+    assert "CW 047Eh(NO_OFF2 NO_OFF3 ENABLE_OPERATION" in out  # and the bits by their flags
     known = ProfileValues("micromaster4")
     known.actuals = (2,)  # a profile mapping PZD3 of the answers to P2
     assert known.process(False, 3, 1) == "1 [READY]" and known.process(True, 3, 1) is None
+    v20 = ProfileValues("sinamics-v20")
+    assert v20.bits(False, 0xEA31, 0xEA40) == (
+        "+ready to switch on, +no OFF2, +no OFF3, -switch-on inhibited"
+    )
+    assert v20.bits(True, 0x0C7F, 0x047F) == "+reverse"  # the family's bit 11
 
 
 def test_the_summary_names_the_receive_error_status_as_such(

@@ -15,6 +15,8 @@ from pyuss.bus import VirtualBus
 from pyuss.commission.backup import loads as load_text
 from pyuss.errors import ConfigError, UssError
 from pyuss.master.testing import simulated_drives
+from pyuss.params.words import WordKind, format_word
+from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.web.backend import Backend, DriveSpec
 from support.limits import limit_writes
@@ -379,3 +381,22 @@ async def test_a_write_the_drive_answers_with_another_value_says_what_it_holds()
                 await backend.close()
     finally:
         await bus.close()
+
+
+async def test_the_summary_spells_the_control_and_status_words(backend: Backend) -> None:
+    # the words as uss read and uss status show them (pyuss.params.words), bits 11..15 by
+    # the drive's family: the SINAMICS V20 of the demo
+    v20 = get_profile("sinamics-v20")
+    await backend.command(9, "setpoint", 10)
+    reply = await backend.command(9, "on")
+    assert reply["taken"], reply
+    summary = backend.summary(9)
+    assert summary["control_text"] == format_word(0x047F, WordKind.CONTROL, v20)
+    await eventually(lambda: backend.summary(9)["control_in_force_text"] is not None)
+    await eventually(lambda: backend.summary(9)["status"] is not None)
+    summary = backend.summary(9)
+    assert summary["status_text"] == format_word(summary["status"], WordKind.STATUS, v20)
+    assert summary["control_in_force_text"] == format_word(
+        summary["control_in_force"], WordKind.CONTROL, v20
+    )
+    await backend.command(9, "off1")

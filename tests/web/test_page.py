@@ -7,6 +7,7 @@ which docs/web.md shows)."""
 from __future__ import annotations
 
 import contextlib
+import re
 import time
 from collections.abc import Iterator
 from typing import Any
@@ -189,7 +190,14 @@ def test_the_drive_view_shows_every_status_bit_and_the_fault_panel(
     assert "motor turns right" in bits.nth(14).inner_text()
     assert "inverter overload (0 = active)" in bits.nth(15).inner_text()
     page.wait_for_function("document.querySelector('#control-force').textContent !== '-'")
-    assert page.locator("#control-sent").inner_text() != "----"
+    # the control words and the status word as uss read and uss status spell them: the hex
+    # word and the names of its set bits (the status word's in its title)
+    for word in ("#control-sent", "#control-force"):
+        text = page.locator(word).text_content()
+        assert re.fullmatch(r"[0-9A-F]{4}h  .+", text or ""), (word, text)
+    page.wait_for_function(
+        "document.querySelector('#drive-status').title.includes('motor turns right')"
+    )
     # (a drive that missed an answer on a loaded machine is "not known" until its next one)
     page.wait_for_function(
         "document.querySelector('#fault-now').textContent === 'no fault, no warning'"

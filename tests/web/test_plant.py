@@ -139,6 +139,10 @@ def test_the_page_lists_every_gateway_and_drive_with_availability(plant: Plant) 
     drives = {d["address"]: d for d in shown["drives"]}
     assert drives["line2.6"]["name"] == "drive6" and drives["line2.6"]["bus"] == "line2"
     assert drives["line2.6"]["state"] == "switch-on inhibited"
+    # its words as uss read and uss status spell them (pyuss.params.words)
+    word = drives["line2.6"]["status"]
+    assert drives["line2.6"]["status_text"].startswith(f"{word:04X}h  switch-on inhibited")
+    assert re.fullmatch(r"[0-9A-F]{4}h  .+", drives["line2.6"]["control_text"])
     # what the gateways' states do not carry is shown as not known, never as 0
     assert drives["line2.6"]["health"]["response_ms"] is None
     status, info = plant.page.api("/api/drive/line1.5")

@@ -32,11 +32,18 @@ from pyuss.cli._master import (
     use_lines,
 )
 from pyuss.commission import backup as backups
-from pyuss.commission.compare import changed_values, compare, not_compared
+from pyuss.commission.compare import (
+    Sides,
+    changed_values,
+    compare,
+    not_compared,
+    plan,
+    restore_line,
+)
 from pyuss.errors import ConfigError
 from pyuss.lines import is_address
 from pyuss.params.book import ParamBook
-from pyuss.profiles import get_profile
+from pyuss.profiles import Profile, get_profile
 
 
 def register(subparsers: Any) -> None:
@@ -67,10 +74,18 @@ def book_for(profile: str) -> ParamBook | None:
         return None
 
 
+def family_of(profile: str) -> Profile | None:
+    try:
+        return get_profile(profile)
+    except ConfigError:
+        return None
+
+
 def main(args: argparse.Namespace) -> int:
     async def body() -> int:
         right = backups.load(args.right)
         book: ParamBook | None
+        restoring = ""
         if is_address(args.left) or (not Path(args.left).exists() and names_drive(args, args.left)):
             args.address = args.left
             use_lines(args, args.left)
@@ -80,14 +95,22 @@ def main(args: argparse.Namespace) -> int:
                 _params.setup(args, drive)
                 entries = await backups.read_entries(drive, right)
                 book = drive.params
+                family = drive.profile if drive.profile_named else None
             left = backups.Backup(where, backups.kind_of(drive), entries, source=f"drive {where}")
             left_name = f"drive {where}"
+            sides = Sides(Sides.drive(where), Sides.file(args.right))
             live = True
+            try:
+                restoring = restore_line(where, args.right, *plan(right, left, book, family))
+            except ConfigError as exc:  # a value the parameter cannot take
+                restoring = f"uss restore {where} {args.right} would refuse the file: {exc}"
         else:
             left = backups.load(args.left)
             left_name = args.left
+            sides = Sides(Sides.file(args.left), Sides.file(args.right))
             live = False
             book = book_for(right.profile)
+            family = family_of(right.profile)
         differences = compare(left, right)
         values = changed_values(left, right)
         unknown = not_compared(left, right)
@@ -97,6 +120,8 @@ def main(args: argparse.Namespace) -> int:
                 {
                     "left": left_name,
                     "right": args.right,
+                    "sides": {"left": sides.left, "right": sides.right},
+                    "restore": restoring or None,
                     "differences": [d.to_dict() for d in differences],
                     "read_only": [d.to_dict() for d in values],
                     "not_compared": [d.to_dict() for d in unknown],
@@ -104,13 +129,14 @@ def main(args: argparse.Namespace) -> int:
                 "",
             )
         else:
+            print(sides.header())
             if unknown:
                 print(
                     "not compared, read on neither side: "
                     + ", ".join(f"{d.label} ({d.name})" if d.name else d.label for d in unknown)
                 )
             for difference in differences:
-                print(difference.text(book))
+                print(difference.text(book, family))
             count = len(differences)
             print(
                 f"{count} parameter{'s' if count != 1 else ''} differ{'s' if count == 1 else ''}"
@@ -124,7 +150,9 @@ def main(args: argparse.Namespace) -> int:
                     "read-only values, measured or shown by the drive (no settings, not restored):"
                 )
                 for value in values:
-                    print(f"  {value.text(book)}")
+                    print(f"  {value.text(book, family)}")
+            if restoring:
+                print(restoring)
         # a parameter the drive gave no value of now could not be read (exit code 1)
         return EXIT_FAILED if differences or (unknown and live) else EXIT_OK
 

@@ -454,6 +454,7 @@ class ProfileValues:
 
         profile = get_profile(name)
         db = profile.database()
+        self.profile = profile
         self.book = ParamBook.for_profile(profile)
         self.setpoints = db.process_setpoints
         self.actuals = db.process_actuals
@@ -471,6 +472,14 @@ class ProfileValues:
 
     def name(self, pnu: int) -> str:
         return self.book.label(pnu)
+
+    def bits(self, request: bool, word: int, before: int | None) -> str:
+        from pyuss.params.words import WordKind, changed_bits, describe_word
+
+        kind = WordKind.CONTROL if request else WordKind.STATUS
+        if before is None:
+            return ", ".join(describe_word(word, kind, self.profile).names)
+        return changed_bits(before, word, kind, self.profile)
 
     def process(self, request: bool, number: int, word: int) -> str | None:
         pnus = self.setpoints if request else self.actuals

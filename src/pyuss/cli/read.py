@@ -36,6 +36,7 @@ from pyuss.cli._master import (
 )
 from pyuss.errors import ConfigError, UssError
 from pyuss.params.values import words_text
+from pyuss.params.words import reading_text, word_of
 
 
 def register(subparsers: Any) -> None:
@@ -64,6 +65,7 @@ def main(args: argparse.Namespace) -> int:
         async with open_master(args) as bus:
             drive = bus.drive(args.address)
             _params.setup(args, drive)
+            family = drive.profile if drive.profile_named else None
             for pnu, index in wanted:
                 label = drive.params.label(pnu, index)
                 progress = _params.Progress(label, enabled=None if not args.json else False)
@@ -99,8 +101,11 @@ def main(args: argparse.Namespace) -> int:
                     )
                     text = f"{label} = {words_text(words)}"
                 else:
-                    results.append(reading.to_dict())
-                    text = reading.text()
+                    result = reading.to_dict()
+                    if (word := word_of(reading, family)) is not None:
+                        result["word"] = word.to_dict()
+                    results.append(result)
+                    text = reading_text(reading, family)
                 if not args.json:
                     print(text)
             _params.save(args, drive)

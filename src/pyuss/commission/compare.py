@@ -43,11 +43,13 @@ from pyuss.master.errors import ValueDiffers
 from pyuss.params.book import ParamBook
 from pyuss.params.model import ParamInfo, Reading, param_label
 from pyuss.params.values import ValueRefused, encode, format_value, words_text
+from pyuss.params.words import changed_bits, word_kind
 from pyuss.profiles import Profile
 
 __all__ = [
     "Difference",
     "Outcome",
+    "Sides",
     "Skip",
     "Write",
     "another_drive",
@@ -57,6 +59,7 @@ __all__ = [
     "not_compared",
     "plan",
     "restore",
+    "restore_line",
 ]
 
 
@@ -118,13 +121,30 @@ class Difference:
             return "only left"
         return "changed"
 
-    def text(self, book: ParamBook | None = None) -> str:
-        """``P1120 (Ramp-up time): 10.00 s -> 2.50 s``."""
+    def text(self, book: ParamBook | None = None, family: Profile | None = None) -> str:
+        """``P1120 (Ramp-up time): 10.00 s -> 2.50 s``; the family's control or status word
+        (``family``: the drive's profile) in hex with the bits that changed
+        (``r0052 (Status word 1): EA31h -> EA40h  +switch-on inhibited, -ready to switch on``,
+        `pyuss.params.words`)."""
+        name = f" ({self.name})" if self.name else ""
+        words = self._words(family)
+        if words is not None:
+            return f"{self.label}{name}: {words}"
         info = book.get(self.pnu) if book is not None else None
         left = "(not there)" if self.left is None else self.left.text(info)
         right = "(not there)" if self.right is None else self.right.text(info)
-        name = f" ({self.name})" if self.name else ""
         return f"{self.label}{name}: {left} -> {right}"
+
+    def _words(self, family: Profile | None) -> str | None:
+        kind = word_kind(family, self.pnu, self.index)
+        if kind is None or self.left is None or self.right is None:
+            return None
+        before, after = self.left.value, self.right.value
+        for value in (before, after):
+            if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 0xFFFF:
+                return None
+        changed = changed_bits(before, after, kind, family)
+        return f"{before:04X}h -> {after:04X}h  {changed}"
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -136,6 +156,45 @@ class Difference:
             "left": None if self.left is None else self.left.to_dict(),
             "right": None if self.right is None else self.right.to_dict(),
         }
+
+
+@dataclass(frozen=True, slots=True)
+class Sides:
+    """Which side of a comparison is which: ``drive 5 (live)`` or ``file (backup.toml)``.
+    A difference reads left -> right; with the drive left and the file right that is also
+    what a restore does to the drive (file -> drive)."""
+
+    left: str
+    right: str
+
+    @staticmethod
+    def drive(address: int) -> str:
+        return f"drive {address} (live)"
+
+    @staticmethod
+    def file(path: str) -> str:
+        return f"file ({path})"
+
+    def header(self) -> str:
+        """``left: drive 5 (live) -> right: file (backup.toml)``."""
+        return f"left: {self.left} -> right: {self.right}"
+
+
+def restore_line(address: int, path: str, writes: Sequence[Write], skips: Sequence[Skip]) -> str:
+    """What ``uss restore ADDRESS FILE`` would do, in one line: the direction (file -> drive)
+    and the parameters it would write (in its order), and how many differences it leaves
+    out."""
+    where = f"uss restore {address} {path} (file -> drive {address})"
+    left_out = f"; {len(skips)} left out (uss restore says why)" if skips else ""
+    if not writes:
+        return f"{where} would write nothing{left_out}"
+    shown = ", ".join(w.label for w in writes[:_SHOWN]) + (", ..." if len(writes) > _SHOWN else "")
+    count = f"{len(writes)} write{'s' if len(writes) != 1 else ''}"
+    return f"{where} would make {count}: {shown}{left_out}"
+
+
+_SHOWN = 6
+"""Parameters `restore_line` names before it cuts the list short."""
 
 
 def compare(left: Backup, right: Backup) -> list[Difference]:

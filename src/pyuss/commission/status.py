@@ -27,6 +27,8 @@ from pyuss.commission.sources import Sources, check
 from pyuss.errors import DriveRefusal
 from pyuss.master.drive import Drive
 from pyuss.master.process import DriveStatus, state_of
+from pyuss.params.words import WordKind, WordText, describe_word
+from pyuss.profiles.base import Profile
 from pyuss.protocol.pzd import STATUS_BITS, describe_bits, raw16_to_percent
 
 __all__ = ["UNKNOWN_KIND_NOTE", "Look", "fault_texts", "look", "reference_value", "warning_texts"]
@@ -90,6 +92,9 @@ class Look:
     warning_label: str = ""
     family_bits: dict[int, str] = field(default_factory=dict)
     """What the device-specific status bits 11..15 show on this family (its profile)."""
+    family: Profile | None = None
+    """The drive's family (None: of unknown kind), that names the status bits 11..15 in
+    `status_text`."""
     unknown_kind: bool = False
     """No profile was named: the drive's parameters, fault texts and reference are unknown."""
     notes: list[str] = field(default_factory=list)
@@ -110,6 +115,11 @@ class Look:
     def state(self) -> str:
         return state_of(self.word)
 
+    @property
+    def status_text(self) -> WordText:
+        """The status word and its set bits named (`pyuss.params.words`)."""
+        return describe_word(self.word, WordKind.STATUS, self.family)
+
     def bits(self) -> list[tuple[int, bool, str]]:
         return [
             (bit, on, self.family_bits.get(bit, text) if bit >= 11 else text)
@@ -117,7 +127,7 @@ class Look:
         ]
 
     def lines(self) -> list[str]:
-        out = [f"drive {self.address}: {self.state}", f"status word {self.word:04X}h"]
+        out = [f"drive {self.address}: {self.state}", f"status word {self.status_text}"]
         out += [f"  bit {bit:2}  {int(on)}  {text}" for bit, on, text in self.bits()]
         if self.actual_percent is not None:
             physical = f" = {self.actual:.2f} {self.unit}" if self.actual is not None else ""
@@ -142,6 +152,7 @@ class Look:
             "state": self.state,
             "status": self.word,
             "status_hex": f"{self.word:04X}",
+            "status_text": self.status_text.text(),
             "bits": [{"bit": b, "set": on, "meaning": t} for b, on, t in self.bits()],
             "actual_percent": self.actual_percent,
             "actual": self.actual,
@@ -198,6 +209,7 @@ async def look(drive: Drive, *, timeout: float | None = None) -> Look:
             for bit, text in drive.profile.status_bits.items()
             if bit >= 11 and drive.profile_named
         },
+        family=drive.profile if drive.profile_named else None,
         unknown_kind=db is None,
     )
     if status is not None and status.actual:

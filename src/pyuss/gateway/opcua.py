@@ -10,10 +10,13 @@ configured names)::
           Address            UInt16               ns=N;s=BUS.DRIVE.Address
           StatusWord         UInt16               ...DRIVE.StatusWord
           State              String               ...DRIVE.State ("operation enabled", ...)
+          StatusText         String               ...DRIVE.StatusText ("EA40h  switch-on
+                                                  inhibited, ...": `pyuss.params.words`)
           Status/<bit>       Boolean              ...DRIVE.Status.ready_to_switch_on ...
           Actual/<key>       Double, unit         ...DRIVE.Actual.main (EngineeringUnits)
           ActualPercent/<key> Double, %           ...DRIVE.ActualPercent.main
           ControlWord        UInt16, writable     ...DRIVE.ControlWord
+          ControlText        String               ...DRIVE.ControlText (the word sent, so)
           Setpoint/<key>     Double, writable     ...DRIVE.Setpoint.main (EngineeringUnits)
           SetpointPercent/<key> Double, writable  ...DRIVE.SetpointPercent.main
           Parameters/<P107>  Double, unit         ...DRIVE.Parameters.P107 (writable if the
@@ -684,6 +687,7 @@ class _DriveNodes:
         await var(obj, "Address", ".Address", model.address, ua.VariantType.UInt16)
         await var(obj, "StatusWord", ".StatusWord", 0, ua.VariantType.UInt16)
         await var(obj, "State", ".State", "no answer", ua.VariantType.String)
+        await var(obj, "StatusText", ".StatusText", "", ua.VariantType.String)
         status = await folder("Status")
         for name in STATUS_BIT_NAMES.values():
             await var(status, name, f".Status.{name}", False, ua.VariantType.Boolean)
@@ -703,6 +707,7 @@ class _DriveNodes:
             await drive.set_control_word(int(value))
 
         await var(obj, "ControlWord", ".ControlWord", 0, ua.VariantType.UInt16, writer=control)
+        await var(obj, "ControlText", ".ControlText", "", ua.VariantType.String)
         setpoint = await folder("Setpoint")
         setpoint_pc = await folder("SetpointPercent")
         for item in model.setpoints:

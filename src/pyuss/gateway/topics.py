@@ -641,9 +641,11 @@ _STATUS_KEYS = (
     "online",
     "status_word",
     "status_hex",
+    "status_text",
     "state",
     "bits",
     "control_word",
+    "control_text",
     "reference",
 )
 

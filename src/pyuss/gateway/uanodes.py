@@ -152,6 +152,8 @@ def _status_values(state: DriveState) -> dict[str, Any]:
         ".StatusWord": state.status_word or 0,
         ".State": state.state,
         ".ControlWord": state.control_word & 0xFFFF,
+        ".StatusText": state.status_text or "",
+        ".ControlText": state.control_text,
     }
     for name, on in state.bits.items():
         found[f".Status.{name}"] = on
@@ -188,7 +190,14 @@ WAITING = "BadWaitingForInitialData"
 LAST_USABLE = "UncertainLastUsableValue"
 OFFLINE = "BadNoCommunication"
 
-_ANSWERED = (".StatusWord", ".State", ".Status.", ".Actual.", ".ActualPercent.")
+_ANSWERED = (
+    ".StatusWord",
+    ".StatusText",
+    ".State",
+    ".Status.",
+    ".Actual.",
+    ".ActualPercent.",
+)
 """The variables made of the drive's answers (with ``.Parameters.``: of its parameter jobs)."""
 
 

@@ -13,7 +13,10 @@ The line of an exchange reads, left to right::
   SP/AV: setpoint and actual value (PZD2) in percent of 4000h (C 5.2.2); more PZD in hex.
 - With a `ValueText` (the device profile is known: ``uss monitor --profile``), parameter
   values and PZD3 and up that the profile maps to parameters show typed and scaled, in their
-  unit, the words in hex after them (``P1120 = 10.00 s (41200000h)``).
+  unit, the words in hex after them (``P1120 = 10.00 s (41200000h)``), and the bits of
+  control and status words by the names a person reads (`pyuss.params.words`: ``SW
+  EA31h(+ready to switch on, +no OFF2, +no OFF3, -switch-on inhibited)``; the first time
+  the bits that are set, with the family's names of bits 11..15).
 - DELAY: the response delay (A 5.2.1.1).
 - ``!!`` then every problem as ``name: what`` (receive faults, no answer, late answer, wrong
   address, ...); ``(unsure: ...)`` when the pairing on a 2-wire line is a guess.
@@ -63,6 +66,12 @@ class ValueText(Protocol):
 
     def name(self, pnu: int) -> str | None:
         """Parameter ``pnu`` as the device family's documents write it (``r0021``)."""
+        ...
+
+    def bits(self, request: bool, word: int, before: int | None) -> str | None:
+        """The bits of a control word (``request``) or status word that changed since
+        ``before`` (``+name, -name``), or with ``before`` None the bits that are set, named
+        as the device family names them; "" when none changed."""
         ...
 
 
@@ -202,7 +211,9 @@ def _pzd_text(
     word = data.pzd[0]
     first, value = ("CW", "SP") if request else ("SW", "AV")
     flags = ControlWord if request else StatusWord
-    parts = [f"{first} {word:04X}h{_bits(word, before, flags)}"]
+    named = None if known is None else known.bits(request, word, before)
+    bits = _bits(word, before, flags) if named is None else f"({named})" if named else ""
+    parts = [f"{first} {word:04X}h{bits}"]
     if len(data.pzd) > 1:
         parts.append(f"{value} {raw16_to_percent(data.pzd[1]):.2f}%")
     for i, w in enumerate(data.pzd[2:], 3):

@@ -22,9 +22,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from pyuss.master.process import state_of
+from pyuss.params.words import WordKind, format_word
 from pyuss.points.model import STATUS_BIT_NAMES, DriveModel
 from pyuss.points.parameters import ParamMeta
-from pyuss.profiles import UNKNOWN_KIND
+from pyuss.profiles import UNKNOWN_KIND, Profile, get_profile
 from pyuss.protocol.diagnostics import Counters
 from pyuss.protocol.pzd import (
     FULL_SCALE_16,
@@ -340,6 +341,22 @@ class DriveState:
         return STATE_CODES.get(self.state, 0)
 
     @property
+    def status_text(self) -> str | None:
+        """The status word as a person reads it (`pyuss.params.words`: ``EA40h  switch-on
+        inhibited, ...``, bits 11..15 by the drive's family); None before an answer."""
+        if self.status_word is None:
+            return None
+        return format_word(self.status_word, WordKind.STATUS, self._family())
+
+    @property
+    def control_text(self) -> str:
+        """The control word sent, as a person reads it (``047Fh  ON, no OFF2, ...``)."""
+        return format_word(self.control_word & 0xFFFF, WordKind.CONTROL, self._family())
+
+    def _family(self) -> Profile | None:
+        return None if self.model.profile is None else get_profile(self.model.profile)
+
+    @property
     def bits(self) -> dict[str, bool]:
         word = self.status_word or 0
         return {name: bool(word >> bit & 1) for bit, name in STATUS_BIT_NAMES.items()}
@@ -398,9 +415,11 @@ class DriveState:
             "online": self.online,
             "status_word": self.status_word,
             "status_hex": None if self.status_word is None else f"{self.status_word:04X}",
+            "status_text": self.status_text,
             "state": self.state,
             "bits": self.bits,
             "control_word": self.control_word,
+            "control_text": self.control_text,
             "reference": {"value": self.reference, "unit": model.unit},
             "actual": {k: v.to_dict() for k, v in self.actual.items()},
             "setpoint": {k: v.to_dict() for k, v in self.setpoints.items()},

@@ -48,6 +48,7 @@ from pyuss.monitor.render import exchange_line
 from pyuss.params import ParamBook, ParamInfo, format_value
 from pyuss.params.model import Reading
 from pyuss.params.values import physical
+from pyuss.params.words import WordKind, format_word
 from pyuss.points import (
     COMMAND_TABLE,
     MOVES,
@@ -360,6 +361,12 @@ class Backend:
             "warning": live and state.warning,
             "actual": list(points.actual_row(state.actual_words)) if live else [],
             "actual_unit": points.model.unit if points.reference is not None else "%",
+            **_word_texts(
+                state.control_word,
+                _control_in_force(points) if live else None,
+                state.status_word if live else None,
+                get_profile(points.model.profile) if points.model.profile is not None else None,
+            ),
             "health": {
                 "exchanges": diagnostics.exchanges,
                 "answers": diagnostics.answers,
@@ -938,6 +945,23 @@ def _status_bits(family: Mapping[int, str]) -> list[dict[str, Any]]:
         else:
             bits.append({"bit": bit, "text": "device-specific"})
     return bits
+
+
+def _word_texts(
+    control: int | None, in_force: int | None, status: int | None, family: Profile | None
+) -> dict[str, str | None]:
+    """The control word sent, the one in force and the status word as a person reads them
+    (`pyuss.params.words`: ``047Fh  ON, no OFF2, ...``, the bits 11..15 by ``family``, None:
+    of unknown kind); None for a word not known."""
+
+    def text(word: int | None, kind: WordKind) -> str | None:
+        return None if word is None else format_word(word, kind, family)
+
+    return {
+        "control_text": text(control, WordKind.CONTROL),
+        "control_in_force_text": text(in_force, WordKind.CONTROL),
+        "status_text": text(status, WordKind.STATUS),
+    }
 
 
 def _control_in_force(points: DrivePoints) -> int | None:

@@ -44,6 +44,7 @@ from pyuss.web.backend import (
     _shown_reading,
     _status_bits,
     _unit_given,
+    _word_texts,
     compared,
     planned,
     read_rows,
@@ -259,6 +260,8 @@ class PlantBackend:
         health = state.get("health") or {}
         counters = dict(health.get("counters") or {})
         word = state.get("status_word")
+        control = state.get("control_word") if live else None
+        params = self._params_of(drive)
         return {
             "address": drive.key,
             "bus": drive.bus,
@@ -282,6 +285,12 @@ class PlantBackend:
             "warning": bool(state.get("bits", {}).get("warning")) if live else False,
             "actual": [v for v in drive.actual_row(state)] if live and state else [],
             "actual_unit": self._columns(drive)[0]["unit"] if drive.actual else "%",
+            **_word_texts(
+                control if isinstance(control, int) else None,
+                None,
+                word if live and isinstance(word, int) else None,
+                params.profile if params.profile_named else None,
+            ),
             "health": {
                 "exchanges": health.get("exchanges", 0),
                 "answers": health.get("answers", 0),

@@ -342,9 +342,11 @@ export class DriveView {
     }
     document.getElementById("drive-motion").textContent = silent ? "-" : d.motion;
     this.showSetpoint(d.setpoint);
-    document.getElementById("control-sent").textContent = hex4(d.control);
+    // the words as the server spells them (pyuss.params.words): hex and the set bits named
+    document.getElementById("control-sent").textContent = d.control_text ?? hex4(d.control);
     document.getElementById("control-force").textContent =
-      d.control_in_force == null ? "-" : hex4(d.control_in_force);
+      d.control_in_force == null ? "-" : d.control_in_force_text ?? hex4(d.control_in_force);
+    document.getElementById("drive-status").title = silent ? "" : d.status_text ?? "";
     const box = document.getElementById("setpoint-value");
     if (!this.setpointShown && d.sent_setpoint && document.activeElement !== box) {
       box.value = d.sent_setpoint.value;
