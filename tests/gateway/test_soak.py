@@ -4,11 +4,12 @@
 that records every message with the time it came.
 
 The faults, one after the other: single answers and short bursts lost (fewer than
-``offline_after_missed``), a burst of exactly ``offline_after_missed`` answers lost, the line
-lost and back five times (the proxy cuts it, or the simulator is killed and started again on
-its port), the broker restarted, the gateway killed (SIGKILL: no goodbye, its last will) and
-started again. Commands go in at the points a user would worry about: once while online, once
-while the bus is down, once while the gateway is dead, and one retained.
+``offline_after_missed``), a burst of exactly ``offline_after_missed`` answers lost, one
+drive's answers all lost for a while, the line lost and back five times (the proxy cuts it, or
+the simulator is killed and started again on its port), the broker restarted, the gateway
+killed (SIGKILL: no goodbye, its last will) and started again. Commands go in at the points a
+user would worry about: once while online, once to the drive that does not answer, once while
+the bus is down, once while the gateway is dead, and one retained.
 
 What the subscriber saw is then held to the documented rules (docs/gateway.md, "MQTT" and
 "Availability and lost lines"): no drive goes offline for losses below
@@ -133,6 +134,9 @@ class Subscriber:
 
     def availability(self, drive: str, start: int = 0) -> list[str]:
         return [m.text for m in self.since(start, f"uss/{BUS}/{drive}/availability")]
+
+    def saw(self, drive: str, word: str, start: int) -> bool:
+        return word in self.availability(drive, start)
 
     def all_say(self, word: str, start: int) -> bool:
         """Whether every drive's availability said ``word`` since ``start``."""
@@ -319,6 +323,17 @@ def test_the_gateway_rides_out_a_soak_of_faults_and_mqtt_says_the_truth_througho
         assert "offline" not in subscriber.availability("pump", burst)
         assert f"offline: {MISSED} answers missed in a row" in plant.log_lines("offline")[0]
 
+        # a command to a drive that does not answer (its line up) fails, and never acts later
+        silent = subscriber.mark()
+        figures["phases"].append(("the conveyor silent, a command to it", silent))
+        proxy.drop(5, 10**9)
+        _until(lambda: subscriber.saw("conveyor", "offline", silent), "the conveyor offline")
+        unanswered = _round_trip(subscriber, "unanswered", 55.0)
+        assert unanswered["ok"] is False and unanswered["error"]["class"] == "no_answer"
+        proxy.clear(5)
+        _until(lambda: subscriber.saw("conveyor", "online", silent), "the conveyor back")
+        assert "offline" not in subscriber.availability("pump", silent)
+
         # the line lost and back five times: every drive offline during each, online after it;
         # a command sent while the line is down is refused and never acts later
         for outage in range(OUTAGES):
@@ -403,7 +418,7 @@ def test_the_gateway_rides_out_a_soak_of_faults_and_mqtt_says_the_truth_througho
     kept = subscriber.replies("conveyor", "kept")
     assert all(r["error"]["type"] == "Retained" for r in kept), kept
     setpoints = _setpoints(subscriber)
-    assert not {40.0, 45.0, 50.0} & set(setpoints), setpoints
+    assert not {40.0, 45.0, 50.0, 55.0} & set(setpoints), setpoints
     assert 20.0 not in setpoints[setpoints.index(30.0) :], "the first setpoint acted again"
 
     # each state says what the availability after it says; a drive stopped by its restart

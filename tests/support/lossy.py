@@ -1,8 +1,8 @@
-"""A lossy TCP proxy for a USS line carried over TCP (`uss simulate --tcp`): a master connects
-to the proxy, the proxy to the simulator, and the bytes pass both ways, except where the test
-says otherwise. Towards the master it cuts the byte stream into telegrams (STX, LGE, ...,
-BCC: LGE + 2 bytes, USS specification C 3.1) and can leave out the next answers of one
-address (`drop`: one answer, or a burst); `cut` closes every connection and refuses new ones
+"""A lossy TCP proxy for a USS line carried over TCP (`uss simulate --tcp`): a master connects to
+the proxy, the proxy to the simulator, and the bytes pass both ways, except where the test says
+otherwise. Towards the master it cuts the byte stream into telegrams (STX, LGE, ..., BCC: LGE +
+2 bytes, USS specification C 3.1) and can leave out the next answers of one address (`drop`:
+one answer, a burst, or all until `clear`); `cut` closes every connection and refuses new ones
 until `restore`, as an unplugged converter would. A simulator that is gone (killed) closes the
 proxy's connection to the master as well, and a new connection finds none until the simulator
 listens again. Threads and blocking sockets, so it runs beside any event loop of the test."""
@@ -52,6 +52,11 @@ class LossyProxy:
         """Leave out the next ``count`` answers of drive ``address``."""
         with self.lock:
             self.to_drop[address] = self.to_drop.get(address, 0) + count
+
+    def clear(self, address: int) -> None:
+        """Let the answers of ``address`` through again from now on."""
+        with self.lock:
+            self.to_drop[address] = 0
 
     def pending(self, address: int) -> int:
         """How many answers of ``address`` are still to be left out."""
