@@ -1,6 +1,7 @@
 # pyuss developer entry points. Two commands set everything up: `make demo` and `make test`.
-# Each installs what it needs into .venv: the demo only pyuss itself (it needs no extra), the
-# tests, lint, type check, benchmarks and screenshots the test toolchain (the `test` extra).
+# Each installs what it needs into .venv: the demo pyuss with every extra (`[all]`: the page and
+# the gateway's faces, so that every command of README.md works after it), the tests, lint,
+# type check, benchmarks and screenshots the test toolchain (the `test` extra).
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
@@ -19,7 +20,7 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 
 $(DEMO_STAMP): pyproject.toml | $(PY)
-	$(PY) -m pip install --quiet --disable-pip-version-check -e .
+	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[all]'
 	touch $(DEMO_STAMP)
 
 $(STAMP): pyproject.toml | $(PY)

@@ -6,7 +6,8 @@ runs it by the rules of README.md, "Examples in the documentation":
 - ```console: a session: ``$ COMMAND`` lines are run in order, the lines after one are (some
   of) what it prints on stdout or stderr - each must be one of its lines; ``...`` stands for
   lines left out, text after two blanks and ``#`` is a comment, a pty path (``/dev/pts/7``)
-  or the port of ``127.0.0.1:PORT`` stands for any. A command shown printing an error
+  or the port of ``127.0.0.1:PORT`` stands for any, as does a time in milliseconds
+  (``1.32 ms``). A command shown printing an error
   (``uss NAME: ...``) must fail, the others succeed. ``$ COMMAND &`` runs in the background:
   the lines shown are the first it prints, and what it really printed replaces them (device
   paths, URLs and their HOST:PORT) in the commands that follow.
@@ -319,6 +320,8 @@ def _shown(line: str) -> str | None:
         return None
     pattern = re.escape(line)
     pattern = re.sub(r"/dev/pts/\d+", r"/dev/pts/\\d+", pattern)
+    # a time measured, and the blanks after it in a table
+    pattern = re.sub(r"\d+\\\.\d+\\ ms(\\ )*", r"\\d+\\.\\d+\\ ms\\ *", pattern)
     return re.sub(r"127\\\.0\\\.0\\\.1:\d+", r"127\\.0\\.0\\.1:\\d+", pattern)
 
 

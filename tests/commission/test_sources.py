@@ -68,7 +68,7 @@ def test_a_run_is_refused_naming_the_setpoint_alone_and_sends_no_control_word(
 ) -> None:
     assert uss(["write", "5", "P0700.0", "5", *v20])[0] == 0  # commands from USS now
     before = control_word(v20)
-    assert "= 0 " in before  # no control word taken yet
+    assert "= 0000h " in before  # no control word taken yet
     code, out = run(v20)
     assert (code, out) == (
         1,

@@ -5,6 +5,7 @@ examples run until their first line (the page's address) answers, then get Ctrl+
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import os
 import re
@@ -15,6 +16,8 @@ import urllib.request
 from pathlib import Path
 
 import pytest
+
+from support.network import holding
 
 ROOT = Path(__file__).resolve().parents[2]
 DOC = ROOT / "docs" / "web.md"
@@ -45,6 +48,13 @@ def test_the_doc_has_its_examples() -> None:
 def test_uss_web_examples(block: str, tmp_path: Path) -> None:
     assert block.count("\n") == 1
     command = block.strip()
+    with contextlib.ExitStack() as stack:
+        if "--listen" not in command:  # the default 8420, which other tests run as written too
+            stack.enter_context(holding(8420))
+        _run_web_example(command, tmp_path)
+
+
+def _run_web_example(command: str, tmp_path: Path) -> None:
     sim = None
     try:
         if "/dev/ttyUSB0" in command:
