@@ -16,6 +16,7 @@ import pytest
 
 from pyuss.bus import BusClientTransport, VirtualBus, core, serve
 from pyuss.bus.core import EVICT_IDLE, MAX_QUEUE, MAX_SENDERS
+from pyuss.bus.wire import read_hello
 from pyuss.errors import ConfigError
 from support.waiting import eventually
 from transport.helpers import WAIT, joined, read_bytes
@@ -216,6 +217,8 @@ async def _hello(port: int, line: bytes) -> tuple[dict[str, object], bytes]:
     ("line", "named"),
     [
         (b"[" * 3000 + b"\n", "nested"),
+        (b"[" * 1500 + b"]" * 1500 + b"\n", "nested"),  # valid JSON: Python 3.13 parses it
+        (b'{"name": "m", "x": [[1]]}\n', "nested"),
         (b"{" + b" " * 70000, "line end"),  # a line never ended
         (b'{"name": "m", "echo": "false"}\n', "echo"),
         (b'{"name": "m", "listen_only": "no"}\n', "listen_only"),
@@ -230,6 +233,8 @@ async def _hello(port: int, line: bytes) -> tuple[dict[str, object], bytes]:
     ],
     ids=[
         "nested",
+        "nested-closed",
+        "nested-in-object",
         "never-ended",
         "echo-string",
         "listen-only-string",
@@ -369,3 +374,8 @@ async def test_a_program_that_floods_a_pty_and_leaves_costs_the_line_one_telegra
         assert stats.overflow >= 12 * 1024 - serve.PTY_QUEUE - stats.chars
     finally:
         await bus.close()
+
+
+def test_brackets_inside_a_name_are_no_nesting() -> None:
+    """The nesting check reads JSON strings as strings: a name may hold brackets."""
+    assert read_hello(b'{"name": "[[[{x}]]] \\"[["}\n').name == '[[[{x}]]] "[['

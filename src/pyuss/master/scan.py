@@ -175,7 +175,9 @@ class _Clock:
             return
         elapsed = time.monotonic() - self.began
         left = None
-        if self.model_done > 0:
+        if self.done >= self.total:
+            left = 0.0  # every probe made (the sum of the model's floats may miss its total)
+        elif self.model_done > 0:
             left = max(0.0, (self.model_total - self.model_done) * elapsed / self.model_done)
         self.report(Progress(self.done, self.total, elapsed, left, self.wire))
 
