@@ -50,6 +50,7 @@ from dataclasses import dataclass
 
 from pyuss.errors import ConfigError, ProtocolError, cut
 from pyuss.transport.base import LineError
+from pyuss.userfile import json_depth
 
 HEADER = struct.Struct(">dHH")
 ERROR = struct.Struct(">HB")
@@ -94,34 +95,12 @@ MAX_HELLO_DEPTH = 2
 """How deep brackets may nest in a hello: its object, and a list in it (none is used today)."""
 
 
-def _nesting(line: bytes) -> int:
-    """The deepest nesting of ``[`` and ``{`` in ``line`` outside JSON strings."""
-    depth = deepest = 0
-    in_string = escaped = False
-    for byte in line:
-        if in_string:
-            if escaped:
-                escaped = False
-            elif byte == 0x5C:  # backslash
-                escaped = True
-            elif byte == 0x22:  # quote
-                in_string = False
-        elif byte == 0x22:
-            in_string = True
-        elif byte in (0x5B, 0x7B):  # [ {
-            depth += 1
-            deepest = max(deepest, depth)
-        elif byte in (0x5D, 0x7D):  # ] }
-            depth -= 1
-    return deepest
-
-
 def read_hello(line: bytes) -> Hello:
     """A station's hello line, checked whole (see the module docstring); `ConfigError` naming
     what is wrong."""
     if len(line) > MAX_HELLO:
         raise ConfigError(f"hello of {len(line)} bytes: at most {MAX_HELLO}")
-    depth = _nesting(line)
+    depth = json_depth(line.decode("latin-1"))  # brackets and quotes are ASCII
     if depth > MAX_HELLO_DEPTH:
         # checked here, not left to json: Python 3.13 parses any depth, 3.11 and 3.12 raise
         # RecursionError; a hello is one flat object on every version
