@@ -18,9 +18,11 @@ from pathlib import Path
 import pytest
 
 from gateway.harness import free_port
+from pyuss import system
 from pyuss.cli.main import main
 from support.paths import ROOT
 from support.processes import simulator
+from support.userconfig import isolate
 from test_userfile import bad_files, refuses
 
 USS = [sys.executable, "-m", "pyuss.cli.main"]
@@ -47,7 +49,7 @@ def place(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     work.mkdir()
     monkeypatch.chdir(work)
     monkeypatch.delenv("USS_CONFIG", raising=False)
-    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "xdg"))
+    isolate(monkeypatch, tmp_path / "home")
     return work
 
 
@@ -114,7 +116,8 @@ def test_options_given_win_over_the_file(sim: str, capsys: pytest.CaptureFixture
 def test_the_order_of_the_files(
     sim: str, capsys: pytest.CaptureFixture[str], place: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    config_home = place.parent / "xdg" / "pyuss"
+    config_home = system.config_folder()  # the platform's, in the test's own home
+    assert config_home is not None
     config_home.mkdir(parents=True)
     (config_home / "uss.toml").write_text(line("home", sim, (5, "in-home")))
     assert uss(capsys, "read", "in-home", "52")[0] == 0
@@ -135,6 +138,9 @@ def test_the_order_of_the_files(
     assert code == 2 and "no drive named 'in-env'" in err
 
 
+@pytest.mark.skipif(
+    sys.platform in ("win32", "darwin"), reason="the XDG rule: Linux and the other Unix systems"
+)
 def test_without_xdg_config_home_the_file_is_in_the_home_folder(
     sim: str, capsys: pytest.CaptureFixture[str], place: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

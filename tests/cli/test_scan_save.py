@@ -19,6 +19,7 @@ import pytest
 from pyuss.lines import load
 from support.paths import ROOT
 from support.processes import simulator, simulator_bus
+from support.userconfig import environment
 
 USS = [sys.executable, "-m", "pyuss.cli.main"]
 V20 = ("--profile", "sinamics-v20", "--address", "5")
@@ -50,7 +51,7 @@ def work(tmp_path: Path) -> Path:
 def uss(work: Path, *argv: str) -> subprocess.CompletedProcess[str]:
     """``uss ARGV`` in ``work``, where no configuration file of the user's is found."""
     env = {k: v for k, v in os.environ.items() if k != "USS_CONFIG"}
-    env["XDG_CONFIG_HOME"] = str(work / "xdg")
+    env.update(environment(work / "home"))
     return subprocess.run(
         [*USS, *argv], cwd=work, env=env, capture_output=True, text=True, timeout=180
     )
@@ -151,7 +152,7 @@ def test_a_file_there_is_kept_unless_force(bus_19200: str, work: Path) -> None:
     done = uss(work, *argv, "--force")
     assert done.returncode == 0, done.stderr
     assert 'name = "drive5"' in mine.read_text(encoding="utf-8")
-    assert [p.name for p in work.iterdir() if p.name != "xdg"] == ["uss.toml"]  # no temporary
+    assert [p.name for p in work.iterdir() if p.name != "home"] == ["uss.toml"]  # no temporary
 
 
 def test_force_without_save_is_refused(bus_19200: str, work: Path) -> None:
