@@ -124,7 +124,7 @@ class PacedLine:
     - `answer` gives the moment an answer starts.
     """
 
-    __slots__ = ("char_time", "free", "heard", "hold")
+    __slots__ = ("char_time", "free", "heard", "held", "hold")
 
     def __init__(self, char_time: float, *, hold: float = STAMP_TOLERANCE) -> None:
         self.char_time = char_time
@@ -133,6 +133,9 @@ class PacedLine:
         """When the last character taken ends on the line (``-inf``: nothing yet)."""
         self.heard = -math.inf
         """When the last read taken would have ended, had it started when it arrived."""
+        self.held = 0.0
+        """The hold-up the last `take` took out (0: none): the receiver is told of it, as it
+        may have been a start pause after all (`pyuss.protocol.receiver`, resynchronisation)."""
 
     @property
     def most(self) -> float:
@@ -148,10 +151,12 @@ class PacedLine:
         """Put ``size`` bytes read at ``arrival`` on the line; return how many of them (the
         first ones) it took. The last one taken ends at `free`. ``going_on``: a telegram (or a
         run of bytes) is being received."""
+        self.held = 0.0
         if not going_on:  # a new telegram: the line catches up with the arrivals
             start = max(arrival, self.free)
         elif 2 * self.char_time <= arrival - self.heard <= self.hold:  # a hold-up
             start = self.free
+            self.held = arrival - self.heard
         else:
             start = max(arrival - self.lag, self.free)
         room = math.floor((arrival + self.most - start) / self.char_time + 1e-6)
@@ -323,7 +328,7 @@ class SlaveServer:
         self, data: bytes, arrival: float, errors: tuple[tuple[int, LineError], ...]
     ) -> list[Event]:
         """Put a read of an untimed line on `line` and feed what it took to the receiver."""
-        taken = self.line.take(len(data), arrival, going_on=self.receiver.busy)
+        taken = self.line.take(len(data), arrival, going_on=self.receiver.receiving)
         if taken < len(data):
             self.stats.dropped += len(data) - taken
             if not self._flooded:
@@ -339,7 +344,7 @@ class SlaveServer:
         if not taken:
             return []
         kept = [(pos, flag) for pos, flag in errors if pos < taken]
-        return self.receiver.feed(data[:taken], self.line.free, kept)
+        return self.receiver.feed(data[:taken], self.line.free, kept, held=self.line.held)
 
     def _next_due(self) -> float | None:
         """The first moment an engine's `SlaveEngine.tick` has something to do."""
