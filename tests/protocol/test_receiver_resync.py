@@ -7,6 +7,8 @@ nothing when a start pause lies between them, also where the times fed cannot sh
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from pyuss.protocol.receiver import Event, FaultKind, Received, ReceiveFault, Receiver
 from pyuss.protocol.telegram import bcc
@@ -117,3 +119,41 @@ def test_a_telegram_held_up_inside_is_not_cut_by_the_resynchronisation() -> None
     assert data[5] == 2
     events += rx.feed(data[5:], T0 + (len(data) - 5) * CT, held=8 * CT)
     assert kinds(events) == ["ok"]
+
+
+_chunk = st.tuples(
+    st.binary(min_size=1, max_size=20).map(lambda b: b.replace(b"\x03", b"\x02")),
+    st.floats(0, 30),  # idle character times before it
+    st.sampled_from([0.0, 0.0, 1.0, 2.0, 6.0, 30.0]),  # character times the feeder held
+)
+
+
+@given(st.lists(_chunk, min_size=1, max_size=12), st.sampled_from([0.0, 0.020]))
+@settings(max_examples=300, deadline=None)
+def test_every_byte_ends_in_one_event_in_order_however_pauses_hide(
+    chunks: list[tuple[bytes, float, float]], tolerance: float
+) -> None:
+    rx = Receiver(BAUD, tolerance=tolerance)
+    t = T0
+    events: list[Event] = []
+    fed = b""
+    for data, idle, held in chunks:
+        t += (idle + len(data)) * CT
+        events += rx.feed(data, t, held=held * CT)
+        fed += data
+        events += rx.poll(t)
+    events += rx.poll(t + 1000 * CT)
+    assert b"".join(e.raw for e in events) == fed
+    assert not rx.busy
+
+
+@given(st.binary(min_size=1, max_size=3), st.sampled_from([0.0, 0.020]))
+@settings(max_examples=100, deadline=None)
+def test_any_stray_bytes_before_a_hidden_pause_cost_the_telegram_nothing(
+    stray: bytes, tolerance: float
+) -> None:
+    rx = Receiver(BAUD, tolerance=tolerance)
+    events = rx.feed(stray, T0)
+    events += paced(rx, TELEGRAM, T0 + CT, held=6 * CT)
+    events = whole(rx, events, T0 + 1000 * CT)
+    assert isinstance(events[-1], Received) and events[-1].raw == TELEGRAM

@@ -574,12 +574,14 @@ class Receiver:
         could not show (`feed`'s ``held``, or the tolerance of coarse stamps), the bytes before
         it are reported as a telegram cut short by that pause, and the receiver starts again at
         that STX, with the bytes after it as they came. False (nothing done) without one."""
-        if not self._marks:
-            return False
-        marks, self._marks = self._marks, []
-        times, self._times = self._times, []
-        first = marks[0][0]
         buf = bytes(self._buf)
+        marks = [mark for mark in self._marks if mark[0] < len(buf)]  # bytes taken after it
+        times, self._times = self._times, []
+        self._marks = []
+        if not marks:
+            return False
+        first = marks[0][0]
+        times = times[len(times) - (len(buf) - first) :]
         head, tail = buf[:first], buf[first:]
         tail_times = times[: len(tail)]
         line_pos = self._line_pos - first if self._line is not None else -1
