@@ -227,3 +227,15 @@ def test_names_style_is_the_familys_and_a_bad_one_is_refused(tmp_path: Path) -> 
         load_database(path)
     message = str(info.value)
     assert str(path) in message and "'names'" in message and "'siemens'" in message
+
+
+def test_the_response_delay_of_the_manual_is_read_from_the_profile_table() -> None:
+    assert load_profile("sinamics-v20").profile.response_delay_ms == 20.0
+    assert load_profile("generic").profile.response_delay_ms is None
+
+
+@pytest.mark.parametrize("value", ["-1", "true", '"20"', "2000"])
+def test_a_response_delay_that_is_no_delay_is_refused(value: str) -> None:
+    text = HEAD.replace("[profile]\n", f"[profile]\nresponse_delay_ms = {value}\n", 1)
+    with pytest.raises(ConfigError, match="response_delay_ms"):
+        parse_database(text)

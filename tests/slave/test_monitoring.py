@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import time
 
+import pytest
+
 from pyuss.drive import DriveState, SimulatedDrive, parse_database
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
+from pyuss.protocol.telegram import AddressMode, Telegram
 from pyuss.slave import SlaveEngine
 from pyuss.slave.engine import TELEGRAM_FAILURE_FAULT
 from slave.harness import LineSim, engine, frame
@@ -113,3 +116,51 @@ def test_changing_a_diagnostic_parameter_is_refused_and_serving_goes_on() -> Non
     with LineSim(engine(5, "generic", "v,2", write_authority=False)) as sim, sim.master() as master:
         denied = master.ask(5, LV, Pkw(2, BASE + 6, values=(0,)), OFF1).pkw
     assert denied.id == 8
+
+
+SIEMENS = ["micromaster420", "micromaster440", "sinamics-g110", "sinamics-g120", "sinamics-v20"]
+
+
+@pytest.mark.parametrize("family", SIEMENS)
+def test_a_running_siemens_drive_trips_on_the_telegram_off_time_and_coasts(family: str) -> None:
+    """P2014 (ms) on a running drive: when the master keeps quiet longer, the drive trips the
+    fault of its file (F0072), shows it in r0947 and status bit 3, switches the pulses off and
+    coasts (the simulator's fault reaction: OFF2); a rising edge of control bit 7 acknowledges
+    it, and OFF1 then ON run the drive again. Sans-io: the times are given."""
+    profile = get_profile(family)
+    drive = SimulatedDrive(profile.database(), now=0.0)
+    slave = SlaveEngine(5, drive, profile, layout=Layout(4, 2), now=0.0)
+    drive.write(2014, 500, 0, interface="uss")
+    assert slave.failure_time == 0.5
+
+    def send(words: tuple[int, int], now: float) -> tuple[int, ...]:
+        data = Layout(4, 2).pack(Pkw(0), words)
+        answer = slave.handle(Telegram(5, AddressMode.NORMAL, data), now)
+        assert answer is not None
+        net = Layout(4, 2).unpack(answer.data)
+        return net.pzd
+
+    send(OFF1, 0.0)
+    t = 0.0
+    for _ in range(100):  # ON at 50 %, 0.1 s apart: up the ramp
+        t += 0.1
+        status, _ = send((0x047F, 0x2000), t)
+    assert status & 0x0004 and drive.machine.actual > 0
+    slave.tick(t + 0.49)
+    assert drive.state is DriveState.OPERATION
+    slave.tick(t + 0.51)  # no telegram for longer than P2014
+    assert drive.state is DriveState.FAULT
+    code = profile.database().faults["telegram_failure"]
+    assert drive.value(947, 0) == code == 72
+    assert drive.status_word() & 0x0008 and not drive.status_word() & 0x0004
+    running = drive.machine.actual
+    drive.step(t + 1.0)
+    assert 0 <= drive.machine.actual < running  # coasting, pulses off
+    status, _ = send((0x047F, 0x2000), t + 1.1)  # ON does not leave the fault
+    assert status & 0x0008
+    send((0x04FE, 0x2000), t + 1.2)  # bit 7 rising: acknowledged
+    status, _ = send((0x047E, 0x2000), t + 1.3)
+    assert not status & 0x0008 and drive.value(947, 0) == 0
+    assert status & 0x0001  # ready to switch on
+    status, _ = send((0x047F, 0x2000), t + 1.4)
+    assert status & 0x0004  # running again

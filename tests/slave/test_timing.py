@@ -10,13 +10,16 @@ from dataclasses import dataclass, field
 
 import pytest
 
+from commission.test_docs import uss
 from pyuss.bus import Fault, FaultKind, FaultPlan, VirtualBus, WireChar
 from pyuss.drive import SimulatedDrive
+from pyuss.errors import ConfigError
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout
 from pyuss.slave import SlaveEngine, SlaveServer
 from pyuss.transport.base import Transport
 from slave.harness import WAIT, frame
+from support.processes import simulator_bus
 
 #: Upper bounds are spec rules too, but a loaded machine may be late; they get this slack.
 SLACK = 0.25
@@ -55,6 +58,7 @@ async def line(
     layout: str = "3,2",
     faults: FaultPlan | None = None,
     response_delay: float | None = None,
+    manual_delay: bool = False,
 ) -> AsyncIterator[Line]:
     bus = VirtualBus(baud, faults=faults)
     master = bus.attach("master")
@@ -66,7 +70,7 @@ async def line(
     if profile == "baumueller":
         drive.update(181, 4)  # response-delay mode: answers to the request itself
     engine = SlaveEngine(address, drive, prof, layout=Layout.parse(layout), now=slave.clock())
-    server = SlaveServer(slave, engine, response_delay=response_delay)
+    server = SlaveServer(slave, engine, response_delay=response_delay, manual_delay=manual_delay)
     result = Line(bus, master, server)
     bus.on_char.append(result.chars.append)
     stop = asyncio.Event()
@@ -112,6 +116,57 @@ async def test_a_chosen_response_delay() -> None:
         delay = await wire.exchange(REQUEST)
     assert delay is not None
     assert 0.010 <= delay <= 0.010 + SLACK
+
+
+async def test_a_sinamics_v20_answers_after_its_manuals_response_delay() -> None:
+    """SINAMICS V20 Operating Instructions 10/2019, 7.1: response delay 20 ms (the parameter
+    file's ``response_delay_ms``), when the server is asked for the manual's delay."""
+    async with line("sinamics-v20", 19200, manual_delay=True) as wire:
+        delay = await wire.exchange(REQUEST)
+    assert delay is not None
+    assert 0.020 <= delay <= 0.020 + SLACK
+
+
+async def test_by_default_a_sinamics_v20_answers_as_early_as_allowed() -> None:
+    async with line("sinamics-v20", 19200) as wire:
+        delay = await wire.exchange(REQUEST)
+    assert delay is not None
+    assert 2 * 11 / 19200 <= delay < 0.010
+
+
+async def test_a_family_without_a_manual_delay_answers_as_early_as_allowed() -> None:
+    async with line("generic", 19200, manual_delay=True) as wire:
+        delay = await wire.exchange(REQUEST)
+    assert delay is not None
+    assert 2 * 11 / 19200 <= delay < 0.010
+
+
+def test_a_delay_of_its_own_and_the_manuals_are_not_both_given() -> None:
+    prof = get_profile("generic")
+    drive = SimulatedDrive(prof.database(), now=0.0)
+    engine = SlaveEngine(5, drive, prof, layout=Layout(3, 2), now=0.0)
+    bus = VirtualBus(19200)
+    with pytest.raises(ConfigError, match="not both"):
+        SlaveServer(bus.attach("slave"), engine, response_delay=0.01, manual_delay=True)
+
+
+def test_uss_simulate_answers_after_the_manuals_delay_when_asked() -> None:
+    with simulator_bus(
+        "--profile", "sinamics-v20", "--address", "5", "--response-delay", "manual"
+    ) as port:
+        code, out = uss(
+            ["read", "5", "P0700.0", "--port", port, "--profile", "sinamics-v20", "--baud", "38400"]
+        )
+    assert code == 0, out
+    assert out.startswith("P0700.0 = 5")
+
+
+@pytest.mark.parametrize("value", ["abc", "0", "-3", "nan"])
+def test_uss_simulate_refuses_a_response_delay_that_is_no_delay(value: str) -> None:
+    code, out = uss(
+        ["simulate", "--profile", "generic", "--tcp", "127.0.0.1:0", "--response-delay", value]
+    )
+    assert code == 2 and f"--response-delay {value}" in out and "'manual'" in out
 
 
 async def test_a_telegram_with_a_parity_error_is_not_answered() -> None:

@@ -22,7 +22,7 @@ from pyuss.drive import SimulatedDrive
 from pyuss.profiles import get_profile
 from pyuss.protocol.diagnostics import FaultKind
 from pyuss.protocol.layout import Layout
-from pyuss.protocol.receiver import Event, Received, Receiver
+from pyuss.protocol.receiver import Event, Received, ReceiveFault, Receiver
 from pyuss.protocol.telegram import MAX_TELEGRAM_BYTES
 from pyuss.protocol.timing import residual_time_max
 from pyuss.slave import SlaveEngine
@@ -54,8 +54,8 @@ class Model:
     def read(self, data: bytes, arrival: float) -> float | None:
         """Put a read on the line as the server does; the start of the answer to a telegram
         it completes, else None."""
-        taken = self.line.take(len(data), arrival, going_on=self.receiver.busy)
-        events = self.receiver.feed(data[:taken], self.line.free)
+        taken = self.line.take(len(data), arrival, going_on=self.receiver.receiving)
+        events = self.receiver.feed(data[:taken], self.line.free, held=self.line.held)
         self.events += events
         for event in events:
             if isinstance(event, Received):
@@ -135,6 +135,24 @@ def test_between_telegrams_a_pause_counts_as_it_came(baud: int) -> None:
     assert all(isinstance(e, Received) for e in model.events)
 
 
+@pytest.mark.parametrize("stray", [b"\x55", b"\x02", b"\x00"], ids=lambda b: b.hex())
+@pytest.mark.parametrize("baud", BAUDS)
+def test_a_stray_character_before_a_paced_request_costs_it_nothing(baud: int, stray: bytes) -> None:
+    """One stray character, 6 character times of silence (a start pause and more, A 5.1.2,
+    but less than a hold-up may last), then a request paced like a UART: it is answered the
+    start pause after its end, and the stray character is a fault of its own."""
+    model = Model(baud)
+    tc = 11 / baud
+    assert model.read(stray, T0) is None
+    start = T0 + 7 * tc
+    answer = None
+    for i, byte in enumerate(READ_P52):
+        answer = model.read(bytes((byte,)), start + i * tc) or answer
+    assert answer == pytest.approx(start + 16 * tc, abs=1e-9)
+    assert [type(e) for e in model.events] == [ReceiveFault, Received]
+    assert model.events[0].raw == stray
+
+
 @pytest.mark.parametrize("baud", BAUDS)
 def test_a_flood_costs_later_peers_at_most_one_telegram_time(baud: int) -> None:
     """100 KiB written at once and more behind it: one telegram's worth (256 characters) is
@@ -187,3 +205,30 @@ def test_over_a_pty_the_answer_comes_within_the_response_delay(
     assert got["answer"] == ANSWER_P52
     assert isinstance(got["first"], float) and isinstance(got["end"], float)
     assert got["first"] - got["end"] < latest
+
+
+SERIAL_WRITER = Path(__file__).with_name("serial_writer.py")
+
+
+@pytest.mark.pty
+@pytest.mark.parametrize("stray", [b"\x55", b"\x02"], ids=lambda b: b.hex())
+@pytest.mark.parametrize("baud", [9600, 19200])
+def test_over_a_pty_a_stray_character_before_a_paced_request_costs_it_nothing(
+    baud: int, stray: bytes
+) -> None:
+    """A master in a process of its own, on pyserial, writes a stray character, keeps 6
+    character times of silence and writes the request one character at a time: the answer
+    comes. A machine too loaded to read the stray character before the request comes hands
+    both over in one read, where no pause can be seen: it may try three times."""
+    pytest.importorskip("serial")
+    args = [str(SERIAL_WRITER), "", str(baud), stray.hex(), "6", READ_P52.hex()]
+    with LineSim(engine(5, "generic", "3,2"), baud=baud, line="pty") as sim:
+        args[1] = sim.path
+        for _ in range(3):
+            done = subprocess.run(
+                [sys.executable, *args], capture_output=True, text=True, timeout=30, check=True
+            )
+            answer = json.loads(done.stdout)["answer"]
+            if answer:
+                break
+    assert answer == ANSWER_P52

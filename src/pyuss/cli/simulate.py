@@ -116,6 +116,7 @@ class Options:
     failure_time: float | None
     latency: JobLatency
     response_delay: float | None
+    """``--response-delay MS`` in seconds; None: as early as allowed, or `manual_delay`."""
     read_only: bool
     spontaneous: bool | None
     duration: float | None
@@ -125,6 +126,9 @@ class Options:
     """The serial device, or HOST:PORT of ``tcp``, of the BASS side."""
     name: str | None = None
     """The station name on the bus (``--name``); None: ``simulate-`` and the addresses."""
+    manual_delay: bool = False
+    """``--response-delay manual``: each drive answers after the response delay its parameter
+    file gives (``[profile] response_delay_ms``)."""
     factory: bool = False
     """``--factory``: the drives start with the factory values of their command and setpoint
     sources (``[sources]``), not ready for USS."""
@@ -261,10 +265,11 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument(
         "--response-delay",
-        type=float,
-        metavar="MS",
+        metavar="MS|manual",
         help="answer MS milliseconds after a request, inside the profile's window (USS "
-        "specification A 5.2.1.1; default: as early as allowed)",
+        "specification A 5.2.1.1), or 'manual': after the response delay the family's manual "
+        "gives (the parameter file's response_delay_ms, SINAMICS V20 20 ms); default: as early "
+        "as allowed",
     )
     parser.add_argument(
         "--read-only",
@@ -357,10 +362,18 @@ def options(args: argparse.Namespace) -> Options:
         raise ConfigError("--latency and --latency-time must be numbers >= 0")
     bass_line, bass_where = _bass_side(args, addresses, line, where)
     delay = None
-    if args.response_delay is not None:
-        if not args.response_delay > 0:
-            raise ConfigError(f"--response-delay {args.response_delay}: must be > 0 ms")
-        delay = args.response_delay / 1000
+    manual = args.response_delay == "manual"
+    if args.response_delay is not None and not manual:
+        try:
+            milliseconds = float(args.response_delay)
+        except ValueError:
+            milliseconds = math.nan
+        if not 0 < milliseconds < math.inf:
+            raise ConfigError(
+                f"--response-delay {args.response_delay}: must be a number of milliseconds "
+                "> 0, or 'manual'"
+            )
+        delay = milliseconds / 1000
     return Options(
         profile=args.profile,
         addresses=addresses,
@@ -373,6 +386,7 @@ def options(args: argparse.Namespace) -> Options:
         failure_time=args.failure_time,
         latency=JobLatency(args.latency, args.latency_time / 1000),
         response_delay=delay,
+        manual_delay=manual,
         read_only=args.read_only,
         spontaneous=args.spontaneous,
         duration=args.duration,
@@ -559,7 +573,12 @@ async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> 
                     now=now,
                 )
             )
-        server = SlaveServer(transport, *engines, response_delay=opts.response_delay)
+        server = SlaveServer(
+            transport,
+            *engines,
+            response_delay=opts.response_delay,
+            manual_delay=opts.manual_delay,
+        )
         async with _bass_side_of(opts, engines, transport.clock) as bass:
             uss_device = first_line()
             announce(uss_device)
@@ -571,7 +590,7 @@ async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> 
                     f"uss simulate: address {engine.address}: profile {profile.name}, "
                     f"parameters {db.profile.name}, {baud} baud, layout {engine.layout}, answer "
                     f"{low * 1000:.3f}..{high * 1000:.3f} ms, failure time "
-                    f"{engine.failure_time:g} s",
+                    f"{engine.failure_time:g} s{_answering(engine, opts, baud)}",
                     file=sys.stderr,
                 )
             if bass is not None:
@@ -628,6 +647,19 @@ async def _bass_side_of(
 # -- other protocols ------------------------------------------------------------------------
 
 
+def _answering(engine: SlaveEngine, opts: Options, baud: int) -> str:
+    """The banner's note of the delay chosen inside the window ("" for the earliest)."""
+    if opts.manual_delay:
+        delay = engine.manual_delay(baud)
+        if delay is None:
+            return ", the parameter file gives no response delay: answering as early as allowed"
+        return f", answering after {delay * 1000:.3f} ms (the manual's response delay)"
+    if opts.response_delay is not None:
+        low, high = engine.response_window(baud)
+        return f", answering after {min(max(opts.response_delay, low), high) * 1000:.3f} ms"
+    return ""
+
+
 def _refuse_drive_options(opts: Options) -> None:
     """Options of the USS drive simulator are bad input for a simulator of another protocol,
     rather than silently ignored."""
@@ -637,7 +669,7 @@ def _refuse_drive_options(opts: Options) -> None:
         "--store": opts.store is not None,
         "--failure-time": opts.failure_time is not None,
         "--latency": opts.latency != JobLatency(),
-        "--response-delay": opts.response_delay is not None,
+        "--response-delay": opts.response_delay is not None or opts.manual_delay,
         "--read-only": opts.read_only,
         "--spontaneous": opts.spontaneous is not None,
         "--factory": opts.factory,

@@ -56,6 +56,20 @@ Coarse timestamps (``tolerance``)
     ``tolerance`` 0 (the default) keeps the rules above exactly; the master and the monitor
     pass `pyuss.transport.base.stamp_tolerance` of their transport.
 
+Resynchronisation
+    A pause the times fed cannot show may still have been a start pause: one the tolerance of
+    coarse stamps bridged (above), or one the feeder took out as a writer's hold-up and names
+    in ``feed(..., held=...)`` (the simulator's untimed line, `pyuss.slave.server.PacedLine`).
+    An open telegram notes where an STX began a read after such a pause of at least
+    ``start_pause``. Should the telegram fail (wrong LGE, BCC, ADR, line error, residual time,
+    or cut short by an idle line), the bytes before the first noted STX are reported as a
+    telegram cut short by that pause (`FaultKind.RESIDUAL_TIME`, or the line error in them),
+    and the receiver starts again at that STX with the bytes after it, at the times they were
+    fed: one stray character before a telegram costs the telegram nothing. A telegram that
+    does not fail is never cut at such a mark, and nothing is resynchronised where no pause
+    was (the receiver does not hunt for STX in what it has: A 5.1.2). A run of bytes without
+    a start ends at a ``held`` pause as at one the times show.
+
 Every byte fed ends up in the ``raw`` of exactly one event, in order, so a monitor can show
 the whole line. Faults whose end is known (wrong BCC, undefined ADR, line errors in a complete
 telegram) are reported with their last byte; faults whose extent is unknown (bad LGE, residual
@@ -98,6 +112,12 @@ __all__ = ["Event", "FaultKind", "ReceiveFault", "Received", "Receiver", "fixed_
 
 _IDLE, _TELEGRAM, _JUNK = 0, 1, 2
 _FIXED_MODES = (AddressMode.NORMAL.value, AddressMode.MIRROR.value)
+_ADR_MODES = frozenset(mode.value for mode in AddressMode)
+_LINE_FLAGS = {
+    FaultKind.FRAMING: LineError.FRAMING,
+    FaultKind.PARITY: LineError.PARITY,
+    FaultKind.OVERRUN: LineError.OVERRUN,
+}
 
 
 @dataclass(frozen=True, slots=True)
@@ -223,6 +243,11 @@ class Receiver:
         self._junk_detail = ""
         self._late_need = 0
         self._whole_at: float | None = None
+        self._marks: list[tuple[int, float]] = []
+        """Where a hidden pause lies in the open telegram: (buffer position of an STX that
+        began a read after a pause the times do not show, the held time); see `feed`."""
+        self._times: list[float] = []
+        """End times of the open telegram's bytes from the first mark on (empty without one)."""
 
     # -- public ----------------------------------------------------------------------------
 
@@ -230,6 +255,11 @@ class Receiver:
     def busy(self) -> bool:
         """True while a telegram or a run of bytes is open (not yet reported)."""
         return self._state != _IDLE
+
+    @property
+    def receiving(self) -> bool:
+        """True while a telegram is open (a run of bytes without a start is not one)."""
+        return self._state == _TELEGRAM
 
     @property
     def last_byte_end(self) -> float:
@@ -252,6 +282,8 @@ class Receiver:
         if self._state != _IDLE:
             self._state = _IDLE
             self._buf = bytearray()  # (when idle, the next byte begins a buffer of its own)
+        self._marks = []
+        self._times = []
         self._last_end = -math.inf
 
     def feed(
@@ -259,9 +291,17 @@ class Receiver:
         data: bytes | bytearray | memoryview,
         timestamp: float,
         errors: Iterable[tuple[int, LineError]] = (),
+        *,
+        held: float = 0.0,
     ) -> list[Event]:
         """Process one chunk; ``timestamp`` is when its last byte was complete and ``errors``
-        lists ``(position, LineError)`` for characters the transport flagged."""
+        lists ``(position, LineError)`` for characters the transport flagged.
+
+        ``held``: the idle time before the chunk that the feeder took out as a writer's
+        hold-up (the times fed show the chunk back to back with the byte before; the server's
+        untimed line, `pyuss.slave.server.PacedLine`). Such a pause, or one the tolerance of
+        coarse stamps bridges, may have been a real start pause: see "Resynchronisation" in
+        the module text."""
         data = bytes(data)
         n = len(data)
         events: list[Event] = []
@@ -281,10 +321,21 @@ class Receiver:
             if self.tolerance and idle <= self.tolerance + self._eps:
                 # The port's stamps, not the line: the open telegram goes on back to back.
                 base = first_end - idle
+                held = max(held, idle)
             elif idle >= self.gap - self._eps:
                 self._end_run(events)
+            if (
+                self._state == _TELEGRAM
+                and held >= self.start_pause - self._eps
+                and data[0] == STX
+                and not any(pos == 0 and flag for pos, flag in errors)
+            ):
+                # A pause that may have been a start pause: should the open telegram fail,
+                # this STX may begin the next one.
+                self._marks.append((len(self._buf), held))
         elif self._state == _JUNK and (
             idle >= self.gap - self._eps
+            or held >= self.start_pause - self._eps
             or (
                 self.tolerance
                 and data[0] == STX
@@ -319,7 +370,9 @@ class Receiver:
                 # idle time than a start pause less the tolerance.
                 base = first_end
                 end = base + pos * ct
-                fresh = (end - ct) - self._last_end >= self._fresh_after - self._eps
+                fresh = (end - ct) - self._last_end >= self._fresh_after - self._eps or (
+                    pos == 0 and held >= self.start_pause - self._eps
+                )
                 self._begin(data[pos], end, flags.get(pos), fresh)
                 pos += 1
         self._last_end = base + (n - 1) * ct
@@ -334,7 +387,7 @@ class Receiver:
         if self.line_idle(now):
             self._end_run(events)
         elif self._state == _TELEGRAM and now > self._deadline + self._eps:
-            self._to_junk(FaultKind.RESIDUAL_TIME, self._late_detail())
+            self._to_junk(FaultKind.RESIDUAL_TIME, self._late_detail(), events)
         return events
 
     # -- internals -------------------------------------------------------------------------
@@ -346,6 +399,9 @@ class Receiver:
         self._last_end = end
         if fresh and byte == STX and line is None:
             self._state = _TELEGRAM
+            if self._marks:
+                self._marks = []
+                self._times = []
             self._stx_end = end
             self._deadline = end + self._first_deadline
             self._need = 0
@@ -383,13 +439,17 @@ class Receiver:
             in_time = math.floor((self._deadline + self._eps - first_end) / ct) - pos + 1
             take = max(0, min(take, in_time))
             buf += data[pos : pos + take]
+            if self._marks:
+                self._times.extend(first_end + i * ct for i in range(pos, pos + take))
             if flags:
                 self._note_line_errors(flags, pos, take, len(buf) - take)
             if take:
                 self._last_end = first_end + (pos + take - 1) * ct
-            self._to_junk(FaultKind.RESIDUAL_TIME, self._late_detail())
+            self._to_junk(FaultKind.RESIDUAL_TIME, self._late_detail(), events)
             return pos + take
         buf += data[pos : pos + take]
+        if self._marks:
+            self._times.extend(first_end + i * ct for i in range(pos, pos + take))
         if flags:
             self._note_line_errors(flags, pos, take, len(buf) - take)
         self._last_end = first_end + last * ct
@@ -397,9 +457,10 @@ class Receiver:
         if self._need == 0:
             lge = buf[1]
             if self._line is not None and self._line_pos == 1:
-                self._to_junk(self._line, f"{self._line.name.lower()} error on LGE")
+                self._to_junk(self._line, f"{self._line.name.lower()} error on LGE", events)
             elif not MIN_LGE <= lge <= MAX_LGE:
-                self._to_junk(FaultKind.BAD_LGE, f"LGE {lge} is out of range {MIN_LGE}..{MAX_LGE}")
+                why = f"LGE {lge} is out of range {MIN_LGE}..{MAX_LGE}"
+                self._to_junk(FaultKind.BAD_LGE, why, events)
             else:
                 self._need = lge + 2
                 residual = self._residual.get(lge)
@@ -412,7 +473,7 @@ class Receiver:
             adr = buf[2]
             detail = fixed_length_fault(adr, buf[1], self.fixed_lengths.get(adr & 0x1F))
             if detail is not None:
-                self._to_junk(FaultKind.BAD_LGE, detail)
+                self._to_junk(FaultKind.BAD_LGE, detail, events)
                 return pos
         if len(buf) == self._need:
             self._complete(events)
@@ -442,7 +503,9 @@ class Receiver:
             f"{len(self._buf)} of {need} bytes"
         )
 
-    def _to_junk(self, kind: FaultKind, detail: str) -> None:
+    def _to_junk(self, kind: FaultKind, detail: str, events: list[Event]) -> None:
+        if self._resync(events):
+            return
         if self._line is not None and kind != self._line:
             kind = self._line
             detail = f"{self._line_detail()}; {detail}"
@@ -455,8 +518,13 @@ class Receiver:
 
     def _complete(self, events: list[Event]) -> None:
         raw = bytes(self._buf)
+        if self._marks and self._failed(raw) and self._resync(events):
+            return
         self._state = _IDLE
         self._buf = bytearray()
+        if self._marks:
+            self._marks = []
+            self._times = []
         start, end = self._start, self._last_end
         if self._line is not None:
             kind = self._line
@@ -478,6 +546,10 @@ class Receiver:
 
     def _end_run(self, events: list[Event]) -> None:
         """The open run is over (idle line or size limit): report it."""
+        if self._state == _TELEGRAM and self._resync(events):
+            if self._state != _IDLE:
+                self._end_run(events)  # what follows the hidden pause is over as well
+            return
         raw = bytes(self._buf)
         if self._state == _TELEGRAM:
             kind = self._line if self._line is not None else FaultKind.RESIDUAL_TIME
@@ -492,6 +564,49 @@ class Receiver:
         self._buf = bytearray()
         self._late_need = 0
         self._emit_fault(events, kind, raw, detail, whole_at)
+
+    def _failed(self, raw: bytes) -> bool:
+        """Whether the complete telegram ``raw`` is a fault (line error, BCC, ADR)."""
+        return self._line is not None or bcc(raw) != 0 or raw[2] & 0xE0 not in _ADR_MODES
+
+    def _resync(self, events: list[Event]) -> bool:
+        """The open telegram has failed: if an STX in it began a read after a pause the times
+        could not show (`feed`'s ``held``, or the tolerance of coarse stamps), the bytes before
+        it are reported as a telegram cut short by that pause, and the receiver starts again at
+        that STX, with the bytes after it as they came. False (nothing done) without one."""
+        buf = bytes(self._buf)
+        marks = [mark for mark in self._marks if mark[0] < len(buf)]  # bytes taken after it
+        times, self._times = self._times, []
+        self._marks = []
+        if not marks:
+            return False
+        first = marks[0][0]
+        times = times[len(times) - (len(buf) - first) :]
+        head, tail = buf[:first], buf[first:]
+        tail_times = times[: len(tail)]
+        line_pos = self._line_pos - first if self._line is not None else -1
+        line_kind = self._line
+        ct = self._ct
+        self._last_end = tail_times[0] - ct
+        if line_kind is not None and line_pos < 0:
+            kind = line_kind
+            detail = f"{self._line_detail()}; telegram cut short by a pause"
+        else:
+            kind = FaultKind.RESIDUAL_TIME
+            need = self._need or "?"
+            detail = f"telegram incomplete when a pause came: {len(head)} of {need} bytes"
+        self._state = _IDLE
+        self._buf = bytearray()
+        self._line = None
+        self._emit_fault(events, kind, head, detail)
+        # The bytes from the STX on, again: the first after a start pause, the later marks
+        # with their pauses, each byte at its own time.
+        later = {pos - first: pause for pos, pause in marks[1:]}
+        self._last_end = tail_times[0] - ct - self.gap
+        for i, byte in enumerate(tail):
+            errors = ((0, _LINE_FLAGS[line_kind]),) if i == line_pos and line_kind else ()
+            events += self.feed(bytes((byte,)), tail_times[i], errors, held=later.get(i, 0.0))
+        return True
 
     def _emit_fault(
         self,

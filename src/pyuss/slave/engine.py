@@ -335,6 +335,16 @@ class SlaveEngine:
         """``(earliest, latest)`` start of an answer after the request's end, in seconds."""
         return self.profile.response_delay(baud, delayed=self.delay_mode)
 
+    def manual_delay(self, baud: int) -> float | None:
+        """The response delay the drive's parameter file gives (``[profile]
+        response_delay_ms``, the family's manual), in seconds, inside `response_window`; None
+        where the file gives none."""
+        delay = self.drive.db.profile.response_delay_ms
+        if delay is None:
+            return None
+        low, high = self.response_window(baud)
+        return min(max(delay / 1000, low), high)
+
     def next_deadline(self) -> float | None:
         """When `tick` has something to do: the telegram failure time expires."""
         if not self._monitoring or self._last_good is None or not self.failure_time:

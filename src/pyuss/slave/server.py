@@ -8,10 +8,12 @@ sends the answer:
 - not before the profile's earliest answer, which is never less than the start pause after the
   request's last character (A 5.1.2, A 5.2.1.1), and
 - within the profile's response delay (20 ms by A 5.2.1.1; 2 ms for Baumueller, 2.5..17.5 ms
-  for the 6SE21). ``response_delay`` (seconds) chooses a fixed delay inside that window; by
-  default the earliest moment is aimed at. An answer that could not start in time (a loaded
-  machine) is still sent; if it is more than `LATE_MARGIN` (1 ms) late it is counted in
-  `ServerStats.late` and logged as a warning.
+  for the 6SE21). ``response_delay`` (seconds) chooses a fixed delay inside that window;
+  ``manual_delay`` has each drive answer after the response delay its parameter file gives
+  (``[profile] response_delay_ms``: the family's manual, SINAMICS V20 20 ms), inside the
+  window; by default, and for a drive whose file gives none, the earliest moment is aimed
+  at. An answer that could not start in time (a loaded machine) is still sent; if it is more
+  than `LATE_MARGIN` (1 ms) late it is counted in `ServerStats.late` and logged as a warning.
 
 Times are the transport's. On the virtual bus (in-process or ``bus://``) and on serial ports a
 chunk's timestamp is when its last character ended, and the delay is measured from there. A
@@ -124,7 +126,7 @@ class PacedLine:
     - `answer` gives the moment an answer starts.
     """
 
-    __slots__ = ("char_time", "free", "heard", "hold")
+    __slots__ = ("char_time", "free", "heard", "held", "hold")
 
     def __init__(self, char_time: float, *, hold: float = STAMP_TOLERANCE) -> None:
         self.char_time = char_time
@@ -133,6 +135,9 @@ class PacedLine:
         """When the last character taken ends on the line (``-inf``: nothing yet)."""
         self.heard = -math.inf
         """When the last read taken would have ended, had it started when it arrived."""
+        self.held = 0.0
+        """The hold-up the last `take` took out (0: none): the receiver is told of it, as it
+        may have been a start pause after all (`pyuss.protocol.receiver`, resynchronisation)."""
 
     @property
     def most(self) -> float:
@@ -148,10 +153,12 @@ class PacedLine:
         """Put ``size`` bytes read at ``arrival`` on the line; return how many of them (the
         first ones) it took. The last one taken ends at `free`. ``going_on``: a telegram (or a
         run of bytes) is being received."""
+        self.held = 0.0
         if not going_on:  # a new telegram: the line catches up with the arrivals
             start = max(arrival, self.free)
         elif 2 * self.char_time <= arrival - self.heard <= self.hold:  # a hold-up
             start = self.free
+            self.held = arrival - self.heard
         else:
             start = max(arrival - self.lag, self.free)
         room = math.floor((arrival + self.most - start) / self.char_time + 1e-6)
@@ -200,9 +207,12 @@ class SlaveServer:
         diagnostics: Diagnostics | None = None,
         timed: bool | None = None,
         latency: float = DEFAULT_LATENCY,
+        manual_delay: bool = False,
     ) -> None:
         if not engines:
             raise ConfigError("a slave server needs at least one engine")
+        if manual_delay and response_delay is not None:
+            raise ConfigError("a response delay of its own or the manual's, not both")
         if not 0 <= latency <= 1:
             raise ConfigError(f"latency must be 0..1 s, not {latency!r}")
         self.engines: dict[int, SlaveEngine] = {}
@@ -226,6 +236,7 @@ class SlaveServer:
                     f"(profile {engine.profile.name}, {self.baud} baud)"
                 )
         self.response_delay = response_delay
+        self.manual_delay = manual_delay
         self.diagnostics = diagnostics or Diagnostics(software_version=software_version())
         for engine in engines:
             engine.use_diagnostics(self.diagnostics)
@@ -323,7 +334,7 @@ class SlaveServer:
         self, data: bytes, arrival: float, errors: tuple[tuple[int, LineError], ...]
     ) -> list[Event]:
         """Put a read of an untimed line on `line` and feed what it took to the receiver."""
-        taken = self.line.take(len(data), arrival, going_on=self.receiver.busy)
+        taken = self.line.take(len(data), arrival, going_on=self.receiver.receiving)
         if taken < len(data):
             self.stats.dropped += len(data) - taken
             if not self._flooded:
@@ -339,7 +350,7 @@ class SlaveServer:
         if not taken:
             return []
         kept = [(pos, flag) for pos, flag in errors if pos < taken]
-        return self.receiver.feed(data[:taken], self.line.free, kept)
+        return self.receiver.feed(data[:taken], self.line.free, kept, held=self.line.held)
 
     def _next_due(self) -> float | None:
         """The first moment an engine's `SlaveEngine.tick` has something to do."""
@@ -380,7 +391,8 @@ class SlaveServer:
                 log.debug("%s -> no answer", describe(telegram, layout))
             return
         low, high = engine.response_window(self.baud)
-        delay = low if self.response_delay is None else min(max(self.response_delay, low), high)
+        chosen = engine.manual_delay(self.baud) if self.manual_delay else self.response_delay
+        delay = low if chosen is None else min(max(chosen, low), high)
         end = event.end
         if not self.timed:
             # the request's end on the untimed line (the receiver may have taken a writer's
