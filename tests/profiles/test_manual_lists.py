@@ -82,6 +82,7 @@ def test_percent_is_rounded_half_up() -> None:
             "reason",
         ),
         ('[list]\nfamily = "generic"\nmanual = "m"\nnumbers = [1]\n', "[left_out]"),
+        ('left_out = 1\n[list]\nfamily = "generic"\nmanual = "m"\nnumbers = [1]\n', "a table"),
     ],
 )
 def test_a_bad_list_is_refused_naming_the_place(text: str, says: str) -> None:

@@ -254,8 +254,10 @@ def parse_manual_list(text: str, source: str = "<list>") -> ManualList:
         raise ConfigError(f"{source}: [list] numbers must be a list of parameter numbers")
     if numbers != sorted(set(numbers)):
         raise ConfigError(f"{source}: [list] numbers must be sorted, each once")
+    if not isinstance(out, dict):
+        raise ConfigError(f"{source}: [left_out] must be a table of number = reason")
     left_out: dict[int, str] = {}
-    for key, reason in out.items() if isinstance(out, dict) else ():
+    for key, reason in out.items():
         number = int(key) if key.isdigit() else -1
         if number not in numbers:
             raise ConfigError(f"{source}: [left_out] {key}: not a number of the list")
