@@ -18,7 +18,7 @@ def _blocks(language: str) -> list[str]:
 
 
 def test_the_parameter_file_example_is_valid() -> None:
-    (example,) = _blocks("toml")
+    example, _ = _blocks("toml")
     db = parse_database(example, "docs/drive.md")
     assert db.profile.name == "conveyor"
     assert 91 not in db and db.parameter(684).allowed == (6, 7)
@@ -28,6 +28,16 @@ def test_the_parameter_file_example_is_valid() -> None:
     assert reply[2] == 75
     drive.step(10.0)
     assert drive.actual_value() == round(0.075 * 0x4000)
+
+
+def test_the_editions_example_gives_each_edition_its_values() -> None:
+    _, example = _blocks("toml")
+    own = parse_database(example, "docs/drive.md")
+    assert own.profile.editions == ("2020", "2015")
+    assert own.parameter(10).default == (6,) and 20 in own
+    old = parse_database(example, "docs/drive.md", edition="2015")
+    assert old.parameter(10).default == (8,) and 20 not in old
+    assert old.profile.manual == "Fan drive manual, 2015"
 
 
 def _run(example: str) -> dict[str, object]:

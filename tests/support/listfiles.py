@@ -7,34 +7,20 @@ the figures docs/drives.md gives of it."""
 from __future__ import annotations
 
 import re
-import tomllib
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 
 from pyuss.drive.database import ParameterDatabase
 from pyuss.drive.datatypes import DataType
-
-
-@dataclass(frozen=True)
-class ManualList:
-    family: str
-    manual: str
-    numbers: tuple[int, ...]
-    left_out: dict[int, str]
+from pyuss.profiles import coverage
+from pyuss.profiles.coverage import ManualList
 
 
 def manual_list(family: str) -> ManualList:
-    """The shipped list of ``family``, its fields checked for their form."""
-    text = resources.files("pyuss.profiles").joinpath("lists", f"{family}.toml").read_text("utf-8")
-    data = tomllib.loads(text)
-    assert set(data) == {"list", "left_out"}, sorted(data)
-    head = data["list"]
-    assert set(head) == {"family", "manual", "numbers"}, sorted(head)
-    numbers = head["numbers"]
-    assert all(type(n) is int for n in numbers)
-    left_out = {int(key): reason for key, reason in data["left_out"].items()}
-    return ManualList(head["family"], head["manual"], tuple(numbers), left_out)
+    """The shipped list of ``family``, read as pyuss reads it (`pyuss.profiles.coverage`)."""
+    listed = coverage.manual_list(family)
+    assert listed.family == family
+    return listed
 
 
 @dataclass(frozen=True)
@@ -72,11 +58,14 @@ def check_entry(db: ParameterDatabase, entry: Entry) -> None:
         assert p.level == entry.level, f"{where}: level {p.level}, the page {entry.level}"
 
 
-def check_coverage(db: ParameterDatabase, listed: ManualList, family: str, floor: float) -> None:
+def check_coverage(
+    db: ParameterDatabase, listed: ManualList, family: str, floor: float, *, levels: bool = True
+) -> None:
     """Every number of the list is in the file or left out with a reason (>= 95 %: all of
-    them), the file holds at least ``floor`` of them, and the two agree with each other."""
+    them), the file holds at least ``floor`` of them, and the two agree with each other;
+    ``levels``: the list is of access levels 1 and 2 (the MICROMASTER lists)."""
     assert listed.family == family
-    assert "access levels 1 and 2" in listed.manual
+    assert not levels or "access levels 1 and 2" in listed.manual
     assert list(listed.numbers) == sorted(set(listed.numbers)), "numbers sorted, each once"
     assert set(listed.left_out) <= set(listed.numbers), "a left-out number not in the list"
     assert all(reason.strip() for reason in listed.left_out.values()), "a reason is empty"
@@ -89,7 +78,7 @@ def check_coverage(db: ParameterDatabase, listed: ManualList, family: str, floor
     assert len(present) / len(listed.numbers) >= floor - 1e-9, (
         f"{len(present)}/{len(listed.numbers)}"
     )
-    wrong = [n for n in present if db.parameter(n).level not in (1, 2)]
+    wrong = [n for n in present if levels and db.parameter(n).level not in (1, 2)]
     assert not wrong, f"listed at level 1 or 2, the file says otherwise: {wrong}"
 
 
@@ -106,13 +95,17 @@ def _numbers(text: str) -> set[int]:
 def check_docs(db: ParameterDatabase, listed: ManualList) -> None:
     """docs/drives.md's row of the list gives its figures and names every number left out."""
     rows = re.findall(
-        rf"^\| `{listed.family}` \| .* \| (\d+) of (\d+) \(\d+ %\) \| (\d+): (.*) \|$",
+        rf"^\| `{listed.family}` \| .* \| (\d+) of (\d+) \((\d+) %\) \| (\d+): (.*) \|$",
         DOC.read_text(encoding="utf-8"),
         re.M,
     )
     assert len(rows) == 1, f"docs/drives.md: one row for {listed.family}"
-    present, total, out, named = rows[0]
-    assert int(total) == len(listed.numbers)
-    assert int(present) == len([n for n in listed.numbers if n in db])
+    present, total, percent, out, named = rows[0]
+    found = coverage.list_coverage(listed.family, db)
+    assert (int(present), int(total), int(percent)) == (
+        len(found.present),
+        found.total,
+        found.percent,
+    ), found.line()
     assert int(out) == len(listed.left_out)
     assert set(listed.left_out) <= _numbers(named), sorted(set(listed.left_out) - _numbers(named))

@@ -52,6 +52,10 @@ def test_off_loopback_a_token_is_printed_and_needed() -> None:
         (["--demo", "--listen", "127.0.0.1:99999"], "0..65535"),
         (["--demo", "--address", "5"], "--demo brings its own drives"),
         (["--port", "tcp://127.0.0.1:9", "--profile", "nosuch"], "--profile"),
+        (
+            ["--port", "tcp://127.0.0.1:9", "--profile", "sinamics-v20@1999"],
+            "unknown edition '1999' (known: 2019, 2014, 2012)",
+        ),
         (["--demo", "--token", " "], "--token"),
         (["--mqtt", "ftp://broker"], "--mqtt"),
         (["--mqtt", "mqtt://127.0.0.1:1883", "--address", "5"], "leave out --address"),

@@ -41,7 +41,7 @@ from typing import Any
 from pyuss.cli._help import plain
 from pyuss.cli._master import add_line_options, drive_address, integer, line_file
 from pyuss.errors import ConfigError
-from pyuss.profiles import profile_names
+from pyuss.profiles import get_profile, profile_names
 from pyuss.protocol.layout import Layout
 from pyuss.system import stop_on_signals
 from pyuss.transport.address import parse_host_port
@@ -167,10 +167,14 @@ async def _serve(args: argparse.Namespace) -> int:
     host, port = parse_listen(args.listen)
     if not args.timeout > 0:
         raise ConfigError(f"--timeout {args.timeout}: must be > 0 seconds")
-    if args.profile not in (None, "auto", *profile_names()):
-        raise ConfigError(
-            f"--profile {args.profile!r}: one of {', '.join(profile_names())} or auto"
-        )
+    if args.profile not in (None, "auto"):
+        try:
+            get_profile(args.profile)  # NAME or NAME@EDITION
+        except ConfigError as exc:
+            raise ConfigError(
+                f"--profile {args.profile!r}: one of {', '.join(profile_names())} (NAME@EDITION "
+                f"for an edition of its manual) or auto ({exc})"
+            ) from None
     token = args.token
     if token is not None and not token.strip():
         raise ConfigError("--token must not be empty")

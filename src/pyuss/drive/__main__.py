@@ -1,6 +1,7 @@
 """Check and list parameter files: ``python -m pyuss.drive check FILE`` / ``show NAME|FILE``.
 
-``check`` validates a parameter file (and the files it extends) and prints a one-line summary;
+``check`` validates a parameter file (and the files it extends, and each of its editions) and
+prints a one-line summary;
 a bad file gives a one-line message naming file, parameter and field, and exit code 2.
 ``show`` lists the parameters of a built-in profile or a file, or one parameter with its
 description elements and texts, each named as the family's documents write it (``r0021``,
@@ -14,7 +15,13 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from pyuss.drive.database import ParameterDatabase, builtin_profiles, load_database, load_profile
+from pyuss.drive.database import (
+    ParameterDatabase,
+    builtin_profiles,
+    load_database,
+    load_profile,
+    split_edition,
+)
 from pyuss.drive.datatypes import DataType
 from pyuss.drive.faults import ParameterFault
 from pyuss.drive.memory import ParameterMemory
@@ -22,8 +29,8 @@ from pyuss.errors import ConfigError
 
 
 def _load(source: str) -> ParameterDatabase:
-    if source in builtin_profiles():
-        return load_profile(source)
+    if split_edition(source)[0] in builtin_profiles():
+        return load_profile(source)  # NAME or NAME@EDITION
     if not Path(source).exists():
         known = ", ".join(builtin_profiles())
         raise ConfigError(f"{source}: neither a built-in profile ({known}) nor a file")
@@ -84,13 +91,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     check = sub.add_parser("check", help="validate a parameter file")
     check.add_argument("file")
     show = sub.add_parser("show", help="list the parameters of a profile or file")
-    show.add_argument("source", help=f"a file or one of: {', '.join(builtin_profiles())}")
+    show.add_argument(
+        "source",
+        help=f"a file or one of: {', '.join(builtin_profiles())} (NAME@EDITION: an edition)",
+    )
     show.add_argument("pnu", nargs="?", type=int, help="show one parameter in detail")
     args = parser.parse_args(argv)
     try:
         if args.command == "check":
             db = load_database(args.file)
-            print(f"{args.file}: profile {db.profile.name!r}, {len(db)} parameters, ok")
+            for edition in db.profile.editions[1:]:  # each edition's values checked too
+                load_database(args.file, edition)
+            editions = (
+                f" (editions {', '.join(db.profile.editions)})" if db.profile.editions else ""
+            )
+            print(f"{args.file}: profile {db.profile.name!r}, {len(db)} parameters, ok{editions}")
         else:
             db = _load(args.source)
             print("\n".join(_table(db) if args.pnu is None else _detail(db, args.pnu)))

@@ -404,6 +404,11 @@ class ProfileInfo:
     """The response delay the family's manual gives, in ms (SINAMICS V20 10/2019: 20 ms):
     what a simulated drive answers after when asked to answer as its manual says
     (`pyuss.slave.SlaveEngine.manual_delay`); None: the manual gives none."""
+    edition: str = ""
+    """The manual edition the database follows: the file's own (``[profile] edition``) or
+    the one chosen from its ``[editions]`` ("" for a file without editions)."""
+    editions: tuple[str, ...] = ()
+    """Every edition the file knows: its own first, then those of ``[editions]``."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -629,22 +634,44 @@ def _builtin_files() -> tuple[str, ...]:
     )
 
 
+EDITION_MARK = "@"
+"""What joins a profile's name and an edition of its manual: ``sinamics-v20@2012``."""
+
+
+def split_edition(name: str) -> tuple[str, str | None]:
+    """``(profile, edition)`` of ``NAME@EDITION`` (edition None without the mark);
+    `ConfigError` for an empty part."""
+    if EDITION_MARK not in name:
+        return name, None
+    base, _, edition = name.partition(EDITION_MARK)
+    if not base or not edition:
+        raise ConfigError(f"profile {name!r}: write NAME{EDITION_MARK}EDITION, both parts given")
+    return base, edition
+
+
 def load_profile(name: str) -> ParameterDatabase:
-    """The parameter database of a built-in profile (``generic``, ``6se21``, ...)."""
-    if name not in builtin_profiles():
+    """The parameter database of a built-in profile (``generic``, ``6se21``, ...);
+    ``NAME@EDITION`` chooses an edition of its manual (``sinamics-v20@2012``, the file's
+    ``[editions]``)."""
+    base, edition = split_edition(name)
+    if base not in builtin_profiles():
         known = ", ".join(builtin_profiles())
-        raise ConfigError(f"unknown profile {name!r} (known: {known})")
-    return _build(_read_layers(f"builtin:{name}", ()))
+        raise ConfigError(f"unknown profile {base!r} (known: {known})")
+    return _build(_read_layers(f"builtin:{base}", ()), edition)
 
 
-def load_database(path: str | Path) -> ParameterDatabase:
-    """Read and validate a parameter file; ``extends`` in ``[profile]`` builds on another."""
-    return _build(_read_layers(str(Path(path)), ()))
+def load_database(path: str | Path, edition: str | None = None) -> ParameterDatabase:
+    """Read and validate a parameter file; ``extends`` in ``[profile]`` builds on another;
+    ``edition`` chooses one of its ``[editions]``."""
+    return _build(_read_layers(str(Path(path)), ()), edition)
 
 
-def parse_database(text: str, source: str = "<text>") -> ParameterDatabase:
-    """Validate parameter-file text (``extends`` may name built-in profiles only)."""
-    return _build(_with_bases(None, source, parse_toml(text, source), ()))
+def parse_database(
+    text: str, source: str = "<text>", edition: str | None = None
+) -> ParameterDatabase:
+    """Validate parameter-file text (``extends`` may name built-in profiles only);
+    ``edition`` chooses one of its ``[editions]``."""
+    return _build(_with_bases(None, source, parse_toml(text, source), ()), edition)
 
 
 def _read_source(ref: str) -> tuple[str, str]:
@@ -709,7 +736,9 @@ _TOP_KEYS = {
     "words",
     "hints",
     "sources",
+    "editions",
 }
+_EDITION_KEYS = {"manual", "remove", "parameter"}
 _PROFILE_KEYS = {
     "name",
     "title",
@@ -728,6 +757,7 @@ _PROFILE_KEYS = {
     "names",
     "remove",
     "response_delay_ms",
+    "edition",
 }
 _PARAM_KEYS = {
     "pnu",
@@ -772,7 +802,9 @@ class _Where:
         return ConfigError(f"{where} field {field_name!r}: {problem}")
 
 
-def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
+def _build(
+    layers: list[tuple[str, dict[str, Any]]], edition: str | None = None
+) -> ParameterDatabase:
     profile_data: dict[str, Any] = {}
     raw_params: dict[int, tuple[str, dict[str, Any]]] = {}
     tables: dict[str, dict[str, Any]] = {
@@ -800,7 +832,9 @@ def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
             raise ConfigError(f"{source}: [profile] unknown field(s) {', '.join(sorted(extra))}")
         for removed in _int_list(prof.get("remove", []), _Where(source, "[profile]"), "remove"):
             raw_params.pop(removed, None)
-        profile_data.update({k: v for k, v in prof.items() if k not in ("extends", "remove")})
+        profile_data.update(
+            {k: v for k, v in prof.items() if k not in ("extends", "remove", "edition")}
+        )
         for key, table in tables.items():
             value = data.get(key, {})
             if not isinstance(value, dict):
@@ -820,8 +854,22 @@ def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
                 raise ConfigError(f"{source}: parameter {pnu} is defined twice")
             seen.add(pnu)
             raw_params[pnu] = (source, entry)
+    top_source, top = layers[-1]
+    own = top.get("profile", {}).get("edition")
+    if own is not None:
+        if not isinstance(own, str) or not own or EDITION_MARK in own:
+            raise _Where(top_source, "[profile]").error(
+                "edition", f"must be a non-empty text without {EDITION_MARK}"
+            )
+        profile_data["edition"] = own
+    editions = _editions(top.get("editions", {}), profile_data, top_source)
+    profile_data["editions"] = (profile_data.get("edition", ""), *editions)
+    if edition is not None:
+        _apply_edition(edition, editions, profile_data, raw_params, top_source)
+    else:
+        profile_data["chosen"] = profile_data.get("edition", "")
     sources = " + ".join(source for source, _ in layers)
-    profile = _profile(profile_data, layers[-1][0], sources)
+    profile = _profile(profile_data, top_source, sources)
     parameters = {
         pnu: _parameter(entry, _Where(source, f"parameter {pnu}:"), profile)
         for pnu, (source, entry) in raw_params.items()
@@ -854,6 +902,76 @@ def _build(layers: list[tuple[str, dict[str, Any]]]) -> ParameterDatabase:
             if ref is not None:
                 _check_ref(ref, parameters, profile, where, key)
     return db
+
+
+def _editions(
+    value: object, profile_data: dict[str, Any], source: str
+) -> dict[str, dict[str, Any]]:
+    """The ``[editions]`` of the file itself, their form checked (the values are checked as
+    parameters when an edition is chosen)."""
+    if not isinstance(value, dict):
+        raise ConfigError(f"{source}: [editions] must be a table of editions")
+    own = profile_data.get("edition")
+    if value and (not isinstance(own, str) or not own):
+        raise ConfigError(
+            f"{source}: [profile] field 'edition': required with [editions], the edition the "
+            "file's own values follow"
+        )
+    out: dict[str, dict[str, Any]] = {}
+    for name, table in value.items():
+        where = f"{source}: [editions.{name}]"
+        if name == own or EDITION_MARK in name:
+            raise ConfigError(f"{where}: the name is the file's own edition or has {EDITION_MARK}")
+        if not isinstance(table, dict):
+            raise ConfigError(f"{where}: must be a table")
+        extra = set(table) - _EDITION_KEYS
+        if extra:
+            raise ConfigError(f"{where}: unknown field(s) {', '.join(sorted(extra))}")
+        if not isinstance(table.get("manual"), str) or not table["manual"]:
+            raise ConfigError(f"{where}: field 'manual': required, the manual and its edition")
+        _int_list(table.get("remove", []), _Where(where), "remove")
+        changes = table.get("parameter", [])
+        if not isinstance(changes, list) or not all(isinstance(c, dict) for c in changes):
+            raise ConfigError(f"{where}: 'parameter' must be an array of tables")
+        for change in changes:
+            pnu = change.get("pnu")
+            if isinstance(pnu, bool) or not isinstance(pnu, int):
+                raise ConfigError(f"{where}: a parameter change without 'pnu'")
+            extra = set(change) - _PARAM_KEYS
+            if extra:
+                raise ConfigError(f"{where}: parameter {pnu}: unknown field(s) {sorted(extra)}")
+        out[name] = table
+    return out
+
+
+def _apply_edition(
+    edition: str,
+    editions: dict[str, dict[str, Any]],
+    profile_data: dict[str, Any],
+    raw_params: dict[int, tuple[str, dict[str, Any]]],
+    source: str,
+) -> None:
+    """Change ``raw_params`` and ``profile_data`` to ``edition``: its ``remove`` drops
+    parameters, each of its ``[[parameter]]`` tables replaces the fields it names."""
+    own = profile_data.get("edition", "")
+    known = ", ".join(e for e in (own, *editions) if e) or "none"
+    if edition != own and edition not in editions:
+        raise ConfigError(f"{source}: unknown edition {edition!r} (known: {known})")
+    profile_data["chosen"] = edition
+    if edition == own:
+        return
+    table = editions[edition]
+    where = f"{source}: [editions.{edition}]"
+    profile_data["manual"] = table["manual"]
+    for pnu in table.get("remove", []):
+        if raw_params.pop(pnu, None) is None:
+            raise ConfigError(f"{where}: remove: the file has no parameter {pnu}")
+    for change in table.get("parameter", []):
+        pnu = change["pnu"]
+        if pnu not in raw_params:
+            raise ConfigError(f"{where}: parameter {pnu}: the file has no such parameter")
+        base_source, entry = raw_params[pnu]
+        raw_params[pnu] = (f"{base_source} edition {edition}", {**entry, **change})
 
 
 def _profile(data: dict[str, Any], source: str, sources: str) -> ProfileInfo:
@@ -901,6 +1019,8 @@ def _profile(data: dict[str, Any], source: str, sources: str) -> ProfileInfo:
         protected_level=protected_level,
         names=_choice(NameStyle, data.get("names", "pyuss"), where, "names"),
         response_delay_ms=None if delay is None else float(delay),
+        edition=_text(data.get("chosen", ""), where, "edition"),
+        editions=tuple(e for e in data.get("editions", ()) if e),
     )
 
 

@@ -31,6 +31,10 @@ warning numbers, the reference parameter, and how a drive shows its identity
 
 from __future__ import annotations
 
+from dataclasses import replace
+from functools import cache
+
+from pyuss.drive.database import load_profile, split_edition
 from pyuss.errors import ConfigError
 from pyuss.profiles import (
     baumueller,
@@ -80,9 +84,21 @@ def profile_names() -> tuple[str, ...]:
 
 
 def get_profile(name: str) -> Profile:
-    """The built-in profile ``name``; `ConfigError` naming the known ones otherwise."""
+    """The built-in profile ``name``; ``NAME@EDITION`` is the profile with the values of
+    that edition of its manual (its file's ``[editions]``, docs/drive.md). `ConfigError`
+    naming the known profiles or editions otherwise."""
     try:
         return PROFILES[name]
     except (KeyError, TypeError):
+        if isinstance(name, str) and "@" in name:
+            return _edition_profile(name)
         known = ", ".join(PROFILES)
         raise ConfigError(f"unknown profile {name!r} (known: {known})") from None
+
+
+@cache
+def _edition_profile(name: str) -> Profile:
+    base, _edition = split_edition(name)
+    profile = get_profile(base)
+    load_profile(f"{profile.data or profile.name}@{_edition}")  # an unknown edition: refused
+    return replace(profile, name=name, data=f"{profile.data or profile.name}@{_edition}")
