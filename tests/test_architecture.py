@@ -4,6 +4,7 @@ and no lower layer reaches up into a higher one."""
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -66,6 +67,36 @@ IMPURE = {"asyncio", "socket", "serial", "time", "os", "threading", "subprocess"
 def test_every_package_has_its_rule() -> None:
     packages = {p.name for p in SRC.iterdir() if (p / "__init__.py").is_file()}
     assert packages == set(ALLOWED), f"without a rule: {sorted(packages - set(ALLOWED))}"
+
+
+DOC = SRC.parents[1] / "docs" / "architecture.md"
+# The one pair of the same level that import each other: a bus:// URL opens the virtual bus's
+# client (lazily), and the bus is a transport provider.
+SAME_LEVEL = {("transport", "bus"), ("bus", "transport")}
+
+
+def _levels() -> dict[str, int]:
+    """The level of each package in the table of docs/architecture.md, "The layers"."""
+    text = DOC.read_text(encoding="utf-8")
+    section = text.split("\n## The layers\n", 1)[1].split("\n## ", 1)[0]
+    levels: dict[str, int] = {}
+    for level, packages in re.findall(r"^\| (\d+) \| ([^|]+) \|", section, flags=re.MULTILINE):
+        for package in re.findall(r"`(\w+)`", packages):
+            assert package not in levels, f"{package} twice in docs/architecture.md"
+            levels[package] = int(level)
+    return levels
+
+
+def test_the_drawing_of_the_layers_is_the_rules() -> None:
+    levels = _levels()
+    assert set(levels) == set(ALLOWED), f"docs/architecture.md: {set(levels) ^ set(ALLOWED)}"
+    above = [
+        f"{package} (level {levels[package]}) imports {used} (level {levels[used]})"
+        for package, allowed in ALLOWED.items()
+        for used in allowed
+        if used in levels and levels[used] >= levels[package] and (package, used) not in SAME_LEVEL
+    ]
+    assert not above, f"docs/architecture.md draws these the other way: {above}"
 
 
 def _imports(package: str) -> set[str]:
