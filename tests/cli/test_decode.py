@@ -157,6 +157,21 @@ def test_with_a_profile_the_parameter_is_named_as_the_family_writes_it(
     assert "parameter r0052" not in capsys.readouterr().out  # no family: the PNU alone
 
 
+def test_a_parameter_on_an_ind_page_is_named_with_its_page_counted_in(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """PNU 110 with IND bit 15 (page 1) is r2110 of a SINAMICS V20, named as its parameter
+    file names it; the IND line says page 1, not "device bits"."""
+    telegram = "020e01606e800100000000047e0000f8"  # read array element, PNU 110, IND 8001h
+    assert main(["decode", telegram, "--layout", "4,2", "--profile", "sinamics-v20"]) == 0
+    out = capsys.readouterr().out
+    assert "parameter r2110 (Warning numbers): PNU 110 on IND page 1 (bits 12..15)" in out
+    assert "IND        8001h: subindex 1, bits 8/9 = 00, page 1 (bits 12..15)" in out
+    assert "device bits" not in out
+    assert main(["decode", telegram, "--layout", "4,2", "--profile", "sinamics-v20", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["pkw"]["parameter"] == 2110
+
+
 @pytest.mark.parametrize(
     "hexes",
     [

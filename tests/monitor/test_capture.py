@@ -100,8 +100,9 @@ def test_round_trip_and_replay(tmp_path: Path, suffix: str, four_wire: bool) -> 
     for record, frame in zip(capture.records, frames, strict=True):
         got = record.frame
         assert got.raw == frame.raw
-        assert got.start == pytest.approx(frame.start + 1.7e9, abs=1e-6)
-        assert got.end == pytest.approx(frame.end + 1.7e9, abs=2e-6)
+        # Unix time: a pcapng capture counts from its first packet (`Capture.epoch`)
+        assert got.start + capture.epoch == pytest.approx(frame.start + 1.7e9, abs=1e-6)
+        assert got.end + capture.epoch == pytest.approx(frame.end + 1.7e9, abs=2e-6)
         assert (got.direction, got.guessed, got.fault, got.port) == (
             frame.direction,
             frame.guessed,
@@ -195,7 +196,7 @@ def test_pcapng_blocks(tmp_path: Path) -> None:
     assert ((high << 32) | low) == round(exchanges[0].time * 1e9)
     assert first[20 + PSEUDO_HEADER.size : 20 + captured] == REQ_52
     version, size, direction = first[20], first[21], first[22]
-    assert (version, size, direction) == (1, 16, Direction.REQUEST)
+    assert (version, size, direction) == (1, 20, Direction.REQUEST)
     # epb_flags: outbound for the master's request
     assert struct.pack("<HHI", 2, 4, 2) in first
 
@@ -226,7 +227,8 @@ def test_big_endian_pcapng_and_unknown_blocks(tmp_path: Path) -> None:
     assert capture.baud == BAUD
     (record,) = capture.records
     assert record.frame.raw == REQ_52
-    assert record.frame.start == pytest.approx(5.0)  # default resolution: microseconds
+    # default resolution: microseconds; times count from the first packet
+    assert record.frame.start == 0.0 and capture.epoch == pytest.approx(5.0)
     assert record.frame.telegram is not None and record.frame.telegram.address == 5
 
 

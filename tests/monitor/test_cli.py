@@ -576,3 +576,77 @@ def test_the_summary_names_the_receive_error_status_as_such(
     assert main(["monitor", "--read", str(path), "--summary"]) == 0
     header = capsys.readouterr().out.splitlines()[0]
     assert "rx errors" in header and "status" not in header
+
+
+def _v20_reply(tg: Telegram) -> bytes | None:
+    """A SINAMICS V20 answering array reads with their page kept in IND (r2110 is PNU 110
+    on IND page 1) and everything else with 1234."""
+    job = Layout(3, 2).unpack(tg.data).pkw
+    assert job is not None
+    if job.id == 6:
+        return answer(tg.address, Pkw(4, job.pnu, index=job.index, values=(7,)))
+    return answer(tg.address, Pkw(1, job.pnu, values=(1234,)))
+
+
+@pytest.mark.pty
+async def test_a_capture_reads_back_as_the_live_lines_were(tmp_path: Path) -> None:
+    """What `uss monitor` printed live on a pty (stamps when read) is what `uss monitor --read`
+    prints of the capture it wrote, line for line: the same times and delays to the
+    microsecond, and the profile it decoded with, so that PNU 110 on IND page 1 of a
+    SINAMICS V20 is r2110 in both."""
+    bus = VirtualBus(BAUD)
+    (path,) = await bus.serve_pty(1)
+    jobs = [
+        request(5, Pkw(6, 110, index=0x8001)),  # r2110[1]: PNU 110, IND bit 15 (page 1)
+        request(5, Pkw(1, 3)),
+        request(5, Pkw(6, 110, index=0x8002)),
+    ]
+    for suffix in (".pcapng", ".jsonl"):
+        capture = tmp_path / f"v20{suffix}"
+        proc = await _start(
+            "--port", path, "--baud", str(BAUD), "--count", "3", "--layout", "3,2",
+            "--profile", "sinamics-v20", "--color", "never", "-w", str(capture),
+        )  # fmt: skip
+        await asyncio.sleep(0.2)
+        await drive(bus, bus, jobs, [Slave(5, _v20_reply, delay=0.004)])
+        out, err = await asyncio.wait_for(proc.communicate(), TIMEOUT)
+        assert proc.returncode == 0, err
+        live = out.decode().splitlines()
+        assert len(live) == 3
+        assert "read r2110[1] -> r2110[1] = 7" in live[0]
+        assert "read P0003 -> P0003 = 1234" in live[1]
+        replay = subprocess.run(
+            [sys.executable, "-m", "pyuss.cli.main", "monitor", "--read", str(capture)],
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT,
+        )
+        assert replay.returncode == 0, replay.stderr
+        if suffix == ".pcapng":
+            assert replay.stdout.splitlines() == live
+        else:  # JSON lines keep Unix times in floats: the last microsecond may differ
+            lines = replay.stdout.splitlines()
+            assert len(lines) == 3 and "read r2110[1] -> r2110[1] = 7" in lines[0]
+    await bus.close()
+
+
+def test_without_a_profile_a_parameter_on_an_ind_page_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Without --profile the monitor cannot know that PNU 110 on IND page 1 is r2110 of a
+    SINAMICS V20: it shows the PNU and says that the page is not counted in."""
+    path = tmp_path / "v20.pcapng"
+    monitor = Monitor(19200, layouts=LayoutBook(Layout(3, 2)))
+    wire = Wire(monitor)
+    wire.send(request(1, Pkw(6, 110, index=0x8001)), 0.01)
+    wire.send(answer(1, Pkw(4, 110, index=0x8001, values=(7,))), 0.004)
+    writer = open_writer(path, baud=19200, gap=monitor.gap)
+    for ex in wire.finish():
+        writer.write(ex)
+    writer.close()
+    assert main(["monitor", "--read", str(path)]) == 0
+    line = capsys.readouterr().out.splitlines()[0]
+    assert "read P110[1] -> P110[1] = 7 (0007h)  (IND page 1: --profile counts it in)" in line
+    assert main(["monitor", "--read", str(path), "--profile", "sinamics-v20"]) == 0
+    line = capsys.readouterr().out.splitlines()[0]
+    assert "read r2110[1] -> r2110[1] = 7 (0007h)" in line and "IND page" not in line

@@ -540,3 +540,59 @@ def test_a_late_telegram_in_a_run_of_telegrams_keeps_the_run() -> None:
     assert [ex.kind for ex in out] == ["exchange", "exchange"]
     assert [ex.request.raw for ex in out if ex.request] == [REQ_52, second]
     assert out[0].answer is not None and out[0].answer.raw == ANS_2
+
+
+ANS_52_1 = answer(5, Pkw(1, 52, values=(1,)))
+
+
+@given(
+    cut=st.integers(1, len(REQ_52) + len(ANS_52_1) - 1),
+    pause=st.floats(0.0, 0.01),
+    late=st.floats(0.0, 0.015),
+)
+@settings(max_examples=200, deadline=None)
+def test_response_delays_on_ports_that_stamp_when_read_are_never_negative(
+    cut: int, pause: float, late: float
+) -> None:
+    """On a pty or a USB adapter (stamps up to the tolerance late) the reads may cut the line
+    anywhere: a response delay is never negative, and where the stamps cannot show the pause
+    (the answer read together with the end of its request) it is unknown and says why."""
+    monitor = Monitor(BAUD, layouts=LayoutBook(Layout(3, 2)), tolerance=0.02)
+    line = REQ_52 + ANS_52_1
+    ends = [100.0 + (i + 1) * TC + (pause if i >= len(REQ_52) else 0.0) for i in range(len(line))]
+    out = monitor.feed(line[:cut], ends[cut - 1] + late)
+    out += monitor.feed(line[cut:], max(ends[-1], ends[cut - 1] + late))
+    out += monitor.finish()
+    (ex,) = out
+    assert ex.kind == "exchange"
+    line_text = exchange_line(ex)
+    assert "-0.000 ms" not in line_text
+    if ex.delay is None:
+        assert ex.notes[0].startswith("delay unknown: the port delivered the answer together")
+        assert "delay unknown" in line_text
+        assert monitor.summary.addresses[5].delays.as_dict()["count"] == 0
+    else:
+        assert ex.delay > 0
+
+
+def test_an_answer_read_with_its_request_has_an_unknown_delay() -> None:
+    monitor = Monitor(BAUD, layouts=LayoutBook(Layout(3, 2)), tolerance=0.02)
+    out = monitor.feed(REQ_52 + ANS_52_1, 100.0)  # one read: the pause is not seen
+    (ex,) = out + monitor.finish()
+    assert ex.delay is None and not ex.issues
+    assert "resolution 20.000 ms" in ex.notes[0]
+    # on exact timestamps (the virtual bus) the same bytes are an answer without a pause
+    exact = Monitor(BAUD, layouts=LayoutBook(Layout(3, 2)))
+    (ex,) = exact.feed(REQ_52 + ANS_52_1, 100.0) + exact.finish()
+    assert ex.delay == 0.0 and Problem.EARLY_ANSWER in ex.problems
+
+
+def test_four_wire_stamps_that_put_the_answer_first_give_no_delay() -> None:
+    """Each port of a 4-wire line stamps its bytes when it reads them: a request read late can
+    seem to end after its answer began. That is no delay and no early answer."""
+    monitor = Monitor(BAUD, four_wire=True, layouts=LayoutBook(Layout(3, 2)), tolerance=0.02)
+    out = monitor.feed(REQ_52, 100.0 + 0.012, port=0)  # read 12 ms late
+    out += monitor.feed(ANS_52_1, 100.0 + 0.013, port=1)  # its first byte seems earlier
+    (ex,) = out + monitor.finish()
+    assert ex.kind == "exchange" and ex.delay is None and not ex.issues
+    assert ex.notes[0].startswith("delay unknown: the answer's stamps put its start")

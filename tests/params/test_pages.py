@@ -48,7 +48,11 @@ def test_uss_decode_names_the_parameter_with_a_profile() -> None:
     out = io.StringIO()
     with redirect_stdout(out):
         code = main(["decode", REQUEST.hex(), "--layout", "4,2", "--profile", "micromaster4"])
-    assert code == 0 and "parameter P2010: PNU 10 on IND page 1 (bits 12..15)" in out.getvalue()
+    text = out.getvalue()
+    assert (
+        code == 0 and "parameter P2010 (USS baudrate): PNU 10 on IND page 1 (bits 12..15)" in text
+    )
+    assert "IND        8001h: subindex 1, bits 8/9 = 00, page 1 (bits 12..15)" in text
     out = io.StringIO()
     with redirect_stdout(out):
         main(["decode", REQUEST.hex(), "--layout", "4,2", "--profile", "micromaster4", "--json"])

@@ -218,16 +218,23 @@ def _render_pkw(info: dict[str, Any], lines: list[str], profile: Profile | None)
     )
     number = pkw.get("parameter", pkw["pnu"])
     label = f"P{number}" if profile is None else profile.label(number)
+    if profile is not None and number in profile.database():
+        label += f" ({profile.database().parameter(number).name})"
     if number != pkw["pnu"]:
         lines.append(
             f"           parameter {label}: PNU {pkw['pnu']} on IND page "
             f"{page_of(pkw['index'])} (bits 12..15)"
         )
     elif profile is not None and number in profile.database():
-        lines.append(f"           parameter {label} ({profile.database().parameter(number).name})")
+        lines.append(f"           parameter {label}")
     index = pkw["index"]
     extra = ""
-    if index >> 8:
+    paged = profile is not None and profile.pnu_page_size is not None
+    if index >> 8 and paged:
+        extra = f", bits 8/9 = {index >> 8 & 3:02b}, page {page_of(index)} (bits 12..15)"
+        if index >> 10 & 3:
+            extra += f", bits 10/11 = {index >> 10 & 3:02b}"
+    elif index >> 8:
         extra = f", bits 8/9 = {index >> 8 & 3:02b}, device bits {index >> 10}"
     lines.append(f"IND        {index:04X}h: subindex {pkw['subindex']}{extra}")
     values = pkw["values"]

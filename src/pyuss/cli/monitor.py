@@ -414,6 +414,7 @@ def _open_writers(
                     linktype=args.linktype,
                     gap=monitor.gap,
                     tolerance=monitor.tolerance,
+                    profile=args.profile,
                 )
             )
     except ConfigError:
@@ -548,6 +549,15 @@ def run(args: argparse.Namespace) -> int:
         ports, layouts = _check(args)
         if args.read is not None:
             capture = read_capture(args.read)
+            if args.profile is None and capture.profile is not None:
+                args.profile = capture.profile  # decoded as when it was captured
+                try:
+                    page_size(args)
+                except ConfigError as exc:
+                    raise ConfigError(
+                        f"{args.read}: captured with --profile {capture.profile}: {exc}; give "
+                        "--profile NAME"
+                    ) from None
             if args.baud is not None and args.baud != capture.baud:
                 raise ConfigError(
                     f"--baud {args.baud}: the capture {args.read} is at {capture.baud} baud"
@@ -555,7 +565,9 @@ def run(args: argparse.Namespace) -> int:
             gap = capture.gap if args.gap is None else _ms(args.gap, "--gap")
             tolerance = _tolerance(args, capture.tolerance)
             monitor = _monitor(args, capture.baud, False, layouts, gap, tolerance)
-            writers = _open_writers(args.write, capture.baud, capture.four_wire, 0.0, args, monitor)
+            writers = _open_writers(
+                args.write, capture.baud, capture.four_wire, capture.epoch, args, monitor
+            )
         else:
             urls = [_listen_only(url) for url in ports]
             gap = _ms(args.gap, "--gap")
@@ -570,8 +582,8 @@ def run(args: argparse.Namespace) -> int:
     stream = sys.stdout
     if args.read is not None:
         # Captures hold Unix times; a bus recording counts from the bus's start.
-        wall = None if capture.kind == "bus recording" else 0.0
-        output = _Output(args, monitor, writers, stream, 0.0, wall)
+        wall = None if capture.kind == "bus recording" else capture.epoch
+        output = _Output(args, monitor, writers, stream, capture.epoch, wall)
         return _replay(args, capture, monitor, output, writers)
     output = _Output(args, monitor, writers, stream, epoch, epoch)
     try:

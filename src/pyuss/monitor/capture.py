@@ -9,7 +9,7 @@ raw characters instead of frames.
 Each record holds the frame (bytes, start and end time, direction, receive fault), the flags
 of its exchange (`CaptureFlag`: no answer, late answer, ...) and the layout the monitor decoded
 it with, with where that layout came from. In pcapng the record's fields other than the bytes
-and the start time travel in a 16-byte pseudo-header in front of the telegram
+and the start time travel in a 20-byte pseudo-header in front of the telegram
 (`PSEUDO_HEADER`, documented in docs/monitor.md and decoded by the dissector).
 
 Times in files are Unix time (seconds): the writer adds ``epoch`` to the monitor's times.
@@ -55,9 +55,13 @@ __all__ = [
 ]
 
 PSEUDO_VERSION = 1
-PSEUDO_HEADER = struct.Struct(">BBBBHBBIi")
+PSEUDO_HEADER = struct.Struct(">BBBBHBBIiI")
 """version, header length, direction, fault, flags, PKW count, PZD count, duration in
-microseconds, response delay in microseconds (answers; ``NO_DELAY`` for none)."""
+whole microseconds, response delay in microseconds (answers; ``NO_DELAY`` for none), the
+nanoseconds of the duration beyond its whole microseconds (0..999). Readers take the header
+length from byte 1: a 16-byte header (before the nanoseconds were added) is read as well."""
+_SHORT_HEADER = 16
+NS = 1_000_000_000
 NO_FAULT = 0xFF
 NO_LAYOUT = 0xFF
 FAULT_CODES: dict[FaultKind, int] = {
@@ -122,12 +126,15 @@ class CaptureRecord:
     delay: float | None = None
 
     def pseudo_header(self) -> bytes:
-        """The 16-byte pseudo-header that precedes the telegram bytes in pcapng."""
+        """The 20-byte pseudo-header that precedes the telegram bytes in pcapng."""
         f = self.frame
         pkw = pzd = NO_LAYOUT
         if self.layout is not None:
             pkw, pzd = self.layout.layout.pkw, self.layout.layout.pzd
-        duration = min(_MAX_US, max(0, round((f.end - f.start) * 1e6)))
+        # the end as the writers stamp it: the rounded start plus the rounded duration is the
+        # rounded end, so a replay measures the same delays to the nanosecond
+        nanos = max(0, round(f.end * NS) - round(f.start * NS))
+        duration, extra = min(_MAX_US, nanos // 1000), nanos % 1000
         delay = NO_DELAY
         if self.delay is not None:
             delay = max(NO_DELAY + 1, min(2**31 - 1, round(self.delay * 1e6)))
@@ -141,18 +148,22 @@ class CaptureRecord:
             pzd,
             duration,
             delay,
+            extra,
         )
 
     @classmethod
     def from_packet(cls, data: bytes, start: float, where: str) -> CaptureRecord:
         """Parse pseudo-header and telegram bytes; `ConfigError` naming ``where`` if bad."""
-        if len(data) < 2 or data[0] != PSEUDO_VERSION or data[1] < PSEUDO_HEADER.size:
+        if len(data) < 2 or data[0] != PSEUDO_VERSION or data[1] < _SHORT_HEADER:
             raise ConfigError(f"{where}: not a USS capture packet (pseudo-header version 1)")
         if len(data) < data[1]:
             raise ConfigError(f"{where}: packet shorter than its pseudo-header")
-        _, size, direction, fault, flags, pkw, pzd, duration, delay = PSEUDO_HEADER.unpack_from(
-            data
+        head = bytes(data[: data[1]]).ljust(PSEUDO_HEADER.size, b"\0")
+        _, size, direction, fault, flags, pkw, pzd, duration, delay, extra = (
+            PSEUDO_HEADER.unpack_from(head)
         )
+        if extra > 999:
+            raise ConfigError(f"{where}: bad pseudo-header: {extra} ns beyond the microseconds")
         raw = bytes(data[size:])
         try:
             kind = None if fault == NO_FAULT else _FAULT_KINDS[fault]
@@ -172,7 +183,7 @@ class CaptureRecord:
         return cls.make(
             raw,
             start,
-            start + duration / 1e6,
+            (round(start * NS) + duration * 1000 + extra) / NS,
             side,
             CaptureFlag(flags),
             kind,
@@ -255,6 +266,11 @@ class Capture:
     tolerance: float = 0.0
     """The tolerance of the timestamps the monitor judged timing with (seconds; 0 when the
     capture does not say: a recording of the virtual bus, or a capture whose gap held it)."""
+    epoch: float = 0.0
+    """The Unix time of time 0 of the records (a pcapng capture counts from its first packet,
+    so that times keep their nanoseconds)."""
+    profile: str | None = None
+    """The device profile the monitor that wrote the capture decoded with (``--profile``)."""
 
 
 class CaptureWriter(Protocol):
@@ -271,8 +287,8 @@ class CaptureWriter(Protocol):
 
 class RecordWriter:
     """Base of the capture writers: an `AtomicWriter`, the line's settings and a record count.
-    A subclass writes its header in `__init__` (after calling this one) and implements
-    `write_record`."""
+    A subclass implements `header` (the bytes the file begins with, written here) and
+    `write_record`. ``linktype`` is for pcapng only (None: its default)."""
 
     def __init__(
         self,
@@ -283,17 +299,26 @@ class RecordWriter:
         epoch: float = 0.0,
         gap: float | None = None,
         tolerance: float = 0.0,
+        profile: str | None = None,
+        linktype: int | None = None,
     ) -> None:
         self.baud = check_baud(baud)
         self.four_wire = four_wire
         self.epoch = epoch
+        self.profile = profile
         self.gap = gap
         self.tolerance = tolerance
+        self.linktype = linktype
+        header = self.header()  # bad settings are refused before a file is made
         self._file = AtomicWriter(path, "a capture")
         self.path = self._file.path
         self.packets = 0
         self._held: list[tuple[float, int, CaptureRecord]] = []
         self._seq = itertools.count()
+        self._file.write(header)
+
+    def header(self) -> bytes:
+        raise NotImplementedError
 
     def write(self, exchange: Exchange) -> None:
         """Write the frames of ``exchange``. Frames go into the file in time order: those of
@@ -338,32 +363,37 @@ def open_writer(
     linktype: int | None = None,
     gap: float | None = None,
     tolerance: float = 0.0,
+    profile: str | None = None,
 ) -> CaptureWriter:
     """A capture writer for ``path``: pcapng for ``.pcapng`` (also ``.pcap``, ``.ntar``),
     JSON lines for ``.jsonl`` (also ``.json``, ``.ndjson``). ``epoch`` is added to frame times
     to make them Unix time; ``linktype`` is the pcapng user link type (147..162); ``gap`` and
-    ``tolerance`` the monitor's (seconds), kept so that a replay judges timing the same way."""
+    ``tolerance`` the monitor's (seconds), kept so that a replay judges timing the same way;
+    ``profile`` the device profile the monitor decodes with, so that a replay names and types
+    parameters the same way."""
     from pyuss.monitor import jsonl, pcapng
 
     suffix = Path(path).suffix.lower()
+    kind: type[RecordWriter]
     if suffix in PCAPNG_SUFFIXES:
-        return pcapng.PcapngWriter(
-            path,
-            baud=baud,
-            four_wire=four_wire,
-            epoch=epoch,
-            linktype=pcapng.DEFAULT_LINKTYPE if linktype is None else linktype,
-            gap=gap,
-            tolerance=tolerance,
-        )
-    if suffix in JSONL_SUFFIXES:
+        kind = pcapng.PcapngWriter
+    elif suffix in JSONL_SUFFIXES:
         if linktype is not None:
             raise ConfigError("a link type only applies to pcapng captures")
-        return jsonl.JsonlWriter(
-            path, baud=baud, four_wire=four_wire, epoch=epoch, gap=gap, tolerance=tolerance
+        kind = jsonl.JsonlWriter
+    else:
+        raise ConfigError(
+            f"capture file {str(path)!r}: name it *.pcapng (Wireshark) or *.jsonl (JSON lines)"
         )
-    raise ConfigError(
-        f"capture file {str(path)!r}: name it *.pcapng (Wireshark) or *.jsonl (JSON lines)"
+    return kind(
+        path,
+        baud=baud,
+        four_wire=four_wire,
+        epoch=epoch,
+        gap=gap,
+        tolerance=tolerance,
+        profile=profile,
+        linktype=linktype,
     )
 
 

@@ -89,6 +89,8 @@ _LATE_FACTOR = 10
 _ROUNDING = 1e-8
 _HISTORY = 64
 _EPS = 1e-9
+_STAMP_ROUNDING = 1e-6
+"""Times in captures are rounded to 1 us: a delay closer to 0 than that is 0."""
 
 
 def default_gap(baud: int) -> float:
@@ -210,6 +212,32 @@ class Monitor:
         """An answer that starts sooner than this after the request came without the start
         pause (A 5.2.1.1: the response delay is never less than the start pause)."""
         return self.timing.start_pause - self.resolution
+
+    def response_delay(self, request: Frame, answer: Frame) -> tuple[float | None, str]:
+        """The response delay from the request's last byte to the answer's first (A 5.2.1.1),
+        as the stamps tell it, or None with the reason when they cannot tell it:
+
+        - on a port that stamps bytes when they are read (a resolution above 0), an answer
+          whose first byte the receiver laid right after the request's last (the port
+          delivered them in one read, or more bytes than the line carried since the last read)
+          hides the pause between them;
+        - an answer that seems to start before the request ended (the two ports of a 4-wire
+          line stamp their bytes apart) has no delay to show.
+
+        The rounding of capture files (1 us) is no pause and no overlap."""
+        delay = answer.start - request.end
+        if delay < -_STAMP_ROUNDING:
+            return None, (
+                f"delay unknown: the answer's stamps put its start {_ms(-delay)} before the end "
+                "of the request (each port stamps its bytes when they are read)"
+            )
+        if self.resolution > 0 and delay < _STAMP_ROUNDING:
+            return None, (
+                "delay unknown: the port delivered the answer together with the end of the "
+                f"request, so its stamps hide the pause between them (resolution "
+                f"{_ms(self.resolution)})"
+            )
+        return max(delay, 0.0), ""
 
     # -- input -----------------------------------------------------------------------------
 
@@ -674,8 +702,10 @@ class Monitor:
     def _pair(self, request: Frame, answer: Frame, unsure: str) -> list[Exchange]:
         self._last = answer
         issues: list[Issue] = []
-        delay = answer.start - request.end
-        if delay > self.answer_window + _EPS:
+        delay, _ = self.response_delay(request, answer)  # None: no timing rule to judge
+        if delay is None:
+            pass
+        elif delay > self.answer_window + _EPS:
             issues.append(
                 Issue(
                     Problem.LATE_ANSWER,
@@ -849,7 +879,9 @@ class Monitor:
             all_notes += _job_notes(request_data, answer_data)
         delay = None
         if request is not None and answer is not None:
-            delay = answer.start - request.end
+            delay, unknown = self.response_delay(request, answer)
+            if unknown:
+                all_notes.insert(0, unknown)
         exchange = Exchange(
             request,
             answer,

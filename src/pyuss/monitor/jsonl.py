@@ -105,30 +105,20 @@ def record_from_json(item: Any) -> CaptureRecord:
 class JsonlWriter(RecordWriter):
     """Writes exchanges as JSON lines (see the module text), atomically."""
 
-    def __init__(
-        self,
-        path: str | os.PathLike[str],
-        *,
-        baud: int,
-        four_wire: bool = False,
-        epoch: float = 0.0,
-        gap: float | None = None,
-        tolerance: float = 0.0,
-    ) -> None:
-        super().__init__(
-            path, baud=baud, four_wire=four_wire, epoch=epoch, gap=gap, tolerance=tolerance
-        )
+    def header(self) -> bytes:
         header: dict[str, Any] = {
             "format": FORMAT,
             "version": VERSION,
-            "baud": baud,
-            "four_wire": four_wire,
+            "baud": self.baud,
+            "four_wire": self.four_wire,
         }
-        if gap is not None:
-            header["gap_ms"] = round(gap * 1000, 6)
-        if tolerance:
-            header["tolerance_ms"] = round(tolerance * 1000, 6)
-        self._file.write((json.dumps(header) + "\n").encode())
+        if self.gap is not None:
+            header["gap_ms"] = round(self.gap * 1000, 6)
+        if self.tolerance:
+            header["tolerance_ms"] = round(self.tolerance * 1000, 6)
+        if self.profile is not None:
+            header["profile"] = self.profile
+        return (json.dumps(header) + "\n").encode()
 
     def write_record(self, record: CaptureRecord) -> None:
         line = json.dumps(record_json(record, self.epoch), separators=(", ", ": "))
@@ -185,4 +175,14 @@ def read_jsonl(path: str | os.PathLike[str]) -> Capture:
         kind="JSON lines",
         gap=None if gap is None else float(gap) / 1000,
         tolerance=float(tolerance) / 1000,
+        profile=_profile(name, header.get("profile")),
     )
+
+
+def _profile(name: str, value: object) -> str | None:
+    """The header's ``profile``: a profile's name, or absent."""
+    if value is None:
+        return None
+    if not isinstance(value, str) or not value or len(value) > 64:
+        raise ConfigError(f"{name}:1: profile {value!r} is not the name of a device profile")
+    return value

@@ -12,7 +12,7 @@ Written with `struct` after the pcapng format (draft-ietf-opsawg-pcapng), in lit
   time), ``epb_flags`` giving the direction as seen from the master (request outbound, answer
   inbound, unknown 0) and an ``opt_comment`` with the receive fault's detail, if any.
 
-The packet data are the 16-byte pseudo-header of `pyuss.monitor.capture.PSEUDO_HEADER`
+The packet data are the 20-byte pseudo-header of `pyuss.monitor.capture.PSEUDO_HEADER`
 followed by the frame's bytes as they were on the line. The shipped Wireshark dissector
 (``uss wireshark path``) decodes both.
 
@@ -68,6 +68,7 @@ _INBOUND, _OUTBOUND = 1, 2
 _NS = 1_000_000_000
 _GAP = re.compile(rb"gap ([0-9.]+) ms")
 _TOLERANCE = re.compile(rb"tolerance ([0-9.]+) ms")
+_PROFILE = re.compile(rb"profile ([A-Za-z0-9_.-]{1,64})")
 #: Largest timestamp tolerance a capture may give (ms).
 _MAX_TOLERANCE_MS = 1000
 
@@ -104,44 +105,35 @@ def _block(kind: int, body: bytes) -> bytes:
 class PcapngWriter(RecordWriter):
     """Writes exchanges to a pcapng file (see the module text), atomically."""
 
-    def __init__(
-        self,
-        path: str | os.PathLike[str],
-        *,
-        baud: int,
-        four_wire: bool = False,
-        epoch: float = 0.0,
-        linktype: int = DEFAULT_LINKTYPE,
-        gap: float | None = None,
-        tolerance: float = 0.0,
-    ) -> None:
-        self.linktype = check_linktype(linktype)
-        super().__init__(
-            path, baud=baud, four_wire=four_wire, epoch=epoch, gap=gap, tolerance=tolerance
-        )
-        wiring = "4-wire" if four_wire else "2-wire"
-        description = f"USS {wiring} line, {baud} baud"
-        if gap is not None:
-            description += f", gap {gap * 1000:.6f} ms"
-        if tolerance:
-            description += f", tolerance {tolerance * 1000:.6f} ms"
+    def header(self) -> bytes:
+        linktype = check_linktype(DEFAULT_LINKTYPE if self.linktype is None else self.linktype)
+        wiring = "4-wire" if self.four_wire else "2-wire"
+        description = f"USS {wiring} line, {self.baud} baud"
+        if self.gap is not None:
+            description += f", gap {self.gap * 1000:.6f} ms"
+        if self.tolerance:
+            description += f", tolerance {self.tolerance * 1000:.6f} ms"
+        if self.profile is not None:
+            description += f", profile {self.profile}"
+        self._epoch_ns = round(self.epoch * _NS)
         shb = struct.pack("<IHHq", BOM, 1, 0, -1) + _options(
             [(SHB_USERAPPL, f"pyuss {__version__}".encode())]
         )
-        idb = struct.pack("<HHI", self.linktype, 0, 0) + _options(
+        idb = struct.pack("<HHI", linktype, 0, 0) + _options(
             [
                 (IF_NAME, b"uss"),
                 (IF_DESCRIPTION, description.encode()),
-                (IF_SPEED, struct.pack("<Q", baud)),
+                (IF_SPEED, struct.pack("<Q", self.baud)),
                 (IF_TSRESOL, bytes((9,))),
             ]
         )
-        self._file.write(_block(SHB_TYPE, shb) + _block(IDB_TYPE, idb))
+        return _block(SHB_TYPE, shb) + _block(IDB_TYPE, idb)
 
     def write_record(self, record: CaptureRecord) -> None:
         frame = record.frame
         data = record.pseudo_header() + frame.raw
-        stamp = max(0, round((frame.start + self.epoch) * _NS))
+        # whole nanoseconds added, not seconds: a Unix time in a float has lost them
+        stamp = max(0, self._epoch_ns + round(frame.start * _NS))
         flags = {Direction.REQUEST: _OUTBOUND, Direction.RESPONSE: _INBOUND}.get(frame.direction, 0)
         options = [(EPB_FLAGS, struct.pack("<I", flags))]
         if frame.detail:
@@ -184,7 +176,12 @@ class _Reader:
         self.four_wire = False
         self.gap: float | None = None
         self.tolerance = 0.0
+        self.profile: str | None = None
         self.packet = 0
+        self.base: int | None = None
+        """The timestamp of the first packet (in its interface's units): times count from it."""
+        self.base_time = 0.0
+        self.base_resolution = 0.0
 
     def fail(self, offset: int, what: str) -> ConfigError:
         return ConfigError(f"{self.name}: bad pcapng at byte {offset}: {what}")
@@ -226,6 +223,8 @@ class _Reader:
             kind="pcapng",
             gap=self.gap,
             tolerance=self.tolerance,
+            epoch=self.base_time,
+            profile=self.profile,
         )
 
     def block(self, kind: int, body: bytes, offset: int) -> None:
@@ -251,6 +250,9 @@ class _Reader:
                 found = _GAP.search(description)
                 if found:
                     self.gap = float(found.group(1)) / 1000
+                found = _PROFILE.search(description)
+                if found:
+                    self.profile = found.group(1).decode()
                 found = _TOLERANCE.search(description)
                 if found:
                     try:
@@ -274,13 +276,21 @@ class _Reader:
                 raise self.fail(offset, "packet data beyond the block")
             packet = body[20 : 20 + captured]
             options = _parse_options(body, 20 + captured + (-captured % 4), order)
-            start = ((high << 32) | low) * resolution
+            stamp = (high << 32) | low
+            start = stamp * resolution
             where = f"{self.name}: packet {self.packet}"
             if not start <= MAX_TIME:
                 raise ConfigError(
                     f"{where}: timestamp {start:.6g} s is out of range (at most {MAX_TIME:.0f} s)"
                 )
-            record = CaptureRecord.from_packet(packet, start, where)
+            if self.base is None:
+                self.base, self.base_time, self.base_resolution = stamp, start, resolution
+            # from the first packet on, in whole units: the nanoseconds stay
+            if resolution == self.base_resolution:
+                since = (stamp - self.base) * resolution
+            else:  # an interface of other units (a merged capture)
+                since = start - self.base_time
+            record = CaptureRecord.from_packet(packet, since, where)
             comments = options.get(OPT_COMMENT)
             if comments and record.frame.fault is not None:
                 detail = comments[0].decode("utf-8", "replace")

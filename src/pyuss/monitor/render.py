@@ -39,6 +39,7 @@ from pyuss.protocol.pkw import (
     RequestId,
     ResponseId,
     error_meaning,
+    page_of,
     parameter_number,
 )
 from pyuss.protocol.pzd import ControlWord, StatusWord, raw16_to_percent
@@ -50,6 +51,7 @@ _RED, _YELLOW, _RESET = "\x1b[31m", "\x1b[33m", "\x1b[0m"
 _STANDARD_BITS = 11
 _MAX_VALUES = 8
 _NOISE_BYTES = 16
+_NS = 1_000_000_000
 
 
 class ValueText(Protocol):
@@ -259,6 +261,10 @@ def _net_text(
         else:
             right = answer_text(reply, page_size, known) if reply is not None else "?"
             parts.append(f"{left} -> {right}")
+        paged = next((p for p in (job, reply) if p is not None and page_of(p.index)), None)
+        if page_size is None and paged is not None:
+            # the number is not the PNU alone on a family that counts IND pages in: say so
+            parts.append(f"(IND page {page_of(paged.index)}: --profile counts it in)")
     if rq is not None and (text := _pzd_text(rq, ex.control_before, True, known)):
         parts.append(text)
     if an is not None and (text := _pzd_text(an, ex.status_before, False, known)):
@@ -282,7 +288,17 @@ def _time(seconds: float, origin: float, absolute: bool) -> str:
     if absolute:
         stamp = _dt.datetime.fromtimestamp(seconds + origin)
         return stamp.strftime("%H:%M:%S.%f")
-    return f"{seconds - origin:12.6f}"
+    # in whole nanoseconds, as captures keep them: a replay prints the same times
+    return f"{(round(seconds * _NS) - round(origin * _NS)) / _NS:12.6f}"
+
+
+def _delay(ex: Exchange) -> str | None:
+    """The response delay in ms, from the frames' times in whole nanoseconds (as captures keep
+    them, so that a replay prints the same)."""
+    if ex.delay is None or ex.request is None or ex.answer is None:
+        return None
+    nanos = max(0, round(ex.answer.start * _NS) - round(ex.request.end * _NS))
+    return f"{nanos / 1e6:.3f} ms"
 
 
 def exchange_line(
@@ -304,8 +320,9 @@ def exchange_line(
         shown = raw[:_NOISE_BYTES].hex(" ").upper() + (" .." if len(raw) > _NOISE_BYTES else "")
         parts.append(f"{len(raw)} bytes: {shown}")
     parts += _net_text(ex, page_size, known)
-    if ex.delay is not None:
-        parts.append(f"{ex.delay * 1000:.3f} ms")
+    delay = _delay(ex)
+    if delay is not None:
+        parts.append(delay)
     parts += list(ex.notes)
     line = "  ".join(parts)
     if ex.issues:

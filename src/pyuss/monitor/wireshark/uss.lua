@@ -6,7 +6,8 @@
 --
 --   offset size  pseudo-header (big endian), written by pyuss.monitor.capture
 --   0      1     version (1)
---   1      1     header length in bytes (16); the telegram follows at this offset
+--   1      1     header length in bytes (20; 16 in captures of earlier versions); the
+--                telegram follows at this offset
 --   2      1     direction: 0 unknown, 1 request (master to slave), 2 response (slave to master)
 --   3      1     receive fault (A 5.2.2): 0 framing, 1 overrun, 2 parity, 3 no valid start,
 --                4 BCC, 5 residual time, 6 LGE, 8 undefined ADR, 255 none
@@ -15,7 +16,8 @@
 --   7      1     PZD words of the layout used: 0..16, 255 unknown
 --   8      4     duration of the frame in microseconds
 --   12     4     response delay of an answer in microseconds (signed; -2^31: none)
---   16     ...   the bytes as they were on the line: STX LGE ADR net data BCC
+--   16     4     nanoseconds of the duration beyond its whole microseconds (0..999)
+--   20     ...   the bytes as they were on the line: STX LGE ADR net data BCC
 --
 -- Install: `uss wireshark install` copies this file into Wireshark's personal Lua plugins
 -- folder; or load it once with `wireshark -X lua_script:/path/to/uss.lua`.
