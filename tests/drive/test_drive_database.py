@@ -33,6 +33,8 @@ def test_every_builtin_profile_loads() -> None:
         "sinamics-g110",
         "sinamics-g120",
         "sinamics-v20",
+        "sinamics-g120c",
+        "sinamics-cu240e2",
         "nord-sk500e",
     }
     for name in builtin_profiles():

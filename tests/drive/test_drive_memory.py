@@ -11,6 +11,7 @@ from pyuss.drive.database import Parameter as ParameterSpec
 from pyuss.drive.datatypes import DataType
 from pyuss.drive.faults import DriveErrorNumber, NoWriteAuthority, ParameterFault
 from pyuss.drive.memory import LOCAL, WHOLE_ARRAY, ParameterChange, ParameterMemory
+from pyuss.protocol.bico import MAX_INDEX, MAX_SOURCE, Bico
 from pyuss.protocol.pkw import ErrorNumber
 from support.paths import load_vectors
 
@@ -211,6 +212,8 @@ def test_update_ignores_limits_but_not_the_type(drive: ParameterMemory) -> None:
 
 
 def _values_of(param: ParameterSpec) -> st.SearchStrategy[object]:
+    if param.bico:  # a signal source: parameter and index or bit (pyuss.protocol.bico)
+        return st.builds(Bico, st.integers(0, MAX_SOURCE), st.integers(0, MAX_INDEX))
     if param.allowed is not None:
         return st.sampled_from(param.allowed)
     if param.dtype is DataType.FLOAT:

@@ -29,8 +29,15 @@ def _argv(command: str) -> list[str]:
     return [sys.executable, *words[1:]]
 
 
-def test_the_console_example_runs_as_written() -> None:
-    block = _blocks("console")[0]  # the second: tests/profiles/test_manual_lists.py
+def test_the_console_examples_run_as_written() -> None:
+    # the coverage example is run by tests/profiles/test_manual_lists.py
+    blocks = [b for b in _blocks("console") if "pyuss.profiles.coverage" not in b]
+    assert len(blocks) == 2  # the V20's and the G120C's BICO input
+    for block in blocks:
+        _run_console(block)
+
+
+def _run_console(block: str) -> None:
     steps: list[tuple[str, list[str]]] = []
     for line in block.splitlines():
         if line.startswith("$ "):

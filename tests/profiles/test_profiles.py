@@ -29,6 +29,8 @@ def test_registry() -> None:
         "sinamics-g110",
         "sinamics-g120",
         "sinamics-v20",
+        "sinamics-g120c",
+        "sinamics-cu240e2",
         "nord-sk500e",
     )
     assert get_profile("nord") is PROFILES["nord"]

@@ -44,6 +44,7 @@ from pyuss.drive.datatypes import (
 )
 from pyuss.drive.faults import ParameterFault
 from pyuss.errors import ConfigError
+from pyuss.protocol.bico import Bico, BicoError, to_bico
 from pyuss.protocol.pkw import ErrorNumber
 from pyuss.userfile import parse_toml, read_text
 
@@ -275,6 +276,9 @@ class Parameter:
     changeable: str | None = None
     """When it can be changed: letters of ``CUT`` (`CHANGEABLE_LETTERS`); None: always, as far
     as access and ``stopped_only`` allow."""
+    bico: bool = False
+    """A BICO input (SINAMICS firmware 4): a ``uint32`` whose value names a signal source,
+    `pyuss.protocol.bico.Bico` (``r722.2``); the file gives its defaults as such texts."""
     doc: str = ""
     follows: str = ""
     """Where the facts come from: a document and section (docs/references.md), or "project"."""
@@ -320,7 +324,10 @@ class Parameter:
         return decode(self.dtype, words, self.length)
 
     def coerce(self, value: object) -> Value:
-        """``value`` as this type holds it, or a `ParameterFault` (5 wrong type, 2 range)."""
+        """``value`` as this type holds it, or a `ParameterFault` (5 wrong type, 2 range); a
+        BICO input takes a `Bico`, its text (``"r722.2"``) or its 32-bit value."""
+        if self.bico:
+            return _bico(value)
         dtype = self.dtype
         if dtype is DataType.FLOAT:
             if isinstance(value, bool) or not isinstance(value, int | float):
@@ -784,6 +791,7 @@ _PARAM_KEYS = {
     "bit_texts",
     "level",
     "changeable",
+    "bico",
     "doc",
     "follows",
     "seed",  # the older name of "follows"
@@ -1285,6 +1293,10 @@ def _parameter(entry: dict[str, Any], where: _Where, profile: ProfileInfo) -> Pa
     index_texts = _index_texts(entry, array, where)
     bit_texts = _bit_texts(entry, dtype, array, where)
 
+    bico = _flag(entry.get("bico", False), where, "bico")
+    if bico and (dtype is not DataType.UINT32 or {"min", "max", "allowed", "texts"} & set(entry)):
+        raise where.error("bico", "a BICO input is a uint32 without min, max, allowed or texts")
+
     param = Parameter(
         pnu=pnu,
         name=name,
@@ -1310,6 +1322,7 @@ def _parameter(entry: dict[str, Any], where: _Where, profile: ProfileInfo) -> Pa
         bit_texts=bit_texts,
         level=_level(entry.get("level"), where),
         changeable=_changeable(entry.get("changeable"), where, access),
+        bico=bico,
         doc=_text(entry.get("doc", ""), where, "doc"),
         follows=_text(entry.get("follows", entry.get("seed", "")), where, "follows"),
     )
@@ -1446,6 +1459,11 @@ def _sources(
         param = _check_ref(ref, parameters, profile, where, kind)
         if uss is None:
             raise where.error(f"{kind}_uss", f"required with {kind!r}: the value meaning USS")
+        if param.bico and isinstance(uss, str):
+            try:
+                uss = param.coerce(uss)
+            except ParameterFault as exc:
+                raise where.error(f"{kind}_uss", exc.detail) from None
         if isinstance(uss, bool) or not isinstance(uss, int):
             raise where.error(f"{kind}_uss", f"must be an integer value of P{ref.pnu}")
         try:
@@ -1456,6 +1474,17 @@ def _sources(
             ) from None
         found[kind] = Source(ref, uss)
     return Sources(command=found["command"], setpoint=found["setpoint"])
+
+
+def _bico(value: object) -> Bico:
+    """A BICO input's value: a `Bico`, its text or its 32-bit value (error 5 for another kind,
+    2 for a value that is no source)."""
+    if isinstance(value, bool) or not isinstance(value, str | int):
+        raise ParameterFault(ErrorNumber.WRONG_TYPE, f"{value!r} is no BICO source (r722.2)")
+    try:
+        return to_bico(value)
+    except BicoError as exc:
+        raise ParameterFault(ErrorNumber.LIMIT_EXCEEDED, str(exc)) from None
 
 
 def _limit(entry: dict[str, Any], key: str, dtype: DataType, where: _Where) -> int | float | None:

@@ -91,6 +91,9 @@ class ParamInfo:
     """Writes may only reset it to 0."""
     store: bool = True
     """The drive keeps it in EEPROM."""
+    bico: bool = False
+    """A BICO input (SINAMICS firmware 4): its value is a `pyuss.protocol.bico.Bico`, the
+    signal source it reads (``r722.2``)."""
     doc: str = ""
     source: Source = Source.PROFILE
     names: NameStyle = NameStyle.PROJECT
@@ -194,6 +197,8 @@ class ParamInfo:
             data["reset_only"] = True
         if not self.store:
             data["store"] = False
+        if self.bico:
+            data["bico"] = True
         if self.doc:
             data["doc"] = self.doc
         return data
@@ -233,6 +238,7 @@ class ParamInfo:
                 active=bool(data.get("active", False)),
                 reset_only=bool(data.get("reset_only", False)),
                 store=bool(data.get("store", True)),
+                bico=bool(data.get("bico", False)),
                 doc=str(data.get("doc", "")),
                 source=Source(data.get("source", "drive")),
             )
@@ -277,6 +283,7 @@ def from_parameter(
         active=param.active,
         reset_only=param.reset_only,
         store=param.store,
+        bico=param.bico,
         doc=param.doc,
         source=source,
         names=names,

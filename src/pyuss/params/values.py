@@ -36,6 +36,7 @@ from pyuss.drive.datatypes import encode as encode_raw
 from pyuss.drive.faults import ParameterFault
 from pyuss.errors import ConfigError, TelegramError
 from pyuss.params.model import ParamInfo
+from pyuss.protocol.bico import Bico, BicoError, is_bico, parse_bico, to_bico
 
 __all__ = [
     "ValueRefused",
@@ -104,6 +105,8 @@ def _clean(number: float) -> float:
 
 def physical(info: ParamInfo, raw: Value) -> Value:
     """The physical value of ``raw``: raw x scaling for a scaled integer."""
+    if info.bico and isinstance(raw, int) and is_bico(raw):
+        return Bico.from_raw(raw)
     if info.is_scaled and isinstance(raw, int) and info.scaling is not None:
         return _clean(raw * info.scaling)
     return raw
@@ -128,6 +131,8 @@ def raw_of(info: ParamInfo, value: object, index: int | None = None) -> Value:
     `ValueRefused` for a value of another kind or between two steps of the scaling."""
     where = label(info, index)
     dtype = info.dtype
+    if info.bico:
+        return _bico_of(value, where)
     if dtype is DataType.V2:
         raise ValueRefused(
             f"{where} is a bit field (V2): write its bit pattern as raw words "
@@ -166,6 +171,14 @@ def raw_of(info: ParamInfo, value: object, index: int | None = None) -> Value:
             raise ValueRefused(f"{where} ({info.type_name}) takes a whole number, not {value!r}")
         return int(value)
     return value
+
+
+def _bico_of(value: object, where: str) -> Bico:
+    """The source a BICO input is given: a `Bico`, its text or its 32-bit value."""
+    try:
+        return to_bico(value)
+    except BicoError as exc:
+        raise ValueRefused(f"{where} (BICO input): {exc}") from None
 
 
 def check_raw(info: ParamInfo, raw: Value, index: int | None = None) -> None:
@@ -243,6 +256,10 @@ def parse(info: ParamInfo, text: str, index: int | None = None) -> Value:
     where = label(info, index)
     source = text.strip()
     dtype = info.dtype
+    if info.bico:
+        if not source:
+            raise ValueRefused(f"{where}: no value given")
+        return _bico_of(source, where)
     if dtype is DataType.VISIBLE_STRING:
         if len(source) >= 2 and source[0] == source[-1] and source[0] in "\"'":
             source = source[1:-1]
@@ -359,6 +376,14 @@ def format_value(
         suffix = f" {info.unit}" if unit and info is not None and info.unit else ""
         return f"[{inner}]{suffix}"
     assert isinstance(value, int | float | str | bytes)
+    if isinstance(value, Bico):
+        return value.text()
+    if info is not None and info.bico and isinstance(value, int | str):
+        try:  # a backup holds a source as its text
+            return (parse_bico(value) if isinstance(value, str) else Bico.from_raw(value)).text()
+        except BicoError:
+            if isinstance(value, int):
+                return f"{value:08X}h (no BICO source)"
     if info is None:
         if isinstance(value, float):
             return float_text(value)
@@ -409,6 +434,8 @@ def json_value(value: Value | Sequence[Value]) -> object:
     """A value for JSON: bytes as hex text, strings without their padding, lists as lists."""
     if isinstance(value, list | tuple):
         return [json_value(v) for v in value]
+    if isinstance(value, Bico):
+        return value.text()
     if isinstance(value, bytes):
         return value.hex(" ").upper()
     if isinstance(value, str):

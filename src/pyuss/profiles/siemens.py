@@ -23,6 +23,17 @@ What they share (their manuals, named in each parameter file's ``manual``):
   the one with P2023 (RS-485 protocol selection). G110 and G120 are not told apart by a
   parameter the project is sure of: `pyuss.profiles.identify` names them "Siemens, MICROMASTER
   4 kind" and uses ``micromaster4``.
+
+SINAMICS G120 of firmware 4 (``sinamics-g120c``, ``sinamics-cu240e2``; their shared parameter
+file is ``_sinamics_fw4.toml``) speaks USS the same way on the telegram level (the same IND
+pages, SINAMICS G120C Operating Instructions 02/2023, 8.6) but numbers its interface p2020
+(baud rate codes 4..13 = 2400..187500), p2021 (address 0..30), p2022 (PZD count 0..16),
+p2023 (PKW count) and p2040 (monitoring time in ms, fault F01910), and wires control word 1
+by BICO (p0840 = r2090.0 ..., `pyuss.protocol.bico`). Control word 1 bits 8, 9, 12 and 15
+are reserved over USS, so no jog; status word 1 bits 11, 13 and 15 are low-active alarms
+(torque limit, motor and converter overtemperature), bit 14 the direction (8.8). Their
+diagnostic parameters are P29900.. (the project's choice: P2090.. are r2090 and p2103 on these
+drives).
 """
 
 from __future__ import annotations
@@ -35,12 +46,16 @@ from pyuss.protocol.layout import PKW_VARIABLE, Layout
 
 __all__ = [
     "CONTROL_BITS",
+    "FW4_CONTROL_BITS",
+    "FW4_STATUS_BITS",
     "MICROMASTER420",
     "MICROMASTER440",
     "PROFILES",
     "SIEMENS",
+    "SINAMICS_CU240E2",
     "SINAMICS_G110",
     "SINAMICS_G120",
+    "SINAMICS_G120C",
     "SINAMICS_V20",
     "STATUS_BITS",
 ]
@@ -143,4 +158,44 @@ SINAMICS_V20 = replace(
     ),
 )
 
-PROFILES = (MICROMASTER420, MICROMASTER440, SINAMICS_G110, SINAMICS_G120, SINAMICS_V20)
+FW4_CONTROL_BITS: dict[int, str] = {
+    **{bit: text for bit, text in CONTROL_BITS.items() if bit not in (8, 9)},
+    11: "direction reversal (setpoint inverted)",
+}
+"""Control word 1 of firmware 4 over USS (G120C Operating Instructions 02/2023, 8.8): bits 8,
+9, 12 and 15 reserved."""
+
+FW4_STATUS_BITS: dict[int, str] = {
+    **{bit: text for bit, text in STATUS_BITS.items() if bit < 11},
+    8: "speed deviation within tolerance",
+    10: "comparison speed reached",
+    11: "torque limit reached (0 = active)",
+    13: "motor overtemperature alarm (0 = active)",
+    14: "motor turns clockwise",
+    15: "converter overload alarm (0 = active)",
+}
+"""Status word 1 of firmware 4 (8.8): bit 12 reserved."""
+
+_FW4 = replace(
+    _BASE,
+    addresses=(0, 30),
+    max_pzd=16,
+    control_bits=FW4_CONTROL_BITS,
+    status_bits=FW4_STATUS_BITS,
+    diagnostic_pnu=29900,
+)
+
+SINAMICS_G120C = replace(_FW4, name="sinamics-g120c", title="SINAMICS G120C (firmware 4)")
+SINAMICS_CU240E2 = replace(
+    _FW4, name="sinamics-cu240e2", title="SINAMICS G120 with CU240E-2 (firmware 4)"
+)
+
+PROFILES = (
+    MICROMASTER420,
+    MICROMASTER440,
+    SINAMICS_G110,
+    SINAMICS_G120,
+    SINAMICS_V20,
+    SINAMICS_G120C,
+    SINAMICS_CU240E2,
+)
