@@ -497,7 +497,9 @@ def _help() -> None:
 
 def profiles() -> list[str]:
     """The drive profiles uss simulate --help names on Linux."""
-    text = " ".join(uss_linux("simulate", "--help").stdout.split())
+    # argparse may wrap a name at its hyphen ("nord-" / "sk500e"): such a break joins up again
+    wrapped = re.sub(r"-\n\s*", "-", uss_linux("simulate", "--help").stdout)
+    text = " ".join(wrapped.split())
     found = re.search(r"--profile NAME the drive family to simulate: ([a-z0-9, -]+?) \(", text)
     expect(found, "no profile list in uss simulate --help")
     assert found
