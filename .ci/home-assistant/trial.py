@@ -40,6 +40,7 @@ import time
 import urllib.parse
 import urllib.request
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -420,6 +421,17 @@ class Trial:
             self.recorder.command(name, "setpoint_percent", percent)
             self.recorder.command(name, "run", "ON")
 
+    def outage(self, kind: str, lose: Callable[[], object], mend: Callable[[], object]) -> None:
+        """A fault that takes every drive away: ``lose`` it, 5 s, ``mend`` it, then until 5
+        more answers of each drive have passed and 3 s more."""
+        phase = self.phase(kind, tuple(DRIVES.values()))
+        lose()
+        time.sleep(5)
+        mend()
+        self.answers_pass(5)
+        time.sleep(3)
+        phase.end = time.time()
+
     def quiet(self, seconds: float) -> None:
         phase = self.phase("quiet")
         time.sleep(seconds)
@@ -445,21 +457,13 @@ class Trial:
         time.sleep(2)
         burst.end = time.time()
         self.quiet(10)
-        cut = self.phase("line cut by the proxy", tuple(DRIVES.values()))
-        self.proxy.cut()
-        time.sleep(5)
-        self.proxy.restore()
-        self.answers_pass(5)
-        time.sleep(3)
-        cut.end = time.time()
+        self.outage("line cut by the proxy", self.proxy.cut, self.proxy.restore)
         self.quiet(10)
-        killed = self.phase("simulator killed and started again", tuple(DRIVES.values()))
-        kill(self.plant.simulator)
-        time.sleep(5)
-        self.plant.start_simulator()
-        self.answers_pass(5)
-        time.sleep(3)
-        killed.end = time.time()
+        self.outage(
+            "simulator killed and started again",
+            lambda: kill(self.plant.simulator),
+            self.plant.start_simulator,
+        )
         self.run_drives(25.0 + 10 * (self.cycles % 4))  # the drives started again stopped
         self.quiet(10)
         restart = self.phase("broker restarted", ("(Home Assistant's MQTT link)",))
@@ -469,13 +473,11 @@ class Trial:
         time.sleep(10)
         restart.end = time.time()
         self.quiet(10)
-        dead = self.phase("gateway killed and started again", tuple(DRIVES.values()))
-        kill(self.plant.gateway)
-        time.sleep(5)
-        self.plant.start_gateway()
-        self.answers_pass(5)
-        time.sleep(3)
-        dead.end = time.time()
+        self.outage(
+            "gateway killed and started again",
+            lambda: kill(self.plant.gateway),
+            self.plant.start_gateway,
+        )
         self.quiet(10)
 
     def ours(self) -> dict[str, dict[str, Any]]:
