@@ -16,7 +16,9 @@ reaches the line that was not checked here first. The rules every face relies on
 - Process data whose request failed are taken back (`_taken_back`): the words of before
   are sent again, so a request its client was told failed does not act later.
 - A fault or the drive lost ends a jog: the jog bits are dropped (`_end_jog`), so an
-  acknowledge or the drive's return does not set the motor turning again.
+  acknowledge or the drive's return does not set the motor turning again. Lost is silent for
+  `JOG_GRACE` (0.2 s, far shorter than a power-up): one answer missed on a noisy line does not
+  stop a jog.
 - A drive gone offline (by its bus's `OfflineRule`, or its line down) is given back
   (`_release`): the control word goes back to 0000h, no control by the interface, as from a
   gateway started again, so the line or the drive coming back resends no command nobody
@@ -137,6 +139,11 @@ DEFAULT_OFFLINE = OfflineRule()
 """The rule of a drive's points made without a bus (`DrivePoints.around`)."""
 HEALTH_PERIOD = 0.2
 """How often "does not send" is looked at (seconds)."""
+JOG_GRACE = 0.2
+"""How long a jog runs on after a missed answer (seconds): one answer lost on a noisy line or
+to a busy computer does not stop it, a drive silent longer may have lost its power, and would
+jog again on the standing bit once it is back. Far shorter than any drive's power-up; the jog
+ends at most `HEALTH_PERIOD` later."""
 RETRY_PERIOD = 5.0
 """How long to wait before reading the reference again after a failure (seconds)."""
 MAX_TEXT = 64
@@ -174,6 +181,8 @@ class DrivePoints:
         self._answering = False
         """Whether it answers by `offline` (after its first answer)."""
         self._missed = 0
+        self._missed_since = 0.0
+        """When the first of the `_missed` answers was missed (the line's clock)."""
         self._heard = system.clock()
         """When it last answered, or its bus came online (the line's clock)."""
         self._told = False
@@ -344,8 +353,7 @@ class DrivePoints:
     def check_health(self) -> None:
         """Tell subscribers if "does not send" changed (no answer reports that), and whether
         the drive went so long without an answer that it is offline."""
-        if self.drive.not_sending:
-            self._end_jog("does not send")
+        self._jog_silent()
         self._judge()
         if self.drive.not_sending != self._state.health.not_sending:
             self._changed()
@@ -353,8 +361,10 @@ class DrivePoints:
     # -- availability ------------------------------------------------------------------------
     def _on_missed(self, missed: int) -> None:
         """The master's telegram got no usable answer (the ``missed``-th in a row)."""
+        if missed == 1 or not self._missed:
+            self._missed_since = system.clock()
         self._missed = missed
-        self._end_jog("does not send")
+        self._jog_silent()
         if not self._judge() and missed == 1 and self._answering:
             self._changed()  # its values are stale now
 
@@ -421,6 +431,11 @@ class DrivePoints:
         self._serial += 1  # a request under way is not to take it back
         self.drive.set_control(0)
         return True
+
+    def _jog_silent(self) -> None:
+        """End a jog once the drive has not answered for `JOG_GRACE` (see `_end_jog`)."""
+        if self._missed and system.clock() - self._missed_since >= JOG_GRACE:
+            self._end_jog(f"does not send (no answer for {duration_text(JOG_GRACE)} or more)")
 
     def _end_jog(self, why: str) -> None:
         """A jog runs while its bit is held; a fault or a drive lost (a power cut) ends it:
