@@ -35,7 +35,8 @@ tables, see `pyuss.points.config`) and one table per face::
 A face without its table is not started. Bad configuration raises `ConfigError` naming the key,
 before anything is opened. Which tables there are comes from the registry of faces
 (`pyuss.gateway.faces`): each face's entry reads its own table (the options of pyuss's faces
-and their readers are in `pyuss.gateway.options`, imported from here too).
+and their readers are in `pyuss.gateway.options`; the options and `mqtt_options` are imported
+from here too).
 """
 
 from __future__ import annotations
@@ -47,14 +48,7 @@ from typing import Any
 
 from pyuss.errors import ConfigError
 from pyuss.gateway.faces import faces
-from pyuss.gateway.options import (
-    ModbusOptions,
-    MqttOptions,
-    OpcuaOptions,
-    modbus_options,
-    mqtt_options,
-    opcua_options,
-)
+from pyuss.gateway.options import ModbusOptions, MqttOptions, OpcuaOptions, mqtt_options
 from pyuss.points.config import PlantConfig, Where, parse_plant
 from pyuss.points.endpoint import Endpoint
 from pyuss.points.model import resolve
@@ -68,9 +62,7 @@ __all__ = [
     "check_listening",
     "listening",
     "load_config",
-    "modbus_options",
     "mqtt_options",
-    "opcua_options",
     "parse_config",
 ]
 
