@@ -226,9 +226,11 @@ def test_the_platform_rule_sees_what_it_forbids() -> None:
 
 # No import circles between the modules of pyuss: every import counts, at module level and
 # inside functions (a function-local import closes a circle as surely, only later), relative
-# ones resolved; imports under `if TYPE_CHECKING:` are left out, as they never run. A name
-# taken from a package that loads its modules on first use (`pyuss._lazy`) counts as an
-# import of the module that defines it, found in the package's own `TYPE_CHECKING` imports.
+# ones resolved; imports under `if TYPE_CHECKING:` never run and are left out (the type
+# checker's own test below counts them). A name taken from a package that loads its modules on
+# first use (`pyuss._lazy`) counts as an import of the module that defines it, found in the
+# package's own `TYPE_CHECKING` imports. The package a module belongs to, which Python loads
+# before the module, counts only where the module imports it by name.
 
 
 def _module_name(path: Path, root: Path) -> str:
@@ -245,10 +247,10 @@ def _is_type_checking(test: ast.expr) -> bool:
 Imports = list[ast.Import | ast.ImportFrom]
 
 
-def _runtime_imports(tree: ast.AST) -> tuple[Imports, list[ast.ImportFrom]]:
+def _split_imports(tree: ast.AST) -> tuple[Imports, Imports]:
     """The imports that run (anywhere in the module), and those under `if TYPE_CHECKING:`."""
     runs: Imports = []
-    typing_only: list[ast.ImportFrom] = []
+    typing_only: Imports = []
 
     def visit(node: ast.AST, checking: bool) -> None:
         if isinstance(node, ast.If) and _is_type_checking(node.test):
@@ -258,10 +260,7 @@ def _runtime_imports(tree: ast.AST) -> tuple[Imports, list[ast.ImportFrom]]:
                 visit(child, checking)
             return
         if isinstance(node, ast.Import | ast.ImportFrom):
-            if not checking:
-                runs.append(node)
-            elif isinstance(node, ast.ImportFrom):
-                typing_only.append(node)
+            (typing_only if checking else runs).append(node)
         for child in ast.iter_child_nodes(node):
             visit(child, checking)
 
@@ -282,13 +281,14 @@ def import_graph(root: Path, *, typing: bool = False) -> dict[str, set[str]]:
     """Module -> the modules of the package at ``root`` it imports when it runs (``typing``:
     and those it imports for the type checker only)."""
     files = {_module_name(p, root): p for p in sorted(root.rglob("*.py"))}
-    parsed = {n: _runtime_imports(ast.parse(p.read_text("utf-8"))) for n, p in files.items()}
+    parsed = {n: _split_imports(ast.parse(p.read_text("utf-8"))) for n, p in files.items()}
     lazy: dict[str, dict[str, str]] = {}  # package -> name -> the module that defines it
     for name, path in files.items():
         if path.name == "__init__.py":
             lazy[name] = {
                 alias.asname or alias.name: _absolute(node, name, True)
                 for node in parsed[name][1]
+                if isinstance(node, ast.ImportFrom)
                 for alias in node.names
             }
     graph: dict[str, set[str]] = {name: set() for name in files}
