@@ -278,7 +278,9 @@ class DrivePoints:
         if status.word & _FAULT:
             self._end_jog("faulted")
         if self._samples is not None:
-            self._samples.append(Sample(time.time(), status.word, self.actual_row(status.actual)))
+            self._samples.append(
+                Sample(time.time(), status.word, self.access.actual_row(status.actual))
+            )
         back = self._missed or not self._answering
         if back:
             self._answered_again(status.time)
