@@ -395,6 +395,10 @@ class ProfileInfo:
     """The file (or files, base first) the database was read from."""
     index_base: int = 1
     description: DescriptionStyle = DescriptionStyle.PROFIBUS
+    description_term: str = ""
+    """What the family's manuals call the parameter description a drive sends for request
+    ID 4 (the SINAMICS manuals: "descriptive element"); "": the specification's "parameter
+    description" (C 6)."""
     text_write: bool = False
     """Texts may be changed with request ID 15 (C Table 4.1 note 3: SIMOVERT MASTERDRIVES)."""
     max_pnu: int = 2047
@@ -755,6 +759,7 @@ _PROFILE_KEYS = {
     "extends",
     "index_base",
     "description",
+    "description_term",
     "text_write",
     "max_pnu",
     "access_level",
@@ -1019,6 +1024,7 @@ def _profile(data: dict[str, Any], source: str, sources: str) -> ProfileInfo:
         source=sources,
         index_base=index_base,
         description=description,
+        description_term=_text(data.get("description_term", ""), where, "description_term"),
         text_write=_flag(data.get("text_write", False), where, "text_write"),
         max_pnu=max_pnu,
         access_level=level_ref,
