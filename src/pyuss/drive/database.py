@@ -279,6 +279,9 @@ class Parameter:
     bico: bool = False
     """A BICO input (SINAMICS firmware 4): a ``uint32`` whose value names a signal source,
     `pyuss.protocol.bico.Bico` (``r722.2``); the file gives its defaults as such texts."""
+    macro: bool = False
+    """A macro: one value sets a group of other parameters at once (the SINAMICS V20's
+    connection and application macros, firmware 4's p0015); ``uss params macro`` lists them."""
     doc: str = ""
     follows: str = ""
     """Where the facts come from: a document and section (docs/references.md), or "project"."""
@@ -797,6 +800,7 @@ _PARAM_KEYS = {
     "level",
     "changeable",
     "bico",
+    "macro",
     "doc",
     "follows",
     "seed",  # the older name of "follows"
@@ -1329,6 +1333,7 @@ def _parameter(entry: dict[str, Any], where: _Where, profile: ProfileInfo) -> Pa
         level=_level(entry.get("level"), where),
         changeable=_changeable(entry.get("changeable"), where, access),
         bico=bico,
+        macro=_flag(entry.get("macro", False), where, "macro"),
         doc=_text(entry.get("doc", ""), where, "doc"),
         follows=_text(entry.get("follows", entry.get("seed", "")), where, "follows"),
     )
