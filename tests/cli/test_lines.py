@@ -325,6 +325,33 @@ def test_uss_web_shows_the_drives_of_the_files_line(sim: str) -> None:
     assert isinstance(drives, list) and [d["address"] for d in drives] == [6]
 
 
+def page_scan_profile(argv: list[str]) -> str:
+    """The profile the page of ``uss web ARGV`` scans by at first (``/api/config``)."""
+    process, lines = serve(["web", *argv, "--listen", "127.0.0.1:0"], "http://")
+    try:
+        with urllib.request.urlopen(lines[-1].split("?")[0] + "api/config", timeout=30) as reply:
+            config = json.load(reply)
+    finally:
+        assert stop(process) == 0
+    assert config["scan_profile"] in config["profiles"]
+    return str(config["scan_profile"])
+
+
+@STOPPED
+def test_the_pages_scan_probes_by_the_lines_profile(sim: str) -> None:
+    pytest.importorskip("aiohttp")
+    Path("uss.toml").write_text(line("line1", sim, (5, "conveyor"), extra='profile = "nord"\n'))
+    assert page_scan_profile([]) == "nord"  # the line's, as the file names it
+    assert page_scan_profile(["--profile", "micromaster4"]) == "micromaster4"  # --profile wins
+    drives = "".join(
+        f'[[bus.drive]]\naddress = {a}\nname = "d{a}"\nprofile = "nord"\n' for a in (5, 6)
+    )
+    Path("uss.toml").write_text(line("line1", sim) + drives)  # as uss scan --save writes it
+    assert page_scan_profile([]) == "nord"  # the profile all the line's drives have
+    Path("uss.toml").write_text(line("line1", sim, (5, "conveyor")))
+    assert page_scan_profile([]) == "generic"  # none named
+
+
 def auto_page(profile: str, address: str) -> tuple[list[dict[str, object]], str]:
     """The drives `uss web --profile auto` shows of a simulated ``profile`` drive, and its
     stderr."""
