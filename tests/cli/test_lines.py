@@ -83,7 +83,7 @@ def test_a_drive_by_name_and_a_line_by_name(sim: str, capsys: pytest.CaptureFixt
     code, out, err = uss(capsys, "status", "pump", "--json")
     assert code == 0 and json.loads(out)["address"] == 6, err
     code, out, err = uss(capsys, "describe", "conveyor", "52")
-    assert code == 0 and out.startswith("P52 "), err
+    assert code == 0 and out.startswith("P52: parameter description"), err
     code, out, err = uss(capsys, "mirror", "pump", "--count", "1", "--json")
     assert code == 0, err
     code, out, err = uss(capsys, "scan", "--address", "5", "--json")
