@@ -22,7 +22,7 @@ from pyuss import system
 from pyuss.cli.main import main
 from support.paths import ROOT
 from support.processes import simulator
-from support.userconfig import isolate
+from support.userconfig import empty_place
 from test_userfile import bad_files, refuses
 
 USS = [sys.executable, "-m", "pyuss.cli.main"]
@@ -45,12 +45,7 @@ def sim() -> Iterator[str]:
 def place(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """An empty working directory and configuration directory, no USS_CONFIG: no file of the
     user's is found. Yields the working directory."""
-    work = tmp_path / "work"
-    work.mkdir()
-    monkeypatch.chdir(work)
-    monkeypatch.delenv("USS_CONFIG", raising=False)
-    isolate(monkeypatch, tmp_path / "home")
-    return work
+    return empty_place(tmp_path, monkeypatch)
 
 
 def line(name: str, port: str, *drives: tuple[int, str], baud: int = BAUD, extra: str = "") -> str:

@@ -315,7 +315,7 @@ async def _drives(args: argparse.Namespace) -> list[tuple[int, str | None, Layou
             args.baud = args.baud or line.baud
             args.line_profile = line.profile if line.name in lines.profiles else None
             if not args.address:
-                targets = [lines.target(line.name, d.name, port_given=True) for d in line.drives]
+                targets = lines.targets(line)
         drives = [(t.address, t.profile, t.layout) for t in targets if t.address is not None]
     args.baud = args.baud or 9600
     port, baud = args.port, args.baud
