@@ -89,6 +89,10 @@ async def test_bare_in_a_folder_with_the_file_it_monitors_its_line(place: Path) 
         argv = ("--config", str(other), "--line", "line2", "--profile", "sinamics-v20")
         items, _ = await monitor(bus, *argv)
         assert all("read r2110[1] -> r2110[1] = 7" in str(i["summary"]) for i in items)
+        # --port given wins over the file's; with --line the file gives the rest (the baud)
+        items, listening = await monitor(bus, "--port", url, "--line", "line1")
+        assert f"listening on {url}?listen_only=1 (2-wire, {BAUD} baud" in listening
+        assert "read r2110[1]" in str({i["address"]: i for i in items}[5]["summary"])
     finally:
         await bus.close()
 

@@ -489,8 +489,8 @@ def use_line(args: argparse.Namespace) -> None:
     line = lines.target(args.line, None, port_given=listening).line
     if line is None:
         return
-    if args.read is None and not args.port:
-        args.port = [line.port]
+    if args.read is None:
+        args.port = args.port or [line.port]
         args.baud = line.baud if args.baud is None else args.baud
     drives = lines.targets(line)
     if not args.layout:
