@@ -34,8 +34,8 @@ demo: $(DEMO_STAMP)
 	$(VENV)/bin/uss demo
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check src tests bench
-	$(VENV)/bin/ruff format --check src tests bench
+	$(VENV)/bin/ruff check src tests bench .ci
+	$(VENV)/bin/ruff format --check src tests bench .ci
 
 # The code is checked as Linux, Windows and macOS see it (docs/platforms.md).
 typecheck: $(STAMP)

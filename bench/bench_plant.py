@@ -1,5 +1,8 @@
-"""Broker figures for a plant (`make bench`): the MQTT face as deployed, what it costs a broker
-and how long its messages take.
+"""Broker figures for a plant (`make bench`): the MQTT face at its full rate, what it costs a
+broker and how long its messages take. Its gateways run with the throttle off (``max_rate =
+0``): every answer of a ramping drive is a state, which the goals below count; with the
+default throttle (10 states a drive and second) a broker carries less (`bench_gateway` has
+the CPU of both).
 
 Each case runs as users run it: a real mosquitto (``sys_interval 1``, so its ``$SYS`` counters
 come every second), per bus ``uss simulate --bus-tcp`` with its drives and ``uss gateway
@@ -230,7 +233,7 @@ def _plant_file(directory: Path, number: int, url: str, size: int, port: int) ->
     ]
     for address in range(1, size + 1):
         lines += ["[[bus.drive]]", f"address = {address}"]
-    lines += ["[mqtt]", f'broker = "mqtt://127.0.0.1:{port}"', "discovery = true"]
+    lines += ["[mqtt]", f'broker = "mqtt://127.0.0.1:{port}"', "discovery = true", "max_rate = 0"]
     path = directory / f"line{number}.toml"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
@@ -551,7 +554,8 @@ def main() -> list[Figure]:
         except (RuntimeError, TimeoutError) as exc:  # a machine too loaded for the drives
             print(f"{label}: not measured: {exc}")
     print(
-        f"MQTT face as deployed, {BAUD} baud, PKW 4 + PZD 2 (wire limit {limit:.0f} exchanges/s"
+        f"MQTT face, throttle off (max_rate 0), {BAUD} baud, PKW 4 + PZD 2 (wire limit "
+        f"{limit:.0f} exchanges/s"
         f" per bus); mosquitto with its defaults or with {NO_DELAY}"
         f"{'; quick' if QUICK else ''}; {os.cpu_count()} cores, load average {load:.1f} "
         "at the start:"

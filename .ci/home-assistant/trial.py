@@ -226,8 +226,9 @@ class HomeAssistant:
 
     def _post(self, path: str, body: Any, *, form: bool = False, auth: bool = True) -> Any:
         data = (urllib.parse.urlencode(body) if form else json.dumps(body)).encode()
-        headers = {"Content-Type": "application/x-www-form-urlencoded" if form else
-                   "application/json"}  # fmt: skip
+        headers = {
+            "Content-Type": "application/x-www-form-urlencoded" if form else "application/json"
+        }
         if auth:
             headers["Authorization"] = f"Bearer {self.access()}"
         request = urllib.request.Request(self.url + path, data, headers, method="POST")
@@ -244,10 +245,15 @@ class HomeAssistant:
     def onboard(self) -> None:
         code = self._post(
             "/api/onboarding/users",
-            {"client_id": CLIENT_ID, "name": "Plant", "username": "plant",
-             "password": "plant-trial", "language": "en"},
+            {
+                "client_id": CLIENT_ID,
+                "name": "Plant",
+                "username": "plant",
+                "password": "plant-trial",
+                "language": "en",
+            },
             auth=False,
-        )["auth_code"]  # fmt: skip
+        )["auth_code"]
         tokens = self._post(
             "/auth/token",
             {"grant_type": "authorization_code", "code": code, "client_id": CLIENT_ID},
@@ -261,11 +267,14 @@ class HomeAssistant:
         if time.time() > self.token_until:
             tokens = self._post(
                 "/auth/token",
-                {"grant_type": "refresh_token", "refresh_token": self.refresh,
-                 "client_id": CLIENT_ID},
+                {
+                    "grant_type": "refresh_token",
+                    "refresh_token": self.refresh,
+                    "client_id": CLIENT_ID,
+                },
                 form=True,
                 auth=False,
-            )  # fmt: skip
+            )
             self.token, self.token_until = tokens["access_token"], time.time() + 600
         return self.token
 
@@ -284,24 +293,27 @@ class HomeAssistant:
         """The results of websocket ``commands``, sent in order on one connection."""
 
         async def run() -> list[Any]:
-            async with aiohttp.ClientSession() as session:
-                async with session.ws_connect(self.url + "/api/websocket", max_msg_size=0) as ws:
-                    await ws.receive_json()
-                    await ws.send_json({"type": "auth", "access_token": self.access()})
-                    ok = await ws.receive_json()
-                    if ok.get("type") != "auth_ok":
-                        raise RuntimeError(f"websocket auth: {ok}")
-                    results = []
-                    for number, command in enumerate(commands, 1):
-                        await ws.send_json({"id": number, **command})
-                        while True:
-                            answer = await ws.receive_json(timeout=120)
-                            if answer.get("id") == number and answer["type"] == "result":
-                                break
-                        if not answer["success"]:
-                            raise RuntimeError(f"{command['type']}: {answer.get('error')}")
-                        results.append(answer["result"])
-                    return results
+            url = self.url + "/api/websocket"
+            async with (
+                aiohttp.ClientSession() as session,
+                session.ws_connect(url, max_msg_size=0) as ws,
+            ):
+                await ws.receive_json()
+                await ws.send_json({"type": "auth", "access_token": self.access()})
+                ok = await ws.receive_json()
+                if ok.get("type") != "auth_ok":
+                    raise RuntimeError(f"websocket auth: {ok}")
+                results = []
+                for number, command in enumerate(commands, 1):
+                    await ws.send_json({"id": number, **command})
+                    while True:
+                        answer = await ws.receive_json(timeout=120)
+                        if answer.get("id") == number and answer["type"] == "result":
+                            break
+                    if not answer["success"]:
+                        raise RuntimeError(f"{command['type']}: {answer.get('error')}")
+                    results.append(answer["result"])
+                return results
 
         return asyncio.run(run())
 
@@ -349,19 +361,33 @@ class Plant:
     def start_simulator(self) -> None:
         addresses = [a for address in DRIVES for a in ("--address", str(address))]
         self.simulator = subprocess.Popen(
-            self.uss("simulate", "--profile", PROFILE, *addresses, "--layout", "4,2",
-                     "--baud", BAUD, "--tcp", f"127.0.0.1:{self.line}"),
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, text=True,
-        )  # fmt: skip
+            self.uss(
+                "simulate",
+                "--profile",
+                PROFILE,
+                *addresses,
+                "--layout",
+                "4,2",
+                "--baud",
+                BAUD,
+                "--tcp",
+                f"127.0.0.1:{self.line}",
+            ),
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
         wait_port(self.line, 30, "uss simulate")
 
     def start_gateway(self) -> None:
         with self.log.open("a", encoding="utf-8") as stderr:
             self.gateway = subprocess.Popen(
                 self.uss("gateway", "--config", str(self.config)),
-                stdout=subprocess.PIPE, stderr=stderr, text=True,
+                stdout=subprocess.PIPE,
+                stderr=stderr,
+                text=True,
                 env={**os.environ, "PYTHONUNBUFFERED": "1"},
-            )  # fmt: skip
+            )
         assert self.gateway.stdout is not None
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
@@ -385,8 +411,11 @@ class Plant:
             self.proxy.close()
 
     def gateway_log(self, pattern: str) -> list[str]:
-        return [line for line in self.log.read_text(encoding="utf-8").splitlines()
-                if re.search(pattern, line)]  # fmt: skip
+        return [
+            line
+            for line in self.log.read_text(encoding="utf-8").splitlines()
+            if re.search(pattern, line)
+        ]
 
 
 class Trial:
@@ -412,8 +441,10 @@ class Trial:
 
     def answers_pass(self, count: int) -> None:
         now = dict(self.proxy.passed)
-        until(lambda: all(self.proxy.passed.get(a, 0) >= now.get(a, 0) + count for a in DRIVES),
-              f"{count} more answers of each drive")  # fmt: skip
+        until(
+            lambda: all(self.proxy.passed.get(a, 0) >= now.get(a, 0) + count for a in DRIVES),
+            f"{count} more answers of each drive",
+        )
 
     def run_drives(self, percent: float) -> None:
         assert self.recorder is not None
@@ -483,8 +514,11 @@ class Trial:
     def ours(self) -> dict[str, dict[str, Any]]:
         """Our entities in Home Assistant's registry, by unique id."""
         (entries,) = self.ha.ws({"type": "config/entity_registry/list"})
-        return {e["unique_id"]: e for e in entries
-                if e["platform"] == "mqtt" and e["unique_id"].startswith(f"pyuss_{BUS}_")}  # fmt: skip
+        return {
+            e["unique_id"]: e
+            for e in entries
+            if e["platform"] == "mqtt" and e["unique_id"].startswith(f"pyuss_{BUS}_")
+        }
 
     def run(self) -> dict[str, Any]:
         args = self.args
@@ -499,16 +533,24 @@ class Trial:
         self.plant.start_simulator()
         self.plant.start_gateway()
         recorder = self.recorder
-        configs = until(lambda: len(recorder.discovery) >= 2 and recorder.discovery,
-                        "discovery messages")  # fmt: skip
+        configs = until(
+            lambda: len(recorder.discovery) >= 2 and recorder.discovery, "discovery messages"
+        )
         time.sleep(3)
         configs = {c["unique_id"]: c for c in recorder.discovery.values()}
         until(lambda: set(configs) <= set(self.ours()), "the entities in Home Assistant", 120, 2)
         entities = self.ours()
         energy = [entities[u]["entity_id"] for u in configs if u.endswith("_param_P39")]
-        self.ha.ws({"type": "energy/save_prefs", "energy_sources": [],
-                    "device_consumption": [{"stat_consumption": e} for e in energy]})  # fmt: skip
-        log(f"{len(entities)} entities; energy counters {energy} are the energy dashboard's devices")
+        self.ha.ws(
+            {
+                "type": "energy/save_prefs",
+                "energy_sources": [],
+                "device_consumption": [{"stat_consumption": e} for e in energy],
+            }
+        )
+        log(
+            f"{len(entities)} entities; energy counters {energy} are the energy dashboard's devices"
+        )
         began = time.time()
         self.run_drives(20.0)
         deadline = began + args.minutes * 60
@@ -517,12 +559,14 @@ class Trial:
             log(f"cycle {self.cycles} done, {max(0, deadline - time.time()) / 60:.1f} min left")
         self.quiet(20)
         ended = time.time()
-        (self.directory / "phases.json").write_text(json.dumps(
-            [(p.kind, p.start, p.end, p.away) for p in self.phases]), encoding="utf-8")
+        (self.directory / "phases.json").write_text(
+            json.dumps([(p.kind, p.start, p.end, p.away) for p in self.phases]), encoding="utf-8"
+        )
         return self.check(version, configs, began, ended)
 
-    def check(self, version: str, configs: dict[str, dict[str, Any]], began: float,
-              ended: float) -> dict[str, Any]:  # fmt: skip
+    def check(
+        self, version: str, configs: dict[str, dict[str, Any]], began: float, ended: float
+    ) -> dict[str, Any]:
         problems: list[str] = []
         entities = self.ours()
         ids = {u: entities[u]["entity_id"] for u in configs if u in entities}
@@ -537,14 +581,17 @@ class Trial:
                 continue
             for key in ("device_class", "state_class", "unit_of_measurement"):
                 if config.get(key) != state["attributes"].get(key):
-                    wrong.append(f"{ids[unique]} {key}: {state['attributes'].get(key)!r},"
-                                 f" discovery says {config.get(key)!r}")  # fmt: skip
+                    wrong.append(
+                        f"{ids[unique]} {key}: {state['attributes'].get(key)!r},"
+                        f" discovery says {config.get(key)!r}"
+                    )
         problems += wrong
         energy = {u: ids[u] for u in configs if u.endswith("_param_P39") and u in ids}
         for entity in energy.values():
             attributes = states[entity]["attributes"]
-            got = tuple(attributes.get(k) for k in ("device_class", "state_class",
-                                                    "unit_of_measurement"))  # fmt: skip
+            got = tuple(
+                attributes.get(k) for k in ("device_class", "state_class", "unit_of_measurement")
+            )
             if got != ("energy", "total_increasing", "kWh"):
                 problems.append(f"{entity}: {got} is no energy counter")
         validation, prefs, statistic_ids, statistics_issues = self.ha.ws(
@@ -562,8 +609,9 @@ class Trial:
             energy_issues = [i for i in energy_issues if i["type"] != "statistics_not_defined"]
         if energy_issues:
             problems.append(f"energy/validate: {energy_issues}")
-        summed = sorted(s["statistic_id"] for s in statistic_ids
-                        if s["statistic_id"] in energy.values())  # fmt: skip
+        summed = sorted(
+            s["statistic_id"] for s in statistic_ids if s["statistic_id"] in energy.values()
+        )
         ours_issues = {k: v for k, v in statistics_issues.items() if k in ids.values()}
         if ours_issues:
             problems.append(f"recorder/validate_statistics: {ours_issues}")
@@ -602,12 +650,21 @@ class Trial:
         end = datetime.fromtimestamp(ended, UTC).isoformat()
         history = self.ha.get(
             f"/api/history/period/{urllib.parse.quote(start)}?"
-            + urllib.parse.urlencode({"end_time": end, "filter_entity_id": ",".join(ids.values()),
-                                      "minimal_response": "", "no_attributes": ""})
-        )  # fmt: skip
+            + urllib.parse.urlencode(
+                {
+                    "end_time": end,
+                    "filter_entity_id": ",".join(ids.values()),
+                    "minimal_response": "",
+                    "no_attributes": "",
+                }
+            )
+        )
         prefix = f"pyuss_{BUS}_"
-        drive_of = {ids[u]: c["device"]["identifiers"][0].removeprefix(prefix)
-                    for u, c in configs.items() if u in ids}  # fmt: skip
+        drive_of = {
+            ids[u]: c["device"]["identifiers"][0].removeprefix(prefix)
+            for u, c in configs.items()
+            if u in ids
+        }
         flaps: dict[str, Counter[str]] = {}
         changes = 0
         for rows in history:
@@ -621,12 +678,23 @@ class Trial:
                     flaps.setdefault(kind, Counter())[entity] += 1
                 before = row["state"]
         single = flaps.get("single losses", Counter())
-        own = {name: sum(self.recorder.availability(name, p.start, p.end + 3).count("offline")
-                         for p in self.phases if p.kind == "single losses")
-               for name in DRIVES.values()} if self.recorder else {}  # fmt: skip
+        own = (
+            {
+                name: sum(
+                    self.recorder.availability(name, p.start, p.end + 3).count("offline")
+                    for p in self.phases
+                    if p.kind == "single losses"
+                )
+                for name in DRIVES.values()
+            }
+            if self.recorder
+            else {}
+        )
         if single:
-            problems.append(f"unavailable during single losses: {dict(single)} (the gateway "
-                            f"said offline then: {own})")  # fmt: skip
+            problems.append(
+                f"unavailable during single losses: {dict(single)} (the gateway "
+                f"said offline then: {own})"
+            )
         for kind in ("quiet", "outside the faults"):
             if flaps.get(kind):
                 problems.append(f"unavailable {kind}: {dict(flaps[kind])}")
@@ -636,8 +704,10 @@ class Trial:
                 continue
             for entity, drive in drive_of.items():
                 if drive in drives and not self.unavailable_in(history, entity, phase):
-                    problems.append(f"{entity} not unavailable in '{phase.kind}' at"
-                                    f" {datetime.fromtimestamp(phase.start, UTC):%H:%M:%S}")
+                    problems.append(
+                        f"{entity} not unavailable in '{phase.kind}' at"
+                        f" {datetime.fromtimestamp(phase.start, UTC):%H:%M:%S}"
+                    )
         assert self.recorder is not None
         with self.recorder.lock:
             messages = [(t, top) for t, top, _ in self.recorder.messages if began <= t <= ended]
@@ -650,9 +720,13 @@ class Trial:
             "phases": dict(phases),
             "entities": len(ids),
             "entities_by_domain": dict(Counter(e.split(".")[0] for e in ids.values())),
-            "energy_counters": {e: [states[e]["attributes"].get(k) for k in
-                                    ("device_class", "state_class", "unit_of_measurement")]
-                                for e in energy.values()},  # fmt: skip
+            "energy_counters": {
+                e: [
+                    states[e]["attributes"].get(k)
+                    for k in ("device_class", "state_class", "unit_of_measurement")
+                ]
+                for e in energy.values()
+            },
             "energy_devices": devices,
             "energy_validate_issues": energy_issues,
             "energy_statistics": summed,
@@ -669,9 +743,14 @@ class Trial:
             "our_warning_lines": our_warnings,
             "mqtt_warning_lines_naming_none_of_ours": mqtt_lines,
             "other_warning_error_lines": other_lines,
-            "timeline": [(p.kind, datetime.fromtimestamp(p.start, UTC).strftime("%H:%M:%S.%f")[:-3],
-                          datetime.fromtimestamp(p.end, UTC).strftime("%H:%M:%S.%f")[:-3])
-                         for p in self.phases],
+            "timeline": [
+                (
+                    p.kind,
+                    datetime.fromtimestamp(p.start, UTC).strftime("%H:%M:%S.%f")[:-3],
+                    datetime.fromtimestamp(p.end, UTC).strftime("%H:%M:%S.%f")[:-3],
+                )
+                for p in self.phases
+            ],
             "gateway_warnings": Counter(
                 re.sub(r"^\S+ \S+ WARNING \S+ ", "", re.sub(r"[\d.]+ s", "N s", line))[:90]
                 for line in self.plant.gateway_log(r" WARNING ")
@@ -697,9 +776,13 @@ class Trial:
     def unavailable_in(history: list[list[dict[str, Any]]], entity: str, phase: Phase) -> bool:
         for rows in history:
             if rows and rows[0]["entity_id"] == entity:
-                return any(row["state"] == "unavailable" and phase.start - 0.5
-                           <= datetime.fromisoformat(row["last_changed"]).timestamp()
-                           <= phase.end + 0.5 for row in rows)  # fmt: skip
+                return any(
+                    row["state"] == "unavailable"
+                    and phase.start - 0.5
+                    <= datetime.fromisoformat(row["last_changed"]).timestamp()
+                    <= phase.end + 0.5
+                    for row in rows
+                )
         return False
 
     def close(self) -> None:
@@ -714,11 +797,16 @@ def main() -> int:
     default_pyuss = REPO / ".venv" / "bin" / "python"
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--minutes", type=float, default=30.0, help="how long the faults go on")
-    parser.add_argument("--hass", default=str(Path(sys.executable).with_name("hass")),
-                        help="Home Assistant's hass (default: beside this Python)")  # fmt: skip
-    parser.add_argument("--pyuss", default=str(default_pyuss if default_pyuss.exists()
-                                                else sys.executable),
-                        help="the Python that has pyuss (default: the repository's .venv)")  # fmt: skip
+    parser.add_argument(
+        "--hass",
+        default=str(Path(sys.executable).with_name("hass")),
+        help="Home Assistant's hass (default: beside this Python)",
+    )
+    parser.add_argument(
+        "--pyuss",
+        default=str(default_pyuss if default_pyuss.exists() else sys.executable),
+        help="the Python that has pyuss (default: the repository's .venv)",
+    )
     parser.add_argument("--keep", type=Path, help="a folder to run in and keep (logs, config)")
     parser.add_argument("--json", type=Path, help="write the figures to this file")
     args = parser.parse_args()

@@ -181,6 +181,11 @@ class LineFile:
         named = line is not None and line.name in self.profiles
         return Target(line, found, address, named)
 
+    def targets(self, line: BusConfig) -> list[Target]:
+        """The drives of ``line`` as the file names them, each with its profile and layout
+        (its own, else its line's)."""
+        return [self.target(line.name, drive.name, port_given=True) for drive in line.drives]
+
 
 def is_address(text: str) -> bool:
     """Whether ``text`` is a number (an address), not a drive's name."""

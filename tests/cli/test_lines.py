@@ -22,7 +22,7 @@ from pyuss import system
 from pyuss.cli.main import main
 from support.paths import ROOT
 from support.processes import simulator
-from support.userconfig import isolate
+from support.userconfig import empty_place
 from test_userfile import bad_files, refuses
 
 USS = [sys.executable, "-m", "pyuss.cli.main"]
@@ -45,12 +45,7 @@ def sim() -> Iterator[str]:
 def place(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """An empty working directory and configuration directory, no USS_CONFIG: no file of the
     user's is found. Yields the working directory."""
-    work = tmp_path / "work"
-    work.mkdir()
-    monkeypatch.chdir(work)
-    monkeypatch.delenv("USS_CONFIG", raising=False)
-    isolate(monkeypatch, tmp_path / "home")
-    return work
+    return empty_place(tmp_path, monkeypatch)
 
 
 def line(name: str, port: str, *drives: tuple[int, str], baud: int = BAUD, extra: str = "") -> str:
@@ -83,7 +78,7 @@ def test_a_drive_by_name_and_a_line_by_name(sim: str, capsys: pytest.CaptureFixt
     code, out, err = uss(capsys, "status", "pump", "--json")
     assert code == 0 and json.loads(out)["address"] == 6, err
     code, out, err = uss(capsys, "describe", "conveyor", "52")
-    assert code == 0 and out.startswith("P52 "), err
+    assert code == 0 and out.startswith("P52: parameter description"), err
     code, out, err = uss(capsys, "mirror", "pump", "--count", "1", "--json")
     assert code == 0, err
     code, out, err = uss(capsys, "scan", "--address", "5", "--json")
@@ -323,6 +318,33 @@ def test_uss_web_shows_the_drives_of_the_files_line(sim: str) -> None:
         assert stop(process) == 0
     drives = bus["drives"]
     assert isinstance(drives, list) and [d["address"] for d in drives] == [6]
+
+
+def page_scan_profile(argv: list[str]) -> str:
+    """The profile the page of ``uss web ARGV`` scans by at first (``/api/config``)."""
+    process, lines = serve(["web", *argv, "--listen", "127.0.0.1:0"], "http://")
+    try:
+        with urllib.request.urlopen(lines[-1].split("?")[0] + "api/config", timeout=30) as reply:
+            config = json.load(reply)
+    finally:
+        assert stop(process) == 0
+    assert config["scan_profile"] in config["profiles"]
+    return str(config["scan_profile"])
+
+
+@STOPPED
+def test_the_pages_scan_probes_by_the_lines_profile(sim: str) -> None:
+    pytest.importorskip("aiohttp")
+    Path("uss.toml").write_text(line("line1", sim, (5, "conveyor"), extra='profile = "nord"\n'))
+    assert page_scan_profile([]) == "nord"  # the line's, as the file names it
+    assert page_scan_profile(["--profile", "micromaster4"]) == "micromaster4"  # --profile wins
+    drives = "".join(
+        f'[[bus.drive]]\naddress = {a}\nname = "d{a}"\nprofile = "nord"\n' for a in (5, 6)
+    )
+    Path("uss.toml").write_text(line("line1", sim) + drives)  # as uss scan --save writes it
+    assert page_scan_profile([]) == "nord"  # the profile all the line's drives have
+    Path("uss.toml").write_text(line("line1", sim, (5, "conveyor")))
+    assert page_scan_profile([]) == "generic"  # none named
 
 
 def auto_page(profile: str, address: str) -> tuple[list[dict[str, object]], str]:

@@ -111,7 +111,7 @@ def test_describe_element_and_fixed_layout_walk(
     assert code == 0
     assert "lower limit" in out and "identifier" in out
     code, again, _ = uss(capsys, "describe", "5", "r0052", *common(sim))  # any spelling
-    assert (code, again) == (0, out) and out.startswith("P52 (")
+    assert (code, again) == (0, out) and out.startswith("P52: parameter description")
     code, out, err = uss(capsys, "describe", "5", "52.1", *common(sim))
     assert (code, out) == (2, "") and "'52.1': a description is the whole parameter's" in err
     code, out, _ = uss(capsys, "describe", "5", "52", "--element", "7", *common(sim), "--json")

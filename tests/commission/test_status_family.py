@@ -72,3 +72,25 @@ def test_a_reference_the_drive_refuses_leaves_the_rest_of_the_look(
         "the reference parameter P2000.0 (100 % of the actual value) could not be read: error "
         "4: parameter is not an array; is --profile sinamics-v20 this drive's family?"
     ) in text
+
+
+@pytest.mark.parametrize(
+    ("fault", "shown"),
+    [
+        (72, "r0947.0 (Fault numbers) = 72 (USS/MODBUS setpoint fault (telegram off time))"),
+        (70, "r0947.0 (Fault numbers) = 70"),  # a MICROMASTER fault the V20 does not have
+    ],
+)
+def test_uss_status_names_the_v20s_fault(
+    fault: int, shown: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`uss status` of a simulated V20 that tripped names the fault in r0947 with the V20's
+    own text (F0072: no setpoint from USS/MODBUS within the telegram off time), and gives a
+    number the V20's file drops (F0070, the MICROMASTER's fieldbus fault) no borrowed text."""
+    with SimulatorThread([(3, "sinamics-v20", None)]) as sim:
+        sim.call(lambda s: s.engines[3].drive.raise_fault(fault))
+        argv = ["status", "3", "--port", sim.paths[0], "--baud", str(sim.baud)]
+        assert main([*argv, "--profile", "sinamics-v20"]) == 0
+        text = capsys.readouterr().out.splitlines()
+    assert text[0] == "drive 3: fault", text
+    assert [line for line in text if line.startswith("r0947.0")] == [shown], text

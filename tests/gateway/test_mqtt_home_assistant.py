@@ -43,6 +43,9 @@ def test_a_siemens_drive_is_shown_as_its_manual_names_it() -> None:
     energy = by_id["param_P39"]
     assert (energy["device_class"], energy["state_class"]) == ("energy", "total_increasing")
     assert energy["unit_of_measurement"] == "kWh"
+    # values the drive shows are on the device's page, its settings among the diagnostics
+    assert "entity_category" not in energy and "entity_category" not in by_id["param_P27"]
+    assert by_id["param_P1120_0"]["entity_category"] == "diagnostic"
     # one binary sensor per named bit of status word 1 (r0052): 16, three of them the fault,
     # warning and running sensors
     bits = sorted(t for t in by_id if t.startswith("bit"))

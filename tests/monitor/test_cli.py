@@ -17,7 +17,7 @@ import pytest
 from monitor.traffic import REQ_52, Slave, Wire, answer, drive, request
 from pyuss.bus import VirtualBus
 from pyuss.cli.main import main
-from pyuss.cli.monitor import ProfileValues
+from pyuss.cli.monitor_output import ProfileValues
 from pyuss.monitor import (
     LayoutBook,
     Listener,

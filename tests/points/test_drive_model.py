@@ -29,7 +29,8 @@ from pyuss.points import (
     line_model,
     simulated_drives,
 )
-from pyuss.points.plant import HEALTH_PERIOD, JOG_GRACE
+from pyuss.points.drive import JOG_GRACE
+from pyuss.points.plant import HEALTH_PERIOD
 from pyuss.points.state import DriveState
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import Telegram

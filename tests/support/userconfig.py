@@ -35,3 +35,15 @@ def isolate(monkeypatch: pytest.MonkeyPatch, home: Path) -> Path:
     folder = system.config_folder()
     assert folder is not None and folder.is_relative_to(home), folder
     return folder
+
+
+def empty_place(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """An empty working directory under ``tmp_path`` for the test, no ``USS_CONFIG`` and a
+    configuration folder of the test's own (`isolate`): no file of the user's is found.
+    Returns the working directory."""
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    monkeypatch.delenv("USS_CONFIG", raising=False)
+    isolate(monkeypatch, tmp_path / "home")
+    return work

@@ -54,6 +54,8 @@ def test_the_bus_view_lists_the_drives_with_their_health(page: Any) -> None:
     # a scan looks for drives of unknown kind, or of any profile pyuss knows
     options = page.locator("#scan-profile option").all_inner_texts()
     assert options == ["unknown", *profile_names()]
+    # chosen at first: the line's profile, "generic" for the demo's line of four families
+    assert page.locator("#scan-profile").input_value() == "generic"
     screenshot(page, "web-bus", full_page=True)
 
 

@@ -18,6 +18,7 @@ import pytest
 from pyuss.errors import ConfigError
 from pyuss.web.backend import Backend
 from pyuss.web.server import WebServer
+from support.processes import simulator
 from support.web import serve
 
 WRITE = {"X-Pyuss": "1"}
@@ -522,3 +523,38 @@ async def test_backup_compare_and_restore_over_http(backend: Backend) -> None:
                     assert words in (await reply.json())["error"], path
     finally:
         await server.close()
+
+
+async def test_a_scan_probes_by_the_lines_profile_unless_asked_for_another(
+    backend: Backend,
+) -> None:
+    # `uss web` gives the server the line's profile (--profile, uss.toml); without one the
+    # page's scan probes by the USS specification's drive profile
+    server = await serve(backend)
+    try:
+        async with (
+            aiohttp.ClientSession(headers=WRITE) as http,
+            http.get(base(server) + "/api/config") as reply,
+        ):
+            assert (await reply.json())["scan_profile"] == "generic"
+    finally:
+        await server.close()
+    with simulator("--profile", "sinamics-v20", "--address", "3", "--baud", "9600") as url:
+        line = Backend(port=url, baud=9600, drives=[])
+        await line.start()
+        server = await serve(line, scan_profile="sinamics-v20@2014")
+        try:
+            async with aiohttp.ClientSession(headers=WRITE) as http:
+                async with http.get(base(server) + "/api/config") as reply:
+                    config = await reply.json()
+                assert config["scan_profile"] == "sinamics-v20@2014"
+                assert "sinamics-v20@2014" in config["profiles"]  # an edition is offered too
+                body = {"addresses": "2-3"}  # no profile named: the line's
+                async with http.post(base(server) + "/api/scan", json=body) as reply:
+                    assert reply.status == 200, await reply.text()
+                    assert [f["address"] for f in (await reply.json())["found"]] == [3]
+            drives = line.bus()["drives"]
+            assert [(d["address"], d["profile"]) for d in drives] == [(3, "sinamics-v20@2014")]
+        finally:
+            await server.close()
+            await line.close()

@@ -6,6 +6,10 @@ layout element by element, leaving out the elements the drive refuses as too lon
 area (USS specification C 7). ``--element N`` reads one element only. Descriptions are
 optional: a drive that has none refuses the request (exit 1 with its error number) or does not
 answer it, and the command then says that the drive gives no description (exit 1).
+
+The first lines say what was read in the family's own terms: the SINAMICS manuals' "descriptive
+elements (request ID 4), SINAMICS V20", and the layout of its elements in words (USS
+specification C 6, or the Baumueller manual's four elements).
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from pyuss.cli._master import (
     run,
 )
 from pyuss.errors import ConfigError
-from pyuss.master.description import Description
+from pyuss.master.description import Description, layout_text
 from pyuss.params.model import param_label
 
 
@@ -52,10 +56,16 @@ def whole_parameter(text: str) -> int:
     return pnu
 
 
-def render(description: Description, label: str | None = None) -> str:
-    """The description as printed; ``label``: the parameter as the drive's family writes it."""
+def render(
+    description: Description, label: str | None = None, *, term: str = "", family: str = ""
+) -> str:
+    """The description as printed; ``label``: the parameter as the drive's family writes it,
+    ``term``: what the family's manuals call the description (``[profile]
+    description_term``), ``family``: the drive's family ("" for a drive of unknown kind)."""
     name = label if label is not None else param_label(description.pnu)
-    lines = [f"{name} ({description.style.value} description)"]
+    what = f"{term or 'parameter description'} (request ID 4)"
+    lines = [f"{name}: {what}{f', {family}' if family else ''}"]
+    lines.append(f"  {'layout':<15} {layout_text(description.style)}")
     summary = [
         ("name", description.name),
         ("data type", description.data_type),
@@ -91,7 +101,14 @@ def main(args: argparse.Namespace) -> int:
         if description is None:
             return EXIT_FAILED
         data = {"address": args.address, **description.to_dict()}
-        emit(args, data, render(description, drive.params.label(pnu)))
+        info = drive.profile.database().profile
+        text = render(
+            description,
+            drive.params.label(pnu),
+            term=info.description_term,
+            family=info.title if drive.profile_named else "",
+        )
+        emit(args, data, text)
         return EXIT_OK
 
     return run("describe", args, body)

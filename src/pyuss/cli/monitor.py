@@ -25,6 +25,12 @@ specification A 5.1.2). ``--write FILE`` saves a capture: ``*.pcapng`` for Wires
 (``uss wireshark install``) or ``*.jsonl``; ``--read FILE`` replays one (or a
 ``uss bus --record`` recording) through the same decoder.
 
+Without ``--port`` (or with ``--config FILE`` or ``--line NAME``) the line comes from the
+configuration file that ``uss scan --save`` writes (docs/lines.md): its port and baud rate,
+the layout of each drive it names, and each drive's profile for its parameter names and
+values; options given win over the file (``--profile`` for every drive, ``--layout`` for all
+layouts). ``uss monitor`` bare in a folder with ``uss.toml`` listens to its line.
+
 Runs until Ctrl-C (or SIGTERM, ``--duration``, ``--count``, the end of ``--read``): exit code
 0. A port that fails gives exit code 1, bad arguments or files exit code 2.
 """
@@ -43,24 +49,24 @@ from collections.abc import Callable, Iterable
 from typing import Any, TextIO
 
 from pyuss.cli._help import plain
-from pyuss.cli._output import error_object, iso_time, wall_clock
-from pyuss.cli.decode import describe
-from pyuss.errors import ConfigError, TelegramError, TransportError
+from pyuss.cli._master import add_line_options, line_file
+from pyuss.cli._output import error_object, wall_clock
+from pyuss.cli.monitor_output import ProfileValues, exchange_json
+from pyuss.errors import ConfigError, TransportError
+from pyuss.lines import looked_in
 from pyuss.monitor.capture import CaptureWriter, open_writer, read_capture
 from pyuss.monitor.core import Monitor, default_gap
 from pyuss.monitor.infer import LayoutBook
 from pyuss.monitor.live import Listener, replay, watch
-from pyuss.monitor.model import Direction, Exchange, Frame
+from pyuss.monitor.model import Exchange
 from pyuss.monitor.pcapng import check_linktype
-from pyuss.monitor.render import ValueText, exchange_line, summary_table
-from pyuss.protocol.layout import Layout
-from pyuss.protocol.telegram import AddressMode
+from pyuss.monitor.render import exchange_line, summary_table
 from pyuss.protocol.timing import BAUD_RATES, check_baud
 from pyuss.system import clock, stop_on_signals
 from pyuss.transport.base import STAMP_TOLERANCE
 from pyuss.transport.url import open_transport
 
-__all__ = ["exchange_json", "frame_json", "register", "run"]
+__all__ = ["register", "run"]
 
 EXIT_OK = 0
 EXIT_FAILED = 1
@@ -99,8 +105,9 @@ def register(subparsers: Any) -> None:
         "--baud",
         type=int,
         help=f"baud rate of the line: {', '.join(map(str, BAUD_RATES))} (USS specification "
-        "B 2.4; needed with --port)",
+        "B 2.4; needed with --port, unless the configuration file's line gives it)",
     )
+    add_line_options(source)
     decode = parser.add_argument_group("decoding")
     decode.add_argument(
         "-l",
@@ -200,71 +207,6 @@ def register(subparsers: Any) -> None:
     parser.set_defaults(func=run)
 
 
-def frame_json(
-    frame: Frame, layout: Layout | None, origin: float = 0.0, page_size: int | None = None
-) -> dict[str, Any]:
-    """A frame as a JSON-ready dict, times less ``origin``; ``telegram`` is what
-    ``uss decode --json`` gives for its bytes with ``layout`` (None when they hold no whole
-    telegram, there is no layout for them or they do not fit it)."""
-    telegram = None
-    if frame.telegram is not None and layout is not None:
-        direction = "response" if frame.direction is Direction.RESPONSE else "request"
-        try:
-            telegram = describe(frame.raw, layout, direction, page_size=page_size)
-        except TelegramError:
-            telegram = None
-    return {
-        "start": round(frame.start - origin, 9),
-        "end": round(frame.end - origin, 9),
-        "hex": frame.raw.hex(" ").upper(),
-        "direction": frame.direction.label,
-        "guessed": frame.guessed,
-        "port": frame.port,
-        "address": frame.address,
-        "mode": None if frame.mode is None else frame.mode.label,
-        "fault": None if frame.fault is None else frame.fault.name.lower(),
-        "detail": frame.detail,
-        "telegram": telegram,
-    }
-
-
-def exchange_json(
-    ex: Exchange,
-    *,
-    origin: float = 0.0,
-    epoch: float | None = None,
-    page_size: int | None = None,
-    known: ValueText | None = None,
-) -> dict[str, Any]:
-    """An exchange as a JSON-ready dict (the keys are listed in docs/monitor.md): ``time`` is
-    the ISO 8601 wall-clock time of ``epoch + ex.time`` (null when ``epoch`` is None: the
-    wall clock is not known), ``t`` and the frames' times are seconds after ``origin``."""
-    decodable = ex.mode in (AddressMode.NORMAL, AddressMode.BROADCAST)
-    layout = ex.layout if decodable else None
-    return {
-        "index": ex.index,
-        "time": None if epoch is None else iso_time(epoch + ex.time),
-        "t": round(ex.time - origin, 9),
-        "kind": ex.kind,
-        "address": ex.address,
-        "mode": None if ex.mode is None else ex.mode.label,
-        "layout": None if ex.layout is None else str(ex.layout),
-        "layout_source": None if ex.layout_source is None else ex.layout_source.value,
-        "request": None
-        if ex.request is None
-        else frame_json(ex.request, layout, origin, page_size),
-        "answer": None if ex.answer is None else frame_json(ex.answer, layout, origin, page_size),
-        "delay_ms": None if ex.delay is None else round(ex.delay * 1000, 6),
-        "problems": [
-            {"problem": i.problem.value, "where": i.where, "text": i.text} for i in ex.issues
-        ],
-        "unsure": ex.unsure or None,
-        "notes": list(ex.notes),
-        "summary": exchange_line(ex, origin=origin, page_size=page_size, known=known),
-        "error": None,
-    }
-
-
 def json_error_line(error: dict[str, Any]) -> dict[str, Any]:
     """A failure in the stream of ``--json`` lines: the keys of an exchange (null), the time
     now and ``error`` (the JSON error object of every command)."""
@@ -344,8 +286,8 @@ class _Output:
         self.done: Callable[[], None] = lambda: None
         color = args.color == "always" or (args.color == "auto" and stream.isatty())
         self.color = color and not args.json
-        self.page_size = page_size(args)
-        self.known = profile_values(args)
+        self._values: dict[str, ProfileValues] = {}
+        """The value texts of each profile the line's drives are decoded by."""
 
     def __call__(self, exchanges: Iterable[Exchange]) -> None:
         for ex in exchanges:
@@ -376,9 +318,16 @@ class _Output:
                 os.dup2(os.open(os.devnull, os.O_WRONLY), self.stream.fileno())
             self.done()
 
+    def decoding(self, address: int | None) -> tuple[int | None, ProfileValues | None]:
+        """The page size and value texts of the drive at ``address`` (`drive_profile`)."""
+        name = drive_profile(self.args, address)
+        if name is not None and name not in self._values:
+            self._values[name] = ProfileValues(name)
+        return page_size(self.args, address), None if name is None else self._values[name]
+
     def render(self, ex: Exchange) -> str:
         assert self.origin is not None
-        pages, known = self.page_size, self.known
+        pages, known = self.decoding(ex.address)
         if self.args.json:
             return json.dumps(
                 exchange_json(ex, origin=self.origin, epoch=self.wall, page_size=pages, known=known)
@@ -435,77 +384,73 @@ def _finish(writers: list[CaptureWriter]) -> None:
         raise ConfigError("; ".join(errors))
 
 
-def page_size(args: argparse.Namespace) -> int | None:
-    """Parameter numbers per IND page of ``--profile``'s devices (None: no paging)."""
-    if getattr(args, "profile", None) is None:
+def page_size(args: argparse.Namespace, address: int | None = None) -> int | None:
+    """Parameter numbers per IND page of the devices of ``--profile`` (or of the profile the
+    configuration file names for the drive at ``address``; None: no paging)."""
+    name = drive_profile(args, address)
+    if name is None:
         return None
     from pyuss.profiles import get_profile
 
-    return get_profile(args.profile).pnu_page_size
+    return get_profile(name).pnu_page_size
 
 
-class ProfileValues:
-    """The values of a line's devices as their profile types them (`ValueText`): parameters
-    through the profile's parameter file (type, scaling, unit, value texts), PZD3 and up
-    through the parameters its ``[process]`` table maps them to."""
-
-    def __init__(self, name: str) -> None:
-        from pyuss.params import ParamBook
-        from pyuss.profiles import get_profile
-
-        profile = get_profile(name)
-        db = profile.database()
-        self.profile = profile
-        self.book = ParamBook.for_profile(profile)
-        self.setpoints = db.process_setpoints
-        self.actuals = db.process_actuals
-
-    def parameter(self, pnu: int, index: int | None, words: tuple[int, ...]) -> str | None:
-        from pyuss.params import decode, format_value
-
-        info = self.book.get(pnu)
-        if info is None:
-            return None
-        try:
-            return format_value(info, decode(info, words, index))
-        except TelegramError:  # words that do not fit its type: shown as they are
-            return None
-
-    def name(self, pnu: int) -> str:
-        return self.book.label(pnu)
-
-    def bits(self, request: bool, word: int, before: int | None) -> str:
-        from pyuss.params.words import WordKind, changed_bits, describe_word
-
-        kind = WordKind.CONTROL if request else WordKind.STATUS
-        if before is None:
-            return ", ".join(describe_word(word, kind, self.profile).names)
-        return changed_bits(before, word, kind, self.profile)
-
-    def process(self, request: bool, number: int, word: int) -> str | None:
-        pnus = self.setpoints if request else self.actuals
-        pnu = pnus[number - 3] if 0 <= number - 3 < len(pnus) else 0
-        info = self.book.get(pnu) if pnu else None
-        if info is None or info.words != 1:
-            return None
-        return self.parameter(pnu, None, (word,))
+def drive_profile(args: argparse.Namespace, address: int | None) -> str | None:
+    """The profile the drive at ``address`` is decoded by: ``--profile``, else the one the
+    configuration file names for it (`use_line`), else none."""
+    given: str | None = getattr(args, "profile", None)
+    if given is not None or address is None:
+        return given
+    profiles: dict[int, str | None] = getattr(args, "drive_profiles", {})
+    return profiles.get(address, getattr(args, "line_profile", None))
 
 
-def profile_values(args: argparse.Namespace) -> ProfileValues | None:
-    """The values typed by ``--profile`` (None without one)."""
-    name = getattr(args, "profile", None)
-    return None if name is None else ProfileValues(name)
+def use_line(args: argparse.Namespace) -> None:
+    """Take what is not given from the configuration file's line (docs/lines.md), as the
+    commands that talk to drives do (`pyuss.cli._master.use_lines`): the port and baud rate
+    (not with ``--read``), the layouts of the line and of each drive (unless ``--layout`` is
+    given) and each drive's profile (``args.drive_profiles``; ``--profile`` wins for all).
+    The file is read when ``--config`` or ``--line`` is given, or neither ``--port`` nor
+    ``--read``."""
+    args.drive_profiles, args.line_profile = {}, None
+    listening = bool(args.port) or args.port_rx is not None or args.read is not None
+    if args.config is None and args.line is None and listening:
+        return
+    lines = line_file(args, None)
+    if lines is None:
+        return
+    line = lines.target(args.line, None, port_given=listening).line
+    if line is None:
+        return
+    if args.read is None:
+        args.port = args.port or [line.port]
+        args.baud = line.baud if args.baud is None else args.baud
+    drives = lines.targets(line)
+    if not args.layout:
+        every = [] if line.layout is None else [str(line.layout)]
+        own = [f"{t.address}={t.drive.layout}" for t in drives if t.drive and t.drive.layout]
+        args.layout = every + own
+    args.drive_profiles = {t.address: t.profile for t in drives if t.address is not None}
+    args.line_profile = line.profile if line.name in lines.profiles else None
+    families = {*args.drive_profiles.values(), args.line_profile} - {None}
+    if args.profile is None and len(families) == 1 and None not in args.drive_profiles.values():
+        args.profile = families.pop()  # one family on the line: its captures say so too
 
 
 def _check(args: argparse.Namespace) -> tuple[list[str], LayoutBook]:
-    page_size(args)  # an unknown profile is bad input
+    use_line(args)
+    for address in (None, *args.drive_profiles):
+        page_size(args, address)  # an unknown profile is bad input
     ports = list(args.port)
     if args.port_rx is not None:
         ports.append(args.port_rx)
     if args.read is not None and ports:
         raise ConfigError("give either --read FILE or --port URL, not both")
     if args.read is None and not ports:
-        raise ConfigError("nothing to listen to: give --port URL (and --port-rx URL) or --read")
+        raise ConfigError(
+            "nothing to listen to: give --port URL (and --port-rx URL) or --read, or name the "
+            f"line in a configuration file (none found: {looked_in()})"
+        )
     if len(ports) > 2:
         raise ConfigError("at most two ports: --port (master to slave) and --port-rx")
     if ports and args.baud is None:

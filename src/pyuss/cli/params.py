@@ -33,7 +33,7 @@ from pyuss.cli._master import (
 )
 from pyuss.errors import ConfigError, UssError
 from pyuss.master.drive import Drive
-from pyuss.params.book import ParamBook
+from pyuss.params.book import MACRO_WORDS, ParamBook, macro_profiles
 from pyuss.params.model import ParamInfo
 from pyuss.params.names import MAX_PNU
 from pyuss.params.values import format_value, physical
@@ -229,5 +229,24 @@ def show(
         value = f"  = {values[pnu]}" if pnu in values else ""
         print(f"{book.label(pnu):<7} {'(nothing known: words)':<40}{value}".rstrip())
     if not found and not words_only:
-        print("no parameter matches")
+        macro = set(MACRO_WORDS) & {w.casefold() for w in args.words}
+        none = macro and not any(info.macro for info in book)
+        print(no_macros(book) if none else "no parameter matches")
     return EXIT_OK
+
+
+def no_macros(book: ParamBook) -> str:
+    """Why ``uss params macro`` found nothing: the family's file has no macro parameter
+    (``macro = true``, docs/drive.md); and which built-in files have."""
+    having = macro_profiles()
+    others = (
+        f"profiles whose files have macro parameters: {', '.join(having)}"
+        if having
+        else "no built-in profile's file has macro parameters yet"
+    )
+    if not book.profile:
+        return (
+            "a drive of unknown kind has no family's parameter file, so no macro parameters "
+            f"are known: give --profile NAME ({others})"
+        )
+    return f"the {book.profile} parameter file has no macro parameters ({others})"

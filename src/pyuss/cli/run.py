@@ -68,7 +68,7 @@ from pyuss.master.errors import DriveFault
 from pyuss.master.process import DriveStatus
 from pyuss.master.scheduler import CYCLIC
 from pyuss.points import checked_setpoint
-from pyuss.points.plant import DECIMAL, NOT_FINITE
+from pyuss.points.checks import DECIMAL, NOT_FINITE
 from pyuss.system import stop_on_signals
 
 

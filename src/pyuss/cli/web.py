@@ -36,6 +36,7 @@ import argparse
 import asyncio
 import secrets
 import sys
+from collections.abc import Sequence
 from typing import Any
 
 from pyuss.cli._help import plain
@@ -161,7 +162,7 @@ async def _serve(args: argparse.Namespace) -> int:
     from pyuss.web import require
 
     require()
-    from pyuss.web.backend import Backend, DriveSpec
+    from pyuss.web.backend import DEMO_DRIVES, Backend, DriveSpec
     from pyuss.web.server import WebServer, is_loopback
 
     host, port = parse_listen(args.listen)
@@ -193,14 +194,19 @@ async def _serve(args: argparse.Namespace) -> int:
         return await _run(plant_backend, WebServer(
             plant_backend, host=host, port=port, token=token, read_only=args.read_only
         ), token, args.read_only)  # fmt: skip
+    args.line_profile = None
     if args.demo:
         if args.address or args.line:
             raise ConfigError("--demo brings its own drives: leave out --address and --line")
         backend = Backend(demo=True, job_timeout=args.timeout)
+        specs = list(DEMO_DRIVES)
     else:
         specs = [DriveSpec(a, p, layout) for a, p, layout in await _drives(args)]
         backend = Backend(port=args.port, baud=args.baud, drives=specs, job_timeout=args.timeout)
-    server = WebServer(backend, host=host, port=port, token=token, read_only=args.read_only)
+    scan = scan_profile(args.profile, args.line_profile, [spec.profile for spec in specs])
+    server = WebServer(
+        backend, host=host, port=port, token=token, read_only=args.read_only, scan_profile=scan
+    )
     return await _run(backend, server, token, args.read_only)
 
 
@@ -307,8 +313,9 @@ async def _drives(args: argparse.Namespace) -> list[tuple[int, str | None, Layou
         if line is not None:
             args.port = args.port or line.port
             args.baud = args.baud or line.baud
+            args.line_profile = line.profile if line.name in lines.profiles else None
             if not args.address:
-                targets = [lines.target(line.name, d.name, port_given=True) for d in line.drives]
+                targets = lines.targets(line)
         drives = [(t.address, t.profile, t.layout) for t in targets if t.address is not None]
     args.baud = args.baud or 9600
     port, baud = args.port, args.baud
@@ -332,6 +339,20 @@ async def _drives(args: argparse.Namespace) -> list[tuple[int, str | None, Layou
     if args.profile == "auto" and not found:
         raise ConfigError("--profile auto: give the drives (--address, or a line with drives)")
     return list({a: (a, p, layout) for a, p, layout in found}.values())
+
+
+def scan_profile(given: str | None, line: str | None, drives: Sequence[str | None]) -> str:
+    """The profile the page's scan probes by unless the page names another: ``--profile``
+    (not auto), else the one the configuration file names for the line, else the one all
+    the line's drives have (as ``uss scan --save`` writes them, or as ``--profile auto``
+    found them), else "generic"."""
+    if given not in (None, "auto"):
+        return str(given)
+    if line is not None:
+        return line
+    shared = set(drives)
+    only = shared.pop() if len(shared) == 1 else None
+    return only if only is not None else "generic"
 
 
 async def _wait_for_stop(lost: asyncio.Event | None = None) -> bool:

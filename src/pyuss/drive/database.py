@@ -279,6 +279,9 @@ class Parameter:
     bico: bool = False
     """A BICO input (SINAMICS firmware 4): a ``uint32`` whose value names a signal source,
     `pyuss.protocol.bico.Bico` (``r722.2``); the file gives its defaults as such texts."""
+    macro: bool = False
+    """A macro: one value sets a group of other parameters at once (the SINAMICS V20's
+    connection and application macros, firmware 4's p0015); ``uss params macro`` lists them."""
     doc: str = ""
     follows: str = ""
     """Where the facts come from: a document and section (docs/references.md), or "project"."""
@@ -395,6 +398,10 @@ class ProfileInfo:
     """The file (or files, base first) the database was read from."""
     index_base: int = 1
     description: DescriptionStyle = DescriptionStyle.PROFIBUS
+    description_term: str = ""
+    """What the family's manuals call the parameter description a drive sends for request
+    ID 4 (the SINAMICS manuals: "descriptive element"); "": the specification's "parameter
+    description" (C 6)."""
     text_write: bool = False
     """Texts may be changed with request ID 15 (C Table 4.1 note 3: SIMOVERT MASTERDRIVES)."""
     max_pnu: int = 2047
@@ -755,6 +762,7 @@ _PROFILE_KEYS = {
     "extends",
     "index_base",
     "description",
+    "description_term",
     "text_write",
     "max_pnu",
     "access_level",
@@ -792,6 +800,7 @@ _PARAM_KEYS = {
     "level",
     "changeable",
     "bico",
+    "macro",
     "doc",
     "follows",
     "seed",  # the older name of "follows"
@@ -1019,6 +1028,7 @@ def _profile(data: dict[str, Any], source: str, sources: str) -> ProfileInfo:
         source=sources,
         index_base=index_base,
         description=description,
+        description_term=_text(data.get("description_term", ""), where, "description_term"),
         text_write=_flag(data.get("text_write", False), where, "text_write"),
         max_pnu=max_pnu,
         access_level=level_ref,
@@ -1323,6 +1333,7 @@ def _parameter(entry: dict[str, Any], where: _Where, profile: ProfileInfo) -> Pa
         level=_level(entry.get("level"), where),
         changeable=_changeable(entry.get("changeable"), where, access),
         bico=bico,
+        macro=_flag(entry.get("macro", False), where, "macro"),
         doc=_text(entry.get("doc", ""), where, "doc"),
         follows=_text(entry.get("follows", entry.get("seed", "")), where, "follows"),
     )

@@ -12,7 +12,7 @@ every connection of the bus's MQTT client (schema ``gateway.json``)::
 MQTT keep-alive of its client, in seconds: the broker publishes the gateway's last will
 (``uss/BUS/availability`` ``offline``) within one and a half keep-alives of losing it. The
 drives' process values (PZD word, 32 bits or 16) are what a reader needs to check a setpoint
-the way the gateway will (`pyuss.points.plant.checked_setpoint`); the reference (100 %)
+the way the gateway will (`pyuss.points.checks.checked_setpoint`); the reference (100 %)
 comes with each state."""
 
 from __future__ import annotations

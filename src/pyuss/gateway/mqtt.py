@@ -100,8 +100,9 @@ from pyuss.gateway.topics import (
     switch_value,
     under,
 )
+from pyuss.points.drive import DrivePoints
 from pyuss.points.errors import ReadOnly, UnknownPoint, error_dict
-from pyuss.points.plant import BusPoints, DrivePoints, Plant
+from pyuss.points.plant import BusPoints, Plant
 from pyuss.points.state import DriveState, ParamValue
 
 __all__ = ["MqttBusFace", "MqttFace", "make_client"]

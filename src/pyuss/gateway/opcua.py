@@ -42,7 +42,7 @@ code) and EURange: -200 % .. +199.99 % of a 16-bit process word (the reference's
 in the drive's unit, set once the reference is known; BadWaitingForInitialData until then),
 a parameter's limits from the parameter file, else what its word(s) can carry.
 
-Variables change when the drive's state changes (`pyuss.points.plant`), so subscriptions get
+Variables change when the drive's state changes (`pyuss.points.drive`), so subscriptions get
 changes at the bus cycle. The values of the drive's answers carry BadWaitingForInitialData
 before its first answer, BadNoCommunication while it is offline (its bus's offline rule, or
 the bus offline) and UncertainLastUsableValue while it is online but its latest answer was
@@ -119,9 +119,10 @@ from pyuss.gateway.uanodes import (
     value_parts,
     value_status,
 )
+from pyuss.points.drive import DrivePoints
 from pyuss.points.errors import Failure, classify
 from pyuss.points.model import STATUS_BIT_NAMES
-from pyuss.points.plant import DrivePoints, Plant
+from pyuss.points.plant import Plant
 from pyuss.points.state import DriveState
 
 __all__ = ["STATUS_CODES", "OpcuaFace", "engineering_units"]

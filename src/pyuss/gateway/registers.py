@@ -93,9 +93,9 @@ from dataclasses import dataclass, field
 from pyuss.errors import ConfigError, DriveRefusal, UssError
 from pyuss.points import NoWriteAuthority
 from pyuss.points.config import ProcessConfig
+from pyuss.points.drive import DrivePoints
 from pyuss.points.errors import Failure, NotInControl, classify
 from pyuss.points.parameters import ParamMeta
-from pyuss.points.plant import DrivePoints
 from pyuss.points.state import DriveState, ProcessValue
 
 __all__ = [

@@ -862,8 +862,9 @@ def discovery(
         config = {
             "state_topic": topics.param(meta.key),
             "value_template": "{{ value_json.value }}",
-            "entity_category": "diagnostic",
         }
+        if meta.writable:  # a setting (P1120); a value the drive shows (r0027, r0039) is no
+            config["entity_category"] = "diagnostic"  # diagnostic, but what the plant watches
         places = param_places(meta)
         if places is not None:
             config["suggested_display_precision"] = places

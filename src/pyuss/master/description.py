@@ -54,6 +54,7 @@ __all__ = [
     "decode_description",
     "decode_element",
     "element_size",
+    "layout_text",
 ]
 
 DATA_TYPES: dict[int, str] = {t.value: t.label for t in DataType}
@@ -246,6 +247,20 @@ class Description:
             "high": self.high,
             "elements": [e.to_dict() for e in self.elements.values()],
         }
+
+
+_LAYOUT_TEXTS = {
+    DescriptionStyle.PROFIBUS: "elements 1..10 of USS specification C 6 (the PROFIBUS drive "
+    "profile's layout)",
+    DescriptionStyle.BAUMUELLER: "elements 1, 2, 5, 6 (attribute, info, minimum, maximum) of "
+    "the Baumueller communication software manual 2.2.1",
+}
+
+
+def layout_text(style: DescriptionStyle) -> str:
+    """The elements a description of ``style`` has and the document that lays them out, in
+    words (what ``uss describe`` prints instead of the style's name)."""
+    return _LAYOUT_TEXTS[style]
 
 
 def limit_words(type_code: int | None) -> int:

@@ -29,6 +29,7 @@ import enum
 import json
 from collections.abc import Iterable, Iterator
 from dataclasses import replace
+from functools import cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -48,13 +49,17 @@ from pyuss.params.model import (
     param_label,
 )
 from pyuss.params.names import param_name, parse_param_name
-from pyuss.profiles import Profile
+from pyuss.profiles import Profile, get_profile, profile_names
 from pyuss.protocol.pkw import RequestId
 from pyuss.userfile import parse_json, read_text
 
-__all__ = ["CACHE_VERSION", "Describe", "ParamBook"]
+__all__ = ["CACHE_VERSION", "MACRO_WORDS", "Describe", "ParamBook", "macro_profiles"]
 
 CACHE_VERSION = 1
+
+MACRO_WORDS = ("macro", "macros")
+"""Search words that find the parameters a family's file marks as macros (``macro = true``,
+docs/drive.md), whatever their names say."""
 
 
 class Describe(enum.Enum):
@@ -210,7 +215,8 @@ class ParamBook:
         that number (``"11"`` every number starting with 11, ``"r00"`` every one written
         ``r00..``; an index as in ``"947.1"`` or ``"r0947[1]"`` that number only; any spelling
         of `pyuss.params.names`), other words must all appear in the name, the unit or the
-        documentation (case does not matter). No words: every parameter."""
+        documentation (case does not matter); ``macro`` (`MACRO_WORDS`) also finds the
+        parameters the file marks as macros. No words: every parameter."""
         terms = words.split() if isinstance(words, str) else [w for t in words for w in t.split()]
         found = []
         for info in self:
@@ -315,8 +321,18 @@ def _matches(info: ParamInfo, term: str) -> bool:
             return info.pnu == pnu
         digits = low.lstrip("pr")
         return str(info.pnu).startswith(digits) or f"{info.pnu:04d}".startswith(digits)
+    if low in MACRO_WORDS and info.macro:
+        return True
     haystack = f"{info.name} {info.unit} {info.doc}".casefold()
     return low in haystack
+
+
+@cache
+def macro_profiles() -> tuple[str, ...]:
+    """The built-in profiles whose parameter file has a macro parameter (``macro = true``)."""
+    return tuple(
+        name for name in profile_names() if any(p.macro for p in get_profile(name).database())
+    )
 
 
 class ParamReader(Protocol):

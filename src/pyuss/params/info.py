@@ -91,6 +91,9 @@ class ParamInfo:
     bico: bool = False
     """A BICO input (SINAMICS firmware 4): its value is a `pyuss.protocol.bico.Bico`, the
     signal source it reads (``r722.2``)."""
+    macro: bool = False
+    """A macro of the family: one value sets a group of other parameters (``macro`` in the
+    parameter file); the search word ``macro`` finds it (`pyuss.params.ParamBook.search`)."""
     doc: str = ""
     source: Source = Source.PROFILE
     names: NameStyle = NameStyle.PROJECT
@@ -196,6 +199,8 @@ class ParamInfo:
             data["store"] = False
         if self.bico:
             data["bico"] = True
+        if self.macro:
+            data["macro"] = True
         if self.doc:
             data["doc"] = self.doc
         return data
@@ -234,6 +239,7 @@ class ParamInfo:
                 reset_only=bool(data.get("reset_only", False)),
                 store=bool(data.get("store", True)),
                 bico=bool(data.get("bico", False)),
+                macro=bool(data.get("macro", False)),
                 doc=str(data.get("doc", "")),
                 source=Source(data.get("source", "drive")),
             )
@@ -279,6 +285,7 @@ def from_parameter(
         reset_only=param.reset_only,
         store=param.store,
         bico=param.bico,
+        macro=param.macro,
         doc=param.doc,
         source=source,
         names=names,

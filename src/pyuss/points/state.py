@@ -1,7 +1,7 @@
 """A drive's points at one moment: `DriveState`, the snapshot every face shows; a bus's:
 `BusState`.
 
-A state is immutable; the runtime (`pyuss.points.plant`) makes a new one whenever something
+A state is immutable; the runtime (`pyuss.points.drive`) makes a new one whenever something
 changes: an answer with other process data, a parameter read, "does not send" set or
 cleared, an answer missed, the drive or its bus offline or back, a fault number read, a job
 refused. ``to_dict()`` is the JSON form (the MQTT state topic, the web page), values with

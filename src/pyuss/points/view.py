@@ -29,8 +29,8 @@ from pyuss.errors import ConfigError, UssError, UssTimeout
 from pyuss.params.book import ParamReader
 from pyuss.params.model import Reading
 from pyuss.params.values import format_value
+from pyuss.points.drive import DrivePoints
 from pyuss.points.errors import Failure, classify
-from pyuss.points.plant import DrivePoints
 from pyuss.points.state import DriveState, ProcessValue
 from pyuss.protocol.pzd import ControlWord, StatusWord
 

@@ -24,11 +24,14 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pyuss.drive.database import ParameterDatabase, builtin_profiles
 from pyuss.errors import ConfigError
 from pyuss.userfile import parse_toml
+
+if TYPE_CHECKING:
+    from importlib.resources.abc import Traversable
 
 __all__ = [
     "CHECKLIST",
@@ -156,12 +159,17 @@ def _family(
     return out
 
 
+def _shipped(*parts: str) -> Traversable:
+    """A file or folder shipped in the package ``pyuss.profiles``."""
+    from importlib import resources  # here: a command that reads no file starts sooner
+
+    return resources.files("pyuss.profiles").joinpath(*parts)
+
+
 @cache
 def checklist() -> Checklist:
     """The built-in checklist (read once)."""
-    from importlib import resources  # here: a command that reads no file starts sooner
-
-    text = resources.files("pyuss.profiles").joinpath(CHECKLIST).read_text(encoding="utf-8")
+    text = _shipped(CHECKLIST).read_text(encoding="utf-8")
     return parse_checklist(text, f"pyuss/profiles/{CHECKLIST}")
 
 
@@ -269,9 +277,7 @@ def parse_manual_list(text: str, source: str = "<list>") -> ManualList:
 
 def list_families() -> tuple[str, ...]:
     """The families with a manual list."""
-    from importlib import resources
-
-    folder = resources.files("pyuss.profiles").joinpath(LISTS)
+    folder = _shipped(LISTS)
     return tuple(
         sorted(p.name.removesuffix(".toml") for p in folder.iterdir() if p.name.endswith(".toml"))
     )
@@ -280,12 +286,10 @@ def list_families() -> tuple[str, ...]:
 @cache
 def manual_list(family: str) -> ManualList:
     """The shipped manual list of ``family`` (read once)."""
-    from importlib import resources
-
     if family not in list_families():
         raise ConfigError(f"no manual list for {family!r} (lists: {', '.join(list_families())})")
     where = f"pyuss/profiles/{LISTS}/{family}.toml"
-    text = resources.files("pyuss.profiles").joinpath(LISTS, f"{family}.toml").read_text("utf-8")
+    text = _shipped(LISTS, f"{family}.toml").read_text(encoding="utf-8")
     listed = parse_manual_list(text, where)
     if listed.family != family:
         raise ConfigError(f"{where}: [list] family is {listed.family!r}, not {family!r}")

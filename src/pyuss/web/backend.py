@@ -114,9 +114,12 @@ class DriveSpec:
         if not 0 <= self.address <= MAX_ADDRESS:
             raise ConfigError(f"address {self.address} is not 0..{MAX_ADDRESS}")
         if self.profile is not None and self.profile not in profile_names():
-            raise ConfigError(
-                f"profile {self.profile!r} is not one of {', '.join(profile_names())}"
-            )
+            try:
+                get_profile(self.profile)  # NAME@EDITION
+            except ConfigError:
+                raise ConfigError(
+                    f"profile {self.profile!r} is not one of {', '.join(profile_names())}"
+                ) from None
 
 
 DEMO_DRIVES: tuple[DriveSpec, ...] = (

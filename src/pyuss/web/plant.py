@@ -30,7 +30,7 @@ from pyuss.errors import ConfigError, UssError
 from pyuss.params import parse
 from pyuss.plant.remote import GatewayRefusal, RemoteDrive, RemoteParams, RemotePlant
 from pyuss.points import COMMAND_TABLE, Sample
-from pyuss.points.plant import checked_setpoint
+from pyuss.points.checks import checked_setpoint
 from pyuss.points.state import ProcessValue, state_name
 from pyuss.points.view import KEY_ACTUALS, TAKE_TIME, fault_history, key_actual, motion_of
 from pyuss.protocol.pzd import StatusWord

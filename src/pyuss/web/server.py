@@ -245,6 +245,7 @@ class WebServer:
         shutdown_grace: float = SHUTDOWN_GRACE,
         idle_timeout: float = IDLE_TIMEOUT,
         body_timeout: float = BODY_TIMEOUT,
+        scan_profile: str = "generic",
     ) -> None:
         if not is_loopback(host) and not token:
             raise ConfigError(
@@ -258,6 +259,13 @@ class WebServer:
         self.port = port
         self.token = token or None
         self.read_only = read_only
+        self.scan_profile = scan_profile
+        """The profile a scan of the page probes by unless it names another: the line's
+        (``uss web --profile``, the configuration file), "generic" where none is named."""
+        self.scan_profiles = [UNKNOWN_KIND, *profile_names()]
+        """The profiles a scan may be asked for (the page's list)."""
+        if scan_profile not in self.scan_profiles:  # NAME@EDITION
+            self.scan_profiles.append(scan_profile)
         self.shutdown_grace = shutdown_grace
         self.idle_timeout = idle_timeout
         self.body_timeout = body_timeout
@@ -503,7 +511,8 @@ class WebServer:
                 "moves": sorted(Backend.MOVES),
                 "commands": list(Backend.COMMANDS),
                 "tick": TICK,
-                "profiles": [UNKNOWN_KIND, *profile_names()],
+                "profiles": self.scan_profiles,
+                "scan_profile": self.scan_profile,
             }
         )
 
@@ -639,11 +648,13 @@ class WebServer:
     async def _scan(self, request: web.Request) -> web.Response:
         self._writable()
         data = await self._json(request, keys=("addresses", "profile"))
-        addresses, profile = data.get("addresses", "0-31"), data.get("profile", UNKNOWN_KIND)
+        addresses = data.get("addresses", "0-31")
+        profile = data.get("profile", self.scan_profile)
         if not isinstance(addresses, str) or len(addresses) > 200:
             raise ConfigError("addresses must be a short text: 0-31, 1,4,7 or 1-5,9")
-        if profile != UNKNOWN_KIND and profile not in profile_names():
-            raise ConfigError(f"profile {cut(profile)} is not one of {', '.join(profile_names())}")
+        if profile not in self.scan_profiles:
+            known = ", ".join(self.scan_profiles[1:])
+            raise ConfigError(f"profile {cut(profile)} is not one of {known}")
         addresses = _addresses(addresses)
 
         def progress(done: int, total: int) -> None:

@@ -9,6 +9,8 @@ export class BusView {
     this.result = document.getElementById("scan-result");
     const profiles = document.getElementById("scan-profile");
     profiles.replaceChildren(...(state.config.profiles || ["generic"]).map((name) => el("option", {}, name)));
+    // The line's profile (uss web --profile, uss.toml), "generic" where none is named.
+    profiles.value = state.config.scan_profile || "generic";
     document.getElementById("scan-form").addEventListener("submit", (e) => {
       e.preventDefault();
       this.scan();
