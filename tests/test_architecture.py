@@ -249,3 +249,194 @@ def test_the_platform_rule_sees_what_it_forbids() -> None:
         SRC / "system" / "_windows.py"
     )
     assert {"fcntl", "termios", "msvcrt", "sys.platform", "add_signal_handler"} <= set(found)
+
+
+# No import circles between the modules of pyuss: every import counts, at module level and
+# inside functions (a function-local import closes a circle as surely, only later), relative
+# ones resolved; imports under `if TYPE_CHECKING:` never run and are left out (the type
+# checker's own test below counts them). A name taken from a package that loads its modules on
+# first use (`pyuss._lazy`) counts as an import of the module that defines it, found in the
+# package's own `TYPE_CHECKING` imports. The package a module belongs to, which Python loads
+# before the module, counts only where the module imports it by name.
+
+
+def _module_name(path: Path, root: Path) -> str:
+    parts = list(path.relative_to(root.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _is_type_checking(test: ast.expr) -> bool:
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"
+    )
+
+
+Imports = list[ast.Import | ast.ImportFrom]
+
+
+def _split_imports(tree: ast.AST) -> tuple[Imports, Imports]:
+    """The imports that run (anywhere in the module), and those under `if TYPE_CHECKING:`."""
+    runs: Imports = []
+    typing_only: Imports = []
+
+    def visit(node: ast.AST, checking: bool) -> None:
+        if isinstance(node, ast.If) and _is_type_checking(node.test):
+            for child in node.body:
+                visit(child, True)
+            for child in node.orelse:
+                visit(child, checking)
+            return
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            (typing_only if checking else runs).append(node)
+        for child in ast.iter_child_nodes(node):
+            visit(child, checking)
+
+    visit(tree, False)
+    return runs, typing_only
+
+
+def _absolute(node: ast.ImportFrom, module: str, is_package: bool) -> str:
+    if node.level == 0:
+        return node.module or ""
+    base = module.split(".")
+    base = base if is_package else base[:-1]
+    base = base[: len(base) - (node.level - 1)]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
+def import_graph(root: Path, *, typing: bool = False) -> dict[str, set[str]]:
+    """Module -> the modules of the package at ``root`` it imports when it runs (``typing``:
+    and those it imports for the type checker only)."""
+    files = {_module_name(p, root): p for p in sorted(root.rglob("*.py"))}
+    parsed = {n: _split_imports(ast.parse(p.read_text("utf-8"))) for n, p in files.items()}
+    lazy: dict[str, dict[str, str]] = {}  # package -> name -> the module that defines it
+    for name, path in files.items():
+        if path.name == "__init__.py":
+            lazy[name] = {
+                alias.asname or alias.name: _absolute(node, name, True)
+                for node in parsed[name][1]
+                if isinstance(node, ast.ImportFrom)
+                for alias in node.names
+            }
+    graph: dict[str, set[str]] = {name: set() for name in files}
+    for name, path in files.items():
+        for node in parsed[name][0] + (parsed[name][1] if typing else []):
+            if isinstance(node, ast.Import):
+                for alias in node.names:
+                    target = alias.name
+                    while target and target not in files:
+                        target = target.rpartition(".")[0]
+                    if target:
+                        graph[name].add(target)
+                continue
+            source = _absolute(node, name, path.name == "__init__.py")
+            for alias in node.names:
+                if f"{source}.{alias.name}" in files:
+                    graph[name].add(f"{source}.{alias.name}")
+                elif alias.name in lazy.get(source, {}) and lazy[source][alias.name] in files:
+                    graph[name].add(lazy[source][alias.name])
+                elif source in files:
+                    graph[name].add(source)
+        graph[name].discard(name)
+    return graph
+
+
+def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Tarjan's strongly connected components of ``graph`` with more than one member."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(node: str) -> None:
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        on_stack.add(node)
+        for nxt in sorted(graph[node]):
+            if nxt not in index:
+                visit(nxt)
+                low[node] = min(low[node], low[nxt])
+            elif nxt in on_stack:
+                low[node] = min(low[node], index[nxt])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                member = stack.pop()
+                on_stack.discard(member)
+                component.append(member)
+                if member == node:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+    return sorted(found)
+
+
+def circles(graph: dict[str, set[str]]) -> list[str]:
+    """Each circle as "a -> b -> a": per component, shortest circles until each member is on one."""
+    named = []
+    for component in strongly_connected(graph):
+        members = set(component)
+        uncovered = list(component)
+        while uncovered:
+            start = uncovered[0]
+            # the shortest way from start back to start inside the component (breadth first)
+            came: dict[str, str] = {}
+            queue = [start]
+            while queue and start not in came:
+                node = queue.pop(0)
+                for nxt in sorted(graph[node] & members):
+                    if nxt not in came:
+                        came[nxt] = node
+                        queue.append(nxt)
+            path = [start]
+            while len(path) == 1 or path[-1] != start:
+                path.append(came[path[-1]])
+            path.reverse()
+            named.append(" -> ".join(path))
+            uncovered = [m for m in uncovered if m not in path]
+    return named
+
+
+def test_no_import_circles() -> None:
+    found = circles(import_graph(SRC))
+    assert not found, "import circles (move the shared code down, do not hide the import):\n" + (
+        "\n".join(found)
+    )
+
+
+# Imports under `if TYPE_CHECKING:` close circles for the type checker only. The one left is
+# the master's: `Drive` is typed with `Master` and its per-slave link, on which it calls the
+# master's own methods, and `Master.drive` makes the `Drive`; it goes when the drive talks to
+# the master through public calls only. A new one fails here, and so does this one gone
+# (then drop it from the list).
+TYPE_ONLY_CIRCLES = ["pyuss.master.drive -> pyuss.master.scheduler -> pyuss.master.drive"]
+
+
+def test_no_other_circles_for_the_type_checker() -> None:
+    assert circles(import_graph(SRC, typing=True)) == TYPE_ONLY_CIRCLES
+
+
+def test_the_circle_rule_sees_what_it_forbids(tmp_path: Path) -> None:
+    package = tmp_path / "pkg"
+    (package / "sub").mkdir(parents=True)
+    files = {
+        "__init__.py": "import typing\nif typing.TYPE_CHECKING:\n    from pkg.a import A\n",
+        "a.py": "A = 1\ndef f():\n    from . import b\n",  # function-level, relative
+        "b.py": "from .sub.c import C\n",
+        "sub/__init__.py": "",
+        "sub/c.py": "import pkg\nfrom .. import A\n",  # a name the package loads lazily: pkg.a
+        "d.py": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from pkg import e\n",
+        "e.py": "import pkg.d\n",  # d imports e only for the type checker: no circle
+    }
+    for name, text in files.items():
+        (package / name).write_text(text, encoding="utf-8")
+    assert circles(import_graph(package)) == ["pkg.a -> pkg.b -> pkg.sub.c -> pkg.a"]
+    assert circles(import_graph(package, typing=True)) == [
+        "pkg -> pkg.a -> pkg.b -> pkg.sub.c -> pkg",
+        "pkg.d -> pkg.e -> pkg.d",
+    ]

@@ -1,7 +1,8 @@
 """A virtual RS-485 segment with true character timing, collisions and fault injection.
 
-- `VirtualBus`: the segment; `attach` stations in-process, `serve_pty` / `serve_tcp` for
-  stations in other processes.
+- `VirtualBus` (`pyuss.bus.virtual`): the segment; `attach` stations in-process, `serve_pty` /
+  `serve_tcp` for stations in other processes. `Segment` (`pyuss.bus.core`): the segment
+  alone, its timeline and its in-process stations, which the servers of `pyuss.bus.serve` use.
 - `FaultPlan`, `Fault`, `parse_fault`: seeded, reproducible faults (`pyuss.bus.faults`).
 - `Recorder`, `load_recording`, `replay`: every character as JSON lines (`pyuss.bus.recorder`).
 - `BusClientTransport`: a ``bus://`` station in another process (`pyuss.bus.client`).
@@ -13,9 +14,10 @@ from pyuss._lazy import lazy_exports
 
 if TYPE_CHECKING:
     from pyuss.bus.client import BusClientTransport
-    from pyuss.bus.core import BusStats, Station, VirtualBus, WireChar
+    from pyuss.bus.core import BusStats, Segment, Station, WireChar
     from pyuss.bus.faults import Fault, FaultKind, FaultPlan, parse_fault
     from pyuss.bus.recorder import Record, Recorder, Recording, load_recording, replay
+    from pyuss.bus.virtual import VirtualBus
 
 __all__ = [
     "BusClientTransport",
@@ -26,6 +28,7 @@ __all__ = [
     "Record",
     "Recorder",
     "Recording",
+    "Segment",
     "Station",
     "VirtualBus",
     "WireChar",
@@ -40,8 +43,8 @@ __getattr__, __dir__ = lazy_exports(
         "pyuss.bus.client": ("BusClientTransport",),
         "pyuss.bus.core": (
             "BusStats",
+            "Segment",
             "Station",
-            "VirtualBus",
             "WireChar",
         ),
         "pyuss.bus.faults": (
@@ -57,5 +60,6 @@ __getattr__, __dir__ = lazy_exports(
             "load_recording",
             "replay",
         ),
+        "pyuss.bus.virtual": ("VirtualBus",),
     },
 )

@@ -94,7 +94,7 @@ class BusClientTransport(QueuedTransport):
     ``bus_echo``: the bus sends them back and they are delivered as they are.
     ``listen_only``: a monitor that cannot send.
     ``hold``: the bus hands this station a run's first character when it ends and the rest
-    of the run when the run ends (`pyuss.bus.core.VirtualBus.attach`): two hand-overs per
+    of the run when the run ends (`pyuss.bus.core.Segment.attach`): two hand-overs per
     telegram, each a wake-up of this process, instead of three or four. A reader still
     sees a telegram begin (a master waiting for an answer), and every character keeps its
     end time on the line.

@@ -31,7 +31,7 @@ chunk. The bus uses the line's clock (`pyuss.system.clock`), the clock of every 
 transport, so stations in other processes on the same machine (``bus://``) read the same time
 base.
 
-Stations: `VirtualBus.attach` gives an in-process station (a `Transport`). Listen-only
+Stations: `Segment.attach` gives an in-process station (a `Transport`). Listen-only
 stations (monitors) cannot send. With ``echo=True`` a station hears its own characters, as a
 2-wire adapter does (raw: the station's transport does not remove them). The bus allows at
 most 32 sending stations (B 1: one master, 31 slaves); listen-only ones are not limited. When
@@ -44,7 +44,7 @@ Bounds: a station has at most `MAX_QUEUE` characters waiting for or on the line;
 beyond that is dropped and counted (`Station.overflow`, `BusStats.overflow`), so a station that
 writes a megabyte neither grows the bus's memory nor holds the line for minutes. When a station
 leaves, what it had not yet started to send is dropped (`BusStats.unsent`): a character
-already on the wire ends, the rest never reaches the line. `VirtualBus.queued` tells how many
+already on the wire ends, the rest never reaches the line. `Segment.queued` tells how many
 characters wait.
 """
 
@@ -55,7 +55,7 @@ import heapq
 import itertools
 import logging
 from collections import Counter
-from collections.abc import Callable, Collection
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from pyuss.bus.faults import FaultEngine, FaultPlan, frame_bits
@@ -162,11 +162,11 @@ def _read_levels(levels: int) -> tuple[int, LineError]:
 
 
 class Station(QueuedTransport):
-    """A station on a `VirtualBus`, seen as a `Transport`. Made by `VirtualBus.attach`."""
+    """A station on a `Segment`, seen as a `Transport`. Made by `Segment.attach`."""
 
     def __init__(
         self,
-        bus: VirtualBus,
+        bus: Segment,
         name: str,
         *,
         echo: bool,
@@ -345,9 +345,10 @@ class Station(QueuedTransport):
         return self._sink is not None or self.is_open
 
 
-class VirtualBus:
+class Segment:
     """One RS-485 segment in software. See the module docstring; `pyuss.bus.faults` for the
-    fault plan, `pyuss.bus.recorder` for recordings, `pyuss.bus.serve` for ptys and TCP."""
+    fault plan, `pyuss.bus.recorder` for recordings; `pyuss.bus.virtual.VirtualBus`, the
+    segment that also serves stations in other processes (`pyuss.bus.serve`)."""
 
     def __init__(
         self,
@@ -693,25 +694,6 @@ class VirtualBus:
                 station.hand(bytes(buf), first, last_end, tuple(errors), run_ends)
             elif station.held and run_ends:
                 station.release()
-
-    async def serve_pty(self, n: int, *, echo: bool | Collection[str] = False) -> list[str]:
-        """Open ``n`` pty stations; their device paths (see `pyuss.bus.serve`)."""
-        from pyuss.bus.serve import serve_pty
-
-        return await serve_pty(self, n, echo=echo)
-
-    async def serve_tcp(
-        self,
-        host: str = "127.0.0.1",
-        port: int = 0,
-        *,
-        framed: bool = False,
-        echo: bool | Collection[str] = False,
-    ) -> tuple[str, int]:
-        """Accept stations over TCP; the address bound (see `pyuss.bus.serve`)."""
-        from pyuss.bus.serve import serve_tcp
-
-        return await serve_tcp(self, host, port, framed=framed, echo=echo)
 
     @property
     def busy_until(self) -> float:

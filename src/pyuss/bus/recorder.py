@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from pyuss.atomicfile import AtomicWriter
-from pyuss.bus.core import VirtualBus, WireChar
+from pyuss.bus.core import Segment, WireChar
 from pyuss.errors import ConfigError
 from pyuss.system import clock
 from pyuss.transport.base import Chunk, LineError
@@ -157,10 +157,10 @@ class Recorder:
         self.path = None if path is None else Path(path)
         self.keep = keep
         self.records: list[Record] = []
-        self._bus: VirtualBus | None = None
+        self._bus: Segment | None = None
         self._file: AtomicWriter | None = None
 
-    def attach(self, bus: VirtualBus) -> Recorder:
+    def attach(self, bus: Segment) -> Recorder:
         """Record ``bus`` from now on (and create the temporary file)."""
         if self._bus is not None:
             raise ConfigError("a recorder records one bus")
@@ -247,7 +247,7 @@ def load_recording(path: str | os.PathLike[str]) -> Recording:
     return Recording(baud, tuple(records), seed if isinstance(seed, int) else 0)
 
 
-async def replay(recording: Recording, bus: VirtualBus, *, lead: float = 0.01) -> None:
+async def replay(recording: Recording, bus: Segment, *, lead: float = 0.01) -> None:
     """Put the recorded characters on ``bus`` with their recorded spacing, starting ``lead``
     seconds from now, each as its recorded sender sent it (with its recorded line errors);
     returns once all were delivered. The bus must run at the recording's baud rate."""

@@ -33,7 +33,7 @@ from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from typing import Any
 
-from pyuss.bus.core import Station, VirtualBus
+from pyuss.bus.core import Segment, Station
 from pyuss.bus.wire import MAX_AHEAD, MAX_DATA, SendDecoder, encode_frame, read_hello
 from pyuss.errors import ConfigError, ProtocolError, TransportError
 from pyuss.system import clock
@@ -79,7 +79,7 @@ def _hears_own(echo: Echo, name: str) -> bool:
     return name == echo if isinstance(echo, str) else name in echo
 
 
-def _free_name(bus: VirtualBus, prefix: str) -> str:
+def _free_name(bus: Segment, prefix: str) -> str:
     for i in itertools.count(1):
         name = f"{prefix}{i}"
         if name not in bus.stations:
@@ -87,7 +87,7 @@ def _free_name(bus: VirtualBus, prefix: str) -> str:
     raise AssertionError("unreachable")
 
 
-async def serve_pty(bus: VirtualBus, n: int, *, echo: Echo = False) -> list[str]:
+async def serve_pty(bus: Segment, n: int, *, echo: Echo = False) -> list[str]:
     """Open ``n`` ptys as stations; return their device paths. ``echo``: True for every pty,
     or the names of the ptys (``pty1``, ...) that hear their own characters."""
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
@@ -122,7 +122,7 @@ async def serve_pty(bus: VirtualBus, n: int, *, echo: Echo = False) -> list[str]
     return paths
 
 
-async def _pty_in(bus: VirtualBus, name: str, pty: PtyPort) -> None:
+async def _pty_in(bus: Segment, name: str, pty: PtyPort) -> None:
     while True:
         try:
             chunk = await pty.read()
@@ -134,7 +134,7 @@ async def _pty_in(bus: VirtualBus, name: str, pty: PtyPort) -> None:
 
 
 async def serve_tcp(
-    bus: VirtualBus,
+    bus: Segment,
     host: str = "127.0.0.1",
     port: int = 0,
     *,
@@ -224,7 +224,7 @@ class _Door:
 
 
 async def _raw_station(
-    bus: VirtualBus, reader: _Reader, writer: asyncio.StreamWriter, echo: Echo, door: _Door
+    bus: Segment, reader: _Reader, writer: asyncio.StreamWriter, echo: Echo, door: _Door
 ) -> None:
     name = _free_name(bus, "tcp")
     holder: list[Station] = []
@@ -252,7 +252,7 @@ async def _raw_station(
 
 
 async def _pump_in(
-    bus: VirtualBus,
+    bus: Segment,
     station: Station,
     reader: _Reader,
     frames: SendDecoder | None = None,
@@ -302,7 +302,7 @@ async def _pump_in(
         log.info("bus: station %s left", name)
 
 
-async def _framed_station(bus: VirtualBus, reader: _Reader, writer: asyncio.StreamWriter) -> None:
+async def _framed_station(bus: Segment, reader: _Reader, writer: asyncio.StreamWriter) -> None:
     def answer(item: dict[str, Any]) -> None:
         writer.write(json.dumps(item).encode() + b"\n")
 

@@ -5,7 +5,7 @@ The station opens a TCP connection and sends one JSON line, its hello:
 bus answers with one JSON line, ``{"ok": true, "name": "m", "baud": 19200, "timed": true,
 "hold": true}`` or ``{"ok": false, "error": "..."}``. From then on the bus sends frames, each
 the characters of one delivery (with ``"hold": true`` a run's first character when it ends and
-the rest of the run when the run ends, `pyuss.bus.core.VirtualBus.attach`)::
+the rest of the run when the run ends, `pyuss.bus.core.Segment.attach`)::
 
     timestamp  float64, big endian: the ideal end time of the last character (monotonic s)
     length     uint16: number of data bytes

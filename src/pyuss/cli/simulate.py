@@ -87,7 +87,7 @@ from pyuss.transport.tcp import TcpServerTransport
 from pyuss.transport.url import open_transport
 
 if TYPE_CHECKING:
-    from pyuss.bus.core import VirtualBus
+    from pyuss.bus.virtual import VirtualBus
 
 EXIT_OK = 0
 EXIT_FAILED = 1
@@ -539,7 +539,7 @@ async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> 
     baud = _line_baud(opts, drives)
     hosted: VirtualBus | None = None
     if opts.line == "bus-tcp":  # a bus of its own: the drives are an in-process station
-        from pyuss.bus.core import VirtualBus
+        from pyuss.bus.virtual import VirtualBus
 
         hosted = VirtualBus(baud)
         listen = _endpoint(opts.where, "--bus-tcp")

@@ -242,7 +242,7 @@ def _remote_plant(args: argparse.Namespace) -> Any:
         require("mqtt")
     except MissingExtra as exc:
         raise ConfigError(f"--mqtt: {exc}") from None
-    from pyuss.gateway.config import mqtt_options
+    from pyuss.gateway.options import mqtt_options
     from pyuss.lines import find
     from pyuss.points.config import Where
     from pyuss.userfile import parse_toml, read_text

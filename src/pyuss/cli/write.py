@@ -142,7 +142,7 @@ async def write_verified(
         if not args.verify:
             error.args = (f"{error.args[0]} (uss write --verify does)",)
             raise
-        await read_back(drive, error)  # raises unless the drive holds the value
+        await read_back(drive.job, error)  # raises unless the drive holds the value
     if args.raw:
         words = await drive.read_raw(pnu, index)
         return Reading(pnu, index, None, words, words_text(words)), READ_BACK

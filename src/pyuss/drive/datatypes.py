@@ -160,6 +160,31 @@ def round_float(value: float) -> float:
     return result
 
 
+def float_text(value: float) -> str:
+    """The shortest decimal text that reads back as the same single precision number."""
+    if not math.isfinite(value):
+        return repr(value)
+    single = round_float(value)
+    text = repr(single)
+    for digits in range(1, 10):
+        candidate = f"{single:.{digits}g}"
+        try:
+            if round_float(float(candidate)) == single:
+                text = candidate
+                break
+        except OverflowError:  # rounded up beyond the largest single
+            continue
+    number = float(text)
+    if number == int(number) and abs(number) < 1e15:
+        return str(int(number))
+    return repr(number)
+
+
+def shortest_float(value: float) -> float:
+    """``value`` (a single precision number) as its shortest decimal: 0.009999999776 -> 0.01."""
+    return float(float_text(value))
+
+
 def encode(dtype: DataType, value: Value, length: int = 0) -> tuple[int, ...]:
     """The PKW words of ``value`` (already checked against the type) in transfer order."""
     if dtype is DataType.FLOAT:

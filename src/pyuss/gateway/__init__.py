@@ -3,6 +3,7 @@
 - `pyuss.gateway.faces`: the registry of faces, one `FaceSpec` each (and the ``pyuss.faces``
   entry points of other packages): config, extras, run and ``uss gateway`` iterate it.
 - `pyuss.gateway.config`: the configuration file (buses, drives, faces).
+- `pyuss.gateway.options`: the options of pyuss's faces and the readers of their tables.
 - `pyuss.gateway.run`: `Gateway`, the plant and its faces started and stopped together.
 - `pyuss.gateway.registers` (pure) and `pyuss.gateway.modbus` (a server of its own): Modbus TCP.
 - `pyuss.gateway.topics` (pure) and `pyuss.gateway.mqtt` (aiomqtt): MQTT, Home Assistant.

@@ -2,32 +2,21 @@
 
 The base install of pyuss is pyserial only; each face is an extra (``pip install
 'pyuss[modbus]'``, ``[mqtt]``, ``[opcua]`` or ``[all]``). Each face's entry in the registry
-(`pyuss.gateway.faces`) names its `Library` and extra. `require` is called before a face
-starts, so a missing or unsuitable library is one line naming the pip install to run, before
-any port opens.
+(`pyuss.gateway.faces`) names its `Library` (imported from here too) and extra. `require` is
+called before a face starts, so a missing or unsuitable library is one line naming the pip
+install to run, before any port opens.
 """
 
 from __future__ import annotations
 
 import importlib
 import importlib.metadata
-from dataclasses import dataclass
 
 from pyuss._lazy import not_installed
 from pyuss.errors import ConfigError
+from pyuss.gateway.faces import Library, faces
 
 __all__ = ["Library", "MissingExtra", "require"]
-
-
-@dataclass(frozen=True, slots=True)
-class Library:
-    """The library a face imports: its module, its distribution, the lowest version supported
-    and the first version not supported (None: no bound)."""
-
-    module: str
-    distribution: str
-    low: tuple[int, int] | None = None
-    high: tuple[int, int] | None = None
 
 
 class MissingExtra(ConfigError, ImportError):
@@ -47,8 +36,6 @@ def _version(text: str) -> tuple[int, int]:
 def require(face: str) -> None:
     """Check that the library of ``face`` can be imported in a supported version (a face
     without a library, Modbus, needs nothing)."""
-    from pyuss.gateway.faces import faces  # the registry reads its libraries from here
-
     spec = faces().get(face)
     if spec is None or spec.library is None:
         return

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from pyuss.errors import ConfigError
-from pyuss.gateway.config import (
+from pyuss.gateway.options import (
     ModbusOptions,
     MqttOptions,
     OpcuaOptions,
@@ -35,7 +35,6 @@ from pyuss.gateway.config import (
     mqtt_options,
     opcua_options,
 )
-from pyuss.gateway.extras import Library
 from pyuss.points.config import PlantConfig, Where
 from pyuss.points.endpoint import parse_endpoint
 from pyuss.system import install_command
@@ -48,6 +47,7 @@ __all__ = [
     "Face",
     "FaceSpec",
     "Flag",
+    "Library",
     "faces",
     "register",
     "unregister",
@@ -94,6 +94,17 @@ the table names."""
 Builder = Callable[[Any, "Plant", Any], Iterable[tuple[str, Face]]]
 """``(face class, plant, options)`` to the faces to start, each with the name it is printed
 under."""
+
+
+@dataclass(frozen=True, slots=True)
+class Library:
+    """The library a face imports: its module, its distribution, the lowest version supported
+    and the first version not supported (None: no bound)."""
+
+    module: str
+    distribution: str
+    low: tuple[int, int] | None = None
+    high: tuple[int, int] | None = None
 
 
 @dataclass(frozen=True, slots=True)

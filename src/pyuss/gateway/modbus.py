@@ -39,7 +39,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from pyuss.errors import ConfigError
-from pyuss.gateway.config import STOP_WAIT
+from pyuss.gateway.options import STOP_WAIT
 from pyuss.gateway.registers import DriveRegisters, ModbusException, RegisterError, WordOrder
 from pyuss.points.endpoint import Endpoint
 from pyuss.points.plant import Plant

@@ -78,7 +78,7 @@ from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from pyuss.errors import ConfigError, UssError
 from pyuss.gateway.announce import gateway_payload, gateway_topic
-from pyuss.gateway.config import RECONNECT_MAX, STOP_WAIT, MqttOptions
+from pyuss.gateway.options import RECONNECT_MAX, STOP_WAIT, MqttOptions
 from pyuss.gateway.topics import (
     Command,
     CommandError,

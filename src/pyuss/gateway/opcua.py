@@ -109,7 +109,7 @@ from asyncua.ua.ua_binary import struct_from_binary
 
 from pyuss import __version__
 from pyuss.errors import ConfigError, DriveRefusal, UssError
-from pyuss.gateway.config import STOP_WAIT, OpcuaOptions
+from pyuss.gateway.options import STOP_WAIT, OpcuaOptions
 from pyuss.gateway.uanodes import (
     argument_fault,
     may_change,

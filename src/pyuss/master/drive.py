@@ -560,7 +560,7 @@ class Drive:
         except JobTimeout as error:
             if not verify:
                 raise
-            return await read_back(self, error, timeout=timeout)
+            return await read_back(self.job, error, timeout=timeout)
 
     async def array_length(self, pnu: int, *, timeout: float | None = None) -> int:
         """How many elements array parameter ``pnu`` has (request 9)."""

@@ -106,6 +106,7 @@ from pyuss.errors import ConfigError, TelegramError, TransportError, UssError, U
 from pyuss.log import log_frame
 from pyuss.loop import COARSE_MARGIN
 from pyuss.loop import margin as loop_margin
+from pyuss.master.drive import Drive
 from pyuss.master.errors import MasterClosed, MirrorMismatch, NotSending
 from pyuss.master.jobs import Job, ParameterChannel, SpontaneousMessage
 from pyuss.master.process import DriveStatus
@@ -131,7 +132,6 @@ from pyuss.transport.reconnect import LinkDown, ReconnectingTransport
 
 if TYPE_CHECKING:
     from pyuss.bus.timed import TimedWrite
-    from pyuss.master.drive import Drive
 
 __all__ = ["ACYCLIC", "CYCLIC", "Master", "MirrorResult", "Mode", "Reply"]
 
@@ -618,8 +618,6 @@ class Master:
         master's), ``profile`` and ``response_delay`` limit; later calls may repeat them but
         not change them. ``poll``: add the address to the poll list if it is not in it yet.
         """
-        from pyuss.master.drive import Drive
-
         if isinstance(address, bool) or not isinstance(address, int):
             raise ConfigError(f"slave address must be an integer 0..{MAX_ADDRESS}, not {address!r}")
         if not 0 <= address <= MAX_ADDRESS:

@@ -19,17 +19,19 @@ the drive holds it.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Awaitable, Callable
 
 from pyuss.errors import UssError
 from pyuss.master.errors import JobOutcome, JobTimeout, job_changes
 from pyuss.master.jobs import describe_job
 from pyuss.protocol.pkw import Pkw, RequestId, ResponseId, TextIndex
 
-if TYPE_CHECKING:
-    from pyuss.master.drive import Drive
+__all__ = ["RunJob", "read_back", "read_request"]
 
-__all__ = ["read_back", "read_request"]
+
+RunJob = Callable[..., Awaitable[Pkw]]
+"""What `read_back` asks the drive with: `pyuss.master.Drive.job` (``job(request, *, pnu,
+index, timeout)``), which runs a PKW job and returns the answer that belongs to it."""
 
 _READ_OF = {
     RequestId.WRITE_WORD: RequestId.READ_VALUE,
@@ -81,20 +83,19 @@ def _held(write: Pkw, answer: Pkw) -> int | tuple[int, ...]:
     return answer.word()
 
 
-async def read_back(drive: Drive, error: JobTimeout, *, timeout: float | None = None) -> Pkw:
-    """After ``error`` (a change job of ``drive`` that timed out with an unknown outcome), read
-    the value back. Returns the read's answer when the drive holds the value written (the
-    write was carried out; ``error.outcome`` becomes `JobOutcome.APPLIED`); raises ``error``
-    with outcome `JobOutcome.NOT_APPLIED` when it holds another, and ``error`` unchanged
-    (`JobOutcome.UNKNOWN`, the read's failure noted) when the read fails as well. An error
-    whose outcome is already known (never sent) is raised as it is."""
+async def read_back(job: RunJob, error: JobTimeout, *, timeout: float | None = None) -> Pkw:
+    """After ``error`` (a change job that timed out with an unknown outcome), read the value
+    back with ``job`` (the drive's `Drive.job`). Returns the read's answer when the drive
+    holds the value written (the write was carried out; ``error.outcome`` becomes
+    `JobOutcome.APPLIED`); raises ``error`` with outcome `JobOutcome.NOT_APPLIED` when it holds
+    another, and ``error`` unchanged (`JobOutcome.UNKNOWN`, the read's failure noted) when the
+    read fails as well. An error whose outcome is already known (never sent) is raised as it
+    is."""
     write = error.request
     if write is None or not error.may_have_applied:
         raise error
     try:
-        answer = await drive.job(
-            read_request(write), pnu=error.pnu, index=error.index, timeout=timeout
-        )
+        answer = await job(read_request(write), pnu=error.pnu, index=error.index, timeout=timeout)
         written, held = _written(write), _held(write, answer)
     except UssError as exc:
         error.args = (f"{error.args[0]}; reading it back failed too: {exc}",)

@@ -898,7 +898,7 @@ class Monitor:
             status_before=status_before,
             index=next(self._count),
         )
-        self.summary.record(exchange, self)
+        self.summary.record(exchange, self.layouts)
         return exchange
 
     @staticmethod

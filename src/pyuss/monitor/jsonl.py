@@ -11,7 +11,7 @@
 ``start``/``end``: Unix time of the start of the first and the end of the last character;
 ``direction``: ``request``, ``response`` or ``unknown``; ``fault``: the receive fault
 (``bcc``, ``parity``, ... as `pyuss.protocol.FaultKind` names in lower case) or null;
-``flags``: `pyuss.monitor.capture.CaptureFlag` names in lower case; ``layout``: ``PKW,PZD``
+``flags``: `pyuss.monitor.records.CaptureFlag` names in lower case; ``layout``: ``PKW,PZD``
 the monitor decoded the frame with (null if none) and ``layout_source`` where it came from
 (``given``, ``inferred``, ``guessed``); ``delay_ms``: the response delay of an answer. The
 header's ``gap_ms`` is the idle time the monitor framed telegrams with, ``tolerance_ms`` (left
@@ -32,9 +32,9 @@ from typing import Any
 from pyuss.bus.recorder import FORMAT as BUS_FORMAT
 from pyuss.bus.recorder import check_seconds, load_recording
 from pyuss.errors import ConfigError
-from pyuss.monitor.capture import Capture, CaptureFlag, CaptureRecord, RecordWriter
 from pyuss.monitor.infer import LayoutChoice
 from pyuss.monitor.model import Direction, LayoutSource
+from pyuss.monitor.records import Capture, CaptureFlag, CaptureRecord, RecordWriter
 from pyuss.protocol.diagnostics import FaultKind
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.timing import check_baud

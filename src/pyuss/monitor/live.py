@@ -22,9 +22,9 @@ import asyncio
 import contextlib
 from collections.abc import Callable, Iterator, Sequence
 
-from pyuss.monitor.capture import Capture
 from pyuss.monitor.core import Monitor
 from pyuss.monitor.model import Exchange
+from pyuss.monitor.records import Capture
 from pyuss.transport.base import Chunk, Transport
 from pyuss.transport.serialport import SerialTransport
 

@@ -12,7 +12,7 @@ Written with `struct` after the pcapng format (draft-ietf-opsawg-pcapng), in lit
   time), ``epb_flags`` giving the direction as seen from the master (request outbound, answer
   inbound, unknown 0) and an ``opt_comment`` with the receive fault's detail, if any.
 
-The packet data are the 20-byte pseudo-header of `pyuss.monitor.capture.PSEUDO_HEADER`
+The packet data are the 20-byte pseudo-header of `pyuss.monitor.records.PSEUDO_HEADER`
 followed by the frame's bytes as they were on the line. The shipped Wireshark dissector
 (``uss wireshark path``) decodes both.
 
@@ -33,8 +33,8 @@ from pathlib import Path
 from pyuss import __version__
 from pyuss.bus.recorder import MAX_TIME
 from pyuss.errors import ConfigError
-from pyuss.monitor.capture import Capture, CaptureRecord, RecordWriter
 from pyuss.monitor.model import Direction
+from pyuss.monitor.records import Capture, CaptureRecord, RecordWriter
 from pyuss.protocol.timing import check_baud
 
 __all__ = [

@@ -23,14 +23,12 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+from pyuss.monitor.infer import LayoutBook
 from pyuss.monitor.model import Exchange, Problem
 from pyuss.protocol.diagnostics import Diagnostics
 from pyuss.protocol.pkw import ResponseId
-
-if TYPE_CHECKING:
-    from pyuss.monitor.core import Monitor
 
 __all__ = ["RECENT", "AddressStats", "Delays", "Summary"]
 
@@ -151,8 +149,8 @@ class Summary:
             stats = self.addresses[address] = AddressStats(address)
         return stats
 
-    def record(self, exchange: Exchange, monitor: Monitor | None = None) -> None:
-        """Count ``exchange`` (``monitor`` tells the current layouts)."""
+    def record(self, exchange: Exchange, layouts: LayoutBook | None = None) -> None:
+        """Count ``exchange`` (``layouts``: the monitor's, which tell the current layouts)."""
         self.exchanges += 1
         for frame in exchange.frames:
             if self.first is None or frame.start < self.first:
@@ -190,8 +188,8 @@ class Summary:
             data = exchange.answer_data
             if data is not None and data.pkw is not None and data.pkw.id == ResponseId.REFUSED:
                 stats.refused += 1
-        if monitor is not None and where is not None and exchange.address is not None:
-            choice = monitor.layouts.choice(exchange.address)
+        if layouts is not None and where is not None and exchange.address is not None:
+            choice = layouts.choice(exchange.address)
             if choice is not None:
                 where.layout = f"{choice.layout} {choice.source.value}"
 

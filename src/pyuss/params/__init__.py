@@ -1,7 +1,8 @@
 """Parameter knowledge on the master side: what a parameter is and how its values read.
 
-- `ParamInfo` (`pyuss.params.model`): one parameter - number, name, unit, data type, scaling,
-  array size, access, limits, default, value and bit texts, access level, when changeable.
+- `ParamInfo` (`pyuss.params.info`, also imported from `pyuss.params.model` beside `Reading`,
+  a value read): one parameter - number, name, unit, data type, scaling, array size, access,
+  limits, default, value and bit texts, access level, when changeable.
 - `ParamBook` (`pyuss.params.book`): what is known of one drive's parameters, from (highest
   trust first) the user's parameter file, the drive's own descriptions read live (C 6; cached
   per drive and in an optional cache file), the profile's shipped parameter file.

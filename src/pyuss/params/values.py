@@ -20,7 +20,7 @@ and the limits. Bit fields (V2) are not typed values: their words go through the
 
 Floats are single precision (IEEE 754, 32 bits): a float shows as the shortest decimal that
 gives the same single precision number (0.01 rather than 0.009999999776482582), with at least
-two decimals.
+two decimals (`pyuss.drive.datatypes.float_text`, beside the type).
 """
 
 from __future__ import annotations
@@ -30,12 +30,19 @@ import re
 from collections.abc import Sequence
 
 from pyuss.drive.database import TIME_UNITS
-from pyuss.drive.datatypes import DataType, Value, is_visible, round_float
+from pyuss.drive.datatypes import (
+    DataType,
+    Value,
+    float_text,
+    is_visible,
+    round_float,
+    shortest_float,
+)
 from pyuss.drive.datatypes import decode as decode_raw
 from pyuss.drive.datatypes import encode as encode_raw
 from pyuss.drive.faults import ParameterFault
 from pyuss.errors import ConfigError, TelegramError
-from pyuss.params.model import ParamInfo
+from pyuss.params.info import ParamInfo
 from pyuss.protocol.bico import Bico, BicoError, is_bico, parse_bico, to_bico
 
 __all__ = [
@@ -65,34 +72,6 @@ class ValueRefused(ConfigError):
 def label(info: ParamInfo, index: int | None = None) -> str:
     """``P1120``, ``r0021`` or ``P947.3``: as the drive's family writes it (`ParamInfo.label`)."""
     return info.label(index)
-
-
-# -- floats ------------------------------------------------------------------------------------
-
-
-def float_text(value: float) -> str:
-    """The shortest decimal text that reads back as the same single precision number."""
-    if not math.isfinite(value):
-        return repr(value)
-    single = round_float(value)
-    text = repr(single)
-    for digits in range(1, 10):
-        candidate = f"{single:.{digits}g}"
-        try:
-            if round_float(float(candidate)) == single:
-                text = candidate
-                break
-        except OverflowError:  # rounded up beyond the largest single
-            continue
-    number = float(text)
-    if number == int(number) and abs(number) < 1e15:
-        return str(int(number))
-    return repr(number)
-
-
-def shortest_float(value: float) -> float:
-    """``value`` (a single precision number) as its shortest decimal: 0.009999999776 -> 0.01."""
-    return float(float_text(value))
 
 
 def _clean(number: float) -> float:
