@@ -160,7 +160,6 @@ LONGER_STILL = {
     "drive/database.py",
     "gateway/mqtt.py",
     "gateway/opcua.py",
-    "gateway/topics.py",
     "master/drive.py",
     "master/scheduler.py",
     "monitor/core.py",

@@ -20,8 +20,9 @@ from gateway import ha_schema
 from gateway.contract import problems
 from gateway.harness import Broker, MqttClient, simulated_gateway, subscribed
 from pyuss.gateway.mqtt import MqttFace
-from pyuss.gateway.topics import decimals, param_value
+from pyuss.gateway.payloads import param_value
 from pyuss.points.parameters import ParamMeta
+from pyuss.points.state import decimals
 from support.limits import limit_writes
 from support.waiting import eventually
 

@@ -6,7 +6,9 @@
 - `pyuss.gateway.options`: the options of pyuss's faces and the readers of their tables.
 - `pyuss.gateway.run`: `Gateway`, the plant and its faces started and stopped together.
 - `pyuss.gateway.registers` (pure) and `pyuss.gateway.modbus` (a server of its own): Modbus TCP.
-- `pyuss.gateway.topics` (pure) and `pyuss.gateway.mqtt` (aiomqtt): MQTT, Home Assistant.
+- `pyuss.gateway.topics`, `pyuss.gateway.payloads` and `pyuss.gateway.homeassistant` (pure)
+  and `pyuss.gateway.mqtt` (aiomqtt): MQTT (topics and commands, the messages published),
+  Home Assistant discovery.
 - `pyuss.gateway.opcua` (asyncua): OPC UA.
 
 Each face module imports its own library only; the libraries are extras

@@ -1,7 +1,8 @@
 """The MQTT face: one aiomqtt client per bus, publishing its drives and taking commands.
 
-Topics, payloads and discovery are `pyuss.gateway.topics` (pure, tested without a broker);
-this module is the client around them:
+Topics and commands are `pyuss.gateway.topics`, the messages published
+`pyuss.gateway.payloads`, Home Assistant discovery `pyuss.gateway.homeassistant` (pure, tested
+without a broker); this module is the client around them:
 
 - It speaks MQTT 5 and connects with a clean start and no session kept (a fixed client id per
   bus, ``pyuss-BUS``) and a last will that sets ``uss/BUS/availability`` to ``offline``; it
@@ -25,14 +26,14 @@ this module is the client around them:
   send. An unreachable broker is tried again after 1 s, then twice as long each time up to
   `RECONNECT_MAX`; losing it and getting it back are one log line each.
 - States go out retained whenever a drive's state changes, through the drive's
-  `pyuss.gateway.topics.StateThrottle`: at once when anything but the actual values changed,
+  `pyuss.gateway.payloads.StateThrottle`: at once when anything but the actual values changed,
   else at most ``max_rate`` a second (the newest one) and only for a move of ``deadband`` or
   more; parameters when they were read. A state (QoS 0) is handed to the
   socket in the turn of the loop that made it, without aiomqtt's wait for it to be written
   (`MqttBusFace._publish_now`): that wait cost more CPU than the rest of the face. Once paho
   has taken a topic, the face writes the next QoS 0 messages to it itself, the packet's head
   made once per topic (`MqttBusFace._write_now`), and each state message is built from the
-  parts of the state that changed (`pyuss.gateway.topics.StatePayloads`). A state that
+  parts of the state that changed (`pyuss.gateway.payloads.StatePayloads`). A state that
   needs nothing else published is written from the drive model's callback itself, no task
   woken (`_DriveWorker.on_state`).
 - Commands of one drive are carried out one after the other, in order, by a task of that
@@ -78,24 +79,25 @@ from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from pyuss.errors import ConfigError, UssError
 from pyuss.gateway.announce import gateway_payload, gateway_topic
+from pyuss.gateway.homeassistant import discovery, discovery_node
 from pyuss.gateway.options import RECONNECT_MAX, STOP_WAIT, MqttOptions
+from pyuss.gateway.payloads import (
+    StatePayloads,
+    StateThrottle,
+    param_payload,
+    reading_dict,
+    reply_payload,
+    state_dict,
+    state_payload,
+)
 from pyuss.gateway.topics import (
     Command,
     CommandError,
     DriveTopics,
-    StatePayloads,
-    StateThrottle,
     check_reply_to,
-    discovery,
-    discovery_node,
     number,
-    param_payload,
     parse_command,
-    reading_dict,
-    reply_payload,
     show,
-    state_dict,
-    state_payload,
     subscriptions,
     switch_value,
     under,
@@ -309,7 +311,7 @@ class _DriveWorker:
             self.discovery_key = signature
 
     def discovery(self, state: DriveState) -> list[tuple[str, dict[str, Any]]]:
-        """The drive's discovery messages (`pyuss.gateway.topics.discovery`)."""
+        """The drive's discovery messages (`pyuss.gateway.homeassistant.discovery`)."""
         options = self.face.options
         return discovery(
             self.drive.model,

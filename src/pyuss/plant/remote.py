@@ -37,7 +37,7 @@ answered, to its arrival here; the two clocks are assumed to agree).
 ``write_param``, with ``params``, ``profile``, ``layout`` and ``address``) over ``cmd/read``
 and ``cmd/write``: a backup, a comparison and a restore run over the broker as over a line.
 The gateway carries numbers only: a parameter whose value is no number is refused, and a
-value comes rounded to its resolution (`pyuss.gateway.topics.param_value`).
+value comes rounded to its resolution (`pyuss.gateway.payloads.param_value`).
 """
 
 from __future__ import annotations
