@@ -370,7 +370,7 @@ async def test_a_gateway_message_left_by_an_earlier_run_with_a_clock_ahead_stops
     from paho.mqtt.properties import Properties
 
     from pyuss.gateway.announce import gateway_payload
-    from pyuss.gateway.mqtt import INSTANCE
+    from pyuss.gateway.mqtt_client import INSTANCE
 
     ahead = f"{time.time_ns() + 3600 * 10**9:020d}-00000000"  # an hour ahead
     properties = Properties(PacketTypes.PUBLISH)  # type: ignore[no-untyped-call]

@@ -7,8 +7,8 @@
 - `pyuss.gateway.run`: `Gateway`, the plant and its faces started and stopped together.
 - `pyuss.gateway.registers` (pure) and `pyuss.gateway.modbus` (a server of its own): Modbus TCP.
 - `pyuss.gateway.topics`, `pyuss.gateway.payloads` and `pyuss.gateway.homeassistant` (pure)
-  and `pyuss.gateway.mqtt` (aiomqtt): MQTT (topics and commands, the messages published),
-  Home Assistant discovery.
+  and `pyuss.gateway.mqtt` (aiomqtt; with `mqtt_drive`, `mqtt_commands`, `mqtt_client`): MQTT
+  (topics and commands, the messages published), Home Assistant discovery.
 - `pyuss.gateway.opcua` (asyncua): OPC UA.
 
 Each face module imports its own library only; the libraries are extras

@@ -35,6 +35,7 @@ __all__ = [
     "STATE_CLASSES",
     "discovery",
     "discovery_node",
+    "of_bus",
     "status_bit_names",
 ]
 
@@ -316,3 +317,16 @@ def discovery(
                 },
             )
     return messages
+
+
+def of_bus(payload: object, availability: str) -> bool:
+    """A discovery message of an entity available through the bus availability topic
+    ``availability``: one of that bus's gateway."""
+    if not isinstance(payload, bytes | str) or not payload:
+        return False
+    try:
+        config = json.loads(payload)
+    except ValueError:
+        return False
+    entries = config.get("availability") if isinstance(config, dict) else None
+    return isinstance(entries, list) and {"topic": availability} in entries

@@ -316,6 +316,16 @@ def parse_command(topic: str, payload: bytes, prefix: str, bus: str) -> Command:
     return Command(name=name, value=value, pnu=pnu, index=index, key=key, **common)
 
 
+def drive_of(topic: str, prefix: str, bus: str) -> str | None:
+    """The drive part of a topic of bus ``bus`` (None: the topic is none of the bus's drives),
+    for the reply to a message that is no command."""
+    parts = topic.split("/")
+    head = [*prefix.split("/"), bus]
+    if parts[: len(head)] == head and len(parts) > len(head):
+        return parts[len(head)]
+    return None
+
+
 def number(value: Any, what: str) -> int | float:
     """A number from a payload value (JSON number or text such as ``25``, ``0x047F``):
     finite, integers below `LIMIT` in magnitude, text of at most `MAX_NUMBER` characters;

@@ -60,7 +60,7 @@ from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from pyuss.drive.datatypes import encode as encode_raw
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
-from pyuss.gateway.mqtt import make_client, send_at_once
+from pyuss.gateway.mqtt_client import make_client, send_at_once
 from pyuss.gateway.options import MqttOptions
 from pyuss.gateway.topics import CONTRACT_VERSION
 from pyuss.params import ParamBook, ParamInfo
