@@ -9,7 +9,8 @@
 - `pyuss.gateway.topics`, `pyuss.gateway.payloads` and `pyuss.gateway.homeassistant` (pure)
   and `pyuss.gateway.mqtt` (aiomqtt; with `mqtt_drive`, `mqtt_commands`, `mqtt_client`): MQTT
   (topics and commands, the messages published), Home Assistant discovery.
-- `pyuss.gateway.opcua` (asyncua): OPC UA.
+- `pyuss.gateway.uanodes` (pure) and `pyuss.gateway.opcua` (asyncua; with `opcua_nodes`,
+  `opcua_sessions`): OPC UA.
 
 Each face module imports its own library only; the libraries are extras
 (``pip install 'pyuss[modbus]'``, ``[mqtt]``, ``[opcua]``, ``[all]``). See docs/gateway.md.
