@@ -92,7 +92,9 @@ def _turboctl(port: str, mode: str) -> dict[str, float]:
     import serial
     from turboctl.telegram import api
 
-    with serial.Serial(port, baudrate=BAUD, parity=serial.PARITY_EVEN, timeout=1) as conn:
+    # turboctl's own settings (its SERIAL_KWARGS) but no parity: a pty keeps none, and an 8E1
+    # open of a pty whose settings are already 19200 8N1 is refused (`pyuss.transport.serialport`)
+    with serial.Serial(port, baudrate=BAUD, parity=serial.PARITY_NONE, timeout=1) as conn:
         call = (
             partial(api.status, conn)
             if mode == "cyclic"
