@@ -216,10 +216,9 @@ def pty_drives(
 ) -> Iterator[str]:
     """``uss simulate --pty`` with ``drives`` drives (addresses 1..N, or those given); yields
     the pty's device path."""
-    chosen = addresses or range(1, drives + 1)
-    addresses = [w for a in chosen for w in ("--address", str(a))]
+    options = [w for a in addresses or range(1, drives + 1) for w in ("--address", str(a))]
     args = ["simulate", "--pty", "--baud", str(baud), "--layout", layout, "--failure-time", "0"]
-    with processes(([*args, *addresses], 1)) as (sim,):
+    with processes(([*args, *options], 1)) as (sim,):
         yield sim.lines[0]
 
 
