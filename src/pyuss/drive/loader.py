@@ -194,6 +194,8 @@ _PROFILE_KEYS = {
 def _build(
     layers: list[tuple[str, dict[str, Any]]], edition: str | None = None
 ) -> ParameterDatabase:
+    """The database of ``layers`` (base first, each later one over the ones before) in
+    ``edition`` of the top file's ``[editions]`` (None: the file's own)."""
     profile_data: dict[str, Any] = {}
     raw_params: dict[int, tuple[str, dict[str, Any]]] = {}
     tables: dict[str, dict[str, Any]] = {
