@@ -164,7 +164,6 @@ MOST_LINES = 700
 LONGER_STILL = {
     "bus/core.py",
     "cli/simulate.py",
-    "drive/database.py",
     "master/drive.py",
     "master/scheduler.py",
     "monitor/core.py",

@@ -70,7 +70,8 @@ from pyuss.bass.codec import BAUD as BASS_BAUD
 from pyuss.bass.drive import DriveOperatingData, drive_ring
 from pyuss.bass.ring import MAX_STATIONS, BassRing, DictOperatingData, demo_elements
 from pyuss.cli._help import plain
-from pyuss.drive.database import ParameterDatabase, load_database
+from pyuss.drive.database import ParameterDatabase
+from pyuss.drive.loader import load_database
 from pyuss.drive.simulated import SimulatedDrive
 from pyuss.errors import ConfigError, UssError
 from pyuss.profiles import get_profile, profile_names
