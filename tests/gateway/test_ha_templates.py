@@ -22,7 +22,9 @@ from gateway.ha_templates import TemplateError, Undefined, render
 from gateway.harness import Broker, simulated_gateway, subscribed
 from pyuss.bus import VirtualBus
 from pyuss.errors import UssError
-from pyuss.gateway.topics import DriveTopics, discovery, param_payload, state_payload
+from pyuss.gateway.homeassistant import discovery
+from pyuss.gateway.payloads import param_payload, state_payload
+from pyuss.gateway.topics import DriveTopics
 from pyuss.points.config import plant_from_flags
 from pyuss.points.model import DriveModel, resolve
 from pyuss.points.state import DriveState, Health, ParamValue, now, process_value

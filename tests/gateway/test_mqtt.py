@@ -20,8 +20,9 @@ from gateway import ha_schema
 from gateway.contract import problems
 from gateway.harness import Broker, MqttClient, simulated_gateway, subscribed
 from pyuss.gateway.mqtt import MqttFace
-from pyuss.gateway.topics import decimals, param_value
+from pyuss.gateway.payloads import param_value
 from pyuss.points.parameters import ParamMeta
+from pyuss.points.state import decimals
 from support.limits import limit_writes
 from support.waiting import eventually
 
@@ -369,7 +370,7 @@ async def test_a_gateway_message_left_by_an_earlier_run_with_a_clock_ahead_stops
     from paho.mqtt.properties import Properties
 
     from pyuss.gateway.announce import gateway_payload
-    from pyuss.gateway.mqtt import INSTANCE
+    from pyuss.gateway.mqtt_client import INSTANCE
 
     ahead = f"{time.time_ns() + 3600 * 10**9:020d}-00000000"  # an hour ahead
     properties = Properties(PacketTypes.PUBLISH)  # type: ignore[no-untyped-call]

@@ -18,7 +18,8 @@ from gateway import ha_schema
 from gateway.harness import Broker, MqttClient, Refused, simulated_gateway, subscribed
 from gateway.test_ha_templates import model, state
 from gateway.test_mqtt_attacks import listener
-from pyuss.gateway.topics import discovery, param_value, state_payload
+from pyuss.gateway.homeassistant import discovery
+from pyuss.gateway.payloads import param_value, state_payload
 from pyuss.points.parameters import ParamMeta
 from support.waiting import eventually
 

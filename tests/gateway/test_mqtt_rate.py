@@ -16,7 +16,7 @@ from gateway.harness import Broker, MqttClient, simulated_gateway, subscribed
 from gateway.test_ha_templates import model, state
 from pyuss.errors import ConfigError
 from pyuss.gateway.config import parse_config
-from pyuss.gateway.topics import StateThrottle
+from pyuss.gateway.payloads import StateThrottle
 from support.waiting import eventually
 
 RUNNING = 0x0437

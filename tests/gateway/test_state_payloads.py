@@ -13,7 +13,7 @@ from typing import Any
 
 from pyuss.bus import VirtualBus
 from pyuss.errors import UssError
-from pyuss.gateway.topics import StatePayloads, state_payload
+from pyuss.gateway.payloads import StatePayloads, state_payload
 from pyuss.gateway.uanodes import drive_values, value_parts
 from pyuss.master.testing import simulated_drives
 from pyuss.points.config import plant_from_flags

@@ -1,7 +1,9 @@
 """The MQTT face: one aiomqtt client per bus, publishing its drives and taking commands.
 
-Topics, payloads and discovery are `pyuss.gateway.topics` (pure, tested without a broker);
-this module is the client around them:
+Topics and commands are `pyuss.gateway.topics`, the messages published
+`pyuss.gateway.payloads`, Home Assistant discovery `pyuss.gateway.homeassistant` (pure, tested
+without a broker); this module is the client's session around them (the client itself, and
+what the face takes of aiomqtt and paho below their public calls: `pyuss.gateway.mqtt_client`):
 
 - It speaks MQTT 5 and connects with a clean start and no session kept (a fixed client id per
   bus, ``pyuss-BUS``) and a last will that sets ``uss/BUS/availability`` to ``offline``; it
@@ -24,31 +26,26 @@ this module is the client around them:
   no longer publishes (`MqttBusFace._clear_discovery`) and sends the replies it could not
   send. An unreachable broker is tried again after 1 s, then twice as long each time up to
   `RECONNECT_MAX`; losing it and getting it back are one log line each.
-- States go out retained whenever a drive's state changes, through the drive's
-  `pyuss.gateway.topics.StateThrottle`: at once when anything but the actual values changed,
-  else at most ``max_rate`` a second (the newest one) and only for a move of ``deadband`` or
-  more; parameters when they were read. A state (QoS 0) is handed to the
-  socket in the turn of the loop that made it, without aiomqtt's wait for it to be written
+- Each drive has its worker (`pyuss.gateway.mqtt_drive`): it publishes the drive's states
+  (at once, or as its ``max_rate`` and ``deadband`` let it) and carries out its commands in
+  order (`pyuss.gateway.mqtt_commands`). A state (QoS 0) is handed to the socket in the turn
+  of the loop that made it, without aiomqtt's wait for it to be written
   (`MqttBusFace._publish_now`): that wait cost more CPU than the rest of the face. Once paho
   has taken a topic, the face writes the next QoS 0 messages to it itself, the packet's head
-  made once per topic (`MqttBusFace._write_now`), and each state message is built from the
-  parts of the state that changed (`pyuss.gateway.topics.StatePayloads`). A state that
-  needs nothing else published is written from the drive model's callback itself, no task
-  woken (`_DriveWorker.on_state`).
-- Commands of one drive are carried out one after the other, in order, by a task of that
-  drive, so the message loop never waits for a drive; a command with an id is carried out
-  once (`pyuss.gateway.topics`), its reply kept for repeats (the last 1000 ids per bus).
-- Its socket sends each packet at once (`send_at_once`: no Nagle delay behind the broker's
-  acknowledgement of the packet before).
+  made once per topic (`MqttBusFace._write_now`).
+- A command with an id is carried out once (`pyuss.gateway.topics`), its reply kept for
+  repeats (the last 1000 ids per bus).
+- Its socket sends each packet at once (`pyuss.gateway.mqtt_client.send_at_once`: no Nagle
+  delay behind the broker's acknowledgement of the packet before).
 - On stop it refuses the commands that wait or come, lets each drive's command being
   carried out finish and reply (`MqttBusFace._finish`), publishes ``offline`` itself and
   disconnects.
 - One gateway per bus on a broker: its gateway message carries its generation (the user
-  property `INSTANCE`): one more than that of the gateway message of its bus it finds retained
-  when it first connects, so a gateway started later has the greater one, whatever the
-  machines' clocks say; a face that sees the message of a gateway of its bus of a greater
-  generation stops connecting (`TakenOver`), so two gateways never both take a bus's commands
-  nor take the session from each other in turn.
+  property `pyuss.gateway.mqtt_client.INSTANCE`): one more than that of the gateway message
+  of its bus it finds retained when it first connects, so a gateway started later has the
+  greater one, whatever the machines' clocks say; a face that sees the message of a gateway
+  of its bus of a greater generation stops connecting (`TakenOver`), so two gateways never
+  both take a bus's commands nor take the session from each other in turn.
 
 Why aiomqtt: the asyncio client over paho-mqtt (the reference MQTT client for Python); it
 brings sessions, QoS 1, last will, TLS and user/password.
@@ -63,354 +60,62 @@ import json
 import logging
 import secrets
 import socket
-import ssl
 from collections import OrderedDict, deque
 from collections.abc import Callable
 from typing import Any
 
 import aiomqtt
-from aiomqtt.exceptions import MqttConnectError
 from paho.mqtt import client as mqtt
 from paho.mqtt.packettypes import PacketTypes
 from paho.mqtt.properties import Properties
 from paho.mqtt.reasoncodes import ReasonCode
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
-from pyuss.errors import ConfigError, UssError
+from pyuss.errors import ConfigError
 from pyuss.gateway.announce import gateway_payload, gateway_topic
+from pyuss.gateway.homeassistant import discovery_node, of_bus
+from pyuss.gateway.mqtt_client import (
+    INSTANCE,
+    SUBSCRIBE,
+    TakenOver,
+    generation_of,
+    instance_of,
+    lost_reason,
+    make_client,
+    not_granted,
+    publish_head,
+    publish_packet,
+    queued,
+    send_at_once,
+)
+from pyuss.gateway.mqtt_commands import log_refused, lost_link, refusal, stopping
+from pyuss.gateway.mqtt_drive import QUEUE, DriveWorker
 from pyuss.gateway.options import RECONNECT_MAX, STOP_WAIT, MqttOptions
+from pyuss.gateway.payloads import (
+    reply_payload,
+    state_payload,
+)
 from pyuss.gateway.topics import (
     Command,
     CommandError,
-    DriveTopics,
-    StatePayloads,
-    StateThrottle,
     check_reply_to,
-    discovery,
-    discovery_node,
-    number,
-    param_payload,
+    drive_of,
     parse_command,
-    reading_dict,
-    reply_payload,
     show,
-    state_dict,
-    state_payload,
     subscriptions,
-    switch_value,
     under,
 )
-from pyuss.points.drive import DrivePoints
-from pyuss.points.errors import ReadOnly, UnknownPoint, error_dict
+from pyuss.points.errors import error_dict
 from pyuss.points.plant import BusPoints, Plant
-from pyuss.points.state import DriveState, ParamValue
+from pyuss.points.state import DriveState
 
-__all__ = ["MqttBusFace", "MqttFace", "make_client"]
+__all__ = ["MqttBusFace", "MqttFace"]
 
 log = logging.getLogger("pyuss.gateway.mqtt")
-client_log = logging.getLogger("pyuss.gateway.mqtt.client")
-"""The MQTT client's own messages; its "pending publish calls" notes are normal when many
-drives change at once (each drive waits for its own publish), so only errors are shown."""
-client_log.setLevel(logging.ERROR)
-
 KEEP_IDS = 1000
 """Replies kept per bus for commands repeated with the same id."""
 OUTBOX = 1000
 """Replies kept while the broker cannot be reached (the oldest are dropped first)."""
-QUEUE = 100
-"""Commands waiting per drive; more are answered with a refusal."""
-SUBSCRIBE = SubscribeOptions(qos=1, noLocal=True, retainAsPublished=True)
-"""Command subscriptions: QoS 1; what the face publishes never comes back to it; a retained
-command keeps its retain flag whenever it is delivered."""
-
-
-def _error(kind: str, message: str, failure: str = "refused") -> dict[str, Any]:
-    """An error of a reply that no exception stands for (same keys as `error_dict`)."""
-    return {"type": kind, "message": message, "class": failure}
-
-
-def _lost_link() -> dict[str, Any]:
-    """The refusal of a command that waited for its drive when the broker was lost."""
-    return _error(
-        "Disconnected",
-        "the connection to the MQTT broker was lost before it was carried out: not carried out",
-        "unavailable",
-    )
-
-
-def _stopping() -> dict[str, Any]:
-    """The refusal of a command that comes or waits while the gateway stops."""
-    return _error("Stopping", "the gateway is stopping: not carried out", "unavailable")
-
-
-def _tls(options: MqttOptions) -> ssl.SSLContext | None:
-    if not options.tls:
-        return None
-    context = ssl.create_default_context(cafile=options.ca)
-    if options.cert is not None:
-        context.load_cert_chain(options.cert, options.key)
-    if options.insecure:
-        context.check_hostname = False
-        context.verify_mode = ssl.CERT_NONE
-    return context
-
-
-def make_client(
-    options: MqttOptions, identifier: str, will: aiomqtt.Will | None = None
-) -> aiomqtt.Client:
-    """An MQTT 5 client for ``options`` (broker, user, password, TLS, keep-alive) with a clean
-    start and no session expiry: the broker keeps nothing for it while it is away."""
-    return aiomqtt.Client(
-        options.endpoint.host,
-        options.endpoint.port,
-        username=options.username,
-        password=options.password,
-        identifier=identifier,
-        protocol=aiomqtt.ProtocolVersion.V5,
-        clean_start=True,  # and no session expiry: nothing is kept while away
-        keepalive=options.keepalive,
-        will=will,
-        tls_context=_tls(options),
-        timeout=10,
-        logger=client_log,
-    )
-
-
-def send_at_once(client: aiomqtt.Client) -> None:
-    """Turn Nagle's algorithm off on a connected client's TCP socket (``TCP_NODELAY``): a
-    state, command or reply goes out when it is made, not held until the broker acknowledged
-    the one before (with the peer's delayed acknowledgement, some 40 ms each time). A socket
-    that is no TCP socket (websockets) is left as it is."""
-    paho = getattr(client, "_client", None)  # aiomqtt's paho client
-    sock = paho.socket() if paho is not None else None
-    if isinstance(sock, socket.socket) and sock.family in (socket.AF_INET, socket.AF_INET6):
-        with contextlib.suppress(OSError):
-            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-
-
-_Due = tuple[str | None, list[tuple[str, ParamValue]], tuple[object, object] | None]
-"""What a state needs published beside its state message (`_DriveWorker._due`)."""
-
-
-class _DriveWorker:
-    """Publishes one drive's states and carries out its commands in order.
-
-    Each new state goes through the drive's `StateThrottle` (``max_rate``, ``deadband`` of
-    `MqttOptions`): published at once when a status bit, a fault, what was sent, a parameter
-    or the availability changed; when only actual values changed, at most ``max_rate`` a
-    second, the newest one held until its time comes (`on_state`, `_release`). A state to
-    publish that changes nothing but the state message - most of them, while a drive runs -
-    is written at once from the drive model's callback (`send`), no task woken; the rest
-    (availability, a parameter, discovery; a state while not connected or while the task
-    publishes) is left to the task (`states`), which publishes the newest."""
-
-    def __init__(self, face: MqttBusFace, drive: DrivePoints) -> None:
-        self.face = face
-        self.drive = drive
-        self.topics = DriveTopics(face.options.prefix, drive.model.bus, drive.name)
-        self.queue: asyncio.Queue[Command] = asyncio.Queue(QUEUE)
-        self.published: dict[str, Any] = {}
-        self.discovery_key: object = None
-        self.payloads = StatePayloads()
-        self.idle = asyncio.Event()
-        """Set while no command is being carried out (and its reply sent)."""
-        self.idle.set()
-        self.latest: DriveState | None = None
-        """The newest state the task is to publish (`on_state`)."""
-        self.wake = asyncio.Event()
-        self.publishing = False
-        options = face.options
-        self.throttle = StateThrottle(
-            1.0 / options.max_rate if options.max_rate else 0.0, options.deadband
-        )
-        self.held: DriveState | None = None
-        """The newest state the throttle holds back until `timer` publishes it."""
-        self.timer: asyncio.TimerHandle | None = None
-        self.connect_state: DriveState | None = None
-        """The state published at the connection (`MqttBusFace._connected`)."""
-
-    def on_state(self, state: DriveState) -> None:
-        """The drive model's subscriber (see the class docstring)."""
-        loop = asyncio.get_running_loop()
-        now = loop.time()
-        wait = self.throttle.offer(state, now)
-        if wait is None:  # no newer than what was published: nothing to publish
-            self.drop_held()
-        elif wait > 0:
-            self.held = state
-            if self.timer is None:
-                self.timer = loop.call_at(now + wait, self._release)
-        else:
-            self.drop_held()
-            self.send(state, now)
-
-    def drop_held(self) -> None:
-        """Forget the state held back, and its timer."""
-        self.held = None
-        if self.timer is not None:
-            self.timer.cancel()
-            self.timer = None
-
-    def _release(self) -> None:
-        """The held state's time has come."""
-        self.timer = None
-        state, self.held = self.held, None
-        if state is not None:
-            self.send(state, asyncio.get_running_loop().time())
-
-    def send(self, state: DriveState, now: float) -> None:
-        """Publish ``state`` now (see the class docstring)."""
-        self.throttle.sent(state, now)
-        if (
-            self.publishing
-            or self.wake.is_set()
-            or self._due(state) is not None
-            or not self.face.publish_now(self.topics.state, self.payloads.payload(state))
-        ):
-            self.latest = state
-            self.wake.set()
-
-    def _due(self, state: DriveState) -> _Due | None:
-        """What ``state`` needs published beside its state message, of what was not
-        published yet: its availability, parameter readings, discovery signature (where
-        discovery is on). None: nothing."""
-        published = self.published
-        online = "online" if state.online else "offline"
-        availability = None if published.get("availability") == online else online
-        parameters = []
-        for key, reading in state.parameters.items():  # (a loop: no comprehension to call)
-            if reading.time is not None and published.get(key) != (reading.value, reading.time):
-                parameters.append((key, reading))
-        signature: tuple[object, object] | None = (state.reference, state.model.unit)
-        if not self.face.options.discovery or signature == self.discovery_key:
-            signature = None
-        if availability is None and not parameters and signature is None:
-            return None
-        return availability, parameters, signature
-
-    async def publish_state(self, state: DriveState) -> None:
-        """``state`` and what it needs published beside (`_due`); its message only if it is
-        not the one published at the connection already (`MqttBusFace._connected`)."""
-        face = self.face
-        if state is not self.connect_state:
-            await face.publish(self.topics.state, self.payloads.payload(state), qos=0, retain=True)
-        due = self._due(state)
-        if due is None:
-            return
-        online, parameters, signature = due
-        if online is not None and await face.publish(
-            self.topics.availability, online, qos=1, retain=True
-        ):
-            self.published["availability"] = online
-        for key, reading in parameters:
-            if await face.publish(self.topics.param(key), param_payload(reading), retain=True):
-                self.published[key] = (reading.value, reading.time)
-        if signature is not None and await self.publish_discovery(state):
-            self.discovery_key = signature
-
-    def discovery(self, state: DriveState) -> list[tuple[str, dict[str, Any]]]:
-        """The drive's discovery messages (`pyuss.gateway.topics.discovery`)."""
-        options = self.face.options
-        return discovery(
-            self.drive.model,
-            state,
-            prefix=options.prefix,
-            discovery_prefix=options.discovery_prefix,
-            read_only=options.read_only,
-        )
-
-    async def publish_discovery(self, state: DriveState) -> bool:
-        """Publish the drive's discovery messages, all at once (one round trip to the broker,
-        not one per entity)."""
-        sent = await asyncio.gather(
-            *(
-                self.face.publish(topic, json.dumps(config), qos=1, retain=True)
-                for topic, config in self.discovery(state)
-            )
-        )
-        return all(sent)
-
-    async def states(self) -> None:
-        while True:
-            await self.wake.wait()
-            await self.face.connected.wait()
-            self.wake.clear()
-            state, self.latest = self.latest, None
-            if state is None:
-                continue
-            self.publishing = True
-            try:
-                await self.publish_state(state)
-            finally:
-                self.publishing = False
-
-    async def commands(self) -> None:
-        while True:
-            self.idle.set()
-            command = await self.queue.get()
-            self.idle.clear()
-            reply = await self.carry_out(command)
-            self.face.remember(command, reply)
-            try:
-                await self.face.reply(command, reply, self.topics.reply)
-            except Exception as exc:  # the drive's next command is served
-                log.error("%s: reply to %s failed: %r", self.drive.key, command.name, exc)
-
-    async def carry_out(self, command: Command) -> dict[str, Any]:
-        try:
-            if command.writes and self.face.options.read_only:
-                raise ReadOnly("this MQTT face is read-only: only read commands are taken")
-            result = await self._run(command)
-        except (UssError, ValueError) as exc:
-            error = error_dict(exc)
-            _refused(self.drive.model.bus, f"{command.name} for {command.drive}", error["message"])
-            return reply_payload(command, error=error)
-        except Exception as exc:  # one command's failure ends nothing
-            log.error(
-                "%s: %s for %s failed: %s",
-                self.face.bus.name,
-                command.name,
-                command.drive,
-                show(exc, 200),
-            )
-            return reply_payload(command, error=error_dict(exc))
-        return reply_payload(command, result=result)
-
-    async def _run(self, command: Command) -> dict[str, Any]:
-        drive = self.drive
-        name = command.name
-        state: DriveState
-        if name in ("on", "off1", "off2", "off3", "acknowledge"):
-            state = await drive.command(name)
-        elif name == "run":
-            state = await drive.command("on" if switch_value(command.value) else "off1")
-        elif name in ("setpoint", "setpoint_percent"):
-            unit = "percent" if name == "setpoint_percent" else "value"
-            # the drive model reads the number (text too): one reading of a setpoint
-            state = await drive.set_setpoint(command.value, command.key, unit=unit)
-        elif name == "control_word":
-            word = number(command.value, name)
-            if not isinstance(word, int):
-                raise ConfigError(f"control word must be a whole number, not {show(word)}")
-            state = await drive.set_control_word(word)
-        elif name == "read":
-            assert command.pnu is not None
-            return reading_dict(await drive.read_parameter(command.pnu, command.index))
-        elif name == "write":
-            assert command.pnu is not None
-            value = number(command.value, f"write P{command.pnu}")
-            reading = await drive.write_parameter(
-                command.pnu, value, command.index, eeprom=command.eeprom
-            )
-            return reading_dict(reading)
-        else:  # pragma: no cover - parse_command knows the names
-            raise UnknownPoint(f"unknown command {name!r}")
-        return {
-            "status_word": state.status_word,
-            "state": state.state,
-            "control_word": state.control_word,
-            "setpoint": state_dict(state)["setpoint"],
-        }
 
 
 @dataclasses.dataclass(frozen=True, slots=True)
@@ -418,7 +123,7 @@ class _Connected:
     """What `MqttBusFace._connected` leaves to `MqttBusFace._publish_rest`: each drive's state
     published at the connection, the retained discovery messages found of its drives."""
 
-    states: list[tuple[_DriveWorker, DriveState]]
+    states: list[tuple[DriveWorker, DriveState]]
     discovery: list[aiomqtt.Message]
 
 
@@ -430,7 +135,7 @@ class MqttBusFace:
         self.options = options
         self.client_id = options.client_id.format(bus=bus.name)
         self.availability = f"{options.prefix}/{bus.name}/availability"
-        self.workers = {drive.name: _DriveWorker(self, drive) for drive in bus.drives.values()}
+        self.workers = {drive.name: DriveWorker(self, drive) for drive in bus.drives.values()}
         self.connected = asyncio.Event()
         self._client: aiomqtt.Client | None = None
         self._done: OrderedDict[tuple[str, str], dict[str, Any]] = OrderedDict()
@@ -499,7 +204,7 @@ class MqttBusFace:
 
     def _write_now(self, paho: mqtt.Client, topic: str, payload: bytes | str, retain: bool) -> bool:
         """A QoS 0 message written to a plain TCP socket by the face itself, the packet's
-        head made once per topic (`_publish_head`): paho builds MQTT 5 reason-code and
+        head made once per topic (`publish_head`): paho builds MQTT 5 reason-code and
         property objects for every message it has written, some hundred microseconds of
         CPU per state. Only while nothing else waits to be written; what the socket does
         not take at once is handed to paho to write next, as paho does with its own. False:
@@ -510,7 +215,7 @@ class MqttBusFace:
         if head is None or type(sock) is not socket.socket:
             return False
         data = payload.encode() if isinstance(payload, str) else payload
-        packet = _publish_packet(head, data)
+        packet = publish_packet(head, data)
         try:
             sent = sock.send(packet)
         except BlockingIOError:
@@ -549,7 +254,7 @@ class MqttBusFace:
             log.info("%s: publish to %s failed: %s", self.bus.name, topic, mqtt.error_string(code))
             return False
         # paho took the topic (valid, no wildcards): the face may write the next itself
-        self._heads[(topic, retain)] = _publish_head(topic, retain)
+        self._heads[(topic, retain)] = publish_head(topic, retain)
         return True
 
     async def reply(self, command: Command, reply: dict[str, Any], default: str) -> None:
@@ -572,7 +277,7 @@ class MqttBusFace:
         self, command: Command, error: dict[str, Any], topic: str, what: str | None = None
     ) -> None:
         """Refuse ``command`` (one log line) with an error reply to ``topic``."""
-        _refused(self.bus.name, what or f"{command.name} for {command.drive}", error["message"])
+        log_refused(self.bus.name, what or f"{command.name} for {command.drive}", error["message"])
         await self.reply(command, reply_payload(command, error=error), topic)
 
     async def _message(self, topic: str, payload: bytes, *, retained: bool = False) -> None:
@@ -581,7 +286,7 @@ class MqttBusFace:
         try:
             command = parse_command(topic, payload, options.prefix, self.bus.name)
         except ConfigError as exc:
-            drive_name = _drive_of(topic, options.prefix, self.bus.name)
+            drive_name = drive_of(topic, options.prefix, self.bus.name)
             if drive_name not in self.workers:
                 log.info("%s: ignored %s: %s", self.bus.name, show(topic, 200), exc)
                 return
@@ -605,10 +310,10 @@ class MqttBusFace:
                 return
         if retained:
             message = "a retained message never acts: publish commands without the retain flag"
-            await self._refuse(command, _error("Retained", message), worker.topics.reply)
+            await self._refuse(command, refusal("Retained", message), worker.topics.reply)
             return
         if self._closing:
-            await self._refuse(command, _stopping(), worker.topics.reply)
+            await self._refuse(command, stopping(), worker.topics.reply)
             return
         if command.id is not None:
             key = (command.drive, command.id)
@@ -624,7 +329,7 @@ class MqttBusFace:
         except asyncio.QueueFull:
             if command.id is not None:
                 self._pending.discard((command.drive, command.id))
-            busy = _error("Busy", f"{QUEUE} commands wait already", "busy")
+            busy = refusal("Busy", f"{QUEUE} commands wait already", "busy")
             await self._refuse(command, busy, worker.topics.reply)
 
     # -- the connection ------------------------------------------------------------------------
@@ -638,7 +343,7 @@ class MqttBusFace:
         earlier generation, or a retained message of an earlier run, is left to find this
         one's message: the newest gateway keeps the bus, the others stop, whatever order
         their messages come in."""
-        instance = _instance(message)
+        instance = instance_of(message)
         if instance is None or instance <= self.instance:
             return
         raise TakenOver(
@@ -653,7 +358,7 @@ class MqttBusFace:
         # are granted, so another gateway is found before this one publishes anything
         watch = SubscribeOptions(qos=1, noLocal=False, retainAsPublished=True)
         granted = await client.subscribe(self.gateway_topic, options=watch)
-        if any(_failed(code) for code in granted):
+        if any(not_granted(code) for code in granted):
             raise aiomqtt.MqttError(f"the broker refused the subscription to {self.gateway_topic}")
         # in one request: the commands, and the discovery topics of this gateway's drives
         # (their retained messages, to clear those no longer published: `_clear_discovery`)
@@ -665,9 +370,9 @@ class MqttBusFace:
             )
         )
         for topic, code in zip(commands, codes, strict=False):
-            if _failed(code):
+            if not_granted(code):
                 raise aiomqtt.MqttError(f"the broker refused the subscription to {topic}")
-        if any(_failed(code) for code in codes[len(commands) :]):
+        if any(not_granted(code) for code in codes[len(commands) :]):
             log.warning(
                 "%s: the broker refused the subscription to the discovery topics: the "
                 "entities of parameters or commands no longer published are not removed",
@@ -675,11 +380,11 @@ class MqttBusFace:
             )
             nodes = []
         # the gateway topic's retained message is in: granted after it
-        early = _queued(client)
+        early = queued(client)
         gateways = [m for m in early if m.topic.value == self.gateway_topic]
         if not self.instance:  # the first connection: one generation after the newest found
-            found = [i for i in map(_instance, gateways) if i is not None]
-            generation = 1 + max(map(_generation, found), default=0)
+            found = [i for i in map(instance_of, gateways) if i is not None]
+            generation = 1 + max(map(generation_of, found), default=0)
             self.instance = f"{generation:020d}-{secrets.token_hex(4)}"
         for message in gateways:
             self._other_gateway(message)
@@ -702,14 +407,14 @@ class MqttBusFace:
         )
         if nodes:  # the retained discovery messages are in once this is granted
             await client.unsubscribe(nodes)
-            early += _queued(client)
+            early += queued(client)
         retained = [m for m in early if under(m.topic.value, self.options.discovery_prefix)]
         # the rest for `_consume`, the gateway messages found here having been looked at
         self._early = [
             m for m in early if m.topic.value != self.gateway_topic and m not in retained
         ]
         now = asyncio.get_running_loop().time()
-        states: list[tuple[_DriveWorker, DriveState]] = []
+        states: list[tuple[DriveWorker, DriveState]] = []
         sends = []
         for worker in self.workers.values():
             state = worker.drive.snapshot()
@@ -771,7 +476,7 @@ class MqttBusFace:
         }
         for message in connected.discovery:
             topic = message.topic.value
-            if topic in published or not _of_bus(message.payload, self.availability):
+            if topic in published or not of_bus(message.payload, self.availability):
                 continue
             if await self.publish(topic, b"", qos=1, retain=True):
                 log.info("%s: removed the discovery message %s", self.bus.name, topic)
@@ -845,7 +550,7 @@ class MqttBusFace:
             if not self._closing:
                 # its sender saw offline (the last will) and may have done otherwise since:
                 # a command that waited must not act while, or after, the gateway was away
-                await self._refuse_waiting(_lost_link())
+                await self._refuse_waiting(lost_link())
 
     async def run(self) -> None:
         """Stay connected until `close`: after a loss, try again after `MqttOptions.reconnect`
@@ -880,7 +585,7 @@ class MqttBusFace:
                         "%s: MQTT broker %s %s; trying again after %g s, then up to every %g s",
                         self.bus.name,
                         self.options.endpoint,
-                        _lost(exc, connected=self.connections > 0),
+                        lost_reason(exc, connected=self.connections > 0),
                         wait,
                         RECONNECT_MAX,
                     )
@@ -914,7 +619,7 @@ class MqttBusFace:
         each drive finish and reply (bounded by `STOP_WAIT`): a client is answered for every
         command, and none is cut off between its check and its telegram."""
         self._closing = True
-        await self._refuse_waiting(_stopping())
+        await self._refuse_waiting(stopping())
         with contextlib.suppress(TimeoutError):
             async with asyncio.timeout(STOP_WAIT):
                 for worker in self.workers.values():
@@ -961,108 +666,10 @@ class MqttBusFace:
                 runner.cancel()
 
 
-class TakenOver(UssError):
-    """Another gateway of the same bus (prefix and bus name) publishes on the broker."""
-
-
-INSTANCE = "pyuss-gateway"
-"""The MQTT 5 user property of the gateway message that tells one gateway's from another's
-and the newer from the older (`MqttBusFace.instance`)."""
-
-
-def _instance(message: aiomqtt.Message) -> str | None:
-    """The token of the gateway that published ``message`` (None: none said)."""
-    for name, value in getattr(message.properties, "UserProperty", None) or ():
-        if name == INSTANCE:
-            return str(value)
-    return None
-
-
-def _generation(instance: str) -> int:
-    """The generation of a gateway's `INSTANCE` token (0: none that can be read)."""
-    digits = instance.partition("-")[0]
-    if len(digits) != 20 or not (digits.isascii() and digits.isdigit()):
-        return 0
-    return min(int(digits), 10**20 - 2)  # (one more must still be 20 digits)
-
-
-def _queued(client: aiomqtt.Client) -> list[aiomqtt.Message]:
-    """The messages ``client`` has received and nobody has taken yet (aiomqtt's queue)."""
-    queue = getattr(client, "_queue", None)
-    taken: list[aiomqtt.Message] = []
-    while isinstance(queue, asyncio.Queue):
-        try:
-            taken.append(queue.get_nowait())
-        except asyncio.QueueEmpty:
-            break
-    return taken
-
-
-def _publish_head(topic: str, retain: bool) -> tuple[int, bytes]:
-    """The first byte of an MQTT 5 PUBLISH packet of QoS 0 (MQTT 5.0 3.3.1), and what follows
-    its remaining length up to the payload: the topic name and no properties (3.3.2)."""
-    name = topic.encode()
-    return 0x30 | retain, len(name).to_bytes(2, "big") + name + b"\x00"
-
-
-def _publish_packet(head: tuple[int, bytes], payload: bytes) -> bytes:
-    """A PUBLISH packet of `_publish_head` and ``payload``: the remaining length is a
-    variable byte integer (MQTT 5.0 1.5.5)."""
-    first, rest = head
-    length = len(rest) + len(payload)
-    size = bytearray([first])
-    while True:
-        length, byte = divmod(length, 128)
-        size.append(byte | 0x80 if length else byte)
-        if not length:
-            return bytes(size) + rest + payload
-
-
-def _refused(bus: str, what: str, message: str) -> None:
-    """The one log line of a refused command."""
-    log.warning(
-        "%s: refused %s: %s", bus, what, message if len(message) < 300 else show(message, 300)
-    )
-
-
-def _lost(exc: Exception, *, connected: bool) -> str:
-    """What became of the broker, for the log line: it refused the connection (the login, the
-    client id: the CONNACK's reason), or it is lost or unreachable, and why."""
-    if isinstance(exc, MqttConnectError):
-        return f"refused the connection ({exc})"
-    return f"{'lost' if connected else 'unreachable'}: {show(exc, 200)}"
-
-
 def _retrieve(task: asyncio.Task[None]) -> None:
     """Mark the outcome of a finished task as seen (a lost connection is handled by `run`)."""
     if not task.cancelled():
         task.exception()
-
-
-def _failed(code: int | ReasonCode) -> bool:
-    """A subscription the broker did not grant (MQTT 5 reason code 80h and above)."""
-    return (code.value if isinstance(code, ReasonCode) else code) >= 0x80
-
-
-def _of_bus(payload: object, availability: str) -> bool:
-    """A discovery message of an entity available through the bus availability topic
-    ``availability``: one of that bus's gateway."""
-    if not isinstance(payload, bytes | str) or not payload:
-        return False
-    try:
-        config = json.loads(payload)
-    except ValueError:
-        return False
-    entries = config.get("availability") if isinstance(config, dict) else None
-    return isinstance(entries, list) and {"topic": availability} in entries
-
-
-def _drive_of(topic: str, prefix: str, bus: str) -> str | None:
-    parts = topic.split("/")
-    head = [*prefix.split("/"), bus]
-    if parts[: len(head)] == head and len(parts) > len(head):
-        return parts[len(head)]
-    return None
 
 
 class MqttFace:

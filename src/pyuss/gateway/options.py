@@ -83,7 +83,7 @@ class MqttOptions:
     max_rate: float = MAX_RATE
     """State messages per second per drive at most (0: one per change); a change of anything
     but the actual values (a status bit, a fault, a command's result) is published at once
-    (`pyuss.gateway.topics.StateThrottle`)."""
+    (`pyuss.gateway.payloads.StateThrottle`)."""
     deadband: float = 0.0
     """Percent of the reference an actual value must move from the value last published
     before a state is published for it (0: every change)."""

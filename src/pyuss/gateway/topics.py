@@ -1,5 +1,7 @@
-"""The MQTT topics of a bus and its drives, command parsing and Home Assistant discovery,
-without a broker.
+"""The MQTT topics of a bus and its drives and the commands they carry, parsed without a
+broker: the contract's topics and commands. What the gateway publishes on them is
+`pyuss.gateway.payloads`; Home Assistant's discovery messages are
+`pyuss.gateway.homeassistant`.
 
 Topics (``uss`` is the configurable prefix, ``BUS`` and ``DRIVE`` the configured names)::
 
@@ -22,9 +24,6 @@ an ``id`` is carried out once: a repeated id (an MQTT QoS 1 duplicate, a client'
 answered with the first result again and not applied twice. Commands without an id (Home
 Assistant's) are all applied; those it sends are the same whether applied once or twice.
 
-Replies: ``{"v", "id", "command", "drive", "ok": true, "result": {...}}`` or ``{"ok": false,
-"error": {"type", "message", "class", "number", "meaning"}}`` (`pyuss.points.errors`).
-
 The topics and payloads are a versioned contract: JSON Schema files shipped in the package
 (``pyuss/gateway/schemas``, docs/gateway.md "The MQTT contract"). Every JSON payload the
 gateway publishes carries the contract version as ``"v": 1`` (`CONTRACT_VERSION`); a command
@@ -32,48 +31,16 @@ may name the version it is written in (``v``) and is refused if the gateway does
 it (`VERSIONS`, `UnsupportedVersion`). A JSON command holds only the fields of its topic
 (`FIELDS`): a misspelt field is refused (`UnknownField`), never ignored. These refusals carry
 the command's id (`CommandError`).
-
-States, parameters and results carry values rounded to their resolution (`state_dict`,
-`reading_dict`); a state holds every configured process value, its numbers null until the
-drive answered. `StateThrottle` says when a state is due (``max_rate``, ``deadband``).
-
-Home Assistant discovery (`discovery`): per drive one device, its maker and model from the
-profile, with sensors for the state text, every actual value and configured parameter (named
-as the family's manual names it, with unit, display precision and, where the unit has one,
-the device class: an energy counter counts up), the last fault number with its text, binary
-sensors for fault, warning and operation enabled and one per other named bit of the family's
-status word, a number for the main setpoint (the range the gateway takes), a switch for
-ON/OFF1 and buttons for acknowledge, OFF2 and OFF3; all available while the gateway and the
-drive are; each names its entity id as ``default_entity_id``
-(``sensor.pyuss_line1_conveyor_state``). Every template renders with every state message:
-what is not known renders ``None``, Home Assistant's "unknown".
 """
 
 from __future__ import annotations
 
-import json
 import math
-from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from pyuss import __version__
 from pyuss.errors import ConfigError
 from pyuss.points.config import parse_parameter_spec
-from pyuss.points.model import DriveModel
-from pyuss.points.parameters import ParamMeta
-from pyuss.points.state import (
-    COUNTER_FIELDS,
-    DriveState,
-    Health,
-    ParamValue,
-    decimals,
-    iso,
-    process_decimals,
-    setpoint_span,
-)
-from pyuss.profiles import UNKNOWN_KIND, get_profile
-from pyuss.protocol.pzd import STATUS_BITS
 from pyuss.userfile import NotJson, parse_message
 
 __all__ = [
@@ -84,18 +51,10 @@ __all__ = [
     "Command",
     "CommandError",
     "DriveTopics",
-    "StatePayloads",
-    "StateThrottle",
     "UnknownField",
     "UnsupportedVersion",
     "check_reply_to",
-    "decimals",
-    "discovery",
-    "discovery_node",
     "parse_command",
-    "reply_payload",
-    "state_dict",
-    "state_payload",
 ]
 
 COMMAND_NAMES = (
@@ -137,33 +96,6 @@ FIELDS: dict[str, frozenset[str]] = {
 }
 """The fields a JSON command may hold, by command (``param/set`` and ``param/get``: the
 topics of a parameter)."""
-
-DEVICE_CLASSES: dict[str, str] = {
-    "Hz": "frequency",
-    "kHz": "frequency",
-    "A": "current",
-    "mA": "current",
-    "V": "voltage",
-    "mV": "voltage",
-    "kV": "voltage",
-    "W": "power",
-    "kW": "power",
-    "°C": "temperature",
-    "K": "temperature",
-    "s": "duration",
-    "ms": "duration",
-    "min": "duration",
-    "h": "duration",
-    "Wh": "energy",
-    "kWh": "energy",
-    "MWh": "energy",
-}
-"""Home Assistant sensor device class for a unit (units without one get none)."""
-
-STATE_CLASSES: dict[str, str] = {"energy": "total_increasing"}
-"""Home Assistant state class of a sensor by its device class, where it is not
-``measurement``: an energy counter (r0039 kWh) only grows, or starts again from 0 when reset
-(Home Assistant takes a fall for a new cycle)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -384,6 +316,16 @@ def parse_command(topic: str, payload: bytes, prefix: str, bus: str) -> Command:
     return Command(name=name, value=value, pnu=pnu, index=index, key=key, **common)
 
 
+def drive_of(topic: str, prefix: str, bus: str) -> str | None:
+    """The drive part of a topic of bus ``bus`` (None: the topic is none of the bus's drives),
+    for the reply to a message that is no command."""
+    parts = topic.split("/")
+    head = [*prefix.split("/"), bus]
+    if parts[: len(head)] == head and len(parts) > len(head):
+        return parts[len(head)]
+    return None
+
+
 def number(value: Any, what: str) -> int | float:
     """A number from a payload value (JSON number or text such as ``25``, ``0x047F``):
     finite, integers below `LIMIT` in magnitude, text of at most `MAX_NUMBER` characters;
@@ -452,526 +394,3 @@ def check_reply_to(topic: str, topics: DriveTopics, discovery_prefix: str) -> No
         or (len(levels) >= 3 and levels[-3] == "param" and levels[-1] == "get")
     ):
         raise ConfigError(f"reply_to {show(topic)} has the shape of a command topic")
-
-
-def param_places(meta: ParamMeta) -> int | None:
-    """The decimals of a parameter's resolution: those of its scaling, those its parameter
-    file gives a float (`decimals`), 0 for an integer; None: a float whose file names none,
-    shown to the 7 significant digits of a 32-bit float."""
-    if meta.scaling is not None and not meta.is_float:
-        return decimals(abs(meta.scaling))
-    if meta.is_float:
-        return meta.decimals or None
-    return 0
-
-
-def param_value(meta: ParamMeta, value: int | float | None) -> int | float | None:
-    """A parameter's value rounded to its resolution (`param_places`); integers as they
-    are."""
-    if not isinstance(value, float) or not math.isfinite(value):
-        return value
-    places = param_places(meta)
-    return float(f"{value:.7g}") if places is None else round(value, places)
-
-
-def reading_dict(reading: ParamValue) -> dict[str, Any]:
-    """`ParamValue.to_dict` with the value rounded to its resolution (`param_value`)."""
-    item = reading.to_dict()
-    item["value"] = param_value(reading.meta, reading.value)
-    return item
-
-
-def state_dict(state: DriveState) -> dict[str, Any]:
-    """`DriveState.to_dict` with the process values and parameters rounded to their
-    resolution (`process_decimals`, `param_value`): a 20 Hz setpoint of a 50 Hz reference
-    is 20.0, not the 20.001221 its raw word 199Ah stands for."""
-    data = state.to_dict()
-    data["actual"] = _process_dict(state, "actual")
-    data["setpoint"] = _process_dict(state, "setpoint")
-    data["parameters"] = _parameters_dict(state)
-    return data
-
-
-def _process_dict(state: DriveState, group: str) -> dict[str, Any]:
-    """The ``actual`` or ``setpoint`` part of `state_dict`: every configured process value,
-    with ``value``, ``percent`` and ``raw`` null while it is not known (no answer yet)."""
-    model = state.model
-    values, items = (
-        (state.actual, model.actual) if group == "actual" else (state.setpoints, model.setpoints)
-    )
-    data: dict[str, Any] = {}
-    for item in items:
-        value = values.get(item.key)
-        if value is None:
-            data[item.key] = {
-                "value": None,
-                "unit": model.unit,
-                "percent": None,
-                "raw": None,
-                "pzd": item.pzd,
-            }
-            continue
-        entry = value.to_dict()
-        places, percent_places = process_decimals(item.dword, model.unit, state.reference)
-        if entry["value"] is not None:
-            entry["value"] = round(entry["value"], places)
-        entry["percent"] = round(entry["percent"], percent_places)
-        data[item.key] = entry
-    return data
-
-
-def _parameters_dict(state: DriveState) -> dict[str, Any]:
-    return {key: reading_dict(reading) for key, reading in state.parameters.items()}
-
-
-def _dumps(data: object) -> str:
-    return json.dumps(data, separators=(",", ":"))
-
-
-def state_payload(state: DriveState) -> bytes:
-    """The state message (schema ``state.json``)."""
-    data = {"v": CONTRACT_VERSION, **state_dict(state)}
-    return _dumps(data).encode()
-
-
-class StatePayloads:
-    """The state messages of one drive, byte for byte `state_payload`, each built from the
-    parts that changed since the last one: a drive that ramps changes its time, its actual
-    values and its counters at every answer, and its identity, state, bits, setpoints and
-    parameters seldom. Each part's JSON is kept with what it was made from (the process
-    values from their raw words and the reference, the parameters by the readings
-    themselves) and made again only when that differs."""
-
-    def __init__(self) -> None:
-        self._parts: dict[str, tuple[object, str]] = {}
-        self._readings: tuple[object, ...] | None = None
-        self._parameters = ""
-
-    def _part(self, name: str, key: object, build: Callable[[], str]) -> str:
-        last = self._parts.get(name)
-        if last is not None and (last[0] is key or last[0] == key):
-            return last[1]
-        text = build()
-        self._parts[name] = (key, text)
-        return text
-
-    def payload(self, state: DriveState) -> bytes:
-        model = state.model
-        reference = (state.reference, type(state.reference), model.unit)
-        head = self._part(
-            "head",
-            model,
-            lambda: _dumps(
-                {
-                    "v": CONTRACT_VERSION,
-                    "bus": model.bus,
-                    "address": model.address,
-                    "name": model.name,
-                    "profile": model.profile or UNKNOWN_KIND,
-                }
-            )[:-1],
-        )
-        status = self._part(
-            "status",
-            (state.online, state.status_word, state.control_word, reference),
-            lambda: self._status(state),
-        )
-        actual = self._part(
-            "actual",
-            (state.actual_words, tuple(state.actual), reference),
-            lambda: _dumps(_process_dict(state, "actual")),
-        )
-        setpoint = self._part(
-            "setpoint",
-            (state.setpoint_words, tuple(state.setpoints), reference),
-            lambda: _dumps(_process_dict(state, "setpoint")),
-        )
-        # the readings themselves: a reading is kept until the parameter is read again
-        readings = (*state.parameters, *state.parameters.values())
-        if (
-            self._readings is None
-            or len(readings) != len(self._readings)
-            or any(a is not b for a, b in zip(readings, self._readings, strict=True))
-        ):
-            self._readings = readings
-            self._parameters = _dumps(_parameters_dict(state))
-        return (
-            f'{head},"time":"{iso(state.time)}",{status},"actual":{actual},'
-            f'"setpoint":{setpoint},"parameters":{self._parameters},'
-            f'"health":{self._health(state.health)}}}'
-        ).encode()
-
-    def _health(self, health: Health) -> str:
-        """``Health.to_dict`` as JSON: the counters (whole numbers, as ``to_dict`` makes
-        them) into a template, the fault and refusal as they last were."""
-        faults = self._part(
-            "faults",
-            (health.last_fault, health.last_fault_time, health.last_refusal),
-            lambda: _dumps(
-                {
-                    "last_fault": health.last_fault,
-                    "last_fault_time": iso(health.last_fault_time),
-                    "last_refusal": health.last_refusal,
-                }
-            )[1:-1],
-        )
-        counters = health.counters
-        return _HEALTH % (
-            "true" if health.not_sending else "false",
-            health.exchanges,
-            health.answers,
-            health.timeouts,
-            *[int(getattr(counters, name)) for name in COUNTER_FIELDS],
-            faults,
-        )
-
-    @staticmethod
-    def _status(state: DriveState) -> str:
-        data = state.to_dict()
-        part = {key: data[key] for key in _STATUS_KEYS}
-        return _dumps(part)[1:-1]
-
-
-_HEALTH = (
-    '{"not_sending":%s,"exchanges":%d,"answers":%d,"timeouts":%d,"counters":{'
-    + ",".join(f'"{name}":%d' for name in COUNTER_FIELDS)
-    + "},%s}"
-)
-_STATUS_KEYS = (
-    "online",
-    "status_word",
-    "status_hex",
-    "status_text",
-    "state",
-    "bits",
-    "control_word",
-    "control_text",
-    "reference",
-)
-
-
-class StateThrottle:
-    """When a drive's new state is to be published (`offer`): at once if anything but its
-    actual values changed since the last one published (a status bit, a fault, what was
-    sent, a parameter, its availability: `DriveState.events`); if only actual values
-    changed, once one of them moved ``deadband`` percent of the reference or more from the
-    value last published, and not sooner than ``interval`` seconds after the last state
-    published - the newest one then, so that the last state of a ramp is always published.
-    ``interval`` 0: no wait; ``deadband`` 0: every change counts."""
-
-    def __init__(self, interval: float = 0.0, deadband: float = 0.0) -> None:
-        self.interval = interval
-        self.deadband = deadband
-        self._last: DriveState | None = None
-        self._events: tuple[object, ...] = ()
-        self._time = 0.0
-
-    def offer(self, state: DriveState, now: float) -> float | None:
-        """Seconds to wait before ``state`` is published (0: now); None: not to be published
-        (its actual values are within the deadband of those published, nothing else
-        changed): a state held back earlier is dropped then too, being no newer than the
-        one published."""
-        last = self._last
-        if last is None or state.events() != self._events:
-            return 0.0
-        if not self._moved(state, last):
-            return None
-        return max(0.0, self._time + self.interval - now)
-
-    def sent(self, state: DriveState, now: float) -> None:
-        """``state`` was published at ``now``."""
-        self._last = state
-        self._events = state.events()
-        self._time = now
-
-    def _moved(self, state: DriveState, last: DriveState) -> bool:
-        if state.actual.keys() != last.actual.keys():
-            return True
-        band = self.deadband
-        for key, value in state.actual.items():
-            before = last.actual[key].percent
-            if value.percent != before and abs(value.percent - before) >= band:
-                return True
-        return False
-
-
-def param_payload(reading: ParamValue) -> bytes:
-    """The message of a parameter as last read (schema ``param.json``)."""
-    data = {"v": CONTRACT_VERSION, **reading_dict(reading)}
-    return json.dumps(data, separators=(",", ":")).encode()
-
-
-def reply_payload(
-    command: Command,
-    *,
-    result: dict[str, Any] | None = None,
-    error: dict[str, Any] | None = None,
-    duplicate: bool = False,
-) -> dict[str, Any]:
-    """The reply to ``command`` (schema ``reply.json``)."""
-    reply: dict[str, Any] = {
-        "v": CONTRACT_VERSION,
-        "id": command.id,
-        "command": command.name,
-        "drive": command.drive,
-        "ok": error is None,
-    }
-    if error is None:
-        reply["result"] = result or {}
-    else:
-        reply["error"] = error
-    if duplicate:
-        reply["duplicate"] = True
-    return reply
-
-
-def _slug(text: str) -> str:
-    return "".join(c if c.isalnum() or c in "_-" else "_" for c in text)
-
-
-def discovery_node(model: DriveModel) -> str:
-    """The node id of a drive in Home Assistant's discovery topics: ``pyuss_BUS_DRIVE``."""
-    return _slug(f"pyuss_{model.bus}_{model.name}")
-
-
-def _item(group: str, key: str, field: str) -> str:
-    """The Jinja expression of a field of a configured process value (``value_json.actual
-    ['main'].value``): the key in brackets, since a key may hold ``-`` or read like a
-    method of the object (``items``)."""
-    return f"value_json.{group}[{json.dumps(key)}].{field}"
-
-
-def _bit_template(bit: int, active_low: bool = False) -> str:
-    """``ON`` or ``OFF`` for status bit ``bit`` (``active_low``: ON while it is 0), ``None``
-    (Home Assistant: unknown) before the drive's first answer."""
-    on, off = ("'OFF'", "'ON'") if active_low else ("'ON'", "'OFF'")
-    return (
-        "{{ 'None' if value_json.status_word is none else "
-        f"({on} if value_json.status_word | bitwise_and({1 << bit}) else {off}) }}}}"
-    )
-
-
-_LOW_ACTIVE = " (0 = active)"
-"""How a family's status bit text marks a bit that is active while 0 (`Profile.status_bits`)."""
-
-OWN_BITS: dict[int, tuple[str, str, str]] = {
-    3: ("fault", "Fault", "problem"),
-    7: ("warning", "Warning", "problem"),
-    2: ("operation_enabled", "Running", "running"),
-}
-"""The status bits with binary sensors of their own: bit -> (object id, name, device class);
-the other named bits are diagnostic binary sensors ``bitN``."""
-
-
-def status_bit_names(profile: str | None) -> dict[int, tuple[str, bool]]:
-    """The named status bits of a drive's family: bit -> (what it shows when active, whether
-    it is active while 0): the family's texts (`Profile.status_bits`), else the USS
-    specification's meanings of bits 0..10 (C Tables 5.5, 5.6); device-specific bits without
-    a text have none."""
-    family = get_profile(profile).status_bits if profile is not None else {}
-    if not family:
-        return {bit: (texts[0], False) for bit, texts in STATUS_BITS.items()}
-    return {
-        bit: (text.removesuffix(_LOW_ACTIVE), text.endswith(_LOW_ACTIVE))
-        for bit, text in family.items()
-    }
-
-
-def _jinja_texts(texts: Mapping[int, str]) -> str:
-    """A Jinja dict literal of numbered texts (``{1: "overcurrent", ...}``)."""
-    return "{" + ", ".join(f"{number}: {json.dumps(text)}" for number, text in texts.items()) + "}"
-
-
-def _device(model: DriveModel) -> dict[str, Any]:
-    """The Home Assistant device of a drive: maker and model from its profile."""
-    device: dict[str, Any] = {
-        "identifiers": [discovery_node(model)],
-        "name": f"{model.name} ({model.bus})",
-    }
-    if model.profile is None:
-        device["model"] = "USS drive of unknown kind (no profile named)"
-        return device
-    profile = get_profile(model.profile)
-    if profile.manufacturer:
-        device["manufacturer"] = profile.manufacturer
-    device["model"] = profile.title
-    device["model_id"] = profile.name
-    return device
-
-
-def discovery(
-    model: DriveModel,
-    state: DriveState,
-    *,
-    prefix: str,
-    discovery_prefix: str = "homeassistant",
-    read_only: bool = False,
-) -> list[tuple[str, dict[str, Any]]]:
-    """The Home Assistant discovery messages of one drive: ``(topic, config)`` pairs, to be
-    published retained. Every template renders with every state message: the keys it names
-    are always there, ``null`` (Home Assistant: unknown) where nothing is known yet."""
-    topics = DriveTopics(prefix, model.bus, model.name)
-    node = discovery_node(model)
-    device = _device(model)
-    origin = {"name": "pyuss", "sw_version": __version__}
-    availability = [{"topic": topics.bus_availability}, {"topic": topics.availability}]
-    messages: list[tuple[str, dict[str, Any]]] = []
-
-    def add(component: str, what: str, name: str, config: dict[str, Any]) -> None:
-        unique = f"{node}_{_slug(what)}"
-        config = {
-            "name": name,
-            "unique_id": unique,
-            "default_entity_id": f"{component}.{unique.lower().replace('-', '_')}",
-            "device": device,
-            "origin": origin,
-            "availability": availability,
-            "availability_mode": "all",
-            **config,
-        }
-        messages.append((f"{discovery_prefix}/{component}/{node}/{_slug(what)}/config", config))
-
-    add(
-        "sensor",
-        "state",
-        "State",
-        {
-            "state_topic": topics.state,
-            "value_template": "{{ value_json.state }}",
-            "json_attributes_topic": topics.state,
-            "json_attributes_template": (
-                '{{ {"status_word": value_json.status_hex, "time": value_json.time} | tojson }}'
-            ),
-        },
-    )
-    for item in model.actual:
-        unit = model.unit
-        config: dict[str, Any] = {
-            "state_topic": topics.state,
-            "value_template": f"{{{{ {_item('actual', item.key, 'value')} }}}}",
-            "state_class": "measurement",
-            "suggested_display_precision": process_decimals(item.dword, unit, state.reference)[0],
-        }
-        if unit:
-            config["unit_of_measurement"] = unit
-        if unit in DEVICE_CLASSES:
-            config["device_class"] = DEVICE_CLASSES[unit]
-        add("sensor", f"actual_{item.key}", f"Actual value {item.key}", config)
-    for point in model.parameters:
-        meta = point.meta
-        config = {
-            "state_topic": topics.param(meta.key),
-            "value_template": "{{ value_json.value }}",
-        }
-        if meta.writable:  # a setting (P1120); a value the drive shows (r0027, r0039) is no
-            config["entity_category"] = "diagnostic"  # diagnostic, but what the plant watches
-        places = param_places(meta)
-        if places is not None:
-            config["suggested_display_precision"] = places
-        device_class = DEVICE_CLASSES.get(meta.unit)
-        if meta.unit:
-            config["unit_of_measurement"] = meta.unit
-            config["state_class"] = STATE_CLASSES.get(device_class or "", "measurement")
-        if device_class is not None:
-            config["device_class"] = device_class
-        add("sensor", f"param_{meta.key}", f"{meta.shown} {meta.name}", config)
-    if model.fault is not None:
-        texts = get_profile(model.profile).fault_names if model.profile is not None else {}
-        add(
-            "sensor",
-            "last_fault",
-            "Last fault",
-            {
-                "state_topic": topics.state,
-                "value_template": "{{ value_json.health.last_fault }}",
-                "suggested_display_precision": 0,  # a number: None is unknown
-                "json_attributes_topic": topics.state,
-                "json_attributes_template": (
-                    f'{{{{ {{"text": {_jinja_texts(texts)}.get(value_json.health.last_fault), '
-                    '"time": value_json.health.last_fault_time} | tojson }}'
-                ),
-            },
-        )
-    for bit, (what, name, device_class) in OWN_BITS.items():
-        add(
-            "binary_sensor",
-            what,
-            name,
-            {
-                "state_topic": topics.state,
-                "value_template": _bit_template(bit),
-                "payload_on": "ON",
-                "payload_off": "OFF",
-                "device_class": device_class,
-            },
-        )
-    for bit, (text, active_low) in status_bit_names(model.profile).items():
-        if bit in OWN_BITS:
-            continue
-        add(
-            "binary_sensor",
-            f"bit{bit}",
-            f"Status bit {bit}: {text}",
-            {
-                "state_topic": topics.state,
-                "value_template": _bit_template(bit, active_low),
-                "payload_on": "ON",
-                "payload_off": "OFF",
-                "entity_category": "diagnostic",
-            },
-        )
-    if read_only:
-        return messages
-    if model.setpoints:
-        item = model.setpoints[0]
-        places = min(process_decimals(item.dword, model.unit, state.reference)[0], 3)
-        span = setpoint_span(state.reference, model.unit, dword=item.dword, places=places)
-        # until the reference is known the setpoint is taken in percent only
-        percent = span.unit == "%" and model.unit != "%"
-        config = {
-            "command_topic": topics.command("setpoint_percent" if percent else "setpoint"),
-            "retain": False,  # a retained command never acts
-            "state_topic": topics.state,
-            "value_template": (
-                f"{{{{ {_item('setpoint', item.key, 'percent' if percent else 'value')} }}}}"
-            ),
-            "min": span.low,
-            "max": span.high,
-            "step": 10.0**-span.places,
-            "mode": "box",
-            "unit_of_measurement": span.unit,
-        }
-        if DEVICE_CLASSES.get(span.unit) in ("frequency", "current", "voltage"):
-            config["device_class"] = DEVICE_CLASSES[span.unit]
-        add("number", "setpoint", "Setpoint", config)
-        add(
-            "switch",
-            "run",
-            "Run (ON / OFF1)",
-            {
-                "command_topic": topics.command("run"),
-                "retain": False,
-                "state_topic": topics.state,
-                "value_template": _bit_template(2),
-                "payload_on": "ON",
-                "payload_off": "OFF",
-                "state_on": "ON",
-                "state_off": "OFF",
-            },
-        )
-        for command, name in (
-            ("acknowledge", "Acknowledge fault"),
-            ("off2", "Coast stop (OFF2)"),
-            ("off3", "Quick stop (OFF3)"),
-        ):
-            add(
-                "button",
-                command,
-                name,
-                {
-                    "command_topic": topics.command(command),
-                    "payload_press": "PRESS",
-                    "retain": False,
-                },
-            )
-    return messages

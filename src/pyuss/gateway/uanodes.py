@@ -1,5 +1,5 @@
 """What the OPC UA face shows and allows, without a server (`pyuss.gateway.opcua` serves it
-with asyncua).
+with asyncua, a drive's nodes made by `pyuss.gateway.opcua_nodes`).
 
 - `unit_id`: the UNECE Recommendation 20 code of a unit as OPC UA's EUInformation.UnitId;
 - `percent_range`, `parameter_range`: the EURange of process values and parameters;

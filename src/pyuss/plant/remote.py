@@ -37,7 +37,7 @@ answered, to its arrival here; the two clocks are assumed to agree).
 ``write_param``, with ``params``, ``profile``, ``layout`` and ``address``) over ``cmd/read``
 and ``cmd/write``: a backup, a comparison and a restore run over the broker as over a line.
 The gateway carries numbers only: a parameter whose value is no number is refused, and a
-value comes rounded to its resolution (`pyuss.gateway.topics.param_value`).
+value comes rounded to its resolution (`pyuss.gateway.payloads.param_value`).
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from pyuss.drive.datatypes import encode as encode_raw
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
-from pyuss.gateway.mqtt import make_client, send_at_once
+from pyuss.gateway.mqtt_client import make_client, send_at_once
 from pyuss.gateway.options import MqttOptions
 from pyuss.gateway.topics import CONTRACT_VERSION
 from pyuss.params import ParamBook, ParamInfo
