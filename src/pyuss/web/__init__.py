@@ -1,7 +1,11 @@
 """The web commissioning page: ``uss web`` (see docs/web.md).
 
-- `pyuss.web.backend`: the one module that talks to the drives, through the live-drive
-  model `pyuss.points` (never the master), and the monitor.
+- `pyuss.web.backend`: the one module that runs the line and talks to its drives, through
+  the live-drive model `pyuss.points` (never the master); `pyuss.web.plant` the same surface
+  over the broker.
+- `pyuss.web.telegrams`: the monitor view (the line's telegrams, decoded; pcapng).
+- `pyuss.web.files`: backups, comparisons and restores of both.
+- `pyuss.web.shown`: how both show values, words and parameters.
 - `pyuss.web.server`: the HTTP and WebSocket server (aiohttp) and its security rules.
 - `pyuss.web.hub`: live updates with a bounded queue per client.
 - `pyuss.web.tap`: the master's own traffic for the monitor view.
