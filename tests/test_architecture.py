@@ -164,7 +164,6 @@ LONGER_STILL = {
     "master/drive.py",
     "master/scheduler.py",
     "monitor/core.py",
-    "web/server.py",
 }
 
 

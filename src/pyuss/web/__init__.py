@@ -6,7 +6,9 @@
 - `pyuss.web.telegrams`: the monitor view (the line's telegrams, decoded; pcapng).
 - `pyuss.web.files`: backups, comparisons and restores of both.
 - `pyuss.web.shown`: how both show values, words and parameters.
-- `pyuss.web.server`: the HTTP and WebSocket server (aiohttp) and its security rules.
+- `pyuss.web.server`: the HTTP and WebSocket server (aiohttp): routes and live updates;
+  `pyuss.web.guard` its security rules, `pyuss.web.bodies` requests read within bounds,
+  `pyuss.web.confirm` the one-time yes to a move.
 - `pyuss.web.hub`: live updates with a bounded queue per client.
 - `pyuss.web.tap`: the master's own traffic for the monitor view.
 - ``static/``: the page (plain JavaScript modules) and the uPlot plotting library.
