@@ -50,7 +50,10 @@ pytest: $(STAMP)
 
 test: lint typecheck pytest
 
+# bench/requirements.txt holds what only the benchmarks use (turboctl, the comparison of
+# bench_turboctl.py); without it (offline) that benchmark says so and the others run.
 bench: $(STAMP)
+	-$(PY) -m pip install --quiet --disable-pip-version-check -r bench/requirements.txt
 	$(PY) bench/run.py
 
 # The browser tests save a picture of each view of the web page into build/screenshots/ on

@@ -20,7 +20,7 @@ import time
 from pyuss.bus import VirtualBus
 from pyuss.commission.backup import take
 from pyuss.drive import SimulatedDrive
-from pyuss.drive.database import parse_database
+from pyuss.drive.loader import parse_database
 from pyuss.master import ACYCLIC, Master
 from pyuss.profiles import get_profile
 from pyuss.protocol.layout import Layout

@@ -211,11 +211,14 @@ def simulator_bus(baud: int, drives: int, *, layout: str = "3,2") -> Iterator[st
 
 
 @contextlib.contextmanager
-def pty_drives(baud: int, drives: int, *, layout: str = "3,2") -> Iterator[str]:
-    """``uss simulate --pty`` with ``drives`` drives; yields the pty's device path."""
-    addresses = [w for a in range(1, drives + 1) for w in ("--address", str(a))]
+def pty_drives(
+    baud: int, drives: int, *, layout: str = "3,2", addresses: Sequence[int] = ()
+) -> Iterator[str]:
+    """``uss simulate --pty`` with ``drives`` drives (addresses 1..N, or those given); yields
+    the pty's device path."""
+    options = [w for a in addresses or range(1, drives + 1) for w in ("--address", str(a))]
     args = ["simulate", "--pty", "--baud", str(baud), "--layout", layout, "--failure-time", "0"]
-    with processes(([*args, *addresses], 1)) as (sim,):
+    with processes(([*args, *options], 1)) as (sim,):
         yield sim.lines[0]
 
 

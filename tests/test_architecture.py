@@ -156,7 +156,6 @@ def test_points_import_no_face_library() -> None:
 MOST_LINES = 700
 LONGER_STILL = {
     "bus/core.py",
-    "drive/database.py",
     "gateway/mqtt.py",
     "gateway/opcua.py",
     "gateway/topics.py",

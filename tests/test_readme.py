@@ -383,7 +383,7 @@ def _run_python(example: Example, shell: Shell) -> None:
 def _run_toml(example: Example) -> None:
     data = tomllib.loads(example.code)
     if "profile" in data:
-        from pyuss.drive.database import parse_database
+        from pyuss.drive.loader import parse_database
 
         parse_database(example.code, example.name)
 

@@ -25,7 +25,7 @@ from gateway.conftest import broker  # noqa: F401  (the fixture of a real mosqui
 from gateway.harness import Broker
 from pyuss.bus import VirtualBus
 from pyuss.cli.main import main
-from pyuss.drive.database import parse_database
+from pyuss.drive.loader import parse_database
 from pyuss.drive.simulated import SimulatedDrive
 from pyuss.master import sync
 from pyuss.profiles import get_profile

@@ -6,15 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from pyuss.drive.database import (
-    Access,
-    builtin_profiles,
-    load_database,
-    load_profile,
-    parse_database,
-)
+from pyuss.drive.database import Access
 from pyuss.drive.datatypes import DataType
 from pyuss.drive.faults import ParameterFault
+from pyuss.drive.loader import builtin_profiles, load_database, load_profile, parse_database
 from pyuss.errors import ConfigError
 from pyuss.protocol.pkw import ErrorNumber
 

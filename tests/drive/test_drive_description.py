@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from pyuss.drive.database import load_profile
 from pyuss.drive.datatypes import DataType, encode
 from pyuss.drive.faults import DriveErrorNumber, ParameterFault
+from pyuss.drive.loader import load_profile
 from pyuss.drive.memory import ParameterMemory
 from pyuss.protocol.pkw import ErrorNumber
 

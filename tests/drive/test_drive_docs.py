@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from pyuss.drive.database import parse_database
+from pyuss.drive.loader import parse_database
 from pyuss.drive.simulated import SimulatedDrive
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "drive.md"

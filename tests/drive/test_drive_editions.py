@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from pyuss.drive.database import load_database, parse_database, split_edition
+from pyuss.drive.loader import load_database, parse_database, split_edition
 from pyuss.drive.simulated import SimulatedDrive
 from pyuss.errors import ConfigError
 

@@ -6,10 +6,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pyuss.drive.database import Access, builtin_profiles, load_profile, parse_database
+from pyuss.drive.database import Access
 from pyuss.drive.database import Parameter as ParameterSpec
 from pyuss.drive.datatypes import DataType
 from pyuss.drive.faults import DriveErrorNumber, NoWriteAuthority, ParameterFault
+from pyuss.drive.loader import builtin_profiles, load_profile, parse_database
 from pyuss.drive.memory import LOCAL, WHOLE_ARRAY, ParameterChange, ParameterMemory
 from pyuss.protocol.bico import MAX_INDEX, MAX_SOURCE, Bico
 from pyuss.protocol.pkw import ErrorNumber

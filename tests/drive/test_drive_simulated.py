@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from pyuss.drive.database import load_database
 from pyuss.drive.faults import DriveErrorNumber, ParameterFault
+from pyuss.drive.loader import load_database
 from pyuss.drive.memory import ParameterChange
 from pyuss.drive.simulated import SimulatedDrive
 from pyuss.drive.states import DriveState

@@ -8,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from pyuss.drive.database import ParamRef, load_profile, parse_database
+from pyuss.drive.database import ParamRef
+from pyuss.drive.loader import load_profile, parse_database
 from pyuss.drive.simulated import SimulatedDrive
 from pyuss.drive.states import DriveState
 from pyuss.errors import ConfigError

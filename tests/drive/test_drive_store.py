@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from pyuss.drive.database import load_profile
+from pyuss.drive.loader import load_profile
 from pyuss.drive.memory import ParameterMemory
 from pyuss.drive.store import StoreError, decode_store, encode_store
 

@@ -8,9 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from pyuss.drive.database import Access, DescriptionStyle, load_profile, parse_database
+from pyuss.drive.database import Access, DescriptionStyle
 from pyuss.drive.datatypes import DataType
 from pyuss.drive.description import description
+from pyuss.drive.loader import load_profile, parse_database
 from pyuss.errors import ConfigError
 from pyuss.master.description import decode_description
 from pyuss.params import Describe, ParamBook, Source

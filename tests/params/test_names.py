@@ -111,7 +111,7 @@ def test_what_is_written_reads_back_in_every_style(
 
 
 def test_what_the_book_learns_later_is_named_in_its_style_too() -> None:
-    from pyuss.drive.database import load_profile
+    from pyuss.drive.loader import load_profile
 
     mm4 = ParamBook.for_profile(get_profile("micromaster4"))
     kept = {"parameters": [{**mm4[21].to_dict(), "pnu": 9021}]}  # a description cached

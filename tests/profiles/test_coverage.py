@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from pyuss.drive.database import parse_database
+from pyuss.drive.loader import parse_database
 from pyuss.errors import ConfigError
 from pyuss.profiles.coverage import checklist, coverage, parse_checklist
 

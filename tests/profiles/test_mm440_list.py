@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import pytest
 
-from pyuss.drive.database import load_profile
 from pyuss.drive.datatypes import DataType
+from pyuss.drive.loader import load_profile
 from support.listfiles import Entry, check_coverage, check_docs, check_entry, manual_list
 
 FLOAT, U16 = DataType.FLOAT, DataType.UINT16

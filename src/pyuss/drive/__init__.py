@@ -1,7 +1,10 @@
 """The simulated drive: parameter database, values, descriptions, EEPROM, state machine.
 
-- `pyuss.drive.database`: the declarative parameter file (TOML) and its validation
-  (`load_profile`, `load_database`, `ParameterDatabase`, `Parameter`).
+- `pyuss.drive.database`: what the declarative parameter file (TOML) describes
+  (`ParameterDatabase`, `Parameter`, `ProfileInfo` ...).
+- `pyuss.drive.loader`: reads parameter files (`load_profile`, `load_database`,
+  `parse_database`): built-in profiles, ``extends``, editions; `pyuss.drive.fields` and
+  `pyuss.drive.tables` read and check their fields and tables.
 - `pyuss.drive.datatypes`: data types and their PKW words (C 6).
 - `pyuss.drive.description`: the parameter description elements (C 4.2.2, C 6; Baumueller manual).
 - `pyuss.drive.memory`: values and the rules of reading and changing them (`ParameterMemory`).
@@ -26,14 +29,11 @@ if TYPE_CHECKING:
         ParameterDatabase,
         ParamRef,
         WordBits,
-        builtin_profiles,
-        load_database,
-        load_profile,
-        parse_database,
     )
     from pyuss.drive.datatypes import DataType, Value
     from pyuss.drive.description import DescriptionElement
     from pyuss.drive.faults import DriveErrorNumber, NoWriteAuthority, ParameterFault
+    from pyuss.drive.loader import builtin_profiles, load_database, load_profile, parse_database
     from pyuss.drive.memory import LOCAL, WHOLE_ARRAY, ParameterChange, ParameterMemory
     from pyuss.drive.simulated import SimulatedDrive
     from pyuss.drive.states import DriveState, DriveStateMachine, Motion
@@ -80,10 +80,6 @@ __getattr__, __dir__ = lazy_exports(
             "ParameterDatabase",
             "ParamRef",
             "WordBits",
-            "builtin_profiles",
-            "load_database",
-            "load_profile",
-            "parse_database",
         ),
         "pyuss.drive.datatypes": (
             "DataType",
@@ -94,6 +90,12 @@ __getattr__, __dir__ = lazy_exports(
             "DriveErrorNumber",
             "NoWriteAuthority",
             "ParameterFault",
+        ),
+        "pyuss.drive.loader": (
+            "builtin_profiles",
+            "load_database",
+            "load_profile",
+            "parse_database",
         ),
         "pyuss.drive.memory": (
             "LOCAL",

@@ -15,15 +15,10 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from pyuss.drive.database import (
-    ParameterDatabase,
-    builtin_profiles,
-    load_database,
-    load_profile,
-    split_edition,
-)
+from pyuss.drive.database import ParameterDatabase
 from pyuss.drive.datatypes import DataType
 from pyuss.drive.faults import ParameterFault
+from pyuss.drive.loader import builtin_profiles, load_database, load_profile, split_edition
 from pyuss.drive.memory import ParameterMemory
 from pyuss.errors import ConfigError
 

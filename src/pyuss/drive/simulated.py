@@ -54,10 +54,10 @@ from pyuss.drive.database import (
     TIME_UNITS,
     ParameterDatabase,
     ParamRef,
-    load_profile,
 )
 from pyuss.drive.datatypes import DataType, Value, round_float
 from pyuss.drive.faults import ParameterFault
+from pyuss.drive.loader import load_profile
 from pyuss.drive.memory import ParameterMemory
 from pyuss.drive.states import WAIT_FOREVER, DriveState, DriveStateMachine, Motion
 from pyuss.protocol.pzd import FULL_SCALE_16, FULL_SCALE_32, SWITCHES_ON

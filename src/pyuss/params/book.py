@@ -34,7 +34,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from pyuss.atomicfile import check_regular, check_target, write_atomically
-from pyuss.drive.database import NameStyle, ParameterDatabase, load_database
+from pyuss.drive.database import NameStyle, ParameterDatabase
+from pyuss.drive.loader import load_database
 from pyuss.errors import ConfigError
 
 if TYPE_CHECKING:

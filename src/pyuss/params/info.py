@@ -3,8 +3,9 @@
 One frozen record per parameter number: name, unit, data type (`pyuss.drive.datatypes`),
 scaling, array size, access, limits, default, value texts, bit texts, access level and when it
 can be changed. It is built from an entry of a parameter file (`from_parameter`, the simulator's
-TOML format read by `pyuss.drive.database`, so a key added there reaches the model through the
-database) or from a parameter description a drive sent (`from_description`, C 6).
+TOML format read by `pyuss.drive.loader`, its entries by `pyuss.drive.fields`, so a key added
+there reaches the model through the database) or from a parameter description a drive sent
+(`from_description`, C 6).
 
 Numbers in a `ParamInfo` are the drive's own: ``minimum``, ``maximum``, ``allowed`` and
 ``default`` are raw values as they travel in PWE (as in the parameter file and in description

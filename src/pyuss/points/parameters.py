@@ -18,8 +18,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
-from pyuss.drive.database import load_profile
 from pyuss.drive.datatypes import DataType
+from pyuss.drive.loader import load_profile
 from pyuss.errors import ConfigError
 from pyuss.master.drive import Drive
 from pyuss.params import ParamBook, ParamInfo

@@ -34,7 +34,7 @@ from __future__ import annotations
 from dataclasses import replace
 from functools import cache
 
-from pyuss.drive.database import load_profile, split_edition
+from pyuss.drive.loader import load_profile, split_edition
 from pyuss.errors import ConfigError
 from pyuss.profiles import (
     baumueller,

@@ -30,7 +30,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cache
 
-from pyuss.drive.database import ParameterDatabase, load_profile
+from pyuss.drive.database import ParameterDatabase
+from pyuss.drive.loader import load_profile
 from pyuss.errors import ConfigError
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.pkw import (

@@ -26,7 +26,8 @@ from dataclasses import dataclass
 from functools import cache
 from typing import TYPE_CHECKING, Any
 
-from pyuss.drive.database import ParameterDatabase, builtin_profiles
+from pyuss.drive.database import ParameterDatabase
+from pyuss.drive.loader import builtin_profiles
 from pyuss.errors import ConfigError
 from pyuss.userfile import parse_toml
 

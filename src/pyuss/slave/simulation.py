@@ -22,7 +22,8 @@ import urllib.parse
 from collections.abc import AsyncIterator, Callable, Sequence
 from pathlib import Path
 
-from pyuss.drive.database import ParameterDatabase, load_database
+from pyuss.drive.database import ParameterDatabase
+from pyuss.drive.loader import load_database
 from pyuss.drive.simulated import SimulatedDrive
 from pyuss.errors import ConfigError, UssError
 from pyuss.profiles import Profile, get_profile
