@@ -35,7 +35,8 @@ from gateway.harness import (
 from pyuss.gateway.run import Gateway
 from pyuss.slave import SlaveEngine
 from pyuss.web.backend import Backend
-from pyuss.web.server import MAX_JSON, WebServer
+from pyuss.web.bodies import MAX_JSON
+from pyuss.web.server import WebServer
 from support.waiting import eventually
 from support.web import serve
 

@@ -15,7 +15,7 @@ from typing import Any
 import aiohttp
 
 from pyuss.web.backend import Backend
-from pyuss.web.server import MAX_BODY, MAX_DEPTH, MAX_JSON
+from pyuss.web.bodies import MAX_BODY, MAX_DEPTH, MAX_JSON
 from support.web import serve
 
 WRITE = {"X-Pyuss": "1"}

@@ -63,38 +63,33 @@ import math
 import sys
 import urllib.parse
 from collections.abc import AsyncIterator, Awaitable, Callable
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from pyuss.bass.codec import BAUD as BASS_BAUD
 from pyuss.bass.drive import DriveOperatingData, drive_ring
 from pyuss.bass.ring import MAX_STATIONS, BassRing, DictOperatingData, demo_elements
 from pyuss.cli._help import plain
-from pyuss.drive.database import ParameterDatabase
-from pyuss.drive.loader import load_database
-from pyuss.drive.simulated import SimulatedDrive
 from pyuss.errors import ConfigError, UssError
 from pyuss.profiles import get_profile, profile_names
 from pyuss.protocol.layout import Layout
 from pyuss.slave.engine import JobLatency, SlaveEngine
-from pyuss.slave.interface import InterfaceParameters
-from pyuss.slave.server import SlaveServer
-from pyuss.system import clock, stop_on_signals
-from pyuss.transport.address import HostPort, parse_host_port
+from pyuss.slave.simulation import (
+    DEFAULT_BAUD,
+    DriveSettings,
+    endpoint,
+    open_line,
+    simulated_line,
+)
+from pyuss.system import stop_on_signals
 from pyuss.transport.base import Transport
-from pyuss.transport.pty import PtyPort
 from pyuss.transport.queued import BAUD_RATES, check_baud
-from pyuss.transport.tcp import TcpServerTransport
-from pyuss.transport.url import open_transport
 
 if TYPE_CHECKING:
-    from pyuss.bus.virtual import VirtualBus
+    pass
 
 EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_USAGE = 2
-DEFAULT_BAUD = 9600
-"""The line's rate when neither ``--baud`` nor a drive's baud rate parameter gives one."""
 BASS_PROFILE = "baumueller"
 """The profile whose drives also have the BASS service interface (Baumueller manual, part 1)."""
 
@@ -298,10 +293,6 @@ def _int(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
 
 
-def _endpoint(text: str, option: str) -> HostPort:
-    return parse_host_port(text, f"{option} {text!r}")
-
-
 def _chosen_line(
     prefix: str, pty: bool, tcp: str | None, serial: str | None
 ) -> tuple[str, str] | None:
@@ -310,7 +301,7 @@ def _chosen_line(
     if pty:
         return "pty", ""
     if tcp is not None:
-        return "tcp", str(_endpoint(tcp, f"{prefix}tcp"))
+        return "tcp", str(endpoint(tcp, f"{prefix}tcp"))
     if serial is not None:
         if not serial.strip():
             raise ConfigError(f"{prefix}serial: give a device")
@@ -333,9 +324,9 @@ def options(args: argparse.Namespace) -> Options:
     if chosen is not None:
         line, where = chosen
     elif args.bus_tcp is not None:
-        line, where = "bus-tcp", str(_endpoint(args.bus_tcp, "--bus-tcp"))
+        line, where = "bus-tcp", str(endpoint(args.bus_tcp, "--bus-tcp"))
     else:
-        bus = _endpoint(args.bus, "--bus")
+        bus = endpoint(args.bus, "--bus")
         if bus.port == 0:
             raise ConfigError(f"--bus {args.bus!r}: give the port the bus listens on")
         line, where = "bus", str(bus)
@@ -461,24 +452,9 @@ async def _main(opts: Options, runner: Runner) -> int:
 # -- USS ------------------------------------------------------------------------------------
 
 
-def _database(opts: Options) -> ParameterDatabase:
-    return (
-        get_profile(opts.profile).database() if opts.params is None else load_database(opts.params)
-    )
-
-
-def _store(opts: Options, address: int) -> str | None:
-    if opts.store is None:
-        return None
-    path = opts.store.replace("{address}", str(address))
-    if not Path(path).parent.is_dir():
-        raise ConfigError(f"--store {path}: folder {Path(path).parent} does not exist")
-    return path
-
-
 def _line(opts: Options, *, baud: int, parity: str = "E") -> tuple[Transport, Callable[[], str]]:
     """The transport and, once open, the line to print first."""
-    return _open_line(opts.line, opts.where, baud, parity, name=_station_name(opts))
+    return open_line(opts.line, opts.where, baud, parity, name=_station_name(opts))
 
 
 def _station_name(opts: Options) -> str:
@@ -486,112 +462,44 @@ def _station_name(opts: Options) -> str:
     return opts.name or "simulate-" + "-".join(str(a) for a in opts.addresses)
 
 
-def _open_line(
-    line: str, where: str, baud: int, parity: str, *, name: str = "simulate"
-) -> tuple[Transport, Callable[[], str]]:
-    """The transport of a ``line`` kind at ``where`` and, once open, the line naming it
-    (``name``: the station name on a bus)."""
-    if line == "pty":
-        pty = PtyPort(baud=baud)
-        return pty, lambda: pty.device_path
-    if line == "tcp":
-        listen = _endpoint(where, "--tcp")
-        server = TcpServerTransport(listen.host, listen.port, baud=baud)
-        return server, lambda: f"tcp://{HostPort(listen.host, server.port)}"
-    if line == "bus":
-        url = f"bus://{where}?{urllib.parse.urlencode({'name': name})}"
-        bus = open_transport(url, baud=baud)
-        return bus, lambda: f"bus://{where}"
-    serial_line = open_transport(where, baud=baud, parity=parity)
-    return serial_line, lambda: where
-
-
-def _line_baud(opts: Options, drives: list[tuple[int, SimulatedDrive]]) -> int:
-    """The rate of the line: ``--baud``, else the one the drives' baud rate parameter is set
-    to (their store or their file; C 3), else `DEFAULT_BAUD`."""
-    if opts.baud is not None:
-        return opts.baud
-    rates = {a: InterfaceParameters(d).baud() for a, d in drives}
-    given = {a: r for a, r in rates.items() if r is not None}
-    if not given:
-        return DEFAULT_BAUD
-    if len(set(given.values())) > 1:
-        listed = ", ".join(f"drive {a}: {r}" for a, r in given.items())
-        raise ConfigError(f"the drives are set to different baud rates ({listed}): give --baud")
-    address, baud = next(iter(given.items()))
-    drive = dict(drives)[address]
-    ref = drive.db.interface["baud"]
-    try:
-        return check_baud(baud)
-    except ConfigError:
-        raise ConfigError(
-            f"drive {address} is set to {baud} baud ({ref}), not a rate of B 2.4: give --baud"
-        ) from None
-
-
 async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> None:
-    profile = get_profile(opts.profile)
-    db = _database(opts)
-    now = clock()  # the clock of every transport
-    drives = [
-        (a, SimulatedDrive(db, store=_store(opts, a), now=now, factory=opts.factory))
-        for a in opts.addresses
-    ]
-    baud = _line_baud(opts, drives)
-    hosted: VirtualBus | None = None
-    if opts.line == "bus-tcp":  # a bus of its own: the drives are an in-process station
-        from pyuss.bus.virtual import VirtualBus
-
-        hosted = VirtualBus(baud)
-        listen = _endpoint(opts.where, "--bus-tcp")
-        try:
-            host, port = await hosted.serve_tcp(listen.host, listen.port, framed=True)
-        except UssError as exc:
-            await hosted.close()
-            raise ConfigError(f"--bus-tcp: {exc}") from None
-        transport: Transport = hosted.attach(_station_name(opts))
-        url = f"bus://{HostPort(host, port)}"
-        first_line: Callable[[], str] = lambda: url  # noqa: E731
-    else:
-        transport, first_line = _line(opts, baud=baud)
-    await transport.open()
     spontaneous = opts.spontaneous
     if spontaneous is None and opts.bass_line is not None:
         spontaneous = True  # one drive, two interfaces: BASS changes are reported (C 4.2.1.2)
-    try:
-        engines = []
-        for address, drive in drives:
-            engines.append(
-                SlaveEngine(
-                    address,
-                    drive,
-                    profile,
-                    layout=opts.layout,
-                    latency=opts.latency,
-                    failure_time=opts.failure_time,
-                    spontaneous=spontaneous,
-                    write_authority=not opts.read_only,
-                    now=now,
-                )
-            )
-        server = SlaveServer(
-            transport,
-            *engines,
-            response_delay=opts.response_delay,
-            manual_delay=opts.manual_delay,
-        )
-        async with _bass_side_of(opts, engines, transport.clock) as bass:
-            uss_device = first_line()
+    settings = DriveSettings(
+        params=opts.params,
+        layout=opts.layout,
+        store=opts.store,
+        factory=opts.factory,
+        failure_time=opts.failure_time,
+        latency=opts.latency,
+        response_delay=opts.response_delay,
+        manual_delay=opts.manual_delay,
+        write_authority=not opts.read_only,
+        spontaneous=spontaneous,
+    )
+    async with simulated_line(
+        opts.profile,
+        opts.addresses,
+        settings,
+        line=opts.line,
+        where=opts.where,
+        station=_station_name(opts),
+        baud=opts.baud,
+    ) as sim:
+        baud, server = sim.baud, sim.server
+        async with _bass_side_of(opts, sim.engines, sim.transport.clock) as bass:
+            uss_device = sim.first_line()
             announce(uss_device)
             if bass is not None:
                 announce(bass.device)
-            for engine in engines:
+            for engine in sim.engines:
                 low, high = engine.response_window(baud)
                 print(
-                    f"uss simulate: address {engine.address}: profile {profile.name}, "
-                    f"parameters {db.profile.name}, {baud} baud, layout {engine.layout}, answer "
-                    f"{low * 1000:.3f}..{high * 1000:.3f} ms, failure time "
-                    f"{engine.failure_time:g} s{_answering(engine, opts, baud)}",
+                    f"uss simulate: address {engine.address}: profile {sim.profile.name}, "
+                    f"parameters {sim.database.profile.name}, {baud} baud, layout "
+                    f"{engine.layout}, answer {low * 1000:.3f}..{high * 1000:.3f} ms, failure "
+                    f"time {engine.failure_time:g} s{_answering(engine, opts, baud)}",
                     file=sys.stderr,
                 )
             if bass is not None:
@@ -605,10 +513,6 @@ async def _serve_uss(opts: Options, stop: asyncio.Event, announce: Announce) -> 
                 await server.run(stop)
             finally:
                 server.close()
-    finally:
-        await transport.close()
-        if hosted is not None:
-            await hosted.close()
     stats = server.stats
     print(
         f"uss simulate: {stats.received} telegrams received, {stats.answers} answered "
@@ -635,7 +539,7 @@ async def _bass_side_of(
         yield None
         return
     ring = drive_ring([(e.address, e.drive) for e in engines], clock=clock)
-    transport, device = _open_line(opts.bass_line, opts.bass_where, BASS_BAUD, "N")
+    transport, device = open_line(opts.bass_line, opts.bass_where, BASS_BAUD, "N")
     try:
         async with ring.serving(transport):
             yield _BassSide(ring, device())

@@ -163,7 +163,8 @@ async def _serve(args: argparse.Namespace) -> int:
 
     require()
     from pyuss.web.backend import DEMO_DRIVES, Backend, DriveSpec
-    from pyuss.web.server import WebServer, is_loopback
+    from pyuss.web.guard import is_loopback
+    from pyuss.web.server import WebServer
 
     host, port = parse_listen(args.listen)
     if not args.timeout > 0:

@@ -9,6 +9,7 @@
 - `InterfaceParameters` (`pyuss.slave.interface`): the interface parameters of C 3 (baud rate,
   failure time ...) read and shown through the parameter file's ``[interface]`` table.
 - `pyuss.slave.process`: process data mappings and broadcasts.
+- `pyuss.slave.simulation`: simulated drives on a line, as ``uss simulate`` builds them.
 
 See docs/slave.md.
 """

@@ -1,8 +1,14 @@
 """The web commissioning page: ``uss web`` (see docs/web.md).
 
-- `pyuss.web.backend`: the one module that talks to the drives, through the live-drive
-  model `pyuss.points` (never the master), and the monitor.
-- `pyuss.web.server`: the HTTP and WebSocket server (aiohttp) and its security rules.
+- `pyuss.web.backend`: the one module that runs the line and talks to its drives, through
+  the live-drive model `pyuss.points` (never the master); `pyuss.web.plant` the same surface
+  over the broker.
+- `pyuss.web.telegrams`: the monitor view (the line's telegrams, decoded; pcapng).
+- `pyuss.web.files`: backups, comparisons and restores of both.
+- `pyuss.web.shown`: how both show values, words and parameters.
+- `pyuss.web.server`: the HTTP and WebSocket server (aiohttp): routes and live updates;
+  `pyuss.web.guard` its security rules, `pyuss.web.bodies` requests read within bounds,
+  `pyuss.web.confirm` the one-time yes to a move.
 - `pyuss.web.hub`: live updates with a bounded queue per client.
 - `pyuss.web.tap`: the master's own traffic for the monitor view.
 - ``static/``: the page (plain JavaScript modules) and the uPlot plotting library.

@@ -1,19 +1,17 @@
-"""The page's one door to the drives: everything `pyuss.web` reads from or sends to a drive
-goes through `Backend`, and the drives themselves through the live-drive model `pyuss.points`.
+"""The page's one door to the drives of a line: everything `pyuss.web` reads from or sends to
+a drive goes through `Backend`, and the drives themselves through the live-drive model
+`pyuss.points`.
 
 A `Backend` runs one line in cyclic operation on the port given (or, for ``uss web --demo``,
 on a virtual bus with the simulated drives of `pyuss.points.simulated_drives`) as a
 `pyuss.points.Plant` of one bus: drive states, the samples of every answer for the trend,
 commands, setpoints and parameter reads and writes are the points' (`DrivePoints`), checked
-there whole before anything goes on the line. What is not live-drive logic stays here: a
-`pyuss.monitor.Monitor` that decodes the telegrams on the line (the master's own traffic seen
-through `pyuss.web.tap.TapTransport`, or, in the demo, a listen-only station of the virtual
-bus), its pcapng capture, the scan (`pyuss.points.scan`), and backups, comparisons and
-restores, which are those of ``uss backup``, ``uss diff`` and ``uss restore``
-(`pyuss.commission`): one file format, one comparison.
-
-Parameter knowledge (names, units, types, limits, value texts) is each drive's parameter book
-(`pyuss.params.ParamBook`); values are parsed, checked and shown through `pyuss.params`.
+there whole before anything goes on the line. What is not live-drive logic stays here:
+the master's life cycle on the line, the scan (`pyuss.points.scan`), which stops it and goes
+on with the drives found, and the wiring of the page's other rooms: the monitor view
+(`pyuss.web.telegrams`: the telegrams on the line, decoded, and their pcapng capture),
+backups, comparisons and restores (`pyuss.web.files`, those of ``uss backup``, ``uss diff``
+and ``uss restore``) and how values and parameters are shown (`pyuss.web.shown`).
 """
 
 from __future__ import annotations
@@ -21,40 +19,24 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import tempfile
 import time
-from collections import deque
-from collections.abc import Awaitable, Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from pyuss.commission import backup as backups
 from pyuss.commission.compare import (
-    Outcome,
-    Skip,
-    Write,
-    another_drive,
-    compare,
     plan,
     restore,
 )
 from pyuss.commission.sources import check as check_sources
 from pyuss.errors import ConfigError, UssError, cut
-from pyuss.monitor.core import Monitor, default_gap
-from pyuss.monitor.infer import LayoutBook
-from pyuss.monitor.model import Exchange
-from pyuss.monitor.render import exchange_line
-from pyuss.params import ParamBook, ParamInfo, format_value
 from pyuss.params.model import Reading
-from pyuss.params.values import physical
-from pyuss.params.words import WordKind, format_word
 from pyuss.points import (
     COMMAND_TABLE,
     MOVES,
     Drive,
     DrivePoints,
-    DriveState,
     Found,
     Plant,
     ProcessValue,
@@ -73,10 +55,24 @@ from pyuss.points.view import (
 )
 from pyuss.profiles import Profile, get_profile, profile_names
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
-from pyuss.protocol.pzd import STATUS_BITS
 from pyuss.protocol.telegram import MAX_ADDRESS
-from pyuss.transport.base import Chunk, Transport, stamp_tolerance
-from pyuss.web.tap import TapTransport
+from pyuss.transport.base import Transport
+from pyuss.web.files import Approve, Progress, compared, planned, restored, stranger, wanted_and_now
+from pyuss.web.shown import (
+    control_in_force,
+    expert_row,
+    number_given,
+    param_id,
+    param_label,
+    read_rows,
+    setpoint_in_force,
+    setpoint_text,
+    shown_reading,
+    status_bits,
+    unit_given,
+    word_texts,
+)
+from pyuss.web.telegrams import LineTelegrams
 
 __all__ = [
     "DEMO_BAUD",
@@ -89,16 +85,8 @@ __all__ = [
 DEMO_BAUD = 38400
 SAMPLE_BUFFER = 2000
 """Process-data samples kept per drive between two takes (older ones are dropped)."""
-EXCHANGE_BUFFER = 5000
-"""Decoded telegrams kept for the monitor view and its pcapng download."""
 LINE = "page"
 """The name of the page's one bus in its `pyuss.points.Plant`."""
-
-Progress = Callable[[int, int, str], object]
-Approve = Callable[[list[dict[str, Any]]], object]
-"""Told the writes a restore is about to make (as a comparison lists them), before the
-first: it raises to write nothing (the person said yes to another list)."""
-"""``progress(done, total, label)`` of a backup, compare or restore."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -169,12 +157,8 @@ class Backend:
         self._bus: Any = None
         self.engines: dict[int, Any] = {}
         """The simulated drives' engines (demo only), by address."""
-        self._monitor: Monitor | None = None
-        self._monitor_task: asyncio.Task[None] | None = None
-        self._stop = asyncio.Event()
-        self._epoch = 0.0
-        self.exchanges: deque[tuple[int, Exchange]] = deque(maxlen=EXCHANGE_BUFFER)
-        self._exchange_seq = 0
+        self.telegrams = LineTelegrams()
+        """The monitor view: the line's telegrams, decoded."""
         self.scan_progress: tuple[int, int] | None = None
         self._lock = asyncio.Lock()
         self._sent: dict[int, dict[str, Any]] = {}
@@ -206,44 +190,30 @@ class Backend:
             )
         await self._start_master()
 
-    def _new_transport(self) -> Transport:
+    def _new_transport(self, station: str = "master", baud: int | None = None) -> Transport:
+        """The master's transport (reopened when lost), or the scan's at ``baud`` (not)."""
         if self.demo:
-            station: Transport = self._bus.attach("master")
-            return station
+            attached: Transport = self._bus.attach(station)
+            return attached
         if self._transport is not None:
             return self._transport
         from pyuss.transport.url import open_transport
 
         assert self._url is not None
-        return open_transport(self._url, baud=self.baud, reconnect=True)
+        return open_transport(self._url, baud=baud or self.baud, reconnect=baud is None)
 
     async def _start_master(self) -> None:
-        self._stop = asyncio.Event()
         layouts = {s.address: s.layout for s in self._specs if s.layout is not None}
         rx_tolerance: float | None = None
         if self.demo:
-            self._monitor = Monitor(
-                self.baud,
-                layouts=LayoutBook(per_address=layouts),
-                gap=default_gap(self.baud),
-            )
             listener = self._bus.attach("page-monitor", listen_only=True)
-            await listener.open()
-            self._monitor_task = asyncio.create_task(self._watch(listener))
+            await self.telegrams.listen(listener, self.baud, layouts)
             transport = self._new_transport()
         else:
             inner = self._new_transport()
-            self._monitor = Monitor(
-                self.baud,
-                four_wire=True,
-                layouts=LayoutBook(per_address=layouts),
-                gap=default_gap(self.baud),
-                tolerance=stamp_tolerance(inner),
-            )
-            transport = TapTransport(inner, self._feed)
+            transport = self.telegrams.tap(inner, self.baud, layouts)
             rx_tolerance = 0.0 if inner.exact_timestamps else None
-            self._monitor_task = asyncio.create_task(self._tick_monitor(transport))
-        self._epoch = time.time() - transport.clock()
+        self.telegrams.epoch = time.time() - transport.clock()
         model = line_model(
             LINE,
             [(s.address, s.profile, s.layout) for s in self._specs],
@@ -268,15 +238,11 @@ class Backend:
                 await points.read_reference()
 
     async def _stop_master(self) -> None:
-        self._stop.set()
+        self.telegrams.stop.set()
         if self._plant is not None:
             await self._plant.close()
             self._plant = None
-        if self._monitor_task is not None:
-            self._monitor_task.cancel()
-            with contextlib.suppress(asyncio.CancelledError, UssError):
-                await self._monitor_task
-            self._monitor_task = None
+        await self.telegrams.close()
         if self.demo and self._bus is not None:
             for name in ("master", "page-monitor"):
                 with contextlib.suppress(KeyError, UssError):
@@ -332,7 +298,7 @@ class Backend:
             ),
             "actuals": points.actual_columns(),
             "key_actuals": key_actuals(points),
-            "status_bits": _status_bits(profile.status_bits if named else {}),
+            "status_bits": status_bits(profile.status_bits if named else {}),
         }
 
     def summary(self, address: int) -> dict[str, Any]:
@@ -352,21 +318,21 @@ class Backend:
             "not_sending": state.health.not_sending or failed is not None,
             "offline": failed,
             "control": state.control_word,
-            "control_in_force": _control_in_force(points) if live else None,
+            "control_in_force": control_in_force(points) if live else None,
             "setpoints": list(state.setpoint_words),
             "status": state.status_word if live else None,
             "state": failed
             or (state.state if live else motion(state) if state.answered else "no answer yet"),
             "motion": failed or motion(state),
-            "setpoint": _setpoint_in_force(state),
+            "setpoint": setpoint_in_force(state),
             "sent_setpoint": self._sent.get(address),
             "fault": live and state.fault,
             "warning": live and state.warning,
             "actual": list(points.actual_row(state.actual_words)) if live else [],
             "actual_unit": points.model.unit if points.reference is not None else "%",
-            **_word_texts(
+            **word_texts(
                 state.control_word,
-                _control_in_force(points) if live else None,
+                control_in_force(points) if live else None,
                 state.status_word if live else None,
                 get_profile(points.model.profile) if points.model.profile is not None else None,
             ),
@@ -441,7 +407,7 @@ class Backend:
             return {
                 "name": name,
                 "setpoint": checked.to_dict(),
-                "text": f"set the setpoint to {_setpoint_text(checked, _unit_given(value))}",
+                "text": f"set the setpoint to {setpoint_text(checked, unit_given(value))}",
             }
         if not isinstance(name, str) or name not in COMMAND_TABLE:
             raise ConfigError(f"unknown command {cut(name)}: one of {', '.join(self.COMMANDS)}")
@@ -473,8 +439,8 @@ class Backend:
         if name == "setpoint":
             checked = self._setpoint(points, value)
             state = await points.set_setpoint(checked.raw, unit="raw", timeout=self.job_timeout)
-            shown = _setpoint_text(checked, _unit_given(value))
-            self._sent[address] = {"value": _number_given(value), "unit": _unit_given(value)}
+            shown = setpoint_text(checked, unit_given(value))
+            self._sent[address] = {"value": number_given(value), "unit": unit_given(value)}
             return {
                 "command": name,
                 "taken": True,
@@ -482,7 +448,7 @@ class Backend:
                 "status": state.status_word,
                 "state": state.state,
                 "motion": motion(state),
-                "setpoint": _setpoint_in_force(state),
+                "setpoint": setpoint_in_force(state),
             }
         assert isinstance(name, str)
         await points.command(name, timeout=self.job_timeout)
@@ -526,7 +492,7 @@ class Backend:
             indexes: list[int | None] = [None] if info.array is None else list(book.indices(info))
             needs = backups.beyond_layout(drive.layout, info)
             for index in indexes:
-                row = _row(info, index)
+                row = expert_row(info, index)
                 if needs is not None:
                     row.update(needs=needs, writable=False)
                 rows.append(row)
@@ -556,11 +522,11 @@ class Backend:
         drive = self.points(address).drive
         needs = backups.beyond_layout(drive.layout, drive.params.get(pnu))
         if needs is not None:
-            raise ConfigError(f"{_label(pnu, index)} cannot be written: {needs}")
+            raise ConfigError(f"{param_label(pnu, index)} cannot be written: {needs}")
         reading = await self.points(address).write_value(
             pnu, index, text, eeprom=eeprom, timeout=self.job_timeout
         )
-        shown = {"id": _id(pnu, index), **_shown_reading(reading)}
+        shown = {"id": param_id(pnu, index), **shown_reading(reading)}
         if reading.differs:  # the drive limited or rounded it: it holds what it answered
             shown["written"] = reading.written_text()
         return shown
@@ -582,25 +548,16 @@ class Backend:
 
     async def _wanted_and_now(
         self, address: int, data: bytes, name: str, progress: Progress | None
-    ) -> tuple[Drive, backups.Backup, backups.Backup]:
+    ) -> tuple[Drive, backups.Backup, backups.Backup, str | None]:
+        """The drive, the uploaded file, the drive's values of its parameters, and why the
+        file may be another drive's (`pyuss.web.files.stranger`)."""
         drive = self.points(address).drive
-        try:
-            text = data.decode("utf-8")
-        except UnicodeDecodeError:
-            raise ConfigError(f"{name}: not a text file (a backup is TOML or JSON)") from None
-        wanted = backups.loads(text, name)
-        wanted_refs = [(e.pnu, e.index) for e in wanted.entries]
-        entries = await backups.read_parameters(drive, wanted_refs, progress=progress)
-        now = backups.Backup(address, backups.kind_of(drive), entries, source=f"drive {address}")
-        return drive, wanted, now
-
-    async def _stranger(self, wanted: backups.Backup, drive: Drive) -> str | None:
-        if wanted.profile != backups.kind_of(drive):
-            return (
-                f"{wanted.source} is a backup of a {wanted.profile} drive, drive "
-                f"{drive.address} is {backups.kind_of(drive)}"
-            )
-        return await another_drive(wanted, drive)
+        kind = backups.kind_of(drive)
+        wanted, now = await wanted_and_now(
+            drive, data, name, address=address, kind=kind, source=f"drive {address}",
+            progress=progress,
+        )  # fmt: skip
+        return drive, wanted, now, await stranger(wanted, drive, kind=kind, who=str(address))
 
     async def compare(
         self, address: int, data: bytes, name: str, progress: Progress | None = None
@@ -608,9 +565,8 @@ class Backend:
         """The drive compared with an uploaded backup file (`pyuss.commission.compare`): what
         differs, with names and units, what a restore would write and leave out, and why the
         file may be another drive's (``stranger``) or cannot be restored (``refused``)."""
-        drive, wanted, now = await self._wanted_and_now(address, data, name, progress)
-        stranger = await self._stranger(wanted, drive)
-        return compared(name, wanted, now, drive.params, _named(drive), stranger)
+        drive, wanted, now, other = await self._wanted_and_now(address, data, name, progress)
+        return compared(name, wanted, now, drive.params, _named(drive), other)
 
     async def restore(
         self,
@@ -628,10 +584,9 @@ class Backend:
         (a value the parameter cannot take refuses the whole file before anything is
         written). A file of another profile or drive needs ``force``. Each refusal of the
         drive comes back with its number and meaning; the others are still written."""
-        drive, wanted, now = await self._wanted_and_now(address, data, name, progress)
-        stranger = await self._stranger(wanted, drive)
-        if stranger is not None and not force:
-            raise ConfigError(stranger)
+        drive, wanted, now, other = await self._wanted_and_now(address, data, name, progress)
+        if other is not None and not force:
+            raise ConfigError(other)
         writes, skips = plan(wanted, now, drive.params, _named(drive))
         if approve is not None:
             approve(planned(writes))
@@ -679,7 +634,7 @@ class Backend:
             cut_off = False
             try:
                 found = await scan(
-                    lambda baud: self._scan_transport(baud),
+                    lambda baud: self._new_transport("scanner", baud),
                     bauds,
                     addresses,
                     profile=profile,
@@ -717,357 +672,22 @@ class Backend:
                     "stops the telegrams to every drive, and with them the page's control)"
                 )
 
-    def _scan_transport(self, baud: int) -> Transport:
-        if self.demo:
-            station: Transport = self._bus.attach("scanner")
-            return station
-        if self._transport is not None:
-            return self._transport
-        from pyuss.transport.url import open_transport
-
-        assert self._url is not None
-        return open_transport(self._url, baud=baud)
-
     # -- monitor ------------------------------------------------------------------------------
-    def _publish(self, exchanges: list[Exchange]) -> None:
-        for exchange in exchanges:
-            self._exchange_seq += 1
-            self.exchanges.append((self._exchange_seq, exchange))
-
-    def exchange_dict(self, seq: int, exchange: Exchange) -> dict[str, Any]:
-        """One decoded telegram for the page: when, address, kind, problems, the line of
-        `uss monitor`."""
-        return {
-            "seq": seq,
-            "time": exchange.time + self._epoch,
-            "address": exchange.address,
-            "kind": exchange.kind,
-            "problems": [p.value for p in exchange.problems],
-            "line": exchange_line(exchange, origin=self._epoch, absolute=True),
-        }
-
     @property
     def last_exchange(self) -> int:
         """The number of the newest decoded telegram (they are numbered from 1)."""
-        return self._exchange_seq
+        return self.telegrams.newest
 
     def exchanges_since(self, seq: int, limit: int) -> tuple[list[dict[str, Any]], int]:
         """Decoded telegrams numbered above ``seq``, the newest ``limit`` of them, and how
-        many newer than ``seq`` were left out."""
-        newer = [(n, ex) for n, ex in self.exchanges if n > seq]
-        left_out = max(self._exchange_seq - seq - len(newer), 0) + max(len(newer) - limit, 0)
-        return [self.exchange_dict(n, ex) for n, ex in newer[-limit:]], left_out
-
-    def _feed(self, port: int, chunk: Chunk) -> None:
-        if self._monitor is None:
-            return
-        out = self._monitor.feed(chunk.data, chunk.timestamp, chunk.errors, port=port)
-        if out:
-            self._publish(out)
-
-    async def _tick_monitor(self, transport: Transport) -> None:
-        """Tell the monitor of the tapped line that time passes (for missing answers)."""
-        from pyuss.monitor.live import LAG, TICK
-
-        while not self._stop.is_set():
-            await asyncio.sleep(TICK)
-            if self._monitor is not None:
-                now = transport.clock() - LAG
-                out = self._monitor.advance(now, port=0) + self._monitor.advance(now, port=1)
-                if out:
-                    self._publish(out)
-
-    async def _watch(self, listener: Transport) -> None:
-        from pyuss.monitor.live import watch
-
-        assert self._monitor is not None
-        try:
-            await watch(self._monitor, [listener], self._publish, self._stop)
-        finally:
-            await listener.close()
+        many newer than ``seq`` were left out (`LineTelegrams.since`)."""
+        return self.telegrams.since(seq, limit)
 
     def pcapng(self) -> bytes:
         """The telegrams the monitor view holds, as a pcapng capture (Wireshark)."""
-        from pyuss.monitor.capture import open_writer, write_all
-
-        assert self._monitor is not None
-        with tempfile.TemporaryDirectory(prefix="pyuss-web-") as folder:
-            path = Path(folder) / "line.pcapng"
-            writer = open_writer(
-                path,
-                baud=self.baud,
-                four_wire=self._monitor.four_wire,
-                epoch=self._epoch,
-                gap=self._monitor.gap,
-            )
-            write_all(writer, (ex for _, ex in list(self.exchanges)))
-            return path.read_bytes()
-
-
-async def read_rows(
-    refs: Sequence[tuple[int, int | None]],
-    layout: Layout,
-    book: ParamBook,
-    read: Callable[[int, int | None], Awaitable[Reading]],
-) -> list[dict[str, Any]]:
-    """The page's answer to a parameter read, by ``read`` (a drive on the line, or one behind
-    a gateway): per parameter ``value`` and ``input``, ``error``, or ``needs`` for one the
-    ``layout`` cannot carry (the drive would refuse it, error 103: not asked)."""
-    out: list[dict[str, Any]] = []
-    for pnu, index in refs:
-        item: dict[str, Any] = {"id": _id(pnu, index)}
-        needs = backups.beyond_layout(layout, book.get(pnu))
-        if needs is not None:
-            out.append({**item, "needs": needs})
-            continue
-        try:
-            reading = await read(pnu, index)
-        except UssError as exc:
-            item["error"] = str(exc)
-        else:
-            item.update(_shown_reading(reading))
-        out.append(item)
-    return out
-
-
-def compared(
-    name: str,
-    wanted: backups.Backup,
-    now: backups.Backup,
-    book: ParamBook,
-    profile: Profile | None,
-    stranger: str | None,
-) -> dict[str, Any]:
-    """A comparison as the page shows it: the differences of the drive (``now``) and the
-    file ``name`` (``wanted``) with names and units, what a restore would write and leave out,
-    why the file may be another drive's (``stranger``) or cannot be restored (``refused``)."""
-    differences = []
-    for diff in compare(now, wanted):
-        info = book.get(diff.pnu)
-        differences.append(
-            {
-                "id": _id(diff.pnu, diff.index),
-                "label": diff.label,
-                "name": diff.name,
-                "drive": None if diff.left is None else diff.left.text(info),
-                "file": None if diff.right is None else diff.right.text(info),
-            }
-        )
-    reply: dict[str, Any] = {
-        "file": name,
-        "address": wanted.address,
-        "profile": wanted.profile,
-        "date": wanted.date,
-        "differences": differences,
-        "writes": [],
-        "skipped": [],
-        "stranger": stranger,
-        "refused": None,
-    }
-    try:
-        writes, skips = plan(wanted, now, book, profile)
-    except ConfigError as exc:
-        reply["refused"] = str(exc)
-    else:
-        reply["writes"] = planned(writes)
-        reply["skipped"] = [_skip_dict(s) for s in skips]
-    return reply
-
-
-def restored(
-    drive: str,
-    name: str,
-    writes: Sequence[Write],
-    skips: Sequence[Skip],
-    outcomes: Sequence[Outcome],
-    *,
-    eeprom: bool,
-) -> dict[str, Any]:
-    """A restore of file ``name`` to ``drive`` (``drive 5``) as the page shows it: how many
-    were written and refused, each write's result, what was left out."""
-    failed = [o for o in outcomes if not o.ok]
-    stored = " and stored in EEPROM" if eeprom else ""
-    message = f"{drive}: {len(outcomes) - len(failed)} of {len(outcomes)} written{stored}" + (
-        f", {len(failed)} refused" if failed else ""
-    )
-    if not writes:
-        message = f"{drive} already holds {name}: nothing to write"
-    return {
-        "message": message,
-        "written": len(outcomes) - len(failed),
-        "refused": len(failed),
-        "results": [
-            {
-                **_write_dict(o.write),
-                "ok": o.ok,
-                "answer": o.answer,
-                "error": o.error_text() or None,
-            }
-            for o in outcomes
-        ],
-        "skipped": [_skip_dict(s) for s in skips],
-    }
-
-
-def _skip_dict(skip: Skip) -> dict[str, Any]:
-    return {"label": skip.entry.label, "name": skip.entry.name, "reason": skip.reason}
-
-
-def _unit_given(value: object) -> object:
-    return value.get("unit", "%") if isinstance(value, dict) else "%"
-
-
-def _setpoint_text(checked: ProcessValue, given: object) -> str:
-    """A checked setpoint as a page asks about it, first in the unit it was ``given`` in:
-    ``10 Hz (20 % of the reference)``, ``40 % (20 Hz)``."""
-    percent = f"{round(checked.percent, 2):g} %"
-    if checked.unit == "%" or checked.value is None:
-        return percent
-    value = f"{round(checked.value, 2):g} {checked.unit}"
-    if given == checked.unit:
-        return f"{value} ({percent} of the reference)"
-    return f"{percent} ({value})"
+        return self.telegrams.pcapng(self.baud)
 
 
 def _named(drive: Drive) -> Profile | None:
     """The drive's profile where one is named; None for a drive of unknown kind."""
     return drive.profile if drive.profile_named else None
-
-
-def _status_bits(family: Mapping[int, str]) -> list[dict[str, Any]]:
-    """All 16 status bits: the family's text where it has one (what the bit shows when 1;
-    "(0 = active)" marks a low-active bit), else the profile's meaning set and clear (C Tables
-    5.5, 5.6); bits 11..15 of a family without texts are device-specific."""
-    bits = []
-    for bit in range(16):
-        text = family.get(bit)
-        if text is not None:
-            bits.append({"bit": bit, "text": text})
-        elif bit in STATUS_BITS:
-            bits.append({"bit": bit, "set": STATUS_BITS[bit][0], "clear": STATUS_BITS[bit][1]})
-        else:
-            bits.append({"bit": bit, "text": "device-specific"})
-    return bits
-
-
-def _word_texts(
-    control: int | None, in_force: int | None, status: int | None, family: Profile | None
-) -> dict[str, str | None]:
-    """The control word sent, the one in force and the status word as a person reads them
-    (`pyuss.params.words`: ``047Fh  ON, no OFF2, ...``, the bits 11..15 by ``family``, None:
-    of unknown kind); None for a word not known."""
-
-    def text(word: int | None, kind: WordKind) -> str | None:
-        return None if word is None else format_word(word, kind, family)
-
-    return {
-        "control_text": text(control, WordKind.CONTROL),
-        "control_in_force_text": text(in_force, WordKind.CONTROL),
-        "status_text": text(status, WordKind.STATUS),
-    }
-
-
-def _control_in_force(points: DrivePoints) -> int | None:
-    """The control word of the request the drive's last answer answered."""
-    status = points.drive.status
-    return None if status is None else status.control
-
-
-def _number_given(value: object) -> object:
-    return value.get("value") if isinstance(value, dict) else value
-
-
-def _setpoint_in_force(state: DriveState) -> dict[str, Any] | None:
-    """The main setpoint the drive is sent now (percent, and in units where known)."""
-    value = state.setpoints.get("main") or next(iter(state.setpoints.values()), None)
-    return None if value is None else value.to_dict()
-
-
-def _label(pnu: int, index: int | None) -> str:
-    return f"P{_id(pnu, index)}"
-
-
-def _id(pnu: int, index: int | None) -> str:
-    """How the page names a parameter: ``462``, ``947.3``."""
-    return f"{pnu}" if index is None else f"{pnu}.{index}"
-
-
-def _shown_raw(info: ParamInfo, raw: int | float) -> str:
-    return format_value(info, physical(info, raw), unit=False, texts=False)
-
-
-def _limits(info: ParamInfo) -> tuple[str | None, str | None]:
-    """The lowest and highest value a write may set, as shown, where the parameter file or the
-    drive's description gives limits (a side it leaves open is the bound of an integer type);
-    none for a parameter without (not the bare range of its data type)."""
-    if not info.is_numeric or info.is_bit_field:
-        return None, None
-    if info.minimum is None and info.maximum is None and not info.allowed:
-        return None, None
-    out: list[str | None] = []
-    for raw, given in ((info.low, info.minimum), (info.high, info.maximum)):
-        if raw is None or (given is None and not info.allowed and not info.dtype.is_integer):
-            out.append(None)
-        else:
-            out.append(_shown_raw(info, raw))
-    return out[0], out[1]
-
-
-def _row(info: ParamInfo, index: int | None) -> dict[str, Any]:
-    """One row of the expert list."""
-    low, high = _limits(info)
-    numeric = info.is_numeric and not info.is_bit_field
-    allowed = [_shown_raw(info, a) for a in info.allowed or ()] if numeric else []
-    return {
-        "id": _id(info.pnu, index),
-        "pnu": info.pnu,
-        "index": index,
-        "label": info.label(index),
-        "name": info.name,
-        "unit": info.unit,
-        "type": info.type_name,
-        "writable": info.writable and not info.is_bit_field,
-        "access": info.access.value,
-        "min": low,
-        "max": high,
-        "allowed": allowed or None,
-        "texts": {str(k): v.strip() for k, v in info.texts.items()},
-        "level": info.level,
-        "changeable": info.changeable,
-        "source": info.source.value,
-        "doc": info.doc,
-    }
-
-
-def _input(reading: Reading) -> str | None:
-    """A value as a user types it to write it again (None: not editable on the page)."""
-    info, value = reading.info, reading.value
-    if info is None or info.is_bit_field or isinstance(value, list):
-        return None
-    if isinstance(value, bytes):
-        return value.hex(" ").upper()
-    if isinstance(value, str):
-        return value.rstrip()
-    return format_value(info, value, unit=False, texts=False)
-
-
-def _shown_reading(reading: Reading) -> dict[str, Any]:
-    """``value`` as printed (``10.00 s``, ``1 [READY]``) and ``input`` (see `_input`)."""
-    return {
-        "value": format_value(reading.info, reading.value),
-        "input": _input(reading),
-    }
-
-
-def planned(writes: Sequence[Write]) -> list[dict[str, Any]]:
-    """The writes of a restore as a comparison lists them and a person says yes to."""
-    return [_write_dict(w) for w in writes]
-
-
-def _write_dict(write: Write) -> dict[str, Any]:
-    return {
-        "id": _id(write.pnu, write.index),
-        "label": write.label,
-        "name": write.info.name if write.info is not None else "",
-        "change": write.text(),
-    }

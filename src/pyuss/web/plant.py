@@ -24,7 +24,7 @@ from collections.abc import Callable, Sequence
 from typing import Any, cast
 
 from pyuss.commission import backup as backups
-from pyuss.commission.compare import another_drive, plan, restore
+from pyuss.commission.compare import plan, restore
 from pyuss.commission.sources import check as check_sources
 from pyuss.errors import ConfigError, UssError
 from pyuss.params import parse
@@ -34,26 +34,21 @@ from pyuss.points.checks import checked_setpoint
 from pyuss.points.state import ProcessValue, state_name
 from pyuss.points.view import KEY_ACTUALS, TAKE_TIME, fault_history, key_actual, motion_of
 from pyuss.protocol.pzd import StatusWord
-from pyuss.web.backend import (
-    Approve,
-    Backend,
-    _id,
-    _label,
-    _row,
-    _setpoint_text,
-    _shown_reading,
-    _status_bits,
-    _unit_given,
-    _word_texts,
-    compared,
-    planned,
+from pyuss.web.backend import Backend
+from pyuss.web.files import Approve, Progress, compared, planned, restored, stranger, wanted_and_now
+from pyuss.web.shown import (
+    expert_row,
+    param_id,
+    param_label,
     read_rows,
-    restored,
+    setpoint_text,
+    shown_reading,
+    status_bits,
+    unit_given,
+    word_texts,
 )
 
 __all__ = ["PlantBackend"]
-
-Progress = Callable[[int, int, str], object]
 
 GATEWAY_COMMANDS = frozenset({"on", "off1", "off2", "off3", "acknowledge"})
 """The drive commands of the gateway's MQTT contract (the page's jog commands are not)."""
@@ -238,7 +233,7 @@ class PlantBackend:
             "reference": None if reference is None else {"value": reference, "unit": drive.unit},
             "actuals": self._columns(drive),
             "key_actuals": self._key_actuals(params),
-            "status_bits": _status_bits(profile.status_bits if params.profile_named else {}),
+            "status_bits": status_bits(profile.status_bits if params.profile_named else {}),
             "read_only": self.plant.buses[drive.bus].read_only,
         }
 
@@ -285,7 +280,7 @@ class PlantBackend:
             "warning": bool(state.get("bits", {}).get("warning")) if live else False,
             "actual": [v for v in drive.actual_row(state)] if live and state else [],
             "actual_unit": self._columns(drive)[0]["unit"] if drive.actual else "%",
-            **_word_texts(
+            **word_texts(
                 control if isinstance(control, int) else None,
                 None,
                 word if live and isinstance(word, int) else None,
@@ -356,7 +351,7 @@ class PlantBackend:
             result = {
                 "name": name,
                 "setpoint": checked.to_dict(),
-                "text": f"set the setpoint to {_setpoint_text(checked, _unit_given(value))}",
+                "text": f"set the setpoint to {setpoint_text(checked, unit_given(value))}",
             }
         elif not isinstance(name, str) or name not in COMMAND_TABLE:
             shown = repr(name)[:40]
@@ -384,10 +379,10 @@ class PlantBackend:
             result = await self.plant.request(
                 drive, "setpoint_percent", {"value": checked.percent, "key": checked.key}
             )
-            shown = _setpoint_text(checked, _unit_given(value))
+            shown = setpoint_text(checked, unit_given(value))
             self._sent[drive.key] = {
                 "value": value.get("value") if isinstance(value, dict) else value,
-                "unit": _unit_given(value),
+                "unit": unit_given(value),
             }
             return {
                 "command": name,
@@ -483,7 +478,7 @@ class PlantBackend:
             needs = backups.beyond_layout(params.layout, info)
             numeric = info.is_numeric and not info.is_bit_field
             for index in indexes:
-                row = _row(info, index)
+                row = expert_row(info, index)
                 if needs is not None:
                     row.update(needs=needs, writable=False)
                 elif not numeric:
@@ -509,18 +504,18 @@ class PlantBackend:
         info = params.params.get(pnu)
         if info is None:
             raise ConfigError(
-                f"{_label(pnu, index)}: nothing is known of it (no parameter file has it), so "
+                f"{param_label(pnu, index)}: nothing is known of it (no parameter file has it), so "
                 "its value cannot be checked: the page does not write it"
             )
         needs = backups.beyond_layout(params.layout, info)
         if needs is not None:
-            raise ConfigError(f"{_label(pnu, index)} cannot be written: {needs}")
+            raise ConfigError(f"{param_label(pnu, index)} cannot be written: {needs}")
         if info.read_only:
             raise ConfigError(f"{info.label(index)} ({info.name}) is read-only")
         value = parse(info, text, index)
         self._may(drive, change=True)
         reading = await params.write_param(pnu, value, index, eeprom=eeprom)
-        return {"id": _id(pnu, index), **_shown_reading(reading)}
+        return {"id": param_id(pnu, index), **shown_reading(reading)}
 
     # -- backup, compare, restore: those of pyuss.commission over RemoteParams ------------------
     def _params(self, key: object, *, change: bool) -> RemoteParams:
@@ -542,36 +537,24 @@ class PlantBackend:
 
     async def _wanted_and_now(
         self, params: RemoteParams, data: bytes, name: str, progress: Progress | None
-    ) -> tuple[backups.Backup, backups.Backup]:
-        try:
-            text = data.decode("utf-8")
-        except UnicodeDecodeError:
-            raise ConfigError(f"{name}: not a text file (a backup is TOML or JSON)") from None
-        wanted = backups.loads(text, name)
+    ) -> tuple[backups.Backup, backups.Backup, str | None]:
+        """The uploaded file, the drive's values of its parameters, and why the file may be
+        another drive's (`pyuss.web.files.stranger`)."""
         drive: Any = params
-        refs = [(e.pnu, e.index) for e in wanted.entries]
-        entries = await backups.read_parameters(drive, refs, progress=progress)
-        source = f"drive {params.remote.key}"
-        now = backups.Backup(params.address, params.kind, entries, source=source)
-        return wanted, now
-
-    async def _stranger(self, wanted: backups.Backup, params: RemoteParams) -> str | None:
-        if wanted.profile != params.kind:
-            return (
-                f"{wanted.source} is a backup of a {wanted.profile} drive, drive "
-                f"{params.remote.key} is {params.kind}"
-            )
-        drive: Any = params
-        return await another_drive(wanted, drive)
+        wanted, now = await wanted_and_now(
+            drive, data, name, address=params.address, kind=params.kind,
+            source=f"drive {params.remote.key}", progress=progress,
+        )  # fmt: skip
+        other = await stranger(wanted, drive, kind=params.kind, who=params.remote.key)
+        return wanted, now, other
 
     async def compare(
         self, key: object, data: bytes, name: str, progress: Progress | None = None
     ) -> dict[str, Any]:
         """`Backend.compare` over the broker."""
         params = self._params(key, change=False)
-        wanted, now = await self._wanted_and_now(params, data, name, progress)
-        stranger = await self._stranger(wanted, params)
-        return compared(name, wanted, now, params.params, params.named_profile, stranger)
+        wanted, now, other = await self._wanted_and_now(params, data, name, progress)
+        return compared(name, wanted, now, params.params, params.named_profile, other)
 
     async def restore(
         self,
@@ -587,10 +570,9 @@ class PlantBackend:
         """`Backend.restore` over the broker: every value checked first (`plan`), then written
         one request at a time; each refusal comes back with its number and meaning."""
         params = self._params(key, change=True)
-        wanted, now = await self._wanted_and_now(params, data, name, progress)
-        stranger = await self._stranger(wanted, params)
-        if stranger is not None and not force:
-            raise ConfigError(stranger)
+        wanted, now, other = await self._wanted_and_now(params, data, name, progress)
+        if other is not None and not force:
+            raise ConfigError(other)
         writes, skips = plan(wanted, now, params.params, params.named_profile)
         if approve is not None:
             approve(planned(writes))

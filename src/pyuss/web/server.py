@@ -23,37 +23,24 @@ Routes (all under the token when there is one):
   health twice a second, ``telegrams`` for clients showing the monitor, ``scan`` progress,
   ``progress`` of a backup, compare or restore.
 
-Security (docs/web.md): bound to 127.0.0.1 unless told otherwise. Bound elsewhere, a token is
-required (`WebServer` refuses to start without one) and every request must carry it: in the
-``token`` query parameter of the first request (the page then keeps it in a cookie), the
-``X-Pyuss-Token`` header or that cookie. On a loopback address the ``Host`` header must name
-a loopback host (a web site cannot reach the page through a DNS name of its own). Requests
-that change something must carry the ``X-Pyuss`` header (a web site's form cannot add it)
-and, from the page, ``X-Pyuss-Start``: the start of the server the page was loaded from
-(`WebServer.start_id`; a page of an earlier start changes nothing), and
-no ``Origin`` of another site; a WebSocket from another origin is refused. What a browser
-says comes from another site (``Sec-Fetch-Site``: an image or script tag, which sends no
-``Origin``) is refused too, but a link to the page itself. ``read_only``
-refuses every change and the page hides its controls. Every JSON body is read and parsed
-within bounds (`MAX_JSON` bytes, nesting `MAX_DEPTH`, no NaN or Infinity), every key and
-type checked; a bad request gets one JSON error with a 4xx status and never reaches a drive.
+Security (docs/web.md): who may use the server, and how a refusal or failure answers, is
+`pyuss.web.guard`'s; what a request carries is read within bounds by `pyuss.web.bodies`; a
+yes to a move is good once (`pyuss.web.confirm`). ``read_only`` refuses every change and the
+page hides its controls.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-import hmac
-import ipaddress
 import json
 import logging
 import secrets
 import time
-from collections.abc import Awaitable, Callable
+from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
-from urllib.parse import urlsplit
 
 from pyuss import __version__
 from pyuss.web import missing_extra
@@ -64,17 +51,19 @@ try:
 except ImportError as exc:  # pragma: no cover - the extra is installed for the tests
     raise missing_extra(exc) from None
 
-from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout, cut
-from pyuss.points import NoWriteAuthority, state_name
+from pyuss.errors import ConfigError, cut
+from pyuss.points import state_name
 from pyuss.profiles import UNKNOWN_KIND, profile_names
-from pyuss.userfile import parse_message
 from pyuss.web.backend import Backend
+from pyuss.web.bodies import MAX_BODY, Bodies, param_ref, parse_json, scan_addresses
+from pyuss.web.confirm import CONFIRM_AGE, Confirmations
+from pyuss.web.guard import Guard, error, is_loopback
 from pyuss.web.hub import QUEUE_SIZE, SEND_TIMEOUT, Hub
 
 if TYPE_CHECKING:
     from pyuss.web.plant import PlantBackend
 
-__all__ = ["DEFAULT_HOST", "DEFAULT_PORT", "WebServer", "is_loopback"]
+__all__ = ["DEFAULT_HOST", "DEFAULT_PORT", "WebServer"]
 
 log = logging.getLogger("pyuss.web")
 
@@ -90,16 +79,6 @@ RECENT_TELEGRAMS = 500
 """Telegrams a page gets when it opens the monitor view."""
 MAX_CLIENTS = 32
 """WebSocket clients at once; more are refused with 503."""
-MAX_BODY = 4 * 1024 * 1024
-"""Largest request body (a backup file to compare or restore)."""
-MAX_JSON = 64 * 1024
-"""Largest JSON request body (a command, parameter ids, a value, a scan)."""
-MAX_DEPTH = 8
-"""Deepest nesting of arrays and objects in a JSON request body."""
-MAX_PNU = 0xFFFF
-"""The highest parameter number a request may name (a profile's paged numbers included)."""
-CONFIRM_AGE = 60.0
-"""Seconds a checked command may wait for the person's yes before it is stale."""
 SHUTDOWN_GRACE = 2.0
 """Seconds a request still running when the page stops (Ctrl+C) has to finish; then it is
 cut off (a scan, a parameter read over the broker waiting for its gateway)."""
@@ -109,24 +88,9 @@ one on a kept-alive connection) before it is closed: idle connections and heads 
 at a time (slowloris) do not pile up."""
 BODY_TIMEOUT = 60.0
 """Seconds a request body (a command, a backup file) may take to come in whole."""
-MAX_CONFIRMS = 64
-"""Checked commands waiting for a yes at most (the oldest are forgotten)."""
-COOKIE = "pyuss_token"
 DRIVE = r"/api/drive/{address:[A-Za-z0-9_.-]+}"
 """A drive's URLs: ``/api/drive/5`` on the page's line, ``/api/drive/line2.5`` in a plant."""
 STATIC = Path(str(resources.files("pyuss.web").joinpath("static")))
-
-Handler = Callable[[web.Request], Awaitable[web.StreamResponse]]
-
-
-def is_loopback(host: str) -> bool:
-    """Whether ``host`` (an address or ``localhost``) is on this machine only."""
-    if host.lower() == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host.strip("[]")).is_loopback
-    except ValueError:
-        return False
 
 
 class _ClientFaults(logging.Filter):
@@ -145,87 +109,6 @@ class _ClientFaults(logging.Filter):
 
 SERVER_LOG = logging.getLogger("pyuss.web.http")
 SERVER_LOG.addFilter(_ClientFaults())
-
-
-def _error(status: int, message: str, **extra: Any) -> web.Response:
-    return web.json_response({"error": message, **extra}, status=status)
-
-
-def _ref(text: object) -> tuple[int, int | None]:
-    """``52`` or ``4.2`` (also ``P4.2``, or the number 52) as PNU and index."""
-    if isinstance(text, int) and not isinstance(text, bool):
-        if not 0 <= text <= MAX_PNU:
-            raise ConfigError(f"{cut(text)} is not a parameter: a number is 0..{MAX_PNU}")
-        text = str(text)
-    if not isinstance(text, str) or len(text) > 16:
-        raise ConfigError(f"{cut(text)} is not a parameter (52 or 4.2)")
-    body = text.strip().lstrip("Pp").replace("[", ".").rstrip("]")
-    pnu, dot, index = body.partition(".")
-    if not pnu.isdigit() or (dot and not index.isdigit()):
-        raise ConfigError(f"{cut(text)} is not a parameter (52 or 4.2)")
-    if int(pnu) > MAX_PNU or (dot and int(index) > 255):
-        raise ConfigError(f"{cut(text)}: a parameter number is 0..{MAX_PNU}, an index 0..255")
-    return int(pnu), (int(index) if dot else None)
-
-
-def _netloc(url: str, part: str) -> str:
-    """The ``netloc`` or ``hostname`` of ``url``; empty for what is no URL (``http://[``,
-    a ``Host`` header of a broken IPv6 address), which is then no host of this machine."""
-    try:
-        split = urlsplit(url)
-    except ValueError:
-        return ""
-    return str(getattr(split, part) or "")
-
-
-def parse_json(body: bytes) -> Any:
-    """A JSON request body, parsed only within `MAX_DEPTH` levels and without NaN or
-    Infinity (`pyuss.userfile.parse_message`: the parser of the standard library recurses,
-    deep nesting must never reach it)."""
-    return parse_message(body, "the request body", max_depth=MAX_DEPTH)
-
-
-class Confirmations:
-    """Commands a page checked and asks a person about: each yes carries the ``confirm``
-    of its check, which is good once, for `CONFIRM_AGE` seconds, and for exactly the command
-    checked (the same drive, name and words): a replayed, stale or changed request is refused
-    before anything is sent. A scan forgets them all (`forget`): the drives they were given
-    for are gone, another may stand at the same address."""
-
-    def __init__(self, age: float = CONFIRM_AGE) -> None:
-        self.age = age
-        self._open: dict[str, tuple[float, str]] = {}
-
-    @staticmethod
-    def _what(drive: object, checked: dict[str, Any]) -> str:
-        return json.dumps({"drive": str(drive), "checked": checked}, sort_keys=True)
-
-    def issue(self, drive: object, checked: dict[str, Any]) -> str:
-        token = secrets.token_urlsafe(18)
-        self._open[token] = (time.monotonic(), self._what(drive, checked))
-        while len(self._open) > MAX_CONFIRMS:
-            del self._open[next(iter(self._open))]
-        return token
-
-    def forget(self) -> None:
-        self._open.clear()
-
-    def redeem(self, token: object, drive: object, checked: dict[str, Any]) -> None:
-        entry = self._open.pop(token, None) if isinstance(token, str) else None
-        if entry is None:
-            raise _conflict("this command was confirmed before or never checked: check it again")
-        when, what = entry
-        if time.monotonic() - when > self.age:
-            raise _conflict(f"the confirmation is older than {self.age:g} s: check it again")
-        if what != self._what(drive, checked):
-            raise _conflict(
-                "the command is not the one confirmed (another drive, command or value, "
-                "or it means another setpoint now)"
-            )
-
-
-def _conflict(message: str) -> web.HTTPConflict:
-    return web.HTTPConflict(text=json.dumps({"error": message}), content_type="application/json")
 
 
 class WebServer:
@@ -273,10 +156,6 @@ class WebServer:
         self._runner: web.AppRunner | None = None
         self._ticker: asyncio.Task[None] | None = None
         self._sweeper: asyncio.Task[None] | None = None
-        self._opened: dict[web.RequestHandler, float] = {}
-        """Connections by their handler, with when they were first seen."""
-        self._begun: set[object] = set()
-        """The transports of connections that sent at least one whole request head."""
         self._sockets: set[web.WebSocketResponse] = set()
         """The pages connected live: told the server goes away when it closes."""
         self._sent_exchange = 0
@@ -287,6 +166,8 @@ class WebServer:
         """This start of the server: a page sends it with every change (``X-Pyuss-Start``),
         so that a page loaded from an earlier start - which may show other drives - changes
         nothing."""
+        self._guard = Guard(host, self.token, self.start_id, idle_timeout)
+        self._bodies = Bodies(body_timeout)
 
     # -- life cycle ---------------------------------------------------------------------------
     @property
@@ -301,7 +182,7 @@ class WebServer:
         return url + (f"?token={self.token}" if self.token else "")
 
     def app(self) -> web.Application:
-        app = web.Application(middlewares=[self._guard], client_max_size=MAX_BODY)
+        app = web.Application(middlewares=[self._guard.middleware], client_max_size=MAX_BODY)
         app.router.add_get("/", self._index)
         app.router.add_static("/static/", STATIC, show_index=False)
         app.router.add_get("/api/config", self._config)
@@ -345,7 +226,7 @@ class WebServer:
         if self.port == 0 and runner.addresses:
             self.port = int(runner.addresses[0][1])
         self._ticker = asyncio.create_task(self._tick())
-        self._sweeper = asyncio.create_task(self._sweep(runner.server))
+        self._sweeper = asyncio.create_task(self._guard.sweep(runner.server))
         return self.url
 
     async def close(self) -> None:
@@ -364,92 +245,6 @@ class WebServer:
             await self._runner.cleanup()
             self._runner = None
 
-    async def _sweep(self, server: web.Server | None) -> None:
-        """Close every connection that has not sent a whole request head within
-        `idle_timeout` seconds of opening (between two requests aiohttp's keep-alive
-        timeout, the same, does it)."""
-        while server is not None:
-            await asyncio.sleep(min(1.0, self.idle_timeout / 2))
-            now = time.monotonic()
-            handlers = server.connections
-            transports = {h.transport for h in handlers}
-            self._begun &= transports
-            self._opened = {h: self._opened.get(h, now) for h in handlers}
-            for handler, since in self._opened.items():
-                transport = handler.transport
-                if (
-                    transport is not None
-                    and transport not in self._begun
-                    and now - since > self.idle_timeout
-                ):
-                    log.info(
-                        "web connection closed: no whole request within %g s", self.idle_timeout
-                    )
-                    transport.close()
-
-    # -- guard --------------------------------------------------------------------------------
-    def _token_ok(self, request: web.Request) -> bool:
-        if self.token is None:
-            return True
-        given = (
-            request.query.get("token")
-            or request.headers.get("X-Pyuss-Token")
-            or request.cookies.get(COOKIE)
-            or ""
-        )
-        # a header or cookie of bytes that are no UTF-8 comes as lone surrogates: kept as
-        # the bytes they were, and so a wrong token, never an error
-        return hmac.compare_digest(given.encode("utf-8", "surrogateescape"), self.token.encode())
-
-    @web.middleware
-    async def _guard(self, request: web.Request, handler: Handler) -> web.StreamResponse:
-        self._begun.add(request.transport)
-        if is_loopback(self.host) and not is_loopback(_netloc(f"//{request.host}", "hostname")):
-            return _error(403, f"host {cut(request.host)} is not this machine")
-        if not self._token_ok(request):
-            return _error(401, "the page needs its token: open the URL uss web printed")
-        origin = request.headers.get("Origin")
-        if origin is not None and _netloc(origin, "netloc") != request.host:
-            return _error(403, f"requests from {cut(origin)} are not accepted")
-        fetched_from = request.headers.get("Sec-Fetch-Site", "same-origin")
-        if fetched_from not in ("same-origin", "none") and not (
-            request.path == "/" and request.headers.get("Sec-Fetch-Mode") == "navigate"
-        ):
-            # an image, script or frame of another site (which sends no Origin): a link to
-            # the page opens it, nothing else of it is for another site
-            return _error(403, f"requests from another site ({cut(fetched_from)}) are not accepted")
-        changing = request.method not in ("GET", "HEAD", "OPTIONS")
-        if changing and request.headers.get("X-Pyuss") != "1":
-            return _error(403, "a change needs the X-Pyuss header (sent by the page)")
-        if changing and request.headers.get("X-Pyuss-Start", self.start_id) != self.start_id:
-            return _error(
-                409,
-                "the page was loaded from an earlier start of uss web and may show other "
-                "drives than there are now: nothing sent, reload the page",
-            )
-        try:
-            response = await handler(request)
-        except web.HTTPException as exc:
-            if exc.status < 400 or exc.content_type == "application/json":
-                raise
-            # aiohttp's own refusals (too large a body, no such route) as JSON too
-            if exc.status == 413:
-                return _error(413, f"the request body is larger than {MAX_BODY} bytes")
-            return _error(exc.status, exc.reason)
-        except ConfigError as exc:
-            return _error(400, str(exc))
-        except DriveRefusal as exc:
-            return _error(409, str(exc), number=exc.number, meaning=exc.meaning)
-        except NoWriteAuthority as exc:
-            return _error(409, str(exc), response_id=8)
-        except UssTimeout as exc:
-            return _error(504, str(exc))
-        except UssError as exc:
-            return _error(502, str(exc))
-        if self.token is not None and request.query.get("token"):
-            response.set_cookie(COOKIE, self.token, httponly=True, samesite="Strict")
-        return response
-
     def _writable(self) -> None:
         if self.read_only:
             raise web.HTTPForbidden(
@@ -466,36 +261,6 @@ class WebServer:
         if not isinstance(self.backend, Backend) and len(text) <= 70:
             return text
         raise ConfigError(f"drive {cut(text)} is not on the page")
-
-    async def _body(self, request: web.Request, read: Awaitable[bytes]) -> bytes:
-        """The request's body as ``read`` reads it, within `body_timeout` seconds."""
-        try:
-            async with asyncio.timeout(self.body_timeout):
-                return await read
-        except TimeoutError:
-            raise web.HTTPRequestTimeout(
-                text=json.dumps(
-                    {"error": f"the request body did not come within {self.body_timeout:g} s"}
-                ),
-                content_type="application/json",
-                headers={"Connection": "close"},
-            ) from None
-
-    async def _json(self, request: web.Request, keys: tuple[str, ...] = ()) -> dict[str, Any]:
-        """The request's JSON object, read and parsed within bounds (`MAX_JSON` bytes, nesting
-        `MAX_DEPTH`); with ``keys``, no other key may be in it."""
-        if request.content_length is not None and request.content_length > MAX_JSON:
-            raise ConfigError(f"the request body is larger than {MAX_JSON} bytes")
-        body = await self._body(request, _read_up_to(request, MAX_JSON + 1))
-        if len(body) > MAX_JSON:
-            raise ConfigError(f"the request body is larger than {MAX_JSON} bytes")
-        data = parse_json(bytes(body))
-        if not isinstance(data, dict):
-            raise ConfigError("the request body must be a JSON object")
-        unknown = sorted(set(data) - set(keys)) if keys else []
-        if unknown:
-            raise ConfigError(f"unknown key {unknown[0][:40]!r}: the keys are {', '.join(keys)}")
-        return data
 
     # -- pages and data -----------------------------------------------------------------------
     async def _index(self, request: web.Request) -> web.StreamResponse:
@@ -524,7 +289,7 @@ class WebServer:
 
     async def _command(self, request: web.Request) -> web.Response:
         self._writable()
-        data = await self._json(request, keys=("name", "value", "check", "confirm"))
+        data = await self._bodies.json(request, keys=("name", "value", "check", "confirm"))
         address = self._address(request)
         name, value = data.get("name"), data.get("value")
         if not isinstance(name, str):
@@ -559,17 +324,17 @@ class WebServer:
         return web.json_response(self.backend.parameters(self._address(request)))
 
     async def _params_read(self, request: web.Request) -> web.Response:
-        data = await self._json(request, keys=("ids",))
+        data = await self._bodies.json(request, keys=("ids",))
         ids = data.get("ids")
         if not isinstance(ids, list) or len(ids) > 256:
             raise ConfigError("ids must be a list of at most 256 parameters")
-        refs = [_ref(i) for i in ids]
+        refs = [param_ref(i) for i in ids]
         return web.json_response(await self.backend.read(self._address(request), refs))
 
     async def _params_write(self, request: web.Request) -> web.Response:
         self._writable()
-        data = await self._json(request, keys=("id", "value", "eeprom"))
-        pnu, index = _ref(data.get("id", ""))
+        data = await self._bodies.json(request, keys=("id", "value", "eeprom"))
+        pnu, index = param_ref(data.get("id", ""))
         value = data.get("value", "")
         if isinstance(value, bool) or not isinstance(value, str | int | float):
             raise ConfigError(f"value must be the value as text (or a number), not {cut(value)}")
@@ -603,19 +368,9 @@ class WebServer:
             headers={"Content-Disposition": f'attachment; filename="{name}"'},
         )
 
-    async def _upload(self, request: web.Request) -> tuple[bytes, str]:
-        """The backup file a page sends as the request body, and its name (``name=``)."""
-        name = request.query.get("name", "").strip() or "the file"
-        if len(name) > 200 or any(c in name for c in "\r\n\0"):
-            raise ConfigError("the file name is too long or not a name")
-        data = await self._body(request, request.read())
-        if not data:
-            raise ConfigError(f"{name} is empty: choose a backup file (TOML or JSON)")
-        return data, name
-
     async def _compare(self, request: web.Request) -> web.Response:
         address = self._address(request)
-        data, name = await self._upload(request)
+        data, name = await self._bodies.upload(request)
         reply = await self.backend.compare(
             address, data, name, progress=self._progress(address, "compare")
         )
@@ -626,7 +381,7 @@ class WebServer:
     async def _restore(self, request: web.Request) -> web.Response:
         self._writable()
         address = self._address(request)
-        data, name = await self._upload(request)
+        data, name = await self._bodies.upload(request)
         approve = None
         if "confirm" in request.query:
             # the yes of a person to a comparison's writes: the same writes, or none
@@ -647,7 +402,7 @@ class WebServer:
 
     async def _scan(self, request: web.Request) -> web.Response:
         self._writable()
-        data = await self._json(request, keys=("addresses", "profile"))
+        data = await self._bodies.json(request, keys=("addresses", "profile"))
         addresses = data.get("addresses", "0-31")
         profile = data.get("profile", self.scan_profile)
         if not isinstance(addresses, str) or len(addresses) > 200:
@@ -655,7 +410,7 @@ class WebServer:
         if profile not in self.scan_profiles:
             known = ", ".join(self.scan_profiles[1:])
             raise ConfigError(f"profile {cut(profile)} is not one of {known}")
-        addresses = _addresses(addresses)
+        addresses = scan_addresses(addresses)
 
         def progress(done: int, total: int) -> None:
             self.hub.send(json.dumps({"type": "scan", "done": done, "total": total}))
@@ -682,7 +437,7 @@ class WebServer:
     # -- live updates -------------------------------------------------------------------------
     async def _ws(self, request: web.Request) -> web.StreamResponse:
         if len(self.hub.clients) >= MAX_CLIENTS:
-            return _error(503, f"{MAX_CLIENTS} pages are connected already")
+            return error(503, f"{MAX_CLIENTS} pages are connected already")
         ws = web.WebSocketResponse(heartbeat=20.0, max_msg_size=4096)
         await ws.prepare(request)
         self._sockets.add(ws)
@@ -760,33 +515,3 @@ class WebServer:
                 message = {"type": "telegrams", "items": items, "left_out": left_out}
                 self.hub.send(json.dumps(message), monitor_only=True)
             self._sent_exchange = newest
-
-
-async def _read_up_to(request: web.Request, size: int) -> bytes:
-    """The request's body, or its first ``size`` bytes when it is longer."""
-    body = bytearray()
-    while len(body) < size:
-        part = await request.content.read(size - len(body))
-        if not part:
-            break
-        body += part
-    return bytes(body)
-
-
-def _addresses(text: str) -> list[int]:
-    """``0-31``, ``1,4,7`` or ``1-5,9`` as a list of addresses."""
-    out: list[int] = []
-    for part in text.replace(" ", "").split(","):
-        if not part:
-            continue
-        low, dash, high = part.partition("-")
-        try:
-            first, last = int(low), int(high) if dash else int(low)
-        except ValueError:
-            raise ConfigError(f"addresses {text!r}: use 0-31, 1,4,7 or 1-5,9") from None
-        if not 0 <= first <= last <= 31:
-            raise ConfigError(f"addresses {text!r}: each must be 0..31, low to high")
-        out.extend(range(first, last + 1))
-    if not out:
-        raise ConfigError("no address to scan")
-    return sorted(set(out))
