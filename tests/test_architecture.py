@@ -12,8 +12,8 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "pyuss"
 
 # What each package may import from pyuss (besides itself and the shared root modules
-# errors, log, atomicfile, userfile, tomlwrite, _lazy and _callbacks, and loop and system for
-# all but the protocol layer). Every package of pyuss has its entry
+# errors, log, atomicfile, userfile, tomlwrite, _lazy, _callbacks and _tasks, and loop and
+# system for all but the protocol layer). Every package of pyuss has its entry
 # (`test_every_package_has_its_rule`).
 ALLOWED: dict[str, set[str]] = {
     "protocol": set(),
@@ -124,7 +124,17 @@ def test_no_layer_reaches_up(package: str) -> None:
         for name in _imports(package)
         if name.startswith("pyuss.") and name.count(".") >= 1
     }
-    used -= {package, "errors", "log", "atomicfile", "userfile", "tomlwrite", "_lazy", "_callbacks"}
+    used -= {
+        package,
+        "errors",
+        "log",
+        "atomicfile",
+        "userfile",
+        "tomlwrite",
+        "_lazy",
+        "_callbacks",
+        "_tasks",
+    }
     if package != "protocol":  # the event loop and platform helpers: every layer doing I/O
         used -= {"loop", "system"}
     assert used <= ALLOWED[package], f"pyuss.{package} imports {sorted(used - ALLOWED[package])}"

@@ -44,6 +44,7 @@ from collections.abc import AsyncIterator, Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Protocol, runtime_checkable
 
+from pyuss._tasks import cancel_and_wait
 from pyuss.bass.codec import (
     BAUD,
     BassAnswer,
@@ -346,9 +347,7 @@ class BassRing:
             try:
                 yield
             finally:
-                task.cancel()
-                with contextlib.suppress(asyncio.CancelledError):
-                    await task
+                await cancel_and_wait(task)
 
     async def serve(self, transport: Transport) -> None:
         """Carry the ring's PC side on an open ``transport`` until it is closed.

@@ -33,6 +33,7 @@ from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from typing import Any
 
+from pyuss._tasks import cancel_and_wait
 from pyuss.bus.core import Segment, Station
 from pyuss.bus.wire import MAX_AHEAD, MAX_DATA, SendDecoder, encode_frame, read_hello
 from pyuss.errors import ConfigError, ProtocolError, TransportError
@@ -111,9 +112,7 @@ async def serve_pty(bus: Segment, n: int, *, echo: Echo = False) -> list[str]:
         async def closer(
             pty: PtyPort = pty, task: asyncio.Task[None] = task, name: str = name
         ) -> None:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+            await cancel_and_wait(task)
             bus.detach(name)
             await pty.close()
 

@@ -48,6 +48,7 @@ import urllib.parse
 from collections.abc import Callable, Iterable
 from typing import Any, TextIO
 
+from pyuss._tasks import cancel_and_wait
 from pyuss.cli._help import plain
 from pyuss.cli._master import add_line_options, line_file
 from pyuss.cli._output import error_object, wall_clock
@@ -623,9 +624,7 @@ async def _live(
             return EXIT_OK
         finally:
             if refresher is not None:
-                refresher.cancel()
-                with contextlib.suppress(asyncio.CancelledError):
-                    await refresher
+                await cancel_and_wait(refresher)
             for transport in opened:
                 with contextlib.suppress(TransportError):
                     await transport.close()

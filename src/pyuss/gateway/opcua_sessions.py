@@ -13,8 +13,6 @@ services (the face checks writes and calls).
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
 import contextvars
 import hmac
 import logging
@@ -31,6 +29,7 @@ from asyncua.server.uaprocessor import PublishRequestData, UaProcessor
 from asyncua.server.user_managers import UserManager
 from asyncua.ua.ua_binary import struct_from_binary
 
+from pyuss._tasks import cancel_and_wait
 from pyuss.gateway.options import OpcuaOptions
 
 __all__ = ["Rules", "SessionProcessor", "SessionServer", "Users", "current_user"]
@@ -293,8 +292,6 @@ class SessionServer(Server):  # type: ignore[misc]
         # its next tick: up to a second more for every stop of the face. It ends at once.
         clock = self.iserver.time_task
         if clock is not None:
-            clock.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await clock
+            await cancel_and_wait(clock)
             self.iserver.time_task = None
         await super().stop()

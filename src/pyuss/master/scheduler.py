@@ -102,6 +102,7 @@ from types import TracebackType
 from typing import TYPE_CHECKING
 
 from pyuss import _callbacks
+from pyuss._tasks import cancel_and_wait
 from pyuss.errors import ConfigError, TelegramError, TransportError, UssError, UssTimeout
 from pyuss.log import log_frame
 from pyuss.loop import COARSE_MARGIN
@@ -549,9 +550,7 @@ class Master:
                 async with asyncio.timeout(self._stop_time()):
                     await asyncio.shield(task)
             except TimeoutError:
-                task.cancel()
-                with contextlib.suppress(asyncio.CancelledError):
-                    await task
+                await cancel_and_wait(task)
         self._fail(self._failure or MasterClosed("the master was closed"))
         if self.close_transport:
             await self.transport.close()

@@ -19,9 +19,9 @@ again, characters of a bus recording are framed first.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 from collections.abc import Callable, Iterator, Sequence
 
+from pyuss._tasks import cancel_and_wait
 from pyuss.monitor.core import Monitor
 from pyuss.monitor.model import Exchange
 from pyuss.monitor.records import Capture
@@ -102,8 +102,7 @@ async def watch(
         for task in [*tasks, stopper]:
             task.cancel()
         for task in [*tasks, stopper]:
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+            await cancel_and_wait(task)
     out = monitor.finish()
     if out:
         on_exchanges(out)

@@ -58,6 +58,7 @@ from typing import Any
 import aiomqtt
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
+from pyuss._tasks import cancel_and_wait
 from pyuss.drive.datatypes import encode as encode_raw
 from pyuss.errors import ConfigError, DriveRefusal, UssError, UssTimeout
 from pyuss.gateway.mqtt_client import make_client, send_at_once
@@ -311,9 +312,7 @@ class RemotePlant:
         self._stop.set()
         runner, self._runner = self._runner, None
         if runner is not None:
-            runner.cancel()
-            with contextlib.suppress(asyncio.CancelledError, aiomqtt.MqttError):
-                await runner
+            await cancel_and_wait(runner, ignore=(aiomqtt.MqttError,))
         for future, _ in self._pending.values():
             if not future.done():
                 future.cancel()

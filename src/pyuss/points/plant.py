@@ -23,12 +23,12 @@ neither may block.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 from collections.abc import Callable, Mapping
 from types import TracebackType
 
 from pyuss import _callbacks
+from pyuss._tasks import cancel_and_wait
 from pyuss.errors import UssError
 from pyuss.master.scheduler import Master
 from pyuss.points.drive import GIVEN_BACK, DrivePoints
@@ -158,8 +158,7 @@ class BusPoints:
         for task in self._tasks:
             task.cancel()
         for task in self._tasks:
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await task
+            await cancel_and_wait(task, ignore=(Exception,))
         self._tasks.clear()
         self._remove_line()
         for drive in self.drives.values():

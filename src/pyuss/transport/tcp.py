@@ -29,6 +29,7 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from pyuss._tasks import cancel_and_wait, stopping
 from pyuss.errors import ConfigError, TransportError
 from pyuss.system import clock
 from pyuss.transport.queued import QueuedTransport
@@ -79,8 +80,11 @@ async def pump(
 
 async def close_writer(writer: asyncio.StreamWriter) -> None:
     writer.close()
-    with contextlib.suppress(OSError, asyncio.CancelledError):
+    try:
         await writer.wait_closed()
+    except (OSError, asyncio.CancelledError):
+        if stopping():  # the caller's own stop, not the connection's
+            raise
 
 
 #: How long a closing server waits for its connections' handlers to end of themselves.
@@ -105,8 +109,7 @@ async def end_handlers(
     for task in pending:
         task.cancel()
     for task in pending:
-        with contextlib.suppress(asyncio.CancelledError):
-            await task
+        await cancel_and_wait(task)
 
 
 class TcpTransport(QueuedTransport):
@@ -181,9 +184,7 @@ class TcpTransport(QueuedTransport):
             return
         self._mark_closed()
         if self._task is not None:
-            self._task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._task
+            await cancel_and_wait(self._task)
             self._task = None
         if self._writer is not None:
             await close_writer(self._writer)

@@ -10,10 +10,11 @@ queue and the socket's buffers, and never holds up the others; the page reconnec
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
+
+from pyuss._tasks import cancel_and_wait
 
 __all__ = ["Client", "Hub"]
 
@@ -66,9 +67,7 @@ class Hub:
         if client in self.clients:
             self.clients.remove(client)
         if client.task is not None and client.task is not asyncio.current_task():
-            client.task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await client.task
+            await cancel_and_wait(client.task)
 
     def send(self, message: str, *, monitor_only: bool = False) -> None:
         """Queue ``message`` for every client (those showing the monitor: ``monitor_only``)."""

@@ -43,6 +43,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from pyuss import __version__
+from pyuss._tasks import cancel_and_wait
 from pyuss.web import missing_extra
 
 try:
@@ -232,9 +233,7 @@ class WebServer:
     async def close(self) -> None:
         for task in (self._ticker, self._sweeper):
             if task is not None:
-                task.cancel()
-                with contextlib.suppress(asyncio.CancelledError):
-                    await task
+                await cancel_and_wait(task)
         await self.hub.close()
         # a page left open keeps its live connection: say goodbye (1001, going away) so
         # that stopping the server does not wait for the browser to leave

@@ -10,13 +10,13 @@ them kept, for the live view (the lines of ``uss monitor``) and its pcapng downl
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import tempfile
 from collections import deque
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from pyuss._tasks import cancel_and_wait
 from pyuss.errors import UssError
 from pyuss.monitor.core import Monitor, default_gap
 from pyuss.monitor.infer import LayoutBook
@@ -71,9 +71,7 @@ class LineTelegrams:
         """End the monitor's task (after `stop` is set)."""
         self.stop.set()
         if self._task is not None:
-            self._task.cancel()
-            with contextlib.suppress(asyncio.CancelledError, UssError):
-                await self._task
+            await cancel_and_wait(self._task, ignore=(UssError,))
             self._task = None
 
     def _publish(self, exchanges: list[Exchange]) -> None:
