@@ -82,7 +82,9 @@ async def close_writer(writer: asyncio.StreamWriter) -> None:
     writer.close()
     try:
         await writer.wait_closed()
-    except (OSError, asyncio.CancelledError):
+    except OSError:
+        pass
+    except asyncio.CancelledError:
         if stopping():  # the caller's own stop, not the connection's
             raise
 
