@@ -177,6 +177,8 @@ LONGER_STILL = {
     "master/scheduler.py",
     "monitor/core.py",
 }
+# One state machine read as a whole may be longer; it says so at its top.
+STATE_MACHINES = {"master/core.py"}
 
 
 def test_no_module_grows_past_the_lines_one_reads_whole() -> None:
@@ -185,7 +187,11 @@ def test_no_module_grows_past_the_lines_one_reads_whole() -> None:
         for path in SRC.rglob("*.py")
         if path.read_text(encoding="utf-8").count("\n") > MOST_LINES
     }
-    assert longer <= LONGER_STILL, f"over {MOST_LINES} lines: {sorted(longer - LONGER_STILL)}"
+    allowed = LONGER_STILL | STATE_MACHINES
+    assert longer <= allowed, f"over {MOST_LINES} lines: {sorted(longer - allowed)}"
+    for name in STATE_MACHINES:
+        opening = ast.get_docstring(ast.parse((SRC / name).read_text(encoding="utf-8"))) or ""
+        assert "One state machine" in opening, f"{name} does not say why it is one module"
 
 
 def test_protocol_layer_does_no_io_and_reads_no_clock() -> None:
@@ -419,12 +425,9 @@ def test_no_import_circles() -> None:
     )
 
 
-# Imports under `if TYPE_CHECKING:` close circles for the type checker only. The one left is
-# the master's: `Drive` is typed with `Master` and its per-slave link, on which it calls the
-# master's own methods, and `Master.drive` makes the `Drive`; it goes when the drive talks to
-# the master through public calls only. A new one fails here, and so does this one gone
-# (then drop it from the list).
-TYPE_ONLY_CIRCLES = ["pyuss.master.drive -> pyuss.master.scheduler -> pyuss.master.drive"]
+# Imports under `if TYPE_CHECKING:` close circles for the type checker only: none is left (a
+# `Drive` is typed by the calls it makes of its master, `pyuss.master.drive.Bus`).
+TYPE_ONLY_CIRCLES: list[str] = []
 
 
 def test_no_other_circles_for_the_type_checker() -> None:

@@ -100,7 +100,7 @@ async def test_a_reconnecting_bus_station_keeps_its_timed_sends() -> None:
         async with simulated_drives(bus, [(5, "generic", Layout(3, 2))]):
             transport = open_transport(f"bus://{host}:{port}", baud=BAUD, reconnect=True)
             async with Master(transport, layout="3,2") as master:
-                assert master._write_at is not None
+                assert master.wire.write_at is not None
                 assert await master.drive(5).read(52) == 16384
     finally:
         await bus.close()

@@ -257,7 +257,7 @@ async def test_the_master_keeps_at_least_the_spec_start_pause_with_a_coarse_tole
     slave = await ScriptedSlave(bus, 1, Layout(3, 2)).start()
     master = Master(bus.attach("master"), layout=Layout(3, 2), rx_tolerance=0.02)
     async with master:
-        assert master._receiver.gap == pytest.approx(0.02)
+        assert master.core.receiver.gap == pytest.approx(0.02)
         assert await master.drive(1).read(52) == 0x4000
     await slave.stop()
     await bus.close()

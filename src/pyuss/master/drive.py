@@ -49,7 +49,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from pyuss import _callbacks
 from pyuss.drive.database import TEXT_LENGTH, DescriptionStyle, ParameterDatabase
@@ -96,7 +96,26 @@ from pyuss.protocol.pzd import (
 )
 
 if TYPE_CHECKING:
-    from pyuss.master.scheduler import Master, MirrorResult, _Link
+    from pyuss.master.core import MirrorResult, Slave
+
+
+class Bus(Protocol):
+    """What a `Drive` asks of its master (`pyuss.master.Master`): its public calls only."""
+
+    def ensure_usable(self, *, line: bool = True) -> None: ...
+    def clock(self) -> float: ...
+    def set_process_data(
+        self, slave: Slave, control: int | None = None, setpoints: dict[int, int] | None = None
+    ) -> int: ...
+    def slave_diagnostics(self, slave: Slave) -> SlaveDiagnostics: ...
+    def slave_counts(self, slave: Slave) -> SlaveCounts: ...
+    async def parameter_job(
+        self, slave: Slave, request: Pkw, pnu: int, index: int | None, timeout: float | None
+    ) -> Pkw: ...
+    async def delivered(self, slave: Slave, version: int, timeout: float | None) -> DriveStatus: ...
+    async def next_update(self, slave: Slave, timeout: float | None = None) -> DriveStatus: ...
+    async def mirror(self, address: int, data: bytes | None = None) -> MirrorResult: ...
+
 
 __all__ = ["Drive"]
 
@@ -158,7 +177,7 @@ def _split(words: Sequence[int], size: int, pnu: int) -> list[tuple[int, ...]]:
 class Drive:
     """One slave of a `Master` (made by `Master.drive`); see the module docstring."""
 
-    def __init__(self, master: Master, link: _Link) -> None:
+    def __init__(self, master: Bus, link: Slave) -> None:
         self._master = master
         self._link = link
         self.params = (
@@ -216,11 +235,11 @@ class Drive:
 
     def diagnostics(self) -> SlaveDiagnostics:
         """A 5.2.3 counters of its answers, response times, jobs."""
-        return self._master._slave_diagnostics(self._link)
+        return self._master.slave_diagnostics(self._link)
 
     def counts(self) -> SlaveCounts:
         """The counts of `diagnostics` without response times and jobs (quicker to make)."""
-        return self._master._slave_counts(self._link)
+        return self._master.slave_counts(self._link)
 
     async def mirror(self) -> MirrorResult:
         """A mirror test (A 5.3) with a telegram of the slave's length."""
@@ -242,7 +261,7 @@ class Drive:
         """Send any PKW job and return the answer that belongs to it (the raw `Pkw`).
         ``pnu``/``index`` only word error messages (default: from ``request``)."""
         name = self.profile.decode_pnu(request.pnu, request.index) if pnu is None else pnu
-        return await self._master._job(self._link, request, name, index, timeout)
+        return await self._master.parameter_job(self._link, request, name, index, timeout)
 
     # -- what the drive's parameters are ----------------------------------------------------
     def use_params(self, source: str | Path | ParameterDatabase) -> None:
@@ -720,7 +739,7 @@ class Drive:
         self._need_pzd()
         if isinstance(word, bool) or not isinstance(word, int) or not 0 <= word <= 0xFFFF:
             raise ConfigError(f"control word must be 0..FFFFh, got {word!r}")
-        self._master._set_pzd(self._link, control=word)
+        self._master.set_process_data(self._link, control=word)
 
     def set_pzd(self, number: int, value: int) -> None:
         """Set PZD word ``number`` (2..16; 1 is the control word) to a raw 16-bit value."""
@@ -732,7 +751,7 @@ class Drive:
             raise ConfigError(f"PZD number must be 1..{self.layout.pzd}, got {number!r}")
         if isinstance(value, bool) or not isinstance(value, int) or not -0x8000 <= value <= 0xFFFF:
             raise ConfigError(f"PZD{number} must be a 16-bit value, got {value!r}")
-        self._master._set_pzd(self._link, setpoints={number: value & 0xFFFF})
+        self._master.set_process_data(self._link, setpoints={number: value & 0xFFFF})
 
     async def _send(
         self,
@@ -740,15 +759,15 @@ class Drive:
         setpoints: dict[int, int] | None = None,
         timeout: float | None = None,
     ) -> DriveStatus:
-        self._master._check_usable()  # refused at once (the line down): nothing is changed
-        version = self._master._set_pzd(self._link, control=control, setpoints=setpoints)
-        return await self._master._delivered(self._link, version, timeout)
+        self._master.ensure_usable()  # refused at once (the line down): nothing is changed
+        version = self._master.set_process_data(self._link, control=control, setpoints=setpoints)
+        return await self._master.delivered(self._link, version, timeout)
 
     async def control_word(self, word: int, *, timeout: float | None = None) -> DriveStatus:
         """Send ``word`` as control word; returns the status of the answer to it."""
-        self._master._check_usable()  # refused at once (the line down): nothing is changed
+        self._master.ensure_usable()  # refused at once (the line down): nothing is changed
         self.set_control(word)
-        return await self._master._delivered(self._link, self._link.version, timeout)
+        return await self._master.delivered(self._link, self._link.version, timeout)
 
     async def setpoint(
         self,
@@ -876,7 +895,7 @@ class Drive:
 
     async def next_update(self, *, timeout: float | None = None) -> DriveStatus:
         """The process data of the next answer from the slave."""
-        return await self._master._next_update(self._link, timeout)
+        return await self._master.next_update(self._link, timeout)
 
     async def wait_until(
         self,
@@ -890,7 +909,7 @@ class Drive:
         Raises `StatusTimeout` (with the last status; ``what`` names the condition in its
         message) when the drive answers but its status does not meet the condition within
         ``timeout`` seconds, `NotSending` when it stopped answering."""
-        clock = self._master.transport.clock
+        clock = self._master.clock
         end = clock() + timeout
         status = self.status
         while status is None or not condition(status):
