@@ -21,7 +21,7 @@ from pathlib import Path
 
 from pyuss.datalog import CsvLog, DataLogger, parse_values
 from pyuss.loop import run
-from pyuss.master import CYCLIC, Master
+from pyuss.master import CYCLIC, Drive, Master
 
 RATE = 1000.0
 """Rows a second asked of each drive's log: at 38400 baud a drive alone on its bus answers
@@ -33,7 +33,7 @@ async def measure(
 ) -> dict[str, float]:
     quantities = parse_values(["status", "actual"])
     async with contextlib.AsyncExitStack() as stack:
-        drives = []
+        drives: list[list[Drive]] = []
         for url in urls:
             master = Master(url, baud=baud, profile="generic", layout="4,2", mode=CYCLIC)
             await stack.enter_async_context(master)
