@@ -6,6 +6,8 @@ drives 1..DRIVES with PKW 4 + PZD 2 telegrams made once, as fast as the wire all
 answer, once whole, is followed at once by the next request, to start a start pause after the
 answer's end (USS specification A 5.1.2). Nothing is decoded, no master, no state, no face: one
 wake-up of the process, one read and one write per exchange, on uvloop where it is installed.
+Several buses, as a gateway of several buses polls them: ``URL,URL,... DRIVES,DRIVES,...`` (a
+count of drives per bus), all in the one process.
 It prints one JSON line: exchanges a second and the process's CPU time per exchange, over
 SECONDS after a second of warm-up.
 
@@ -84,28 +86,35 @@ class Bare(asyncio.Protocol):
         self.transport.write(encode_send(start, request) + encode_send(hold, b""))
 
 
-async def measure(url: str, drives: int, baud: int, seconds: float) -> dict[str, float]:
-    where = urlsplit(url)
+async def measure(urls: list[str], sizes: list[int], baud: int, seconds: float) -> dict[str, float]:
     loop = asyncio.get_running_loop()
-    _, bare = await loop.create_connection(lambda: Bare(drives, baud), where.hostname, where.port)
-    await bare.ready
+    bares = []
+    for url, drives in zip(urls, sizes, strict=True):
+        where = urlsplit(url)
+        _, bare = await loop.create_connection(
+            lambda drives=drives: Bare(drives, baud), where.hostname, where.port
+        )
+        bares.append(bare)
+    for bare in bares:
+        await bare.ready
     await asyncio.sleep(1.0)
-    count, cpu, wall = bare.exchanges, time.process_time(), time.perf_counter()
+    count, cpu, wall = sum(b.exchanges for b in bares), time.process_time(), time.perf_counter()
     await asyncio.sleep(seconds)
-    count = bare.exchanges - count
+    count = sum(b.exchanges for b in bares) - count
     cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
     return {"exchanges_per_s": count / wall, "cpu_us": cpu / max(1, count) * 1e6}
 
 
 def main() -> None:
-    url, drives, baud, seconds = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4])
+    urls, sizes = sys.argv[1].split(","), [int(n) for n in sys.argv[2].split(",")]
+    baud, seconds = int(sys.argv[3]), float(sys.argv[4])
     try:
         import uvloop
     except ImportError:
         loop = "asyncio"
-        print(json.dumps(asyncio.run(measure(url, drives, baud, seconds)) | {"loop": loop}))
+        print(json.dumps(asyncio.run(measure(urls, sizes, baud, seconds)) | {"loop": loop}))
     else:
-        result = uvloop.run(measure(url, drives, baud, seconds))
+        result = uvloop.run(measure(urls, sizes, baud, seconds))
         print(json.dumps(result | {"loop": "uvloop"}))
 
 

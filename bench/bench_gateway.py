@@ -267,10 +267,11 @@ def _plant_file(
     sizes: list[int],
     mqtt_port: int | None,
     max_rate: float | None = None,
+    opcua: bool | None = None,
 ) -> Path:
     """The plant: a bus per simulator, a Modbus port per bus; with ``mqtt_port`` the MQTT
-    (with discovery; ``max_rate``: its throttle, None: the default) and OPC UA faces too,
-    else the Modbus face alone."""
+    face too (with discovery; ``max_rate``: its throttle, None: the default); ``opcua``: the
+    OPC UA face too (None: with the MQTT face); without either the Modbus face alone."""
     lines = []
     for number, (url, size) in enumerate(zip(urls, sizes, strict=True), start=1):
         lines += [
@@ -291,9 +292,9 @@ def _plant_file(
             f'broker = "mqtt://127.0.0.1:{mqtt_port}"',
             "discovery = true",
             *([] if max_rate is None else [f"max_rate = {max_rate}"]),
-            "[opcua]",
-            f'listen = "opc.tcp://127.0.0.1:{free_port()}"',
         ]
+    if opcua or (opcua is None and mqtt_port is not None):
+        lines += ["[opcua]", f'listen = "opc.tcp://127.0.0.1:{free_port()}"']
     path = directory / "plant.toml"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
@@ -410,17 +411,21 @@ def deployed(
     uvloop: bool = True,
     monitor: bool = False,
     max_rate: float | None = None,
+    opcua: bool | None = None,
+    window: float = WINDOW,
 ) -> dict[str, float]:
-    """One run as deployed; ``mqtt_port`` None: the Modbus face alone; ``uvloop`` False: the
+    """One run as deployed; ``mqtt_port`` None: no MQTT face; ``opcua``: the OPC UA face
+    (None: with the MQTT face; neither: the Modbus face alone); ``uvloop`` False: the
     gateway as if uvloop were not installed; ``monitor``: an OPC UA client monitors every
-    value (`_monitoring`); ``max_rate``: the MQTT face's throttle (None: its default)."""
+    value (`_monitoring`); ``max_rate``: the MQTT face's throttle (None: its default);
+    ``window``: the seconds measured."""
     from pymodbus.client import ModbusTcpClient
 
     sizes = _sizes(count)
     with contextlib.ExitStack() as stack:
         urls = [stack.enter_context(simulator_bus(BAUD, n, layout="4,2")) for n in sizes]
         directory = Path(stack.enter_context(tempfile.TemporaryDirectory()))
-        config = _plant_file(directory, urls, sizes, mqtt_port, max_rate)
+        config = _plant_file(directory, urls, sizes, mqtt_port, max_rate, opcua)
         process = stack.enter_context(gateway(config, uvloop))
         ports = _modbus_ports(config)
         clients = [ModbusTcpClient("127.0.0.1", port=p) for p in ports]
@@ -452,9 +457,9 @@ def deployed(
         wall = time.perf_counter()
         if mqtt_port is None:
             states = 0
-            time.sleep(WINDOW + 0.5)
+            time.sleep(window + 0.5)
         else:
-            states = asyncio.run(_count_states(mqtt_port, WINDOW))
+            states = asyncio.run(_count_states(mqtt_port, window))
         wall = time.perf_counter() - wall
         cpu = cpu_seconds(process.pid) - cpu
         after = _answers(clients, sizes)
@@ -467,17 +472,20 @@ def deployed(
         "cpu_ms": cpu / max(1, sum(updates)) * 1000,
         "cpu_share": cpu / wall,
         "share": min(u / wall for u in updates) / limit,
-        "states_per_drive_s": states / WINDOW / count,
+        "states_per_drive_s": states / window / count,
     }
 
 
-def bare(count: int) -> dict[str, float]:
+def bare(count: int, window: float = WINDOW) -> dict[str, float]:
     """The floor under the figures as deployed: `bare_exchange.py` (a process that does
-    nothing but exchange telegrams made once) against the same simulator, in its own
-    process."""
-    with simulator_bus(BAUD, count, layout="4,2") as url:
+    nothing but exchange telegrams made once) against the same simulators (a bus of at most
+    31 drives each), in its own process, over ``window`` seconds."""
+    sizes = _sizes(count)
+    with contextlib.ExitStack() as stack:
+        urls = [stack.enter_context(simulator_bus(BAUD, n, layout="4,2")) for n in sizes]
         script = Path(__file__).with_name("bare_exchange.py")
-        args = [sys.executable, str(script), url, str(count), str(BAUD), str(WINDOW)]
+        drives = ",".join(str(n) for n in sizes)
+        args = [sys.executable, str(script), ",".join(urls), drives, str(BAUD), str(window)]
         out = subprocess.run(args, capture_output=True, text=True, timeout=60, check=True)
     result: dict[str, float] = json.loads(out.stdout)
     return result
