@@ -12,7 +12,7 @@ import argparse
 import re
 from typing import Any
 
-__all__ = ["plain", "subcommand"]
+__all__ = ["actions", "plain", "subcommand"]
 
 _QUOTES = re.compile(r"``(.+?)``|(?<![\w`])`([^`\n]+)`(?![\w`])")
 
@@ -37,3 +37,12 @@ def subcommand(
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     return parser
+
+
+def actions(
+    parser: argparse.ArgumentParser, dest: str, metavar: str = "ACTION"
+) -> argparse._SubParsersAction[argparse.ArgumentParser]:
+    """The sub-commands of ``parser``, one of which must be given; its name goes to ``dest``."""
+    sub = parser.add_subparsers(dest=dest, metavar=metavar)
+    sub.required = True
+    return sub

@@ -30,7 +30,7 @@ from pyuss.bass.codec import BAUD, BassRequest
 from pyuss.bass.errors import BassTelegramError
 from pyuss.bass.master import DEFAULT_RETRIES, DEFAULT_TIMEOUT, BassExchange, BassMaster
 from pyuss.bass.ring import MAX_STATIONS, BassRing, DictOperatingData, demo_elements
-from pyuss.cli._help import subcommand
+from pyuss.cli._help import actions, subcommand
 from pyuss.cli._output import EXIT_FAILED, EXIT_OK, EXIT_USAGE, print_error
 from pyuss.errors import ConfigError, UssError
 from pyuss.protocol.timing import BAUD_RATES
@@ -109,8 +109,7 @@ def register(subparsers: Any) -> None:
         "Baumueller BASS service protocol (RS-232): read, write, simulated ring",
         __doc__,
     )
-    sub = parser.add_subparsers(dest="bass_command", metavar="ACTION")
-    sub.required = True
+    sub = actions(parser, "bass_command")
 
     read = sub.add_parser(
         "read", help="read one element of a drive's operating data (command 003C, manual 1.2)"

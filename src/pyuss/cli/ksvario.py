@@ -19,7 +19,7 @@ import asyncio
 import sys
 
 from pyuss.atomicfile import write_atomically
-from pyuss.cli._help import subcommand
+from pyuss.cli._help import actions, subcommand
 from pyuss.errors import ConfigError, UssError
 from pyuss.ksvario.address import Address, View, parse_address
 from pyuss.ksvario.channel import ByteOrder, DataFormat, Value, encode_value
@@ -62,8 +62,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "PMA KS VARIO over PROFIBUS-DP: read, write, simulate, GSD file",
         __doc__,
     )
-    sub = p.add_subparsers(dest="ksvario_command", metavar="ACTION")
-    sub.required = True
+    sub = actions(p, "ksvario_command")
 
     sim = sub.add_parser(
         "simulate", help="simulate a KS VARIO bus coupler as a DP slave, until stopped"

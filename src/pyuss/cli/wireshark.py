@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from pyuss.cli._help import subcommand
+from pyuss.cli._help import actions, subcommand
 from pyuss.cli._output import EXIT_FAILED, EXIT_OK, EXIT_USAGE
 from pyuss.errors import ConfigError
 from pyuss.monitor.dissector import dissector_source, install, plugin_dir
@@ -34,10 +34,9 @@ def register(subparsers: Any) -> None:
         "install or locate the Wireshark dissector for monitor captures",
         __doc__,
     )
-    actions = parser.add_subparsers(dest="action", metavar="ACTION")
-    actions.required = True
-    actions.add_parser("path", help="print where the dissector (uss.lua) shipped with pyuss is")
-    setup = actions.add_parser(
+    sub = actions(parser, "action")
+    sub.add_parser("path", help="print where the dissector (uss.lua) shipped with pyuss is")
+    setup = sub.add_parser(
         "install", help="copy the dissector into Wireshark's personal Lua plugins folder"
     )
     setup.add_argument(
