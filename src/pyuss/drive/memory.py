@@ -38,6 +38,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from pyuss import _callbacks
 from pyuss.drive.database import (
     TEXT_LENGTH,
     Access,
@@ -155,38 +156,17 @@ class ParameterMemory:
 
         Returns a function that ends the subscription.
         """
-        self._listeners.setdefault(interface, []).append(listener)
-
-        def unsubscribe() -> None:
-            listeners = self._listeners.get(interface, [])
-            if listener in listeners:
-                listeners.remove(listener)
-
-        return unsubscribe
+        return _callbacks.add(self._listeners.setdefault(interface, []), listener)
 
     def add_write_rule(self, ref: ParamRef, rule: WriteRule) -> Callable[[], None]:
         """Apply ``rule`` to every write of the element ``ref`` through an interface (not to
         the drive's own `update`). Returns a function that removes it."""
-        self._rules.setdefault((ref.pnu, ref.index), []).append(rule)
-
-        def remove() -> None:
-            rules = self._rules.get((ref.pnu, ref.index), [])
-            if rule in rules:
-                rules.remove(rule)
-
-        return remove
+        return _callbacks.add(self._rules.setdefault((ref.pnu, ref.index), []), rule)
 
     def watch(self, pnu: int, watcher: Watcher) -> Callable[[], None]:
         """Call ``watcher(pnu)`` after every change of a value of ``pnu`` (any interface, the
         drive itself, any parameter, active or not). Returns a function that ends it."""
-        self._watchers.setdefault(pnu, []).append(watcher)
-
-        def unwatch() -> None:
-            watchers = self._watchers.get(pnu, [])
-            if watcher in watchers:
-                watchers.remove(watcher)
-
-        return unwatch
+        return _callbacks.add(self._watchers.setdefault(pnu, []), watcher)
 
     def set_write_authority(self, interface: str, allowed: bool) -> None:
         """Grant or withdraw the parameter write authority of an interface (C 4.2.1.1)."""
