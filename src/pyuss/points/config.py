@@ -414,20 +414,14 @@ def _bus(value: object, where: Where, number: int, face_keys: Sequence[str]) -> 
     for n, item in enumerate(drives_value):
         drive = _drive(item, where.key("drive").key(n), layout)
         for other in drives:
-            if other.address == drive.address:
-                raise (
-                    where.key("drive")
-                    .key(n)
-                    .key("address")
-                    .error(f"address {drive.address} is used twice on this bus")
-                )
-            if other.name == drive.name:
-                raise (
-                    where.key("drive")
-                    .key(n)
-                    .key("name")
-                    .error(f"name {drive.name!r} is used twice on this bus")
-                )
+            for key, shown in (("address", str(drive.address)), ("name", repr(drive.name))):
+                if getattr(other, key) == getattr(drive, key):
+                    raise (
+                        where.key("drive")
+                        .key(n)
+                        .key(key)
+                        .error(f"{key} {shown} is used twice on this bus")
+                    )
         drives.append(drive)
     extra = {key: table[key] for key in face_keys if key in table}
     return BusConfig(
