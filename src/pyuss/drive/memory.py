@@ -303,15 +303,7 @@ class ParameterMemory:
         eeprom: bool = False,
     ) -> Value:
         """Change a value as an interface does: every rule applies. Returns the value now held."""
-        self._authority(interface, pnu, index)
-        param = self.db.parameter(pnu)
-        position = self._position(param, index)
-        self._may_write(param, index, eeprom)
-        checked = self._checked(param, value, index)
-        self._apply_rules(param, index, checked, eeprom)
-        self._commit(param, [(position, index, checked)], interface, eeprom, whole=False)
-        self._written(pnu)
-        return checked
+        return self._write_one(pnu, index, interface, eeprom, lambda param: value)[1]
 
     def write_words(
         self,
@@ -324,16 +316,32 @@ class ParameterMemory:
     ) -> tuple[int, ...]:
         """Change a value from PKW words (one word for 8/16 bit, two for 32 bit and float);
         returns the words now held, for the answer."""
+        param, checked = self._write_one(
+            pnu, index, interface, eeprom, lambda param: self._decoded(param, words, index)
+        )
+        return param.to_words(checked)
+
+    def _write_one(
+        self,
+        pnu: int,
+        index: int | None,
+        interface: str,
+        eeprom: bool,
+        value_of: Callable[[ParameterSpec], object],
+    ) -> tuple[ParameterSpec, Value]:
+        """A write of one value through an interface, in this order: the interface's authority,
+        the parameter and element, whether it may be written, the value ``value_of`` gives for
+        the parameter, checked, the write rules, the change, `_written`. Returns the parameter
+        and the value now held."""
         self._authority(interface, pnu, index)
         param = self.db.parameter(pnu)
         position = self._position(param, index)
         self._may_write(param, index, eeprom)
-        value = self._decoded(param, words, index)
-        checked = self._checked(param, value, index)
+        checked = self._checked(param, value_of(param), index)
         self._apply_rules(param, index, checked, eeprom)
         self._commit(param, [(position, index, checked)], interface, eeprom, whole=False)
         self._written(pnu)
-        return param.to_words(checked)
+        return param, checked
 
     def write_array_words(
         self,
