@@ -8,9 +8,11 @@ docs/references.md lists the documents). ``tests/cli/test_help.py`` holds the ru
 
 from __future__ import annotations
 
+import argparse
 import re
+from typing import Any
 
-__all__ = ["plain"]
+__all__ = ["actions", "plain", "subcommand"]
 
 _QUOTES = re.compile(r"``(.+?)``|(?<![\w`])`([^`\n]+)`(?![\w`])")
 
@@ -21,3 +23,26 @@ def plain(doc: str | None) -> str:
     if not doc:
         return ""
     return _QUOTES.sub(lambda m: m.group(1) or m.group(2), doc)
+
+
+def subcommand(
+    subparsers: Any, name: str, summary: str, doc: str | None
+) -> argparse.ArgumentParser:
+    """The parser of ``uss name``: ``summary`` in the list of commands, ``doc`` (the command's
+    module docstring) as its description, in plain text and with its own line breaks."""
+    parser: argparse.ArgumentParser = subparsers.add_parser(
+        name,
+        help=summary,
+        description=plain(doc),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    return parser
+
+
+def actions(
+    parser: argparse.ArgumentParser, dest: str, metavar: str = "ACTION"
+) -> argparse._SubParsersAction[argparse.ArgumentParser]:
+    """The sub-commands of ``parser``, one of which must be given; its name goes to ``dest``."""
+    sub = parser.add_subparsers(dest=dest, metavar=metavar)
+    sub.required = True
+    return sub

@@ -27,7 +27,11 @@ from collections.abc import Awaitable, Callable, Coroutine
 from typing import Any, TypeVar
 
 from pyuss import system
-from pyuss.cli._help import plain
+from pyuss.cli._help import subcommand
+from pyuss.cli._output import EXIT_FAILED as EXIT_FAILED
+from pyuss.cli._output import EXIT_INTERRUPTED as EXIT_INTERRUPTED
+from pyuss.cli._output import EXIT_OK as EXIT_OK
+from pyuss.cli._output import EXIT_USAGE as EXIT_USAGE
 from pyuss.cli._output import error_object, failure, print_json
 from pyuss.errors import ConfigError, UssError
 from pyuss.lines import ENVIRONMENT, LineFile, Target, find, is_address, load, looked_in
@@ -40,11 +44,6 @@ from pyuss.transport.queued import BAUD_RATES, check_baud
 from pyuss.transport.url import open_transport
 
 T = TypeVar("T")
-
-EXIT_OK = 0
-EXIT_FAILED = 1
-EXIT_USAGE = 2
-EXIT_INTERRUPTED = 130
 
 
 def integer(text: str) -> int:
@@ -139,12 +138,7 @@ UNNAMED_HELP = (
 def command(subparsers: Any, name: str, summary: str, doc: str | None) -> argparse.ArgumentParser:
     """The parser of master command ``name`` with its ``ADDRESS`` argument (all but scan);
     the caller adds its own arguments, then `finish`."""
-    parser: argparse.ArgumentParser = subparsers.add_parser(
-        name,
-        help=summary,
-        description=plain(doc),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    parser = subcommand(subparsers, name, summary, doc)
     if name != "scan":
         parser.add_argument(
             "address",
@@ -182,7 +176,7 @@ def finish(parser: argparse.ArgumentParser, func: Callable[[argparse.Namespace],
     parser.set_defaults(func=resolved)
 
 
-def add_line_options(parser: argparse.ArgumentParser) -> None:
+def add_line_options(parser: argparse._ActionsContainer) -> None:
     """``--config FILE`` and ``--line NAME``: the lines and drives of a configuration file
     (`pyuss.lines`)."""
     parser.add_argument(

@@ -36,6 +36,10 @@ from pyuss.errors import DriveRefusal
 from pyuss.system import clock
 
 __all__ = [
+    "EXIT_FAILED",
+    "EXIT_INTERRUPTED",
+    "EXIT_OK",
+    "EXIT_USAGE",
     "error_object",
     "failure",
     "iso_time",
@@ -44,6 +48,13 @@ __all__ = [
     "usage_error",
     "wall_clock",
 ]
+
+EXIT_OK = 0
+EXIT_FAILED = 1
+"""The operation failed: no answer, refused by the drive, a port that failed."""
+EXIT_USAGE = 2
+"""Bad input: arguments, values, a request the layout cannot carry."""
+EXIT_INTERRUPTED = 130
 
 
 def wall_clock(monotonic: float | None = None) -> str:

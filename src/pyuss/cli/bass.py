@@ -30,14 +30,12 @@ from pyuss.bass.codec import BAUD, BassRequest
 from pyuss.bass.errors import BassTelegramError
 from pyuss.bass.master import DEFAULT_RETRIES, DEFAULT_TIMEOUT, BassExchange, BassMaster
 from pyuss.bass.ring import MAX_STATIONS, BassRing, DictOperatingData, demo_elements
-from pyuss.cli._help import plain
-from pyuss.cli._output import print_error
+from pyuss.cli._help import actions, subcommand
+from pyuss.cli._output import EXIT_FAILED, EXIT_OK, EXIT_USAGE, print_error
 from pyuss.errors import ConfigError, UssError
 from pyuss.protocol.timing import BAUD_RATES
 from pyuss.system import stop_on_signals
 from pyuss.transport import PtyPort, TcpServerTransport, Transport, open_transport
-
-EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
 
 def _number(text: str, what: str, low: int, high: int) -> int:
@@ -105,14 +103,13 @@ def _port_options(parser: argparse.ArgumentParser) -> None:
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
+    parser = subcommand(
+        subparsers,
         "bass",
-        help="Baumueller BASS service protocol (RS-232): read, write, simulated ring",
-        description=plain(__doc__),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "Baumueller BASS service protocol (RS-232): read, write, simulated ring",
+        __doc__,
     )
-    sub = parser.add_subparsers(dest="bass_command", metavar="ACTION")
-    sub.required = True
+    sub = actions(parser, "bass_command")
 
     read = sub.add_parser(
         "read", help="read one element of a drive's operating data (command 003C, manual 1.2)"

@@ -26,22 +26,20 @@ from typing import Any
 
 from pyuss.bus import FaultKind, FaultPlan, Recorder, VirtualBus
 from pyuss.bus.core import MAX_SENDERS
-from pyuss.cli._help import plain
+from pyuss.cli._help import subcommand
+from pyuss.cli._output import EXIT_OK, EXIT_USAGE
 from pyuss.errors import ConfigError
 from pyuss.system import stop_on_signals
 from pyuss.transport.address import parse_host_port
 from pyuss.transport.queued import BAUD_RATES
 
-EXIT_OK = 0
-EXIT_USAGE = 2
-
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
+    parser = subcommand(
+        subparsers,
         "bus",
-        help="run a virtual RS-485 bus (ptys, TCP) with true character timing",
-        description=plain(__doc__),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "run a virtual RS-485 bus (ptys, TCP) with true character timing",
+        __doc__,
     )
     parser.add_argument(
         "--baud",

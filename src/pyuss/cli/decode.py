@@ -32,8 +32,8 @@ import re
 import sys
 from typing import TYPE_CHECKING, Any
 
-from pyuss.cli._help import plain
-from pyuss.cli._output import print_error
+from pyuss.cli._help import subcommand
+from pyuss.cli._output import EXIT_OK, EXIT_USAGE, print_error
 from pyuss.errors import ConfigError, TelegramError
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.layout import Layout
@@ -60,18 +60,11 @@ if TYPE_CHECKING:
 
 __all__ = ["describe", "parse_hex", "register", "render", "run"]
 
-EXIT_OK = 0
-EXIT_USAGE = 2
 DIRECTIONS = ("request", "response")
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
-        "decode",
-        help="decode a telegram given in hex",
-        description=plain(__doc__),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    parser = subcommand(subparsers, "decode", "decode a telegram given in hex", __doc__)
     parser.add_argument(
         "hex",
         nargs="+",

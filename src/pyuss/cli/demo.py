@@ -25,7 +25,7 @@ import logging
 from typing import Any
 
 from pyuss.bus import Recorder, VirtualBus
-from pyuss.cli._help import plain
+from pyuss.cli._help import subcommand
 from pyuss.cli.decode import describe, render
 from pyuss.master import Drive, Master, SpontaneousMessage
 from pyuss.master.scan import scan
@@ -48,11 +48,11 @@ DRIVES: tuple[tuple[int, str, Layout], ...] = (
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
+    parser = subcommand(
+        subparsers,
         "demo",
-        help="run the master against three simulated drives on a virtual bus",
-        description=plain(__doc__),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "run the master against three simulated drives on a virtual bus",
+        __doc__,
     )
     parser.set_defaults(func=run)
 

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from pyuss.cli import _params
-from pyuss.cli._help import plain
+from pyuss.cli._help import subcommand
 from pyuss.cli._master import (
     EXIT_FAILED,
     EXIT_OK,
@@ -47,11 +47,8 @@ from pyuss.profiles import Profile, get_profile
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
-        "diff",
-        help="compare a drive with a backup, or two backups",
-        description=plain(__doc__),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+    parser = subcommand(
+        subparsers, "diff", "compare a drive with a backup, or two backups", __doc__
     )
     parser.add_argument("left", metavar="ADDRESS|FILE", help="drive address (with --port) or file")
     parser.add_argument("right", metavar="FILE", help="backup file (TOML or JSON)")

@@ -33,26 +33,23 @@ import asyncio
 import sys
 from typing import TYPE_CHECKING, Any
 
-from pyuss.cli._help import plain
+from pyuss.cli._help import subcommand
+from pyuss.cli._output import EXIT_FAILED, EXIT_OK, EXIT_USAGE
 from pyuss.errors import ConfigError
 from pyuss.system import stop_on_signals
 
 if TYPE_CHECKING:
     from pyuss.loop import LoopChoice
 
-EXIT_OK = 0
-EXIT_FAILED = 1
-EXIT_USAGE = 2
-
 
 def register(subparsers: Any) -> None:
     from pyuss.gateway.faces import faces as registry  # their flags
 
-    parser = subparsers.add_parser(
+    parser = subcommand(
+        subparsers,
         "gateway",
-        help="serve USS drives on Modbus TCP, MQTT (Home Assistant) and OPC UA",
-        description=plain(__doc__),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "serve USS drives on Modbus TCP, MQTT (Home Assistant) and OPC UA",
+        __doc__,
     )
     parser.add_argument(
         "--config",

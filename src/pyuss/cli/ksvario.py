@@ -19,7 +19,7 @@ import asyncio
 import sys
 
 from pyuss.atomicfile import write_atomically
-from pyuss.cli._help import plain
+from pyuss.cli._help import actions, subcommand
 from pyuss.errors import ConfigError, UssError
 from pyuss.ksvario.address import Address, View, parse_address
 from pyuss.ksvario.channel import ByteOrder, DataFormat, Value, encode_value
@@ -56,14 +56,13 @@ _BAUD_HELP = (
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    p = subparsers.add_parser(
+    p = subcommand(
+        subparsers,
         "ksvario",
-        help="PMA KS VARIO over PROFIBUS-DP: read, write, simulate, GSD file",
-        description=plain(__doc__),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "PMA KS VARIO over PROFIBUS-DP: read, write, simulate, GSD file",
+        __doc__,
     )
-    sub = p.add_subparsers(dest="ksvario_command", metavar="ACTION")
-    sub.required = True
+    sub = actions(p, "ksvario_command")
 
     sim = sub.add_parser(
         "simulate", help="simulate a KS VARIO bus coupler as a DP slave, until stopped"

@@ -23,6 +23,7 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 from pyuss import __version__
+from pyuss.cli._help import actions
 from pyuss.errors import UssError
 
 COMMANDS: tuple[str, ...] = (
@@ -166,8 +167,7 @@ def build_parser(command: str | None = None, *, lazy: bool = False) -> argparse.
         help="show warnings and progress on stderr; -vv also every telegram sent and received "
         "(logger pyuss.wire)",
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    sub.required = True
+    sub = actions(parser, "command", "COMMAND")
     for name in COMMANDS:
         if lazy and name != command and name in SUMMARIES:
             sub.add_parser(name, help=SUMMARIES[name], add_help=False)

@@ -49,9 +49,9 @@ from collections.abc import Callable, Iterable
 from typing import Any, TextIO
 
 from pyuss._tasks import cancel_and_wait
-from pyuss.cli._help import plain
+from pyuss.cli._help import subcommand
 from pyuss.cli._master import add_line_options, line_file
-from pyuss.cli._output import error_object, wall_clock
+from pyuss.cli._output import EXIT_FAILED, EXIT_OK, EXIT_USAGE, error_object, wall_clock
 from pyuss.cli.monitor_output import ProfileValues, exchange_json
 from pyuss.errors import ConfigError, TransportError
 from pyuss.lines import looked_in
@@ -69,18 +69,15 @@ from pyuss.transport.url import open_transport
 
 __all__ = ["register", "run"]
 
-EXIT_OK = 0
-EXIT_FAILED = 1
-EXIT_USAGE = 2
 _CLEAR = "\x1b[H\x1b[2J"
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
+    parser = subcommand(
+        subparsers,
         "monitor",
-        help="listen to a USS line, decode and pair telegrams, write captures",
-        description=plain(__doc__),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "listen to a USS line, decode and pair telegrams, write captures",
+        __doc__,
     )
     source = parser.add_argument_group("what to listen to")
     source.add_argument(

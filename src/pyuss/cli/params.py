@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from pyuss.cli import _params
-from pyuss.cli._help import plain
+from pyuss.cli._help import subcommand
 from pyuss.cli._master import (
     EXIT_FAILED,
     EXIT_OK,
@@ -41,11 +41,8 @@ from pyuss.profiles import get_profile, profile_names
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
-        "params",
-        help="list the known parameters of a profile or drive, searchable",
-        description=plain(__doc__),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+    parser = subcommand(
+        subparsers, "params", "list the known parameters of a profile or drive, searchable", __doc__
     )
     parser.add_argument(
         "words",

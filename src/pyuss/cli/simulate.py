@@ -68,7 +68,8 @@ from typing import TYPE_CHECKING, Any
 from pyuss.bass.codec import BAUD as BASS_BAUD
 from pyuss.bass.drive import DriveOperatingData, drive_ring
 from pyuss.bass.ring import MAX_STATIONS, BassRing, DictOperatingData, demo_elements
-from pyuss.cli._help import plain
+from pyuss.cli._help import subcommand
+from pyuss.cli._output import EXIT_FAILED, EXIT_OK, EXIT_USAGE
 from pyuss.errors import ConfigError, UssError
 from pyuss.profiles import get_profile, profile_names
 from pyuss.protocol.layout import Layout
@@ -87,9 +88,6 @@ from pyuss.transport.queued import BAUD_RATES, check_baud
 if TYPE_CHECKING:
     pass
 
-EXIT_OK = 0
-EXIT_FAILED = 1
-EXIT_USAGE = 2
 BASS_PROFILE = "baumueller"
 """The profile whose drives also have the BASS service interface (Baumueller manual, part 1)."""
 
@@ -135,11 +133,11 @@ Runner = Callable[[Options, asyncio.Event, Announce], Awaitable[None]]
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
+    parser = subcommand(
+        subparsers,
         "simulate",
-        help="simulate drives (USS slaves) on a pty, TCP, serial port or virtual bus",
-        description=plain(__doc__),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "simulate drives (USS slaves) on a pty, TCP, serial port or virtual bus",
+        __doc__,
     )
     names = ", ".join((*profile_names(), *OTHER_PROTOCOLS))
     parser.add_argument(

@@ -39,8 +39,9 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from pyuss.cli._help import plain
+from pyuss.cli._help import subcommand
 from pyuss.cli._master import add_line_options, drive_address, integer, line_file
+from pyuss.cli._output import EXIT_FAILED, EXIT_OK, EXIT_USAGE
 from pyuss.errors import ConfigError
 from pyuss.profiles import get_profile, profile_names
 from pyuss.protocol.layout import Layout
@@ -49,17 +50,13 @@ from pyuss.transport.address import parse_host_port
 
 __all__ = ["parse_listen", "register", "run"]
 
-EXIT_OK = 0
-EXIT_FAILED = 1
-EXIT_USAGE = 2
-
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
+    parser = subcommand(
+        subparsers,
         "web",
-        help="a commissioning page in the browser: bus, drives, parameters, trend, monitor",
-        description=plain(__doc__),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "a commissioning page in the browser: bus, drives, parameters, trend, monitor",
+        __doc__,
     )
     where = parser.add_mutually_exclusive_group()
     where.add_argument(

@@ -19,28 +19,24 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from pyuss.cli._help import plain
+from pyuss.cli._help import actions, subcommand
+from pyuss.cli._output import EXIT_FAILED, EXIT_OK, EXIT_USAGE
 from pyuss.errors import ConfigError
 from pyuss.monitor.dissector import dissector_source, install, plugin_dir
 
 __all__ = ["register", "run"]
 
-EXIT_OK = 0
-EXIT_FAILED = 1
-EXIT_USAGE = 2
-
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser(
+    parser = subcommand(
+        subparsers,
         "wireshark",
-        help="install or locate the Wireshark dissector for monitor captures",
-        description=plain(__doc__),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "install or locate the Wireshark dissector for monitor captures",
+        __doc__,
     )
-    actions = parser.add_subparsers(dest="action", metavar="ACTION")
-    actions.required = True
-    actions.add_parser("path", help="print where the dissector (uss.lua) shipped with pyuss is")
-    setup = actions.add_parser(
+    sub = actions(parser, "action")
+    sub.add_parser("path", help="print where the dissector (uss.lua) shipped with pyuss is")
+    setup = sub.add_parser(
         "install", help="copy the dissector into Wireshark's personal Lua plugins folder"
     )
     setup.add_argument(

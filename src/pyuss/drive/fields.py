@@ -308,14 +308,19 @@ def _value_texts(
     low, high = dtype.type_range
     result = {}
     for key, text in table.items():
-        try:
-            value = int(key, 0)
-        except ValueError:
-            raise where.error("texts", f"key {key!r} is not an integer value") from None
+        value = _table_key(key, where, "texts", "an integer value")
         if not low <= value <= min(high, 253):
             raise where.error("texts", f"value {value}: text element y = value + 1 must be <= 254")
         result[value] = _element_text(text, where, "texts")
     return dict(sorted(result.items()))
+
+
+def _table_key(key: str, where: Where, field: str, what: str) -> int:
+    """A key of the table ``field`` as the number it writes (``5``, ``0x0A``)."""
+    try:
+        return int(key, 0)
+    except ValueError:
+        raise where.error(field, f"key {key!r} is not {what}") from None
 
 
 def _index_texts(entry: dict[str, Any], array: int | None, where: Where) -> tuple[str, ...]:
@@ -341,10 +346,7 @@ def _bit_texts(
         raise where.error("bit_texts", 'must be a table bit = ["text of 0", "text of 1"]')
     result = {}
     for key, pair in table.items():
-        try:
-            bit = int(key, 0)
-        except ValueError:
-            raise where.error("bit_texts", f"key {key!r} is not a bit number") from None
+        bit = _table_key(key, where, "bit_texts", "a bit number")
         if not 0 <= bit <= 15:
             raise where.error("bit_texts", f"bit {bit} is not 0..15")
         if not isinstance(pair, list) or len(pair) != 2:

@@ -38,6 +38,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from pyuss import _callbacks
 from pyuss.drive.database import (
     TEXT_LENGTH,
     Access,
@@ -155,38 +156,17 @@ class ParameterMemory:
 
         Returns a function that ends the subscription.
         """
-        self._listeners.setdefault(interface, []).append(listener)
-
-        def unsubscribe() -> None:
-            listeners = self._listeners.get(interface, [])
-            if listener in listeners:
-                listeners.remove(listener)
-
-        return unsubscribe
+        return _callbacks.add(self._listeners.setdefault(interface, []), listener)
 
     def add_write_rule(self, ref: ParamRef, rule: WriteRule) -> Callable[[], None]:
         """Apply ``rule`` to every write of the element ``ref`` through an interface (not to
         the drive's own `update`). Returns a function that removes it."""
-        self._rules.setdefault((ref.pnu, ref.index), []).append(rule)
-
-        def remove() -> None:
-            rules = self._rules.get((ref.pnu, ref.index), [])
-            if rule in rules:
-                rules.remove(rule)
-
-        return remove
+        return _callbacks.add(self._rules.setdefault((ref.pnu, ref.index), []), rule)
 
     def watch(self, pnu: int, watcher: Watcher) -> Callable[[], None]:
         """Call ``watcher(pnu)`` after every change of a value of ``pnu`` (any interface, the
         drive itself, any parameter, active or not). Returns a function that ends it."""
-        self._watchers.setdefault(pnu, []).append(watcher)
-
-        def unwatch() -> None:
-            watchers = self._watchers.get(pnu, [])
-            if watcher in watchers:
-                watchers.remove(watcher)
-
-        return unwatch
+        return _callbacks.add(self._watchers.setdefault(pnu, []), watcher)
 
     def set_write_authority(self, interface: str, allowed: bool) -> None:
         """Grant or withdraw the parameter write authority of an interface (C 4.2.1.1)."""
@@ -323,15 +303,7 @@ class ParameterMemory:
         eeprom: bool = False,
     ) -> Value:
         """Change a value as an interface does: every rule applies. Returns the value now held."""
-        self._authority(interface, pnu, index)
-        param = self.db.parameter(pnu)
-        position = self._position(param, index)
-        self._may_write(param, index, eeprom)
-        checked = self._checked(param, value, index)
-        self._apply_rules(param, index, checked, eeprom)
-        self._commit(param, [(position, index, checked)], interface, eeprom, whole=False)
-        self._written(pnu)
-        return checked
+        return self._write_one(pnu, index, interface, eeprom, lambda param: value)[1]
 
     def write_words(
         self,
@@ -344,16 +316,32 @@ class ParameterMemory:
     ) -> tuple[int, ...]:
         """Change a value from PKW words (one word for 8/16 bit, two for 32 bit and float);
         returns the words now held, for the answer."""
+        param, checked = self._write_one(
+            pnu, index, interface, eeprom, lambda param: self._decoded(param, words, index)
+        )
+        return param.to_words(checked)
+
+    def _write_one(
+        self,
+        pnu: int,
+        index: int | None,
+        interface: str,
+        eeprom: bool,
+        value_of: Callable[[ParameterSpec], object],
+    ) -> tuple[ParameterSpec, Value]:
+        """A write of one value through an interface, in this order: the interface's authority,
+        the parameter and element, whether it may be written, the value ``value_of`` gives for
+        the parameter, checked, the write rules, the change, `_written`. Returns the parameter
+        and the value now held."""
         self._authority(interface, pnu, index)
         param = self.db.parameter(pnu)
         position = self._position(param, index)
         self._may_write(param, index, eeprom)
-        value = self._decoded(param, words, index)
-        checked = self._checked(param, value, index)
+        checked = self._checked(param, value_of(param), index)
         self._apply_rules(param, index, checked, eeprom)
         self._commit(param, [(position, index, checked)], interface, eeprom, whole=False)
         self._written(pnu)
-        return param.to_words(checked)
+        return param, checked
 
     def write_array_words(
         self,

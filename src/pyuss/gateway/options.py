@@ -124,8 +124,12 @@ def _topic_part(value: object, where: Where, *, slashes: bool = False) -> str:
     return text
 
 
-def _file(value: object, where: Where, base: Path | None) -> str:
-    text = where.text(value)
+def _file(table: Mapping[str, Any], key: str, where: Where, base: Path | None) -> str | None:
+    """The file that ``key`` names (relative to ``base``); None where the table has no ``key``."""
+    if key not in table:
+        return None
+    where = where.key(key)
+    text = where.text(table[key])
     path = Path(text)
     if not path.is_absolute() and base is not None:
         path = base / path
@@ -206,9 +210,9 @@ def mqtt_options(table: Mapping[str, Any], where: Where, base: Path | None = Non
         prefix=_topic_part(table.get("prefix", "uss"), where.key("prefix"), slashes=True),
         username=username,
         password=password,
-        ca=_file(table["ca"], where.key("ca"), base) if "ca" in table else None,
-        cert=_file(table["cert"], where.key("cert"), base) if "cert" in table else None,
-        key=_file(table["key"], where.key("key"), base) if "key" in table else None,
+        ca=_file(table, "ca", where, base),
+        cert=_file(table, "cert", where, base),
+        key=_file(table, "key", where, base),
         insecure=where.key("insecure").flag(table.get("insecure", False)),
         client_id=client_id,
         discovery=where.key("discovery").flag(table.get("discovery", True)),
@@ -256,16 +260,8 @@ def opcua_options(table: Mapping[str, Any], where: Where, base: Path | None = No
                 f"unknown policy {item!r} (known: {', '.join(SECURITY_POLICIES)})"
             )
     security = tuple(security_value)
-    certificate = (
-        _file(table["certificate"], where.key("certificate"), base)
-        if "certificate" in table
-        else None
-    )
-    private_key = (
-        _file(table["private_key"], where.key("private_key"), base)
-        if "private_key" in table
-        else None
-    )
+    certificate = _file(table, "certificate", where, base)
+    private_key = _file(table, "private_key", where, base)
     if any(p != "None" for p in security) and (certificate is None or private_key is None):
         raise where.key("security").error(
             "signing policies need certificate and private_key (the server's own)"

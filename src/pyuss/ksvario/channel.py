@@ -366,23 +366,11 @@ class ChannelServer:
             self._fail(Result.INVALID_VALUE)
         elif start.is_write:
             wrong_kind = (start.write_real != 0) != start.fmt.is_real
-            if wrong_kind or start.read_count:
-                self._fail(Result.INVALID_VALUE)
-            elif start.write_count > self.max_block:
-                self._fail(Result.BUFFER_OVERFLOW)
-            elif self._address is None:
-                self._fail(Result.BAD_ADDRESS)
-            else:
+            if self._accepted(wrong_kind or start.read_count != 0, start.write_count) is not None:
                 self._phase = _Phase.WRITE
                 self._expected = start.write_count
-        elif start.read_count == 0:
-            self._fail(Result.INVALID_VALUE)
-        elif start.read_count > self.max_block:
-            self._fail(Result.BUFFER_OVERFLOW)
-        elif self._address is None:
-            self._fail(Result.BAD_ADDRESS)
-        else:
-            got = self.access.read_values(self._address, start.fmt, start.read_count)
+        elif (address := self._accepted(start.read_count == 0, start.read_count)) is not None:
+            got = self.access.read_values(address, start.fmt, start.read_count)
             if isinstance(got, Result):
                 self._fail(got)
             else:
@@ -398,6 +386,20 @@ class ChannelServer:
     def _fail(self, result: Result) -> None:
         self._phase = _Phase.ENDED
         self._result = result
+
+    def _accepted(self, invalid: bool, count: int) -> Address | None:
+        """The address of a job that may go on; None where it is refused (and ended with its
+        result): a start telegram that is ``invalid``, a ``count`` of values more than a block
+        holds, or no valid address."""
+        if invalid:
+            self._fail(Result.INVALID_VALUE)
+        elif count > self.max_block:
+            self._fail(Result.BUFFER_OVERFLOW)
+        elif self._address is None:
+            self._fail(Result.BAD_ADDRESS)
+        else:
+            return self._address
+        return None
 
     def _data(self, request: bytes) -> None:
         count = request[1]

@@ -113,17 +113,21 @@ class KsVarioMaster:
         if result != 0:
             raise ChannelResultError(result, result_meaning(result), what)
 
-    def _need_channel(self) -> None:
+    def _channel_job(
+        self, address: int | Address, fmt: DataFormat | None
+    ) -> tuple[Address, DataFormat]:
+        """The address and data format of a job of the parameter channel (the address's own
+        format where ``fmt`` is None); `ConfigError` without the channel module A.1."""
         if self._a1 is None:
             raise ConfigError("the configuration has no parameter channel module A.1")
+        addr = address if isinstance(address, Address) else Address.decode(address)
+        return addr, default_format(addr) if fmt is None else fmt
 
     async def read(
         self, address: int | Address, count: int = 1, fmt: DataFormat | None = None
     ) -> list[Value]:
         """Read ``count`` values from ``address`` through the parameter channel."""
-        self._need_channel()
-        addr = address if isinstance(address, Address) else Address.decode(address)
-        fmt = default_format(addr) if fmt is None else fmt
+        addr, fmt = self._channel_job(address, fmt)
         self.client.start_read(fmt, addr, count, self.clock())
         await self._run_job(f"read {addr.encode():04X}h")
         return self.client.values
@@ -132,9 +136,7 @@ class KsVarioMaster:
         self, address: int | Address, values: Sequence[Value], fmt: DataFormat | None = None
     ) -> None:
         """Write ``values`` from ``address`` on through the parameter channel."""
-        self._need_channel()
-        addr = address if isinstance(address, Address) else Address.decode(address)
-        fmt = default_format(addr) if fmt is None else fmt
+        addr, fmt = self._channel_job(address, fmt)
         self.client.start_write(fmt, addr, values, self.clock())
         await self._run_job(f"write {addr.encode():04X}h")
 

@@ -89,9 +89,9 @@ class ParamBook:
         names: NameStyle = NameStyle.PROJECT,
     ) -> None:
         self.profile = profile
+        """Name of the profile whose file the book started from ('' for none)."""
         self.names = names
         """How the drive's family writes parameter numbers (`label`, `pyuss.params.names`)."""
-        """Name of the profile whose file the book started from ('' for none)."""
         self.index_base = index_base
         """The first array index of the drive (C 3.2 counts from 1; MICROMASTER 4 from 0)."""
         self.describe = describe

@@ -219,26 +219,28 @@ def parse_parameter_spec(text: str) -> tuple[int, int | None]:
     return parse_param_name(text)
 
 
+def _parameter_spec(text: str, where: Where) -> tuple[int, int | None]:
+    """`parse_parameter_spec` of a value of the file at ``where``: its refusal names the place."""
+    try:
+        return parse_parameter_spec(text)
+    except ConfigError as exc:
+        raise where.error(str(exc)) from None
+
+
 def _parameter(value: object, where: Where) -> ParameterConfig:
     if isinstance(value, bool):
         raise where.error(f"expected a PNU, 'PNU.INDEX' or a table, not {value!r}")
     if isinstance(value, int):
         return ParameterConfig(where.integer(value, 0, 65535))
     if isinstance(value, str):
-        try:
-            pnu, index = parse_parameter_spec(value)
-        except ConfigError as exc:
-            raise where.error(str(exc)) from None
+        pnu, index = _parameter_spec(value, where)
         return ParameterConfig(pnu, index)
     table = where.table(value, ("pnu", "index", "name", "poll"))
     if "pnu" not in table:
         raise where.key("pnu").error("missing")
     pnu_value = table["pnu"]
     if isinstance(pnu_value, str):
-        try:
-            pnu, index = parse_parameter_spec(pnu_value)
-        except ConfigError as exc:
-            raise where.key("pnu").error(str(exc)) from None
+        pnu, index = _parameter_spec(pnu_value, where.key("pnu"))
     else:
         pnu, index = where.key("pnu").integer(pnu_value, 0, 65535), None
     if "index" in table:
@@ -282,10 +284,7 @@ def _separate(setpoints: Sequence[ProcessConfig], where: Where) -> None:
 
 def _reference(value: object, where: Where) -> float | ParamRef:
     if isinstance(value, str):
-        try:
-            pnu, index = parse_parameter_spec(value)
-        except ConfigError as exc:
-            raise where.error(str(exc)) from None
+        pnu, index = _parameter_spec(value, where)
         return ParamRef(pnu, index)
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise where.error(f"expected a number or a parameter such as 'P352', not {value!r}")
@@ -415,20 +414,14 @@ def _bus(value: object, where: Where, number: int, face_keys: Sequence[str]) -> 
     for n, item in enumerate(drives_value):
         drive = _drive(item, where.key("drive").key(n), layout)
         for other in drives:
-            if other.address == drive.address:
-                raise (
-                    where.key("drive")
-                    .key(n)
-                    .key("address")
-                    .error(f"address {drive.address} is used twice on this bus")
-                )
-            if other.name == drive.name:
-                raise (
-                    where.key("drive")
-                    .key(n)
-                    .key("name")
-                    .error(f"name {drive.name!r} is used twice on this bus")
-                )
+            for key, shown in (("address", str(drive.address)), ("name", repr(drive.name))):
+                if getattr(other, key) == getattr(drive, key):
+                    raise (
+                        where.key("drive")
+                        .key(n)
+                        .key(key)
+                        .error(f"{key} {shown} is used twice on this bus")
+                    )
         drives.append(drive)
     extra = {key: table[key] for key in face_keys if key in table}
     return BusConfig(

@@ -21,7 +21,7 @@ from __future__ import annotations
 import contextlib
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -363,6 +363,20 @@ async def fault_panel(points: DrivePoints, *, timeout: float | None = None) -> d
     )
 
 
+def _numbered(
+    elements: list[tuple[int | None, object]] | None, texts: Mapping[int, str]
+) -> list[dict[str, Any]] | None:
+    """The faults or warnings of a history parameter's ``elements`` (None: not read), each
+    with its index, number and text; the elements that hold none (0) left out."""
+    if elements is None:
+        return None
+    return [
+        {"index": index, "number": number, "text": texts.get(number, "")}
+        for index, raw in elements
+        if (number := _number(raw))
+    ]
+
+
 async def fault_history(
     reader: ParamReader, *, fault: bool, warning: bool, timeout: float | None = None
 ) -> dict[str, Any]:
@@ -374,30 +388,11 @@ async def fault_history(
         found[key] = await _elements(reader, pnu, timeout)
     times = _fault_times(found["times"] or [], [i for i, _ in found["numbers"] or []])
     values = dict(found["values"] or [])
-    history = None
-    if found["numbers"] is not None:
-        history = [
-            {
-                "index": index,
-                "number": number,
-                "text": profile.faults.get(number, "") if named else "",
-                "time": times.get(index),
-                "value": values.get(index),
-            }
-            for index, raw in found["numbers"]
-            if (number := _number(raw))
-        ]
-    warnings = None
-    if found["warnings"] is not None:
-        warnings = [
-            {
-                "index": index,
-                "number": number,
-                "text": profile.warnings.get(number, "") if named else "",
-            }
-            for index, raw in found["warnings"]
-            if (number := _number(raw))
-        ]
+    history = _numbered(found["numbers"], profile.faults if named else {})
+    for entry in history or ():
+        entry["time"] = times.get(entry["index"])
+        entry["value"] = values.get(entry["index"])
+    warnings = _numbered(found["warnings"], profile.warnings if named else {})
     return {
         "fault": fault,
         "warning": warning,

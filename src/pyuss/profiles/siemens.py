@@ -103,6 +103,16 @@ STATUS_BITS: dict[int, str] = {
 """Status word 1 (r0052)."""
 
 
+def _micromaster(drive_type: int) -> tuple[IdentityRule, ...]:
+    """How a MICROMASTER 4 of ``drive_type`` (r0964 index 1) is told: Siemens in r0964 index 0,
+    that drive type, and no P2023 (which the SINAMICS V20 has)."""
+    return (
+        IdentityRule(964, 0, frozenset({SIEMENS})),
+        IdentityRule(964, 1, frozenset({drive_type})),
+        IdentityRule(2023, present=False),
+    )
+
+
 _BASE = replace(
     micromaster4.PROFILE,
     follows="the manuals named in the parameter file",
@@ -116,22 +126,14 @@ MICROMASTER420 = replace(
     name="micromaster420",
     title="MICROMASTER 420",
     max_pzd=4,
-    identity=(
-        IdentityRule(964, 0, frozenset({SIEMENS})),
-        IdentityRule(964, 1, frozenset({1})),
-        IdentityRule(2023, present=False),
-    ),
+    identity=_micromaster(1),
 )
 MICROMASTER440 = replace(
     _BASE,
     name="micromaster440",
     title="MICROMASTER 440",
     control_bits={**CONTROL_BITS, 15: "command data set bit 0 (local / remote)"},
-    identity=(
-        IdentityRule(964, 0, frozenset({SIEMENS})),
-        IdentityRule(964, 1, frozenset({2})),
-        IdentityRule(2023, present=False),
-    ),
+    identity=_micromaster(2),
 )
 SINAMICS_G110 = replace(
     _BASE,

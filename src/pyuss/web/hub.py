@@ -63,9 +63,7 @@ class Hub:
         return client
 
     async def remove(self, client: Client) -> None:
-        client.closed = True
-        if client in self.clients:
-            self.clients.remove(client)
+        self._forget(client)
         if client.task is not None and client.task is not asyncio.current_task():
             await cancel_and_wait(client.task)
 
@@ -88,14 +86,18 @@ class Hub:
         client.longest = max(client.longest, size)
         self.longest = max(self.longest, size)
 
+    def _forget(self, client: Client) -> None:
+        """Mark ``client`` closed and take it off the list: nothing more is queued for it."""
+        client.closed = True
+        if client in self.clients:
+            self.clients.remove(client)
+
     def _drop(self, client: Client, why: str) -> None:
         if client.closed:
             return
-        client.closed = True
+        self._forget(client)
         self.dropped += 1
         log.warning("web client %s dropped: %s", client.name or "?", why)
-        if client in self.clients:
-            self.clients.remove(client)
         while not client.queue.empty():
             client.queue.get_nowait()
         client.abort()
@@ -114,9 +116,7 @@ class Hub:
             except (ConnectionError, RuntimeError) as exc:
                 # The connection is gone (closed by the peer, or closing).
                 log.debug("web client %s gone: %s", client.name, exc)
-                client.closed = True
-                if client in self.clients:
-                    self.clients.remove(client)
+                self._forget(client)
                 return
 
     async def close(self) -> None:

@@ -170,14 +170,17 @@ def _split(body: bytes, sd: int) -> Frame:
     unit = body[3:]
     dsap = ssap = None
     if da & 0x80:
-        if not unit:
-            raise FdlError("destination address extension missing")
-        dsap, unit = unit[0] & 0x3F, unit[1:]
+        dsap, unit = _extension(unit, "destination")
     if sa & 0x80:
-        if not unit:
-            raise FdlError("source address extension missing")
-        ssap, unit = unit[0] & 0x3F, unit[1:]
+        ssap, unit = _extension(unit, "source")
     return Frame(sd, da & 0x7F, sa & 0x7F, fc, bytes(unit), dsap, ssap)
+
+
+def _extension(unit: bytes, which: str) -> tuple[int, bytes]:
+    """The SAP of the address extension that starts ``unit``, and the rest of ``unit``."""
+    if not unit:
+        raise FdlError(f"{which} address extension missing")
+    return unit[0] & 0x3F, unit[1:]
 
 
 def frame_length(data: bytes) -> int | None:
