@@ -6,11 +6,11 @@ from __future__ import annotations
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pyuss.bus.core import _read_levels, sample
+from pyuss.bus.line import read_levels, sample
 
 
 @settings(deadline=None)
 @given(st.integers(0, 0x7FF))
 def test_a_lone_frame_reads_as_sampled(frame: int) -> None:
     bit = 11 / 187500 / 11
-    assert _read_levels(frame) == sample([(1.0, frame)], 1.0, bit)
+    assert read_levels(frame) == sample([(1.0, frame)], 1.0, bit)

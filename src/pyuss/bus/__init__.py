@@ -14,8 +14,9 @@ from pyuss._lazy import lazy_exports
 
 if TYPE_CHECKING:
     from pyuss.bus.client import BusClientTransport
-    from pyuss.bus.core import BusStats, Segment, Station, WireChar
+    from pyuss.bus.core import BusStats, Segment, Station
     from pyuss.bus.faults import Fault, FaultKind, FaultPlan, parse_fault
+    from pyuss.bus.line import WireChar
     from pyuss.bus.recorder import Record, Recorder, Recording, load_recording, replay
     from pyuss.bus.virtual import VirtualBus
 
@@ -45,7 +46,6 @@ __getattr__, __dir__ = lazy_exports(
             "BusStats",
             "Segment",
             "Station",
-            "WireChar",
         ),
         "pyuss.bus.faults": (
             "Fault",
@@ -53,6 +53,7 @@ __getattr__, __dir__ = lazy_exports(
             "FaultPlan",
             "parse_fault",
         ),
+        "pyuss.bus.line": ("WireChar",),
         "pyuss.bus.recorder": (
             "Record",
             "Recorder",

@@ -7,9 +7,10 @@ behind its own bytes, never behind another station's (there is no carrier sense 
 When characters of two stations overlap in time, both are garbled: the line is modelled as
 dominant-low (a 0 from any driver wins), and every receiver samples the resulting levels in
 the middle of each bit of the frame that began with the first start bit, so it sees a byte
-with the framing and parity errors the sampling yields (the tail of a character swallowed that
-way still drives the line during the next one). Each such garbled character is part of a
-collision (`BusStats.collisions` counts the episodes, `BusStats.garbled` the characters).
+with the framing and parity errors the sampling yields (`pyuss.bus.line`; the tail of a
+character swallowed that way still drives the line during the next one). Each such garbled
+character is part of a collision (`BusStats.collisions` counts the episodes,
+`BusStats.garbled` the characters).
 
 Delivery: never before a character's end time, in the event loop's real time, as close to the
 chosen moment as the loop allows (the lag is measured by ``bench/bench_bus.py``). The first
@@ -58,7 +59,10 @@ from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from pyuss.bus.faults import FaultEngine, FaultPlan, frame_bits
+from pyuss.bus.faults import FaultEngine, FaultPlan
+from pyuss.bus.line import FRAMES, frame_bits, read_levels
+from pyuss.bus.line import WireChar as WireChar  # also importable from here, its old place
+from pyuss.bus.line import sample as sample
 from pyuss.bus.wire import check_name
 from pyuss.errors import ConfigError, TransportError
 from pyuss.loop import FINE_MARGIN, fine_timers
@@ -84,22 +88,6 @@ HOLD_MAX = 256
 _EPS = 1e-9
 
 Sink = Callable[[bytes, float, tuple[tuple[int, LineError], ...]], None]
-
-
-@dataclass(frozen=True, slots=True)
-class WireChar:
-    """One character as the receivers saw it on the line.
-
-    ``start``/``end`` are monotonic seconds; ``sender`` is the station's name, or the names of
-    the colliding stations joined by ``+``; ``notes`` lists faults applied and "collision".
-    """
-
-    start: float
-    end: float
-    byte: int
-    flags: LineError
-    sender: str
-    notes: tuple[str, ...] = ()
 
 
 @dataclass(slots=True)
@@ -128,37 +116,6 @@ class _Pending:
     notes: tuple[str, ...] = field(compare=False, default=())
     owner: Station | None = field(compare=False, default=None)
     """The station whose queue the character counts in (None: injected)."""
-
-
-_FRAMES = tuple(frame_bits(b) for b in range(256))
-"""The line levels of every byte, sent without a fault."""
-
-
-def sample(frames: list[tuple[float, int]], start: float, bit: float) -> tuple[int, LineError]:
-    """What a UART that saw a start bit at ``start`` reads while ``frames`` (start time, 11
-    line levels) drive the line, dominant low. Returns the byte and its error flags."""
-    levels = 0
-    for k in range(11):
-        at = start + (k + 0.5) * bit
-        level = 1
-        for begin, frame in frames:
-            index = int((at - begin) // bit)
-            if 0 <= index < 11 and not (frame >> index) & 1:
-                level = 0
-                break
-        levels |= level << k
-    return _read_levels(levels)
-
-
-def _read_levels(levels: int) -> tuple[int, LineError]:
-    """The byte and error flags of the 11 line levels a UART sampled."""
-    byte = (levels >> 1) & 0xFF
-    flags = LineError.NONE
-    if (byte.bit_count() + ((levels >> 9) & 1)) & 1:
-        flags |= LineError.PARITY
-    if not (levels >> 10) & 1:
-        flags |= LineError.FRAMING
-    return byte, flags
 
 
 class Station(QueuedTransport):
@@ -531,7 +488,7 @@ class Segment:
             t = self._put_faulted(station, data, t)
         else:  # the usual case: every character as sent
             for byte in data:
-                self._put(sender, t, _FRAMES[byte], (), station)
+                self._put(sender, t, FRAMES[byte], (), station)
                 t += tc
         station.tx_free = t
         self._schedule()
@@ -639,7 +596,7 @@ class Segment:
         self._on_line = [p for p in self._on_line if p.start + tc > first.start + _EPS]
         tails = self._on_line
         if not tails and len(group) == 1:  # alone on the line: its own levels, as sampled
-            byte, flags = _read_levels(first.frame & 0x7FF)
+            byte, flags = read_levels(first.frame & 0x7FF)
             self._on_line = group
             return WireChar(first.start, end, byte, flags, first.sender, first.notes)
         frames = [(p.start, p.frame) for p in (*tails, *group)]

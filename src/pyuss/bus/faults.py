@@ -49,6 +49,7 @@ from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
+from pyuss.bus.line import frame_bits
 from pyuss.errors import ConfigError
 
 
@@ -181,13 +182,6 @@ class CharacterPlan:
     gap_before: float = 0.0
     insert_after: list[int] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
-
-
-def frame_bits(byte: int) -> int:
-    """The 11 line levels of ``byte`` as an int, bit k = level of frame bit k (B 3.2): start
-    bit 0, data bits LSB first, even parity, stop bit 1."""
-    parity = byte.bit_count() & 1
-    return (byte << 1) | (parity << 9) | (1 << 10)
 
 
 class FaultEngine:

@@ -34,7 +34,8 @@ from pathlib import Path
 from typing import Any
 
 from pyuss.atomicfile import AtomicWriter
-from pyuss.bus.core import Segment, WireChar
+from pyuss.bus.core import Segment
+from pyuss.bus.line import WireChar
 from pyuss.errors import ConfigError
 from pyuss.system import clock
 from pyuss.transport.base import Chunk, LineError

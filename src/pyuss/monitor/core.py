@@ -3,28 +3,10 @@
 `Monitor` never sends and never reads a clock: it is fed what the ports read, with the times
 the transports stamped, and is told when time passes (`Monitor.advance`).
 
-Framing
-    Each port has a `pyuss.protocol.Receiver` whose start pause is the monitor's ``gap``: the
-    idle time that starts a telegram, by default the spec's 2 character times (A 5.1.2), and
-    whose ``tolerance`` is the monitor's: how late the port may stamp a byte. On the virtual
-    bus timestamps are exact (tolerance 0). Real serial ports, ptys and TCP stamp bytes when
-    they are read (USB adapters deliver every 1 to 16 ms): with the tolerance of such a port
-    (`pyuss.transport.base.stamp_tolerance`, 20 ms, as the master) the receiver neither cuts
-    a telegram at a late burst nor takes an answer read together with its request for bytes
-    without a start pause ("Coarse timestamps" in `pyuss.protocol.receiver`). The tolerance,
-    plus what the gap adds to the start pause, is the monitor's timing *resolution*: timing
-    rules are only enforced beyond it. A run of bytes without a start pause that still holds
-    whole telegrams (an answer that followed faster than the gap) is cut into those telegrams
-    again; if the pause before one was shorter than the start pause less the resolution, it
-    stays a fault (``no_stx``: a slave would discard it), but is still decoded. With a
-    resolution (real ports), an incomplete telegram and the bytes after the pause that cut it
-    are joined again when together they form a telegram with a valid BCC within its residual
-    time (A 6.3) plus the resolution: the pause was the port's, not the line's.
-
-Two ports (4-wire line)
-    Port 0 carries master to slave, port 1 slave to master. Frames of both are merged by the
-    time of their last byte: a frame is passed on only when no port can still produce an
-    earlier one.
+Framing and two ports (4-wire line)
+    `pyuss.monitor.framing` cuts the frames out of what each port read, with the monitor's
+    ``gap`` and ``tolerance`` (its timing *resolution*), and merges the two ports of a 4-wire
+    line by time: port 0 carries master to slave, port 1 slave to master.
 
 Pairing (A 5.1, A 5.2.1.1)
     A request to an address is answered by the telegram that starts within the response delay
@@ -50,13 +32,14 @@ Counters (A 5.2.3)
 
 from __future__ import annotations
 
-import heapq
 import itertools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import replace
 
-from pyuss.errors import ConfigError, TelegramError
+from pyuss.errors import ConfigError
+from pyuss.monitor.decode import decode, job_notes, learn, unpack
+from pyuss.monitor.framing import Framer
 from pyuss.monitor.infer import LayoutBook, LayoutChoice
 from pyuss.monitor.model import (
     Direction,
@@ -65,22 +48,13 @@ from pyuss.monitor.model import (
     Issue,
     LayoutSource,
     Problem,
+    ms,
     problem_of,
-    telegram_in,
 )
 from pyuss.monitor.stats import Summary
 from pyuss.protocol.diagnostics import FaultKind
-from pyuss.protocol.layout import Layout, NetData
-from pyuss.protocol.pkw import ResponseId
-from pyuss.protocol.receiver import Event, Received, ReceiveFault, Receiver, fixed_length_fault
-from pyuss.protocol.telegram import (
-    MAX_LGE,
-    MIN_LGE,
-    MIN_TELEGRAM_BYTES,
-    STX,
-    AddressMode,
-    bcc,
-)
+from pyuss.protocol.receiver import Event, fixed_length_fault
+from pyuss.protocol.telegram import AddressMode
 from pyuss.protocol.timing import MAX_RESPONSE_DELAY, LineTiming, check_baud
 from pyuss.transport.base import LineError
 
@@ -96,23 +70,6 @@ _STAMP_ROUNDING = 1e-6
 def default_gap(baud: int) -> float:
     """The idle gap that starts a telegram: the start pause (A 5.1.2)."""
     return LineTiming(check_baud(baud)).start_pause
-
-
-def _ms(seconds: float) -> str:
-    return f"{seconds * 1000:.3f} ms"
-
-
-class _Held:
-    """A frame waiting for the other port (4-wire), ordered by end time."""
-
-    __slots__ = ("frame", "key")
-
-    def __init__(self, frame: Frame, seq: int) -> None:
-        self.frame = frame
-        self.key = (frame.end, seq)
-
-    def __lt__(self, other: _Held) -> bool:
-        return self.key < other.key
 
 
 class Monitor:
@@ -150,7 +107,7 @@ class Monitor:
             self.gap = start_pause  # a start pause written to a file with fewer digits
         if self.gap < start_pause:
             raise ConfigError(
-                f"gap {_ms(self.gap)} is shorter than the start pause {_ms(start_pause)} at "
+                f"gap {ms(self.gap)} is shorter than the start pause {ms(start_pause)} at "
                 f"{self.baud} baud (A 5.1.2): characters inside telegrams would start new ones"
             )
         if isinstance(tolerance, bool) or not 0 <= tolerance < math.inf:
@@ -161,22 +118,22 @@ class Monitor:
         self.response_limit = max(limit, start_pause)
         if late_limit is not None and not late_limit >= self.response_limit:
             raise ConfigError(
-                f"late limit must be at least the response limit ({_ms(self.response_limit)})"
+                f"late limit must be at least the response limit ({ms(self.response_limit)})"
             )
         self.late_limit = _LATE_FACTOR * self.response_limit if late_limit is None else late_limit
         self.layouts = layouts if layouts is not None else LayoutBook()
         self.four_wire = four_wire
         self.ports = 2 if four_wire else 1
-        fixed = self.layouts.fixed_lengths()
-        self._rx = [
-            Receiver(self.baud, start_pause=self.gap, fixed_lengths=fixed, tolerance=self.tolerance)
-            for _ in range(self.ports)
-        ]
-        self._advanced = [-math.inf] * self.ports
-        self._prev_end = [-math.inf] * self.ports
-        self._held: list[_Held] = []
-        self._partial: list[Frame | None] = [None] * self.ports
-        self._seq = itertools.count()
+        self._framer = Framer(
+            self.baud,
+            self.timing,
+            ports=self.ports,
+            gap=self.gap,
+            tolerance=self.tolerance,
+            resolution=self.resolution,
+            early_limit=self.early_limit,
+            fixed_lengths=self.layouts.fixed_lengths(),
+        )
         self._count = itertools.count(1)
         self._pending: Frame | None = None
         self._tail: list[Frame] = []
@@ -196,7 +153,7 @@ class Monitor:
         """The latest time the monitor knows of: the end of the last byte or frame, or a later
         time `advance` was told (None before anything came). The summary's per-minute rates
         are taken up to it, so they fall when the line goes quiet."""
-        times = [*self._advanced, *(rx.last_byte_end for rx in self._rx)]
+        times = self._framer.times()
         if self.summary.last is not None:
             times.append(self.summary.last)
         known = [t for t in times if math.isfinite(t)]
@@ -228,14 +185,14 @@ class Monitor:
         delay = answer.start - request.end
         if delay < -_STAMP_ROUNDING:
             return None, (
-                f"delay unknown: the answer's stamps put its start {_ms(-delay)} before the end "
+                f"delay unknown: the answer's stamps put its start {ms(-delay)} before the end "
                 "of the request (each port stamps its bytes when they are read)"
             )
         if self.resolution > 0 and delay < _STAMP_ROUNDING:
             return None, (
                 "delay unknown: the port delivered the answer together with the end of the "
                 f"request, so its stamps hide the pause between them (resolution "
-                f"{_ms(self.resolution)})"
+                f"{ms(self.resolution)})"
             )
         return max(delay, 0.0), ""
 
@@ -251,23 +208,18 @@ class Monitor:
     ) -> list[Exchange]:
         """Bytes a port read; ``timestamp`` is when the last one was complete (see
         `pyuss.protocol.Receiver.feed`). Returns the exchanges that are complete now."""
-        self._check_port(port)
-        self._take(port, self._rx[port].feed(data, timestamp, errors))
+        self._framer.feed(port, data, timestamp, errors)
         return self._release()
 
     def advance(self, now: float, *, port: int | None = None) -> list[Exchange]:
         """Everything a port (every port when None) received up to ``now`` has been fed."""
-        for p in range(self.ports) if port is None else (port,):
-            self._check_port(p)
-            self._take(p, self._rx[p].poll(now))
-            self._advanced[p] = max(self._advanced[p], now)
+        self._framer.advance(now, port)
         return self._release()
 
     def add_events(self, events: Sequence[Event], *, port: int = 0) -> list[Exchange]:
         """Receiver events cut by a receiver of the caller's (the monitor's own receiver for
         ``port`` is bypassed)."""
-        self._check_port(port)
-        self._take(port, list(events))
+        self._framer.add_events(events, port)
         return self._release()
 
     def add_frame(self, frame: Frame, layout: LayoutChoice | None = None) -> list[Exchange]:
@@ -302,207 +254,19 @@ class Monitor:
 
     def finish(self) -> list[Exchange]:
         """The end of the input: report whatever is still open."""
-        for p in range(self.ports):
-            self._take(p, self._rx[p].poll(math.inf))
-            self._advanced[p] = math.inf
-            partial, self._partial[p] = self._partial[p], None
-            if partial is not None:
-                self._queue(p, partial)
+        self._framer.finish()
         out = self._release()
         out += self._expire(math.inf)
         return out
 
-    def _check_port(self, port: int) -> None:
-        if port not in range(self.ports):
-            raise ConfigError(f"port {port!r}: this monitor has {self.ports} port(s)")
-
-    # -- framing ---------------------------------------------------------------------------
-
-    def _take(self, port: int, events: Iterable[Event]) -> None:
-        for event in events:
-            for frame in self._frames(port, event):
-                self._push(port, frame)
-
-    def _queue(self, port: int, frame: Frame) -> None:
-        heapq.heappush(self._held, _Held(frame, next(self._seq)))
-        self._prev_end[port] = frame.end
-
-    def _push(self, port: int, frame: Frame) -> None:
-        """Queue a frame; with a timing resolution (real ports), an incomplete telegram waits
-        for the rest that a late burst cut off (see `_join`)."""
-        partial = self._partial[port]
-        if partial is not None:
-            self._partial[port] = None
-            if self._join(port, partial, frame):
-                return
-            self._queue(port, partial)
-        if self.resolution > 0 and _incomplete(frame):
-            self._partial[port] = frame
-            return
-        self._queue(port, frame)
-
-    def _join_limit(self, partial: Frame) -> float:
-        """Longest a telegram may take from the start of STX (A 6.3), plus the resolution."""
-        return (
-            self.timing.char_time + self.timing.residual_max(partial.raw[1] - 2) + self.resolution
-        )
-
-    def _join(self, port: int, partial: Frame, frame: Frame) -> bool:
-        """Rejoin an incomplete telegram and the bytes after a pause that only the port's
-        timestamps made: when together they form a telegram with a valid BCC within its
-        residual time (A 6.3, plus the resolution), it is one telegram."""
-        if frame.ok or frame.fault not in _JOINABLE:
-            return False
-        raw = partial.raw + frame.raw
-        need = partial.raw[1] + 2
-        limit = self._join_limit(partial)
-        if len(raw) < need:
-            if frame.end - partial.start > limit + _EPS:
-                return False
-            self._partial[port] = replace(partial, raw=raw, end=frame.end)
-            return True
-        piece = raw[:need]
-        telegram = telegram_in(piece)
-        if telegram is None or bcc(piece) != 0:
-            return False
-        taken = need - len(partial.raw)
-        end = frame.end if taken == len(frame.raw) else frame.start + taken * self.timing.char_time
-        if end - partial.start > limit + _EPS:
-            return False
-        self._queue(port, Frame(piece, partial.start, end, telegram=telegram, port=port))
-        rest = raw[need:]
-        if rest:
-            fault = ReceiveFault(
-                FaultKind.NO_STX, rest, end, frame.end, "characters without a start pause"
-            )
-            for piece_frame in self._salvage(port, fault):
-                self._queue(port, piece_frame)
-        return True
-
-    def _frames(self, port: int, event: Event) -> list[Frame]:
-        if isinstance(event, Received):
-            return [Frame(event.raw, event.start, event.end, telegram=event.telegram, port=port)]
-        assert isinstance(event, ReceiveFault)
-        if event.kind is FaultKind.NO_STX:
-            return self._salvage(port, event)
-        if event.kind is FaultKind.RESIDUAL_TIME and self.resolution > 0:
-            late = self._late_by_the_port(port, event)
-            if late is not None:
-                return late
-        return [
-            Frame(
-                event.raw,
-                event.start,
-                event.end,
-                fault=event.kind,
-                detail=event.detail,
-                telegram=telegram_in(event.raw),
-                port=port,
-            )
-        ]
-
-    def _late_by_the_port(self, port: int, event: ReceiveFault) -> list[Frame] | None:
-        """A telegram the receiver found over its residual time, with the bytes after it: when
-        it is whole with a valid BCC and complete within its residual time plus the resolution
-        (its last byte came when the receiver saw it, `ReceiveFault.whole_at`; read back from a
-        capture: no later than the run's end less the bytes after it), the lateness may be the
-        port's timestamps; then it is a telegram and the rest is cut like bytes without a
-        start (None otherwise)."""
-        raw, ct = event.raw, self.timing.char_time
-        if len(raw) < MIN_TELEGRAM_BYTES or raw[0] != STX or not MIN_LGE <= raw[1] <= MAX_LGE:
-            return None
-        need = raw[1] + 2
-        piece = raw[:need]
-        telegram = telegram_in(piece)
-        if telegram is None or bcc(piece) != 0:
-            return None
-        rest = raw[need:]
-        # When its last byte came, as the receiver saw it; from a capture (no such time) at
-        # the latest: the bytes after it back to back up to the run's end.
-        end = event.whole_at if event.whole_at is not None else event.end - len(rest) * ct
-        first = Frame(piece, event.start, end, telegram=telegram, port=port)
-        if end - event.start > self._join_limit(first) + _EPS:
-            return None
-        frames = [first]
-        if rest:
-            self._prev_end[port] = end
-            tail = ReceiveFault(
-                FaultKind.NO_STX, rest, end, event.end, "characters without a start pause"
-            )
-            frames += self._salvage(port, tail)
-        return frames
-
-    def _salvage(self, port: int, event: ReceiveFault) -> list[Frame]:
-        """Cut whole telegrams out of a run of bytes without a valid start."""
-        raw, ct = event.raw, self.timing.char_time
-        frames: list[Frame] = []
-        junk_from = 0
-        prev_end = self._prev_end[port]
-        i = 0
-
-        def junk(upto: int) -> None:
-            if upto > junk_from:
-                piece = raw[junk_from:upto]
-                start = event.start + junk_from * ct
-                end = event.end if upto == len(raw) else start + len(piece) * ct
-                detail = event.detail if junk_from == 0 else "characters without a start pause"
-                frames.append(
-                    Frame(piece, start, end, fault=FaultKind.NO_STX, detail=detail, port=port)
-                )
-
-        while i + MIN_TELEGRAM_BYTES <= len(raw):
-            size = raw[i + 1] + 2
-            piece = raw[i : i + size]
-            telegram = telegram_in(piece) if raw[i] == STX else None
-            if telegram is None or bcc(piece) != 0:
-                i += 1
-                continue
-            junk(i)
-            start = event.start + i * ct
-            end = start + size * ct
-            pause = start - (frames[-1].end if frames else prev_end)
-            if pause >= self.early_limit - _EPS:
-                frames.append(Frame(piece, start, end, telegram=telegram, port=port))
-            else:
-                detail = f"no start pause before this telegram ({_ms(max(pause, 0.0))} idle)"
-                frames.append(
-                    Frame(
-                        piece,
-                        start,
-                        end,
-                        fault=FaultKind.NO_STX,
-                        detail=detail,
-                        telegram=telegram,
-                        port=port,
-                    )
-                )
-            i += size
-            junk_from = i
-        junk(len(raw))
-        return frames
-
-    def _watermark(self, port: int) -> float:
-        rx = self._rx[port]
-        mark = rx.last_byte_end if rx.busy else max(rx.last_byte_end, self._advanced[port])
-        partial = self._partial[port]
-        return mark if partial is None else min(mark, partial.end)
-
     def _release(self) -> list[Exchange]:
+        """Pair the frames the framer lets go, then expire what waited too long."""
+        frames, now = self._framer.release()
         out: list[Exchange] = []
-        for port, partial in enumerate(self._partial):
-            seen = max(self._rx[port].last_byte_end, self._advanced[port])
-            if partial is not None and seen - partial.start > self._join_limit(partial):
-                self._partial[port] = None
-                self._queue(port, partial)
-        limit = math.inf if self.ports == 1 else min(map(self._watermark, range(self.ports)))
-        while self._held and self._held[0].frame.end <= limit + _EPS:
-            out += self._on_frame(heapq.heappop(self._held).frame)
-        if any(rx.busy for rx in self._rx) or any(self._partial):
-            return out
-        now = min(self._watermark(p) for p in range(self.ports))
-        if self._held:
-            now = min(now, self._held[0].frame.start)
-        out += self._expire(now)
+        for frame in frames:
+            out += self._on_frame(frame)
+        if now is not None:
+            out += self._expire(now)
         return out
 
     # -- pairing ---------------------------------------------------------------------------
@@ -623,7 +387,7 @@ class Monitor:
         b = self._broadcast
         if b is not None and 0 <= frame.start - b.end <= self.late_limit:
             why = (
-                f"an answer {_ms(frame.start - b.end)} after a broadcast, which no slave may "
+                f"an answer {ms(frame.start - b.end)} after a broadcast, which no slave may "
                 "answer (A 3)"
             )
         else:
@@ -710,8 +474,8 @@ class Monitor:
                 Issue(
                     Problem.LATE_ANSWER,
                     "answer",
-                    f"the answer began {_ms(delay)} after the request, later than the response "
-                    f"delay limit of {_ms(self.response_limit)} (A 5.2.1.1)",
+                    f"the answer began {ms(delay)} after the request, later than the response "
+                    f"delay limit of {ms(self.response_limit)} (A 5.2.1.1)",
                 )
             )
         elif delay < self.early_limit - _EPS:
@@ -719,8 +483,8 @@ class Monitor:
                 Issue(
                     Problem.EARLY_ANSWER,
                     "answer",
-                    f"the answer began {_ms(delay)} after the request, sooner than the start "
-                    f"pause of {_ms(self.timing.start_pause)} (A 5.2.1.1)",
+                    f"the answer began {ms(delay)} after the request, sooner than the start "
+                    f"pause of {ms(self.timing.start_pause)} (A 5.2.1.1)",
                 )
             )
         rq, an = request.telegram, answer.telegram
@@ -751,7 +515,7 @@ class Monitor:
                     Problem.NO_ANSWER,
                     "exchange",
                     f"address {request.address} did not answer within "
-                    f"{_ms(self.response_limit)} (A 5.2.1.1)",
+                    f"{ms(self.response_limit)} (A 5.2.1.1)",
                 )
             )
         return self._close(self._build(request, None, issues, notes=(note,) if note else ()))
@@ -767,7 +531,7 @@ class Monitor:
         choice = self.layouts.choice(rq.address, len(tg.data) // 2)
         if choice is None:
             return False
-        req, ans = _unpack(choice.layout, rq.data), _unpack(choice.layout, tg.data)
+        req, ans = unpack(choice.layout, rq.data), unpack(choice.layout, tg.data)
         if req is None or ans is None:
             return False
         if self._pzd1_seen(frame, self._seen_status, self._seen_control):
@@ -787,64 +551,13 @@ class Monitor:
         if tg is None or frame.fault is not None or tg.mode is not AddressMode.NORMAL:
             return False
         choice = self.layouts.choice(tg.address, len(tg.data) // 2)
-        data = None if choice is None or len(tg.data) % 2 else _unpack(choice.layout, tg.data)
+        data = None if choice is None or len(tg.data) % 2 else unpack(choice.layout, tg.data)
         if data is None or not data.pzd:
             return False
         word = data.pzd[0]
         return word in seen.get(tg.address, ()) and word not in not_in.get(tg.address, ())
 
-    # -- decoding --------------------------------------------------------------------------
-
-    def _choose(self, frame: Frame, address: int | None) -> LayoutChoice | None:
-        tg = frame.telegram
-        if tg is None or tg.mode not in (AddressMode.NORMAL, AddressMode.BROADCAST):
-            return None
-        if len(tg.data) % 2:
-            return None
-        words = len(tg.data) // 2
-        if tg.mode is AddressMode.BROADCAST:
-            return self.layouts.broadcast_choice(words)
-        return self.layouts.choice(address if address is not None else tg.address, words)
-
-    def _decode(
-        self, frame: Frame | None, address: int | None, issues: list[Issue], where: str
-    ) -> tuple[NetData | None, LayoutChoice | None]:
-        if frame is None or frame.telegram is None:
-            return None, None
-        choice = self._choose(frame, address)
-        if choice is None:
-            odd = len(frame.telegram.data) % 2
-            if frame.fault is None and frame.telegram.mode is AddressMode.NORMAL and odd:
-                issues.append(
-                    Issue(
-                        Problem.LAYOUT,
-                        where,
-                        f"{len(frame.telegram.data)} net bytes are not whole words (A 4)",
-                    )
-                )
-            return None, None
-        try:
-            return choice.layout.unpack(frame.telegram.data), choice
-        except TelegramError as exc:
-            if frame.fault is None:  # a damaged frame has its fault already
-                issues.append(Issue(Problem.LAYOUT, where, str(exc)))
-            return None, choice
-
-    def _learn(self, request: Frame | None, answer: Frame | None) -> None:
-        """Feed good normal telegrams to the layout inference."""
-        if request is None or not request.ok or request.mode is not AddressMode.NORMAL:
-            return
-        assert request.telegram is not None
-        rq = request.telegram.data
-        if len(rq) % 2:
-            return
-        words = _words(rq)
-        answer_words = None
-        if answer is not None and answer.ok and answer.address == request.address:
-            assert answer.telegram is not None
-            if len(answer.telegram.data) % 2 == 0:
-                answer_words = _words(answer.telegram.data)
-        self.layouts.observe(request.telegram.address, words, answer_words)
+    # -- exchanges -------------------------------------------------------------------------
 
     def _build(
         self,
@@ -860,10 +573,10 @@ class Monitor:
                 issues.append(Issue(problem_of(frame.fault), where, frame.detail))
         issues += extra
         address = next((f.address for f in (request, answer) if f and f.address is not None), None)
-        self._learn(request, answer)
-        request_data, choice = self._decode(request, address, issues, "request")
+        learn(self.layouts, request, answer)
+        request_data, choice = decode(self.layouts, request, address, issues, "request")
         answer_address = answer.address if answer is not None else None
-        answer_data, answer_choice = self._decode(answer, answer_address, issues, "answer")
+        answer_data, answer_choice = decode(self.layouts, answer, answer_address, issues, "answer")
         choice = choice or answer_choice
         all_notes = list(notes)
         control_before = status_before = None
@@ -876,7 +589,7 @@ class Monitor:
             if answer.ok and answer_data is not None and answer_data.pzd:
                 self._note(answer_address, answer_data.pzd[0], self._status, self._seen_status)
         if request_data is not None and answer_data is not None:
-            all_notes += _job_notes(request_data, answer_data)
+            all_notes += job_notes(request_data, answer_data)
         delay = None
         if request is not None and answer is not None:
             delay, unknown = self.response_delay(request, answer)
@@ -913,41 +626,3 @@ _DAMAGED_REQUEST = (
     "the request was damaged on the line; this came within the response delay limit, so it "
     "is taken as the answer"
 )
-_JOINABLE = (FaultKind.NO_STX, FaultKind.RESIDUAL_TIME, FaultKind.BAD_LGE, FaultKind.BCC)
-
-
-def _incomplete(frame: Frame) -> bool:
-    """An incomplete telegram without line errors: STX, a valid LGE, too few bytes."""
-    raw = frame.raw
-    return (
-        frame.fault is FaultKind.RESIDUAL_TIME
-        and len(raw) >= 2
-        and raw[0] == STX
-        and MIN_LGE <= raw[1] <= MAX_LGE
-        and len(raw) < raw[1] + 2
-    )
-
-
-def _words(data: bytes) -> tuple[int, ...]:
-    return tuple(int.from_bytes(data[i : i + 2], "big") for i in range(0, len(data), 2))
-
-
-def _unpack(layout: Layout, data: bytes) -> NetData | None:
-    try:
-        return layout.unpack(data)
-    except TelegramError:
-        return None
-
-
-def _job_notes(request: NetData, answer: NetData) -> list[str]:
-    job, reply = request.pkw, answer.pkw
-    if job is None or reply is None:
-        return []
-    rid = ResponseId(reply.id)
-    if rid.is_spontaneous:
-        return ["spontaneous message (C 4.2.1.2)"]
-    if reply.is_answer_to(job):
-        return []
-    if rid is ResponseId.NO_RESPONSE:
-        return ["no response yet: the slave is still working on the job (C 4.2.1.1)"]
-    return ["the answer belongs to an earlier job (C 4.2.1.1)"]

@@ -37,6 +37,7 @@ __all__ = [
     "Issue",
     "LayoutSource",
     "Problem",
+    "ms",
     "problem_of",
     "telegram_in",
 ]
@@ -118,6 +119,11 @@ class LayoutSource(enum.StrEnum):
     """Inferred from the traffic, with clear evidence."""
     GUESSED = "guessed"
     """Inferred from the traffic, but other layouts fit nearly as well: a guess."""
+
+
+def ms(seconds: float) -> str:
+    """A duration as the monitor's texts show it: milliseconds to the microsecond."""
+    return f"{seconds * 1000:.3f} ms"
 
 
 def telegram_in(raw: bytes) -> Telegram | None:
