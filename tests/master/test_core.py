@@ -63,6 +63,13 @@ def test_the_core_imports_no_io_and_no_clock() -> None:
         assert f"'{module}'" not in loaded, f"importing the core loads {module}"
 
 
+def test_the_asyncio_master_and_the_sync_facade_are_thin_loops_over_the_core() -> None:
+    master = CORE.parent
+    for name in ("scheduler.py", "loop.py", "sync.py"):
+        lines = (master / name).read_text(encoding="utf-8").count("\n")
+        assert lines < 400, f"master/{name} has {lines} lines"
+
+
 @dataclass
 class Fault:
     """What the line does to one exchange."""

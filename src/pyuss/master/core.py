@@ -515,6 +515,11 @@ class MasterCore:
         does, the master logs it itself (ERROR)."""
         return _callbacks.add(self._line_callbacks, callback)
 
+    @property
+    def line_followed(self) -> bool:
+        """Whether anyone follows the line (`on_line`): else its loss is logged as an error."""
+        return bool(self._line_callbacks)
+
     def tell_line(self, error: TransportError | None) -> None:
         _callbacks.call_each(self._line_callbacks, error, log, "line callback failed")
 

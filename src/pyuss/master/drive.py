@@ -107,8 +107,6 @@ class Bus(Protocol):
     def set_process_data(
         self, slave: Slave, control: int | None = None, setpoints: dict[int, int] | None = None
     ) -> int: ...
-    def slave_diagnostics(self, slave: Slave) -> SlaveDiagnostics: ...
-    def slave_counts(self, slave: Slave) -> SlaveCounts: ...
     async def parameter_job(
         self, slave: Slave, request: Pkw, pnu: int, index: int | None, timeout: float | None
     ) -> Pkw: ...
@@ -235,11 +233,11 @@ class Drive:
 
     def diagnostics(self) -> SlaveDiagnostics:
         """A 5.2.3 counters of its answers, response times, jobs."""
-        return self._master.slave_diagnostics(self._link)
+        return self._link.snapshot(self._master.clock())
 
     def counts(self) -> SlaveCounts:
         """The counts of `diagnostics` without response times and jobs (quicker to make)."""
-        return self._master.slave_counts(self._link)
+        return self._link.counts(self._master.clock())
 
     async def mirror(self) -> MirrorResult:
         """A mirror test (A 5.3) with a telegram of the slave's length."""

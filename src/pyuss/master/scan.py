@@ -31,8 +31,9 @@ from typing import Any
 
 from pyuss.bus.timed import timed_writer
 from pyuss.errors import ConfigError, TelegramError, TransportError
+from pyuss.master.core import EXACT_LATENCY
 from pyuss.master.profile import response_limit
-from pyuss.master.scheduler import ACYCLIC, EXACT_LATENCY, Master, Reply
+from pyuss.master.scheduler import ACYCLIC, Master, Reply
 from pyuss.profiles import Profile
 from pyuss.protocol.layout import PKW_VARIABLE, Layout
 from pyuss.protocol.pkw import Pkw

@@ -10,71 +10,52 @@ The line's timing (start pauses, timestamps, the virtual bus's timed hand-over):
 `pyuss.master.wire`.
 
 A lost line
-    On a transport that reopens a lost link (`pyuss.transport.reconnect`) a write while it
-    is down raises `LinkDown`: the master then sends nothing until the link is back
-    (`LINK_POLL`), takes every slave for not sending (nothing is heard of any), fails the
-    parameter jobs, process data and special telegrams waiting for the line with `LinkDown`
-    and refuses new ones at once (a wait for a slave's next answer waits on, within its
-    time). `Master.online` says whether it exchanges on the line, `Master.on_line` tells
-    of each change. After the link is back it sends what it sent before - the process data
-    in force, the poll list -, nothing it was asked for while the link was down. A transport
-    that fails for good stops the master (`Master.lost`).
+    On a transport that reopens a lost link (`pyuss.transport.reconnect`) a write while it is
+    down raises `LinkDown`: the master sends nothing until the link is back
+    (`pyuss.master.loop`), takes every slave for not sending, fails what waits for the line
+    with `LinkDown` and refuses new requests at once (a wait for a slave's next answer waits
+    on, within its time); `online` and `on_line` tell. After the link is back it sends the
+    process data in force to the poll list, nothing asked for while the link was down. A
+    transport that fails for good stops the master (`lost`).
 """
 
 from __future__ import annotations
 
 import asyncio
-import contextlib
-import logging
 from collections.abc import Callable, Iterable, Sequence
 from types import TracebackType
 from typing import TYPE_CHECKING
 
 from pyuss._tasks import cancel_and_wait
-from pyuss.errors import ConfigError, TransportError, UssError, UssTimeout
+from pyuss.errors import ConfigError, TransportError, UssTimeout
 from pyuss.master.core import (
-    _NORMAL,
     ACYCLIC,
     CYCLIC,
     DEFAULT_JOB_TIMEOUT,
-    DEFAULT_LATENCY,
-    EXACT_LATENCY,
-    MAX_CYCLE_TIME,
-    Idle,
     MasterCore,
     MirrorResult,
     Mode,
     Reply,
     Slave,
-    Special,
 )
 from pyuss.master.drive import Drive
 from pyuss.master.errors import MasterClosed, NotSending
 from pyuss.master.jobs import Job, SpontaneousMessage
+from pyuss.master.loop import Loop
 from pyuss.master.process import DriveStatus
-from pyuss.master.stats import BusDiagnostics, CycleStats, SlaveCounts, SlaveDiagnostics
-from pyuss.master.wire import LineDown, Wire, line_down
+from pyuss.master.stats import BusDiagnostics, CycleStats
+from pyuss.master.wire import Wire, line_down, line_transport
 from pyuss.protocol.broadcast import BroadcastEnableArray
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.pkw import Pkw
 from pyuss.protocol.telegram import AddressMode, Telegram
-from pyuss.transport.base import STAMP_TOLERANCE, Transport, stamp_tolerance
-from pyuss.transport.queued import check_baud
+from pyuss.transport.base import Transport, stamp_tolerance
 from pyuss.transport.reconnect import LinkDown
 
 if TYPE_CHECKING:
     from pyuss.master.profile import Profile
 
 __all__ = ["ACYCLIC", "CYCLIC", "Master", "MirrorResult", "Mode", "Reply"]
-__all__ += ["DEFAULT_LATENCY", "EXACT_LATENCY", "MAX_CYCLE_TIME"]
-
-log = logging.getLogger("pyuss.master")
-
-DEFAULT_TOLERANCE = STAMP_TOLERANCE
-"""Receive tolerance for transports that stamp bytes when read (USB adapters: 1..16 ms)."""
-LINK_POLL = 0.05
-"""How often the master looks whether a lost link is back (seconds); it sends nothing
-meanwhile."""
 
 
 class Master:
@@ -91,11 +72,11 @@ class Master:
     specification's rules with no family's parameter facts); ``layout``: their default
     layout, a `Layout` or ``"PKW,PZD"`` (else the profile's).
     ``cycle_time``: a fixed cycle time in seconds (A 5.1.1), None to cycle as fast as the line
-    allows. ``mode``: `CYCLIC` or `ACYCLIC`. ``response_delay``: the default response delay limit in
-    seconds (else the profile's, 20 ms). ``job_timeout``: seconds a parameter job may take
-    from its first telegram. ``rx_tolerance`` and ``latency``: see "Time bases" in the module
-    docstring (None picks by transport); ``silence``: the wait for a silent slave beyond its
-    response window (default ``latency``). ``close_transport``: close the transport on exit.
+    allows. ``mode``: `CYCLIC` or `ACYCLIC`. ``response_delay``: the default response delay
+    limit in seconds (else the profile's, 20 ms). ``job_timeout``: seconds a parameter job may
+    take from its first telegram. ``rx_tolerance``, ``latency`` and ``silence`` (the wait for a
+    silent slave beyond its window, default ``latency``): "Time bases" in `pyuss.master.wire`
+    (None picks by transport). ``close_transport``: close the transport on exit.
 
     Nothing is opened and no event loop is touched until `start` (or ``async with``).
     """
@@ -116,14 +97,7 @@ class Master:
         silence: float | None = None,
         close_transport: bool = True,
     ) -> None:
-        if isinstance(transport, str):
-            from pyuss.transport.url import open_transport
-
-            transport = open_transport(transport, baud=check_baud(baud or 9600))
-        elif not isinstance(transport, Transport):
-            raise ConfigError(f"transport must be a Transport or a URL, not {transport!r}")
-        if baud is not None and check_baud(baud) != transport.baud:
-            raise ConfigError(f"baud {baud} given, but the transport runs at {transport.baud}")
+        transport = line_transport(transport, baud)
         self.core = core = MasterCore(
             transport.baud,
             profile=profile,
@@ -137,24 +111,19 @@ class Master:
             silence=silence,
             exact=transport.exact_timestamps,
             loopback=str(getattr(transport, "url", "")).startswith("loop://"),
-            poke=self._poke,
         )
         """The master's state and decisions (`pyuss.master.core`); this is the loop."""
         self.transport = transport
         self.baud, self.timing, self.profile = core.baud, core.timing, core.profile
-        self.mode, self.cycle_time, self.response_delay = (
-            core.mode,
-            core.cycle_time,
-            core.response_delay,
-        )
+        self.mode, self.cycle_time = core.mode, core.cycle_time
+        self.response_delay = core.response_delay
         self.job_timeout, self.rx_tolerance = core.job_timeout, core.rx_tolerance
         self.latency, self.silence = core.latency, core.silence
         self.close_transport = close_transport
         self._drives: dict[int, Drive] = {}
-        self._wake: asyncio.Event | None = None
         self._task: asyncio.Task[None] | None = None
-        self._lost: TransportError | None = None
-        self.wire = Wire(core, transport)
+        self._loop = Loop(core, Wire(core, transport))
+        self.wire = self._loop.wire
         """Its line: the start pause, the writes, the wait for an answer (`pyuss.master.wire`)."""
 
     # -- life cycle ------------------------------------------------------------------------
@@ -182,21 +151,20 @@ class Master:
     def lost(self) -> TransportError | None:
         """What stopped the master on its own - its port failed and was not reopened -; None
         while it runs, and for a master that only was closed."""
-        return self._lost
+        return self._loop.lost
 
     async def start(self) -> None:
         """Open the transport and start the scheduler."""
         if self._task is not None:
             raise ConfigError("the master was started already")
         await self.transport.open()
-        self._wake = asyncio.Event()
-        self.wire.start()
-        self._task = asyncio.create_task(self._run(), name=f"uss master {self.baud} baud")
+        self._loop.start()
+        self._task = asyncio.create_task(self._loop.run(), name=f"uss master {self.baud} baud")
 
     async def close(self) -> None:
         """Stop after the current telegram, fail what waits, close the transport."""
         self.core.closing = True
-        self._poke()
+        self._loop.poke()
         if self._task is not None:
             task = self._task
             try:
@@ -207,10 +175,6 @@ class Master:
         self.core.fail(self.core.failure or MasterClosed("the master was closed"))
         if self.close_transport:
             await self.transport.close()
-
-    def _poke(self) -> None:
-        if self._wake is not None:
-            self._wake.set()
 
     def ensure_usable(self, *, line: bool = True) -> None:
         """Refuse a request the master cannot carry out: stopped, closing, not started, or
@@ -394,8 +358,7 @@ class Master:
 
     async def _broadcast(self, data: bytes, mode: AddressMode = AddressMode.BROADCAST) -> int:
         answered = await self._special("broadcast", Telegram(0, mode, data).encode(), 0)
-        assert isinstance(answered, int)
-        return answered
+        return answered if isinstance(answered, int) else 0
 
     async def _special(self, kind: str, frame: bytes, address: int) -> object:
         self.ensure_usable()
@@ -430,117 +393,3 @@ class Master:
     def diagnostics(self) -> BusDiagnostics:
         """A snapshot of the line and of every slave."""
         return self.core.snapshot(self.clock())
-
-    def slave_diagnostics(self, slave: Slave) -> SlaveDiagnostics:
-        return slave.snapshot(self.clock())
-
-    def slave_counts(self, slave: Slave) -> SlaveCounts:
-        return slave.counts(self.clock())
-
-    # -- the loop --------------------------------------------------------------------------
-    async def _run(self) -> None:
-        try:
-            while not self.core.closing:
-                if self.core.down is not None:
-                    await self._ride_out()  # then the next telegram tries the line
-                    if self.core.closing:
-                        break
-                try:
-                    action = self.core.next_action(self.clock())
-                    if isinstance(action, Slave):
-                        await self._turn(action)
-                    elif isinstance(action, Special):
-                        await self._do_special(action)
-                    else:
-                        await self._idle(action)
-                except LineDown:
-                    continue
-        except TransportError as exc:
-            if not self.core._line_callbacks:
-                log.error("master stopped: %s", exc)
-            self._lost = exc
-            self.core.stopped(exc)
-        except asyncio.CancelledError:
-            raise
-        except Exception as exc:  # a bug must not leave waiters hanging
-            log.exception("master stopped by an internal error")
-            self._lost = error = MasterClosed(f"the master stopped: {exc!r}")
-            self.core.stopped(error)
-
-    async def _ride_out(self) -> None:
-        """Wait, sending nothing, until the link is back (the transport's ``connected``) or
-        the master closes. A transport that does not say is tried by the next telegram: the
-        first that goes out ends the outage (`Wire.send`)."""
-        while not self.core.closing:
-            await self._sleep(LINK_POLL)
-            connected = getattr(self.transport, "connected", None)
-            if connected is None:
-                return
-            if connected:
-                self.core.line_back()
-                return
-
-    async def _idle(self, idle: Idle) -> None:
-        now = self.clock()
-        await self._sleep(None if idle.until is None else idle.until - now)
-        self.core.expire_jobs(self.clock())
-
-    async def _sleep(self, timeout: float | None) -> None:
-        assert self._wake is not None
-        self._wake.clear()
-        if self.core.closing or self.core.specials:
-            return
-        if timeout is None:
-            await self._wake.wait()
-        elif timeout > 0:
-            with contextlib.suppress(TimeoutError):
-                async with asyncio.timeout(timeout):
-                    await self._wake.wait()
-
-    async def _do_special(self, special: Special) -> None:
-        pending = special.pending
-        try:
-            result = await self._run_special(special)
-        except LineDown:
-            if not pending.done() and self.core.down is not None:
-                pending.set_exception(self.core.down)
-            raise
-        except TransportError:
-            raise
-        except UssError as exc:
-            if not pending.done():
-                pending.set_exception(exc)
-        else:
-            if not pending.done():
-                pending.set_result(result)
-        self.core.expire_jobs(self.clock())
-
-    async def _run_special(self, special: Special) -> object:
-        if special.kind == "broadcast":
-            await self.wire.send(special.frame, self.core.broadcast_pause())
-            until, before = self.core.broadcast_sent()
-            await self.wire.listen(until)
-            return self.core.answered_broadcasts - before
-        slave, pause, limit, modes = self.core.special_setup(special)
-        result = await self.wire.transact(
-            special.frame, special.address, modes, limit, pause, slave
-        )
-        return self.core.special_result(special, slave, result)
-
-    async def _turn(self, slave: Slave) -> None:
-        """One telegram to ``slave`` and its answer. The telegram is built at the last moment,
-        once the start pause is over, so that it carries the newest process data (C 5.1) and
-        a job submitted meanwhile."""
-        sent = [slave.version, slave.control]
-
-        def build() -> bytes:
-            sent[:] = [slave.version, slave.control]
-            return slave.request(self.clock())
-
-        self.core.begin_turn(slave)
-        pause = slave.profile.start_pause_chars
-        early = slave is not self.core.woken
-        result = await self.wire.transact(
-            build, slave.address, _NORMAL, slave.response_delay, pause, slave, early=early
-        )
-        self.core.end_turn(slave, result, sent[0], sent[1], self.clock())

@@ -44,17 +44,19 @@ import asyncio
 from collections.abc import Awaitable, Callable, Collection
 from typing import TYPE_CHECKING
 
+from pyuss.errors import ConfigError
 from pyuss.loop import COARSE_MARGIN
 from pyuss.loop import margin as loop_margin
 from pyuss.master.core import MasterCore, Result, Slave
 from pyuss.protocol.telegram import AddressMode
 from pyuss.transport.base import Chunk, Transport
+from pyuss.transport.queued import check_baud
 from pyuss.transport.reconnect import LinkDown, ReconnectingTransport
 
 if TYPE_CHECKING:
     from pyuss.bus.timed import TimedWrite
 
-__all__ = ["LineDown", "Wire", "line_down"]
+__all__ = ["LineDown", "Wire", "line_down", "line_transport"]
 
 WaitBytes = Callable[[int, float], Awaitable[None]]
 """``wait_bytes(count, timeout)`` of `pyuss.transport.queued.QueuedTransport`."""
@@ -72,6 +74,20 @@ def _timed_writer(transport: Transport) -> TimedWrite | None:
 
 class LineDown(Exception):
     """A telegram could not be sent: the link is down (`MasterCore.line_down`)."""
+
+
+def line_transport(transport: Transport | str, baud: int | None) -> Transport:
+    """The transport of a master: a URL opened (at ``baud``, 9600 by default), or the given
+    transport, whose rate ``baud`` must be if given."""
+    if isinstance(transport, str):
+        from pyuss.transport.url import open_transport
+
+        transport = open_transport(transport, baud=check_baud(baud or 9600))
+    elif not isinstance(transport, Transport):
+        raise ConfigError(f"transport must be a Transport or a URL, not {transport!r}")
+    if baud is not None and check_baud(baud) != transport.baud:
+        raise ConfigError(f"baud {baud} given, but the transport runs at {transport.baud}")
+    return transport
 
 
 def line_down(core: MasterCore, error: LinkDown) -> None:

@@ -46,7 +46,7 @@ from typing import Any
 
 from pyuss.drive.database import ParamRef
 from pyuss.errors import ConfigError
-from pyuss.master.scheduler import MAX_CYCLE_TIME
+from pyuss.master.core import MAX_CYCLE_TIME
 from pyuss.protocol.layout import Layout
 from pyuss.protocol.telegram import MAX_ADDRESS
 from pyuss.protocol.timing import check_baud
