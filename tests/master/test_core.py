@@ -19,6 +19,7 @@ from pyuss.errors import DriveRefusal
 from pyuss.master.core import (
     ACYCLIC,
     CYCLIC,
+    Exchange,
     Idle,
     MasterCore,
     Mode,
@@ -108,14 +109,13 @@ class Bench:
 
     def turn(self, slave: Slave) -> None:
         core = self.core
-        core.begin_turn(slave)
         self.now = max(self.now, core.send_due(slave.profile.start_pause_chars))
         core.sending(self.now)
         version, control = slave.version, slave.control
         frame = slave.request(self.now)
         start = self.now
         end = start + core.timing.transmit(len(frame))
-        core.sent(frame, start, end)
+        core.sent(frame, start, end - start, end)
         self.sent.append((start, frame))
         self.now = end
         fault = self.faults.pop(0) if self.faults else Fault()
@@ -127,8 +127,8 @@ class Bench:
                 answer = answer[:-1] + bytes([answer[-1] ^ 0x5A])
             begin = end + (slave.response_delay + 0.05 if fault.late else 0.002)
             arrivals.append(Chunk(answer, begin + core.timing.transmit(len(answer))))
-        exchange = core.await_answer(
-            slave.address, {AddressMode.NORMAL}, slave.response_delay, slave, start, end
+        exchange = Exchange(
+            core, slave.address, {AddressMode.NORMAL}, slave.response_delay, slave, start, end
         )
         while True:
             while arrivals and arrivals[0].timestamp <= self.now:

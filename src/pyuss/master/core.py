@@ -686,13 +686,17 @@ class MasterCore:
     # -- what comes next -------------------------------------------------------------------
     def next_action(self, now: float) -> Special | Slave | Idle:
         """What the master does next: a special telegram, a turn of a slave (a telegram to it
-        and its answer: `begin_turn`, `Slave.request`, `end_turn`), or nothing until
+        and its answer: `Slave.request`, then `end_turn`), or nothing until
         `Idle.until`. Call `expire_jobs` after an idle time."""
         if self.specials:
             return self.specials.pop(0)
         if self.mode is Mode.ACYCLIC:
             slave = self._next_demand()
-            return Idle(None) if slave is None else slave
+            if slave is None:
+                return Idle(None)
+            if slave.polls_wanted > 0:
+                slave.polls_wanted -= 1
+            return slave
         while True:
             if self._entry < len(self._entries):
                 address = self._entries[self._entry]
@@ -735,10 +739,6 @@ class MasterCore:
                 self._rotation = (self._rotation + step + 1) % len(addresses)
                 return slave
         return None
-
-    def begin_turn(self, slave: Slave) -> None:
-        if slave.polls_wanted > 0:
-            slave.polls_wanted -= 1
 
     def end_turn(
         self, slave: Slave, result: Result, version: int, control: int, now: float
@@ -941,16 +941,18 @@ class MasterCore:
         return max(self.line_free, self.receiver.last_byte_end) + pause + 1e-9
 
     def sending(self, now: float) -> None:
-        """The next telegram goes out now: what the receiver holds is over."""
+        """The next telegram goes out now: what the receiver holds is over (``now`` matters
+        only while the receiver holds something, `Receiver.busy`)."""
         receiver = self.receiver
         if receiver.busy:
             self.between(receiver.poll(now))
         receiver.reset()
         self._after_broadcast = False
 
-    def sent(self, frame: bytes, start: float, end: float) -> None:
-        """``frame`` went out at ``start``; the write returned at ``end`` (or later)."""
-        on_line = start + self.timing.transmit(len(frame))
+    def sent(self, frame: bytes, start: float, on_line: float, end: float) -> None:
+        """``frame`` went out at ``start`` and took ``on_line`` seconds on the line; the write
+        returned at ``end`` (or later)."""
+        on_line += start
         end = max(on_line, end)
         self.line_free = end
         # the model's end, not the clock's: a master woken late must not take an answer
@@ -964,9 +966,9 @@ class MasterCore:
         return self.receiver.feed(chunk.data, chunk.timestamp, chunk.errors)
 
     def settle(self, now: float) -> None:
-        """Between exchanges: what the receiver holds that ended ``latency`` ago is over."""
-        if self.receiver.busy:
-            self.between(self.receiver.poll(now - self.latency))
+        """Between exchanges: what the receiver holds that ended ``latency`` ago is over (only
+        while it holds something, `Receiver.busy`)."""
+        self.between(self.receiver.poll(now - self.latency))
 
     def _overlaps(self, start: float) -> bool:
         """Whether what began at ``start`` was on the line while the request just sent was:
@@ -1075,19 +1077,6 @@ class MasterCore:
             return None
         return max(left, self.timing.start_pause)
 
-    def await_answer(
-        self,
-        address: int,
-        modes: Collection[AddressMode],
-        limit: float,
-        slave: Slave | None,
-        start: float,
-        end: float,
-    ) -> Exchange:
-        """The wait for the answer of ``address`` to the telegram sent from ``start`` to
-        ``end`` (A 5.2), within ``limit`` (the response delay limit)."""
-        return Exchange(self, address, modes, limit, slave, start, end)
-
     def judge(
         self,
         event: Received | ReceiveFault,
@@ -1175,6 +1164,7 @@ class Exchange:
         "_core",
         "_events",
         "_jobs_due",
+        "_receiver",
         "_submitted",
         "address",
         "deadline",
@@ -1196,6 +1186,7 @@ class Exchange:
         end: float,
     ) -> None:
         self._core = core
+        self._receiver = core.receiver
         self.address = address
         self.modes = modes
         self.slave = slave
@@ -1208,7 +1199,7 @@ class Exchange:
         self._jobs_due = core.next_deadline(exclude=slave)
 
     def feed(self, chunk: Chunk) -> None:
-        self._events += self._core.feed(chunk)
+        self._events += self._receiver.feed(chunk.data, chunk.timestamp, chunk.errors)
 
     def step(self, now: float) -> Result | float | None:
         """After feeding every chunk that is in: the `Result`, or how long to wait for more

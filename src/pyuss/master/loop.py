@@ -49,22 +49,27 @@ class Loop:
             self._wake.set()
 
     async def run(self) -> None:
+        clock = self.transport.clock
         try:
+            now = clock()  # after a turn: the time it ended
             while not self.core.closing:
                 if self.core.down is not None:
                     await self._ride_out()  # then the next telegram tries the line
                     if self.core.closing:
                         break
+                    now = clock()
                 try:
-                    action = self.core.next_action(self.transport.clock())
+                    action = self.core.next_action(now)
                     if isinstance(action, Slave):
-                        await self._turn(action)
-                    elif isinstance(action, Special):
+                        now = await self._turn(action)
+                        continue
+                    if isinstance(action, Special):
                         await self._do_special(action)
                     else:
                         await self._idle(action)
                 except LineDown:
-                    continue
+                    pass
+                now = clock()
         except TransportError as exc:
             if not self.core.line_followed:
                 log.error("master stopped: %s", exc)
@@ -137,20 +142,21 @@ class Loop:
         )
         return self.core.special_result(special, slave, result)
 
-    async def _turn(self, slave: Slave) -> None:
-        """One telegram to ``slave`` and its answer. The telegram is built at the last moment,
-        once the start pause is over, so that it carries the newest process data (C 5.1) and
-        a job submitted meanwhile."""
+    async def _turn(self, slave: Slave) -> float:
+        """One telegram to ``slave`` and its answer; returns the time it ended. The telegram is
+        built at the last moment, once the start pause is over, so that it carries the newest
+        process data (C 5.1) and a job submitted meanwhile."""
         sent = [slave.version, slave.control]
 
         def build() -> bytes:
             sent[:] = [slave.version, slave.control]
             return slave.request(self.transport.clock())
 
-        self.core.begin_turn(slave)
         pause = slave.profile.start_pause_chars
         early = slave is not self.core.woken
         result = await self.wire.transact(
             build, slave.address, _NORMAL, slave.response_delay, pause, slave, early=early
         )
-        self.core.end_turn(slave, result, sent[0], sent[1], self.transport.clock())
+        now = self.transport.clock()
+        self.core.end_turn(slave, result, sent[0], sent[1], now)
+        return now

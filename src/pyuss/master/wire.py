@@ -47,7 +47,7 @@ from typing import TYPE_CHECKING
 from pyuss.errors import ConfigError
 from pyuss.loop import COARSE_MARGIN
 from pyuss.loop import margin as loop_margin
-from pyuss.master.core import MasterCore, Result, Slave
+from pyuss.master.core import Exchange, MasterCore, Result, Slave
 from pyuss.protocol.telegram import AddressMode
 from pyuss.transport.base import Chunk, Transport
 from pyuss.transport.queued import check_baud
@@ -168,10 +168,11 @@ class Wire:
                     core.between(core.feed(chunk))
             else:
                 await asyncio.sleep(0)
-        core.sending(clock())
+        core.sending(clock() if core.receiver.busy else 0.0)
         if callable(frame):
             frame = frame()
         start = clock()
+        on_line = core.timing.transmit(len(frame))
         try:
             if self.write_at is not None:
                 # late for the pause (the last answer took longer than it): at once, and the
@@ -181,7 +182,6 @@ class Wire:
                 if answer_within is not None:
                     # the first character of an answer that begins at the deadline ends one
                     # character time after it: that is when it must be here at the latest
-                    on_line = core.timing.transmit(len(frame))
                     hold = start + on_line + answer_within + core.timing.char_time
                 await self.write_at(frame, start, hold)
             else:
@@ -191,7 +191,7 @@ class Wire:
             raise LineDown from exc
         if core.down is not None:  # the first telegram after an outage went out
             core.line_back()
-        core.sent(frame, start, clock())
+        core.sent(frame, start, on_line, clock())
         return start, core.line_free
 
     async def drain(self) -> None:
@@ -203,7 +203,8 @@ class Wire:
         else:
             while (chunk := await self.transport.read(0)) is not None:
                 core.between(core.feed(chunk))
-        core.settle(self.transport.clock())
+        if core.receiver.busy:
+            core.settle(self.transport.clock())
 
     async def transact(
         self,
@@ -220,7 +221,7 @@ class Wire:
         ``early``: see `send`."""
         core = self.core
         start, end = await self.send(frame, pause_chars, limit + core.rx_tolerance, early)
-        exchange = core.await_answer(address, modes, limit, slave, start, end)
+        exchange = Exchange(core, address, modes, limit, slave, start, end)
         whole, expected = self._whole_answer(slave)
         clock = self.transport.clock
         read_nowait = self._read_nowait
