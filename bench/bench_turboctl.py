@@ -48,11 +48,15 @@ import time
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 from common import Figure, best_of, pty_drives
 
 from pyuss.protocol.timing import char_time
+
+if TYPE_CHECKING:
+    from pyuss.master.blocking import Master as BlockingMaster
+    from pyuss.master.sync import Master as SyncMaster
 
 BAUD = 19200
 """turboctl's default (its ``SERIAL_KWARGS``)."""
@@ -65,7 +69,7 @@ QUICK = "--quick" in sys.argv or os.environ.get("USS_BENCH_QUICK") == "1"
 SECONDS = 1.0 if QUICK else 3.0
 WARM_UP = 20
 GOAL = 0.7
-CLIENTS = ("turboctl", "pyuss", "pyuss-asyncio")
+CLIENTS = ("turboctl", "pyuss-blocking", "pyuss", "pyuss-asyncio")
 MODES = ("cyclic", "acyclic", "alternate")
 ALTERNATE = (1, 2)
 """Parameters read in turn in mode ``alternate``: unsigned 16-bit words in turboctl's list,
@@ -129,7 +133,18 @@ def _pyuss(port: str, mode: str) -> dict[str, float]:
     from pyuss.master import ACYCLIC
     from pyuss.master.sync import Master
 
-    with Master(port, baud=BAUD, layout=LAYOUT, mode=ACYCLIC) as bus:
+    return _pyuss_calls(Master(port, baud=BAUD, layout=LAYOUT, mode=ACYCLIC), mode)
+
+
+def _pyuss_blocking(port: str, mode: str) -> dict[str, float]:
+    from pyuss.master.blocking import Master
+
+    return _pyuss_calls(Master(port, baud=BAUD, layout=LAYOUT), mode)
+
+
+def _pyuss_calls(master: SyncMaster | BlockingMaster, mode: str) -> dict[str, float]:
+    """A script's calls of ``master`` (the sync facade or the blocking master)."""
+    with master as bus:
         drive = bus.drive(ADDRESS)
         call = _call(mode, partial(bus.exchange, ADDRESS), drive.read_raw)
         for _ in range(WARM_UP):
@@ -160,7 +175,12 @@ def _pyuss_asyncio(port: str, mode: str) -> dict[str, float]:
     return run(_pyuss_asyncio_run(port, mode))
 
 
-RUNNERS = {"turboctl": _turboctl, "pyuss": _pyuss, "pyuss-asyncio": _pyuss_asyncio}
+RUNNERS = {
+    "turboctl": _turboctl,
+    "pyuss-blocking": _pyuss_blocking,
+    "pyuss": _pyuss,
+    "pyuss-asyncio": _pyuss_asyncio,
+}
 
 
 def _client(client: str, port: str, mode: str) -> dict[str, float]:
@@ -187,8 +207,8 @@ Results = dict[str, dict[str, float]]
 
 
 def _ratio(results: Results) -> float:
-    """pyuss's CPU per call (sync facade) over turboctl's."""
-    return results["pyuss"]["cpu"] / results["turboctl"]["cpu"]
+    """pyuss's CPU per call (the blocking master, a script's) over turboctl's."""
+    return results["pyuss-blocking"]["cpu"] / results["turboctl"]["cpu"]
 
 
 def _mode(port: str, mode: str, limit: float) -> list[Figure]:
@@ -196,9 +216,10 @@ def _mode(port: str, mode: str, limit: float) -> list[Figure]:
     goal = None if mode == "alternate" else GOAL
 
     def pair() -> Results:
-        return {client: _client(client, port, mode) for client in ("turboctl", "pyuss")}
+        return {client: _client(client, port, mode) for client in ("turboctl", "pyuss-blocking")}
 
     results, runs = best_of(pair, lambda r: -_ratio(r), lambda r: goal is None or _ratio(r) <= goal)
+    results["pyuss"] = _client("pyuss", port, mode)
     results["pyuss-asyncio"] = _client("pyuss-asyncio", port, mode)
     base = results["turboctl"]["cpu"]
     for client in CLIENTS:
@@ -208,13 +229,14 @@ def _mode(port: str, mode: str, limit: float) -> list[Figure]:
             f"{client:<14} {mode:<9} {r['calls']:>6.0f} {r['telegrams']:>8.2f} "
             f"{r['cpu'] * 1e6:>6.0f} us {r['cpu'] / r['telegrams'] * 1e6:>5.0f} us "
             f"{wall * 1000:>6.2f} ms {limit / wall:>10.2f} {r['cpu'] / base:>11.2f}"
-            + (f"  (best of {runs} runs)" if runs > 1 and client == "pyuss" else "")
+            + (f"  (best of {runs} runs)" if runs > 1 and client == "pyuss-blocking" else "")
         )
-    sync, turbo = results["pyuss"], results["turboctl"]
+    sync, turbo = results["pyuss-blocking"], results["turboctl"]
     what = "exchange" if mode == "cyclic" else "parameter read"
     label = {"alternate": f"P{ALTERNATE[0]} and P{ALTERNATE[1]} in turn"}.get(mode, mode)
     figures = [
-        Figure(f"pyuss/turboctl CPU per {what} ({label}, sync)", _ratio(results), goal, False),
+        Figure(f"pyuss/turboctl CPU per {what} ({label}, blocking)", _ratio(results), goal, False),
+        Figure(f"pyuss/turboctl CPU per {what} ({label}, sync)", results["pyuss"]["cpu"] / base),
         Figure(
             f"pyuss/turboctl CPU per {what} ({label}, asyncio)",
             results["pyuss-asyncio"]["cpu"] / base,
@@ -222,7 +244,7 @@ def _mode(port: str, mode: str, limit: float) -> list[Figure]:
     ]
     if sync["telegrams"] > 1.5 * turbo["telegrams"]:
         per_telegram = (sync["cpu"] / sync["telegrams"]) / (turbo["cpu"] / turbo["telegrams"])
-        figures.append(Figure(f"pyuss/turboctl CPU per telegram ({label}, sync)", per_telegram))
+        figures.append(Figure(f"pyuss/turboctl CPU per telegram ({label}, blocking)", per_telegram))
     if goal is not None:
         name = f"pyuss {mode} pty {BAUD} baud: wire limit / wall time per telegram"
         figures.append(Figure(name, limit / (sync["wall"] / sync["telegrams"])))

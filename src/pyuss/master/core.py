@@ -544,6 +544,33 @@ class MasterCore:
         self.submitted += 1
         self.poke()
 
+    def start_job(
+        self,
+        slave: Slave,
+        request: Pkw,
+        pnu: int,
+        index: int | None,
+        timeout: float | None,
+        pending: Pending[Pkw],
+        now: float,
+    ) -> Job:
+        """Check and queue a parameter job for ``slave`` that completes ``pending`` with its
+        answer or error (``pnu``/``index`` word its errors; ``timeout``: else the master's)."""
+        self.check_job(slave)
+
+        def done(job: Job) -> None:
+            if pending.done():
+                return
+            if job.error is not None:
+                pending.set_exception(job.error)
+            else:
+                assert job.answer is not None
+                pending.set_result(job.answer)
+
+        job = Job(request, pnu, index, self.job_timeout_for(timeout), done)
+        self.submit(slave, job, now)
+        return job
+
     def job_timeout_for(self, timeout: float | None) -> float:
         return self.job_timeout if timeout is None else timeout
 

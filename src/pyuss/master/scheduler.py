@@ -40,7 +40,7 @@ from pyuss.master.core import (
 )
 from pyuss.master.drive import Drive
 from pyuss.master.errors import MasterClosed, NotSending
-from pyuss.master.jobs import Job, SpontaneousMessage
+from pyuss.master.jobs import SpontaneousMessage
 from pyuss.master.loop import Loop
 from pyuss.master.process import DriveStatus
 from pyuss.master.stats import BusDiagnostics, CycleStats
@@ -231,20 +231,8 @@ class Master:
     ) -> Pkw:
         """Run one PKW job for ``slave``; ``pnu``/``index`` word its errors."""
         self.ensure_usable()
-        self.core.check_job(slave)
         future: asyncio.Future[Pkw] = asyncio.get_running_loop().create_future()
-
-        def done(job: Job) -> None:
-            if future.done():
-                return
-            if job.error is not None:
-                future.set_exception(job.error)
-            else:
-                assert job.answer is not None
-                future.set_result(job.answer)
-
-        job = Job(request, pnu, index, self.core.job_timeout_for(timeout), done)
-        self.core.submit(slave, job, self.clock())
+        job = self.core.start_job(slave, request, pnu, index, timeout, future, self.clock())
         try:
             return await future
         except asyncio.CancelledError:

@@ -50,6 +50,7 @@ import contextlib
 import enum
 import errno
 import logging
+import math
 import threading
 import time
 
@@ -60,7 +61,7 @@ from pyuss import system
 from pyuss.errors import ConfigError, TransportError
 from pyuss.system import clock
 from pyuss.transport.address import split_url
-from pyuss.transport.base import LineError
+from pyuss.transport.base import Chunk, LineError
 from pyuss.transport.queued import QueuedTransport, char_time
 
 log = logging.getLogger(__name__)
@@ -266,6 +267,8 @@ class SerialTransport(QueuedTransport):
             )
         except (ValueError, serial.SerialException) as exc:
             raise ConfigError(f"serial port URL {url!r}: {exc}") from None
+        self._now_decoder: MarkDecoder | None = None
+        self._now_timeout: float | None = self._port.timeout
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._writer: concurrent.futures.ThreadPoolExecutor | None = None
@@ -282,27 +285,7 @@ class SerialTransport(QueuedTransport):
     async def open(self) -> None:
         if self.is_open:
             return
-        if self.rs485 is RS485Mode.KERNEL:
-            self._port.rs485_mode = serial.rs485.RS485Settings(
-                rts_level_for_tx=True, rts_level_for_rx=False
-            )
-        # A pty keeps no parity, and asking for one may be refused (see the module docstring).
-        self._port.parity = self._parity if not is_pty(self.url) else serial.PARITY_NONE
-        try:
-            await asyncio.to_thread(self._port.open)
-            marking = self._setup_marking()
-            if self.rs485 is RS485Mode.RTS:
-                self._port.rts = False
-            self._setup_latency()
-        except _OPEN_ERRORS as exc:
-            self._close_port()
-            what = {
-                RS485Mode.KERNEL: "kernel RS-485 mode: ",
-                RS485Mode.RTS: "RTS direction control: ",
-            }.get(self.rs485, "")
-            raise TransportError(
-                f"cannot open {self.describe()}: {what}{_open_problem(exc)}{port_list(self.url)}"
-            ) from None
+        marking = await asyncio.to_thread(self.open_port)
         self._loop = asyncio.get_running_loop()
         self._mark_open()
         self._stop.clear()
@@ -314,6 +297,63 @@ class SerialTransport(QueuedTransport):
             daemon=True,
         )
         self._thread.start()
+
+    def open_port(self) -> bool:
+        """Open the pyserial port as `open` does (RS-485 mode, the frame, line-error marking,
+        low latency) without the reader and writer threads, for a caller that reads `port`
+        and writes through `write_now` in its own thread (`pyuss.master.blocking`). Returns
+        whether bad characters are marked (`MarkDecoder` reads them)."""
+        if self.rs485 is RS485Mode.KERNEL:
+            self._port.rs485_mode = serial.rs485.RS485Settings(
+                rts_level_for_tx=True, rts_level_for_rx=False
+            )
+        # A pty keeps no parity, and asking for one may be refused (see the module docstring).
+        self._port.parity = self._parity if not is_pty(self.url) else serial.PARITY_NONE
+        try:
+            self._port.open()
+            marking = self._setup_marking()
+            if self.rs485 is RS485Mode.RTS:
+                self._port.rts = False
+            self._setup_latency()
+            self._now_decoder = MarkDecoder() if marking else None
+            self._now_timeout = self._port.timeout
+        except _OPEN_ERRORS as exc:
+            self.close_port()
+            what = {
+                RS485Mode.KERNEL: "kernel RS-485 mode: ",
+                RS485Mode.RTS: "RTS direction control: ",
+            }.get(self.rs485, "")
+            raise TransportError(
+                f"cannot open {self.describe()}: {what}{_open_problem(exc)}{port_list(self.url)}"
+            ) from None
+        return marking
+
+    def read_now(self, count: int | None, timeout: float) -> Chunk | None:
+        """In the calling thread, after `open_port`: ``count`` bytes (None: what is waiting, at
+        least one) within ``timeout`` seconds, stamped when read (the line's clock); None when
+        none came."""
+        port = self._port
+        try:
+            if timeout <= 0:  # what is in, without waiting
+                waiting = port.in_waiting
+                data = port.read(waiting if count is None else min(count, waiting))
+            else:
+                # in whole milliseconds: a port's timeout is set again only when it changes
+                timeout = math.ceil(timeout * 1000) / 1000
+                if timeout != self._now_timeout:
+                    port.timeout = self._now_timeout = timeout
+                data = port.read(count or 1)
+                if data and count is None and (waiting := port.in_waiting):
+                    data += port.read(waiting)
+        except Exception as exc:  # pyserial raises many kinds when a port vanishes
+            raise TransportError(f"{self.describe()} lost: {exc}") from None
+        if not data:
+            return None
+        stamp = clock()
+        if self._now_decoder is None:
+            return Chunk(data, stamp)
+        clean, errors = self._now_decoder.feed(data)
+        return Chunk(clean, stamp, errors)
 
     def _setup_marking(self) -> bool:
         """Switch a POSIX terminal to mark bad characters; False where that is not possible."""
@@ -374,14 +414,15 @@ class SerialTransport(QueuedTransport):
         self._arm_echo(data)
         loop = asyncio.get_running_loop()
         try:
-            await loop.run_in_executor(self._writer, self._write_blocking, bytes(data))
+            await loop.run_in_executor(self._writer, self.write_now, bytes(data))
         except (OSError, ValueError, serial.SerialException) as exc:
             error = TransportError(f"{self.describe()}: write failed: {exc}")
             self._lose(error)
             raise error from None
         self.stats.bytes_out += len(data)
 
-    def _write_blocking(self, data: bytes) -> None:
+    def write_now(self, data: bytes) -> None:
+        """Write ``data`` in the calling thread (RTS direction control included)."""
         port = self._port
         if self.rs485 is not RS485Mode.RTS:
             port.write(data)
@@ -424,9 +465,10 @@ class SerialTransport(QueuedTransport):
         if self._writer is not None:
             writer, self._writer = self._writer, None
             await asyncio.to_thread(writer.shutdown, True)
-        self._close_port()
+        self.close_port()
 
-    def _close_port(self) -> None:
+    def close_port(self) -> None:
+        """Close the port (after `open_port`), low-latency mode as it was."""
         fd = getattr(self._port, "fd", None)
         before = self._latency_before
         if before is not None and before != self.low_latency and isinstance(fd, int):
