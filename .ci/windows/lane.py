@@ -569,6 +569,22 @@ def _write() -> None:
     expect("P18 = 28672" in back.stdout, "Linux reads back another P18", back)
 
 
+BLOCKING = """
+from pyuss.master.blocking import Master
+with Master({url!r}, baud=9600) as bus:
+    drive = bus.drive(5, layout="v,2")
+    print(drive.read(52), drive.write(18, 0x7000), drive.read(18), bus.exchange(5).address)
+"""
+
+
+@check("master tcp:// pyuss.master.blocking over socket:// (pyserial, the calling thread)")
+def _blocking() -> None:
+    url = _master_url().replace("tcp://", "socket://")
+    done = run_windows([*windows_python(), "-c", BLOCKING.format(url=url)])
+    expect(done.returncode == 0, f"exit code {done.returncode}", done)
+    expect(done.stdout.split() == ["16384", "28672", "28672", "5"], "not 16384 28672 28672 5", done)
+
+
 @check("master tcp:// uss status")
 def _status() -> None:
     done = uss_win("status", "5", "--port", _master_url(), *LINE)
