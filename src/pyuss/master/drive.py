@@ -31,22 +31,17 @@ is one or more jobs, queued behind the jobs of other tasks; errors are typed: `D
   for the PKW area are left out), decoded by `pyuss.master.description`.
 - `read_text` / `write_text` (request 15, variable layout only, C 4.2.2 Tables 4.5/4.6).
 
-Process data (C 5): the control word and setpoints are sent in every telegram to the slave
-from the moment they are set. The commands return once a telegram carrying them was answered,
-with the status of that answer: `on` (047Eh then 047Fh), `off1` (047Eh), `off2` (047Ch),
-`off3` (047Ah), and, changing the current word, `enable` (bit 3), `acknowledge` (a rising edge
-of bit 7: set, then cleared), `jog` (bits 8, 9) - refused (`NotInControl`) on a drive that is
-switched on while this master has sent no control word, since they would start from OFF1;
-`setpoint` (percent with
-4000h = 100 %, or raw; 16 or 32 bits), `control_word`. `status` is the latest answer's
-process data, `next_update` waits for the next, `on_update` registers a callback.
-Parameter jobs never touch the process data: reading a parameter leaves the control word as
-the user set it.
+Process data (C 5): `Drive` is composed from `pyuss.master.control.DriveControl`, the mixin
+of its process data commands (`on`, `off1`..`off3`, `enable`, `acknowledge`, `jog`,
+`setpoint`, `control_word`, `status`, `next_update`, `wait_until`, `on_update`); their rules
+are that module's. Parameter jobs never touch the process data.
+
+The words of a value as the master sends and takes them (the value's words in an answer, an
+array's elements, a value nothing is known of) are the functions of `pyuss.master.values`.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
@@ -54,7 +49,8 @@ from typing import TYPE_CHECKING, Protocol
 from pyuss import _callbacks
 from pyuss.drive.database import TEXT_LENGTH, DescriptionStyle, ParameterDatabase
 from pyuss.drive.datatypes import Value
-from pyuss.errors import ConfigError, DriveRefusal, TelegramError, UssTimeout
+from pyuss.errors import ConfigError, DriveRefusal, TelegramError
+from pyuss.master.control import ControlBus, DriveControl
 from pyuss.master.description import (
     BAUMUELLER_ELEMENTS,
     PROFIBUS_ELEMENTS,
@@ -64,11 +60,20 @@ from pyuss.master.description import (
     decode_element,
     element_size,
 )
-from pyuss.master.errors import JobTimeout, NotInControl, NotSending, StatusTimeout
+from pyuss.master.errors import JobTimeout
 from pyuss.master.jobs import SpontaneousMessage
-from pyuss.master.process import OPERATE, DriveStatus
 from pyuss.master.profile import Profile, description_style, index_base
 from pyuss.master.stats import SlaveCounts, SlaveDiagnostics
+from pyuss.master.values import (
+    DOUBLE_ANSWERS,
+    answer_words,
+    element_index,
+    negative,
+    split_elements,
+    untyped,
+    untyped_float,
+    untyped_words,
+)
 from pyuss.master.verify import read_back
 from pyuss.params.book import ParamBook
 from pyuss.params.model import ParamInfo, Reading
@@ -79,101 +84,32 @@ from pyuss.protocol.pkw import (
     ErrorNumber,
     Pkw,
     RequestId,
-    ResponseId,
     TextIndex,
-    pwe_dword,
-    pwe_float,
     pwe_text,
-    pwe_word,
     words_to_text,
-)
-from pyuss.protocol.pzd import (
-    ControlWord,
-    StatusWord,
-    percent_to_raw16,
-    percent_to_raw32,
-    split_dword,
 )
 
 if TYPE_CHECKING:
     from pyuss.master.core import MirrorResult, Slave
 
 
-class Bus(Protocol):
-    """What a `Drive` asks of its master (`pyuss.master.Master`): its public calls only."""
+class Bus(ControlBus, Protocol):
+    """What a `Drive` asks of its master (`pyuss.master.Master`): its public calls only; those
+    of the process data commands are `ControlBus`'s."""
 
-    def ensure_usable(self, *, line: bool = True) -> None: ...
-    def clock(self) -> float: ...
-    def set_process_data(
-        self, slave: Slave, control: int | None = None, setpoints: dict[int, int] | None = None
-    ) -> int: ...
     async def parameter_job(
         self, slave: Slave, request: Pkw, pnu: int, index: int | None, timeout: float | None
     ) -> Pkw: ...
-    async def delivered(self, slave: Slave, version: int, timeout: float | None) -> DriveStatus: ...
-    async def next_update(self, slave: Slave, timeout: float | None = None) -> DriveStatus: ...
     async def mirror(self, address: int, data: bytes | None = None) -> MirrorResult: ...
 
 
 __all__ = ["Drive"]
 
-_DOUBLE = (ResponseId.VALUE_DWORD, ResponseId.ARRAY_DWORD)
-_WORDS = (ResponseId.VALUE_WORD, ResponseId.ARRAY_WORD)
 
-
-def _index(index: int | None) -> int | None:
-    if index is None:
-        return None
-    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= 254:
-        raise ConfigError(f"index must be 0..254 (255 means the whole array), got {index!r}")
-    return index
-
-
-def _untyped(words: Sequence[int], *, signed: bool = False) -> int:
-    """A value nothing is known of: the unsigned (or two's complement) word or double word."""
-    if len(words) == 1:
-        value = words[0]
-        return value - 0x1_0000 if signed and value & 0x8000 else value
-    if len(words) == 2:
-        value = (words[0] << 16) | words[1]
-        return value - 0x1_0000_0000 if signed and value & 0x8000_0000 else value
-    raise TelegramError(f"{len(words)} words are neither a word nor a double word")
-
-
-def _float(words: Sequence[int]) -> float:
-    if len(words) != 2:
-        raise TelegramError("the drive sent a word, not a floating point value")
-    return Pkw(ResponseId.VALUE_DWORD, values=tuple(words)).float32()
-
-
-def _neg(value: object) -> bool:
-    return isinstance(value, int) and value < 0
-
-
-def _untyped_words(pnu: int, value: object) -> tuple[int, ...]:
-    """The words of a value for a parameter nothing is known of."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ConfigError(
-            f"P{pnu} is not known (no parameter file or description has it): give an integer "
-            f"or a float, not {value!r}"
-        )
-    if isinstance(value, float):
-        if not math.isfinite(value):
-            raise ConfigError(f"value must be a finite number, not {value!r}")
-        return pwe_float(value)
-    if -0x8000 <= value <= 0xFFFF:
-        return pwe_word(value)
-    return pwe_dword(value)
-
-
-def _split(words: Sequence[int], size: int, pnu: int) -> list[tuple[int, ...]]:
-    if size < 1 or len(words) % size:
-        raise TelegramError(f"P{pnu}: {len(words)} words are not whole elements of {size}")
-    return [tuple(words[i : i + size]) for i in range(0, len(words), size)]
-
-
-class Drive:
+class Drive(DriveControl):
     """One slave of a `Master` (made by `Master.drive`); see the module docstring."""
+
+    _master: Bus
 
     def __init__(self, master: Bus, link: Slave) -> None:
         self._master = master
@@ -261,6 +197,13 @@ class Drive:
         name = self.profile.decode_pnu(request.pnu, request.index) if pnu is None else pnu
         return await self._master.parameter_job(self._link, request, name, index, timeout)
 
+    def on_spontaneous(
+        self, callback: Callable[[SpontaneousMessage], object]
+    ) -> Callable[[], None]:
+        """Call ``callback`` for every new spontaneous message of this slave (C 4.2.1.2);
+        the master acknowledges it by itself. Returns a function that removes it."""
+        return _callbacks.add(self._link.spontaneous_callbacks, callback)
+
     # -- what the drive's parameters are ----------------------------------------------------
     def use_params(self, source: str | Path | ParameterDatabase) -> None:
         """Take a parameter file of the user's (the simulator's TOML format, docs/drive.md) as
@@ -310,24 +253,6 @@ class Drive:
             )
 
     # -- values ------------------------------------------------------------------------------
-    def _answer_words(self, answer: Pkw, pnu: int) -> tuple[int, ...]:
-        """The words of the value in an answer: a word travels in PWE2 of a fixed 4-word PKW
-        area (C 4.2.3); a double word is two words."""
-        values = answer.values
-        if answer.id in _DOUBLE:
-            if not values or len(values) % 2:
-                raise TelegramError(
-                    f"{self.params.label(pnu)}: {len(values)} words are not whole double words"
-                )
-            return values
-        if answer.id not in _WORDS:
-            raise TelegramError(f"{self.params.label(pnu)}: answer {answer.id} carries no value")
-        if not values:
-            raise TelegramError(f"{self.params.label(pnu)}: the answer carries no value")
-        if not self.layout.variable and len(values) > 1:
-            return values[-1:]
-        return values
-
     async def read_raw(
         self, pnu: int, index: int | None = None, *, timeout: float | None = None
     ) -> tuple[int, ...]:
@@ -335,7 +260,7 @@ class Drive:
         request 1, or 6 for an element (C 4.2.2); ``index=255`` the whole array in one
         telegram (variable layout)."""
         whole = index == INDEX_ALL
-        index = None if whole else _index(index)
+        index = None if whole else element_index(index)
         if index is None and not whole:
             bits, ind = self._ind(pnu)
             request = Pkw(RequestId.READ_VALUE, bits, ind)
@@ -345,7 +270,7 @@ class Drive:
         answer = await self.job(
             request, pnu=pnu, index=INDEX_ALL if whole else index, timeout=timeout
         )
-        return self._answer_words(answer, pnu)
+        return answer_words(answer, pnu, self.params, self.layout)
 
     async def read_param(
         self,
@@ -377,7 +302,7 @@ class Drive:
                 except DriveRefusal:
                     raise refusal from None
                 return Reading(pnu, None, None, words, values)
-            return Reading(pnu, index, None, words, _untyped(words))
+            return Reading(pnu, index, None, words, untyped(words))
         words = await self.read_raw(pnu, index, timeout=timeout)
         return Reading(pnu, index, info, words, decode(info, words, index))
 
@@ -407,11 +332,11 @@ class Drive:
             except DriveRefusal:
                 pass  # the drive reads its elements one by one only
             else:
-                words = self._answer_words(answer, pnu)
-                size = info.words if info is not None else (2 if answer.id in _DOUBLE else 1)
-                chunks = _split(words, size, pnu)
+                words = answer_words(answer, pnu, self.params, self.layout)
+                size = info.words if info is not None else (2 if answer.id in DOUBLE_ANSWERS else 1)
+                chunks = split_elements(words, size, pnu)
                 if info is None:
-                    return words, [_untyped(c) for c in chunks]
+                    return words, [untyped(c) for c in chunks]
                 base = self.params.index_base
                 return words, [decode(info, c, base + i) for i, c in enumerate(chunks)]
         count = info.array if info is not None and info.array else None
@@ -423,7 +348,7 @@ class Drive:
         for number, element in enumerate(range(base, base + count)):
             words = await self.read_raw(pnu, element, timeout=timeout)
             all_words.extend(words)
-            values.append(_untyped(words) if info is None else decode(info, words, element))
+            values.append(untyped(words) if info is None else decode(info, words, element))
             if progress is not None:
                 progress(number + 1, count)
         return tuple(all_words), values
@@ -463,7 +388,7 @@ class Drive:
         (`pyuss.master.verify`) and return it if the drive holds it; otherwise the
         `JobTimeout` says `JobOutcome.NOT_APPLIED` (or stays ``UNKNOWN`` when the read fails
         too)."""
-        index = _index(index)
+        index = element_index(index)
         words = tuple(words)
         if not words or any(
             isinstance(w, bool) or not isinstance(w, int) or not 0 <= w <= 0xFFFF for w in words
@@ -500,7 +425,7 @@ class Drive:
             bits, ind = self._ind(pnu, index)
         request = Pkw(rid, bits, ind, values=words)
         answer = await self._write_job(request, pnu, index, timeout, verify)
-        return self._answer_words(answer, pnu)
+        return answer_words(answer, pnu, self.params, self.layout)
 
     async def write_param(
         self,
@@ -513,16 +438,18 @@ class Drive:
         verify: bool = False,
     ) -> Reading:
         """Write a typed ``value`` (see `write`); returns the `Reading` of the drive's answer."""
-        index = _index(index)
+        index = element_index(index)
         info = await self.info(pnu, timeout=timeout)
         self._check_index(info, pnu, index)
         if info is None:
-            words = _untyped_words(pnu, value)
+            words = untyped_words(pnu, value)
             answer = await self.write_raw(
                 pnu, words, index, eeprom=eeprom, timeout=timeout, verify=verify
             )
             typed: Value = (
-                _float(answer) if isinstance(value, float) else _untyped(answer, signed=_neg(value))
+                untyped_float(answer)
+                if isinstance(value, float)
+                else untyped(answer, signed=negative(value))
             )
             return Reading(pnu, index, None, answer, typed, words)
         if info.array is not None and index is None:
@@ -709,230 +636,3 @@ class Drive:
             Pkw(RequestId.TEXT, bits, ind, values=words), pnu=pnu, index=index, timeout=timeout
         )
         return words_to_text(answer.values)
-
-    # -- process data ------------------------------------------------------------------------
-    @property
-    def status(self) -> DriveStatus | None:
-        """The process data of the latest answer (None before the first)."""
-        return self._link.status
-
-    @property
-    def control(self) -> int:
-        """The control word sent in every telegram."""
-        return self._link.control
-
-    @property
-    def setpoints(self) -> tuple[int, ...]:
-        """PZD2... as sent."""
-        return tuple(self._link.setpoints)
-
-    def _need_pzd(self, words: int = 1) -> None:
-        if self.layout.pzd < words:
-            raise ConfigError(
-                f"slave {self.address} has layout {self.layout}: {words} PZD words needed (C 5)"
-            )
-
-    def set_control(self, word: int) -> None:
-        """Send ``word`` as control word from the next telegram on (no waiting)."""
-        self._need_pzd()
-        if isinstance(word, bool) or not isinstance(word, int) or not 0 <= word <= 0xFFFF:
-            raise ConfigError(f"control word must be 0..FFFFh, got {word!r}")
-        self._master.set_process_data(self._link, control=word)
-
-    def set_pzd(self, number: int, value: int) -> None:
-        """Set PZD word ``number`` (2..16; 1 is the control word) to a raw 16-bit value."""
-        if number == 1:
-            self.set_control(value)
-            return
-        self._need_pzd(number if isinstance(number, int) else 2)
-        if isinstance(number, bool) or not isinstance(number, int) or number < 2:
-            raise ConfigError(f"PZD number must be 1..{self.layout.pzd}, got {number!r}")
-        if isinstance(value, bool) or not isinstance(value, int) or not -0x8000 <= value <= 0xFFFF:
-            raise ConfigError(f"PZD{number} must be a 16-bit value, got {value!r}")
-        self._master.set_process_data(self._link, setpoints={number: value & 0xFFFF})
-
-    async def _send(
-        self,
-        control: int | None,
-        setpoints: dict[int, int] | None = None,
-        timeout: float | None = None,
-    ) -> DriveStatus:
-        self._master.ensure_usable()  # refused at once (the line down): nothing is changed
-        version = self._master.set_process_data(self._link, control=control, setpoints=setpoints)
-        return await self._master.delivered(self._link, version, timeout)
-
-    async def control_word(self, word: int, *, timeout: float | None = None) -> DriveStatus:
-        """Send ``word`` as control word; returns the status of the answer to it."""
-        self._master.ensure_usable()  # refused at once (the line down): nothing is changed
-        self.set_control(word)
-        return await self._master.delivered(self._link, self._link.version, timeout)
-
-    async def setpoint(
-        self,
-        percent: float | None = None,
-        *,
-        raw: int | None = None,
-        pzd: int = 2,
-        dword: bool = False,
-        timeout: float | None = None,
-    ) -> DriveStatus:
-        """Set the main setpoint (PZD2, or PZD ``pzd``): ``percent`` with 4000h = 100 %
-        (4000 0000h with ``dword``, sent high word first in PZD ``pzd`` and ``pzd + 1``), or a
-        ``raw`` value. Returns the status of the answer to the first telegram carrying it."""
-        if (percent is None) == (raw is None):
-            raise ConfigError("give either a percentage or a raw value")
-        words = 2 if dword else 1
-        if isinstance(pzd, bool) or not isinstance(pzd, int) or pzd < 2:
-            raise ConfigError(f"setpoints are PZD2 and up, got PZD{pzd!r}")
-        self._need_pzd(pzd + words - 1)
-        values: dict[int, int]
-        if dword:
-            value = percent_to_raw32(percent) if percent is not None else raw
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, int)
-                or not -0x8000_0000 <= value <= 0xFFFF_FFFF
-            ):
-                raise ConfigError(f"raw 32-bit setpoint must be a 32-bit value, got {raw!r}")
-            high, low = split_dword(value & 0xFFFF_FFFF)
-            values = {pzd: high, pzd + 1: low}
-        else:
-            value = percent_to_raw16(percent) if percent is not None else raw
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, int)
-                or not -0x8000 <= value <= 0xFFFF
-            ):
-                raise ConfigError(f"raw setpoint must be a 16-bit value, got {raw!r}")
-            values = {pzd: value & 0xFFFF}
-        return await self._send(None, values, timeout)
-
-    def running_elsewhere(self) -> str | None:
-        """Why a command that takes control would change what the drive does, while this
-        master has sent it no control word (0000h: the drive keeps the process data it had):
-        its last answer says it is switched on (READY or operation enabled, no fault), or it
-        has not answered yet; None if neither (it is off, or in fault)."""
-        status = self._link.status  # the last answer, also of a drive that does not send now
-        if status is None:
-            return "has not answered yet, so whether it runs is not known"
-        if status.word & (StatusWord.READY | StatusWord.OPERATION_ENABLED) and not (
-            status.word & StatusWord.FAULT
-        ):
-            return f"is switched on ({status.state})"
-        return None
-
-    def _base(self, what: str) -> int:
-        """The control word in force, for a command (``what``) that changes bits of it; 047Eh
-        (OFF1) where this master has sent none yet (0000h: no control by the interface).
-        There, on a drive switched on (by another master, or one started again) or not
-        answered yet, the command would stop it: `NotInControl`, nothing sent."""
-        word = self._link.control
-        if word & ControlWord.CONTROL_BY_PLC:
-            return word
-        why = self.running_elsewhere()
-        if why is None:
-            return int(OPERATE)
-        raise NotInControl(
-            f"slave {self.address}: {what} refused: the drive {why}, and this master has sent "
-            f"it no control word yet, so {what} would take control with OFF1 (047Eh) and stop "
-            "it; send on or off1 first"
-        )
-
-    async def on(self, *, timeout: float | None = None) -> DriveStatus:
-        """Switch on: 047Eh (OFF1 with every enable: leaves "switch-on inhibited"), then 047Fh
-        (C Tables 5.2..5.5). Returns the status of the answer to the ON telegram."""
-        self._need_pzd()
-        keep = self._link.control & (ControlWord.JOG1 | ControlWord.JOG2)
-        await self._send(int(OPERATE) | keep, timeout=timeout)
-        return await self._send(int(OPERATE | ControlWord.ON) | keep, timeout=timeout)
-
-    async def off1(self, *, timeout: float | None = None) -> DriveStatus:
-        """OFF1: ramp down and switch off (control bit 0 = 0)."""
-        self._need_pzd()
-        return await self._send(int(OPERATE), timeout=timeout)
-
-    async def off2(self, *, timeout: float | None = None) -> DriveStatus:
-        """OFF2: pulses off at once, the motor coasts (control bit 1 = 0)."""
-        self._need_pzd()
-        return await self._send(int(OPERATE) & ~int(ControlWord.NO_OFF2), timeout=timeout)
-
-    async def off3(self, *, timeout: float | None = None) -> DriveStatus:
-        """OFF3: quick stop (control bit 2 = 0)."""
-        self._need_pzd()
-        return await self._send(int(OPERATE) & ~int(ControlWord.NO_OFF3), timeout=timeout)
-
-    async def enable(self, enabled: bool = True, *, timeout: float | None = None) -> DriveStatus:
-        """Enable (or inhibit) operation: control bit 3."""
-        self._need_pzd()
-        word = self._base("enable" if enabled else "inhibit")
-        word = (
-            word | ControlWord.ENABLE_OPERATION
-            if enabled
-            else word & ~int(ControlWord.ENABLE_OPERATION)
-        )
-        return await self._send(word, timeout=timeout)
-
-    async def acknowledge(self, *, timeout: float | None = None) -> DriveStatus:
-        """Acknowledge a fault: a rising edge of control bit 7 (set, answered, cleared)."""
-        self._need_pzd()
-        word = self._base("acknowledge") & ~int(ControlWord.ACKNOWLEDGE_FAULT)
-        await self._send(word | ControlWord.ACKNOWLEDGE_FAULT, timeout=timeout)
-        return await self._send(word, timeout=timeout)
-
-    async def jog(self, which: int | None, *, timeout: float | None = None) -> DriveStatus:
-        """Jog 1 or 2 on (control bit 8 or 9), or off with None or 0."""
-        self._need_pzd()
-        if which not in (None, 0, 1, 2):
-            raise ConfigError(f"jog takes 1, 2 or None, got {which!r}")
-        word = self._base("jog") & ~int(ControlWord.JOG1 | ControlWord.JOG2)
-        if which == 1:
-            word |= ControlWord.JOG1
-        elif which == 2:
-            word |= ControlWord.JOG2
-        return await self._send(word, timeout=timeout)
-
-    async def next_update(self, *, timeout: float | None = None) -> DriveStatus:
-        """The process data of the next answer from the slave."""
-        return await self._master.next_update(self._link, timeout)
-
-    async def wait_until(
-        self,
-        condition: Callable[[DriveStatus], bool],
-        *,
-        timeout: float = 10.0,
-        what: str = "the state waited for",
-    ) -> DriveStatus:
-        """Wait for an answer whose status meets ``condition`` (e.g. ``lambda s: s.running``).
-
-        Raises `StatusTimeout` (with the last status; ``what`` names the condition in its
-        message) when the drive answers but its status does not meet the condition within
-        ``timeout`` seconds, `NotSending` when it stopped answering."""
-        clock = self._master.clock
-        end = clock() + timeout
-        status = self.status
-        while status is None or not condition(status):
-            left = end - clock()
-            if left <= 0:
-                raise StatusTimeout(self.address, timeout, self.status, what)
-            try:
-                status = await self.next_update(timeout=left)
-            except NotSending:
-                raise
-            except UssTimeout:  # the time ran out between two answers: not a silent drive
-                raise StatusTimeout(self.address, timeout, self.status, what) from None
-        return status
-
-    def on_update(self, callback: Callable[[DriveStatus], object]) -> Callable[[], None]:
-        """Call ``callback`` with the process data of every answer; returns a function that
-        removes it. Callbacks run in the master's task, before the tasks waiting for the
-        update and before the next telegram: they must not block, and what takes time is
-        better left to the loop's next turn (``loop.call_soon``), when the next telegram is
-        on its way (`pyuss.points` does so)."""
-        return _callbacks.add(self._link.update_callbacks, callback)
-
-    def on_spontaneous(
-        self, callback: Callable[[SpontaneousMessage], object]
-    ) -> Callable[[], None]:
-        """Call ``callback`` for every new spontaneous message of this slave (C 4.2.1.2);
-        the master acknowledges it by itself. Returns a function that removes it."""
-        return _callbacks.add(self._link.spontaneous_callbacks, callback)
