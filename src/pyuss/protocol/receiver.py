@@ -231,6 +231,9 @@ class Receiver:
         """`LineTiming.residual_max` by net byte count, as LGEs come (computed once each)."""
         self._last_end = -math.inf
         self._state = _IDLE
+        self.busy = False
+        """True while a telegram or a run of bytes is open (not yet reported): kept with the
+        state, a plain attribute (the master asks several times per exchange)."""
         self._buf = bytearray()
         self._start = 0.0
         self._stx_end = 0.0
@@ -250,11 +253,6 @@ class Receiver:
         """End times of the open telegram's bytes from the first mark on (empty without one)."""
 
     # -- public ----------------------------------------------------------------------------
-
-    @property
-    def busy(self) -> bool:
-        """True while a telegram or a run of bytes is open (not yet reported)."""
-        return self._state != _IDLE
 
     @property
     def receiving(self) -> bool:
@@ -281,6 +279,7 @@ class Receiver:
         """Drop whatever is being received, without an event; the line counts as idle."""
         if self._state != _IDLE:
             self._state = _IDLE
+            self.busy = False
             self._buf = bytearray()  # (when idle, the next byte begins a buffer of its own)
         self._marks = []
         self._times = []
@@ -399,6 +398,7 @@ class Receiver:
         self._last_end = end
         if fresh and byte == STX and line is None:
             self._state = _TELEGRAM
+            self.busy = True
             if self._marks:
                 self._marks = []
                 self._times = []
@@ -409,6 +409,7 @@ class Receiver:
             self._line = None
             return
         self._state = _JUNK
+        self.busy = True
         self._late_need = 0
         if line is not None:
             self._junk_kind = line
@@ -510,6 +511,7 @@ class Receiver:
             kind = self._line
             detail = f"{self._line_detail()}; {detail}"
         self._state = _JUNK
+        self.busy = True
         # a telegram over its residual time: note when its last byte comes, if it does
         self._late_need = self._need if kind is FaultKind.RESIDUAL_TIME else 0
         self._whole_at = None
@@ -521,6 +523,7 @@ class Receiver:
         if self._marks and self._failed(raw) and self._resync(events):
             return
         self._state = _IDLE
+        self.busy = False
         self._buf = bytearray()
         if self._marks:
             self._marks = []
@@ -561,6 +564,7 @@ class Receiver:
             kind, detail = self._junk_kind, self._junk_detail
         whole_at = self._whole_at if self._state == _JUNK and self._late_need else None
         self._state = _IDLE
+        self.busy = False
         self._buf = bytearray()
         self._late_need = 0
         self._emit_fault(events, kind, raw, detail, whole_at)
@@ -596,6 +600,7 @@ class Receiver:
             need = self._need or "?"
             detail = f"telegram incomplete when a pause came: {len(head)} of {need} bytes"
         self._state = _IDLE
+        self.busy = False
         self._buf = bytearray()
         self._line = None
         self._emit_fault(events, kind, head, detail)
