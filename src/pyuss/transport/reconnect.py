@@ -130,6 +130,9 @@ class ReconnectingTransport(QueuedTransport):
         self._factory = factory
         self._inner = factory()
         super().__init__(baud=self._inner.baud)
+        self.clock = self._inner.clock
+        """The clock of the transport in use, bound to it (rebound when the link is back): the
+        master reads it several times per exchange, without a forwarding call each time."""
         self._initial = backoff_initial
         self._max = backoff_max
         self._max_attempts = max_attempts
@@ -169,9 +172,6 @@ class ReconnectingTransport(QueuedTransport):
 
     def describe(self) -> str:
         return self._inner.describe()
-
-    def clock(self) -> float:
-        return self._inner.clock()
 
     def timed_writer(self) -> TimedWrite | None:
         """`write_at` where the link is a station of a virtual bus (`pyuss.bus.timed`): the
@@ -377,6 +377,7 @@ class ReconnectingTransport(QueuedTransport):
                     return
                 continue
             self._inner = inner
+            self.clock = inner.clock
             self._connected = True
             self.reconnects += 1
             outage.tries += 1
