@@ -27,6 +27,7 @@ from pyuss.points.model import STATUS_BIT_NAMES, DriveModel
 from pyuss.points.parameters import ParamMeta
 from pyuss.profiles import UNKNOWN_KIND, Profile, get_profile
 from pyuss.protocol.diagnostics import Counters
+from pyuss.protocol.frozen import builder
 from pyuss.protocol.pzd import (
     FULL_SCALE_16,
     FULL_SCALE_32,
@@ -119,6 +120,10 @@ class Sample:
     values: tuple[float, ...]
 
 
+_process_value = builder(ProcessValue)
+"""`ProcessValue` of values `process_value` made (two for every answer of a drive)."""
+
+
 def signed(word: int, bits: int = 16) -> int:
     """A PZD word (or a joined double word) as the signed number it carries."""
     return word - (1 << bits) if word >> (bits - 1) & 1 else word
@@ -137,21 +142,21 @@ def process_value(
         word = join_dword(words[at], words[at + 1])
         raw, percent = signed(word, 32), raw32_to_percent(word)
     else:
-        raw, percent = signed(words[at]), raw16_to_percent(words[at])
-    return _process(key, pzd, raw, percent, reference, unit)
-
-
-def _process(
-    key: str, pzd: int, raw: int, percent: float, reference: float | None, unit: str
-) -> ProcessValue:
-    value = percent * reference / 100.0 if reference is not None else None
-    if reference is None and unit == "%":
-        value = percent
-    return ProcessValue(key, pzd, raw, round(percent, 6), _round(value), unit)
-
-
-def _round(value: float | None) -> float | None:
-    return None if value is None else round(value, 6)
+        # `signed` and `raw16_to_percent` inline (made for every answer): a 16-bit word as
+        # the class `int` gives it; anything else goes through the checking call.
+        word = words[at]
+        if word.__class__ is int and 0 <= word <= 0xFFFF:
+            raw = word - 0x10000 if word >> 15 & 1 else word
+            percent = raw * 100 / FULL_SCALE_16
+        else:
+            raw, percent = signed(word), raw16_to_percent(word)
+    if reference is not None:
+        value = round(percent * reference / 100.0, 6)
+    elif unit == "%":
+        value = round(percent, 6)
+    else:
+        value = None
+    return _process_value(key, pzd, raw, round(percent, 6), value, unit)
 
 
 @functools.lru_cache(maxsize=256)
