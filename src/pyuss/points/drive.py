@@ -321,8 +321,14 @@ class DrivePoints:
     def check_health(self) -> None:
         """Tell subscribers if "does not send" changed (no answer reports that), and whether
         the drive went so long without an answer that it is offline."""
-        self._jog_silent()
-        self._judge()
+        # (asked for every drive several times a second: the calls only when they may act)
+        if self._missed:
+            self._jog_silent()
+        if self._bus_online and (
+            self._missed >= self.offline.missed
+            or system.clock() - self._heard >= self.offline.silence
+        ):
+            self._judge()
         if self.drive.not_sending != self._state.health.not_sending:
             self._changed()
 
