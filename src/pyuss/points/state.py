@@ -330,7 +330,7 @@ class DriveState:
     def online(self) -> bool:
         """The drive is available: it answered, it answers (`answering`: one missed answer is
         no outage), and its bus is online."""
-        return self.answered and self.answering and self.bus_online
+        return self.status_word is not None and self.answering and self.bus_online
 
     @property
     def stale(self) -> bool:
@@ -397,7 +397,9 @@ class DriveState:
             self.status_word,
             self.control_word,
             self.setpoint_words,
-            tuple((k, v.value, v.error is None) for k, v in self.parameters.items()),
+            tuple((k, v.value, v.error is None) for k, v in self.parameters.items())
+            if self.parameters
+            else (),
             self.health.not_sending,
             self.bus_online,
             self.answering,
