@@ -29,9 +29,9 @@ import contextlib
 import logging
 import math
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Coroutine, Iterator
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from pyuss.errors import ConfigError, TransportError
 from pyuss.transport.base import Chunk
@@ -223,8 +223,17 @@ class ReconnectingTransport(QueuedTransport):
             raise TransportError(f"{self.describe()} is closed")
         if not self._connected:
             return None
+        inner = self._inner
+        if (
+            not inner._chunks
+            and inner._echo_error is None
+            and inner._failure is None
+            and inner._open
+            and inner._ready is not None
+        ):
+            return None  # what the inner transport says then, without the call (asked often)
         try:
-            return self._inner.read_nowait()
+            return inner.read_nowait()
         except EchoError:
             raise
         except TransportError as exc:
@@ -251,10 +260,16 @@ class ReconnectingTransport(QueuedTransport):
             except TransportError as exc:
                 self._lost(exc)
 
-    async def wait_bytes(self, count: int, timeout: float) -> None:
+    def wait_bytes(self, count: int, timeout: float) -> Coroutine[Any, Any, None]:
+        """`QueuedTransport.wait_bytes` of the transport in use, its coroutine itself (no
+        coroutine of its own around it: the master waits like this at every exchange); while
+        the link is down, until it is back."""
         if self._connected:
-            await self._inner.wait_bytes(count, timeout)
-        elif self.is_open and self._failure is None:
+            return self._inner.wait_bytes(count, timeout)
+        return self._wait_down(timeout)
+
+    async def _wait_down(self, timeout: float) -> None:
+        if self.is_open and self._failure is None:
             await self._wait_up(timeout)
 
     async def _wait_up(self, timeout: float | None) -> bool:
