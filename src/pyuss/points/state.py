@@ -25,7 +25,7 @@ from pyuss.master.process import state_of
 from pyuss.params.words import WordKind, format_word
 from pyuss.points.model import STATUS_BIT_NAMES, DriveModel
 from pyuss.points.parameters import ParamMeta
-from pyuss.profiles import UNKNOWN_KIND, Profile, get_profile
+from pyuss.profiles import UNKNOWN_KIND, get_profile
 from pyuss.protocol.diagnostics import Counters
 from pyuss.protocol.frozen import builder
 from pyuss.protocol.pzd import (
@@ -157,6 +157,13 @@ def process_value(
     else:
         value = None
     return _process_value(key, pzd, raw, round(percent, 6), value, unit)
+
+
+@functools.lru_cache(maxsize=1024)
+def _word_text(word: int, kind: WordKind, profile: str | None) -> str:
+    """`format_word` by the built-in profile's name: the line of a status or control word,
+    made once for each word a drive shows (a state's texts are asked at every change of it)."""
+    return format_word(word, kind, None if profile is None else get_profile(profile))
 
 
 @functools.lru_cache(maxsize=256)
@@ -351,15 +358,12 @@ class DriveState:
         inhibited, ...``, bits 11..15 by the drive's family); None before an answer."""
         if self.status_word is None:
             return None
-        return format_word(self.status_word, WordKind.STATUS, self._family())
+        return _word_text(self.status_word, WordKind.STATUS, self.model.profile)
 
     @property
     def control_text(self) -> str:
         """The control word sent, as a person reads it (``047Fh  ON, no OFF2, ...``)."""
-        return format_word(self.control_word & 0xFFFF, WordKind.CONTROL, self._family())
-
-    def _family(self) -> Profile | None:
-        return None if self.model.profile is None else get_profile(self.model.profile)
+        return _word_text(self.control_word & 0xFFFF, WordKind.CONTROL, self.model.profile)
 
     @property
     def bits(self) -> dict[str, bool]:
