@@ -147,6 +147,8 @@ class ReconnectingTransport(QueuedTransport):
         self._settle: asyncio.TimerHandle | None = None
         self.losses = 0
         self.reconnects = 0
+        self._timed: tuple[QueuedTransport, TimedWrite | None] | None = None
+        """The transport in use and its timed send (`write_at`), looked up once."""
 
     @property
     def exact_timestamps(self) -> bool:
@@ -285,7 +287,8 @@ class ReconnectingTransport(QueuedTransport):
 
     def _link(self, size: int) -> QueuedTransport:
         """The transport to write ``size`` bytes to; `LinkDown` while the link is down."""
-        self._check_writable()
+        if self._failure is not None or not self._open:
+            self._check_writable()  # raises
         if not self._connected:
             raise LinkDown(f"{self.describe()}: link down, reconnecting; {size} bytes not sent")
         return self._inner
@@ -300,10 +303,13 @@ class ReconnectingTransport(QueuedTransport):
 
     async def write_at(self, data: bytes, start: float, hold_until: float | None = None) -> None:
         """`write` with the start time of the virtual bus's timed sends (`timed_writer`)."""
-        from pyuss.bus.timed import timed_writer
-
         inner = self._link(len(data))
-        write_at = timed_writer(inner)
+        timed = self._timed
+        if timed is None or timed[0] is not inner:  # looked up once per transport in use
+            from pyuss.bus.timed import timed_writer
+
+            timed = self._timed = (inner, timed_writer(inner))
+        write_at = timed[1]
         assert write_at is not None, "write_at needs a station of a virtual bus"
         try:
             await write_at(data, start, hold_until)
