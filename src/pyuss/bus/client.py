@@ -67,7 +67,7 @@ class _Protocol(asyncio.Protocol):
             self._fail(str(exc))
             return
         owner = self.owner
-        if not owner.is_open:
+        if not owner._open:  # (`is_open`, without the call: at every delivery)
             self.early += deliveries
             return
         for payload, timestamp, errors in deliveries:
@@ -218,7 +218,8 @@ class BusClientTransport(QueuedTransport):
     def _send(self, data: bytes, start: float, hold_until: float | None = None) -> None:
         if self.listen_only:
             raise TransportError(f"{self.describe()} is listen-only: it cannot send")
-        self._check_writable()
+        if self._failure is not None or not self._open:
+            self._check_writable()  # raises
         protocol = self._protocol
         assert protocol is not None and protocol.transport is not None
         transport = protocol.transport

@@ -167,7 +167,8 @@ class FrameDecoder:
                     raise ProtocolError(f"bus frame flags position {where} beyond {length} bytes")
                 errors.append((where, LineError(flags)))
             out.append((payload, timestamp, tuple(errors)))
-        self._keep(source, pos)
+        if pos < end or source is self._buf:  # (else nothing to keep: the frames came whole)
+            self._keep(source, pos)
         return out
 
     def _keep(self, source: bytes | bytearray, pos: int) -> None:

@@ -182,7 +182,7 @@ class StatePayloads:
         if (
             self._readings is None
             or len(readings) != len(self._readings)
-            or any(a is not b for a, b in zip(readings, self._readings, strict=True))
+            or (readings and any(a is not b for a, b in zip(readings, self._readings, strict=True)))
         ):
             self._readings = readings
             self._parameters = _dumps(_parameters_dict(state))

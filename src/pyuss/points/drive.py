@@ -98,12 +98,16 @@ from pyuss.points.state import (
     now,
     process_value,
 )
+from pyuss.protocol.frozen import builder
 from pyuss.protocol.pzd import SWITCHES_ON, ControlWord, StatusWord
 from pyuss.transport.reconnect import duration_text
 
 __all__ = ["GIVEN_BACK", "JOG_GRACE", "DrivePoints"]
 
 log = logging.getLogger("pyuss.points")
+
+_drive_state = builder(DriveState)
+_health = builder(Health)
 
 _FAULT = int(StatusWord.FAULT)
 """The fault bit as a plain int: tested at every answer, where a flag's own `&` costs three
@@ -233,30 +237,32 @@ class DrivePoints:
         diag = drive.counts()
         actual_words = status.actual if status is not None else ()
         setpoint_words = drive.setpoints
-        return DriveState(
-            model=self.model,
-            time=now(),
-            status_word=status.word if status is not None else None,
-            control_word=drive.control,
-            actual=self._process(self.model.actual, actual_words) if status is not None else {},
-            setpoints=self._process(self.model.setpoints, setpoint_words),
-            parameters=dict(access.params),
-            health=Health(
-                not_sending=drive.not_sending,
-                counters=diag.counters,
-                exchanges=diag.exchanges,
-                answers=diag.answers,
-                timeouts=diag.timeouts,
-                last_fault=self._last_fault,
-                last_fault_time=self._last_fault_time,
-                last_refusal=access.last_refusal,
+        # (made at every answer: the dataclasses built without their __init__, all fields
+        # in their order)
+        return _drive_state(
+            self.model,
+            datetime.datetime.now(datetime.UTC),  # `pyuss.points.state.now`
+            status.word if status is not None else None,
+            drive.control,
+            self._process(self.model.actual, actual_words) if status is not None else {},
+            self._process(self.model.setpoints, setpoint_words),
+            dict(access.params),
+            _health(
+                drive.not_sending,
+                diag.counters,
+                diag.exchanges,
+                diag.answers,
+                diag.timeouts,
+                self._last_fault,
+                self._last_fault_time,
+                access.last_refusal,
             ),
-            reference=access.reference,
-            actual_words=actual_words,
-            setpoint_words=setpoint_words,
-            bus_online=self._bus_online,
-            answering=self._answering,
-            missed=self._missed,
+            access.reference,
+            actual_words,
+            setpoint_words,
+            self._bus_online,
+            self._answering,
+            self._missed,
         )
 
     def _changed(self) -> None:
@@ -321,8 +327,14 @@ class DrivePoints:
     def check_health(self) -> None:
         """Tell subscribers if "does not send" changed (no answer reports that), and whether
         the drive went so long without an answer that it is offline."""
-        self._jog_silent()
-        self._judge()
+        # (asked for every drive several times a second: the calls only when they may act)
+        if self._missed:
+            self._jog_silent()
+        if self._bus_online and (
+            self._missed >= self.offline.missed
+            or system.clock() - self._heard >= self.offline.silence
+        ):
+            self._judge()
         if self.drive.not_sending != self._state.health.not_sending:
             self._changed()
 

@@ -25,8 +25,9 @@ from pyuss.master.process import state_of
 from pyuss.params.words import WordKind, format_word
 from pyuss.points.model import STATUS_BIT_NAMES, DriveModel
 from pyuss.points.parameters import ParamMeta
-from pyuss.profiles import UNKNOWN_KIND, Profile, get_profile
+from pyuss.profiles import UNKNOWN_KIND, get_profile
 from pyuss.protocol.diagnostics import Counters
+from pyuss.protocol.frozen import builder
 from pyuss.protocol.pzd import (
     FULL_SCALE_16,
     FULL_SCALE_32,
@@ -119,6 +120,10 @@ class Sample:
     values: tuple[float, ...]
 
 
+_process_value = builder(ProcessValue)
+"""`ProcessValue` of values `process_value` made (two for every answer of a drive)."""
+
+
 def signed(word: int, bits: int = 16) -> int:
     """A PZD word (or a joined double word) as the signed number it carries."""
     return word - (1 << bits) if word >> (bits - 1) & 1 else word
@@ -137,21 +142,28 @@ def process_value(
         word = join_dword(words[at], words[at + 1])
         raw, percent = signed(word, 32), raw32_to_percent(word)
     else:
-        raw, percent = signed(words[at]), raw16_to_percent(words[at])
-    return _process(key, pzd, raw, percent, reference, unit)
+        # `signed` and `raw16_to_percent` inline (made for every answer): a 16-bit word as
+        # the class `int` gives it; anything else goes through the checking call.
+        word = words[at]
+        if word.__class__ is int and 0 <= word <= 0xFFFF:
+            raw = word - 0x10000 if word >> 15 & 1 else word
+            percent = raw * 100 / FULL_SCALE_16
+        else:
+            raw, percent = signed(word), raw16_to_percent(word)
+    if reference is not None:
+        value = round(percent * reference / 100.0, 6)
+    elif unit == "%":
+        value = round(percent, 6)
+    else:
+        value = None
+    return _process_value(key, pzd, raw, round(percent, 6), value, unit)
 
 
-def _process(
-    key: str, pzd: int, raw: int, percent: float, reference: float | None, unit: str
-) -> ProcessValue:
-    value = percent * reference / 100.0 if reference is not None else None
-    if reference is None and unit == "%":
-        value = percent
-    return ProcessValue(key, pzd, raw, round(percent, 6), _round(value), unit)
-
-
-def _round(value: float | None) -> float | None:
-    return None if value is None else round(value, 6)
+@functools.lru_cache(maxsize=1024)
+def _word_text(word: int, kind: WordKind, profile: str | None) -> str:
+    """`format_word` by the built-in profile's name: the line of a status or control word,
+    made once for each word a drive shows (a state's texts are asked at every change of it)."""
+    return format_word(word, kind, None if profile is None else get_profile(profile))
 
 
 @functools.lru_cache(maxsize=256)
@@ -325,7 +337,7 @@ class DriveState:
     def online(self) -> bool:
         """The drive is available: it answered, it answers (`answering`: one missed answer is
         no outage), and its bus is online."""
-        return self.answered and self.answering and self.bus_online
+        return self.status_word is not None and self.answering and self.bus_online
 
     @property
     def stale(self) -> bool:
@@ -346,15 +358,12 @@ class DriveState:
         inhibited, ...``, bits 11..15 by the drive's family); None before an answer."""
         if self.status_word is None:
             return None
-        return format_word(self.status_word, WordKind.STATUS, self._family())
+        return _word_text(self.status_word, WordKind.STATUS, self.model.profile)
 
     @property
     def control_text(self) -> str:
         """The control word sent, as a person reads it (``047Fh  ON, no OFF2, ...``)."""
-        return format_word(self.control_word & 0xFFFF, WordKind.CONTROL, self._family())
-
-    def _family(self) -> Profile | None:
-        return None if self.model.profile is None else get_profile(self.model.profile)
+        return _word_text(self.control_word & 0xFFFF, WordKind.CONTROL, self.model.profile)
 
     @property
     def bits(self) -> dict[str, bool]:
@@ -392,7 +401,9 @@ class DriveState:
             self.status_word,
             self.control_word,
             self.setpoint_words,
-            tuple((k, v.value, v.error is None) for k, v in self.parameters.items()),
+            tuple((k, v.value, v.error is None) for k, v in self.parameters.items())
+            if self.parameters
+            else (),
             self.health.not_sending,
             self.bus_online,
             self.answering,

@@ -213,10 +213,16 @@ class _Rate:
 
     def per_minute(self, now: float) -> int:
         second = math.floor(now)
-        self._prune(second)
-        if not self._buckets or self._buckets[-1][0] <= second:
+        buckets = self._buckets
+        if not buckets:
+            return 0
+        if buckets[0][0] <= second - _WINDOW:  # (asked at every answer: mostly nothing to drop)
+            self._prune(second)
+            if not buckets:
+                return 0
+        if buckets[-1][0] <= second:
             return self._total
-        return sum(count for when, count in self._buckets if when <= second)
+        return sum(count for when, count in buckets if when <= second)
 
     def clear(self) -> None:
         self._buckets.clear()
@@ -248,7 +254,13 @@ class Diagnostics:
     def record_received(self, now: float) -> None:
         """A telegram was received without fault at time ``now``."""
         self.good += 1
-        self._good_rate.add(now)
+        rate = self._good_rate
+        buckets = rate._buckets
+        if buckets and buckets[-1][0] >= math.floor(now):  # (`_Rate.add` in the same second)
+            buckets[-1][1] += 1
+            rate._total += 1
+        else:
+            rate.add(now)
 
     def record_fault(self, kind: FaultKind, now: float) -> None:
         """A telegram was discarded at time ``now`` because of ``kind``."""
@@ -296,8 +308,8 @@ class Diagnostics:
             self.software_version,
             0,  # reserved
             self.status,
-            self.good_per_minute(now),
-            self.discarded_per_minute(now),
+            self._good_rate.per_minute(now),
+            self._discarded_rate.per_minute(now),
             self.good,
             self.discarded,
             self.framing,

@@ -122,13 +122,13 @@ class Layout:
     @property
     def words(self) -> int | None:
         """Net data words of a fixed layout; None for the variable one."""
-        return None if self.variable else self.pkw + self.pzd
+        return None if self.pkw == PKW_VARIABLE else self.pkw + self.pzd
 
     @property
     def lge(self) -> int | None:
         """LGE of every telegram of a fixed layout (``2 x words + 2``); None when variable.
         This is the value a `pyuss.protocol.receiver.Receiver` takes in ``fixed_lengths``."""
-        return None if self.variable else 2 * (self.pkw + self.pzd) + 2
+        return None if self.pkw == PKW_VARIABLE else 2 * (self.pkw + self.pzd) + 2
 
     # -- packing --------------------------------------------------------------------------
 
@@ -179,7 +179,7 @@ class Layout:
         if len(data) % 2:
             raise TelegramError(f"{len(data)} net bytes are not whole words")
         count = len(data) // 2
-        if self.variable:
+        if self.pkw == PKW_VARIABLE:  # (`variable`, without the call: at every answer)
             least = self.pzd + 3
             if not least <= count <= MAX_WORDS:
                 raise TelegramError(

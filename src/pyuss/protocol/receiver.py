@@ -229,8 +229,12 @@ class Receiver:
         self._first_deadline = self.timing.residual_max(MAX_NET_BYTES)
         self._residual: dict[int, float] = {}
         """`LineTiming.residual_max` by net byte count, as LGEs come (computed once each)."""
-        self._last_end = -math.inf
+        self.last_byte_end = -math.inf
+        """When the last byte fed was complete (``-inf`` before the first byte)."""
         self._state = _IDLE
+        self.busy = False
+        """True while a telegram or a run of bytes is open (not yet reported): kept with the
+        state, a plain attribute (the master asks several times per exchange)."""
         self._buf = bytearray()
         self._start = 0.0
         self._stx_end = 0.0
@@ -252,39 +256,30 @@ class Receiver:
     # -- public ----------------------------------------------------------------------------
 
     @property
-    def busy(self) -> bool:
-        """True while a telegram or a run of bytes is open (not yet reported)."""
-        return self._state != _IDLE
-
-    @property
     def receiving(self) -> bool:
         """True while a telegram is open (a run of bytes without a start is not one)."""
         return self._state == _TELEGRAM
 
-    @property
-    def last_byte_end(self) -> float:
-        """When the last byte fed was complete (``-inf`` before the first byte)."""
-        return self._last_end
-
     def line_idle(self, now: float) -> bool:
         """True when no byte was received for at least `gap` (the start pause, or the
         tolerance of coarse timestamps if longer) before ``now``."""
-        return now - self._last_end >= self.gap - self._eps
+        return now - self.last_byte_end >= self.gap - self._eps
 
     def next_poll(self) -> float | None:
         """The time from which `poll` reports the open run if no byte arrives; None when idle."""
         if self._state == _IDLE:
             return None
-        return self._last_end + self.gap
+        return self.last_byte_end + self.gap
 
     def reset(self) -> None:
         """Drop whatever is being received, without an event; the line counts as idle."""
         if self._state != _IDLE:
             self._state = _IDLE
+            self.busy = False
             self._buf = bytearray()  # (when idle, the next byte begins a buffer of its own)
         self._marks = []
         self._times = []
-        self._last_end = -math.inf
+        self.last_byte_end = -math.inf
 
     def feed(
         self,
@@ -309,7 +304,7 @@ class Receiver:
             return events
         ct = self._ct
         first_end = timestamp - (n - 1) * ct
-        idle = (first_end - ct) - self._last_end
+        idle = (first_end - ct) - self.last_byte_end
         if idle < 0:
             # More bytes than the line carries in the time since the last one (a program that
             # read late, a backend without timing): they follow back to back, never overlap.
@@ -361,7 +356,7 @@ class Receiver:
                     self._whole_at = base + (pos + self._late_need - had - 1) * ct
                 self._buf += data[pos : pos + take]
                 pos += take
-                self._last_end = base + (pos - 1) * ct
+                self.last_byte_end = base + (pos - 1) * ct
                 if len(self._buf) >= MAX_TELEGRAM_BYTES:
                     self._end_run(events)
             else:
@@ -370,12 +365,12 @@ class Receiver:
                 # idle time than a start pause less the tolerance.
                 base = first_end
                 end = base + pos * ct
-                fresh = (end - ct) - self._last_end >= self._fresh_after - self._eps or (
+                fresh = (end - ct) - self.last_byte_end >= self._fresh_after - self._eps or (
                     pos == 0 and held >= self.start_pause - self._eps
                 )
                 self._begin(data[pos], end, flags.get(pos), fresh)
                 pos += 1
-        self._last_end = base + (n - 1) * ct
+        self.last_byte_end = base + (n - 1) * ct
         return events
 
     def poll(self, now: float) -> list[Event]:
@@ -396,9 +391,10 @@ class Receiver:
         """Start a telegram or a run of bytes with ``byte``, which was complete at ``end``."""
         self._buf = bytearray((byte,))
         self._start = end - self._ct
-        self._last_end = end
+        self.last_byte_end = end
         if fresh and byte == STX and line is None:
             self._state = _TELEGRAM
+            self.busy = True
             if self._marks:
                 self._marks = []
                 self._times = []
@@ -409,6 +405,7 @@ class Receiver:
             self._line = None
             return
         self._state = _JUNK
+        self.busy = True
         self._late_need = 0
         if line is not None:
             self._junk_kind = line
@@ -444,7 +441,7 @@ class Receiver:
             if flags:
                 self._note_line_errors(flags, pos, take, len(buf) - take)
             if take:
-                self._last_end = first_end + (pos + take - 1) * ct
+                self.last_byte_end = first_end + (pos + take - 1) * ct
             self._to_junk(FaultKind.RESIDUAL_TIME, self._late_detail(), events)
             return pos + take
         buf += data[pos : pos + take]
@@ -452,7 +449,7 @@ class Receiver:
             self._times.extend(first_end + i * ct for i in range(pos, pos + take))
         if flags:
             self._note_line_errors(flags, pos, take, len(buf) - take)
-        self._last_end = first_end + last * ct
+        self.last_byte_end = first_end + last * ct
         pos += take
         if self._need == 0:
             lge = buf[1]
@@ -510,6 +507,7 @@ class Receiver:
             kind = self._line
             detail = f"{self._line_detail()}; {detail}"
         self._state = _JUNK
+        self.busy = True
         # a telegram over its residual time: note when its last byte comes, if it does
         self._late_need = self._need if kind is FaultKind.RESIDUAL_TIME else 0
         self._whole_at = None
@@ -521,11 +519,12 @@ class Receiver:
         if self._marks and self._failed(raw) and self._resync(events):
             return
         self._state = _IDLE
+        self.busy = False
         self._buf = bytearray()
         if self._marks:
             self._marks = []
             self._times = []
-        start, end = self._start, self._last_end
+        start, end = self._start, self.last_byte_end
         if self._line is not None:
             kind = self._line
             self._emit_fault(events, kind, raw, self._line_detail())
@@ -561,6 +560,7 @@ class Receiver:
             kind, detail = self._junk_kind, self._junk_detail
         whole_at = self._whole_at if self._state == _JUNK and self._late_need else None
         self._state = _IDLE
+        self.busy = False
         self._buf = bytearray()
         self._late_need = 0
         self._emit_fault(events, kind, raw, detail, whole_at)
@@ -587,7 +587,7 @@ class Receiver:
         line_pos = self._line_pos - first if self._line is not None else -1
         line_kind = self._line
         ct = self._ct
-        self._last_end = tail_times[0] - ct
+        self.last_byte_end = tail_times[0] - ct
         if line_kind is not None and line_pos < 0:
             kind = line_kind
             detail = f"{self._line_detail()}; telegram cut short by a pause"
@@ -596,13 +596,14 @@ class Receiver:
             need = self._need or "?"
             detail = f"telegram incomplete when a pause came: {len(head)} of {need} bytes"
         self._state = _IDLE
+        self.busy = False
         self._buf = bytearray()
         self._line = None
         self._emit_fault(events, kind, head, detail)
         # The bytes from the STX on, again: the first after a start pause, the later marks
         # with their pauses, each byte at its own time.
         later = {pos - first: pause for pos, pause in marks[1:]}
-        self._last_end = tail_times[0] - ct - self.gap
+        self.last_byte_end = tail_times[0] - ct - self.gap
         for i, byte in enumerate(tail):
             errors = ((0, _LINE_FLAGS[line_kind]),) if i == line_pos and line_kind else ()
             events += self.feed(bytes((byte,)), tail_times[i], errors, held=later.get(i, 0.0))
@@ -616,7 +617,7 @@ class Receiver:
         detail: str,
         whole_at: float | None = None,
     ) -> None:
-        end = self._last_end
+        end = self.last_byte_end
         events.append(ReceiveFault(kind, raw, self._start, end, detail, whole_at))
         if self.diagnostics is not None:
             self.diagnostics.record_fault(kind, end)

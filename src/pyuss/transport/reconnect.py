@@ -29,9 +29,9 @@ import contextlib
 import logging
 import math
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Coroutine, Iterator
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from pyuss.errors import ConfigError, TransportError
 from pyuss.transport.base import Chunk
@@ -130,6 +130,9 @@ class ReconnectingTransport(QueuedTransport):
         self._factory = factory
         self._inner = factory()
         super().__init__(baud=self._inner.baud)
+        self.clock = self._inner.clock
+        """The clock of the transport in use, bound to it (rebound when the link is back): the
+        master reads it several times per exchange, without a forwarding call each time."""
         self._initial = backoff_initial
         self._max = backoff_max
         self._max_attempts = max_attempts
@@ -144,6 +147,8 @@ class ReconnectingTransport(QueuedTransport):
         self._settle: asyncio.TimerHandle | None = None
         self.losses = 0
         self.reconnects = 0
+        self._timed: tuple[QueuedTransport, TimedWrite | None] | None = None
+        """The transport in use and its timed send (`write_at`), looked up once."""
 
     @property
     def exact_timestamps(self) -> bool:
@@ -169,9 +174,6 @@ class ReconnectingTransport(QueuedTransport):
 
     def describe(self) -> str:
         return self._inner.describe()
-
-    def clock(self) -> float:
-        return self._inner.clock()
 
     def timed_writer(self) -> TimedWrite | None:
         """`write_at` where the link is a station of a virtual bus (`pyuss.bus.timed`): the
@@ -223,8 +225,17 @@ class ReconnectingTransport(QueuedTransport):
             raise TransportError(f"{self.describe()} is closed")
         if not self._connected:
             return None
+        inner = self._inner
+        if (
+            not inner._chunks
+            and inner._echo_error is None
+            and inner._failure is None
+            and inner._open
+            and inner._ready is not None
+        ):
+            return None  # what the inner transport says then, without the call (asked often)
         try:
-            return self._inner.read_nowait()
+            return inner.read_nowait()
         except EchoError:
             raise
         except TransportError as exc:
@@ -251,10 +262,16 @@ class ReconnectingTransport(QueuedTransport):
             except TransportError as exc:
                 self._lost(exc)
 
-    async def wait_bytes(self, count: int, timeout: float) -> None:
+    def wait_bytes(self, count: int, timeout: float) -> Coroutine[Any, Any, None]:
+        """`QueuedTransport.wait_bytes` of the transport in use, its coroutine itself (no
+        coroutine of its own around it: the master waits like this at every exchange); while
+        the link is down, until it is back."""
         if self._connected:
-            await self._inner.wait_bytes(count, timeout)
-        elif self.is_open and self._failure is None:
+            return self._inner.wait_bytes(count, timeout)
+        return self._wait_down(timeout)
+
+    async def _wait_down(self, timeout: float) -> None:
+        if self.is_open and self._failure is None:
             await self._wait_up(timeout)
 
     async def _wait_up(self, timeout: float | None) -> bool:
@@ -270,7 +287,8 @@ class ReconnectingTransport(QueuedTransport):
 
     def _link(self, size: int) -> QueuedTransport:
         """The transport to write ``size`` bytes to; `LinkDown` while the link is down."""
-        self._check_writable()
+        if self._failure is not None or not self._open:
+            self._check_writable()  # raises
         if not self._connected:
             raise LinkDown(f"{self.describe()}: link down, reconnecting; {size} bytes not sent")
         return self._inner
@@ -285,10 +303,13 @@ class ReconnectingTransport(QueuedTransport):
 
     async def write_at(self, data: bytes, start: float, hold_until: float | None = None) -> None:
         """`write` with the start time of the virtual bus's timed sends (`timed_writer`)."""
-        from pyuss.bus.timed import timed_writer
-
         inner = self._link(len(data))
-        write_at = timed_writer(inner)
+        timed = self._timed
+        if timed is None or timed[0] is not inner:  # looked up once per transport in use
+            from pyuss.bus.timed import timed_writer
+
+            timed = self._timed = (inner, timed_writer(inner))
+        write_at = timed[1]
         assert write_at is not None, "write_at needs a station of a virtual bus"
         try:
             await write_at(data, start, hold_until)
@@ -377,6 +398,7 @@ class ReconnectingTransport(QueuedTransport):
                     return
                 continue
             self._inner = inner
+            self.clock = inner.clock
             self._connected = True
             self.reconnects += 1
             outage.tries += 1
