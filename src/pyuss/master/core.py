@@ -841,6 +841,8 @@ class MasterCore:
         on the line). Called after every exchange and at the deadlines during one, so a job
         ends at its deadline - or, when a telegram carrying it is on the line then, once that
         exchange is over - never a cycle later."""
+        if self._idle_at == self.submitted:  # (no job since all were found without one)
+            return
         for slave in self._busy(exclude):
             deadline = slave.channel.deadline
             if deadline is not None and now > deadline:
@@ -848,6 +850,8 @@ class MasterCore:
 
     def next_deadline(self, exclude: Slave | None = None) -> float | None:
         """The earliest deadline of a job of any slave but ``exclude``."""
+        if self._idle_at == self.submitted:
+            return None
         busy = self._busy(exclude)
         if not busy:
             return None
@@ -1120,11 +1124,13 @@ class MasterCore:
             if slave is not None:
                 slave.diagnostics.record_fault(event.kind, event.end)
             return Outcome.FAULT
-        if self.own(event, slave is not None and slave.layout.pzd > 0):
+        if event.raw == self._sent_frame and self.own(
+            event, slave is not None and slave.layout.pzd > 0
+        ):
             return None
         telegram = event.telegram
         wrong = telegram.address != address or telegram.mode not in modes
-        if wrong or self._overlaps(event.start):
+        if wrong or (self.exact and event.start < self._sent_end - 1e-6):  # `_overlaps`
             # another's telegram, or one that began while the request was on the line
             why = f"not the answer of {address}" if wrong else "began before the request ended"
             log_frame("rx", event.raw, event.end, f"discarded: {why}")

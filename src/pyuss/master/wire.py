@@ -102,7 +102,7 @@ class Wire:
         self.core = core
         self.transport = transport
         # where the transport has them (`QueuedTransport`): a look for chunks without a
-        # coroutine, and a wait for the whole answer at once (`_whole_answer`)
+        # coroutine, and a wait for the whole answer at once (in `transact`)
         self._read_nowait: Callable[[], Chunk | None] | None = getattr(
             transport, "read_nowait", None
         )
@@ -222,7 +222,11 @@ class Wire:
         core = self.core
         start, end = await self.send(frame, pause_chars, limit + core.rx_tolerance, early)
         exchange = Exchange(core, address, modes, limit, slave, start, end)
-        whole, expected = self._whole_answer(slave)
+        whole, expected = None, 0
+        if slave is not None and self._wait_bytes is not None and core.exact:
+            lge = slave.layout.lge  # a fixed length: the whole answer is waited for at once
+            if lge is not None:
+                whole, expected = self._wait_bytes, lge + 2
         clock = self.transport.clock
         read_nowait = self._read_nowait
         while True:
@@ -250,14 +254,3 @@ class Wire:
                 await whole(expected, wait)
             elif (chunk := await self.transport.read(wait)) is not None:
                 exchange.feed(chunk)
-
-    def _whole_answer(self, slave: Slave | None) -> tuple[WaitBytes | None, int]:
-        """How to wait for the whole answer of ``slave`` at once, and its length in bytes:
-        on a transport with exact timestamps that can wait for a number of bytes (the
-        virtual bus, ``bus://``) and a layout of fixed length. Else None: the master is woken
-        by every chunk (a virtual bus hands a telegram over in three, docs/bus.md)."""
-        core = self.core
-        if slave is None or self._wait_bytes is None or not core.exact:
-            return None, 0
-        lge = slave.layout.lge
-        return (None, 0) if lge is None else (self._wait_bytes, lge + 2)
