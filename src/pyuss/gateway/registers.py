@@ -33,7 +33,7 @@ Input registers (function 4), what the drive reports::
     100+2k   configured parameter k as last read (no job is sent): float for float and
              scaled parameters, else a 32-bit integer; NaN / 8000 0000h until read
 
-Holding registers (functions 3, 6, 16, 23), what the master sends::
+Holding registers (functions 3, 6, 16, 22, 23), what the master sends::
 
     0        control word (read: as sent; write: sent from the next telegram)
     1        command (write): 1 ON, 2 OFF1, 3 OFF2, 4 OFF3, 5 acknowledge; reads 0
@@ -45,7 +45,8 @@ Holding registers (functions 3, 6, 16, 23), what the master sends::
     200..210 the parameter mailbox, for any parameter:
              200 PNU, 201 index (FFFFh: none), 202 format (`MailboxFormat`), 203..204
              the value to write (32 bits), 205 command (write 1 read, 2 write, 3 write and
-             store in EEPROM), 206 status (0 idle, 1 done, 2 refused, 3 failed), 207
+             store in EEPROM), 206 status (0 idle, 1 done, 2 refused, 3 failed, 4 written but
+             the drive holds another value), 207
              response ID (7 or 8 when refused), 208 the drive's error number, 209..210 the
              value read or answered
 
