@@ -285,14 +285,13 @@ class SerialTransport(QueuedTransport):
     async def open(self) -> None:
         if self.is_open:
             return
-        marking = await asyncio.to_thread(self.open_port)
+        await asyncio.to_thread(self.open_port)  # (bad characters marked: `read_now` reads them)
         self._loop = asyncio.get_running_loop()
         self._mark_open()
         self._stop.clear()
         self._writer = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="uss-write")
         self._thread = threading.Thread(
             target=self._read_worker,
-            args=(MarkDecoder() if marking else None,),
             name=f"uss-read {self.url}",
             daemon=True,
         )
@@ -375,29 +374,17 @@ class SerialTransport(QueuedTransport):
             mode = "on" if self.low_latency else "off"
             log.debug("%s: low-latency mode %s", self.describe(), mode)
 
-    def _read_worker(self, decoder: MarkDecoder | None) -> None:
-        port = self._port
-        loop = self._loop
-        assert loop is not None
+    def _read_worker(self) -> None:
+        """The reader thread: `read_now` in a loop, each burst handed to the event loop."""
         while not self._stop.is_set():
             try:
-                data = port.read(1)
-                if not data:
-                    continue
-                waiting = port.in_waiting
-                if waiting:
-                    data += port.read(waiting)
-            except Exception as exc:  # pyserial raises many kinds when a port vanishes
-                if self._stop.is_set():
-                    break
-                self._post(self._lose, TransportError(f"{self.describe()} lost: {exc}"))
+                chunk = self.read_now(None, _READ_POLL)
+            except TransportError as exc:
+                if not self._stop.is_set():
+                    self._post(self._lose, exc)
                 break
-            stamp = clock()
-            if decoder is None:
-                self._post(self._deliver, data, stamp, ())
-            else:
-                clean, errors = decoder.feed(data)
-                self._post(self._deliver, clean, stamp, errors)
+            if chunk is not None:
+                self._post(self._deliver, chunk.data, chunk.timestamp, chunk.errors)
 
     def _post(self, func: object, *args: object) -> None:
         assert self._loop is not None
