@@ -76,6 +76,23 @@ def test_a_silent_address_is_named_and_the_line_goes_on(sim: SimulatorThread) ->
         assert bus.drive(5).read(52) == 0x4000
 
 
+def test_an_interrupted_call_leaves_nothing_to_be_sent_later(sim: SimulatorThread) -> None:
+    with Master(url(sim), baud=BAUD, layout="4,2") as bus:
+        drive = bus.drive(5)
+        drive.read(18)
+
+        def interrupt(status: object) -> None:
+            raise KeyboardInterrupt  # Ctrl+C while the write waits for its answer
+
+        remove = drive.on_update(interrupt)
+        with pytest.raises(KeyboardInterrupt):
+            drive.write(18, 321)
+        remove()
+        channel = bus.core.slaves[5].channel
+        assert channel.current is None and not channel.queue
+        assert drive.read(52) == 0x4000  # the line goes on, the write is not sent again
+
+
 def test_calls_from_threads_take_turns(sim: SimulatorThread) -> None:
     with Master(url(sim), baud=BAUD, layout="4,2") as bus:
         results: list[int] = []

@@ -335,7 +335,11 @@ class Master:
             raise MasterClosed("the master is not open: use 'with Master(...)'")
 
     def _line_run(self, done: Callable[[], bool], deadline: float) -> None:
-        self._line.run(done, deadline)
+        try:
+            self._line.run(done, deadline)
+        except BaseException:  # Ctrl+C, the port lost: what this call asked for is not sent later
+            self.core.abandon()
+            raise
 
     # what `pyuss.master.sync_drive.Drive` hands its calls to
     def _call(self, coro: Coroutine[Any, Any, T]) -> T:
@@ -385,7 +389,7 @@ class Master:
             self._ensure_open()
             box: _Box[object] = _Box()
             self.core.add_special(kind, frame, address, box)
-            self._line.run(box.done, clock() + 60.0)
+            self._line_run(box.done, clock() + 60.0)
             if box.error is not None:
                 raise box.error
             return box.value

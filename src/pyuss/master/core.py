@@ -675,6 +675,22 @@ class MasterCore:
                 special.pending.set_exception(error)
         self.specials.clear()
 
+    def abandon(self) -> None:
+        """Whoever waits is gone (a blocking call interrupted, or its port lost): its jobs are
+        forgotten as a cancelled wait forgets them (an open job leaves the slave's answer
+        unknown), its special telegrams and waits dropped: nothing of it goes out later."""
+        for slave in self.slaves.values():
+            channel = slave.channel
+            for job in [
+                *([channel.current] if channel.current is not None else []),
+                *channel.queue,
+            ]:
+                channel.cancel(job)
+            slave.update_waiters.clear()
+            slave.version_waiters.clear()
+            slave.polls_wanted = 0
+        self.specials.clear()
+
     def stopped_hearing(self) -> None:
         """Nothing is heard of any slave any more, so each does not send (A 5.2.1.1) and no
         face shows its last answer as now."""
